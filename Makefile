@@ -1,0 +1,40 @@
+# Two commands do everything on a fresh machine with Python 3.11 and pip:
+#   make demo   create .venv, install vrelab, run the article's ADXL355 case study with its report
+#   make test   create .venv, install vrelab with its test extras, run the whole test suite
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP_BASE := $(VENV)/.installed-base
+STAMP_TEST := $(VENV)/.installed-test
+STAMP_BENCH := $(VENV)/.installed-bench
+
+.PHONY: demo test bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(STAMP_BASE): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	touch $@
+
+$(STAMP_TEST): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask]"
+	touch $@ $(STAMP_BASE)
+
+$(STAMP_BENCH): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,bench]"
+	touch $@ $(STAMP_TEST) $(STAMP_BASE)
+
+demo: $(STAMP_BASE)
+	$(BIN)/vrelab demo --out demo-out
+
+test: $(STAMP_TEST)
+	$(BIN)/python tests/setup_browser.py
+	$(BIN)/python -m pytest
+
+bench: $(STAMP_BENCH)
+	$(BIN)/python bench/run_all.py
+
+clean:
+	rm -rf $(VENV) demo-out .pytest_cache

@@ -1,0 +1,5 @@
+import sys
+
+from vrelab.cli import main
+
+sys.exit(main())

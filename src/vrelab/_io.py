@@ -1,0 +1,45 @@
+"""Output helpers: files are written completely or not at all."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator
+
+
+@contextmanager
+def output_dir(path: str | Path) -> Iterator[Path]:
+    """Yield a staging folder; on success its files move into ``path``, on failure nothing does.
+
+    Existing files in ``path`` with other names are left alone; files of the same name are
+    replaced only once every new file is complete.
+    """
+    dest = Path(path)
+    if dest.exists() and not dest.is_dir():
+        raise ValueError(f"output path exists and is not a folder: {dest}")
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".vrelab-", dir=dest.parent))
+    try:
+        yield stage
+        dest.mkdir(exist_ok=True)
+        for item in stage.iterdir():
+            target = dest / item.name
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target)
+            os.replace(item, target)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def write_json(path: str | Path, obj: Any) -> None:
+    """Write JSON atomically (temporary file + rename)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".partial")
+    with open(tmp, "w") as fh:
+        json.dump(obj, fh, indent=2, allow_nan=False)
+        fh.write("\n")
+    os.replace(tmp, path)

@@ -1,0 +1,78 @@
+"""The ``vrelab`` command line: argument parsing and printing only.
+
+Each sub-command lives in its own module of this package and exposes
+``register(subparsers) -> None``; the parser it adds sets ``func=`` to a callable taking the
+parsed ``argparse.Namespace`` and returning an exit status. Modules are found by discovery, so a
+new command is a new file. Any ``ValueError`` (bad input, by the library's convention) becomes one
+line on stderr and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import pkgutil
+import sys
+from typing import Any, Sequence
+
+from vrelab import __version__
+
+# Order in `vrelab --help`; modules not listed come after, alphabetically.
+_ORDER = ("model", "profile", "predict", "simulate", "analyze", "report", "demo", "sweep")
+
+
+class UsageError(ValueError):
+    """A command-line usage problem (unknown option, missing argument)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse prints usage plus a message and exits 2; we want one line and the same status."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{self.prog}: error: {message}")
+
+
+def print_json(obj: Any) -> None:
+    """Print exactly one JSON object on stdout (NaN/inf are not JSON: they must be None already)."""
+    sys.stdout.write(json.dumps(obj, allow_nan=False) + "\n")
+
+
+def _command_modules() -> list[str]:
+    found = [m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")]
+    return sorted(found, key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(
+        prog="vrelab",
+        description="Vibration rectification error (VRE) of accelerometers: analytic models, "
+        "a simulated shaker test, reduction of recorded shaker tests, reports.",
+    )
+    parser.add_argument("--version", action="version", version=f"vrelab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    sub.required = True
+    for name in _command_modules():
+        importlib.import_module(f"{__name__}.{name}").register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        return int(args.func(args) or 0)
+    except (ValueError, OSError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if isinstance(exc, OSError) and exc.filename and str(exc.filename) not in msg:
+            msg = f"{msg}: {exc.filename}"
+        prefix = "" if isinstance(exc, UsageError) else "vrelab: error: "
+        sys.stderr.write(f"{prefix}{msg}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("vrelab: interrupted\n")
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

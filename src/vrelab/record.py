@@ -1,0 +1,200 @@
+"""The record: the boundary between the test (simulated or real) and the analysis.
+
+A record is a set of equally sampled channels in g (``reference``, ``dut``, ...) read in blocks,
+so that memory never grows with its length, plus an optional schedule of segments
+(vibration off / on at a level). The simulated shaker writes records with
+:func:`write_record_hdf5`; :mod:`vrelab.analysis.readers` reads them back with any lab file.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Mapping, Protocol, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab import _validate as V
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One stretch of a test: ``nominal_rms_g == 0`` is a vibration-off baseline."""
+
+    start_s: float
+    end_s: float
+    nominal_rms_g: float
+    freq_hz: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.end_s > self.start_s >= 0):
+            raise ValueError(
+                f"schedule segment must have 0 <= start_s < end_s, got start_s={self.start_s}, end_s={self.end_s}"
+            )
+        if not np.isfinite(self.nominal_rms_g) or self.nominal_rms_g < 0:
+            raise ValueError(f"schedule nominal_rms_g must be >= 0, got {self.nominal_rms_g}")
+
+    @property
+    def is_baseline(self) -> bool:
+        return self.nominal_rms_g == 0
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Segments in time order, not overlapping."""
+
+    segments: tuple[Segment, ...]
+
+    def __post_init__(self) -> None:
+        for a, b in zip(self.segments, self.segments[1:]):
+            if b.start_s < a.end_s:
+                raise ValueError(
+                    f"schedule segments overlap or are out of order: {a.start_s}-{a.end_s} s then {b.start_s}-{b.end_s} s"
+                )
+
+    def to_array(self) -> NDArray[np.float64]:
+        return np.array(
+            [[s.start_s, s.end_s, s.nominal_rms_g, np.nan if s.freq_hz is None else s.freq_hz] for s in self.segments],
+            dtype=np.float64,
+        ).reshape(-1, 4)
+
+    @classmethod
+    def from_array(cls, arr: NDArray[np.float64]) -> "Schedule":
+        return cls(
+            tuple(
+                Segment(float(a), float(b), float(c), None if not np.isfinite(d) else float(d))
+                for a, b, c, d in np.asarray(arr, dtype=np.float64).reshape(-1, 4)
+            )
+        )
+
+    def write_csv(self, path: str | Path) -> None:
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["start_s", "end_s", "nominal_rms_g", "freq_hz"])
+            for s in self.segments:
+                w.writerow([s.start_s, s.end_s, s.nominal_rms_g, "" if s.freq_hz is None else s.freq_hz])
+
+    @classmethod
+    def read_csv(cls, path: str | Path) -> "Schedule":
+        """Read ``start_s,end_s,nominal_rms_g[,freq_hz]`` rows (a header line is optional)."""
+        path = Path(path)
+        if not path.is_file():
+            raise ValueError(f"schedule file not found: {path}")
+        segs: list[Segment] = []
+        with open(path, newline="") as fh:
+            for lineno, row in enumerate(csv.reader(fh), start=1):
+                row = [c.strip() for c in row]
+                if not row or not any(row) or row[0].startswith("#"):
+                    continue
+                try:
+                    vals = [float(c) if c else np.nan for c in row[:4]]
+                except ValueError:
+                    if lineno == 1:
+                        continue  # header
+                    raise ValueError(f"schedule {path} line {lineno}: not a number in {row!r}") from None
+                if len(vals) < 3:
+                    raise ValueError(f"schedule {path} line {lineno}: need start_s,end_s,nominal_rms_g, got {row!r}")
+                freq = vals[3] if len(vals) > 3 and np.isfinite(vals[3]) else None
+                segs.append(Segment(vals[0], vals[1], vals[2], freq))
+        if not segs:
+            raise ValueError(f"schedule {path} has no segments")
+        return cls(tuple(segs))
+
+
+class Record(Protocol):
+    """What the analysis reads: channels in g, sampled at ``fs_hz``, delivered in blocks."""
+
+    fs_hz: float
+    n_samples: int
+    channels: tuple[str, ...]
+    schedule: Schedule | None
+    meta: Mapping[str, Any]
+
+    def blocks(
+        self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None
+    ) -> Iterator[dict[str, NDArray[np.float64]]]:
+        """Yield dicts channel -> float64 array of at most ``block_size`` samples, in order."""
+        ...
+
+
+@dataclass
+class ArrayRecord:
+    """A record held in memory (tests, small simulations)."""
+
+    data: Mapping[str, NDArray[np.float64]]
+    fs_hz: float
+    schedule: Schedule | None = None
+    meta: Mapping[str, Any] = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        V.positive_scalar("fs_hz", self.fs_hz)
+        lengths = {k: len(v) for k, v in self.data.items()}
+        if len(set(lengths.values())) > 1:
+            raise ValueError(f"channels have mismatched lengths: {lengths}")
+        if self.meta is None:
+            self.meta = {}
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(self.data)
+
+    @property
+    def n_samples(self) -> int:
+        return len(next(iter(self.data.values()))) if self.data else 0
+
+    def blocks(
+        self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None
+    ) -> Iterator[dict[str, NDArray[np.float64]]]:
+        stop = self.n_samples if stop is None else min(stop, self.n_samples)
+        for i in range(start, stop, block_size):
+            j = min(i + block_size, stop)
+            yield {c: np.asarray(self.data[c][i:j], dtype=np.float64) for c in channels}
+
+
+def write_record_hdf5(
+    path: str | Path,
+    fs_hz: float,
+    blocks: Iterable[Mapping[str, NDArray[np.float64]]],
+    schedule: Schedule | None = None,
+    meta: Mapping[str, Any] | None = None,
+) -> int:
+    """Stream channel blocks into an HDF5 file, completely or not at all.
+
+    Layout: one float64 dataset per channel (units g, attribute ``units``), file attributes
+    ``fs_hz`` and ``meta`` (JSON), and a ``schedule`` dataset (start_s, end_s, nominal_rms_g,
+    freq_hz) when given. Written to a temporary name and renamed at the end, so a crash never
+    leaves a half file under the final name. Returns the number of samples written.
+    """
+    import h5py
+
+    path = Path(path)
+    tmp = path.with_name(path.name + ".partial")
+    n = 0
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["fs_hz"] = float(fs_hz)
+            f.attrs["meta"] = json.dumps(dict(meta or {}))
+            dsets: dict[str, Any] = {}
+            for blk in blocks:
+                m = None
+                for name, arr in blk.items():
+                    arr = np.asarray(arr, dtype=np.float64)
+                    if name not in dsets:
+                        dsets[name] = f.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(1 << 16,))
+                        dsets[name].attrs["units"] = "g"
+                    d = dsets[name]
+                    d.resize((n + arr.size,))
+                    d[n:] = arr
+                    m = arr.size
+                n += m or 0
+            if schedule is not None:
+                f.create_dataset("schedule", data=schedule.to_array())
+                f["schedule"].attrs["columns"] = "start_s,end_s,nominal_rms_g,freq_hz"
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return n

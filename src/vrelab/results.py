@@ -1,0 +1,222 @@
+"""Result objects: every estimate carries its value, its standard uncertainty and its conditions.
+
+Modelled on lmfit's parameters (``value`` and ``stderr``) and its plain-dict summary: a result
+prints as ``-83.1 ± 0.4 mg`` and ``to_dict()`` gives what the CLI's ``--json`` prints. No bare
+tuples or ad-hoc dicts travel between modules: bench, analysis, fits and report exchange these.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal, Mapping
+
+
+def _num(x: float | None) -> float | None:
+    """JSON has no NaN/inf: map them to None."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A value with its standard uncertainty (k = 1), in ``unit``."""
+
+    value: float
+    u: float
+    unit: str = "g"
+
+    def __str__(self) -> str:
+        if self.unit == "g" and abs(self.value) < 1:
+            return f"{self.value * 1e3:.4g} ± {self.u * 1e3:.2g} mg"
+        rel = f" ({100 * self.u / abs(self.value):.2g} %)" if self.value else ""
+        return f"{self.value:.6g} ± {self.u:.2g} {self.unit}{rel}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"value": _num(self.value), "u": _num(self.u), "unit": self.unit}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Estimate":
+        return cls(_nan(d["value"]), _nan(d["u"]), d.get("unit", "g"))
+
+
+def _nan(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """What a VRE figure depends on (SPEC 1.4). Unknown fields stay ``None``."""
+
+    sensor: str | None = None
+    model: str | None = None  # "censored", "truncated", "simulation", "measured", ...
+    profile: str | None = None  # human description: "random flat 50-2000 Hz", "sine 100 Hz"
+    static_g: float | None = None
+    range_g: float | None = None
+    bandwidth_hz: float | None = None
+    odr_hz: float | None = None
+    axis: str | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["extra"] = dict(self.extra)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Conditions":
+        known = {k: d.get(k) for k in cls.__dataclass_fields__ if k != "extra"}
+        return cls(**known, extra=dict(d.get("extra") or {}))
+
+
+@dataclass(frozen=True)
+class LevelResult:
+    """VRE measured (or simulated) at one vibration level."""
+
+    rms_g: float  # vibration level: reference rms in the test band (or at the drive frequency)
+    vre: Estimate  # in g
+    freq_hz: float | None = None  # sine method
+    u_rms_g: float | None = None
+    duration_s: float | None = None
+    n_samples: int | None = None
+    n_saturated: int = 0
+    flags: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "rms_g": _num(self.rms_g),
+            "vre_g": _num(self.vre.value),
+            "u_vre_g": _num(self.vre.u),
+        }
+        if self.freq_hz is not None:
+            d["freq_hz"] = _num(self.freq_hz)
+        d.update(
+            u_rms_g=_num(self.u_rms_g),
+            duration_s=_num(self.duration_s),
+            n_samples=self.n_samples,
+            n_saturated=int(self.n_saturated),
+            flags=list(self.flags),
+        )
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "LevelResult":
+        return cls(
+            rms_g=_nan(d["rms_g"]),
+            vre=Estimate(_nan(d["vre_g"]), _nan(d["u_vre_g"]), "g"),
+            freq_hz=d.get("freq_hz"),
+            u_rms_g=d.get("u_rms_g"),
+            duration_s=d.get("duration_s"),
+            n_samples=d.get("n_samples"),
+            n_saturated=int(d.get("n_saturated") or 0),
+            flags=tuple(d.get("flags") or ()),
+        )
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted model with standard errors on its parameters.
+
+    ``params`` maps parameter names with units in them (``vrc_ug_per_g2``, ``rail_g``,
+    ``k4_ug_per_g4``) to estimates. ``departure_rms_g`` is the first level at which the data
+    leave the model (None when they never do).
+    """
+
+    model: str  # "vrc", "clip-censored", "clip-truncated", ...
+    params: Mapping[str, Estimate]
+    n_points: int
+    chi2_reduced: float | None = None
+    freq_hz: float | None = None
+    levels_used: tuple[float, ...] = ()  # rms_g of the levels that entered the fit
+    departure_rms_g: float | None = None
+    notes: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        ps = ", ".join(f"{k} = {v}" for k, v in self.params.items())
+        return f"{self.model}: {ps}"
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"model": self.model}
+        d.update({k: v.to_dict() for k, v in self.params.items()})
+        d.update(
+            n_points=self.n_points,
+            chi2_reduced=_num(self.chi2_reduced),
+            freq_hz=_num(self.freq_hz),
+            levels_used=[_num(x) for x in self.levels_used],
+            departure_rms_g=_num(self.departure_rms_g),
+            notes=list(self.notes),
+        )
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "FitResult":
+        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes"}
+        params = {k: Estimate.from_dict(v) for k, v in d.items() if k not in fixed and isinstance(v, Mapping)}
+        return cls(
+            model=d["model"],
+            params=params,
+            n_points=int(d["n_points"]),
+            chi2_reduced=d.get("chi2_reduced"),
+            freq_hz=d.get("freq_hz"),
+            levels_used=tuple(x for x in d.get("levels_used") or () if x is not None),
+            departure_rms_g=d.get("departure_rms_g"),
+            notes=tuple(d.get("notes") or ()),
+        )
+
+
+Method = Literal["random", "sine"]
+
+
+@dataclass(frozen=True)
+class VreResult:
+    """A whole test (simulated or measured): levels, fits, warnings, provenance.
+
+    ``to_dict()`` is the document that ``simulate --json``, ``analyze --json`` print and that
+    ``--out DIR`` writes as ``results.json``; ``vrelab report DIR`` reads it back with
+    ``from_dict``. ``fit`` in the dict merges the parameters of all fits (SPEC section 5 asks
+    for ``fit.vrc_ug_per_g2`` and ``fit.rail_g``); ``fits`` keeps each fit whole.
+    """
+
+    method: Method
+    conditions: Conditions
+    levels: tuple[LevelResult, ...]
+    fits: tuple[FitResult, ...] = ()
+    warnings: tuple[str, ...] = ()
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+    kind: Literal["simulation", "measurement"] = "measurement"
+
+    def fit_summary(self) -> dict[str, Any]:
+        merged: dict[str, Any] = {}
+        for f in self.fits:
+            if f.freq_hz is not None and "vrc_ug_per_g2" in merged:
+                continue  # sine sweeps: the summary carries the first frequency; `fits` has all
+            for k, v in f.params.items():
+                merged.setdefault(k, v.to_dict())
+            merged.setdefault("model", f.model)
+        return merged
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "method": self.method,
+            "conditions": self.conditions.to_dict(),
+            "levels": [lv.to_dict() for lv in self.levels],
+            "fit": self.fit_summary(),
+            "fits": [f.to_dict() for f in self.fits],
+            "warnings": list(self.warnings),
+            "provenance": dict(self.provenance),
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "VreResult":
+        return cls(
+            method=d["method"],
+            conditions=Conditions.from_dict(d.get("conditions") or {}),
+            levels=tuple(LevelResult.from_dict(x) for x in d.get("levels") or ()),
+            fits=tuple(FitResult.from_dict(x) for x in d.get("fits") or ()),
+            warnings=tuple(d.get("warnings") or ()),
+            provenance=dict(d.get("provenance") or {}),
+            kind=d.get("kind", "measurement"),
+        )
