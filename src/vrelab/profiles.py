@@ -1,0 +1,626 @@
+"""Vibration profiles: sine levels and random breakpoint tables (SPEC section 3).
+
+A random profile is a table of (frequency Hz, PSD g²/Hz) breakpoints joined by straight lines
+on a log-log plot, the way vibration test specifications (NAVMAT P-9492, GSFC-STD-7000,
+MIL-STD-810) write them: a flat level, or a slope in dB/octave between breakpoints.
+
+Between breakpoints (f1, P1) and (f2, P2) the PSD is ``P(f) = P1·(f/f1)^n`` with
+``n = ln(P2/P1)/ln(f2/f1)``; the slope is ``10·log10(2)·n`` dB/oct (≈ 3.0103·n), and the
+segment's area is
+
+    A = P1·f1/(n+1)·((f2/f1)^(n+1) - 1),     or  P1·f1·ln(f2/f1)  when n = -1.
+
+The overall level is ``grms = sqrt(Σ A)``. Scaling a profile to a target grms multiplies every
+PSD value by the square of the ratio (the shape, hence every slope, is kept).
+
+Files: CSV (two columns ``f_hz, psd_g2_per_hz``; optional header; ``#`` comments) and TOML::
+
+    [profile]
+    name = "navmat-p9492"
+    source = "NAVMAT P-9492 (1979)"
+    breakpoints = [[20, 0.01], [80, 0.04], [350, 0.04], [2000, 0.007]]
+    # or: start = [20, 0.01] and slopes = [[80, 3.0], [350, 0.0], [2000, -3.0]]
+    # optional: grms = 2.5   (scales the shape to this overall level)
+
+References
+----------
+.. [1] NAVMAT P-9492, "Navy Manufacturing Screening Program", Department of the Navy,
+   May 1979: 20-80 Hz +3 dB/oct to 0.04 g²/Hz, 0.04 g²/Hz 80-350 Hz, -3 dB/oct 350-2000 Hz.
+.. [2] NASA GSFC-STD-7000 (GEVS), General Environmental Verification Standard, component
+   minimum workmanship random vibration levels.
+.. [3] Analog Devices, "Vibration rectification error in MEMS accelerometers" (the seed
+   article): flat profile 50 Hz - 2 kHz; ADXL354/ADXL355 datasheet Rev. D, VRE at 2.5 g rms.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import tomli_w
+from numpy.typing import ArrayLike, NDArray
+
+from vrelab import _validate as v
+
+__all__ = [
+    "DB_PER_OCT_PER_N",
+    "SineProfile",
+    "RandomProfile",
+    "read_profile",
+    "write_profile",
+    "named_profiles",
+    "load_named_profile",
+    "parse_profile",
+    "segment_areas",
+]
+
+#: dB/octave per unit of log-log exponent n: slope = 10·log10(2)·n.
+DB_PER_OCT_PER_N = 10.0 * math.log10(2.0)
+
+# Below this |x| the series 1 + x/2 + x²/6 replaces expm1(x)/x; both agree to double precision
+# there, and the series never divides by a tiny number.
+_SMALL_X = 1e-8
+
+
+@dataclass(frozen=True)
+class SineProfile:
+    """A sinusoidal vibration: frequency and level in g rms.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Frequency [Hz], > 0.
+    rms_g : float
+        Level [g rms], >= 0. The peak is ``rms_g·√2``; use :meth:`from_peak` for a level
+        stated in g peak.
+    """
+
+    freq_hz: float
+    rms_g: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "freq_hz", v.positive_scalar("freq_hz", self.freq_hz))
+        rms = v.finite_scalar("rms_g", self.rms_g)
+        if rms < 0:
+            raise ValueError(f"rms_g must be >= 0, got {self.rms_g!r}")
+        object.__setattr__(self, "rms_g", rms)
+
+    @classmethod
+    def from_peak(cls, freq_hz: float, peak_g: float) -> "SineProfile":
+        """A sine given by its peak level [g pk]."""
+        peak = v.finite_scalar("peak_g", peak_g)
+        if peak < 0:
+            raise ValueError(f"peak_g must be >= 0, got {peak_g!r}")
+        return cls(freq_hz, peak / math.sqrt(2.0))
+
+    @property
+    def peak_g(self) -> float:
+        """Peak level [g]: rms·√2."""
+        return self.rms_g * math.sqrt(2.0)
+
+    def describe(self) -> str:
+        return f"sine {self.freq_hz:g} Hz, {self.rms_g:.3g} g rms ({self.peak_g:.3g} g pk)"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "sine", "freq_hz": self.freq_hz, "rms_g": self.rms_g, "peak_g": self.peak_g}
+
+
+def _expm1_over_x(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(e^x - 1)/x, stable as x -> 0 (the n = -1 limit of the segment area)."""
+    x = np.asarray(x, dtype=np.float64)
+    small = np.abs(x) < _SMALL_X
+    safe = np.where(small, 1.0, x)
+    return np.where(small, 1.0 + x / 2.0 + x * x / 6.0, np.expm1(safe) / safe)
+
+
+def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.float64]:
+    """Area [g²] under each log-log segment of a breakpoint table.
+
+    Notes
+    -----
+    With r = f2/f1, L = ln r and m = n + 1, the closed form ``P1·f1/m·(r^m - 1)`` is written
+    ``P1·f1·L·(e^(mL) - 1)/(mL)``, which tends to ``P1·f1·L`` (the n = -1 case) continuously,
+    so a slope of exactly -3.0103 dB/oct and one of -3 dB/oct give nearly equal areas instead
+    of a division by a tiny number (SPEC section 3).
+    """
+    f = np.asarray(freq_hz, dtype=np.float64)
+    p = np.asarray(psd_g2_per_hz, dtype=np.float64)
+    f1, f2, p1, p2 = f[:-1], f[1:], p[:-1], p[1:]
+    log_r = np.log(f2 / f1)
+    n = np.log(p2 / p1) / log_r
+    return p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r)
+
+
+@dataclass(frozen=True, eq=False)
+class RandomProfile:
+    """A random-vibration PSD given by breakpoints, interpolated log-log (SPEC section 3).
+
+    Parameters
+    ----------
+    freq_hz : array_like
+        Breakpoint frequencies [Hz]: at least 2, positive, finite, strictly increasing.
+    psd_g2_per_hz : array_like
+        PSD at each breakpoint [g²/Hz]: positive and finite (a log-log line cannot reach 0).
+    name, source : str, optional
+        Name of the profile and where it comes from (a standard, a file).
+
+    Notes
+    -----
+    The arrays are stored as read-only copies, so the caller's arrays are never modified and
+    the profile cannot be changed after validation. Between breakpoints
+    ``P(f) = P1·(f/f1)^n``, ``n = ln(P2/P1)/ln(f2/f1)``; outside the band the PSD is 0.
+    """
+
+    freq_hz: NDArray[np.float64]
+    psd_g2_per_hz: NDArray[np.float64]
+    name: str | None = None
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        f = np.array(v.as_float_array("freq_hz", self.freq_hz), dtype=np.float64, copy=True).ravel()
+        p = np.array(
+            v.as_float_array("psd_g2_per_hz", self.psd_g2_per_hz), dtype=np.float64, copy=True
+        ).ravel()
+        if f.size != p.size:
+            raise ValueError(
+                f"freq_hz and psd_g2_per_hz must have the same length, got {f.size} and {p.size}"
+            )
+        if f.size < 2:
+            raise ValueError(f"a random profile needs at least 2 breakpoints, got {f.size}")
+        v.positive("freq_hz", f)
+        v.positive("psd_g2_per_hz", p)
+        step = np.diff(f)
+        if (step <= 0).any():
+            i = int(np.argmax(step <= 0)) + 1
+            raise ValueError(
+                f"non-monotonic profile: freq_hz must be strictly increasing, but breakpoint {i} "
+                f"({f[i]:g} Hz) follows breakpoint {i - 1} ({f[i - 1]:g} Hz)"
+            )
+        f.setflags(write=False)
+        p.setflags(write=False)
+        object.__setattr__(self, "freq_hz", f)
+        object.__setattr__(self, "psd_g2_per_hz", p)
+
+    # --- constructors -------------------------------------------------------------------------
+
+    @classmethod
+    def from_breakpoints(
+        cls,
+        freq_hz: ArrayLike,
+        psd_g2_per_hz: ArrayLike,
+        name: str | None = None,
+        source: str | None = None,
+    ) -> "RandomProfile":
+        """A profile from its breakpoint table (Hz, g²/Hz)."""
+        return cls(np.asarray(freq_hz), np.asarray(psd_g2_per_hz), name=name, source=source)
+
+    @classmethod
+    def from_slopes(
+        cls,
+        f0_hz: float,
+        psd0_g2_per_hz: float,
+        segments: Sequence[tuple[float, float]],
+        name: str | None = None,
+        source: str | None = None,
+    ) -> "RandomProfile":
+        """A profile from a start point and segments ``(f_end_hz, slope_db_per_oct)``.
+
+        Each segment runs from the previous breakpoint to ``f_end_hz`` with exponent
+        ``n = slope/(10·log10 2)``, so its end PSD is ``P_start·(f_end/f_start)^n``.
+        """
+        f0 = v.positive_scalar("f0_hz", f0_hz)
+        p0 = v.positive_scalar("psd0_g2_per_hz", psd0_g2_per_hz)
+        if len(segments) < 1:
+            raise ValueError("segments must hold at least one (f_end_hz, db_per_oct) pair, got none")
+        freqs, psds = [f0], [p0]
+        for i, seg in enumerate(segments):
+            try:
+                f_end, slope = seg
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"segments[{i}] must be a pair (f_end_hz, db_per_oct), got {seg!r}"
+                ) from None
+            f_end = v.positive_scalar(f"segments[{i}] f_end_hz", f_end)
+            slope = v.finite_scalar(f"segments[{i}] db_per_oct", slope)
+            if f_end <= freqs[-1]:
+                raise ValueError(
+                    f"non-monotonic profile: segments[{i}] ends at {f_end:g} Hz, not above "
+                    f"the previous breakpoint {freqs[-1]:g} Hz"
+                )
+            n = slope / DB_PER_OCT_PER_N
+            psds.append(psds[-1] * (f_end / freqs[-1]) ** n)
+            freqs.append(f_end)
+        return cls(np.asarray(freqs), np.asarray(psds), name=name, source=source)
+
+    @classmethod
+    def flat(
+        cls,
+        f_lo_hz: float,
+        f_hi_hz: float,
+        grms: float | None = None,
+        psd: float | None = None,
+        name: str | None = None,
+        source: str | None = None,
+    ) -> "RandomProfile":
+        """A flat PSD from ``f_lo_hz`` to ``f_hi_hz``, given by its grms or its PSD [g²/Hz].
+
+        With neither, the PSD is 1 g²/Hz: a shape to be scaled with :meth:`scaled_to`.
+        """
+        lo = v.positive_scalar("f_lo_hz", f_lo_hz)
+        hi = v.positive_scalar("f_hi_hz", f_hi_hz)
+        if hi <= lo:
+            raise ValueError(f"f_hi_hz must be above f_lo_hz, got {f_lo_hz!r}-{f_hi_hz!r} Hz")
+        if grms is not None and psd is not None:
+            raise ValueError(f"give grms or psd, not both (got grms={grms!r}, psd={psd!r})")
+        if grms is not None:
+            level = v.positive_scalar("grms", grms) ** 2 / (hi - lo)
+        elif psd is not None:
+            level = v.positive_scalar("psd", psd)
+        else:
+            level = 1.0
+        return cls(np.array([lo, hi]), np.array([level, level]), name=name, source=source)
+
+    # --- properties ---------------------------------------------------------------------------
+
+    @property
+    def band(self) -> tuple[float, float]:
+        """(lowest, highest) breakpoint frequency [Hz]."""
+        return float(self.freq_hz[0]), float(self.freq_hz[-1])
+
+    @property
+    def exponents(self) -> NDArray[np.float64]:
+        """Log-log exponent n of each segment: ``ln(P2/P1)/ln(f2/f1)``."""
+        return np.log(self.psd_g2_per_hz[1:] / self.psd_g2_per_hz[:-1]) / np.log(
+            self.freq_hz[1:] / self.freq_hz[:-1]
+        )
+
+    @property
+    def slopes_db_per_oct(self) -> NDArray[np.float64]:
+        """Slope of each segment [dB/oct]: ``10·log10(2)·n``."""
+        return DB_PER_OCT_PER_N * self.exponents
+
+    @property
+    def mean_square_g2(self) -> float:
+        """Total area under the PSD [g²] (closed form, see :func:`segment_areas`)."""
+        return float(np.sum(segment_areas(self.freq_hz, self.psd_g2_per_hz)))
+
+    @property
+    def grms(self) -> float:
+        """Overall level [g rms]: sqrt of the area under the log-log PSD (closed form)."""
+        return math.sqrt(self.mean_square_g2)
+
+    @property
+    def breakpoints(self) -> list[list[float]]:
+        """The table as ``[[f_hz, psd_g2_per_hz], ...]`` (plain floats, JSON-ready)."""
+        return [[float(f), float(p)] for f, p in zip(self.freq_hz, self.psd_g2_per_hz)]
+
+    # --- evaluation ---------------------------------------------------------------------------
+
+    def psd(self, f_hz: ArrayLike) -> NDArray[np.float64] | float:
+        """PSD [g²/Hz] at ``f_hz``: log-log interpolation inside the band, 0 outside it."""
+        f = np.asarray(f_hz, dtype=np.float64)
+        out = np.zeros(f.shape)
+        lo, hi = self.band
+        inside = (f >= lo) & (f <= hi)
+        if inside.any():
+            out[inside] = np.exp(
+                np.interp(np.log(f[inside]), np.log(self.freq_hz), np.log(self.psd_g2_per_hz))
+            )
+        return float(out) if out.ndim == 0 else out
+
+    def mean_square_between(self, f_lo_hz: float, f_hi_hz: float) -> float:
+        """Area [g²] of the PSD between two frequencies (closed form on the clipped table)."""
+        lo = max(float(f_lo_hz), self.band[0])
+        hi = min(float(f_hi_hz), self.band[1])
+        if hi <= lo:
+            return 0.0
+        inner = (self.freq_hz > lo) & (self.freq_hz < hi)
+        f = np.concatenate(([lo], self.freq_hz[inner], [hi]))
+        p = np.asarray(self.psd(f), dtype=np.float64)
+        return float(np.sum(segment_areas(f, p)))
+
+    def scaled_to(self, grms: float) -> "RandomProfile":
+        """The same shape at overall level ``grms`` [g rms]: every PSD value × (grms/self.grms)²."""
+        target = v.positive_scalar("grms", grms)
+        ratio2 = (target / self.grms) ** 2
+        return RandomProfile(self.freq_hz, self.psd_g2_per_hz * ratio2, self.name, self.source)
+
+    # --- presentation -------------------------------------------------------------------------
+
+    def describe(self) -> str:
+        """One line, e.g. ``"random 50–2000 Hz, 2.50 g rms"`` (with the name when there is one)."""
+        lo, hi = self.band
+        text = f"random {lo:g}–{hi:g} Hz, {self.grms:.2f} g rms"
+        return f"{text} ({self.name})" if self.name else text
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": "random",
+            "name": self.name,
+            "source": self.source,
+            "grms": self.grms,
+            "band_hz": list(self.band),
+            "breakpoints": self.breakpoints,
+            "slopes_db_per_oct": [float(s) for s in self.slopes_db_per_oct],
+        }
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RandomProfile):
+            return NotImplemented
+        return (
+            np.array_equal(self.freq_hz, other.freq_hz)
+            and np.array_equal(self.psd_g2_per_hz, other.psd_g2_per_hz)
+            and self.name == other.name
+            and self.source == other.source
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.freq_hz.tobytes(), self.psd_g2_per_hz.tobytes(), self.name, self.source))
+
+    def __repr__(self) -> str:
+        return f"RandomProfile(breakpoints={self.breakpoints!r}, name={self.name!r})"
+
+
+# --- files ------------------------------------------------------------------------------------
+
+
+def _read_csv(path: Path) -> RandomProfile:
+    freqs: list[float] = []
+    psds: list[float] = []
+    name: str | None = None
+    source: str | None = None
+    with open(path, newline="") as fh:
+        text = fh.read()
+    seen_data = False
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if line.startswith("#"):
+            # "# name: ..." / "# source: ..." comments carry the metadata write_profile writes.
+            body = line.lstrip("#").strip()
+            key, sep, val = body.partition(":")
+            if sep and key.strip().lower() == "name" and name is None:
+                name = val.strip() or None
+            elif sep and key.strip().lower() == "source" and source is None:
+                source = val.strip() or None
+            continue
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        cells = next(csv.reader([line.replace(";", ",").replace("\t", ",")]))
+        cells = [c.strip() for c in cells if c.strip()]
+        if len(cells) == 1 and " " in cells[0]:
+            cells = cells[0].split()
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            if not seen_data and not freqs:
+                seen_data = True  # the header line: column names, allowed once, before the data
+                continue
+            raise ValueError(f"{path}: line {lineno}: not a number pair: {raw.strip()!r}") from None
+        seen_data = True
+        if len(values) != 2:
+            raise ValueError(
+                f"{path}: line {lineno}: expected 2 columns (f_hz, psd_g2_per_hz), "
+                f"got {len(values)}: {raw.strip()!r}"
+            )
+        freqs.append(values[0])
+        psds.append(values[1])
+    try:
+        return RandomProfile(np.array(freqs), np.array(psds), name=name, source=source or str(path))
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def _toml_pair(path: Path, field: str, item: Any) -> tuple[float, float]:
+    if not isinstance(item, (list, tuple)) or len(item) != 2:
+        raise ValueError(f"{path}: {field} must be a pair [a, b], got {item!r}")
+    try:
+        return float(item[0]), float(item[1])
+    except (TypeError, ValueError):
+        raise ValueError(f"{path}: {field} must hold numbers, got {item!r}") from None
+
+
+def _profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
+    """Build a profile from a TOML ``[profile]`` table (SPEC section 3 file format)."""
+    name = table.get("name")
+    source = table.get("source")
+    for key in ("name", "source"):
+        if table.get(key) is not None and not isinstance(table[key], str):
+            raise ValueError(f"{path}: profile.{key} must be a string, got {table[key]!r}")
+    has_bp = "breakpoints" in table
+    has_slopes = "start" in table or "slopes" in table
+    try:
+        if has_bp and has_slopes:
+            raise ValueError(f"{path}: give profile.breakpoints or profile.start+slopes, not both")
+        if has_bp:
+            rows = table["breakpoints"]
+            if not isinstance(rows, list):
+                raise ValueError(f"{path}: profile.breakpoints must be a list of [f_hz, psd] pairs")
+            pairs = [_toml_pair(path, f"profile.breakpoints[{i}]", r) for i, r in enumerate(rows)]
+            prof = RandomProfile(
+                np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]), name, source
+            )
+        elif has_slopes:
+            if "start" not in table or "slopes" not in table:
+                raise ValueError(f"{path}: profile.start and profile.slopes go together")
+            f0, p0 = _toml_pair(path, "profile.start", table["start"])
+            rows = table["slopes"]
+            if not isinstance(rows, list):
+                raise ValueError(f"{path}: profile.slopes must be a list of [f_end_hz, db_per_oct]")
+            segs = [_toml_pair(path, f"profile.slopes[{i}]", r) for i, r in enumerate(rows)]
+            prof = RandomProfile.from_slopes(f0, p0, segs, name=name, source=source)
+        else:
+            raise ValueError(f"{path}: [profile] needs breakpoints, or start and slopes")
+        if "grms" in table:
+            prof = prof.scaled_to(v.positive_scalar("profile.grms", table["grms"]))
+    except ValueError as exc:
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+    return prof
+
+
+def _read_toml(path: Path) -> RandomProfile:
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    table = doc.get("profile")
+    if not isinstance(table, dict):
+        raise ValueError(f"{path}: no [profile] table")
+    return _profile_from_table(path, table)
+
+
+def read_profile(path: str | os.PathLike[str]) -> RandomProfile:
+    """Read a random profile from a CSV (``f_hz, psd_g2_per_hz``) or TOML file.
+
+    Raises
+    ------
+    ValueError
+        Unknown extension, or a malformed file; the message names the file and the line
+        (CSV) or field (TOML).
+    FileNotFoundError
+        The file does not exist.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in (".csv", ".toml", ".txt"):
+        raise ValueError(f"profile file must be .csv or .toml, got {str(path)!r}")
+    if not p.is_file():
+        raise FileNotFoundError(2, "profile file not found", str(p))
+    return _read_toml(p) if suffix == ".toml" else _read_csv(p)
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_profile(profile: RandomProfile, path: str | os.PathLike[str]) -> Path:
+    """Write ``profile`` to ``path`` (.csv or .toml), atomically (temporary file + rename).
+
+    Values are written with ``repr`` precision so that ``read_profile`` gives back the same
+    breakpoints exactly.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".toml":
+        table: dict[str, Any] = {}
+        if profile.name:
+            table["name"] = profile.name
+        if profile.source:
+            table["source"] = profile.source
+        table["breakpoints"] = profile.breakpoints
+        data = tomli_w.dumps({"profile": table}).encode()
+    elif suffix == ".csv":
+        buf = io.StringIO()
+        if profile.name:
+            buf.write(f"# name: {profile.name}\n")
+        if profile.source:
+            buf.write(f"# source: {profile.source}\n")
+        buf.write(f"# {profile.describe()}\n")
+        buf.write("f_hz,psd_g2_per_hz\n")
+        for f, psd in profile.breakpoints:
+            buf.write(f"{f!r},{psd!r}\n")
+        data = buf.getvalue().encode()
+    else:
+        raise ValueError(f"profile file must be .csv or .toml, got {str(path)!r}")
+    _atomic_write(p, data)
+    return p
+
+
+# --- named profiles ---------------------------------------------------------------------------
+
+
+def named_profiles() -> dict[str, str]:
+    """Named profiles shipped in ``vrelab/data``: name -> path of its TOML file."""
+    folder = resources.files("vrelab") / "data"
+    out: dict[str, str] = {}
+    for item in sorted(folder.iterdir(), key=lambda x: x.name):
+        if item.name.endswith(".toml"):
+            out[item.name[: -len(".toml")]] = str(item)
+    return out
+
+
+def load_named_profile(name: str) -> RandomProfile:
+    """The named profile ``name`` (see :func:`named_profiles`)."""
+    known = named_profiles()
+    if name not in known:
+        raise ValueError(f"unknown profile name {name!r}; known: {', '.join(known)}")
+    prof = read_profile(known[name])
+    return prof if prof.name else RandomProfile(prof.freq_hz, prof.psd_g2_per_hz, name, prof.source)
+
+
+_FORMS = (
+    "a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz), flat:F1-F2, "
+    "or a named profile ({names})"
+)
+
+
+def _parse_inline(spec: str) -> RandomProfile:
+    freqs, psds = [], []
+    for i, token in enumerate(spec.split(",")):
+        parts = token.strip().split(":")
+        if len(parts) != 2:
+            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P (Hz:g²/Hz)")
+        try:
+            freqs.append(float(parts[0]))
+            psds.append(float(parts[1]))
+        except ValueError:
+            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P numbers") from None
+    try:
+        return RandomProfile(np.array(freqs), np.array(psds), source="inline")
+    except ValueError as exc:
+        raise ValueError(f"profile {spec!r}: {exc}") from None
+
+
+def _parse_flat(spec: str) -> RandomProfile:
+    body = spec.split(":", 1)[1].strip()
+    lo_s, sep, hi_s = body.partition("-")
+    try:
+        if not sep:
+            raise ValueError
+        lo, hi = float(lo_s), float(hi_s)
+    except ValueError:
+        raise ValueError(f"profile {spec!r}: expected flat:F1-F2 (Hz), e.g. flat:50-2000") from None
+    try:
+        return RandomProfile.flat(lo, hi, name=f"flat-{lo:g}-{hi:g}", source="flat (unit PSD shape)")
+    except ValueError as exc:
+        raise ValueError(f"profile {spec!r}: {exc}") from None
+
+
+def parse_profile(spec: str) -> RandomProfile:
+    """A random profile from a command-line string (SPEC section 5).
+
+    Accepted forms, tried in this order: a named profile (``navmat-p9492``), a file path
+    (``.csv``/``.toml``), ``flat:F1-F2`` (a flat 1 g²/Hz shape, to be scaled to a grms),
+    and an inline breakpoint list ``F:P,F:P,...`` (Hz:g²/Hz).
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise ValueError(f"profile must be {_FORMS.format(names=', '.join(named_profiles()))}; got {spec!r}")
+    text = spec.strip()
+    names = named_profiles()
+    if text in names:
+        return load_named_profile(text)
+    if Path(text).suffix.lower() in (".csv", ".toml") or Path(text).is_file():
+        return read_profile(text)
+    if text.lower().startswith("flat:"):
+        return _parse_flat(text)
+    if ":" in text:
+        return _parse_inline(text)
+    raise ValueError(f"unknown profile {spec!r}: give {_FORMS.format(names=', '.join(names))}")
