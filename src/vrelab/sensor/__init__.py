@@ -1,0 +1,41 @@
+"""The sensor signal chain: stages, chains of stages, sensor descriptions and presets.
+
+``stages`` holds the building blocks (resonance, nonlinearity, over-range, rails, filters,
+decimation, quantisation, noise), ``chain`` streams blocks through an ordered tuple of them, and
+``loader`` turns a sensor description (a preset TOML under ``presets/`` or a user file with the
+same schema) into a :class:`Sensor` that builds its chain.
+"""
+
+from vrelab.sensor.chain import ChainRun, ChainStats, SensorChain
+from vrelab.sensor.stages import (
+    AntiAlias,
+    Clip,
+    Decimate,
+    HighPass,
+    LowPass,
+    Noise,
+    Offset,
+    OverRange,
+    Polynomial,
+    Quantize,
+    Resonator,
+    Stage,
+)
+
+__all__ = [
+    "AntiAlias",
+    "ChainRun",
+    "ChainStats",
+    "Clip",
+    "Decimate",
+    "HighPass",
+    "LowPass",
+    "Noise",
+    "Offset",
+    "OverRange",
+    "Polynomial",
+    "Quantize",
+    "Resonator",
+    "SensorChain",
+    "Stage",
+]
