@@ -1,0 +1,531 @@
+"""The self-contained HTML report: one file, figures embedded as base64 PNG, no JS, no network.
+
+A report is a title, an introduction and a sequence of :class:`ReportSection`; each section is a
+result (a :class:`~vrelab.results.VreResult`), its figures and one sentence of what it shows,
+rendered as conditions, a table of levels (VRE ± u in mg, saturation counts), the fits with
+standard errors, the mechanisms' shares from a prediction, warnings and provenance.
+:func:`report_dir` builds the one-section report of an output folder (``vrelab report DIR``);
+the demo builds a multi-section report with :func:`write_report`.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import hashlib
+import html
+import io
+import json
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from vrelab import __version__
+from vrelab.results import FitResult, VreResult
+
+_CSS = """
+:root { --ink:#1b1f24; --mute:#5b6570; --rule:#d5dbe1; --warn:#8a4b00; --warnbg:#fff4e0; --accent:#0072B2; }
+* { box-sizing: border-box; }
+body { font: 15px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "Liberation Sans", Arial, sans-serif;
+       color: var(--ink); max-width: 980px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
+h1 { font-size: 1.7em; margin: 0 0 .2em; }
+h2 { font-size: 1.3em; margin: 2.2em 0 .3em; padding-top: .6em; border-top: 2px solid var(--rule); }
+h3 { font-size: 1.02em; margin: 1.4em 0 .4em; color: var(--mute); text-transform: uppercase; letter-spacing: .04em; }
+p.lead { font-size: 1.06em; margin: .3em 0 1em; }
+p.what { font-size: 1.04em; border-left: 4px solid var(--accent); padding: .3em .8em; background: #f3f8fc; }
+table { border-collapse: collapse; margin: .4em 0 1em; font-size: .92em; }
+th, td { border-bottom: 1px solid var(--rule); padding: 3px 10px; text-align: left; vertical-align: top; }
+th { background: #f4f6f8; font-weight: 600; }
+td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+table.kv th { background: none; color: var(--mute); font-weight: 500; white-space: nowrap; }
+figure { margin: 1em 0 1.4em; }
+figure img { max-width: 100%; height: auto; border: 1px solid var(--rule); display: block; }
+figcaption { color: var(--mute); font-size: .92em; margin-top: .3em; }
+ul.warn { background: var(--warnbg); border: 1px solid #f0c27a; padding: .6em 1em .6em 2em; color: var(--warn); }
+ul.notes li, ul.warn li { margin: .2em 0; }
+nav ol { margin: .2em 0 1em; }
+.mute { color: var(--mute); }
+footer { margin-top: 3em; font-size: .85em; color: var(--mute); border-top: 1px solid var(--rule); padding-top: .6em; }
+code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
+"""
+
+
+@dataclass(frozen=True)
+class ReportFigure:
+    """A figure ready to embed: PNG bytes and a caption."""
+
+    png: bytes
+    caption: str = ""
+
+    @classmethod
+    def from_figure(cls, fig: Figure, caption: str = "", dpi: int = 110) -> "ReportFigure":
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        fig.clear()  # the PNG is all the report needs; free the artists now
+        return cls(buf.getvalue(), caption)
+
+
+@dataclass(frozen=True)
+class ReportSection:
+    """One study: a result, its figures, and a sentence of what it shows.
+
+    ``facts`` are (label, value) rows shown first, e.g. ("VRE at 1 g rms", "-83 mg (article
+    ≈ -100 mg)"); ``prediction`` is a ``Prediction.to_dict()``; ``notes`` are extra sentences.
+    """
+
+    title: str
+    what: str
+    result: VreResult | None = None
+    figures: Sequence[ReportFigure] = ()
+    facts: Sequence[tuple[str, str]] = ()
+    prediction: Mapping[str, Any] | None = None
+    notes: Sequence[str] = ()
+    extra_warnings: Sequence[str] = ()
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------- helpers
+def _e(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _fmt(x: Any, spec: str = ".4g") -> str:
+    if x is None:
+        return "–"
+    if isinstance(x, float):
+        return "–" if not math.isfinite(x) else format(x, spec)
+    return str(x)
+
+
+def _mg(value: float, u: float | None = None) -> str:
+    if value is None or not math.isfinite(value):
+        return "–"
+    # Enough digits that the uncertainty's first two digits show.
+    digits = 1
+    if u is not None and math.isfinite(u) and u > 0:
+        digits = max(0, min(4, 1 - math.floor(math.log10(u * 1e3))))
+    s = f"{value * 1e3:+.{digits}f}"
+    if u is not None and math.isfinite(u):
+        s += f" ± {u * 1e3:.{digits}f}"
+    return s
+
+
+def sha256_file(path: str | Path, block: int = 1 << 20) -> str:
+    """SHA-256 of a file, read in blocks (records can be larger than memory)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(block):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def describe_fit_param(name: str) -> tuple[str, str, float]:
+    """Display name, unit and scale of a fit parameter from its unit-bearing name."""
+    table = {
+        "vrc_ug_per_g2": ("VRC", "µg/g²", 1.0),
+        "rail_g": ("effective rail", "g", 1.0),
+        "rail_low_g": ("lower rail", "g", 1.0),
+        "rail_high_g": ("upper rail", "g", 1.0),
+        "k2_ug_per_g2": ("k2", "µg/g²", 1.0),
+        "k3_ug_per_g3": ("k3", "µg/g³", 1.0),
+        "k4_ug_per_g4": ("k4", "µg/g⁴", 1.0),
+    }
+    return table.get(name, (name, "", 1.0))
+
+
+def collect_warnings(
+    result: VreResult | None,
+    psd_check: Mapping[str, Any] | None = None,
+    prediction: Mapping[str, Any] | None = None,
+) -> list[str]:
+    """Everything a reader must not miss: the result's own warnings plus what the numbers show.
+
+    Saturated samples, over-range flags, a fit's departure from its model, a reference PSD
+    outside tolerance, and the prediction's validity notes. Duplicates are dropped.
+    """
+    out: list[str] = []
+    if result is not None:
+        out += [str(w) for w in result.warnings]
+        sat = [lv for lv in result.levels if lv.n_saturated]
+        if sat:
+            worst = max(sat, key=lambda lv: lv.n_saturated)
+            frac = f" ({100 * worst.n_saturated / worst.n_samples:.2g} % of samples)" if worst.n_samples else ""
+            out.append(
+                f"Saturation: {len(sat)} of {len(result.levels)} levels have clipped sensor samples; "
+                f"most at {worst.rms_g:.3g} g rms: {worst.n_saturated} samples{frac}."
+            )
+        over = [lv for lv in result.levels if any("over" in f.lower() for f in lv.flags)]
+        if over:
+            out.append(
+                "Over-range: flagged at " + ", ".join(f"{lv.rms_g:.3g}" for lv in over) + " g rms "
+                "(the sensor's over-range protection acted; VRE there is not clipping alone)."
+            )
+        for f in result.fits:
+            if f.departure_rms_g is not None:
+                out.append(f"Fit departure: the data leave the {f.model} model above {f.departure_rms_g:.3g} g rms.")
+    if psd_check is not None and not psd_check.get("passed", True):
+        out.append(
+            f"PSD out of tolerance: reference PSD deviates {psd_check.get('max_dev_db', float('nan')):+.1f} / "
+            f"{psd_check.get('min_dev_db', float('nan')):+.1f} dB from the profile "
+            f"(±{psd_check.get('tol_db', 3):g} dB allowed)."
+        )
+    if prediction is not None:
+        out += [f"Prediction: {n}" for n in prediction.get("notes") or ()]
+    seen: set[str] = set()
+    return [w for w in out if not (w in seen or seen.add(w))]
+
+
+def psd_tolerance(freq_hz: np.ndarray, measured: np.ndarray, profile: np.ndarray, tol_db: float = 3.0) -> dict[str, Any]:
+    """The ±tol_db check of a PSD table, for warnings (the synthesis module has the full check)."""
+    m = (freq_hz > 0) & (profile > 0) & (measured > 0)
+    if not m.any():
+        return {"passed": True, "max_dev_db": float("nan"), "min_dev_db": float("nan"), "tol_db": tol_db}
+    dev = 10 * np.log10(measured[m] / profile[m])
+    return {
+        "passed": bool(np.all(np.abs(dev) <= tol_db)),
+        "max_dev_db": float(dev.max()),
+        "min_dev_db": float(dev.min()),
+        "tol_db": tol_db,
+        "n_out": int(np.sum(np.abs(dev) > tol_db)),
+    }
+
+
+# --------------------------------------------------------------------------- rendering
+def _kv_table(rows: Sequence[tuple[str, Any]]) -> str:
+    body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows if v not in (None, "", {}))
+    return f'<table class="kv">{body}</table>' if body else ""
+
+
+def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
+    c = result.conditions
+    rows: list[tuple[str, Any]] = [
+        ("kind", result.kind),
+        ("method", result.method),
+        ("sensor", c.sensor),
+        ("range", None if c.range_g is None else f"±{c.range_g:g} g"),
+        ("axis", None if c.axis is None else str(c.axis).upper()),
+        ("bandwidth", None if c.bandwidth_hz is None else f"{c.bandwidth_hz:g} Hz"),
+        ("output data rate", None if c.odr_hz is None else f"{c.odr_hz:g} Hz"),
+        ("static field g0", None if c.static_g is None else f"{c.static_g:+g} g"),
+        ("profile", c.profile),
+        ("model", c.model),
+    ]
+    for k, v in dict(c.extra).items():
+        rows.append((k.replace("_", " "), json.dumps(v) if isinstance(v, (dict, list)) else v))
+    return rows
+
+
+def _levels_table(result: VreResult) -> str:
+    lv = result.levels
+    if not lv:
+        return '<p class="mute">No levels.</p>'
+    has_f = any(x.freq_hz is not None for x in lv)
+    has_dur = any(x.duration_s is not None for x in lv)
+    head = ["#"] + (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE ± u (mg)"]
+    head += (["duration (s)"] if has_dur else []) + ["samples", "saturated", "flags"]
+    num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "duration (s)", "samples", "saturated"}
+    rows = []
+    for i, x in enumerate(lv, 1):
+        rms = _fmt(x.rms_g, ".4g") + (f" ± {x.u_rms_g:.2g}" if x.u_rms_g else "")
+        cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, _mg(x.vre.value, x.vre.u)]
+        cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
+        rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
+    th = "".join(f'<th class="{"num" if h in num else ""}">{_e(h)}</th>' for h in head)
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def _fits_table(fits: Sequence[FitResult]) -> str:
+    if not fits:
+        return '<p class="mute">No fits.</p>'
+    rows = []
+    for f in fits:
+        params = "; ".join(
+            f"{describe_fit_param(k)[0]} = {_fmt(v.value, '.5g')} ± {_fmt(v.u, '.2g')} {describe_fit_param(k)[1] or v.unit}"
+            for k, v in f.params.items()
+        )
+        used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
+        cells = [
+            f.model,
+            _fmt(f.freq_hz, "g") if f.freq_hz is not None else "",
+            params,
+            used,
+            _fmt(f.chi2_reduced, ".3g"),
+            "" if f.departure_rms_g is None else f"{f.departure_rms_g:.3g} g rms",
+            "; ".join(f.notes),
+        ]
+        rows.append("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in cells) + "</tr>")
+    head = ["model", "freq (Hz)", "parameters (± standard error)", "points", "χ²/dof", "departs above", "notes"]
+    return "<table><thead><tr>" + "".join(f"<th>{h}</th>" for h in head) + f"</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def _prediction_html(pred: Mapping[str, Any]) -> str:
+    """Prediction levels with each mechanism's share (keys found, not assumed)."""
+    levels = pred.get("levels") or []
+    if not levels:
+        return ""
+    share_keys: list[str] = []
+    for lv in levels:
+        for k in (lv.get("shares") or lv.get("mechanisms") or {}):
+            if k not in share_keys:
+                share_keys.append(k)
+    head = ["level (g rms)", "VRE (mg)", "tilt error (°)"] + [f"{k.replace('_', ' ')} (mg)" for k in share_keys]
+    rows = []
+    for lv in levels:
+        sh = lv.get("shares") or lv.get("mechanisms") or {}
+        cells = [_fmt(lv.get("rms_g"), ".4g"), _mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–", _fmt(lv.get("tilt_error_deg"), ".3g")]
+        for k in share_keys:
+            v = sh.get(k)
+            if isinstance(v, Mapping):
+                v = v.get("vre_g", v.get("value"))
+            cells.append(_mg(v) if isinstance(v, (int, float)) else _fmt(v))
+        rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
+    th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
+    extra = []
+    for k, v in pred.items():
+        if k in ("levels", "notes") or isinstance(v, (list, dict)):
+            continue
+        extra.append((k.replace("_", " "), v))
+    return _kv_table(extra) + f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
+    rows = []
+    for k, v in prov.items():
+        if isinstance(v, (dict, list)):
+            v = json.dumps(v)
+        rows.append((k.replace("_", " "), v))
+    return rows
+
+
+def render_section(sec: ReportSection, anchor: str) -> str:
+    parts = [f'<section id="{_e(anchor)}"><h2>{_e(sec.title)}</h2>', f'<p class="what">{_e(sec.what)}</p>']
+    if sec.facts:
+        parts.append(_kv_table(sec.facts))
+    warnings = list(sec.extra_warnings) + collect_warnings(sec.result, None, sec.prediction)
+    if warnings:
+        parts.append("<h3>Warnings</h3><ul class=\"warn\">" + "".join(f"<li>{_e(w)}</li>" for w in dict.fromkeys(warnings)) + "</ul>")
+    for i, fig in enumerate(sec.figures, 1):
+        b64 = base64.b64encode(fig.png).decode("ascii")
+        alt = fig.caption or f"{sec.title}, figure {i}"
+        parts.append(
+            f'<figure><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
+            + (f"<figcaption>{_e(fig.caption)}</figcaption>" if fig.caption else "")
+            + "</figure>"
+        )
+    if sec.notes:
+        parts.append('<ul class="notes">' + "".join(f"<li>{_e(n)}</li>" for n in sec.notes) + "</ul>")
+    r = sec.result
+    if r is not None:
+        parts.append("<h3>Conditions</h3>" + _kv_table(_conditions_rows(r)))
+        parts.append("<h3>Levels</h3>" + _levels_table(r))
+        parts.append("<h3>Fits</h3>" + _fits_table(r.fits))
+    if sec.prediction:
+        parts.append("<h3>Prediction: mechanisms' shares</h3>" + _prediction_html(sec.prediction))
+    prov = dict(r.provenance) if r is not None else {}
+    prov.update(sec.provenance)
+    if prov:
+        parts.append("<h3>Provenance</h3>" + _kv_table(_provenance_rows(prov)))
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def render_report(
+    sections: Sequence[ReportSection],
+    title: str,
+    intro: str = "",
+    provenance: Mapping[str, Any] | None = None,
+) -> str:
+    """The whole report as one HTML string (UTF-8, self-contained)."""
+    prov = default_provenance() | dict(provenance or {})
+    nav = ""
+    if len(sections) > 1:
+        nav = "<nav><ol>" + "".join(f'<li><a href="#s{i}">{_e(s.title)}</a></li>' for i, s in enumerate(sections, 1)) + "</ol></nav>"
+    body = "\n".join(render_section(s, f"s{i}") for i, s in enumerate(sections, 1))
+    foot = "; ".join(f"{_e(k.replace('_', ' '))}: {_e(v)}" for k, v in prov.items())
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body>"
+        f"<header><h1>{_e(title)}</h1>" + (f'<p class="lead">{_e(intro)}</p>' if intro else "") + f"{nav}</header>"
+        f"<main>{body}</main><footer>Report provenance — {foot}</footer></body></html>\n"
+    )
+
+
+def default_provenance(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    return {
+        "vrelab_version": __version__,
+        "command_line": " ".join(["vrelab", *sys.argv[1:]] if argv is None else list(argv)),
+        "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC"),
+    }
+
+
+def write_report(
+    path: str | Path,
+    sections: Sequence[ReportSection],
+    title: str = "Vibration rectification error report",
+    intro: str = "",
+    provenance: Mapping[str, Any] | None = None,
+) -> Path:
+    """Write the report atomically (temporary file, then rename) and return its path."""
+    path = Path(path)
+    text = render_report(sections, title, intro, provenance)
+    tmp = path.with_name(path.name + ".partial")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+# --------------------------------------------------------------------------- output folders
+def load_results(folder: str | Path) -> VreResult:
+    """Read ``folder/results.json``; a missing or malformed file is a one-line ``ValueError``."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"report: not a folder: {folder}")
+    f = folder / "results.json"
+    if not f.is_file():
+        raise ValueError(f"report: no results.json in {folder} (run simulate/analyze with --out {folder} first)")
+    try:
+        doc = json.loads(f.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
+    if not isinstance(doc, dict):
+        raise ValueError(f"report: {f} must hold a JSON object, got {type(doc).__name__}")
+    try:
+        result = VreResult.from_dict(doc)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"report: {f} is not a vrelab results file ({type(exc).__name__}: {exc})") from None
+    if result.method not in ("random", "sine"):
+        raise ValueError(f"report: {f}: method must be random or sine, got {result.method!r}")
+    return result
+
+
+def _load_prediction(folder: Path) -> Mapping[str, Any] | None:
+    f = folder / "prediction.json"
+    if not f.is_file():
+        return None
+    try:
+        doc = json.loads(f.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
+    return doc if isinstance(doc, dict) else None
+
+
+def _rails_of(result: VreResult) -> tuple[float, float] | None:
+    ex = dict(result.conditions.extra)
+    for key in ("rails_g", "rails"):
+        r = ex.get(key)
+        if isinstance(r, (list, tuple)) and len(r) == 2:
+            return (float(r[0]), float(r[1]))
+    if result.conditions.range_g is not None:
+        return (-float(result.conditions.range_g), float(result.conditions.range_g))
+    return None
+
+
+def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[ReportFigure], list[str], dict[str, Any] | None]:
+    """The standard figures of one result (and of the optional files next to its results.json).
+
+    Returns (figures, notes, psd_check).
+    """
+    from vrelab.report import plots
+
+    figs: list[ReportFigure] = []
+    notes: list[str] = []
+    psd_check = None
+    finite = [lv for lv in result.levels if math.isfinite(lv.rms_g) and math.isfinite(lv.vre.value)]
+    if finite:
+        if result.method == "random":
+            try:
+                curves = plots.model_curves(result)
+            except ImportError:
+                curves, notes = [], notes + ["Model curves omitted: vrelab.models is not available."]
+            fig = plots.plot_vre_vs_rms([plots.Series(plots.describe_conditions(result, short=True) or "VRE", result, tuple(curves))])
+            figs.append(ReportFigure.from_figure(fig, "VRE against vibration level, ±1 standard uncertainty; lines: models at the fitted parameters."))
+        if any("vrc_ug_per_g2" in f.params for f in result.fits) or result.method == "sine":
+            figs.append(ReportFigure.from_figure(plots.plot_vre_vs_rms2(result), "VRE against rms²: the slope of the line through the origin is the VRC."))
+        if sum(1 for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params) > 1:
+            fn = dict(result.conditions.extra).get("fn_hz")
+            figs.append(ReportFigure.from_figure(plots.plot_vrc_vs_freq(result, fn_hz=fn), "VRC against sine frequency: resonance amplifies the nonlinearity."))
+    if folder is not None:
+        rec = folder / "record.h5"
+        if rec.is_file():
+            env = plots.record_envelope(rec)
+            figs.append(ReportFigure.from_figure(plots.plot_time_series(env, rails_g=_rails_of(result)), f"Record {rec.name} (min/max envelope of {env.bin_size}-sample bins), segments shaded."))
+        elif (folder / "envelope.csv").is_file():
+            figs.append(ReportFigure.from_figure(plots.plot_envelope_csv(folder / "envelope.csv"), "Analysis windows: vibration level and sensor mean against time."))
+        if (folder / "psd.csv").is_file():
+            d = plots.read_psd_csv(folder / "psd.csv")
+            psd_check = psd_tolerance(d["freq_hz"], d["psd_measured"], d["psd_profile"])
+            figs.append(ReportFigure.from_figure(plots.plot_psd(d["freq_hz"], d["psd_measured"], d["psd_profile"]), "Reference PSD against the profile and its ±3 dB tolerance band."))
+    return figs, notes, psd_check
+
+
+def summary_sentence(result: VreResult) -> str:
+    """One sentence of what a result shows, for a section without a hand-written one."""
+    lv = [x for x in result.levels if math.isfinite(x.rms_g) and math.isfinite(x.vre.value)]
+    what = f"{'Simulated' if result.kind == 'simulation' else 'Measured'} VRE"
+    if not lv:
+        return f"{what}: no valid levels."
+    lo, hi = min(x.rms_g for x in lv), max(x.rms_g for x in lv)
+    top = max(lv, key=lambda x: x.rms_g)
+    s = f"{what} at {len(lv)} levels from {lo:.3g} to {hi:.3g} g rms ({result.method} method): {_mg(top.vre.value, top.vre.u)} mg at {hi:.3g} g rms"
+    bits = []
+    for f in result.fits:
+        if "rail_g" in f.params:
+            bits.append(f"the {f.model} model fits with an effective rail of {f.params['rail_g'].value:.3g} ± {f.params['rail_g'].u:.2g} g")
+        elif "vrc_ug_per_g2" in f.params and f.freq_hz is None:
+            bits.append(f"VRC = {f.params['vrc_ug_per_g2'].value:.3g} ± {f.params['vrc_ug_per_g2'].u:.2g} µg/g²")
+    return s + ("; " + "; ".join(bits) if bits else "") + "."
+
+
+def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+    """Build ``folder/report.html`` from ``results.json`` and whatever else the folder holds."""
+    folder = Path(folder)
+    result = load_results(folder)
+    prediction = _load_prediction(folder)
+    figs, notes, psd_check = result_figures(result, folder)
+    res_file = folder / "results.json"
+    prov: dict[str, Any] = {"results_file": res_file.name, "results_sha256": sha256_file(res_file)}
+    src = next((result.provenance.get(k) for k in ("input", "input_file", "file", "path") if result.provenance.get(k)), None)
+    if src and not any(k.endswith("sha256") for k in result.provenance):
+        p = Path(str(src))
+        if not p.is_absolute():
+            p = folder / p if (folder / p).is_file() else p
+        if p.is_file():
+            prov["input_sha256"] = sha256_file(p)
+    rec = folder / "record.h5"
+    if rec.is_file():
+        prov["record_file"] = rec.name
+        prov["record_sha256"] = sha256_file(rec)
+    extra_warn = collect_warnings(None, psd_check)
+    sec = ReportSection(
+        title=title or f"{describe(result)}",
+        what=summary_sentence(result),
+        result=result,
+        figures=figs,
+        prediction=prediction,
+        notes=notes,
+        extra_warnings=extra_warn,
+        provenance=prov,
+    )
+    return write_report(
+        folder / "report.html",
+        [sec],
+        title=title or "Vibration rectification error report",
+        intro=f"Report of {folder.name or folder.resolve().name}/results.json.",
+        provenance=default_provenance(argv),
+    )
+
+
+def describe(result: VreResult) -> str:
+    from vrelab.report.plots import describe_conditions
+
+    return describe_conditions(result) or f"{result.method} test"
