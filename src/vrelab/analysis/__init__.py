@@ -1,0 +1,20 @@
+"""Analysis of recorded shaker tests (SPEC section 4): readers, segmentation, VRE per level.
+
+``open_record`` reads lab files (CSV, NPY/NPZ, HDF5, TDMS, WAV, MAT) as a streaming
+:class:`~vrelab.record.Record`; ``reduce_record`` turns a record into VRE per level with honest
+uncertainties; ``analyze`` adds the fits (:mod:`vrelab.fits`) and returns a
+:class:`~vrelab.results.VreResult`.
+"""
+
+from vrelab.analysis.reduction import analyze, analyze_full, reduce, reduce_record
+
+__all__ = ["analyze", "analyze_full", "reduce", "reduce_record", "open_record"]
+
+
+def __getattr__(name: str):
+    # Readers pull in h5py/pyarrow/npTDMS: load them only when asked for.
+    if name == "open_record":
+        from vrelab.analysis.readers import open_record
+
+        return open_record
+    raise AttributeError(name)

@@ -1,0 +1,565 @@
+"""Reduction of a recorded shaker test to VRE per level (SPEC section 4).
+
+Steps, each over data streamed in blocks:
+
+1. :func:`~vrelab.analysis.segmentation.window_pass`: per-window sums (0.1 s windows).
+2. Segmentation: the user's schedule, else the one embedded in the record, else automatic from
+   the reference's rms envelope; ``settle_s`` trimmed at both edges of every segment.
+3. Baselines (vibration off): DUT mean of the windows with a batch-means uncertainty.
+4. Levels. *Random*: level = reference rms in the test band (band-pass from the first pass),
+   DUT mean of the windows. *Sine*: a second pass over each level: the drive frequency from the
+   reference (Hann-windowed FFT peak, log-parabolic interpolation), then batches of a whole
+   number of drive periods (the number chosen so that a batch is within a small fraction of a
+   sample of whole periods), in each a single-bin DFT (lock-in) of reference and DUT at the
+   drive frequency: level = rms of the reference's component, DUT mean with the drive
+   component's leftover over the batch removed. A plain mean over a non-integer number of
+   periods would leave a residual of order A/(2π·f·T) (SPEC 4).
+5. VRE = DUT mean under vibration − baseline at the level's centre time, the baseline linearly
+   interpolated between the off-segments before and after the level (bracketing removes a
+   linear drift exactly); fall back to the nearest baseline with a warning.
+   ``u² = u_level² + (1-λ)²·u_before² + λ²·u_after²`` (λ the interpolation weight).
+
+Public API: :func:`reduce_record` (levels and warnings, what the simulated test calls),
+:func:`reduce` (everything, for the CLI's output files), :func:`analyze` (levels + fits as a
+:class:`~vrelab.results.VreResult`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab import __version__
+from vrelab import _validate as V
+from vrelab.analysis.segmentation import (
+    WindowStats,
+    auto_segment,
+    check_finite,
+    exact_blocks,
+    segment_windows,
+    trim,
+    window_pass,
+)
+from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
+from vrelab.record import Record, Schedule, Segment
+from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+
+DEFAULT_BAND_HZ = (50.0, 2000.0)
+DEFAULT_SETTLE_S = 0.5
+DEFAULT_BLOCK = 1 << 18
+WINDOW_S = 0.1
+
+
+def default_band(fs_hz: float, band_hz: tuple[float, float] | None = None, profile: Any = None) -> tuple[float, float]:
+    """The test band: given, else the profile's band, else 50–2000 Hz; clamped to Nyquist."""
+    if band_hz is None:
+        band_hz = tuple(profile.band()) if profile is not None and hasattr(profile, "band") else DEFAULT_BAND_HZ
+    f1, f2 = (float(x) for x in band_hz)
+    if not (0 < f1 < f2) or not (math.isfinite(f1) and math.isfinite(f2)):
+        raise ValueError(f"band_hz must be F1:F2 with 0 < F1 < F2, got {f1:g}:{f2:g}")
+    nyq = fs_hz / 2
+    if f1 >= nyq:
+        raise ValueError(f"band_hz lower edge {f1:g} Hz is not below Nyquist ({nyq:g} Hz at fs {fs_hz:g} Hz)")
+    return f1, min(f2, nyq)
+
+
+@dataclass(frozen=True)
+class Baseline:
+    t_s: float  # centre time
+    mean_g: float
+    u_g: float
+    segment: Segment
+
+
+@dataclass
+class Reduction:
+    """Everything one reduction found (the CLI writes parts of it to files)."""
+
+    levels: list[LevelResult]
+    warnings: list[str]
+    stats: WindowStats
+    schedule: Schedule  # trimmed, the segments actually averaged
+    baselines: list[Baseline]
+    level_segments: list[Segment]
+    level_times_s: list[float]
+    psd: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=list)
+
+    @property
+    def static_g(self) -> float | None:
+        """The DUT's mean reading with vibration off (static field plus its offset)."""
+        if not self.baselines:
+            return None
+        return float(np.mean([b.mean_g for b in self.baselines]))
+
+
+# --------------------------------------------------------------------------- sine helpers
+
+
+def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
+    """Drive frequency: peak of a Hann-windowed FFT, refined by a parabola through the log peak.
+
+    For a Hann window the log-magnitude peak is close to a parabola; the interpolated bin is
+    good to about 0.01 bin for a clean sine (Gasior & Gonzalez, CERN AB-Note-2004-021).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = len(x)
+    if n < 16:
+        raise ValueError(f"segment too short to find the drive frequency ({n} samples)")
+    spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(n)))
+    spec[:2] = 0.0
+    k = int(np.argmax(spec))
+    if spec[k] <= 0:
+        raise ValueError("reference has no oscillation to find the drive frequency from")
+    if 1 <= k < len(spec) - 1 and spec[k - 1] > 0 and spec[k + 1] > 0:
+        a, b, c = np.log(spec[k - 1 : k + 2])
+        den = a - 2 * b + c
+        delta = 0.5 * (a - c) / den if den != 0 else 0.0
+    else:
+        delta = 0.0
+    return (k + delta) * fs_hz / n
+
+
+def whole_period_batch(freq_hz: float, fs_hz: float, target_s: float = WINDOW_S) -> tuple[int, int]:
+    """(periods m, samples L) per batch: L = round(m·fs/f) closest to a whole number of periods.
+
+    m is searched around ``target_s·f``; the one whose m·fs/f lies nearest an integer wins, so
+    the leftover of the drive in a batch mean is a tiny fraction of A/(2π·f·T).
+    """
+    p = fs_hz / freq_hz
+    m0 = max(1, int(round(target_s * freq_hz)))
+    cands = np.arange(max(1, int(0.6 * m0)), int(1.6 * m0) + 2)
+    frac = np.abs(cands * p - np.round(cands * p))
+    m = int(cands[int(np.argmin(frac + 1e-6 * np.abs(cands - m0) / m0))])
+    return m, int(round(m * p))
+
+
+def _sine_level(
+    record: Record, i0: int, i1: int, ref: str, block_size: int, freq_hint: float | None
+) -> tuple[float, MeanEstimate, MeanEstimate, float, float, list[str]]:
+    """Second pass over one sine level: (freq, DUT mean, ref rms estimate, t_centre, n, warnings)."""
+    fs = record.fs_hz
+    warnings: list[str] = []
+    n_probe = min(i1 - i0, 1 << 17)
+    probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
+    f = estimate_frequency(probe, fs)
+    if freq_hint is not None and abs(f - freq_hint) > 0.05 * freq_hint:
+        warnings.append(f"drive found at {f:.4g} Hz, schedule says {freq_hint:.4g} Hz")
+    m, L = whole_period_batch(f, fs)
+    nb = (i1 - i0) // L
+    if nb < 3:
+        raise ValueError(
+            f"sine level {i0 / fs:.3g}-{i1 / fs:.3g} s holds fewer than 3 batches of {m} periods at {f:.4g} Hz"
+        )
+    stop = i0 + nb * L
+    w = 2 * np.pi * f / fs
+    s0 = np.zeros(nb)
+    zd = np.zeros(nb, dtype=complex)
+    zr = np.zeros(nb, dtype=complex)
+    ones = np.zeros(nb, dtype=complex)
+    blk_len = max(L, (block_size // L) * L)
+    chans = ["dut"] if ref == "dut" else ["dut", ref]
+    pos = i0
+    for blk in exact_blocks(record, blk_len, chans, i0, stop):
+        d = blk["dut"]
+        r = blk[ref]
+        check_finite("dut", d, pos)
+        check_finite(ref, r, pos)
+        nn = len(d)
+        # Phase from the segment start: batches of whole periods line up with it.
+        ph = np.exp(-1j * w * ((pos - i0) + np.arange(nn)))
+        b0 = (pos - i0) // L
+        k = nn // L
+        sl = slice(b0, b0 + k)
+        s0[sl] = d.reshape(k, L).sum(axis=1)
+        zd[sl] = (d * ph).reshape(k, L).sum(axis=1)
+        zr[sl] = (r * ph).reshape(k, L).sum(axis=1)
+        ones[sl] = np.conj(ph).reshape(k, L).sum(axis=1)
+        pos += nn
+    # Lock-in: DUT drive component a_b = 2·Z_b/L; its mean over the batch is Re(a_b·Σe^{jωn})/L.
+    a = 2.0 * zd / L
+    dut_means = (s0 - np.real(a * ones)) / L
+    ref_ms = (np.abs(2.0 * zr / L) ** 2) / 2.0  # mean square at the drive frequency per batch
+    dm = batch_mean(dut_means)
+    rm = batch_mean(ref_ms, detrend=False)
+    rms = math.sqrt(max(rm.mean, 0.0))
+    u_rms = rm.u / (2 * rms) if rms > 0 else math.nan
+    t_c = (i0 + stop) / 2 / fs
+    return f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, float(stop - i0), warnings
+
+
+# --------------------------------------------------------------------------- bracketing
+
+
+def bracket(t_s: float, baselines: Sequence[Baseline]) -> tuple[float, float, str | None]:
+    """Baseline at time ``t_s``: linear interpolation between the bracketing baselines.
+
+    Returns (value, standard uncertainty, warning or None). With a baseline on one side only,
+    the nearest one is used and a warning says so.
+    """
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if before and after:
+        a, b = before[-1], after[0]
+        lam = (t_s - a.t_s) / (b.t_s - a.t_s)
+        val = (1 - lam) * a.mean_g + lam * b.mean_g
+        u = math.hypot((1 - lam) * a.u_g, lam * b.u_g)
+        return val, u, None
+    near = before[-1] if before else after[0]
+    side = "after" if before else "before"
+    return near.mean_g, near.u_g, f"no baseline {side} the level at {t_s:.4g} s: nearest baseline used, drift not removed"
+
+
+# --------------------------------------------------------------------------- main reduction
+
+
+def _resolve_schedule(
+    record: Record, schedule: Schedule | None, stats: WindowStats, settle_s: float
+) -> tuple[Schedule, list[str]]:
+    warnings: list[str] = []
+    if schedule is None and getattr(record, "schedule", None) is not None:
+        schedule = record.schedule
+        warnings.append("segments from the schedule embedded in the record")
+    if schedule is None:
+        schedule, w = auto_segment(stats)
+        warnings += w
+    trimmed, w = trim(schedule, settle_s)
+    return trimmed, warnings + w
+
+
+def reduce(
+    record: Record,
+    schedule: Schedule | None = None,
+    method: Literal["random", "sine"] = "random",
+    band_hz: tuple[float, float] | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    block_size: int = DEFAULT_BLOCK,
+    progress: bool = False,
+    rail_g: float | None = None,
+    profile: Any = None,
+    psd: bool = False,
+) -> Reduction:
+    """Reduce a record; see the module docstring. :func:`reduce_record` is the short form."""
+    V.one_of("method", method, ("random", "sine"))
+    block_size = int(block_size)
+    if block_size < 1:
+        raise ValueError(f"block_size must be >= 1, got {block_size}")
+    if rail_g is not None:
+        rail_g = V.positive_scalar("rail_g", rail_g)
+    fs = V.positive_scalar("fs_hz", record.fs_hz)
+    band = default_band(fs, band_hz, profile)
+    stats = window_pass(record, band, WINDOW_S, block_size, rail_g, progress)
+    warnings: list[str] = []
+    if stats.reference == "dut":
+        warnings.append("no reference channel: levels and segmentation from the DUT's AC part")
+    sched, w = _resolve_schedule(record, schedule, stats, settle_s)
+    warnings += w
+    sat, rail_notes = stats.saturated()
+    warnings += rail_notes
+    dmean = stats.dut_mean()
+
+    baselines: list[Baseline] = []
+    for seg in sched.segments:
+        if not seg.is_baseline:
+            continue
+        k0, k1 = segment_windows(stats, seg)
+        if k1 - k0 < 3:
+            warnings.append(f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored")
+            continue
+        est = batch_mean(dmean[k0:k1])
+        t_c = float(np.mean(stats.times_s[k0:k1]))
+        baselines.append(Baseline(t_c, est.mean, est.u, seg))
+    if not baselines:
+        raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
+
+    levels: list[LevelResult] = []
+    level_segs: list[Segment] = []
+    times: list[float] = []
+    psds: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
+    for seg in sched.segments:
+        if seg.is_baseline:
+            continue
+        k0, k1 = segment_windows(stats, seg)
+        if k1 - k0 < 3:
+            warnings.append(f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored")
+            continue
+        n_sat = int(sat[k0:k1].sum())
+        freq = None
+        if method == "random":
+            dm = batch_mean(dmean[k0:k1])
+            power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
+            pm = batch_mean(power, detrend=False)
+            rms = math.sqrt(max(pm.mean, 0.0))
+            u_rms = pm.u / (2 * rms) if rms > 0 else math.nan
+            t_c = float(np.mean(stats.times_s[k0:k1]))
+            n_used = int(stats.count[k0:k1].sum())
+        else:
+            i0 = int(math.ceil(seg.start_s * fs - 1e-9))
+            i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), stats.n_samples)
+            freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz)
+            warnings += w
+            rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
+        base, u_base, note = bracket(t_c, baselines)
+        if note:
+            warnings.append(note)
+        flags = ("saturated",) if n_sat > 0 else ()
+        levels.append(
+            LevelResult(
+                rms_g=rms,
+                vre=Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g"),
+                freq_hz=freq,
+                u_rms_g=u_rms,
+                duration_s=n_used / fs,
+                n_samples=n_used,
+                n_saturated=n_sat,
+                flags=flags,
+            )
+        )
+        level_segs.append(seg)
+        times.append(t_c)
+        if psd and method == "random":
+            psds.append(_level_psd(record, seg, stats))
+    if not levels:
+        raise ValueError("no vibration level found in the record (or schedule)")
+    n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
+    if n_sat_levels:
+        warnings.append(f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')")
+    if profile is not None and method == "random":
+        warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
+    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds)
+
+
+def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK):
+    fs = record.fs_hz
+    i0 = int(math.ceil(seg.start_s * fs - 1e-9))
+    i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), record.n_samples)
+    for b in record.blocks(block, [ch], i0, i1):
+        yield b[ch]
+
+
+def _level_psd(record: Record, seg: Segment, stats: WindowStats) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Welch PSD (Hann, 1 Hz-ish resolution) of the reference over a level, averaged over blocks."""
+    from scipy import signal
+
+    fs = record.fs_hz
+    nper = int(min(2 ** round(math.log2(fs)), 1 << 14))
+    acc = None
+    total = 0
+    f = np.array([])
+    for x in _segment_blocks(record, seg, stats.reference, max(nper * 64, DEFAULT_BLOCK // nper * nper)):
+        if len(x) < nper:
+            continue
+        f, p = signal.welch(x, fs=fs, nperseg=nper, noverlap=nper // 2, detrend="constant")
+        nseg = (len(x) - nper // 2) // (nper // 2)
+        acc = p * nseg if acc is None else acc + p * nseg
+        total += nseg
+    if acc is None:
+        return np.array([]), np.array([])
+    return f, acc / total
+
+
+def _tolerance_checks(
+    record: Record, segs: Sequence[Segment], levels: list[LevelResult], stats: WindowStats, profile: Any
+) -> list[str]:
+    """Reference PSD against the profile (SPEC 3: ±3 dB, rms ±10 %) for each random level."""
+    try:
+        from vrelab.synthesis import psd_tolerance_check
+    except ImportError:
+        return ["PSD tolerance check skipped: vrelab.synthesis.psd_tolerance_check is not available"]
+    out: list[str] = []
+    for i, (seg, lv) in enumerate(zip(segs, levels)):
+        target = seg.nominal_rms_g if seg.nominal_rms_g > 0 else lv.rms_g
+        prof = profile.scaled_to(target) if hasattr(profile, "scaled_to") else profile
+        res = psd_tolerance_check(_segment_blocks(record, seg, stats.reference), record.fs_hz, prof)
+        if not res.passed:
+            levels[i] = replace(lv, flags=lv.flags + ("psd-out-of-tolerance",))
+            out.append(
+                f"level {lv.rms_g:.4g} g rms: reference PSD outside the profile tolerance "
+                f"(max deviation {res.max_dev_db:.3g} dB)"
+            )
+    return out
+
+
+def reduce_record(
+    record: Record,
+    schedule: Schedule | None = None,
+    method: Literal["random", "sine"] = "random",
+    band_hz: tuple[float, float] | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    block_size: int = DEFAULT_BLOCK,
+    progress: bool = False,
+) -> tuple[list[LevelResult], list[str]]:
+    """Reduce a record to VRE per level.
+
+    Parameters
+    ----------
+    record : Record
+        Channels ``dut`` (and ``reference``, both in g) streamed in blocks.
+    schedule : Schedule, optional
+        Segments (``nominal_rms_g == 0`` for vibration off). Default: the record's embedded
+        schedule, else automatic segmentation from the reference's rms envelope.
+    method : {"random", "sine"}
+        Level = reference rms in ``band_hz`` (random) or at the drive frequency (sine).
+    band_hz : (f1, f2), optional
+        Test band for the random method [Hz]; default 50–2000 Hz, clamped to Nyquist.
+    settle_s : float
+        Trimmed at both edges of every segment [s].
+    block_size : int
+        Samples per block read; memory is bounded by it.
+
+    Returns
+    -------
+    levels : list of LevelResult
+        In time order; ``vre`` in g with its standard uncertainty; ``flags`` has "saturated"
+        when the DUT sat on a rail.
+    warnings : list of str
+    """
+    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress)
+    return red.levels, red.warnings
+
+
+# --------------------------------------------------------------------------- analyze
+
+
+def _freq_groups(levels: Sequence[LevelResult]) -> list[float]:
+    fs = sorted(lv.freq_hz for lv in levels if lv.freq_hz is not None)
+    groups: list[float] = []
+    for f in fs:
+        if not groups or abs(f - groups[-1]) > 0.01 * groups[-1]:
+            groups.append(f)
+    return groups
+
+
+def fit_levels(
+    levels: Sequence[LevelResult],
+    method: Literal["random", "sine"],
+    static_g: float | None,
+    clip_kind: Literal["censored", "truncated"] = "censored",
+    fit_k4: bool = False,
+) -> tuple[list[FitResult], list[str]]:
+    """The fits SPEC 4 asks for: VRC (per frequency for sine); for random also the rail."""
+    from vrelab import fits as F
+
+    out: list[FitResult] = []
+    warnings: list[str] = []
+    if method == "sine":
+        for f in _freq_groups(levels) or [None]:
+            grp = [lv for lv in levels if f is None or (lv.freq_hz is not None and abs(lv.freq_hz - f) <= 0.01 * f)]
+            f_mean = float(np.mean([lv.freq_hz for lv in grp])) if f is not None else None
+            try:
+                out.append(F.fit_vrc(grp, with_k4=fit_k4, freq_hz=f_mean))
+            except ValueError as exc:
+                warnings.append(f"VRC fit at {f_mean} Hz skipped: {exc}")
+        return out, warnings
+    rail_fit = None
+    if static_g is not None:
+        try:
+            rail_fit = F.fit_rail(levels, static_g, kind=clip_kind)
+        except (ValueError, ImportError) as exc:
+            warnings.append(f"rail fit skipped: {exc}")
+    # VRC from the nonlinearity regime: unsaturated levels below any departure from the model.
+    try:
+        out.append(F.fit_vrc(levels, with_k4=fit_k4))
+    except ValueError as exc:
+        warnings.append(f"VRC fit skipped: {exc}")
+    if rail_fit is not None:
+        out.append(rail_fit)
+        if rail_fit.departure_rms_g is not None:
+            warnings.append(f"data leave the clipping model from {rail_fit.departure_rms_g:.4g} g rms on")
+    return out, warnings
+
+
+def analyze_full(
+    record: Record,
+    method: Literal["random", "sine"],
+    schedule: Schedule | None = None,
+    profile: Any = None,
+    static_g: float | None = None,
+    rail_g: float | None = None,
+    clip_kind: Literal["censored", "truncated"] = "censored",
+    band_hz: tuple[float, float] | None = None,
+    fit_k4: bool = False,
+    progress: bool = False,
+    conditions: Conditions | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    block_size: int = DEFAULT_BLOCK,
+    provenance: Mapping[str, Any] | None = None,
+    psd: bool = False,
+) -> tuple[VreResult, Reduction]:
+    """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
+    V.one_of("clip_kind", clip_kind, ("censored", "truncated"))
+    if static_g is not None:
+        static_g = V.finite_scalar("static_g", static_g)
+    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd)
+    g0 = static_g if static_g is not None else red.static_g
+    fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4)
+    meta = dict(getattr(record, "meta", None) or {})
+    if conditions is None:
+        conditions = Conditions.from_dict(meta["conditions"]) if isinstance(meta.get("conditions"), Mapping) else Conditions()
+    extra = dict(conditions.extra)
+    extra.setdefault("band_hz", list(default_band(record.fs_hz, band_hz, profile)) if method == "random" else None)
+    extra.setdefault("settle_s", settle_s)
+    desc = conditions.profile
+    if desc is None and profile is not None and hasattr(profile, "describe"):
+        desc = profile.describe()
+    conditions = Conditions(
+        **{
+            **{k: getattr(conditions, k) for k in conditions.__dataclass_fields__ if k != "extra"},
+            "model": conditions.model or "measured",
+            "profile": desc,
+            "static_g": conditions.static_g if conditions.static_g is not None else g0,
+        },
+        extra=extra,
+    )
+    prov = {"vrelab_version": __version__, "fs_hz": record.fs_hz, "n_samples": int(record.n_samples)}
+    prov.update(dict(provenance or {}))
+    result = VreResult(
+        method=method,
+        conditions=conditions,
+        levels=tuple(red.levels),
+        fits=tuple(fits),
+        warnings=tuple(red.warnings + w),
+        provenance=prov,
+        kind="measurement",
+    )
+    return result, red
+
+
+def analyze(
+    record: Record,
+    method: Literal["random", "sine"],
+    schedule: Schedule | None = None,
+    profile: Any = None,
+    static_g: float | None = None,
+    rail_g: float | None = None,
+    clip_kind: Literal["censored", "truncated"] = "censored",
+    band_hz: tuple[float, float] | None = None,
+    fit_k4: bool = False,
+    progress: bool = False,
+    conditions: Conditions | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    block_size: int = DEFAULT_BLOCK,
+    provenance: Mapping[str, Any] | None = None,
+) -> VreResult:
+    """Reduce a record and fit it: the whole test station in one call.
+
+    Parameters are those of :func:`reduce_record` plus: ``profile`` (a
+    :class:`~vrelab.profiles.RandomProfile`: default band, and the reference PSD is checked
+    against it), ``static_g`` (static field for the rail fit; default: the DUT's mean reading at
+    the baselines), ``rail_g`` (DUT samples at or beyond ±rail_g count as saturated, besides
+    the rails found from the data), ``clip_kind`` (rail-fit model), ``fit_k4`` (quartic term in
+    the VRC fit), ``conditions`` (default: those in the record's metadata).
+
+    Returns
+    -------
+    VreResult
+        ``kind="measurement"``; fits: "vrc" (per frequency for sine) and, for random,
+        "clip-<kind>" with ``rail_g`` and ``departure_rms_g``.
+    """
+    return analyze_full(
+        record, method, schedule, profile, static_g, rail_g, clip_kind, band_hz, fit_k4, progress,
+        conditions, settle_s, block_size, provenance,
+    )[0]  # fmt: skip

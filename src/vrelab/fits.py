@@ -1,0 +1,377 @@
+"""Fits of measured (or simulated) VRE levels: VRC, effective rail, k2/k3 separation.
+
+Pure functions (no I/O): they take :class:`~vrelab.results.LevelResult` sequences and return a
+:class:`~vrelab.results.FitResult` whose parameters carry standard errors.
+
+Standard errors. Every fit is weighted by ``1/u²`` with the levels' standard uncertainties taken
+as absolute (``absolute_sigma=True`` in scipy's words), so the covariance is ``(JᵀWJ)⁻¹``. When
+the reduced chi² exceeds 1 the data scatter more than their uncertainties say (model error,
+under-estimated ``u``), and the covariance is scaled by chi²_red (Birge ratio); it is never
+scaled down. The fit's ``notes`` say which was done.
+
+References
+----------
+.. [1] IEEE Std 1293-1998, IEEE Standard Specification Format Guide and Test Procedure for
+   Linear, Single-Axis, Nongyroscopic Accelerometers (vibration rectification test).
+.. [2] Analog Devices, "Vibration rectification error in MEMS accelerometers" (ADXL355 case
+   study), the seed article of this project; see SPEC sections 1.1, 1.2 and 4.
+.. [3] R. T. Birge, "The calculation of errors by the method of least squares",
+   Phys. Rev. 40, 207 (1932): scaling by the reduced chi².
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab import _validate as V
+from vrelab.results import Estimate, FitResult, LevelResult
+
+ClipKind = Literal["censored", "truncated"]
+
+# Residual (in combined standard uncertainties) beyond which a level has left the model.
+DEPARTURE_SIGMA = 3.0
+
+
+def _arrays(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    rms = np.array([lv.rms_g for lv in levels], dtype=np.float64)
+    vre = np.array([lv.vre.value for lv in levels], dtype=np.float64)
+    u = np.array([lv.vre.u for lv in levels], dtype=np.float64)
+    return rms, vre, u
+
+
+def _weights(u: NDArray[np.float64], notes: list[str]) -> NDArray[np.float64]:
+    """1/u², or equal weights (with a note) when any uncertainty is missing or zero."""
+    if np.all(np.isfinite(u)) and np.all(u > 0):
+        return 1.0 / u**2
+    notes.append("some levels have no uncertainty: unweighted fit, errors from the scatter")
+    return np.ones_like(u)
+
+
+def _scale_cov(
+    cov: NDArray[np.float64], chi2: float, dof: int, weighted_abs: bool, notes: list[str]
+) -> tuple[NDArray[np.float64], float | None]:
+    if dof <= 0:
+        notes.append("as many parameters as points: chi2 undefined, errors from the level uncertainties alone")
+        return cov, None
+    chi2_red = chi2 / dof
+    if not weighted_abs:
+        return cov * chi2_red, chi2_red
+    if chi2_red > 1.0:
+        notes.append(f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)")
+        return cov * chi2_red, chi2_red
+    notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
+    return cov, chi2_red
+
+
+def _same_freq(a: float | None, b: float | None) -> bool:
+    return a is None or b is None or abs(a - b) <= 0.01 * max(abs(a), abs(b))
+
+
+def fit_vrc(
+    levels: Sequence[LevelResult],
+    max_rms_g: float | None = None,
+    with_k4: bool = False,
+    freq_hz: float | None = None,
+) -> FitResult:
+    r"""Vibration rectification coefficient: weighted least squares through the origin.
+
+    Parameters
+    ----------
+    levels : sequence of LevelResult
+        Measured VRE [g] with standard uncertainty at vibration level ``rms_g`` [g rms].
+    max_rms_g : float, optional
+        Only levels at or below this rms enter the fit (the nonlinearity regime, below clipping).
+    with_k4 : bool
+        Add a quartic term: ``VRE = k2_eff·rms² + c4·rms⁴``.
+    freq_hz : float, optional
+        Sine method: fit only the levels measured at this frequency (within 1 %); recorded in
+        the result.
+
+    Returns
+    -------
+    FitResult
+        ``model`` "vrc" (or "vrc+k4"); params ``vrc_ug_per_g2`` [µg/g²] (and ``c4_ug_per_g4``
+        [µg/g⁴]). Levels flagged ``saturated`` are left out (they are clipping, not
+        nonlinearity).
+
+    Notes
+    -----
+    IEEE 1293 [1]_ and SPEC 1.2: ``VRE = VRC·rms²`` with ``VRC = k2 + 3·k3·g0 + 6·k4·g0²``
+    at static field g0. Minimise :math:`\sum_i (y_i - X_i β)^2/u_i^2` with
+    :math:`X_i = [r_i^2]` (or :math:`[r_i^2, r_i^4]`): :math:`β = (X^TWX)^{-1}X^TWy`,
+    :math:`\mathrm{cov}\,β = (X^TWX)^{-1}`, scaled by χ²_red when it exceeds 1 [3]_.
+    ``c4 = k4·E[x⁴]/rms⁴``: 3·k4 for Gaussian vibration, 1.5·k4 for a sine.
+    """
+    notes: list[str] = []
+    if max_rms_g is not None:
+        max_rms_g = V.positive_scalar("max_rms_g", max_rms_g)
+    sel = [
+        lv
+        for lv in levels
+        if "saturated" not in lv.flags
+        and np.isfinite(lv.rms_g)
+        and np.isfinite(lv.vre.value)
+        and lv.rms_g > 0
+        and (max_rms_g is None or lv.rms_g <= max_rms_g)
+        and (freq_hz is None or _same_freq(lv.freq_hz, freq_hz))
+    ]
+    n_sat = sum("saturated" in lv.flags for lv in levels)
+    if n_sat:
+        notes.append(f"{n_sat} saturated level(s) left out")
+    n_par = 2 if with_k4 else 1
+    if len(sel) < n_par:
+        raise ValueError(
+            f"levels: need at least {n_par} unsaturated level(s) with rms_g > 0 for the VRC fit, got {len(sel)}"
+        )
+    rms, y, u = _arrays(sel)
+    w = _weights(u, notes)
+    x2 = rms**2
+    X = np.column_stack([x2, x2**2]) if with_k4 else x2[:, None]
+    A = X.T @ (w[:, None] * X)
+    beta = np.linalg.solve(A, X.T @ (w * y))
+    cov = np.linalg.inv(A)
+    resid = y - X @ beta
+    chi2 = float(np.sum(w * resid**2))
+    cov, chi2_red = _scale_cov(cov, chi2, len(sel) - n_par, bool(np.all(u > 0)), notes)
+    se = np.sqrt(np.diag(cov))
+    params = {"vrc_ug_per_g2": Estimate(float(beta[0] * 1e6), float(se[0] * 1e6), "ug/g^2")}
+    if with_k4:
+        params["c4_ug_per_g4"] = Estimate(float(beta[1] * 1e6), float(se[1] * 1e6), "ug/g^4")
+        notes.append("c4 = k4*E[x^4]/rms^4: 3*k4 for Gaussian vibration, 1.5*k4 for sine")
+    return FitResult(
+        model="vrc+k4" if with_k4 else "vrc",
+        params=params,
+        n_points=len(sel),
+        chi2_reduced=chi2_red,
+        freq_hz=freq_hz,
+        levels_used=tuple(float(r) for r in rms),
+        notes=tuple(notes),
+    )
+
+
+def _clip_model(kind: ClipKind):
+    # Imported here: the clipping models live in vrelab.models (one place for each formula).
+    from vrelab.models import clipping
+
+    return clipping.censored_mean_shift if kind == "censored" else clipping.truncated_mean_shift
+
+
+def _fit_clip_once(
+    rms: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    static_g: float,
+    kind: ClipKind,
+    symmetric: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Least-squares rail(s); returns (params, covariance unscaled, chi2)."""
+    from scipy.optimize import least_squares
+
+    shift = _clip_model(kind)
+    sw = np.sqrt(w)
+
+    def predict(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
+        return np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
+
+    def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return (predict(p) - y) * sw
+
+    # The chi² surface is flat where the rail is far beyond every level (no clipping, no
+    # information) and steep near the data: start from the best point of a log grid.
+    lo = abs(static_g) + 0.05 * float(np.min(rms))
+    hi = abs(static_g) + 12.0 * float(np.max(rms))
+    grid = np.geomspace(max(lo, 1e-6), hi, 200)
+    if symmetric:
+        costs = [np.sum(resid(np.array([r])) ** 2) for r in grid]
+        p0 = np.array([grid[int(np.argmin(costs))]])
+        bounds = ([max(abs(static_g), 1e-9) * (1 + 1e-9)], [np.inf])
+    else:
+        costs = [np.sum(resid(np.array([-r, r])) ** 2) for r in grid]
+        r0 = grid[int(np.argmin(costs))]
+        p0 = np.array([-r0, r0])
+        bounds = ([-np.inf, static_g], [static_g, np.inf])
+    sol = least_squares(resid, p0, bounds=bounds, x_scale="jac")
+    J = sol.jac
+    try:
+        cov = np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        cov = np.full((len(p0), len(p0)), np.inf)
+    return sol.x, cov, float(np.sum(sol.fun**2))
+
+
+def fit_rail(
+    levels: Sequence[LevelResult],
+    static_g: float,
+    kind: ClipKind = "censored",
+    symmetric: bool = True,
+) -> FitResult:
+    r"""Effective rail of the clipping model fitted to VRE vs random vibration level.
+
+    Parameters
+    ----------
+    levels : sequence of LevelResult
+        VRE [g] with uncertainty at Gaussian vibration level ``rms_g`` [g rms].
+    static_g : float
+        Static acceleration along the axis during the test [g] (from the baselines or given).
+    kind : {"censored", "truncated"}
+        Clipping model (SPEC 1.1): samples beyond a rail read as the rail, or are discarded.
+    symmetric : bool
+        One rail parameter ``rail_g`` (rails at ±rail_g), or two (``rail_low_g``, ``rail_high_g``).
+
+    Returns
+    -------
+    FitResult
+        ``model`` "clip-censored" / "clip-truncated"; params ``rail_g`` [g] (or
+        ``rail_low_g``, ``rail_high_g``); ``departure_rms_g``: the first level at which the data
+        leave the model, and ``levels_used``: the levels below it, the ones that were fitted.
+
+    Notes
+    -----
+    Model (SPEC 1.1, [2]_): VRE(σ) = E[clip(g0 + x)] − g0 for x ~ N(0, σ²), from
+    :func:`vrelab.models.clipping.censored_mean_shift` (or ``truncated_mean_shift``). Weighted
+    least squares (``scipy.optimize.least_squares`` on residuals (model − y)/u), covariance
+    ``(JᵀJ)⁻¹`` scaled by χ²_red when it exceeds 1.
+
+    Departure rule (over-range protection, SPEC 1.3): fit all levels; sort by rms; scanning
+    upward, the departure is the first level whose residual exceeds 3 combined standard
+    uncertainties (√(u² + u_model²)) *and* every level above it does too ("leaves and stays
+    out"); refit on the levels below it and repeat until the departure level no longer moves
+    (at most 5 times). A lone outlier followed by levels back on the model is not a departure.
+    """
+    static_g = V.finite_scalar("static_g", static_g)
+    V.one_of("kind", kind, ("censored", "truncated"))
+    notes: list[str] = []
+    sel = sorted(
+        (lv for lv in levels if np.isfinite(lv.rms_g) and lv.rms_g > 0 and np.isfinite(lv.vre.value)),
+        key=lambda lv: lv.rms_g,
+    )
+    n_par = 1 if symmetric else 2
+    if len(sel) < n_par + 1:
+        raise ValueError(f"levels: need at least {n_par + 1} levels with rms_g > 0 for the rail fit, got {len(sel)}")
+    rms, y, u = _arrays(sel)
+    w = _weights(u, notes)
+    absolute = bool(np.all(np.isfinite(u)) and np.all(u > 0))
+    shift = _clip_model(kind)
+
+    n_fit = len(sel)
+    departure: int | None = None
+    for _ in range(5):
+        p, cov, chi2 = _fit_clip_once(rms[:n_fit], y[:n_fit], w[:n_fit], static_g, kind, symmetric)
+        dof = n_fit - n_par
+        scale = chi2 / dof if (dof > 0 and (chi2 / dof > 1 or not absolute)) else 1.0
+        covs = cov * scale
+        low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
+        pred = np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
+        # Model uncertainty at each level by numerical derivative w.r.t. the parameters.
+        grads = []
+        for k in range(len(p)):
+            dp = np.zeros_like(p)
+            dp[k] = 1e-6 * max(abs(p[k]), 1e-3)
+            pp = p + dp
+            lo2, hi2 = (-pp[0], pp[0]) if symmetric else (pp[0], pp[1])
+            grads.append((np.asarray(shift(static_g, rms, lo2, hi2)) - pred) / dp[k])
+        G = np.array(grads).T
+        u_model = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", G, covs, G), 0.0))
+        u_res = np.sqrt(u**2 + u_model**2) if absolute else np.full_like(u, math.sqrt(scale) if scale > 0 else np.inf)
+        out = np.abs(y - pred) > DEPARTURE_SIGMA * u_res
+        new = None
+        for i in range(len(sel)):
+            if out[i:].all():
+                new = i
+                break
+        if new is not None and new < n_par + 1:
+            notes.append("data leave the model at the lowest levels: no departure reported, all levels fitted")
+            new = None
+        if new == departure:
+            break
+        departure = new
+        n_fit = len(sel) if new is None else new
+    chi2_red = chi2 / (n_fit - n_par) if n_fit > n_par else None
+    if chi2_red is None:
+        notes.append("as many parameters as points: chi2 undefined")
+    elif not absolute:
+        notes.append("unweighted: errors scaled by the residual scatter")
+    elif chi2_red > 1:
+        notes.append(f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)")
+    else:
+        notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
+    se = np.sqrt(np.diag(covs))
+    if symmetric:
+        params = {"rail_g": Estimate(float(p[0]), float(se[0]), "g")}
+    else:
+        params = {
+            "rail_low_g": Estimate(float(p[0]), float(se[0]), "g"),
+            "rail_high_g": Estimate(float(p[1]), float(se[1]), "g"),
+        }
+    if departure is not None:
+        notes.append(
+            f"data leave the {kind} model from {rms[departure]:.4g} g rms on "
+            f"(residuals > {DEPARTURE_SIGMA:g} sigma from there up); fitted below it"
+        )
+    notes.append(f"static field {static_g:.4g} g")
+    return FitResult(
+        model=f"clip-{kind}",
+        params=params,
+        n_points=n_fit,
+        chi2_reduced=chi2_red,
+        levels_used=tuple(float(r) for r in rms[:n_fit]),
+        departure_rms_g=None if departure is None else float(rms[departure]),
+        notes=tuple(notes),
+    )
+
+
+def separate_k2_k3(
+    fit_plus: FitResult, fit_minus: FitResult, static_plus_g: float = 1.0, static_minus_g: float = -1.0
+) -> FitResult:
+    r"""Separate k2 and k3 from VRC fits at two orientations (SPEC 1.2).
+
+    Parameters
+    ----------
+    fit_plus, fit_minus : FitResult
+        VRC fits (param ``vrc_ug_per_g2``) of two recordings, at static fields
+        ``static_plus_g`` and ``static_minus_g`` [g] (+1 g and −1 g by default).
+
+    Returns
+    -------
+    FitResult
+        ``model`` "k2-k3", params ``k2_ug_per_g2`` [µg/g²] and ``k3_ug_per_g3`` [µg/g³].
+
+    Notes
+    -----
+    ``VRC(g0) = k2 + 3·k3·g0`` (the k4 term ``6·k4·g0²`` is the same at ±1 g and folds into
+    k2). Two orientations: ``k3 = (VRC₊ − VRC₋)/(3·(g₊ − g₋))``, ``k2 = VRC₊ − 3·k3·g₊``;
+    at ±1 g, k2 = (VRC₊ + VRC₋)/2 and k3 = (VRC₊ − VRC₋)/6. The two recordings are
+    independent, so their uncertainties add in quadrature through these linear maps.
+    """
+    gp = V.finite_scalar("static_plus_g", static_plus_g)
+    gm = V.finite_scalar("static_minus_g", static_minus_g)
+    if gp == gm:
+        raise ValueError(f"static_plus_g and static_minus_g must differ, got {gp} and {gm}")
+    for name, f in (("fit_plus", fit_plus), ("fit_minus", fit_minus)):
+        if "vrc_ug_per_g2" not in f.params:
+            raise ValueError(f"{name} has no vrc_ug_per_g2 parameter (model {f.model!r})")
+    a, b = fit_plus.params["vrc_ug_per_g2"], fit_minus.params["vrc_ug_per_g2"]
+    d = 3.0 * (gp - gm)
+    k3 = (a.value - b.value) / d
+    u_k3 = math.hypot(a.u, b.u) / abs(d)
+    # k2 = VRC+ - 3 k3 g+ = VRC+ (1 - g+/(g+-g-)) + VRC- g+/(g+-g-)
+    c = gp / (gp - gm)
+    k2 = a.value * (1 - c) + b.value * c
+    u_k2 = math.hypot(a.u * (1 - c), b.u * c)
+    return FitResult(
+        model="k2-k3",
+        params={
+            "k2_ug_per_g2": Estimate(k2, u_k2, "ug/g^2"),
+            "k3_ug_per_g3": Estimate(k3, u_k3, "ug/g^3"),
+        },
+        n_points=2,
+        freq_hz=fit_plus.freq_hz,
+        notes=(
+            f"VRC(g0) = k2 + 3*k3*g0 from fits at {gp:g} g and {gm:g} g; k4 (if any) folds into k2",
+        ),
+    )
