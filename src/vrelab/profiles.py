@@ -317,16 +317,27 @@ class RandomProfile:
             )
         return float(out) if out.ndim == 0 else out
 
-    def mean_square_between(self, f_lo_hz: float, f_hi_hz: float) -> float:
-        """Area [g²] of the PSD between two frequencies (closed form on the clipped table)."""
-        lo = max(float(f_lo_hz), self.band[0])
-        hi = min(float(f_hi_hz), self.band[1])
-        if hi <= lo:
-            return 0.0
-        inner = (self.freq_hz > lo) & (self.freq_hz < hi)
-        f = np.concatenate(([lo], self.freq_hz[inner], [hi]))
-        p = np.asarray(self.psd(f), dtype=np.float64)
-        return float(np.sum(segment_areas(f, p)))
+    def cumulative_mean_square(self, f_hz: ArrayLike) -> NDArray[np.float64] | float:
+        """Area [g²] of the PSD from the band's lower edge up to ``f_hz`` (closed form, vectorized).
+
+        0 below the band, the total mean square above it; inside segment i it adds the partial
+        segment area from f_i to f, with the same stable closed form as :func:`segment_areas`.
+        """
+        f = np.clip(np.asarray(f_hz, dtype=np.float64), *self.band)
+        fb, pb = self.freq_hz, self.psd_g2_per_hz
+        cum = np.concatenate(([0.0], np.cumsum(segment_areas(fb, pb))))
+        i = np.clip(np.searchsorted(fb, f, side="right") - 1, 0, fb.size - 2)
+        n = self.exponents[i]
+        log_r = np.log(f / fb[i])
+        out = cum[i] + pb[i] * fb[i] * log_r * _expm1_over_x((n + 1.0) * log_r)
+        return float(out) if out.ndim == 0 else out
+
+    def mean_square_between(self, f_lo_hz: ArrayLike, f_hi_hz: ArrayLike) -> NDArray[np.float64] | float:
+        """Area [g²] of the PSD between two frequencies (0 where they do not overlap the band)."""
+        lo = np.asarray(self.cumulative_mean_square(f_lo_hz))
+        hi = np.asarray(self.cumulative_mean_square(f_hi_hz))
+        out = np.maximum(hi - lo, 0.0)
+        return float(out) if out.ndim == 0 else out
 
     def scaled_to(self, grms: float) -> "RandomProfile":
         """The same shape at overall level ``grms`` [g rms]: every PSD value × (grms/self.grms)²."""
