@@ -1,0 +1,76 @@
+"""``vrelab sweep FILE``: run or resume a parameter sweep / Monte Carlo lot described in TOML."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "sweep",
+        help="parameter sweep or Monte Carlo lot from a TOML file (serial, processes or Dask)",
+        description="Evaluate a grid of parameters and/or a Monte Carlo lot described in a TOML "
+        "file; checkpointed in --out so that rerunning the same command resumes an interrupted "
+        "sweep. Writes DIR/result.nc (xarray/NetCDF), DIR/result.csv and DIR/sweep.json.",
+    )
+    p.add_argument("file", metavar="FILE", help="sweep description (TOML)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N", help="run on N local worker processes")
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a dask.distributed scheduler (tcp://host:port), or 'local[:N]' for a local cluster",
+    )
+    p.add_argument("--out", metavar="DIR", help="output and checkpoint folder (default: ./<FILE stem>-sweep)")
+    p.add_argument("--fresh", action="store_true", help="discard the checkpoint in DIR instead of resuming")
+    p.add_argument("--retries", type=int, metavar="N", help="extra attempts for a failing point (default: file, 1)")
+    p.add_argument("--chunk", type=int, metavar="N", help="points per task (default: file, 1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--json", action="store_true", help="print the summary and every point as JSON")
+    p.set_defaults(func=run)
+
+
+def _json_num(x: Any) -> Any:
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def run(args: argparse.Namespace) -> int:
+    from vrelab.cli import print_json
+    from vrelab.sweep import load_spec, run_sweep
+    from vrelab.sweep.dataset import flat_rows
+
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
+    spec = load_spec(args.file)
+    out = Path(args.out) if args.out else Path(f"{Path(args.file).stem}-sweep")
+    res = run_sweep(
+        spec,
+        out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        fresh=args.fresh,
+        progress=not args.no_progress,
+        retries=args.retries,
+        chunk=args.chunk,
+    )
+    s = res.summary
+    if args.json:
+        _, rows = flat_rows(spec, res.records)
+        doc = {k: v for k, v in s.items() if k != "spec"}
+        doc["points"] = [{k: _json_num(v) for k, v in row.items()} for row in rows]
+        print_json(doc)
+    else:
+        print(
+            f"{s['name']}: {s['n_ok']}/{s['n_points']} points ok, {s['n_failed']} failed "
+            f"({s['n_computed']} computed, {s['n_resumed']} from the checkpoint) on {s['backend']} "
+            f"in {s['elapsed_s']:.2f} s -> {', '.join(s['files'].values())}"
+        )
+        for f in s["failed"][:5]:
+            print(f"  point {f['index']} failed: {f['error']}", file=sys.stderr)
+    return 1 if s["n_failed"] else 0

@@ -1,0 +1,187 @@
+"""Parameter sweeps and Monte Carlo lots, on one core, a process pool or a Dask cluster.
+
+A sweep file (:mod:`vrelab.sweep.spec`) names a *point kind* (an analytic ``model`` point, a
+``predict`` point, a simulated shaker test ``simulate``, or any ``python`` function), a grid of
+parameters and/or a Monte Carlo lot, and a seed. :func:`run_sweep` evaluates every point on a
+backend (:mod:`vrelab.sweep.backends`) through the engine (:mod:`vrelab.sweep.engine`), writes
+each finished point to a checkpoint in the output folder as it finishes
+(:mod:`vrelab.sweep.checkpoint`), and at the end writes the labelled result, an xarray
+Dataset as NetCDF plus a flat CSV (:mod:`vrelab.sweep.dataset`), complete or not at all.
+
+Rerunning an interrupted sweep with the same output folder resumes it: finished points (failed
+ones included) are read back, not recomputed. Results depend only on the sweep file: each point
+gets its own ``SeedSequence`` from its index, so serial, process-pool and Dask runs agree to the
+bit.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from vrelab import _io
+from vrelab.sweep.backends import Backend, DaskBackend, ProcessBackend, SerialBackend, SerialExecutor, make_backend
+from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
+from vrelab.sweep.engine import PointFunction, resolve, run_points, run_task
+from vrelab.sweep.spec import SweepSpec, load_spec, parse_spec
+
+__all__ = [
+    "Backend",
+    "CHECKPOINT_NAME",
+    "Checkpoint",
+    "DaskBackend",
+    "PointFunction",
+    "PointRecord",
+    "ProcessBackend",
+    "SerialBackend",
+    "SerialExecutor",
+    "SweepResult",
+    "SweepSpec",
+    "load_spec",
+    "make_backend",
+    "parse_spec",
+    "point_function",
+    "run_points",
+    "run_sweep",
+    "run_task",
+]
+
+POINT_FUNCTIONS = {
+    "model": "vrelab.sweep.points:model_point",
+    "predict": "vrelab.sweep.points:predict_point",
+    "simulate": "vrelab.sweep.points:simulate_point",
+}
+RESULT_NC = "result.nc"
+RESULT_CSV = "result.csv"
+RESULT_ZARR = "result.zarr"
+SUMMARY = "sweep.json"
+
+
+def point_function(spec: SweepSpec) -> str:
+    """The importable name of the point function of ``spec`` (checked here, not in a worker)."""
+    ref = spec.function if spec.kind == "python" else POINT_FUNCTIONS[spec.kind]
+    assert ref is not None
+    resolve(ref)
+    return ref
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What :func:`run_sweep` produced: the Dataset, every point's record, a summary, the files."""
+
+    spec: SweepSpec
+    dataset: Any  # xarray.Dataset
+    records: Mapping[int, PointRecord]
+    summary: Mapping[str, Any]
+    files: Mapping[str, Path]
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out_dir: str | Path,
+    *,
+    backend: Backend | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    fresh: bool = False,
+    progress: bool = False,
+    retries: int | None = None,
+    chunk: int | None = None,
+) -> SweepResult:
+    """Run (or resume) ``spec`` with its checkpoint and outputs in ``out_dir``.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        From :func:`load_spec` / :func:`parse_spec`.
+    out_dir : path
+        Holds ``checkpoint.jsonl`` (appended as points finish), then ``result.nc``,
+        ``result.csv`` (and ``result.zarr`` if asked) and ``sweep.json``, written together at
+        the end.
+    backend : Backend, optional
+        Where to run; else ``workers`` (a process pool) or ``scheduler`` (a dask address, or
+        ``"local[:N]"``), else serially in this process. A backend made here is closed here.
+    fresh : bool
+        Discard an existing checkpoint instead of resuming from it.
+    retries, chunk : int, optional
+        Override the file's values (they do not change the results).
+    """
+    func = point_function(spec)
+    retries = spec.retries if retries is None else retries
+    chunk = spec.chunk if chunk is None else chunk
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise ValueError(f"retries must be an integer >= 0, got {retries!r}")
+    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+        raise ValueError(f"chunk must be an integer >= 1, got {chunk!r}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out exists and is not a folder: {out}")
+    own = backend is None
+    with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh) as ck:
+        resumed = len(ck.records)
+        units = [spec.unit_params(u) for u in range(spec.units or 0)]
+        items = [
+            (i, spec.point_params(i, units), spec.point_seed(i)) for i in range(spec.n_points) if i not in ck.records
+        ]
+        t0 = time.perf_counter()
+        if own:
+            backend = make_backend(workers, scheduler) if items else SerialBackend()
+        assert backend is not None
+        try:
+            run_points(
+                func,
+                items,
+                backend,
+                retries=retries,
+                chunk=chunk,
+                run=ck.run,
+                on_records=ck.append,
+                progress=progress,
+                total=spec.n_points,
+            )
+            described = backend.describe()
+        finally:
+            if own:
+                backend.close()
+        elapsed = time.perf_counter() - t0
+        records = dict(ck.records)
+        run = ck.run
+
+    from vrelab.sweep import dataset as D
+
+    ds = D.to_dataset(spec, records)
+    n_failed = sum(r.status == "failed" for r in records.values())
+    summary: dict[str, Any] = {
+        "name": spec.name,
+        "kind": spec.kind,
+        "fingerprint": spec.fingerprint(),
+        "out": str(out),
+        "n_points": spec.n_points,
+        "n_ok": len(records) - n_failed,
+        "n_failed": n_failed,
+        "n_computed": len(items),
+        "n_resumed": resumed,
+        "run": run,
+        "dims": dict(zip(spec.dims, spec.shape)),
+        "variables": D.variable_names(spec, records),
+        **described,
+        "elapsed_s": elapsed,
+        "points_per_s": len(items) / elapsed if items and elapsed > 0 else None,
+        "failed": [{"index": i, "error": r.error} for i, r in sorted(records.items()) if r.status == "failed"][:20],
+        "spec": spec.to_dict(),
+    }
+    names = {"netcdf": RESULT_NC, "csv": RESULT_CSV, "zarr": RESULT_ZARR}
+    files = {f: out / names[f] for f in spec.formats}
+    summary["files"] = {f: str(p) for f, p in files.items()}
+    with _io.output_dir(out) as stage:
+        if "netcdf" in spec.formats:
+            D.write_netcdf(ds, stage / RESULT_NC)
+        if "csv" in spec.formats:
+            D.write_csv(spec, records, stage / RESULT_CSV)
+        if "zarr" in spec.formats:
+            D.write_zarr(ds, stage / RESULT_ZARR)
+        _io.write_json(stage / SUMMARY, summary)
+    files["summary"] = out / SUMMARY
+    return SweepResult(spec, ds, records, summary, files)

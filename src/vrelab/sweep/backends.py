@@ -1,0 +1,187 @@
+"""Where points run: anything with the ``concurrent.futures.Executor`` interface.
+
+* :class:`SerialBackend`: an in-process executor (no pickling, no processes; a point that kills
+  the process kills the sweep, but the checkpoint keeps what finished).
+* :class:`ProcessBackend`: ``ProcessPoolExecutor`` on a ``spawn`` context (no fork: the parent
+  may hold threads, locks and open HDF5 files that a forked child would inherit half-copied).
+  After a worker dies the pool is broken for good; :meth:`ProcessBackend.reset` makes a new one.
+* :class:`DaskBackend`: ``dask.distributed``: ``Client(address).get_executor()``, or a
+  ``LocalCluster`` it starts itself (``address="local"`` or ``"local:N"``). dask is an optional
+  extra, imported only here and only when asked for.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from typing import Any, Callable
+
+
+class SerialExecutor(Executor):
+    """Runs each call at submit time, in this process, and returns a finished future."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        fut: Future = Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # the caller reads it from the future, as from a pool
+            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+                raise
+            fut.set_exception(exc)
+        return fut
+
+
+class Backend:
+    """An executor plus what the engine needs around it: a name, a size, a way to start over."""
+
+    name = "custom"
+
+    def __init__(self, executor: Executor | None = None, n_workers: int = 1) -> None:
+        self._executor = executor
+        self.n_workers = n_workers
+
+    @property
+    def executor(self) -> Executor:
+        if self._executor is None:
+            raise ValueError("backend has no executor")
+        return self._executor
+
+    @property
+    def can_reset(self) -> bool:
+        return False
+
+    def reset(self) -> None:
+        """Replace a broken executor (a worker died); only pools that can be rebuilt do this."""
+        raise RuntimeError(f"{self.name} backend cannot replace a broken executor")
+
+    def close(self) -> None:
+        pass
+
+    def describe(self) -> dict[str, Any]:
+        return {"backend": self.name, "n_workers": self.n_workers}
+
+    def __enter__(self) -> "Backend":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class SerialBackend(Backend):
+    name = "serial"
+
+    def __init__(self) -> None:
+        super().__init__(SerialExecutor(), 1)
+
+
+class ProcessBackend(Backend):
+    """``ProcessPoolExecutor(max_workers=n)`` on a spawn (default) or forkserver context."""
+
+    name = "processes"
+
+    def __init__(self, n_workers: int, context: str = "spawn") -> None:
+        if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
+            raise ValueError(f"workers must be an integer >= 1, got {n_workers!r}")
+        if context not in ("spawn", "forkserver"):
+            raise ValueError(f"context must be spawn or forkserver, got {context!r}")
+        super().__init__(None, n_workers)
+        self.context = context
+        self.resets = 0
+        self._executor = self._new()
+
+    def _new(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=self.n_workers, mp_context=multiprocessing.get_context(self.context))
+
+    @property
+    def can_reset(self) -> bool:
+        return True
+
+    def reset(self) -> None:
+        old = self._executor
+        self._executor = self._new()
+        self.resets += 1
+        if old is not None:
+            old.shutdown(wait=True, cancel_futures=True)
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
+            self._executor = None
+
+    def describe(self) -> dict[str, Any]:
+        return {"backend": self.name, "n_workers": self.n_workers, "context": self.context}
+
+
+def _import_distributed() -> Any:
+    try:
+        import distributed
+    except ImportError:
+        raise ValueError(
+            "--scheduler needs dask.distributed: pip install 'vrelab[dask]'"
+        ) from None
+    return distributed
+
+
+class DaskBackend(Backend):
+    """A ``dask.distributed`` client's executor.
+
+    ``address``: a scheduler address (``tcp://host:8786``), or ``"local"`` / ``"local:N"`` for a
+    ``LocalCluster`` of N single-threaded worker processes (default 2) that this backend owns and
+    closes; or pass an existing ``client`` (not closed here).
+
+    Tasks are submitted with ``pure=False``: dask would otherwise key a task by its arguments and
+    hand back the old failed future when a point is retried. A worker that dies is replaced by its
+    nanny and dask reruns its task elsewhere; a task that has killed
+    ``distributed.scheduler.allowed-failures`` workers comes back as ``KilledWorker``, which the
+    engine counts as one failed attempt of that point.
+    """
+
+    name = "dask"
+
+    def __init__(self, address: str | None = None, *, client: Any = None) -> None:
+        distributed = _import_distributed()
+        self._cluster = None
+        self._own_client = client is None
+        if client is None:
+            if address is None:
+                raise ValueError("scheduler address is missing")
+            if address == "local" or address.startswith("local:"):
+                n = address.partition(":")[2] or "2"
+                if not n.isdigit() or int(n) < 1:
+                    raise ValueError(f"--scheduler local:N needs N >= 1, got {address!r}")
+                self._cluster = distributed.LocalCluster(
+                    n_workers=int(n), threads_per_worker=1, processes=True, dashboard_address=None
+                )
+                client = distributed.Client(self._cluster)
+            else:
+                try:
+                    client = distributed.Client(address, timeout="10s")
+                except OSError as exc:
+                    raise ValueError(f"--scheduler {address}: cannot connect ({exc})") from None
+        self.client = client
+        n_workers = max(1, sum(client.nthreads().values()))
+        super().__init__(client.get_executor(pure=False), n_workers)
+
+    def close(self) -> None:
+        if self._own_client:
+            self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+    def describe(self) -> dict[str, Any]:
+        return {"backend": self.name, "n_workers": self.n_workers, "scheduler": self.client.scheduler.address}
+
+
+def make_backend(workers: int | None = None, scheduler: str | None = None) -> Backend:
+    """Serial (neither given), a process pool of ``workers``, or dask at ``scheduler``."""
+    if workers is not None and scheduler is not None:
+        raise ValueError("give --workers or --scheduler, not both")
+    if scheduler is not None:
+        return DaskBackend(scheduler)
+    if workers is not None:
+        if workers > (os.cpu_count() or 1) * 4:
+            raise ValueError(f"workers must be at most 4 x the {os.cpu_count()} cores, got {workers}")
+        return ProcessBackend(workers)
+    return SerialBackend()

@@ -1,0 +1,221 @@
+"""The engine: evaluate a point function over many points on any executor, losing nothing.
+
+A *point function* is ``f(params: Mapping[str, Any], seed: numpy.random.SeedSequence) ->
+Mapping[str, float]``: plain data in, plain numbers out, and all its randomness from ``seed``.
+The engine sends ``(function, [(index, params, seed), ...])`` tasks to the executor, keeps at
+most a few tasks per worker in flight, and hands every finished point to ``on_records`` (the
+checkpoint) as it arrives.
+
+Failures:
+
+* a point that raises: the exception is caught *in the worker* (so an unpicklable exception or
+  a half-dead worker cannot take its neighbours along), and the point is retried up to
+  ``retries`` times; then it is recorded with ``status="failed"`` and the error.
+* a worker that dies (``os._exit``, segfault, OOM-kill): a process pool then fails every pending
+  future with ``BrokenProcessPool`` and cannot say which point did it. The engine rebuilds the
+  pool and reruns the points that were in flight *one at a time*, so a crash is pinned on the
+  point that caused it before it counts as an attempt; innocent neighbours are never charged.
+  dask reports such a point as ``KilledWorker`` after its own restarts, which counts as one
+  attempt.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import time
+from collections import deque
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, wait
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from vrelab.sweep.backends import Backend
+from vrelab.sweep.checkpoint import PointRecord
+
+PointFunction = Callable[[Mapping[str, Any], np.random.SeedSequence], Mapping[str, float]]
+# (index, params, (entropy, spawn_key))
+Item = tuple[int, Mapping[str, Any], tuple[int, tuple[int, ...]]]
+
+_resolved: dict[str, PointFunction] = {}
+
+
+def resolve(func: str | PointFunction) -> PointFunction:
+    """``"package.module:name"`` -> the function (imported once per process)."""
+    if callable(func):
+        return func
+    if func not in _resolved:
+        mod, _, attr = func.partition(":")
+        try:
+            obj: Any = importlib.import_module(mod)
+            for part in attr.split("."):
+                obj = getattr(obj, part)
+        except (ImportError, AttributeError) as exc:
+            raise ValueError(f"function {func!r} cannot be imported: {exc}") from None
+        if not callable(obj):
+            raise ValueError(f"function {func!r} is not callable")
+        _resolved[func] = obj
+    return _resolved[func]
+
+
+def _as_values(out: Any) -> dict[str, float]:
+    if not isinstance(out, Mapping):
+        raise TypeError(f"point function must return a mapping of name -> number, got {type(out).__name__}")
+    return {str(k): float(v) for k, v in out.items()}
+
+
+def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, bool, Any, float]]:
+    """Worker side: evaluate each point; return (index, ok, values-or-error, seconds) per point."""
+    f = resolve(func)
+    out = []
+    for index, params, (entropy, key) in items:
+        t0 = time.perf_counter()
+        try:
+            values: Any = _as_values(f(params, np.random.SeedSequence(entropy, spawn_key=key)))
+            ok = True
+        except Exception as exc:  # recorded, not raised: one bad point must not stop the lot
+            values, ok = f"{type(exc).__name__}: {exc}".splitlines()[0], False
+        out.append((index, ok, values, time.perf_counter() - t0))
+    return out
+
+
+class _Progress:
+    def __init__(self, total: int, initial: int, enabled: bool, desc: str) -> None:
+        self._bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=total, initial=initial, desc=desc, unit="pt", file=None, dynamic_ncols=True)
+
+    def update(self, n: int, failed: int) -> None:
+        if self._bar is not None:
+            self._bar.update(n)
+            if failed:
+                self._bar.set_postfix(failed=failed)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def run_points(
+    func: str | PointFunction,
+    items: Sequence[Item],
+    backend: Backend,
+    *,
+    retries: int = 1,
+    chunk: int = 1,
+    run: int = 0,
+    on_records: Callable[[list[PointRecord]], None] | None = None,
+    progress: bool = False,
+    total: int | None = None,
+    window: int | None = None,
+) -> dict[int, PointRecord]:
+    """Evaluate ``func`` at every item on ``backend``; return index -> record (ok or failed).
+
+    Parameters
+    ----------
+    func : "module:name" or callable
+        The point function; a name is imported in each worker (nothing to pickle but a string).
+    items : sequence of (index, params, (entropy, spawn_key))
+        The points still to compute; the seed of each travels with it.
+    retries : int
+        Extra attempts for a point that raises or kills its worker (default 1).
+    chunk : int
+        Points per task: above 1 when a point costs less than the executor's per-task overhead.
+    on_records : callable, optional
+        Called in this process with each batch of finished records, as they finish.
+    progress : bool
+        A tqdm bar on stderr; ``total`` (default ``len(items)``) lets it count resumed points.
+    window : int, optional
+        Tasks in flight at once (default 4 per worker): bounds memory and the points a worker
+        crash can strand.
+    """
+    if retries < 0 or chunk < 1:
+        raise ValueError(f"retries must be >= 0 and chunk >= 1, got retries={retries}, chunk={chunk}")
+    by_index = {it[0]: it for it in items}
+    todo: deque[int] = deque(by_index)
+    suspects: deque[int] = deque()  # rerun alone after a worker crash, to find the culprit
+    attempts: dict[int, int] = {}
+    results: dict[int, PointRecord] = {}
+    inflight: dict[Future, list[int]] = {}
+    window = window or max(2, 4 * backend.n_workers)
+    n_total = total if total is not None else len(items)
+    bar = _Progress(n_total, n_total - len(items), progress, "sweep")
+    n_failed = 0
+    isolated: Future | None = None  # the lone task run after a crash, to pin the crash on it
+
+    def finish(recs: list[PointRecord]) -> None:
+        nonlocal n_failed
+        if not recs:
+            return
+        for r in recs:
+            results[r.index] = r
+        n_failed += sum(r.status == "failed" for r in recs)
+        if on_records is not None:
+            on_records(recs)
+        bar.update(len(recs), n_failed)
+
+    def attempt_failed(i: int, error: str, elapsed: float, queue: deque[int]) -> PointRecord | None:
+        attempts[i] = attempts.get(i, 0) + 1
+        if attempts[i] > retries:
+            return PointRecord(i, "failed", {}, error, attempts[i], elapsed, run)
+        queue.appendleft(i)
+        return None
+
+    def submit(idx: list[int]) -> Future:
+        fut = backend.executor.submit(run_task, func, [by_index[i] for i in idx])
+        inflight[fut] = idx
+        return fut
+
+    def collect(fut: Future, idx: list[int], crashed: list[int]) -> None:
+        try:
+            out = fut.result()
+        except BrokenExecutor:
+            crashed.extend(idx)
+            return
+        except Exception as exc:  # KilledWorker, a lost connection, an unpicklable argument...
+            msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            finish([r for i in idx if (r := attempt_failed(i, msg, math.nan, todo)) is not None])
+            return
+        recs = []
+        for i, ok, payload, dt in out:
+            if ok:
+                recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run))
+            elif (r := attempt_failed(i, payload, dt, todo)) is not None:
+                recs.append(r)
+        finish(recs)
+
+    try:
+        while todo or suspects or inflight:
+            if suspects:
+                if not inflight:
+                    isolated = submit([suspects.popleft()])
+            else:
+                while todo and len(inflight) < window:
+                    submit([todo.popleft() for _ in range(min(chunk, len(todo)))])
+            done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+            crashed: list[int] = []
+            for fut in sorted(done, key=lambda f: inflight[f][0]):  # index order when several land
+                collect(fut, inflight.pop(fut), crashed)
+            if not crashed:
+                continue
+            # The pool is broken: every other pending future fails too. Gather them all.
+            culprit = crashed[0] if isolated is not None and isolated in done else None
+            for fut in list(inflight):
+                wait([fut])
+                collect(fut, inflight.pop(fut), crashed)
+            isolated = None
+            if not backend.can_reset:
+                msg = f"{backend.name} executor broke (a worker died)"
+                finish([PointRecord(i, "failed", {}, msg, 1, math.nan, run) for i in crashed])
+                raise RuntimeError(msg)
+            backend.reset()
+            if culprit is not None:
+                msg = "worker process died while computing this point (BrokenProcessPool)"
+                finish([r for r in [attempt_failed(culprit, msg, math.nan, suspects)] if r is not None])
+            else:
+                suspects.extend(sorted(crashed))
+    finally:
+        bar.close()
+    return results

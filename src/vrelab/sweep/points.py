@@ -1,0 +1,102 @@
+"""The built-in point kinds: each is ``f(params, seed) -> {name: float}`` (see the engine).
+
+``model``: closed forms only (SPEC 1.1-1.3), microseconds a point:
+  the vibration at the proof mass has rms ``rms_mass = rms_g·|H(freq_hz)|`` for a sine, or
+  ``rms_g·sqrt(mean |H|² over [f_lo_hz, f_hi_hz])`` for a flat random band, with
+  ``H = 1/(1 - r² + j·r/q)``, ``r = f/fn_hz`` (no resonance when ``fn_hz`` is not given);
+  ``vre_clip_g`` = mean shift of that vibration between rails ±``range_g`` around
+  ``static_g + offset_g`` (censored / truncated Gaussian, or the sine closed form);
+  ``vre_poly_g`` = the polynomial VRE of ``k2_ug_per_g2``, ``k3_ug_per_g3`` at ``static_g``;
+  ``vre_g`` = their sum (first-order superposition: each mechanism's shift is small next to
+  the vibration, so their interaction is second order), ``tilt_error_deg`` from ``tilt_deg``.
+  The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
+
+``predict``: :func:`vrelab.predict.predict` on a :func:`vrelab.sensor.load_sensor` sensor at one
+  level of a ``profile`` (or a sine at ``freq_hz``).
+
+``simulate``: the simulated shaker test, :func:`vrelab.shaker.run_random_test` (or
+  ``run_sine_test`` with ``freq_hz``), one level of ``seconds``, seeded from the point's seed.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+from scipy import integrate
+
+_UG = 1e-6  # µg/g² -> 1/g
+
+
+def _resonance_power_gain(params: Mapping[str, Any]) -> float:
+    """|H|² at the sine frequency, or its mean over the flat random band; 1 without fn_hz."""
+    from vrelab.models.dynamics import second_order_response
+
+    fn, q = params.get("fn_hz"), params.get("q")
+    if fn is None and q is None:
+        return 1.0
+    if fn is None or q is None:
+        raise ValueError("fn_hz and q go together: give both or neither")
+    shape = params.get("shape", "gaussian")
+    if shape == "sine":
+        if "freq_hz" not in params:
+            raise ValueError("freq_hz is needed with fn_hz for a sine")
+        return float(np.abs(second_order_response(params["freq_hz"], fn, q)) ** 2)
+    lo, hi = params.get("f_lo_hz"), params.get("f_hi_hz")
+    if lo is None or hi is None or not lo < hi:
+        raise ValueError(f"f_lo_hz < f_hi_hz is needed with fn_hz for random vibration, got {lo}, {hi}")
+    # quad, with the resonance as a break point, because the peak is narrow (width fn/Q)
+    val, _ = integrate.quad(
+        lambda f: float(np.abs(second_order_response(f, fn, q)) ** 2),
+        lo,
+        hi,
+        points=[fn] if lo < fn < hi else None,
+        limit=200,
+    )
+    return val / (hi - lo)
+
+
+def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
+    """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
+    from vrelab.models.clipping import mean_shift
+    from vrelab.models.design import tilt_error_deg
+    from vrelab.models.nonlinearity import vre_poly
+
+    rms = float(params["rms_g"])
+    static = float(params.get("static_g", 1.0))
+    range_g = float(params.get("range_g", 2.0))
+    shape = params.get("shape", "gaussian")
+    clip_kind = params.get("clip_kind", "censored")
+    rms_mass = rms * math.sqrt(_resonance_power_gain(params))
+    if clip_kind == "none":
+        vre_clip = 0.0
+    else:
+        vre_clip = float(
+            mean_shift(static + float(params.get("offset_g", 0.0)), rms_mass, -range_g, range_g, shape, clip_kind)
+        )
+    vre_p = float(
+        vre_poly(
+            rms_mass,
+            float(params.get("k2_ug_per_g2", 0.0)) * _UG,
+            float(params.get("k3_ug_per_g3", 0.0)) * _UG,
+            static_g=static,
+            shape=shape,
+        )
+    )
+    vre = vre_clip + vre_p
+    return {
+        "vre_g": vre,
+        "vre_clip_g": vre_clip,
+        "vre_poly_g": vre_p,
+        "rms_mass_g": rms_mass,
+        "tilt_error_deg": float(tilt_error_deg(vre, float(params.get("tilt_deg", 0.0)))),
+    }
+
+
+def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
+    raise NotImplementedError("predict point kind: waiting for vrelab.predict")
+
+
+def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
+    raise NotImplementedError("simulate point kind: waiting for vrelab.shaker")
