@@ -1,0 +1,95 @@
+"""``vrelab profile``: show a random vibration profile, its grms and its breakpoint table.
+
+SPEC section 5::
+
+    vrelab profile PROFILE [--grms G] [--json] [--write FILE]
+    vrelab profile --list          (or: vrelab profile list)
+
+``PROFILE`` is a named profile, a .csv/.toml file, an inline ``F:P,F:P,...`` list or
+``flat:F1-F2`` (see :func:`vrelab.profiles.parse_profile`). ``--json`` prints
+:meth:`vrelab.profiles.RandomProfile.to_dict`: ``grms``, ``breakpoints`` ([f_hz,
+psd_g2_per_hz] pairs), ``band_hz``, ``slopes_db_per_oct``, ``name``, ``source``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from vrelab import _validate as V
+from vrelab.cli import print_json
+
+
+def _table(profile: Any) -> str:
+    lo, hi = profile.band
+    head = f"random {lo:g}–{hi:g} Hz, {profile.grms:.3g} g rms"
+    lines = [f"{profile.name}: {head}" if profile.name else head]
+    if profile.source:
+        lines.append(f"source: {profile.source}")
+    lines.append(f"grms: {profile.grms:.6g} g")
+    lines.append(f"{'f_hz':>10}  {'psd_g2_per_hz':>14}  {'slope to next':>14}")
+    slopes = list(profile.slopes_db_per_oct) + [None]
+    for (f, p), s in zip(profile.breakpoints, slopes):
+        slope = f"{s:+.2f} dB/oct" if s is not None else ""
+        lines.append(f"{f:>10.6g}  {p:>14.6g}  {slope:>14}")
+    return "\n".join(lines)
+
+
+def _list(as_json: bool) -> int:
+    from vrelab.profiles import load_named_profile, named_profiles
+
+    items = []
+    for name in named_profiles():
+        prof = load_named_profile(name)
+        items.append(
+            {"name": name, "grms": prof.grms, "band_hz": list(prof.band), "source": prof.source}
+        )
+    if as_json:
+        print_json({"profiles": items})
+    else:
+        for it in items:
+            lo, hi = it["band_hz"]
+            print(f"{it['name']:<20} {lo:g}-{hi:g} Hz, {it['grms']:.3g} g rms  [{it['source']}]")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    from vrelab.profiles import parse_profile, write_profile
+
+    spec = args.profile
+    if args.list or (spec == "list" and not Path(spec).exists()):
+        return _list(args.json)
+    if spec is None:
+        raise ValueError("profile: give PROFILE (a name, file, F:P,F:P,... or flat:F1-F2) or --list")
+    prof = parse_profile(spec)
+    if args.grms is not None:
+        prof = prof.scaled_to(V.positive_scalar("--grms", args.grms))
+    if args.write is not None:
+        write_profile(prof, args.write)
+    if args.json:
+        d = prof.to_dict()
+        if args.write is not None:
+            d["written"] = str(args.write)
+        print_json(d)
+    else:
+        print(_table(prof))
+        if args.write is not None:
+            print(f"written: {args.write}")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "profile",
+        help="show a random vibration profile: grms and breakpoints",
+        description="Show a random vibration profile (breakpoints interpolated log-log): its "
+        "grms, band, breakpoint table and slopes in dB/oct. PROFILE is a named profile "
+        "(see --list), a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz) or flat:F1-F2.",
+    )
+    p.add_argument("profile", nargs="?", metavar="PROFILE", help="profile, or 'list'")
+    p.add_argument("--grms", type=str, metavar="G", help="scale the profile to this overall level [g rms]")
+    p.add_argument("--list", action="store_true", help="list the named profiles")
+    p.add_argument("--write", metavar="FILE", help="write the (scaled) profile to FILE (.csv or .toml)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
