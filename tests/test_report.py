@@ -1,0 +1,267 @@
+"""Plots and the HTML report, from results built here (no simulation needed).
+
+Reference values: SPEC 1.1 (from the article's setting, μ = 1 g, ±2 g rails, σ = 1 g rms):
+censored -83 mg, truncated -283 mg; SPEC 1.2: VRE = VRC·rms².
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vrelab.cli import main
+from vrelab.record import Schedule, Segment, write_record_hdf5
+from vrelab.report import plots
+from vrelab.report.html import ReportFigure, ReportSection, collect_warnings, report_dir, write_report
+from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+
+
+def _random_result(rail_g: float = 2.0, departure: float | None = 3.0) -> VreResult:
+    rms = [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 3.5]
+    levels = tuple(
+        LevelResult(
+            r,
+            Estimate(-0.0831 * r**2, 0.0004),
+            n_samples=50_000,
+            n_saturated=0 if r < 1 else int(1000 * r),
+            flags=("over-range",) if r >= 3 else (),
+        )
+        for r in rms
+    )
+    fits = (
+        FitResult("clip-censored", {"rail_g": Estimate(rail_g, 0.02)}, 5, 1.1, levels_used=tuple(rms[:5]), departure_rms_g=departure),
+        FitResult("vrc", {"vrc_ug_per_g2": Estimate(50.0, 2.0)}, 2, 0.9, levels_used=(0.25, 0.5)),
+    )
+    cond = Conditions(sensor="adxl355", model="simulation", profile="random flat 50-2000 Hz", static_g=1.0, range_g=2.048, bandwidth_hz=1000.0, axis="z")
+    return VreResult("random", cond, levels, fits, ("drive clipped at 5 sigma",), {"input": "run.h5"}, "simulation")
+
+
+def _sine_result() -> VreResult:
+    levels, fits = [], []
+    for f, vrc in [(100.0, 40.0), (1000.0, 60.0), (2400.0, 2000.0)]:
+        for a in (0.5, 1.0, 2.0):
+            levels.append(LevelResult(a, Estimate(vrc * 1e-6 * a * a, 1e-6), freq_hz=f))
+        fits.append(FitResult("vrc", {"vrc_ug_per_g2": Estimate(vrc, 1.0)}, 3, 1.0, freq_hz=f, levels_used=(0.5, 1.0, 2.0)))
+    return VreResult("sine", Conditions(sensor="adxl355", static_g=1.0, range_g=8.192, axis="x", extra={"fn_hz": 2400.0}), tuple(levels), tuple(fits))
+
+
+def _line(ax, label_part: str):
+    lines = [ln for ln in ax.get_lines() if label_part in str(ln.get_label())]
+    assert lines, f"no line labelled like {label_part!r}: {[ln.get_label() for ln in ax.get_lines()]}"
+    return lines[0]
+
+
+# --------------------------------------------------------------------------- plots
+def test_clip_curves_reproduce_spec_reference_values_censored_83mg_truncated_283mg() -> None:
+    """SPEC 1.1: μ = 1 g, ±2 g rails, σ = 1 g rms: censored -83 mg, truncated -283 mg."""
+    fig = plots.plot_vre_vs_rms(_random_result(rail_g=2.0))
+    ax = fig.axes[0]
+    cens, trunc = _line(ax, "censored model"), _line(ax, "truncated model")
+    assert np.interp(1.0, *cens.get_data()) == pytest.approx(-83.0, abs=0.6)
+    assert np.interp(1.0, *trunc.get_data()) == pytest.approx(-283.0, abs=1.0)
+    assert ax.get_ylabel() == "VRE (mg)" and "g rms" in ax.get_xlabel()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any("rail ±2 ± 0.02 g" in t for t in labels), labels  # the fitted rail in the legend
+    assert any("VRC 50 ± 2 µg/g²" in t for t in labels), labels
+    assert any("above 3 g rms" in t for t in labels), labels  # where the data leave the model
+
+
+def test_vre_points_in_mg_and_saturated_levels_drawn_hollow() -> None:
+    res = _random_result()
+    ax = plots.plot_vre_vs_rms(res).axes[0]
+    bars = {c.get_label(): c for c in ax.containers}
+    filled = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field"].lines[0]  # unsaturated levels
+    x, y = filled.get_data()
+    assert list(x) == [0.25, 0.5]
+    assert y == pytest.approx([-0.0831 * 0.25**2 * 1e3, -0.0831 * 0.25 * 1e3])
+    hollow = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field: saturated / over-range"].lines[0]
+    assert hollow.get_markerfacecolor() == "white" and len(hollow.get_xdata()) == 5
+
+
+def test_vrc_line_is_vrc_times_rms_squared() -> None:
+    """SPEC 1.2: VRE = VRC·rms²; 50 µg/g² at 2 g rms is 200 µg."""
+    c = plots.vrc_curve(50.0, [0.0, 1.0, 2.0])
+    assert c.y == pytest.approx([0.0, 50e-6, 200e-6])
+
+
+def test_rms2_plot_slope_is_the_fitted_vrc_per_frequency() -> None:
+    ax = plots.plot_vre_vs_rms2(_sine_result()).axes[0]
+    x, y = _line(ax, "2400 Hz: VRC").get_data()
+    assert y[-1] / x[-1] == pytest.approx(2000.0)
+    assert ax.get_ylabel() == "VRE (µg)"
+
+
+def test_vrc_vs_frequency_marks_resonance_and_uses_log_axes_for_a_peak() -> None:
+    ax = plots.plot_vrc_vs_freq(_sine_result(), fn_hz=2400.0).axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"  # 40 .. 2000 µg/g² spans decades
+    fn = _line(ax, "resonance fn = 2400 Hz")
+    assert fn.get_xdata()[0] == 2400.0
+    with pytest.raises(ValueError, match="per-frequency"):
+        plots.plot_vrc_vs_freq(_random_result())
+
+
+def _write_record(path: Path, fs: float, n_per_seg: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray, Schedule]:
+    rng = np.random.default_rng(seed)
+    dur = n_per_seg / fs
+    sched = Schedule(tuple(Segment(i * dur, (i + 1) * dur, lvl) for i, lvl in enumerate([0.0, 0.3, 0.0, 1.0, 0.0])))
+    x = np.concatenate([rng.normal(0.0, s.nominal_rms_g, n_per_seg) for s in sched.segments])
+    ref = 1.0 + x
+    dut = np.clip(ref, -2.0, 2.0)
+    blocks = ({"reference": ref[i : i + 7777], "dut": dut[i : i + 7777]} for i in range(0, ref.size, 7777))
+    write_record_hdf5(path, fs, blocks, sched)
+    return ref, dut, sched
+
+
+def test_record_envelope_is_exact_and_independent_of_read_block(tmp_path: Path) -> None:
+    ref, dut, _ = _write_record(tmp_path / "r.h5", 1000.0, 10_000)
+    a = plots.record_envelope(tmp_path / "r.h5", n_bins=500, block_bins=7)
+    b = plots.record_envelope(tmp_path / "r.h5", n_bins=500, block_bins=10_000)
+    assert a.bin_size == 100 and len(a.t_s) == 500
+    want = dut.reshape(500, 100)
+    for k, fn in enumerate((np.min, np.max, np.mean)):
+        np.testing.assert_allclose(a.channels["dut"][k], fn(want, axis=1), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(a.channels["dut"][k], b.channels["dut"][k])
+    assert a.schedule is not None and len(a.schedule.segments) == 5
+    with pytest.raises(ValueError, match="none of the channels"):
+        plots.record_envelope(tmp_path / "r.h5", channels=("nope",))
+
+
+def test_time_series_shows_clipping_and_the_segment_shift_near_minus_83mg(tmp_path: Path) -> None:
+    """1 g field, ±2 g rails, 1 g rms Gaussian: the clipped mean moves by -83 mg (SPEC 1.1)."""
+    _write_record(tmp_path / "r.h5", 4000.0, 200_000)
+    fig = plots.plot_time_series(plots.record_envelope(tmp_path / "r.h5"), rails_g=(-2.0, 2.0))
+    top, bottom = fig.axes
+    clipped = _line(top, "clipped")
+    assert len(clipped.get_xdata()) > 0 and set(np.round(clipped.get_ydata(), 9)) <= {2.0, -2.0}
+    shifts = [float(re.sub("[^0-9.+-]", "", t.get_text())) for t in bottom.texts if t.get_text().endswith("mg")]
+    assert len(shifts) == 2  # the 0.3 g and 1 g rms segments
+    # SE of a 200 000-sample mean of the clipped 1 g rms signal is about 2 mg.
+    assert shifts[1] == pytest.approx(-83.0, abs=8.0)
+    assert abs(shifts[0]) < 8.0  # 0.3 g rms: far from the rails, no shift
+
+
+def test_psd_plot_counts_lines_outside_tolerance() -> None:
+    f = np.geomspace(50, 2000, 100)
+    prof = np.full(f.size, 0.003)
+    meas = prof.copy()
+    meas[10:15] *= 10 ** (4 / 10)  # 4 dB high: outside ±3 dB
+    ax = plots.plot_psd(f, meas, prof).axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    assert ax.get_ylabel() == "PSD (g²/Hz)"
+    assert any("(5 lines)" in t.get_text() for t in ax.get_legend().get_texts())
+    with pytest.raises(ValueError, match="one shape"):
+        plots.plot_psd(f, meas[:-1], prof)
+
+
+# --------------------------------------------------------------------------- HTML
+def _png(fig) -> ReportFigure:
+    return ReportFigure.from_figure(fig, "caption")
+
+
+def test_write_report_is_self_contained_and_holds_every_section(tmp_path: Path) -> None:
+    res = _random_result()
+    secs = [
+        ReportSection("Study A", "What A shows.", res, [_png(plots.plot_vre_vs_rms(res))], facts=[("VRE at 1 g rms", "-83 mg")]),
+        ReportSection("Study B", "What B shows.", _sine_result(), [_png(plots.plot_vrc_vs_freq(_sine_result()))]),
+    ]
+    out = write_report(tmp_path / "r.html", secs, title="T", intro="Intro.")
+    text = out.read_text(encoding="utf-8")
+    assert not list(tmp_path.glob("*.partial"))
+    assert "<script" not in text.lower()
+    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:|#)""", text), "external reference in the report"
+    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', text)
+    assert len(imgs) == 2 and all(base64.b64decode(i)[:8] == b"\x89PNG\r\n\x1a\n" for i in imgs)
+    for s in ("Study A", "Study B", "What A shows.", "Intro.", 'href="#s2"', "VRE at 1 g rms", "vrelab version"):
+        assert s in text
+    # levels table: VRE ± u in mg with the digits the uncertainty asks for
+    assert "-83.10 ± 0.40" in text  # 1 g rms level: -0.0831 g ± 0.0004 g
+    assert "effective rail = 2 ± 0.02 g" in text
+
+
+def test_warnings_cover_saturation_overrange_departure_and_psd() -> None:
+    w = collect_warnings(_random_result(), {"passed": False, "max_dev_db": 4.0, "min_dev_db": -1.0, "tol_db": 3.0}, {"notes": ["outside Gaussian validity"]})
+    joined = "\n".join(w)
+    assert "drive clipped at 5 sigma" in joined
+    assert "Saturation: 5 of 7 levels" in joined and "3.5 g rms" in joined
+    assert "Over-range: flagged at 3, 3.5 g rms" in joined
+    assert "leave the clip-censored model above 3 g rms" in joined
+    assert "PSD out of tolerance" in joined and "+4.0" in joined
+    assert "Prediction: outside Gaussian validity" in joined
+
+
+def test_report_dir_reads_the_output_folder_and_checksums_inputs(tmp_path: Path) -> None:
+    res = _random_result()
+    (tmp_path / "results.json").write_text(json.dumps(res.to_dict()))
+    (tmp_path / "run.h5").write_bytes(b"raw record bytes")
+    (tmp_path / "prediction.json").write_text(
+        json.dumps({"levels": [{"rms_g": 1.0, "vre_g": -0.083, "tilt_error_deg": 4.76, "shares": {"clipping": -0.0829, "nonlinearity": -0.0001}}]})
+    )
+    f = np.geomspace(50, 2000, 40)
+    rows = "\n".join(f"{a},{0.003 * (3.0 if i == 5 else 1.0)},0.003" for i, a in enumerate(f))
+    (tmp_path / "psd.csv").write_text("freq_hz,psd_measured_g2_per_hz,psd_profile_g2_per_hz\n" + rows + "\n")
+    (tmp_path / "envelope.csv").write_text("t_s,reference_rms_g,dut_mean_g,segment\n" + "\n".join(f"{t},{0.0 if t < 5 else 1.0},{1.0 if t < 5 else 0.917},{'off' if t < 5 else 'level 1'}" for t in range(10)) + "\n")
+    out = report_dir(tmp_path, argv=["vrelab", "report", str(tmp_path)])
+    text = out.read_text(encoding="utf-8")
+    assert hashlib.sha256((tmp_path / "results.json").read_bytes()).hexdigest() in text
+    assert hashlib.sha256(b"raw record bytes").hexdigest() in text  # provenance: the input file
+    assert f"vrelab report {tmp_path}" in text
+    assert "clipping (mg)" in text and "-82.9" in text  # mechanisms' shares from prediction.json
+    assert "PSD out of tolerance" in text
+    assert text.count("<img ") == 4  # VRE vs rms, VRE vs rms², envelope.csv, PSD
+
+
+def test_sine_folder_gets_vrc_vs_frequency(tmp_path: Path) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_sine_result().to_dict()))
+    text = report_dir(tmp_path).read_text()
+    assert text.count("<img ") == 2 and "VRC against sine frequency" in text
+
+
+def test_report_write_is_atomic(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import vrelab.report.html as h
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(h.os, "replace", boom)
+    with pytest.raises(OSError):
+        write_report(tmp_path / "r.html", [ReportSection("S", "w.")])
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- CLI
+def test_cli_report_writes_report_html(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
+    assert main(["report", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert Path(out["report"]) == tmp_path / "report.html" and (tmp_path / "report.html").is_file()
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (None, "no results.json"),
+        ("{not json", "not valid JSON"),
+        ("[1, 2]", "must hold a JSON object"),
+        ('{"levels": []}', "not a vrelab results file"),
+        ('{"method": "random", "levels": [{"rms_g": 1}]}', "not a vrelab results file"),
+        ('{"method": "chirp"}', "method must be random or sine"),
+    ],
+)
+def test_cli_report_bad_folder_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str], content: str | None, message: str) -> None:
+    if content is not None:
+        (tmp_path / "results.json").write_text(content)
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err
+    assert not (tmp_path / "report.html").exists()
+
+
+def test_cli_report_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["report", str(tmp_path / "nope")]) == 2
+    assert "not a folder" in capsys.readouterr().err
