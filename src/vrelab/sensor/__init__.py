@@ -39,3 +39,7 @@ __all__ = [
     "SensorChain",
     "Stage",
 ]
+
+from vrelab.sensor.loader import Sensor, list_presets, load_sensor  # noqa: E402
+
+__all__ += ["Sensor", "list_presets", "load_sensor"]

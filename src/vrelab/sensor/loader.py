@@ -1,0 +1,576 @@
+"""Sensor descriptions: presets (TOML data files) and user files with the same schema.
+
+A :class:`Sensor` is one resolved configuration of a part (range, axis, ODR chosen) with every
+number marked as a data-sheet fact or an assumption (``facts``). It builds its signal chain at
+an internal simulation rate (:meth:`Sensor.chain`) and gives the analog equivalents of its
+linear dynamics for the analytic prediction (:meth:`Sensor.linear_responses`).
+
+File schema (see ``presets/README``): top-level keys give the defaults, ``[axes.<axis>]``
+overrides per axis, ``[ranges."<nominal g>"]`` overrides per range, and ``[facts]`` maps a field
+name to its source. An absent key means "not present" (no resonance, no filter, ...).
+
+Chain built from a description (order is fixed here; write a :class:`SensorChain` by hand for
+another order)::
+
+    Resonator -> Polynomial -> OverRange -> [Clip if clip_position = "proof-mass"] -> Noise
+    -> AntiAlias -> LowPass (ODR/4) -> HighPass -> Offset -> Decimate (fs/ODR)
+    -> [Clip if clip_position = "output"] -> Quantize
+
+The nonlinearity and the over-range trip act on the proof-mass motion (after the resonance,
+SPEC 1.3); noise is added before the filters so the output shows the data-sheet density in band;
+the output clip sits after the low-pass, which is why a narrower bandwidth rectifies less.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Callable, Literal, Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab.sensor.chain import SensorChain
+from vrelab.sensor.stages import (
+    AntiAlias,
+    Clip,
+    Decimate,
+    HighPass,
+    LowPass,
+    Noise,
+    Offset,
+    OverRange,
+    Polynomial,
+    Quantize,
+    Resonator,
+    Stage,
+)
+
+__all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
+
+ClipPosition = Literal["output", "proof-mass"]
+Where = Literal["proof-mass", "output"]
+
+# Relative tolerance when matching a requested ODR to the list (the data sheet rounds 7.8125
+# to 7.813 and 3.90625 to 3.906).
+_ODR_RTOL = 1e-3
+# A requested range matches a nominal range or its full scale within this.
+_RANGE_RTOL = 1e-6
+
+NUMERIC_FIELDS: tuple[str, ...] = (
+    "range_g",
+    "full_scale_g",
+    "odr_hz",
+    "bandwidth_hz",
+    "fn_hz",
+    "q",
+    "k2_per_g",
+    "k3_per_g2",
+    "k4_per_g3",
+    "rails_g",
+    "overrange_threshold_g",
+    "overrange_hold_s",
+    "overrange_value_g",
+    "overrange_float_tau_s",
+    "noise_ug_per_rthz",
+    "lsb_g",
+    "anti_alias_hz",
+    "anti_alias_order",
+    "lowpass_order",
+    "highpass_hz",
+    "offset_g",
+)
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One configuration of a sensor (range, axis, ODR resolved), in g and Hz.
+
+    ``None`` means the element is absent (no ODR: analog or ideal, output at the input rate;
+    no ``fn_hz``: no resonance; no ``overrange_threshold_g``: no over-range protection; ...).
+    ``facts[field]`` says where each number comes from ("datasheet ..." or "assumption: ...").
+    """
+
+    name: str
+    range_g: float  # nominal range, as selected (2 for the ±2.048 g ADXL355 range)
+    full_scale_g: float
+    axis: str
+    odr_hz: float | None
+    bandwidth_hz: float | None
+    fn_hz: float | None
+    q: float | None
+    k2_per_g: float
+    k3_per_g2: float
+    k4_per_g3: float
+    rails_g: tuple[float, float]
+    clip_position: ClipPosition
+    overrange_threshold_g: float | None
+    overrange_hold_s: float | None
+    overrange_value_g: float
+    overrange_float_tau_s: float
+    noise_ug_per_rthz: float
+    lsb_g: float | None
+    anti_alias_hz: float | None
+    anti_alias_order: int | None
+    lowpass_order: int | None
+    highpass_hz: float | None
+    offset_g: float
+    lowpass_kind: Literal["butterworth", "bessel"] = "butterworth"
+    overrange_retrigger: bool = True
+    description: str = ""
+    source: str = ""
+    ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
+    axes: tuple[str, ...] = ("x", "y", "z")
+    odrs_hz: tuple[float, ...] = ()
+    facts: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        def pos(name: str, optional: bool = True) -> None:
+            v = getattr(self, name)
+            if v is None and optional:
+                return
+            if not _is_number(v) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
+
+        def fin(name: str) -> None:
+            v = getattr(self, name)
+            if not _is_number(v) or not math.isfinite(v):
+                raise ValueError(f"sensor {self.name}: {name} must be a finite number, got {v!r}")
+
+        for name in ("range_g", "full_scale_g"):
+            pos(name, optional=False)
+        for name in ("odr_hz", "bandwidth_hz", "fn_hz", "q", "overrange_threshold_g", "overrange_hold_s",
+                     "lsb_g", "anti_alias_hz", "highpass_hz"):
+            pos(name)
+        for name in ("k2_per_g", "k3_per_g2", "k4_per_g3", "overrange_value_g", "overrange_float_tau_s",
+                     "noise_ug_per_rthz", "offset_g"):
+            fin(name)
+        for name in ("overrange_float_tau_s", "noise_ug_per_rthz"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"sensor {self.name}: {name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("anti_alias_order", "lowpass_order"):
+            v = getattr(self, name)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+                raise ValueError(f"sensor {self.name}: {name} must be an integer >= 1, got {v!r}")
+        if (self.fn_hz is None) != (self.q is None):
+            raise ValueError(f"sensor {self.name}: fn_hz and q must be given together, got fn_hz={self.fn_hz!r}, q={self.q!r}")
+        if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
+            raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
+        rails = tuple(self.rails_g)
+        if len(rails) != 2 or not all(_is_number(r) and math.isfinite(r) for r in rails) or not rails[0] < rails[1]:
+            raise ValueError(f"sensor {self.name}: rails_g must be [low, high] with low < high, got {self.rails_g!r}")
+        object.__setattr__(self, "rails_g", (float(rails[0]), float(rails[1])))
+        if self.clip_position not in ("output", "proof-mass"):
+            raise ValueError(f"sensor {self.name}: clip_position must be one of output, proof-mass; got {self.clip_position!r}")
+        if self.lowpass_kind not in ("butterworth", "bessel"):
+            raise ValueError(f"sensor {self.name}: lowpass_kind must be one of butterworth, bessel; got {self.lowpass_kind!r}")
+        if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
+            raise ValueError(
+                f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
+            )
+        object.__setattr__(self, "facts", dict(self.facts))
+
+    # ------------------------------------------------------------------ rates and chain
+
+    def internal_rate_hz(self, f_max_hz: float) -> float:
+        """Simulation rate for a profile reaching ``f_max_hz`` [Hz].
+
+        Rule: ``f_need = 8·max(f_max, fn, anti-alias corner, bandwidth)``, so every analog
+        filter is discretised where it matches its analog response within 1 % (see
+        :func:`vrelab.sensor.stages.discretize_zpk`) and the drive is 8× oversampled (its
+        harmonics up to the 4th, made by the nonlinearity, stay below Nyquist, so E[x⁴] is
+        exact). The rate is the smallest integer multiple of the ODR >= ``f_need`` (at least
+        the ODR); without an ODR, the smallest multiple of 1 kHz >= ``f_need``.
+        """
+        f_max = float(f_max_hz)
+        if not math.isfinite(f_max) or f_max <= 0:
+            raise ValueError(f"f_max_hz must be a finite number > 0, got {f_max_hz!r}")
+        need = 8.0 * max(f_max, self.fn_hz or 0.0, self.anti_alias_hz or 0.0, self.bandwidth_hz or 0.0)
+        step = self.odr_hz if self.odr_hz is not None else 1000.0
+        return max(1, math.ceil(need / step - 1e-9)) * step
+
+    def decimation(self, fs_hz: float) -> int:
+        """fs / ODR, checked to be an integer (1 without an ODR)."""
+        fs = float(fs_hz)
+        if not math.isfinite(fs) or fs <= 0:
+            raise ValueError(f"fs_hz must be a finite number > 0, got {fs_hz!r}")
+        if self.odr_hz is None:
+            return 1
+        ratio = fs / self.odr_hz
+        m = round(ratio)
+        if m < 1 or abs(ratio - m) > 1e-9 * ratio:
+            raise ValueError(
+                f"fs_hz must be an integer multiple of the ODR {self.odr_hz:g} Hz of {self.name}, got {fs_hz!r}"
+            )
+        return m
+
+    def _resonator(self) -> Resonator | None:
+        return Resonator(self.fn_hz, self.q) if self.fn_hz is not None and self.q is not None else None
+
+    def _filters(self) -> list[Stage]:
+        stages: list[Stage] = []
+        if self.anti_alias_hz is not None:
+            stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
+        if self.odr_hz is not None and self.bandwidth_hz is not None:
+            stages.append(LowPass(self.bandwidth_hz, self.lowpass_order or 4, self.lowpass_kind))
+        if self.highpass_hz is not None:
+            stages.append(HighPass(self.highpass_hz))
+        return stages
+
+    def chain(self, fs_hz: float) -> SensorChain:
+        """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
+        factor = self.decimation(fs_hz)
+        stages: list[Stage] = []
+        res = self._resonator()
+        if res is not None:
+            stages.append(res)
+        if self.k2_per_g or self.k3_per_g2 or self.k4_per_g3:
+            stages.append(Polynomial(self.k2_per_g, self.k3_per_g2, self.k4_per_g3))
+        if self.overrange_threshold_g is not None:
+            stages.append(
+                OverRange(
+                    self.overrange_threshold_g,
+                    float(self.overrange_hold_s),  # type: ignore[arg-type]
+                    self.overrange_value_g,
+                    self.overrange_retrigger,
+                    self.overrange_float_tau_s,
+                )
+            )
+        if self.clip_position == "proof-mass":
+            stages.append(Clip(*self.rails_g))
+        if self.noise_ug_per_rthz > 0:
+            stages.append(Noise(self.noise_ug_per_rthz))
+        stages.extend(self._filters())
+        if self.offset_g:
+            stages.append(Offset(self.offset_g))
+        if factor > 1:
+            stages.append(Decimate(factor))
+        if self.clip_position == "output":
+            stages.append(Clip(*self.rails_g))
+        if self.lsb_g is not None:
+            stages.append(Quantize(self.lsb_g))
+        return SensorChain(tuple(stages))
+
+    def fs_out_hz(self, fs_hz: float) -> float:
+        return float(fs_hz) / self.decimation(fs_hz)
+
+    def linear_responses(self, where: Where = "output") -> list[Callable[[NDArray[np.float64]], NDArray[np.complex128]]]:
+        """Analog equivalents of the linear dynamics up to ``where``, as functions of f [Hz].
+
+        ``"proof-mass"``: the resonance (what the nonlinearity and the over-range trip see).
+        ``"output"``: resonance, anti-alias, low-pass, high-pass (what an output clip sees).
+        Multiply them for the overall response. Empty list: flat (ideal sensor).
+        """
+        if where not in ("proof-mass", "output"):
+            raise ValueError(f"where must be one of proof-mass, output; got {where!r}")
+        res = self._resonator()
+        out: list[Any] = [res.response] if res is not None else []
+        if where == "output":
+            out.extend(s.response for s in self._filters())  # type: ignore[attr-defined]
+        return out
+
+    def response(self, f_hz: Any, where: Where = "output") -> NDArray[np.complex128]:
+        """Product of :meth:`linear_responses` at ``f_hz``."""
+        f = np.asarray(f_hz, dtype=float)
+        h = np.ones(f.shape, dtype=complex)
+        for r in self.linear_responses(where):
+            h = h * r(f)
+        return h
+
+    # ------------------------------------------------------------------ reporting
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        for key, value in d.items():
+            if isinstance(value, tuple):
+                d[key] = list(value)
+        d["facts"] = dict(self.facts)
+        return d
+
+    def describe(self) -> str:
+        odr = f"ODR {self.odr_hz:g} Hz" if self.odr_hz is not None else "no ODR (output at the input rate)"
+        lines = [
+            f"{self.name}: ±{self.range_g:g} g range (full scale ±{self.full_scale_g:g} g), axis {self.axis}, {odr}",
+        ]
+        if self.description:
+            lines.append(f"  {self.description}")
+        for name in NUMERIC_FIELDS:
+            value = getattr(self, name)
+            shown = "none" if value is None else (f"[{value[0]:g}, {value[1]:g}]" if isinstance(value, tuple) else f"{value:g}")
+            lines.append(f"  {name} = {shown}    ({self.facts.get(name, 'unmarked')})")
+        lines.append(f"  clip_position = {self.clip_position}")
+        return "\n".join(lines)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+# ---------------------------------------------------------------------------- files
+
+# Keys a file may set at top level, in [axes.*] or in [ranges.*], and how they map to Sensor
+# fields (name, divisor). The nonlinearity is written in the field's units (µg/g², SPEC 1.2).
+_VALUE_KEYS: dict[str, tuple[str, float]] = {
+    "full_scale_g": ("full_scale_g", 1.0),
+    "bandwidth_hz": ("bandwidth_hz", 1.0),
+    "fn_hz": ("fn_hz", 1.0),
+    "q": ("q", 1.0),
+    "k2_ug_per_g2": ("k2_per_g", 1e6),
+    "k3_ug_per_g3": ("k3_per_g2", 1e6),
+    "k4_ug_per_g4": ("k4_per_g3", 1e6),
+    "rails_g": ("rails_g", 1.0),
+    "clip_position": ("clip_position", 1.0),
+    "overrange_threshold_g": ("overrange_threshold_g", 1.0),
+    "overrange_hold_s": ("overrange_hold_s", 1.0),
+    "overrange_value_g": ("overrange_value_g", 1.0),
+    "overrange_float_tau_s": ("overrange_float_tau_s", 1.0),
+    "overrange_retrigger": ("overrange_retrigger", 1.0),
+    "noise_ug_per_rthz": ("noise_ug_per_rthz", 1.0),
+    "lsb_g": ("lsb_g", 1.0),
+    "anti_alias_hz": ("anti_alias_hz", 1.0),
+    "anti_alias_order": ("anti_alias_order", 1.0),
+    "lowpass_order": ("lowpass_order", 1.0),
+    "lowpass_kind": ("lowpass_kind", 1.0),
+    "highpass_hz": ("highpass_hz", 1.0),
+    "offset_g": ("offset_g", 1.0),
+}
+_TOP_KEYS = {
+    "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
+    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts",
+} | set(_VALUE_KEYS)
+_FACT_ALIASES = {k: v[0] for k, v in _VALUE_KEYS.items()}
+_STRING_KEYS = {"clip_position", "lowpass_kind"}
+
+
+def _preset_dir() -> Any:
+    return resources.files("vrelab.sensor") / "presets"
+
+
+def list_presets() -> list[str]:
+    """Names of the built-in presets (``ideal``, ``adxl355``, ...)."""
+    return sorted(p.name[: -len(".toml")] for p in _preset_dir().iterdir() if p.name.endswith(".toml"))
+
+
+def _read(spec: str) -> tuple[dict[str, Any], str]:
+    presets = list_presets()
+    if spec in presets:
+        text = (_preset_dir() / f"{spec}.toml").read_text(encoding="utf-8")
+        origin = f"preset {spec}"
+    else:
+        path = Path(spec)
+        if not path.is_file():
+            raise ValueError(
+                f"sensor must be one of {', '.join(presets)} or a path to a sensor TOML file; got {spec!r}"
+            )
+        text = path.read_text(encoding="utf-8")
+        origin = f"file {path}"
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"sensor {origin} is not valid TOML: {e}") from None
+    return data, origin
+
+
+def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise ValueError(f"sensor {where}: unknown key {key!r}; allowed keys are {', '.join(sorted(allowed))}")
+
+
+def _number(value: Any, key: str, where: str) -> float:
+    if not _is_number(value):
+        raise ValueError(f"sensor {where}: {key} must be a number, got {value!r}")
+    return float(value)
+
+
+def _apply(values: dict[str, Any], table: Mapping[str, Any], where: str) -> None:
+    for key, raw in table.items():
+        name, scale = _VALUE_KEYS[key]
+        if key in _STRING_KEYS:
+            if not isinstance(raw, str):
+                raise ValueError(f"sensor {where}: {key} must be a string, got {raw!r}")
+            values[name] = raw
+        elif key == "overrange_retrigger":
+            if not isinstance(raw, bool):
+                raise ValueError(f"sensor {where}: {key} must be true or false, got {raw!r}")
+            values[name] = raw
+        elif key == "rails_g":
+            if not isinstance(raw, list) or len(raw) != 2:
+                raise ValueError(f"sensor {where}: rails_g must be [low, high], got {raw!r}")
+            values[name] = tuple(_number(r, key, where) for r in raw)
+        elif key in ("anti_alias_order", "lowpass_order"):
+            if not isinstance(raw, int) or isinstance(raw, bool):
+                raise ValueError(f"sensor {where}: {key} must be an integer, got {raw!r}")
+            values[name] = raw
+        else:
+            values[name] = _number(raw, key, where) / scale
+
+
+def _fmt(xs: Any) -> str:
+    return ", ".join(f"{x:g}" for x in xs)
+
+
+def load_sensor(
+    spec: str,
+    range_g: float | None = None,
+    axis: str | None = None,
+    odr_hz: float | None = None,
+    k2_ug_per_g2: float | None = None,
+    k3_ug_per_g3: float | None = None,
+) -> Sensor:
+    """Load a preset (``ideal``, ``adxl355``, ``adxl354``, ``adxl357``) or a user sensor TOML.
+
+    Parameters
+    ----------
+    spec : preset name or path to a TOML file with the preset schema.
+    range_g : nominal range or full scale [g] (2 and 2.048 both select the ADXL355 ±2 g range);
+        default: the file's ``default_range_g``.
+    axis : ``x``, ``y``, ``z`` (or the file's axes); default: the file's ``default_axis``.
+    odr_hz : output data rate [Hz], one of the file's ``odrs_hz``; default ``default_odr_hz``.
+    k2_ug_per_g2, k3_ug_per_g3 : override the nonlinearity [µg/g², µg/g³] (SPEC 5 ``--k2``/``--k3``).
+
+    Raises
+    ------
+    ValueError naming the field and the allowed values for an unknown preset, an invalid file,
+    an unknown range, axis or ODR.
+    """
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
+    data, origin = _read(spec)
+    _check_keys(data, _TOP_KEYS, origin)
+    name = data.get("name", Path(spec).stem)
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
+    where = f"{name} ({origin})"
+
+    # ---- axis
+    axes_table = data.get("axes", {})
+    if not isinstance(axes_table, dict) or not all(isinstance(v, dict) for v in axes_table.values()):
+        raise ValueError(f"sensor {where}: axes must be a table of tables ([axes.x] ...), got {axes_table!r}")
+    axes = tuple(axes_table) if axes_table else ("x", "y", "z")
+    chosen_axis = axis if axis is not None else data.get("default_axis", axes[0])
+    if not isinstance(chosen_axis, str) or chosen_axis.lower() not in axes:
+        raise ValueError(f"axis must be one of {', '.join(axes)} for {name}; got {chosen_axis!r}")
+    chosen_axis = chosen_axis.lower()
+
+    # ---- range
+    ranges_table = data.get("ranges", {})
+    if not isinstance(ranges_table, dict) or not all(isinstance(v, dict) for v in ranges_table.values()):
+        raise ValueError(f"sensor {where}: ranges must be a table of tables ([ranges.\"2\"] ...), got {ranges_table!r}")
+    nominal: dict[float, str] = {}
+    for key in ranges_table:
+        try:
+            nominal[float(key)] = key
+        except ValueError:
+            raise ValueError(f"sensor {where}: range keys must be numbers in g, got {key!r}") from None
+    requested = range_g if range_g is not None else data.get("default_range_g", 2.0)
+    req = _number(requested, "range_g", where) if not isinstance(requested, str) else math.nan
+    range_key: str | None = None
+    if nominal:
+        for nom, key in nominal.items():
+            fs_g = _number(ranges_table[key].get("full_scale_g", nom), "full_scale_g", f"{where} [ranges.{key}]")
+            if math.isclose(req, nom, rel_tol=_RANGE_RTOL) or math.isclose(req, fs_g, rel_tol=_RANGE_RTOL):
+                range_key, req = key, nom
+                break
+        if range_key is None:
+            full = [ranges_table[k].get("full_scale_g", n) for n, k in nominal.items()]
+            raise ValueError(
+                f"range_g must be one of {_fmt(nominal)} g (full scale {_fmt(full)}) for {name}; got {requested!r}"
+            )
+    elif not (math.isfinite(req) and req > 0):
+        raise ValueError(f"range_g must be a number > 0 for {name}; got {requested!r}")
+
+    # ---- ODR
+    odrs_raw = data.get("odrs_hz", [])
+    if not isinstance(odrs_raw, list):
+        raise ValueError(f"sensor {where}: odrs_hz must be a list of rates in Hz, got {odrs_raw!r}")
+    odrs = tuple(_number(o, "odrs_hz", where) for o in odrs_raw)
+    chosen_odr: float | None = None
+    if odrs:
+        want = odr_hz if odr_hz is not None else data.get("default_odr_hz", odrs[0])
+        w = _number(want, "odr_hz", where) if _is_number(want) else math.nan
+        for o in odrs:
+            if math.isclose(w, o, rel_tol=_ODR_RTOL):
+                chosen_odr = o
+                break
+        if chosen_odr is None:
+            raise ValueError(f"odr_hz must be one of {_fmt(odrs)} Hz for {name}; got {want!r}")
+    elif odr_hz is not None:
+        raise ValueError(f"odr_hz must not be given for {name}: it has no ODR (output at the input rate); got {odr_hz!r}")
+
+    # ---- values: top level < axis < range
+    values: dict[str, Any] = {}
+    _apply(values, {k: v for k, v in data.items() if k in _VALUE_KEYS}, where)
+    if axes_table:
+        _check_keys(axes_table[chosen_axis], set(_VALUE_KEYS), f"{where} [axes.{chosen_axis}]")
+        _apply(values, axes_table[chosen_axis], f"{where} [axes.{chosen_axis}]")
+    if range_key is not None:
+        _check_keys(ranges_table[range_key], set(_VALUE_KEYS), f"{where} [ranges.{range_key}]")
+        _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
+    if chosen_odr is not None:
+        per_odr = data.get("bandwidth_per_odr")
+        if per_odr is not None:
+            values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * chosen_odr
+    full_scale = values.pop("full_scale_g", req)
+    rails = values.pop("rails_g", (-full_scale, full_scale))
+
+    facts_raw = data.get("facts", {})
+    if not isinstance(facts_raw, dict):
+        raise ValueError(f"sensor {where}: facts must be a table of strings, got {facts_raw!r}")
+    facts: dict[str, str] = {}
+    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {"clip_position", "lowpass_kind", "overrange_retrigger"}
+    _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
+    for key, text in facts_raw.items():
+        if not isinstance(text, str):
+            raise ValueError(f"sensor {where}: facts.{key} must be a string, got {text!r}")
+        facts[_FACT_ALIASES.get(key, key)] = text
+    if origin.startswith("file"):
+        for f in NUMERIC_FIELDS:
+            facts.setdefault(f, f"unmarked, from user {origin}")
+    if k2_ug_per_g2 is not None:
+        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
+        facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
+    if k3_ug_per_g3 is not None:
+        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / 1e6
+        facts["k3_per_g2"] = f"set by the user: {k3_ug_per_g3:g} µg/g³"
+
+    description = data.get("description", "")
+    source = data.get("source", origin)
+    return Sensor(
+        name=name,
+        range_g=req,
+        full_scale_g=full_scale,
+        axis=chosen_axis,
+        odr_hz=chosen_odr,
+        bandwidth_hz=values.get("bandwidth_hz"),
+        fn_hz=values.get("fn_hz"),
+        q=values.get("q"),
+        k2_per_g=values.get("k2_per_g", 0.0),
+        k3_per_g2=values.get("k3_per_g2", 0.0),
+        k4_per_g3=values.get("k4_per_g3", 0.0),
+        rails_g=rails,
+        clip_position=values.get("clip_position", "output"),
+        overrange_threshold_g=values.get("overrange_threshold_g"),
+        overrange_hold_s=values.get("overrange_hold_s"),
+        overrange_value_g=values.get("overrange_value_g", 0.0),
+        overrange_float_tau_s=values.get("overrange_float_tau_s", 0.0),
+        overrange_retrigger=values.get("overrange_retrigger", True),
+        noise_ug_per_rthz=values.get("noise_ug_per_rthz", 0.0),
+        lsb_g=values.get("lsb_g"),
+        anti_alias_hz=values.get("anti_alias_hz"),
+        anti_alias_order=values.get("anti_alias_order"),
+        lowpass_order=values.get("lowpass_order"),
+        lowpass_kind=values.get("lowpass_kind", "butterworth"),
+        highpass_hz=values.get("highpass_hz"),
+        offset_g=values.get("offset_g", 0.0),
+        description=description if isinstance(description, str) else "",
+        source=source if isinstance(source, str) else origin,
+        ranges_g=tuple(sorted(nominal)),
+        axes=axes,
+        odrs_hz=odrs,
+        facts=facts,
+    )
