@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 
 from vrelab.profiles import (
@@ -254,3 +256,33 @@ def test_parse_profile_unknown_lists_forms():
 def test_parse_profile_missing_file():
     with pytest.raises(FileNotFoundError):
         parse_profile("/nonexistent/p.csv")
+
+
+def test_band_is_a_tuple_and_callable():
+    """`profile.band` is the contract; `profile.band()` (as some callers write it) gives the same."""
+    prof = parse_profile("navmat-p9492")
+    assert prof.band == (20.0, 2000.0) and prof.band() == (20.0, 2000.0)
+    lo, hi = prof.band
+    assert (lo, hi) == (20.0, 2000.0)
+
+
+@pytest.mark.parametrize("f_lo,f_hi", [(0.0, 50.0), (30.0, 80.0), (60.0, 400.0), (100.0, 1e4), (2000.0, 3000.0)])
+def test_mean_square_between_against_quad(f_lo, f_hi):
+    prof = parse_profile("navmat-p9492")
+    lo, hi = max(f_lo, 20.0), min(f_hi, 2000.0)
+    want = integrate.quad(prof.psd, lo, hi, points=[80, 350], epsrel=1e-12)[0] if hi > lo else 0.0
+    assert prof.mean_square_between(f_lo, f_hi) == pytest.approx(want, rel=1e-9, abs=1e-15)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(0.05, 3.0), min_size=1, max_size=5),
+    st.lists(st.floats(-3.0, 3.0), min_size=6, max_size=6),
+    st.floats(1.0, 100.0),
+)
+def test_closed_form_vs_quad_property(log_steps, log_psd, f0):
+    """Any breakpoint table (octave steps, PSD spanning ±3 decades): closed form = quadrature."""
+    f = f0 * np.exp(np.cumsum([0.0, *log_steps]))
+    p = 10.0 ** np.array(log_psd[: f.size])
+    prof = RandomProfile.from_breakpoints(f, p)
+    assert prof.grms == pytest.approx(quad_grms(prof), rel=1e-8)
