@@ -284,10 +284,7 @@ class SimulatedRecord:
 
 def _rail_window(sensor: Any) -> tuple[float, float]:
     """(low, high): DUT output at or beyond these counts as saturated."""
-    rails = getattr(sensor, "rails", None)
-    if rails is None:
-        return -math.inf, math.inf
-    low, high = (float(r) for r in rails)
+    low, high = (float(r) for r in sensor.rails_g)
     lsb = getattr(sensor, "lsb_g", None) or 0.0
     tol = max(_RAIL_TOL_LSB * float(lsb), 1e-9)
     return low + tol, high - tol
@@ -519,7 +516,7 @@ def run_random_test(
         sensor, profile, levels_grms, static_g, seconds, baseline_s, settle_s, seed,
         drive_method, clip_sigma, kurtosis, fs_internal_hz, progress,
     )
-    levels, warnings = _reduce(record, "random", profile.band, settle_s, record_path, progress)
+    levels, warnings = _reduce(record, "random", _measurement_band(profile), settle_s, record_path, progress)
     fits, fit_notes = _random_fits(levels, sensor, static_g, clip_kind)
     return VreResult(
         method="random",
@@ -534,17 +531,22 @@ def run_random_test(
     )
 
 
+def _measurement_band(profile: RandomProfile) -> tuple[float, float]:
+    """Band in which the reduction measures the reference rms: the profile's band widened by
+    an octave on each side. The drive has no power outside the profile's band (it is
+    synthesised that way), so the wider band measures the same rms, but the band-pass edges
+    (a Butterworth is 3 dB down at its corners) no longer eat into the profile's edges."""
+    f_lo, f_hi = profile.band
+    return f_lo / 2, f_hi * 2
+
+
 def vrc_level_limit_g(sensor: Any, static_g: float) -> float:
     """Largest rms [g] whose Gaussian peaks (4σ) stay inside the nominal rails at ``static_g``.
 
     Below it clipping contributes less than about 1e-5 of σ to the VRE, so a VRC fit over
     those levels measures the nonlinearity alone.
     """
-    rails = getattr(sensor, "rails", None)
-    if rails is None:
-        r = float(getattr(sensor, "range_g"))
-        rails = (-r, r)
-    low, high = (float(x) for x in rails)
+    low, high = (float(x) for x in sensor.rails_g)
     return max(0.0, min(high - static_g, static_g - low)) / 4.0
 
 
