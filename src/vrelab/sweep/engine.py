@@ -164,7 +164,11 @@ def run_points(
         return None
 
     def submit(idx: list[int]) -> Future:
-        fut = backend.executor.submit(run_task, func, [by_index[i] for i in idx])
+        try:
+            fut = backend.executor.submit(run_task, func, [by_index[i] for i in idx])
+        except BrokenExecutor as exc:  # the pool broke since the last wait: handled as a crash below
+            fut = Future()
+            fut.set_exception(exc)
         inflight[fut] = idx
         return fut
 
