@@ -1,0 +1,226 @@
+"""``vrelab analyze``: reduce a recorded shaker test to VRE per level and fit it (SPEC 4, 5).
+
+::
+
+    vrelab analyze FILE --dut CH [--reference CH] [--fs HZ] [--time CH]
+                   [--dut-units g|lsb|mv|v|m/s2] [--dut-sensitivity S]
+                   [--reference-units ...] [--reference-sensitivity S]
+                   [--method random|sine] [--schedule FILE|auto] [--profile P] [--static G]
+                   [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4]
+                   [--out DIR] [--json] [--progress]
+
+Scaling: the file's raw values become g by dividing by the sensitivity in units per g, e.g.
+``--dut-units lsb --dut-sensitivity 256000`` (ADXL355 on ±2 g) and ``--reference-units mv
+--reference-sensitivity 10`` (a 10 mV/g IEPE reference).
+
+``--json`` prints :meth:`vrelab.results.VreResult.to_dict`. ``--out DIR`` writes
+``results.json``, ``levels.csv``, ``envelope.csv`` (per 0.1 s window: time, reference rms,
+reference band rms, DUT mean, segment label) and, for the random method, ``psd_levels.csv``
+(reference PSD per level) and with a profile ``psd.csv`` (highest level against the profile):
+all of them or none.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vrelab import _io
+from vrelab.cli import print_json
+
+
+def _band(text: str) -> tuple[float, float]:
+    parts = text.replace("-", ":").split(":") if ":" in text or text.count("-") == 1 else [text]
+    if len(parts) != 2:
+        raise ValueError(f"--band must be F1:F2 in Hz, got {text!r}")
+    try:
+        f1, f2 = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"--band must be F1:F2 in Hz, got {text!r}") from None
+    if not (0 < f1 < f2 and math.isfinite(f2)):
+        raise ValueError(f"--band must satisfy 0 < F1 < F2, got {text!r}")
+    return f1, f2
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "analyze",
+        help="reduce a recorded shaker test (CSV, NPY/NPZ, HDF5, TDMS, WAV, MAT) to VRE per level and fit it",
+        description="Reduce a recorded shaker test to VRE per level (offset shift under vibration minus the "
+        "bracketing vibration-off baselines, with batch-means uncertainties) and fit VRC and, for random "
+        "vibration, the effective rail of the clipping model.",
+    )
+    p.add_argument("file", metavar="FILE", help="recorded test: .csv .npy .npz .h5 .tdms .wav .mat")
+    p.add_argument("--dut", required=True, metavar="CH", help="DUT channel (column, dataset path, group/channel, index)")
+    p.add_argument("--reference", metavar="CH", help="reference accelerometer channel (default: levels from the DUT)")
+    p.add_argument("--fs", type=float, metavar="HZ", help="sample rate when the file has none and no time column")
+    p.add_argument("--time", metavar="CH", help="time column in s (default: a column named time/t/time_s)")
+    for who in ("dut", "reference"):
+        p.add_argument(f"--{who}-units", default="g", metavar="U", help="raw units: g, lsb, mv, v, m/s2 (default g)")
+        p.add_argument(f"--{who}-sensitivity", type=float, metavar="S", help="units per g (LSB/g, mV/g, V/g)")
+    p.add_argument("--method", choices=("random", "sine"), default="random")
+    p.add_argument("--schedule", metavar="FILE", help="schedule CSV (start_s,end_s,nominal_rms_g[,freq_hz]) or 'auto'")
+    p.add_argument("--profile", metavar="P", help="random profile (file, F:P,... or flat:F1-F2): band and PSD check")
+    p.add_argument("--static", type=float, metavar="G", help="static field for the rail fit (default: baseline mean)")
+    p.add_argument("--rail", type=float, metavar="G", help="DUT samples at or beyond ±G count as saturated")
+    p.add_argument("--band", type=_band, metavar="F1:F2", help="test band in Hz (default: profile's, or 50:2000)")
+    p.add_argument("--settle", type=float, default=0.5, metavar="S", help="settling time trimmed at each segment edge (s)")
+    p.add_argument("--kind", choices=("censored", "truncated"), default="censored", help="clipping model of the rail fit")
+    p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
+    p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from vrelab.analysis.readers import Scale, open_record, sha256_file
+    from vrelab.analysis.reduction import analyze_full
+    from vrelab.record import Schedule
+
+    dut_scale = Scale.parse(args.dut_units, args.dut_sensitivity, "--dut")
+    ref_scale = Scale.parse(args.reference_units, args.reference_sensitivity, "--reference")
+    profile = None
+    if args.profile:
+        from vrelab.profiles import parse_profile
+
+        profile = parse_profile(args.profile)
+    path = Path(args.file)
+    record = open_record(path, args.dut, args.reference, args.fs, dut_scale, ref_scale, args.time)
+    with record:
+        schedule = None
+        if args.schedule and args.schedule != "auto":
+            schedule = Schedule.read_csv(args.schedule)
+        elif args.schedule == "auto":
+            record.schedule = None
+        progress = bool(args.progress or (sys.stderr.isatty() and record.n_samples > 10_000_000))
+        provenance = {
+            "input_file": path.name,
+            "input_sha256": sha256_file(path),
+            "command": "vrelab " + shlex.join(sys.argv[1:]) if sys.argv and "vrelab" in sys.argv[0] else shlex.join(sys.argv),
+            "format": record.meta.get("format"),
+            "channels": record.meta.get("channels"),
+            "fs_from": record.meta.get("fs_from"),
+        }
+        result, red = analyze_full(
+            record,
+            args.method,
+            schedule=schedule,
+            profile=profile,
+            static_g=args.static,
+            rail_g=args.rail,
+            clip_kind=args.kind,
+            band_hz=args.band,
+            fit_k4=args.k4,
+            progress=progress,
+            settle_s=args.settle,
+            provenance=provenance,
+            psd=bool(args.out),
+        )
+        notes = list(record.meta.get("reader_notes") or [])
+    if notes:
+        from dataclasses import replace
+
+        result = replace(result, warnings=tuple(notes) + result.warnings)
+    doc = result.to_dict()
+    if args.out:
+        with _io.output_dir(args.out) as stage:
+            _io.write_json(stage / "results.json", doc)
+            _write_levels(stage / "levels.csv", result)
+            _write_envelope(stage / "envelope.csv", red)
+            if args.method == "random" and red.psd:
+                _write_psds(stage, red, profile)
+    if args.json:
+        print_json(doc)
+    else:
+        _print_summary(result, path)
+        if args.out:
+            print(f"wrote {args.out}/results.json, levels.csv, envelope.csv")
+    return 0
+
+
+def _write_levels(path: Path, result: Any) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["freq_hz", "rms_g", "u_rms_g", "vre_g", "u_vre_g", "duration_s", "n_samples", "n_saturated", "flags"])
+        for lv in result.levels:
+            w.writerow([
+                "" if lv.freq_hz is None else repr(float(lv.freq_hz)),
+                repr(float(lv.rms_g)),
+                "" if lv.u_rms_g is None else repr(float(lv.u_rms_g)),
+                repr(float(lv.vre.value)),
+                repr(float(lv.vre.u)),
+                "" if lv.duration_s is None else repr(float(lv.duration_s)),
+                "" if lv.n_samples is None else lv.n_samples,
+                lv.n_saturated,
+                ";".join(lv.flags),
+            ])  # fmt: skip
+
+
+def _write_envelope(path: Path, red: Any) -> None:
+    from vrelab.analysis.segmentation import segments_to_labels
+
+    st = red.stats
+    lab = segments_to_labels(st, red.schedule)
+    names = np.array(["", "off"] + [f"level {i}" for i in range(1, int(lab.max(initial=0)) + 1)], dtype=object)
+    text = names[lab + 1]
+    t = st.times_s
+    env = st.envelope()
+    band = st.band_rms()
+    mean = st.dut_mean()
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "reference_rms_g", "reference_band_rms_g", "dut_mean_g", "n_samples", "segment"])
+        for i in range(st.n_windows):
+            w.writerow([f"{t[i]:.6g}", f"{env[i]:.9g}", f"{band[i]:.9g}", f"{mean[i]:.12g}", int(st.count[i]), text[i]])
+
+
+def _write_psds(stage: Path, red: Any, profile: Any) -> None:
+    with open(stage / "psd_levels.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["level", "rms_g", "freq_hz", "psd_g2_per_hz"])
+        for i, ((f, p), lv) in enumerate(zip(red.psd, red.levels), start=1):
+            for fk, pk in zip(f, p):
+                w.writerow([i, f"{lv.rms_g:.6g}", f"{fk:.6g}", f"{pk:.6g}"])
+    if profile is None:
+        return
+    i = int(np.argmax([lv.rms_g for lv in red.levels]))
+    f, p = red.psd[i]
+    if not len(f):
+        return
+    prof = profile.scaled_to(red.levels[i].rms_g)
+    with np.errstate(all="ignore"):
+        pp = np.asarray(prof.psd(f), dtype=float)
+    with open(stage / "psd.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["freq_hz", "psd_measured_g2_per_hz", "psd_profile_g2_per_hz"])
+        for fk, pk, qk in zip(f, p, pp):
+            w.writerow([f"{fk:.6g}", f"{pk:.6g}", "" if not np.isfinite(qk) else f"{qk:.6g}"])
+
+
+def _mg(x: float) -> str:
+    return "nan" if not math.isfinite(x) else f"{x * 1e3:.4g}"
+
+
+def _print_summary(result: Any, path: Path) -> None:
+    sine = result.method == "sine"
+    print(f"{path.name}: {result.method} method, {len(result.levels)} level(s)")
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
+    for lv in result.levels:
+        f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ""
+        sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
+        print(f"{f}{lv.rms_g:8.4g}  {_mg(lv.vre.value):>11} ± {_mg(lv.vre.u):<8}  {sat}")
+    for fit in result.fits:
+        at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
+        print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
+        if fit.departure_rms_g is not None:
+            print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
+    for w in result.warnings:
+        print(f"warning: {w}")
