@@ -1,0 +1,186 @@
+"""Sensor descriptions: presets and user files (SPEC 2; ADXL354/ADXL355 data sheet Rev. D)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import re
+import tomllib
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from vrelab.sensor import Clip, Decimate, LowPass, OverRange, Quantize, Resonator, list_presets, load_sensor
+from vrelab.sensor.loader import NUMERIC_FIELDS, Sensor
+
+
+def _preset_toml(name):
+    return tomllib.loads((resources.files("vrelab.sensor") / "presets" / f"{name}.toml").read_text("utf-8"))
+
+
+def _options(name):
+    s = load_sensor(name)
+    return s.ranges_g or (s.range_g,), s.axes, s.odrs_hz or (None,)
+
+
+def test_presets_listed():
+    assert set(list_presets()) >= {"ideal", "adxl355", "adxl354", "adxl357"}
+
+
+@pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])
+def test_every_preset_loads_for_every_range_axis_odr_it_declares(name):
+    ranges, axes, odrs = _options(name)
+    for r in ranges:
+        for axis in axes:
+            for odr in odrs:
+                s = load_sensor(name, range_g=r, axis=axis, odr_hz=odr)
+                fs = s.internal_rate_hz(2000.0)
+                chain = s.chain(fs)
+                assert chain.fs_out_hz(fs) == (odr if odr is not None else fs)
+                assert s.rails_g[0] < 0 < s.rails_g[1]
+                json.dumps(s.to_dict())  # the description is plain data
+                assert s.name in s.describe()
+
+
+@pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])
+def test_facts_cover_every_numeric_field(name):
+    """Each preset says, for every number, whether it is a data-sheet fact or an assumption."""
+    facts = _preset_toml(name)["facts"]
+    for field in NUMERIC_FIELDS:
+        assert field in facts, f"{name}: no fact for {field}"
+        assert facts[field].startswith(("datasheet", "assumption")), f"{name}.{field}: {facts[field]}"
+    s = load_sensor(name)
+    assert set(NUMERIC_FIELDS) <= set(s.facts)
+    numeric = {f.name for f in Sensor.__dataclass_fields__.values() if f.type in (
+        "float", "float | None", "int | None", "tuple[float, float]")}
+    assert len(numeric) >= 15 and numeric <= set(NUMERIC_FIELDS)
+
+
+def test_adxl355_datasheet_values():
+    """ADXL354/ADXL355 data sheet Rev. D, as tabulated in SPEC 2."""
+    s = load_sensor("adxl355")
+    assert (s.range_g, s.full_scale_g, s.odr_hz, s.bandwidth_hz) == (2.0, 2.048, 4000.0, 1000.0)
+    assert (s.fn_hz, s.q, s.axis) == (2400.0, 7.4, "x")
+    assert s.lsb_g == pytest.approx(1 / 256000) and s.noise_ug_per_rthz == 22.5
+    assert (s.overrange_threshold_g, s.overrange_hold_s, s.overrange_value_g) == (8.0, 0.5e-3, 0.0)
+    assert s.highpass_hz is None and s.offset_g == 0.0 and s.clip_position == "output"
+    assert load_sensor("adxl355", axis="z").q == 1.5
+    s8 = load_sensor("adxl355", range_g=8)
+    assert (s8.full_scale_g, s8.noise_ug_per_rthz, s8.overrange_threshold_g) == (8.192, 25.0, 16.0)
+    assert s8.lsb_g == pytest.approx(1 / 64000)
+    assert load_sensor("adxl355", range_g=4.096).range_g == 4.0  # full scale selects the range too
+    assert load_sensor("adxl355", odr_hz=7.813).odr_hz == 7.8125  # data sheet rounding accepted
+    s357 = load_sensor("adxl357", range_g=40)
+    assert (s357.full_scale_g, s357.fn_hz, s357.noise_ug_per_rthz) == (40.96, 5500.0, 75.0)
+    assert s357.lsb_g == pytest.approx(1 / 12800)
+    s354 = load_sensor("adxl354")
+    assert s354.odr_hz is None and s354.bandwidth_hz == 1900.0 and s354.lsb_g is None
+
+
+def test_adxl355_chain_order():
+    """Nonlinearity and trip on the proof mass; clip at the output after the low-pass."""
+    s = load_sensor("adxl355")
+    kinds = [type(st) for st in s.chain(20000.0).stages]
+    assert kinds.index(Resonator) < kinds.index(OverRange) < kinds.index(LowPass) < kinds.index(Decimate)
+    assert kinds.index(LowPass) < kinds.index(Clip) < kinds.index(Quantize)
+    pm = dataclasses.replace(s, clip_position="proof-mass")
+    kinds = [type(st) for st in pm.chain(20000.0).stages]
+    assert kinds.index(Clip) < kinds.index(LowPass)
+
+
+def test_ideal_is_rails_and_nonlinearity_only():
+    s = load_sensor("ideal", range_g=3.0, k2_ug_per_g2=30.0)
+    assert s.rails_g == (-3.0, 3.0) and s.k2_per_g == pytest.approx(30e-6)
+    assert "set by the user" in s.facts["k2_per_g"]
+    chain = s.chain(12345.0)  # any rate
+    assert chain.rate_factor == 1
+    assert [type(st).__name__ for st in chain.stages] == ["Polynomial", "Clip"]
+    assert s.linear_responses("output") == []
+    assert load_sensor("ideal").chain(100.0).stages == (Clip(-2.0, 2.0),)
+
+
+def test_internal_rate_rule():
+    s = load_sensor("adxl355")
+    # 8·max(2000, fn 2400, AA 1500, BW 1000) = 19200 -> 5 × ODR
+    assert s.internal_rate_hz(2000.0) == 20000.0
+    assert s.internal_rate_hz(5000.0) == 40000.0
+    assert load_sensor("adxl357").internal_rate_hz(100.0) == 44000.0  # 8 × 5.5 kHz = 11 × ODR
+    assert load_sensor("ideal").internal_rate_hz(100.0) == 1000.0
+    for odr in load_sensor("adxl355").odrs_hz:
+        fs = load_sensor("adxl355", odr_hz=odr).internal_rate_hz(2000.0)
+        assert fs >= 19200.0 and math.isclose(fs / odr, round(fs / odr))
+
+
+def test_linear_responses_proof_mass_and_output():
+    s = load_sensor("adxl355")
+    f = np.array([0.0, 2400.0])
+    pm = s.response(f, "proof-mass")
+    assert abs(pm[0]) == pytest.approx(1.0) and abs(pm[1]) == pytest.approx(7.4)
+    assert len(s.linear_responses("proof-mass")) == 1 and len(s.linear_responses("output")) == 3
+    out = s.response(np.array([1000.0]), "output")[0]
+    r = 1000.0 / 2400.0
+    mech = 1 / abs(1 - r**2 + 1j * r / 7.4)
+    aa = 1 / math.sqrt(1 + (1000 / 1500) ** 4)  # 2nd-order Butterworth
+    assert abs(out) == pytest.approx(mech * aa / math.sqrt(2), rel=1e-6)  # LPF -3 dB at its corner
+    with pytest.raises(ValueError, match="where must be one of proof-mass, output"):
+        s.linear_responses("input")
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"spec": "adxl999"}, r"sensor must be one of adxl354, adxl355, adxl357, ideal or a path"),
+        ({"spec": "adxl355", "range_g": 3}, r"range_g must be one of 2, 4, 8 g \(full scale 2.048, 4.096, 8.192\) for adxl355; got 3"),
+        ({"spec": "adxl355", "axis": "w"}, r"axis must be one of x, y, z for adxl355; got 'w'"),
+        ({"spec": "adxl355", "odr_hz": 3000}, r"odr_hz must be one of 4000, 2000, .* Hz for adxl355; got 3000"),
+        ({"spec": "adxl354", "odr_hz": 4000}, r"odr_hz must not be given for adxl354"),
+        ({"spec": "ideal", "range_g": -1}, r"range_g must be a number > 0 for ideal; got -1"),
+        ({"spec": "adxl357", "range_g": 2}, r"range_g must be one of 10, 20, 40 g"),
+    ],
+)
+def test_loader_errors_name_field_and_allowed_values(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        load_sensor(**kwargs)
+
+
+def _readme_example() -> str:
+    text = (resources.files("vrelab.sensor") / "presets" / "README").read_text("utf-8")
+    return re.search(r"```toml\n(.*?)```", text, re.S).group(1)
+
+
+def test_readme_example_user_file_loads(tmp_path):
+    path = tmp_path / "my_part.toml"
+    path.write_text(_readme_example(), encoding="utf-8")
+    s = load_sensor(str(path))
+    assert (s.name, s.axis, s.q, s.range_g, s.odr_hz, s.bandwidth_hz) == ("my_part", "z", 2.0, 2.0, 1000.0, 250.0)
+    assert s.k2_per_g == pytest.approx(35e-6) and s.overrange_threshold_g == 6.0
+    assert s.facts["k2_per_g"].startswith("assumption") and "unmarked" in s.facts["q"]
+    s4 = load_sensor(str(path), range_g=4.096, axis="x")
+    assert s4.rails_g == (-4.096, 4.096) and s4.q == 5.0 and s4.noise_ug_per_rthz == 35.0
+    fs = s4.internal_rate_hz(500.0)
+    assert fs == 24000.0  # 8 × 3 kHz resonance, a multiple of the 1 kHz ODR
+    y, _ = s4.chain(fs).apply(np.ones(2400), fs)
+    assert y.size == 100
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda t: t + "\nbogus = 1\n", r"unknown key 'bogus'; allowed keys are"),
+        (lambda t: t.replace("fn_hz = 3000.0", 'fn_hz = "fast"'), r"fn_hz must be a number, got 'fast'"),
+        (lambda t: t.replace("q = 2.0", "q = -2.0"), r"q must be a number > 0, got -2.0"),
+        (lambda t: t.replace('clip_position = "output"', 'clip_position = "middle"'),
+         r"clip_position must be one of output, proof-mass; got 'middle'"),
+        (lambda t: t.replace("rails_g = [-2.048, 2.048]", "rails_g = [2.0, -2.0]"), r"rails_g must be \[low, high\]"),
+        (lambda t: t.replace("[axes.z]\nq = 2.0", "[axes.z]\nqq = 2.0"), r"\[axes.z\]: unknown key 'qq'"),
+        (lambda t: t + "\n[[broken", r"is not valid TOML"),
+        (lambda t: t.replace("lowpass_order = 4", "lowpass_order = 4.5"), r"lowpass_order must be an integer"),
+    ],
+)
+def test_invalid_user_file_names_the_field(tmp_path, edit, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(edit(_readme_example()), encoding="utf-8")
+    with pytest.raises(ValueError, match=message):
+        load_sensor(str(path))
