@@ -154,7 +154,13 @@ def test_a_point_that_raises_is_retried_then_recorded_failed_and_the_others_fini
     assert np.isnan(ds["a"].values[failed]).all() and not np.isnan(ds["a"].values[~failed]).any()
     assert (tmp_path / "calls-3.0-p").read_text() == "xxx"  # 1 try + 2 retries
     assert (tmp_path / "calls-2.0-p").read_text() == "x"
+    assert [len(p.read_text()) for p in tmp_path.glob("calls-*")].count(1) == 10
     assert {r.attempts for r in res.records.values() if r.status == "failed"} == {3}
+    # a rerun keeps the failures (they are finished), unless asked to try them again
+    assert run_sweep(spec, tmp_path / "out").summary["n_computed"] == 0
+    again = run_sweep(spec, tmp_path / "out", retry_failed=True)
+    assert again.summary["n_computed"] == 2 and again.summary["n_resumed"] == 10
+    assert (tmp_path / "calls-3.0-p").read_text() == "xxxxx" and (tmp_path / "calls-2.0-p").read_text() == "x"
     # default: one retry
     res1 = run_sweep(parse_spec(_doc("bad")), tmp_path / "out1")
     assert {r.attempts for r in res1.records.values() if r.status == "failed"} == {2}

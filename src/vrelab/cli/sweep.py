@@ -27,6 +27,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--out", metavar="DIR", help="output and checkpoint folder (default: ./<FILE stem>-sweep)")
     p.add_argument("--fresh", action="store_true", help="discard the checkpoint in DIR instead of resuming")
+    p.add_argument("--retry-failed", action="store_true", help="on resume, compute failed points again")
     p.add_argument("--retries", type=int, metavar="N", help="extra attempts for a failing point (default: file, 1)")
     p.add_argument("--chunk", type=int, metavar="N", help="points per task (default: file, 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -58,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         retries=args.retries,
         chunk=args.chunk,
+        retry_failed=args.retry_failed,
     )
     s = res.summary
     if args.json:

@@ -89,6 +89,7 @@ def run_sweep(
     progress: bool = False,
     retries: int | None = None,
     chunk: int | None = None,
+    retry_failed: bool = False,
 ) -> SweepResult:
     """Run (or resume) ``spec`` with its checkpoint and outputs in ``out_dir``.
 
@@ -107,6 +108,9 @@ def run_sweep(
         Discard an existing checkpoint instead of resuming from it.
     retries, chunk : int, optional
         Override the file's values (they do not change the results).
+    retry_failed : bool
+        On resume, compute again the points the checkpoint holds as failed (after fixing what
+        made them fail); finished ``ok`` points are still never recomputed.
     """
     func = point_function(spec)
     retries = spec.retries if retries is None else retries
@@ -120,11 +124,10 @@ def run_sweep(
         raise ValueError(f"--out exists and is not a folder: {out}")
     own = backend is None
     with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh) as ck:
-        resumed = len(ck.records)
+        keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
+        resumed = len(keep)
         units = [spec.unit_params(u) for u in range(spec.units or 0)]
-        items = [
-            (i, spec.point_params(i, units), spec.point_seed(i)) for i in range(spec.n_points) if i not in ck.records
-        ]
+        items = [(i, spec.point_params(i, units), spec.point_seed(i)) for i in range(spec.n_points) if i not in keep]
         t0 = time.perf_counter()
         if own:
             backend = make_backend(workers, scheduler) if items else SerialBackend()

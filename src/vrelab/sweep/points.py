@@ -20,6 +20,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from typing import Any, Mapping
 
@@ -94,9 +96,87 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     }
 
 
+@functools.lru_cache(maxsize=64)
+def _base_sensor(name: str, range_g: float | None, axis: str | None, odr_hz: float | None,
+                 k2: float | None, k3: float | None) -> Any:
+    from vrelab.sensor import load_sensor
+
+    return load_sensor(name, range_g=range_g, axis=axis, odr_hz=odr_hz, k2_ug_per_g2=k2, k3_ug_per_g3=k3)
+
+
+def sensor_for(params: Mapping[str, Any]) -> Any:
+    """The :class:`vrelab.sensor.Sensor` of a point: a preset (or file) as configured, with any
+    ``fn_hz``, ``q``, ``offset_g`` of the point (a Monte Carlo unit's draws) put in its place."""
+    s = _base_sensor(
+        params.get("sensor", "adxl355"),
+        params.get("range_g"),
+        params.get("axis"),
+        params.get("odr_hz"),
+        params.get("k2_ug_per_g2"),
+        params.get("k3_ug_per_g3"),
+    )
+    over = {k: float(params[k]) for k in ("fn_hz", "q", "offset_g") if k in params}
+    # Sensor is frozen and validates in __post_init__, so replace() checks the drawn values too
+    return dataclasses.replace(s, **over) if over else s
+
+
+@functools.lru_cache(maxsize=64)
+def _profile(text: str) -> Any:
+    from vrelab.profiles import parse_profile
+
+    return parse_profile(text)
+
+
+def _excitation(params: Mapping[str, Any]) -> tuple[str, Any]:
+    if ("profile" in params) == ("freq_hz" in params):
+        raise ValueError("give exactly one of profile (random) and freq_hz (sine)")
+    if "freq_hz" in params:
+        return "sine", float(params["freq_hz"])
+    return "random", _profile(params["profile"])
+
+
 def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
-    raise NotImplementedError("predict point kind: waiting for vrelab.predict")
+    """:func:`vrelab.predict.predict` at one level; ``seed`` is unused (no randomness)."""
+    from vrelab.predict import predict
+
+    _, excitation = _excitation(params)
+    pred = predict(sensor_for(params), excitation, [float(params["rms_g"])], static_g=float(params.get("static_g", 1.0)))
+    lv = pred.levels[0]
+    sh = lv.shares
+    return {
+        "vre_g": lv.vre_g,
+        "tilt_error_deg": lv.tilt_error_deg,
+        "vre_clip_g": sh.get("clip_g", math.nan),
+        "vre_poly_g": sh.get("nonlinearity_g", math.nan),
+        "vre_overrange_g": sh.get("overrange_g", math.nan),
+        "rms_mass_g": lv.sigma_proof_mass_g,
+        "rms_out_g": lv.sigma_output_g,
+        "valid": float(lv.valid),
+    }
 
 
 def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
-    raise NotImplementedError("simulate point kind: waiting for vrelab.shaker")
+    """One level of the simulated shaker test, its randomness drawn from the point's ``seed``."""
+    from vrelab.models.design import tilt_error_deg
+    from vrelab.shaker import run_random_test, run_sine_test
+
+    mode, excitation = _excitation(params)
+    sensor = sensor_for(params)
+    rms = float(params["rms_g"])
+    static = float(params.get("static_g", 1.0))
+    seconds = float(params.get("seconds", 2.0))
+    baseline = float(params.get("baseline_s", 1.0))
+    # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
+    seed_int = int(seed.generate_state(1, dtype=np.uint64)[0])
+    if mode == "sine":
+        res = run_sine_test(sensor, [excitation], [rms], static, seconds=seconds, baseline_s=baseline, seed=seed_int)
+    else:
+        res = run_random_test(sensor, excitation, [rms], static, seconds=seconds, baseline_s=baseline, seed=seed_int)
+    lv = res.levels[0]
+    return {
+        "vre_g": lv.vre.value,
+        "u_vre_g": lv.vre.u,
+        "tilt_error_deg": float(tilt_error_deg(lv.vre.value)),
+        "rms_measured_g": lv.rms_g,
+        "n_saturated": float(lv.n_saturated),
+    }

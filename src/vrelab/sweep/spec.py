@@ -97,7 +97,6 @@ _COMMON = {
     "fn_hz": _P,
     "q": _P,
     "offset_g": _F,
-    "tilt_deg": _F,
 }
 PARAMS: dict[str, dict[str, Param]] = {
     "model": {
@@ -107,6 +106,7 @@ PARAMS: dict[str, dict[str, Param]] = {
         "freq_hz": _P,
         "f_lo_hz": _P,
         "f_hi_hz": _P,
+        "tilt_deg": _F,
     },
     "predict": {
         **_COMMON,
@@ -117,7 +117,7 @@ PARAMS: dict[str, dict[str, Param]] = {
         "freq_hz": _P,
     },
 }
-PARAMS["simulate"] = dict(PARAMS["predict"])
+PARAMS["simulate"] = {**PARAMS["predict"], "baseline_s": _P}
 REQUIRED: dict[str, tuple[str, ...]] = {"model": ("rms_g",), "predict": ("rms_g",), "simulate": ("rms_g",)}
 
 _DISTS: dict[str, tuple[str, ...]] = {
@@ -317,6 +317,26 @@ def _distribution(kind: str, name: str, raw: Any) -> Distribution:
     return Distribution(name, dist, (args[0], args[1]))
 
 
+def _check_names(fixed: Mapping[str, Any], grid: list[tuple[str, tuple[Any, ...]]]) -> None:
+    """Profiles and sensors are names or files: check each once here, not once per point."""
+    from vrelab.profiles import parse_profile
+    from vrelab.sensor import load_sensor
+
+    values = {k: [("fixed." + k, v)] for k, v in fixed.items()}
+    for k, vs in grid:
+        values[k] = [(f"grid.{k}", v) for v in vs]
+    for field_name, v in values.get("profile", []):
+        try:
+            parse_profile(v)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{field_name}: {exc}") from None
+    for field_name, v in values.get("sensor", []):
+        try:
+            load_sensor(v)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{field_name}: {exc}") from None
+
+
 _TOP = {"name", "kind", "function", "seed", "seconds", "retries", "chunk", "fixed", "grid", "montecarlo", "output"}
 
 
@@ -383,6 +403,13 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
         for r in REQUIRED[kind]:
             if r not in have:
                 raise ValueError(f"{r}: kind {kind!r} needs it in [fixed] or [grid]")
+
+    if kind in ("predict", "simulate"):
+        have = set(fixed) | {k for k, _ in grid}
+        if ("profile" in have) == ("freq_hz" in have):
+            raise ValueError(f"profile: kind {kind!r} needs exactly one of profile (random) and freq_hz (sine)")
+
+        _check_names(fixed, grid)
 
     out = _table(doc, "output")
     extra = sorted(set(out) - {"variables", "formats"})
