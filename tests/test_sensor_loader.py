@@ -42,6 +42,8 @@ def test_every_preset_loads_for_every_range_axis_odr_it_declares(name):
                 assert s.rails_g[0] < 0 < s.rails_g[1]
                 json.dumps(s.to_dict())  # the description is plain data
                 assert s.name in s.describe()
+                c = s.conditions(static_g=1.0).to_dict()
+                assert (c["sensor"], c["axis"], c["odr_hz"], c["static_g"]) == (name, axis, odr, 1.0)
 
 
 @pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])

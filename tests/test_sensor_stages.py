@@ -8,6 +8,8 @@ from the stages' own ``response``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -25,7 +27,9 @@ from vrelab.sensor.stages import (
     Quantize,
     Resonator,
     Stage,
+    StageBase,
 )
+from vrelab.sensor.chain import SensorChain
 
 
 def _run(stage, x, fs, block=None, seed=None):
@@ -288,6 +292,16 @@ def test_every_stage_follows_the_protocol():
         assert isinstance(s, Stage)
     assert Polynomial().is_static and Clip(-1, 1).is_static and Quantize(1.0).is_static
     assert not Resonator(1.0, 1.0).is_static and not OverRange(1.0, 1.0).is_static
+
+    @dataclass(frozen=True)
+    class Gain(StageBase):  # a user stage: only process() to write
+        k: float
+
+        def process(self, x, state, fs_hz):
+            return self.k * x, state
+
+    y, stats = SensorChain((Gain(2.0), Decimate(2))).apply(np.arange(6.0), 10.0)
+    np.testing.assert_array_equal(y, [0.0, 4.0, 8.0])
 
 
 @pytest.mark.parametrize(

@@ -20,6 +20,7 @@ from vrelab.sensor.stages import (
     Quantize,
     Resonator,
     Stage,
+    StageBase,
 )
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "Resonator",
     "SensorChain",
     "Stage",
+    "StageBase",
 ]
 
 from vrelab.sensor.loader import Sensor, list_presets, load_sensor  # noqa: E402

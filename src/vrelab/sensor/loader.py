@@ -34,6 +34,7 @@ from typing import Any, Callable, Literal, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.results import Conditions
 from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.stages import (
     AntiAlias,
@@ -282,6 +283,20 @@ class Sensor:
         return h
 
     # ------------------------------------------------------------------ reporting
+
+    def conditions(self, static_g: float | None = None, profile: str | None = None, model: str | None = None) -> Conditions:
+        """The :class:`vrelab.results.Conditions` this sensor configuration contributes (SPEC 1.4)."""
+        return Conditions(
+            sensor=self.name,
+            model=model,
+            profile=profile,
+            static_g=static_g,
+            range_g=self.range_g,
+            bandwidth_hz=self.bandwidth_hz,
+            odr_hz=self.odr_hz,
+            axis=self.axis,
+            extra={"full_scale_g": self.full_scale_g, "rails_g": list(self.rails_g), "clip_position": self.clip_position},
+        )
 
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)

@@ -48,6 +48,7 @@ ComplexArray = NDArray[np.complex128]
 
 __all__ = [
     "Stage",
+    "StageBase",
     "Resonator",
     "Polynomial",
     "OverRange",
@@ -124,8 +125,8 @@ def _below_nyquist(stage: object, field: str, f_hz: float, fs_hz: float) -> None
         )
 
 
-class _Base:
-    """Defaults shared by the built-in stages."""
+class StageBase:
+    """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one."""
 
     is_static: ClassVar[bool] = True
     rate_factor: ClassVar[int] = 1
@@ -211,7 +212,7 @@ def _filter(x: FloatArray, state: _FilterState) -> tuple[FloatArray, _FilterStat
 
 
 @dataclass(frozen=True)
-class Resonator(_Base):
+class Resonator(StageBase):
     """Proof-mass resonance: a second-order low-pass with unity gain at DC.
 
     Parameters
@@ -255,7 +256,7 @@ class Resonator(_Base):
 
 
 @dataclass(frozen=True)
-class AntiAlias(_Base):
+class AntiAlias(StageBase):
     """Analog anti-alias filter, modelled as an analog Butterworth low-pass.
 
     Parameters
@@ -299,7 +300,7 @@ LowPassKind = Literal["butterworth", "bessel"]
 
 
 @dataclass(frozen=True)
-class LowPass(_Base):
+class LowPass(StageBase):
     """Digital low-pass of the sensor (ADXL355: corner = ODR/4), designed once per rate.
 
     Parameters
@@ -348,7 +349,7 @@ class LowPass(_Base):
 
 
 @dataclass(frozen=True)
-class HighPass(_Base):
+class HighPass(StageBase):
     """Digital high-pass (Butterworth). Off in every preset.
 
     A high-pass after the nonlinearity removes the very DC shift (VRE) one wants to measure;
@@ -383,7 +384,7 @@ class HighPass(_Base):
 
 
 @dataclass(frozen=True)
-class Polynomial(_Base):
+class Polynomial(StageBase):
     """Scale-factor nonlinearity on the total input ``a`` (static field included).
 
     Parameters
@@ -411,7 +412,7 @@ class Polynomial(_Base):
 
 
 @dataclass(frozen=True)
-class Offset(_Base):
+class Offset(StageBase):
     """Constant offset ``y = x + offset_g`` (0 g offset of the part, ±25 mg typ. for ADXL355)."""
 
     offset_g: float = 0.0
@@ -429,7 +430,7 @@ class _ClipCount(NamedTuple):
 
 
 @dataclass(frozen=True)
-class Clip(_Base):
+class Clip(StageBase):
     """Rails: samples beyond ``[low_g, high_g]`` read as the rail (censoring, SPEC 1.1).
 
     Counts the clipped samples (``stats``: ``clipped_low``, ``clipped_high``,
@@ -458,7 +459,7 @@ class Clip(_Base):
 
 
 @dataclass(frozen=True)
-class Quantize(_Base):
+class Quantize(StageBase):
     """Rounding to the output LSB: ``y = lsb·round(x/lsb)`` (ties to even)."""
 
     lsb_g: float
@@ -474,7 +475,7 @@ class Quantize(_Base):
 
 
 @dataclass(frozen=True)
-class Decimate(_Base):
+class Decimate(StageBase):
     """Keep every ``factor``-th sample, the phase carried across blocks.
 
     No filtering: anti-aliasing is the job of the low-pass before it (as in the part, whose
@@ -508,7 +509,7 @@ class _NoiseState(NamedTuple):
 
 
 @dataclass(frozen=True)
-class Noise(_Base):
+class Noise(StageBase):
     """Additive white Gaussian noise with one-sided density ``density_ug_per_rthz``.
 
     Parameters
@@ -575,7 +576,7 @@ class _HoldState(NamedTuple):
 
 
 @dataclass(frozen=True)
-class OverRange(_Base):
+class OverRange(StageBase):
     """Over-range protection: above ``threshold_g`` the output goes to ``value_g`` for ``hold_s``.
 
     Parameters
