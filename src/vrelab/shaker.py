@@ -55,6 +55,9 @@ DriveMethod = Literal["gaussian", "multisine"]
 BLOCK_INTERNAL = 1 << 17
 # The record's Nyquist frequency must exceed the highest drive frequency by this factor.
 _NYQUIST_MARGIN = 1.25
+# Windows of the reduction a segment must hold after the settling trim (the reduction ignores
+# shorter segments).
+MIN_WINDOWS = 4
 # DUT samples within this many LSB (or 1e-9 g) of a rail count as saturated.
 _RAIL_TOL_LSB = 0.5
 
@@ -389,6 +392,19 @@ def _reduce(
     return levels, warnings
 
 
+def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None:
+    """Each segment must leave the reduction enough to average after the settling trim."""
+    from vrelab.analysis.reduction import WINDOW_S
+
+    need = MIN_WINDOWS * WINDOW_S
+    for name, value in (("seconds", seconds), ("baseline_s", baseline_s)):
+        if value - 2 * settle_s < need - 1e-9:
+            raise ValueError(
+                f"{name} must exceed 2·settle_s + {need:g} s (the reduction averages {MIN_WINDOWS} windows "
+                f"of {WINDOW_S:g} s at least), got {name}={value:g} with settle_s={settle_s:g}"
+            )
+
+
 def _validate_levels(name: str, levels: Sequence[float]) -> list[float]:
     arr = V.positive(name, np.atleast_1d(np.asarray(levels, dtype=np.float64)))
     if arr.ndim != 1 or arr.size == 0:
@@ -420,8 +436,7 @@ def plan_random_test(
     baseline_s = V.positive_scalar("baseline_s", baseline_s)
     settle_s = float(V.non_negative("settle_s", settle_s))
     V.one_of("drive_method", drive_method, ("gaussian", "multisine"))
-    if not (2 * settle_s < min(seconds, baseline_s)):
-        raise ValueError(f"settle_s must be under half of seconds and of baseline_s, got settle_s={settle_s}")
+    _check_durations(seconds, baseline_s, settle_s)
     f_lo, f_hi = profile.band
     fs_int = _fs_internal(sensor, f_hi, fs_internal_hz)
     rates = _choose_rates(sensor.chain(fs_int), fs_int, f_hi)
@@ -592,8 +607,7 @@ def plan_sine_test(
     seconds = V.positive_scalar("seconds", seconds)
     baseline_s = V.positive_scalar("baseline_s", baseline_s)
     settle_s = float(V.non_negative("settle_s", settle_s))
-    if not (2 * settle_s < min(seconds, baseline_s)):
-        raise ValueError(f"settle_s must be under half of seconds and of baseline_s, got settle_s={settle_s}")
+    _check_durations(seconds, baseline_s, settle_s)
     f_max = max(freqs)
     fs_int = _fs_internal(sensor, f_max, fs_internal_hz)
     if f_max >= fs_int / (2 * _NYQUIST_MARGIN):

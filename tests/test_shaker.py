@@ -1,0 +1,290 @@
+"""The simulated shaker test against analytic models and the article's case study.
+
+Reference values and their sources are in each test's name or docstring: the censored
+clipping model (SPEC 1.1), VRE = VRC·rms² (SPEC 1.2, IEEE 1293), the resonance factor |H(f)|²
+(SPEC 1.3), the seed article's Figures 1-4 and the ADXL355 data sheet's VRE limit (SPEC 2).
+Records are short (seconds per level) and every seed is fixed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from vrelab import shaker
+from vrelab.models.clipping import censored_mean_shift
+from vrelab.profiles import RandomProfile
+from vrelab.sensor import load_sensor
+
+ARTICLE_PROFILE = RandomProfile.flat(50.0, 2000.0)  # the article's random profile (SPEC 3)
+
+
+def _combined(a, b) -> float:
+    return math.hypot(a.vre.u, b.vre.u)
+
+
+# --- ideal sensor against the closed forms ------------------------------------------------------
+
+
+def test_ideal_sensor_random_matches_censored_model_spec_1_1():
+    """Ideal ±2 g sensor in a 1 g field: simulated VRE equals the censored Gaussian mean shift
+    (SPEC 1.1) at the realised drive rms, within 3 standard uncertainties, at four levels."""
+    sensor = load_sensor("ideal", range_g=2)
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [0.5, 1.0, 1.5, 2.5], static_g=1.0,
+                                 seconds=2.0, baseline_s=0.6, seed=11)
+    assert len(res.levels) == 4
+    for lv, nominal in zip(res.levels, [0.5, 1.0, 1.5, 2.5]):
+        assert lv.rms_g == pytest.approx(nominal, rel=0.03)  # the drive's rms, in band
+        model = float(censored_mean_shift(1.0, lv.rms_g, -2.0, 2.0))
+        assert abs(lv.vre.value - model) < 3 * lv.vre.u, (lv.rms_g, lv.vre, model)
+        if nominal >= 1.0:
+            assert lv.vre.u < 0.1 * abs(model)  # the check has teeth
+    rail = res.fits[0]
+    assert rail.model == "clip-censored"
+    assert abs(rail.params["rail_g"].value - 2.0) < 3 * rail.params["rail_g"].u + 0.02
+
+
+def test_ideal_sensor_k2_gaussian_gives_k2_rms2_spec_1_2():
+    """Gaussian drive on a quadratic sensor, axis horizontal (g0 = 0), far from the rails:
+    VRE = k2·E[x²] = k2·rms² (SPEC 1.2)."""
+    k2_ug = 10000.0
+    sensor = load_sensor("ideal", range_g=40, k2_ug_per_g2=k2_ug)
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [1.0, 2.0, 3.0], static_g=0.0,
+                                 seconds=2.0, baseline_s=0.6, seed=5)
+    for lv in res.levels:
+        expected = k2_ug * 1e-6 * lv.rms_g**2
+        assert abs(lv.vre.value - expected) < 3 * lv.vre.u, (lv.rms_g, lv.vre, expected)
+    vrc = next(f for f in res.fits if f.model == "vrc") if any(f.model == "vrc" for f in res.fits) else None
+    if vrc is not None:
+        assert abs(vrc.params["vrc_ug_per_g2"].value - k2_ug) < 3 * vrc.params["vrc_ug_per_g2"].u
+
+
+def test_ideal_sensor_k2_sine_gives_k2_rms2_ieee1293():
+    """Sine method (IEEE 1293) on a quadratic sensor: VRE = k2·rms² at every level and the
+    fitted VRC is k2 (SPEC 1.2: E[x²] = G0²/2 = rms²)."""
+    k2_ug = 500.0
+    sensor = load_sensor("ideal", range_g=8, k2_ug_per_g2=k2_ug)
+    res = shaker.run_sine_test(sensor, [100.0], [0.5, 1.0, 2.0], static_g=0.0, seconds=1.0,
+                               baseline_s=0.6, seed=1)
+    for lv in res.levels:
+        assert lv.freq_hz == pytest.approx(100.0, rel=1e-6)
+        assert lv.rms_g == pytest.approx([0.5, 1.0, 2.0][res.levels.index(lv)], rel=1e-6)
+        assert lv.vre.value == pytest.approx(k2_ug * 1e-6 * lv.rms_g**2, rel=1e-4, abs=1e-9)
+    (fit,) = res.fits
+    assert fit.params["vrc_ug_per_g2"].value == pytest.approx(k2_ug, rel=1e-4)
+    assert fit.freq_hz == 100.0
+
+
+def test_sine_at_resonance_rectifies_q_squared_more_spec_1_3():
+    """Nonlinearity on the proof-mass motion: VRC_eff(f) = VRC·|H(f)|² (SPEC 1.3), about Q²
+    at fn. Sensor: ideal rails and k2, plus a resonance fn = 2.4 kHz, Q = 7.4 (ADXL355 X/Y)."""
+    fn, q, k2_ug = 2400.0, 7.4, 1000.0
+    sensor = dataclasses.replace(load_sensor("ideal", range_g=40, k2_ug_per_g2=k2_ug), fn_hz=fn, q=q)
+    res = shaker.run_sine_test(sensor, [100.0, fn], [0.05, 0.1], static_g=0.0, seconds=0.6,
+                               baseline_s=0.5, settle_s=0.05, seed=2)
+    vrc = {f.freq_hz: f.params["vrc_ug_per_g2"].value for f in res.fits}
+
+    def h2(f: float) -> float:
+        r = f / fn
+        return 1.0 / ((1 - r * r) ** 2 + (r / q) ** 2)
+
+    assert vrc[100.0] == pytest.approx(k2_ug * h2(100.0), rel=0.01)
+    assert vrc[fn] == pytest.approx(k2_ug * h2(fn), rel=0.02)
+    assert vrc[fn] / vrc[100.0] == pytest.approx(q**2, rel=0.03)
+
+
+def test_doubling_internal_rate_moves_vre_much_less_than_its_uncertainty():
+    """Discretisation error < statistical uncertainty: the ADXL355 chain (resonance Q = 7.4,
+    anti-alias, 4th-order low-pass, k2 = 1000 µg/g², 50 times the preset's) run noise-free at
+    its internal rate and at twice it gives VREs that differ by less than half the standard
+    uncertainty the noisy sensor has for the same (short) test, and by under 0.5 %."""
+    noisy = load_sensor("adxl355", range_g=8, axis="x", k2_ug_per_g2=1000.0)
+    clean = dataclasses.replace(noisy, noise_ug_per_rthz=0.0, lsb_g=None)
+    kw = dict(static_g=1.0, seconds=0.6, baseline_s=0.5, settle_s=0.05, seed=4)
+    fs = noisy.internal_rate_hz(1000.0)
+    base = shaker.run_sine_test(clean, [1000.0], [1.0, 2.0], fs_internal_hz=fs, **kw)
+    double = shaker.run_sine_test(clean, [1000.0], [1.0, 2.0], fs_internal_hz=2 * fs, **kw)
+    ref = shaker.run_sine_test(noisy, [1000.0], [1.0, 2.0], **kw)
+    assert double.conditions.extra["fs_internal_hz"] == 2 * fs
+    for a, b, r in zip(base.levels, double.levels, ref.levels):
+        assert abs(a.vre.value) > 10 * r.vre.u  # a VRE well above the noise
+        assert abs(a.vre.value - b.vre.value) < 0.5 * r.vre.u, (a.vre, b.vre, r.vre)
+        assert abs(a.vre.value - b.vre.value) < 0.005 * abs(b.vre.value)
+
+
+# --- the article's case study (seed article, SPEC 2) -------------------------------------------
+
+
+def test_article_figure1_pm2g_in_1g_field():
+    """Seed article Fig. 1: a ±2 g sensor in a 1 g field shows about -100 mg at 1 g rms and
+    nothing visible at 0.3 g rms (SPEC 1.1: -83 mg censored)."""
+    sensor = load_sensor("ideal", range_g=2)
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [0.3, 1.0], static_g=1.0, seconds=2.0,
+                                 baseline_s=0.6, seed=3)
+    small, one = res.levels
+    assert abs(small.vre.value) < 1e-3
+    assert -0.100 - 3 * one.vre.u < one.vre.value < -0.075
+
+
+def test_article_datasheet_vre_limit_adxl355_z():
+    """ADXL355 data sheet (SPEC 2): |VRE| < 0.4 g on ±2 g, 1 g orientation, 2.5 g rms random
+    50 Hz-2 kHz, ODR 4 kHz (Z axis, the article's Fig. 2 axis). It is a real, large VRE: above
+    0.2 g."""
+    sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [2.5], static_g=1.0, seconds=2.0,
+                                 baseline_s=0.6, seed=7)
+    (lv,) = res.levels
+    assert -0.4 < lv.vre.value - 3 * lv.vre.u and lv.vre.value < -0.2
+    assert "saturated" in lv.flags and lv.n_saturated > 0
+
+
+def test_article_figure2_follows_clipping_then_departs_with_overrange():
+    """Seed article Fig. 2 (ADXL355 ±2 g Z, 1 g field, 50 Hz-2 kHz): VRE follows a clipping
+    model with an effective rail near 2.5 g up to about 2.5 g rms, then departs (more negative)
+    once the ±8 g over-range protection trips (crest factor ≈ 3)."""
+    sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    levels = [0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0, 3.5, 4.0]
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, levels, static_g=1.0, seconds=2.0,
+                                 baseline_s=0.6, seed=8)
+    fit = next(f for f in res.fits if f.model == "clip-censored")
+    rail = fit.params["rail_g"].value
+    assert 2.2 < rail < 2.9  # article: 2.5 g (truncated fit); output low-pass shrinks the clip
+    assert fit.departure_rms_g is not None and 2.4 <= fit.departure_rms_g <= 4.0
+    top = res.levels[-1]
+    model_top = float(censored_mean_shift(1.0, top.rms_g, -rail, rail))
+    assert top.vre.value < model_top - 3 * top.vre.u  # departs downward (over-range pulls to 0)
+    assert "overrange" in top.flags
+
+
+def test_article_figure3_high_q_axes_rectify_more():
+    """Seed article Fig. 3 (ADXL355 ±8 g, 1 kHz bandwidth): X (Q 7.4) rectifies more than Z
+    (Q 1.5) at high levels: the resonance lifts the proof-mass motion into the ±16 g
+    over-range threshold."""
+    out = {}
+    for axis in ("x", "z"):
+        sensor = load_sensor("adxl355", range_g=8, axis=axis, odr_hz=4000)
+        (lv,) = shaker.run_random_test(sensor, ARTICLE_PROFILE, [4.0], static_g=1.0, seconds=3.0,
+                                       baseline_s=0.6, seed=9).levels
+        out[axis] = lv
+    assert abs(out["x"].vre.value) - abs(out["z"].vre.value) > 3 * _combined(out["x"], out["z"])
+
+
+def test_article_figure4_narrow_bandwidth_rectifies_less():
+    """Seed article Fig. 4 (ADXL355 ±2 g Y, 1 g field): 125 Hz bandwidth (ODR 500) rectifies
+    much less than 1 kHz (ODR 4000): the output clip sits after the low-pass (SPEC 1.3)."""
+    vre = {}
+    for odr in (500.0, 4000.0):
+        sensor = load_sensor("adxl355", range_g=2, axis="y", odr_hz=odr)
+        (lv,) = shaker.run_random_test(sensor, ARTICLE_PROFILE, [1.5], static_g=1.0, seconds=2.0,
+                                       baseline_s=0.6, seed=10).levels
+        vre[odr] = lv
+    assert vre[4000.0].vre.value < -0.05
+    assert abs(vre[500.0].vre.value) < 0.25 * abs(vre[4000.0].vre.value)
+    assert vre[500.0].vre.value - vre[4000.0].vre.value > 3 * _combined(vre[500.0], vre[4000.0])
+
+
+# --- the record ---------------------------------------------------------------------------------
+
+
+def test_record_is_deterministic_and_block_size_independent():
+    """The lazily generated record: same samples whatever the block size, a pass that starts
+    inside the record (resumed from a segment checkpoint) equals the slice of a full pass, and
+    the record rate holds the 2 kHz drive (Nyquist >= 1.25·f_max) with the DUT held at its ODR."""
+    sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=1000)
+    rec = shaker.plan_random_test(sensor, ARTICLE_PROFILE, [1.0, 2.0], seconds=0.5, baseline_s=0.5,
+                                  settle_s=0.05, seed=1)
+    assert rec.fs_hz >= 2 * 1.25 * 2000
+    hold = int(round(rec.fs_hz / 1000))
+    full = {c: np.concatenate([b[c] for b in rec.blocks(1 << 20, rec.channels)]) for c in rec.channels}
+    assert full["dut"].size == rec.n_samples == full["reference"].size
+    other = {c: np.concatenate([b[c] for b in rec.blocks(777, rec.channels)]) for c in rec.channels}
+    for c in rec.channels:
+        np.testing.assert_array_equal(full[c], other[c])
+    seg = rec.schedule.segments[3]
+    i0, i1 = int(seg.start_s * rec.fs_hz) + 123, int(seg.end_s * rec.fs_hz) - 5
+    part = np.concatenate([b["dut"] for b in rec.blocks(1000, ["dut"], i0, i1)])
+    np.testing.assert_array_equal(part, full["dut"][i0:i1])
+    d = full["dut"][: hold * 200].reshape(200, hold)
+    assert np.all(d == d[:, :1])  # held between ODR updates
+    base = full["reference"][: int(0.5 * rec.fs_hz)]
+    assert np.all(base == 0)  # the baseline is vibration off
+    assert rec.saturated is not None and rec.saturated[0] == 0
+
+
+def test_record_file_round_trip_gives_the_same_levels(tmp_path):
+    """record_path writes reference, dut and schedule; reducing the file gives the same VRE as
+    reducing the simulation."""
+    from vrelab.analysis import open_record, reduce_record
+
+    sensor = load_sensor("adxl355", range_g=2, axis="z")
+    kw = dict(static_g=1.0, seconds=1.0, baseline_s=0.6, seed=12)
+    path = tmp_path / "record.h5"
+    with_file = shaker.run_random_test(sensor, ARTICLE_PROFILE, [1.0, 2.0], record_path=path, **kw)
+    direct = shaker.run_random_test(sensor, ARTICLE_PROFILE, [1.0, 2.0], **kw)
+    for a, b in zip(with_file.levels, direct.levels):
+        assert a.vre.value == pytest.approx(b.vre.value, rel=1e-9, abs=1e-12)
+        assert a.rms_g == pytest.approx(b.rms_g, rel=1e-9)
+    rec = open_record(path, dut="dut", reference="reference")
+    assert rec.fs_hz == with_file.conditions.extra["fs_record_hz"]
+    levels, _ = reduce_record(rec, method="random", band_hz=(25.0, 4000.0), settle_s=0.1)
+    assert [round(lv.vre.value, 9) for lv in levels] == [round(lv.vre.value, 9) for lv in direct.levels]
+
+
+def test_result_carries_conditions_and_provenance():
+    sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [1.0], static_g=1.0, seconds=0.5,
+                                 baseline_s=0.5, settle_s=0.05, seed=3)
+    c = res.conditions
+    assert (c.sensor, c.model, c.static_g, c.range_g, c.axis, c.odr_hz, c.bandwidth_hz) == (
+        "adxl355", "simulation", 1.0, 2.0, "z", 4000.0, 1000.0)
+    assert "50" in c.profile and "2000" in c.profile
+    for key in ("seed", "seconds", "fs_internal_hz", "fs_record_hz", "drive_method"):
+        assert key in c.extra
+    assert res.kind == "simulation" and res.method == "random"
+    assert res.provenance["function"] == "vrelab.shaker.run_random_test"
+    d = res.to_dict()
+    assert {"rms_g", "vre_g", "u_vre_g"} <= set(d["levels"][0])
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(levels_grms=[1.0, -1.0]), "levels_grms"),
+        (dict(levels_grms=[]), "levels_grms"),
+        (dict(static_g=float("nan")), "static_g"),
+        (dict(seconds=0.0), "seconds"),
+        (dict(drive_method="pink"), "drive_method"),
+    ],
+)
+def test_bad_input_raises_one_line_value_error(kwargs, match):
+    sensor = load_sensor("ideal")
+    args = dict(levels_grms=[1.0])
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        shaker.run_random_test(sensor, ARTICLE_PROFILE, **args)
+
+
+def test_monte_carlo_lot_is_reproducible_and_spreads_with_q():
+    """Per-unit seeds from SeedSequence.spawn: the same lot whatever the executor; a zero
+    spread gives identical units; a spread of Q spreads the VRE (sine at fn: VRE ∝ |H|² ≈ Q²)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    sensor = load_sensor("adxl355", range_g=8, axis="z", k2_ug_per_g2=1000.0)
+    lot = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=6, spreads={"q": (1.5, 0.2)}, seed=3,
+                                 static_g=0.0)
+    with ThreadPoolExecutor(2) as ex:
+        again = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=6, spreads={"q": (1.5, 0.2)},
+                                       seed=3, static_g=0.0, executor=ex)
+    np.testing.assert_array_equal(lot.vre_g, again.vre_g)
+    qs = np.array([p["q"] for p in lot.params])
+    assert qs.std() > 0.05
+    # VRE = k2·(0.5·|H(fn)|)² = k2·0.25·Q² at the resonance (SPEC 1.3)
+    np.testing.assert_allclose(lot.vre_g[:, 0], 1000e-6 * 0.25 * qs**2, rtol=0.02)
+    flat = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=3, spreads={"q": (1.5, 0.0)}, seed=3,
+                                  static_g=0.0)
+    assert np.all(flat.vre_g == flat.vre_g[0])
+    d = lot.to_dict()
+    assert len(d["units"]) == 6 and d["summary"][0]["rms_g"] == 0.5
