@@ -527,7 +527,7 @@ class Noise(StageBase):
     """
 
     density_ug_per_rthz: float
-    frame_size: int = 65536
+    frame_size: int = 16384  # 128 kB cached per run (runs are deep-copied as checkpoints)
     is_static: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
