@@ -162,7 +162,7 @@ class ChainRun:
         y = x
         for i, stage in enumerate(self.chain.stages):
             y, self._states[i] = stage.process(y, self._states[i], self._rates[i])
-        if np.shares_memory(y, x):
+        if np.may_share_memory(y, x):
             y = y.copy()  # the caller owns the output; never hand back (a view of) the input
         self._n_in += x.size
         self._n_out += y.size

@@ -127,7 +127,7 @@ class Sensor:
     ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
     axes: tuple[str, ...] = ("x", "y", "z")
     odrs_hz: tuple[float, ...] = ()
-    facts: Mapping[str, str] = field(default_factory=dict)
+    facts: Mapping[str, str] = field(default_factory=dict, hash=False)  # a dict: not hashable
 
     def __post_init__(self) -> None:
         def pos(name: str, optional: bool = True) -> None:
