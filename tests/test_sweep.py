@@ -166,6 +166,14 @@ def test_a_point_that_raises_is_retried_then_recorded_failed_and_the_others_fini
     assert {r.attempts for r in res1.records.values() if r.status == "failed"} == {2}
 
 
+def test_on_dask_a_raising_point_is_retried_and_recorded(points_module, cluster, tmp_path):
+    spec = parse_spec(_doc("bad", fixed={"log_dir": str(tmp_path)}))
+    res = run_sweep(spec, tmp_path / "out", backend=DaskBackend(client=cluster))
+    failed = {i: r for i, r in res.records.items() if r.status == "failed"}
+    assert sorted(failed) == [6, 7] and {r.attempts for r in failed.values()} == {2}
+    assert (tmp_path / "calls-3.0-q").read_text() == "xx"  # dask did not hand back the old result
+
+
 def test_a_worker_that_dies_is_pinned_on_its_point_and_loses_no_other(points_module, tmp_path):
     spec = parse_spec(_doc("die"))
     with ProcessBackend(2) as pool:
@@ -206,7 +214,28 @@ def _point_lines(path: Path) -> list[dict]:
     return out
 
 
-def test_sigkill_midway_then_resume_recomputes_nothing_finished(points_module, tmp_path):
+def _children(pid: int) -> list[int]:
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.parametrize("where", [[], ["--workers", "2"]], ids=["serial", "pool"])
+def test_sigkill_midway_then_resume_recomputes_nothing_finished(points_module, tmp_path, where):
     sweep = tmp_path / "slow.toml"
     sweep.write_text(
         textwrap.dedent(
@@ -223,7 +252,7 @@ def test_sigkill_midway_then_resume_recomputes_nothing_finished(points_module, t
         )
     )
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "vrelab", "sweep", str(sweep), "--out", str(out), "--no-progress"]
+    cmd = [sys.executable, "-m", "vrelab", "sweep", str(sweep), "--out", str(out), "--no-progress", *where]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     ck = out / "checkpoint.jsonl"
     deadline = time.monotonic() + 30
@@ -231,9 +260,16 @@ def test_sigkill_midway_then_resume_recomputes_nothing_finished(points_module, t
         if ck.exists() and len(_point_lines(ck)) >= 5:
             break
         time.sleep(0.02)
+    workers = _children(proc.pid)
+    assert len(workers) >= (2 if where else 0)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=10)
     proc.stderr.close()
+    # pool workers notice their parent is gone and exit, instead of waiting for work forever
+    deadline = time.monotonic() + 5
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(w) for w in workers)
     first = {p["i"] for p in _point_lines(ck)}
     assert 5 <= len(first) < 20, "the kill must land midway"
     assert not (out / "result.nc").exists()  # final outputs: complete or absent

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import threading
+import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable
 
@@ -75,6 +77,23 @@ class SerialBackend(Backend):
         super().__init__(SerialExecutor(), 1)
 
 
+def _exit_with_parent(parent_pid: int, period_s: float = 0.5) -> None:
+    """Pool-worker initializer: exit when the parent process is gone.
+
+    A parent killed with SIGKILL cannot shut its pool down, and a spawned worker holds both ends
+    of the task queue, so it would wait for work forever; a daemon thread polls the parent id
+    instead (portable, unlike prctl(PR_SET_PDEATHSIG), which also fires when the *thread* that
+    spawned the worker ends).
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(period_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="vrelab-parent-watch", daemon=True).start()
+
+
 class ProcessBackend(Backend):
     """``ProcessPoolExecutor(max_workers=n)`` on a spawn (default) or forkserver context."""
 
@@ -91,7 +110,12 @@ class ProcessBackend(Backend):
         self._executor = self._new()
 
     def _new(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self.n_workers, mp_context=multiprocessing.get_context(self.context))
+        return ProcessPoolExecutor(
+            max_workers=self.n_workers,
+            mp_context=multiprocessing.get_context(self.context),
+            initializer=_exit_with_parent,
+            initargs=(os.getpid(),),
+        )
 
     @property
     def can_reset(self) -> bool:
