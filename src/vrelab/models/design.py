@@ -1,0 +1,242 @@
+"""The system designer's inverse questions and the test planner's checks (SPEC 1.3, 1.4, 4).
+
+* how much vibration fits in a VRE budget (:func:`max_rms_for_budget`);
+* the largest sine that stays clear of the rails (:func:`max_sine_level_clear_of_rails`);
+* the grms at which Gaussian peaks reach over-range protection (:func:`grms_at_peak_threshold`)
+  and the VRE the protection adds (:func:`overrange_vre`);
+* a VRE as a tilt error (:func:`tilt_error_deg`); the fixture rule (:func:`fixture_resonance_ok`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import optimize
+
+from vrelab import _validate
+from vrelab.models.clipping import mean_shift
+from vrelab.models.dynamics import rice_upcrossing_rate
+from vrelab.models.nonlinearity import vre_poly
+
+Shape = Literal["gaussian", "sine"]
+Kind = Literal["censored", "truncated"]
+
+
+def total_vre(
+    rms_g: ArrayLike,
+    mean_g: float,
+    rail_low_g: float,
+    rail_high_g: float,
+    k2_per_g: float = 0.0,
+    k3_per_g2: float = 0.0,
+    shape: Shape = "gaussian",
+    kind: Kind = "censored",
+) -> NDArray[np.float64] | float:
+    """Clipping plus polynomial VRE, the two added (each small against the signal) [g].
+
+    ``mean_shift(...) + vre_poly(...)``: the nonlinearity's rectified offset plus the shift the
+    rails cause; adding them neglects the clipping of the nonlinearity's own distortion, a
+    second-order effect for k2·rms << 1.
+    """
+    return mean_shift(mean_g, rms_g, rail_low_g, rail_high_g, shape=shape, kind=kind) + vre_poly(
+        rms_g, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape
+    )
+
+
+def max_rms_for_budget(
+    budget_g: float,
+    mean_g: float,
+    rail_low_g: float,
+    rail_high_g: float,
+    k2_per_g: float = 0.0,
+    k3_per_g2: float = 0.0,
+    shape: Shape = "gaussian",
+    kind: Kind = "censored",
+    rms_max_g: float | None = None,
+) -> float:
+    """Largest vibration rms whose |VRE| stays within ``budget_g`` at every lower level [g rms].
+
+    Parameters
+    ----------
+    budget_g : float
+        Allowed |VRE| > 0 [g].
+    mean_g : float
+        Static field along the axis g0 [g].
+    rail_low_g, rail_high_g : float
+        Rails [g] (±inf: none).
+    k2_per_g, k3_per_g2 : float
+        Nonlinearity [1/g, 1/g²] (VRC in µg/g² × 1e-6).
+    shape, kind
+        Vibration shape and clipping model (see :func:`vrelab.models.clipping.mean_shift`).
+    rms_max_g : float, optional
+        Upper end of the search; default 100 × the larger of the rail distances and 1 g.
+
+    Returns
+    -------
+    float
+        The first rms at which |VRE| reaches the budget (rms_g at the crossing).
+
+    Raises
+    ------
+    ValueError
+        If |VRE| exceeds the budget with no vibration at all (mean outside the rails), or never
+        reaches it up to ``rms_max_g``.
+
+    Notes
+    -----
+    |VRE| is scanned on a log grid from 1e-9 g to ``rms_max_g`` up to the first grid point over
+    budget, and the crossing is refined by ``scipy.optimize.brentq`` between that point and the
+    one before, where |VRE| is monotone. Scanning first matters: with a nonlinearity of the
+    opposite sign to the clipping shift, |VRE| can rise, fall through zero and rise again, and
+    the designer wants the first crossing.
+    """
+    budget = _validate.positive_scalar("budget_g", budget_g)
+    mu = _validate.finite_scalar("mean_g", mean_g)
+
+    def excess(rms: float) -> float:
+        return abs(float(total_vre(rms, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind))) - budget
+
+    if excess(0.0) >= 0:
+        raise ValueError(
+            f"budget_g={budget_g!r} is already exceeded with no vibration (mean_g={mean_g!r} "
+            f"outside the rails [{rail_low_g!r}, {rail_high_g!r}])"
+        )
+    if rms_max_g is None:
+        finite_rails = [abs(r - mu) for r in (rail_low_g, rail_high_g) if math.isfinite(r)]
+        rms_max_g = 100.0 * max([1.0, *finite_rails])
+    top = _validate.positive_scalar("rms_max_g", rms_max_g)
+    grid = np.geomspace(1e-9, top, 400)
+    ex = np.abs(np.asarray(total_vre(grid, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind))) - budget
+    over = np.flatnonzero(ex >= 0)
+    if over.size == 0:
+        raise ValueError(f"budget_g={budget_g!r} is never reached for rms up to {top:g} g")
+    i = over[0]
+    lo = grid[i - 1] if i > 0 else 0.0
+    return float(optimize.brentq(excess, lo, grid[i], xtol=1e-15, rtol=1e-13))
+
+
+def max_sine_level_clear_of_rails(
+    static_g: float, rail_low_g: float, rail_high_g: float, gain: float = 1.0
+) -> float:
+    """Largest sine rms (at the input) whose peaks stay within the rails [g rms] (SPEC 4).
+
+    Parameters
+    ----------
+    static_g : float
+        Static field g0 [g] along the axis.
+    rail_low_g, rail_high_g : float
+        Rails L < U [g].
+    gain : float
+        |H(f)| between the input and the rail at the test frequency (the proof-mass
+        amplification |H| of :func:`vrelab.models.dynamics.second_order_response` for a rail at
+        the proof mass, times the filters' gain for a rail at the output). DC passes with gain
+        1, so g0 is not scaled.
+
+    Returns
+    -------
+    float
+        rms = min(U - g0, g0 - L)/(gain·√2): the amplitude at the rail is gain·A.
+    """
+    g0 = _validate.finite_scalar("static_g", static_g)
+    lo = _validate.finite_scalar("rail_low_g", rail_low_g)
+    hi = _validate.finite_scalar("rail_high_g", rail_high_g)
+    k = _validate.positive_scalar("gain", gain)
+    if not lo < g0 < hi:
+        raise ValueError(f"static_g={static_g!r} must lie strictly between the rails [{rail_low_g!r}, {rail_high_g!r}]")
+    return min(hi - g0, g0 - lo) / (k * math.sqrt(2.0))
+
+
+def grms_at_peak_threshold(threshold_g: float, static_g: float = 0.0, crest_factor: float = 3.0) -> float:
+    """grms at which a Gaussian drive's peaks (crest factor × rms) reach a threshold [g rms].
+
+    σ = (T - |g0|)/CF: the peaks on the side of the static field reach T first (SPEC 1.3, 4).
+    ADXL355 on ±2 g: T ≈ 8 g, g0 = 1 g, CF = 3 → 2.33 g rms (the article: "above about
+    2.5 g rms" the data leave the clipping model).
+    """
+    t = _validate.positive_scalar("threshold_g", threshold_g)
+    g0 = _validate.finite_scalar("static_g", static_g)
+    cf = _validate.positive_scalar("crest_factor", crest_factor)
+    if abs(g0) >= t:
+        raise ValueError(f"static_g={static_g!r} is already at or beyond threshold_g={threshold_g!r}")
+    return (t - abs(g0)) / cf
+
+
+def overrange_vre(
+    mean_g: ArrayLike,
+    sigma_g: ArrayLike,
+    threshold_g: ArrayLike,
+    hold_s: ArrayLike,
+    nu0_hz: ArrayLike,
+    value_g: ArrayLike = 0.0,
+) -> NDArray[np.float64] | float:
+    r"""Estimated extra VRE from over-range protection [g] (SPEC 1.3).
+
+    Parameters
+    ----------
+    mean_g : array_like
+        Static field g0 [g].
+    sigma_g : array_like
+        rms of the proof-mass motion (after the resonance) [g].
+    threshold_g : array_like
+        Protection threshold T > 0 [g]; it trips above +T and below -T (ADXL355: ≈ 8 g on the
+        ±2 g range, 16 g on ±4/±8 g, ±25 %).
+    hold_s : array_like
+        How long the output is held after a trip [s] (ADXL355: 0.5 ms).
+    nu0_hz : array_like
+        Mean up-crossing rate of the motion, √(m2/m0) [Hz]
+        (:func:`vrelab.models.dynamics.zero_crossing_rate_hz`).
+    value_g : array_like
+        What the output reads while held [g] (0: "floats toward zero"; the ADXL354 goes to
+        mid-scale, also 0 g).
+
+    Returns
+    -------
+    numpy.ndarray or float
+        VRE_or ≈ p·(value_g - mean_g) [g].
+
+    Notes
+    -----
+    Trips arrive at the Rice rate ν = ν⁺(+T) + ν⁻(-T) (up-crossings of +T plus down-crossings of
+    -T, :func:`~vrelab.models.dynamics.rice_upcrossing_rate`). Treating them as a Poisson
+    stream and the hold as re-triggered by every trip, the output is held when a trip fell in
+    the last ``hold_s``: p = 1 - exp(-ν·hold). During the hold the output reads ``value_g``
+    instead of ≈ g0.
+
+    This is an **estimate**: it assumes Gaussian proof-mass motion, takes crossings as
+    independent (ignores the clustering of crossings within one excursion and the correlation of
+    re-triggering with the motion), and ignores the transient as the output floats.
+    """
+    mu = _validate.finite("mean_g", mean_g)
+    t = _validate.positive("threshold_g", threshold_g)
+    hold = _validate.non_negative("hold_s", hold_s)
+    v = _validate.finite("value_g", value_g)
+    nu = rice_upcrossing_rate(t, mu, sigma_g, nu0_hz) + rice_upcrossing_rate(-t, mu, sigma_g, nu0_hz)
+    p = -np.expm1(-nu * hold)
+    out = np.asarray(p * (v - mu), dtype=np.float64)
+    return out[()] if out.ndim == 0 else out
+
+
+def tilt_error_deg(vre_g: ArrayLike, tilt_deg: ArrayLike = 0.0) -> NDArray[np.float64] | float:
+    """A VRE as an inclinometer's tilt error [deg] (SPEC 4).
+
+    An axis at tilt θ reads g·sin θ, so an offset δ [g] reads as Δθ ≈ δ/cos θ radians
+    (first order in δ), reported in degrees. 1 mg at θ = 0 is 0.0573°.
+    """
+    d = _validate.finite("vre_g", vre_g)
+    th = np.radians(_validate.finite("tilt_deg", tilt_deg))
+    if (np.abs(np.cos(th)) < 1e-12).any():
+        raise ValueError(f"tilt_deg must be away from ±90 deg (the tilt is unobservable there), got {tilt_deg!r}")
+    out = np.degrees(d / np.cos(th))
+    return out[()] if np.ndim(out) == 0 else out
+
+
+def fixture_resonance_ok(fixture_fn_hz: float, f_max_hz: float, factor: float = 1.5) -> bool:
+    """True when the fixture's lowest resonance is at least ``factor`` × the highest test
+    frequency (the article's rule: >= 1.5×), so the fixture does not add its own amplification."""
+    fn = _validate.positive_scalar("fixture_fn_hz", fixture_fn_hz)
+    fmax = _validate.positive_scalar("f_max_hz", f_max_hz)
+    k = _validate.positive_scalar("factor", factor)
+    return fn >= k * fmax

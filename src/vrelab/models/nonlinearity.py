@@ -1,0 +1,324 @@
+"""Rectification by scale-factor nonlinearity (SPEC 1.2): the polynomial model and VRC units.
+
+Output normalised to g: ``y = b0 + a + k2·a² + k3·a³ + k4·a⁴ + …`` with ``a = g0 + x`` the total
+input (static field plus zero-mean vibration) and ``k_n = K_n/K1`` in g^(1-n). The vibration
+moves the mean output by
+
+    VRE = Σ_n k_n·(E[(g0+x)^n] - g0^n) = Σ_n k_n·Σ_{j>=2} C(n,j)·g0^(n-j)·E[x^j],
+
+which needs only the moments of x: :func:`gaussian_moments`, :func:`sine_moments` or
+:func:`sample_moments` supply them, :func:`polynomial_vre` combines them. The VRC (vibration
+rectification coefficient) is k2, quoted in µg/g² (= ppm/g); helpers convert the usual ways a
+datasheet states it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, Mapping, Sequence, overload
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vrelab import _validate
+from vrelab.results import Estimate
+
+Shape = Literal["gaussian", "sine"]
+
+UG = 1e-6  # 1 µg in g
+
+
+# --- moments of the zero-mean vibration ----------------------------------------------------------
+
+
+def _order(order: int) -> int:
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
+        raise ValueError(f"order must be an integer >= 0, got {order!r}")
+    return int(order)
+
+
+def gaussian_moments(sigma_g: ArrayLike, order: int) -> NDArray[np.float64]:
+    """Raw moments E[x^j], j = 0..order, of zero-mean Gaussian vibration.
+
+    Parameters
+    ----------
+    sigma_g : array_like
+        rms σ >= 0 [g].
+    order : int
+        Highest moment.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(order + 1,) + shape(sigma_g)``; row j in g^j.
+
+    Notes
+    -----
+    E[x^j] = 0 for odd j, (j-1)!!·σ^j for even j (E[x²] = σ², E[x⁴] = 3σ⁴, E[x⁶] = 15σ⁶).
+    """
+    n = _order(order)
+    s = _validate.non_negative("sigma_g", sigma_g)
+    out = np.zeros((n + 1,) + s.shape)
+    for j in range(0, n + 1, 2):
+        out[j] = _double_factorial(j - 1) * s**j
+    return out
+
+
+def sine_moments(rms_g: ArrayLike, order: int) -> NDArray[np.float64]:
+    """Raw moments E[x^j], j = 0..order, of a sine x = A·cos θ with A = rms·√2.
+
+    Parameters
+    ----------
+    rms_g : array_like
+        rms of the sine >= 0 [g] (amplitude rms·√2).
+    order : int
+        Highest moment.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(order + 1,) + shape(rms_g)``.
+
+    Notes
+    -----
+    The period average of cos^j θ is 0 for odd j and C(j, j/2)/2^j for even j: 1/2, 3/8, 5/16, …
+    So E[x²] = A²/2 = rms², E[x⁴] = 3A⁴/8 = 1.5·rms⁴ (SPEC 1.2).
+    """
+    n = _order(order)
+    amp = np.sqrt(2.0) * _validate.non_negative("rms_g", rms_g)
+    out = np.zeros((n + 1,) + amp.shape)
+    for j in range(0, n + 1, 2):
+        out[j] = math.comb(j, j // 2) / 2.0**j * amp**j
+    return out
+
+
+def sample_moments(x_g: ArrayLike, order: int, axis: int = -1) -> NDArray[np.float64]:
+    """Central moments E[(x - x̄)^j], j = 0..order, of vibration samples along ``axis``.
+
+    The mean is removed because in the model the static part is ``g0`` and x is the zero-mean
+    vibration; the j = 1 row is therefore 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(order + 1,)`` + the shape of ``x_g`` without ``axis``.
+    """
+    n = _order(order)
+    x = _validate.finite("x_g", x_g)
+    if x.ndim == 0 or x.shape[axis] == 0:
+        raise ValueError(f"x_g must hold at least one sample along axis {axis}, got shape {x.shape}")
+    d = x - x.mean(axis=axis, keepdims=True)
+    out = np.stack([np.mean(d**j, axis=axis) for j in range(n + 1)])
+    out[1] = 0.0
+    return out
+
+
+def _double_factorial(m: int) -> float:
+    return float(math.prod(range(m, 0, -2))) if m > 0 else 1.0
+
+
+# --- the polynomial model -----------------------------------------------------------------------
+
+
+def _coefficients(coeffs_k: Mapping[int, float] | Sequence[float]) -> dict[int, NDArray[np.float64]]:
+    if isinstance(coeffs_k, Mapping):
+        items = dict(coeffs_k)
+    else:
+        items = {n: c for n, c in enumerate(coeffs_k, start=2)}
+    out = {}
+    for n, c in items.items():
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+            raise ValueError(f"coeffs_k: powers must be integers >= 2, got {n!r}")
+        out[int(n)] = _validate.finite(f"k{n}", c)
+    return out
+
+
+def polynomial_vre(
+    coeffs_k: Mapping[int, float] | Sequence[float],
+    static_g: ArrayLike,
+    moments: ArrayLike,
+) -> NDArray[np.float64] | float:
+    r"""VRE of the normalised polynomial y = b0 + a + Σ k_n·a^n, a = g0 + x.
+
+    Parameters
+    ----------
+    coeffs_k : sequence or mapping
+        ``(k2, k3, k4, …)`` in g^(1-n) (k2 in 1/g, k3 in 1/g², …), or a mapping ``{n: k_n}``.
+    static_g : array_like
+        Static acceleration along the axis g0 [g] (+1 axis up in 1 g, -1 down, 0 horizontal).
+    moments : array_like
+        Raw moments of the zero-mean vibration, ``moments[j] = E[x^j]`` [g^j], j = 0..order with
+        order >= the highest power; the trailing dimensions broadcast with ``static_g`` and the
+        coefficients (e.g. one column per vibration level).
+
+    Returns
+    -------
+    numpy.ndarray or float
+        VRE [g].
+
+    Notes
+    -----
+    SPEC 1.2:
+
+    .. math:: \mathrm{VRE} = \sum_n k_n \sum_{j=2}^{n} \binom{n}{j} g_0^{n-j} E[x^j]
+
+    (j = 1 drops out because E[x] = 0). Leading terms:
+    VRE ≈ (k2 + 3·k3·g0)·σ² + k4·(6·g0²·σ² + E[x⁴]).
+
+    **Seed erratum**: the article writes ``VRE = 0 - ā0 - K0 ≈ K2·Grms²``; the rectified shift is
+    ``ā0 - K0 = K2·Grms²`` in LSB, i.e. k2·Grms² in g, and the article omits the g0 terms: in a
+    1 g field the cubic term rectifies too (3·k3·g0·σ²).
+
+    References
+    ----------
+    .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (seed
+       article), with the corrections of SPEC section 1.2.
+    .. [2] IEEE Std 1293-1998, IEEE Standard Specification Format Guide and Test Procedure for
+       Linear, Single-Axis, Nongyroscopic Accelerometers (VRC definition and sine method).
+    """
+    k = _coefficients(coeffs_k)
+    g0 = _validate.finite("static_g", static_g)
+    m = _validate.finite("moments", moments)
+    if m.ndim == 0:
+        raise ValueError("moments must be an array of E[x^j], j = 0..order")
+    top = max(k, default=2)
+    if m.shape[0] <= top:
+        raise ValueError(f"moments: need E[x^j] up to j = {top}, got up to j = {m.shape[0] - 1}")
+    total: NDArray[np.float64] | float = 0.0
+    for n, kn in k.items():
+        inner = sum(math.comb(n, j) * g0 ** (n - j) * m[j] for j in range(2, n + 1))
+        total = total + kn * inner
+    out = np.asarray(total, dtype=np.float64)
+    return out[()] if out.ndim == 0 else out
+
+
+def vre_poly(
+    rms_g: ArrayLike,
+    k2_per_g: ArrayLike,
+    k3_per_g2: ArrayLike = 0.0,
+    k4_per_g3: ArrayLike = 0.0,
+    static_g: ArrayLike = 0.0,
+    shape: Shape = "gaussian",
+) -> NDArray[np.float64] | float:
+    """VRE of the polynomial nonlinearity up to k4 for Gaussian or sine vibration of rms ``rms_g``.
+
+    Parameters
+    ----------
+    rms_g : array_like
+        Vibration rms [g] (for a sine, amplitude = rms·√2).
+    k2_per_g, k3_per_g2, k4_per_g3 : array_like
+        Normalised coefficients [1/g, 1/g², 1/g³]; k2 is the VRC (1 µg/g² = 1e-6 /g).
+    static_g : array_like
+        Static field along the axis g0 [g].
+    shape : {"gaussian", "sine"}
+
+    Returns
+    -------
+    numpy.ndarray or float
+        VRE [g] = (k2 + 3·k3·g0)·rms² + k4·(6·g0²·rms² + E[x⁴]) with E[x⁴] = 3·rms⁴ (Gaussian)
+        or 1.5·rms⁴ (sine); see :func:`polynomial_vre`.
+    """
+    _validate.one_of("shape", shape, ("gaussian", "sine"))
+    moments = (gaussian_moments if shape == "gaussian" else sine_moments)(rms_g, 4)
+    return polynomial_vre((k2_per_g, k3_per_g2, k4_per_g3), static_g, moments)
+
+
+# --- VRC units ----------------------------------------------------------------------------------
+
+
+def ug_per_g2_to_per_g(vrc_ug_per_g2: ArrayLike) -> NDArray[np.float64] | float:
+    """VRC in µg/g² (= ppm/g) to the normalised k2 in 1/g: ×1e-6."""
+    return _out(_validate.finite("vrc_ug_per_g2", vrc_ug_per_g2) * UG)
+
+
+def per_g_to_ug_per_g2(k2_per_g: ArrayLike) -> NDArray[np.float64] | float:
+    """Normalised k2 in 1/g to the VRC in µg/g² (= ppm/g): ×1e6."""
+    return _out(_validate.finite("k2_per_g", k2_per_g) / UG)
+
+
+def ppm_per_g_to_ug_per_g2(vrc_ppm_per_g: ArrayLike) -> NDArray[np.float64] | float:
+    """ppm/g and µg/g² are the same unit (1 ppm of 1 g per g of vibration² = 1 µg/g²)."""
+    return _out(_validate.finite("vrc_ppm_per_g", vrc_ppm_per_g))
+
+
+def ug_per_g2_from_ppm_fs(nonlinearity_ppm_fs: ArrayLike, full_scale_g: ArrayLike) -> NDArray[np.float64] | float:
+    """k2 in µg/g² from a quadratic nonlinearity quoted in ppm of full scale: divide by full scale.
+
+    Parameters
+    ----------
+    nonlinearity_ppm_fs : array_like
+        The deviation at full-scale input, k2·FS², expressed in ppm of FS [ppm FS].
+    full_scale_g : array_like
+        Full scale FS > 0 [g].
+
+    Returns
+    -------
+    numpy.ndarray or float
+        k2 [µg/g²] = ppm_FS / FS: k2·FS² = ppm·1e-6·FS, so k2 = ppm·1e-6/FS per g.
+
+    Notes
+    -----
+    SPEC 1.2: a "ppm of full scale" figure must first be divided by the full scale. This assumes
+    the whole nonlinearity is quadratic and quoted as the end-point deviation at full scale; a
+    figure against a best-fit line, or one that includes a cubic term, bounds k2 only roughly.
+    Example: 0.1 % FS (1000 ppm FS) on ±2 g gives at most 500 µg/g².
+    """
+    fs = _validate.positive("full_scale_g", full_scale_g)
+    return _out(_validate.finite("nonlinearity_ppm_fs", nonlinearity_ppm_fs) / fs)
+
+
+def vrc_ug_per_g2_from_vre(vre_g: ArrayLike, rms_g: ArrayLike) -> NDArray[np.float64] | float:
+    """VRC [µg/g²] from a quoted "VRE at a vibration level": VRC = VRE/rms², VRE in g.
+
+    "X mg at Y g rms" → ``vrc_ug_per_g2_from_vre(X·1e-3, Y)`` = 1e3·X/Y² µg/g². Only meaningful
+    below clipping, where VRE grows as rms² (SPEC 1.2).
+    """
+    rms = _validate.positive("rms_g", rms_g)
+    return _out(_validate.finite("vre_g", vre_g) / rms**2 / UG)
+
+
+@overload
+def separate_k2_k3(vrc_plus: Estimate, vrc_minus: Estimate, static_g: float = 1.0) -> tuple[Estimate, Estimate]: ...
+@overload
+def separate_k2_k3(vrc_plus: ArrayLike, vrc_minus: ArrayLike, static_g: float = 1.0) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]: ...
+def separate_k2_k3(vrc_plus, vrc_minus, static_g=1.0):
+    """Separate k2 and k3 from VRCs measured at +g0 and -g0 orientation (SPEC 1.2).
+
+    Parameters
+    ----------
+    vrc_plus, vrc_minus : Estimate or array_like
+        Apparent VRC (VRE/rms²) with the axis at +g0 and at -g0, any unit U (e.g. µg/g²).
+        Estimates carry a standard uncertainty; the two are taken as independent.
+    static_g : float
+        |g0| [g], 1 for the usual up/down test.
+
+    Returns
+    -------
+    (k2, k3)
+        k2 = (VRC₊ + VRC₋)/2 in U, and k3 = (VRC₊ - VRC₋)/(6·g0) in U/g (µg/g³ for µg/g²
+        input). For Estimates: u(k2) = √(u₊² + u₋²)/2, u(k3) = √(u₊² + u₋²)/(6·g0).
+
+    Notes
+    -----
+    VRC(g0) = k2 + 3·k3·g0 (the g0 term of :func:`polynomial_vre` for n = 3), so the sum
+    cancels k3 and the difference cancels k2. A k4 term adds 6·k4·g0² + 3·k4·σ² to both
+    orientations alike and ends up in k2.
+    """
+    g0 = _validate.positive_scalar("static_g", static_g)
+    if isinstance(vrc_plus, Estimate) or isinstance(vrc_minus, Estimate):
+        if not (isinstance(vrc_plus, Estimate) and isinstance(vrc_minus, Estimate)):
+            raise ValueError("separate_k2_k3: give both VRCs as Estimate, or both as numbers")
+        if vrc_plus.unit != vrc_minus.unit:
+            raise ValueError(f"separate_k2_k3: units differ, {vrc_plus.unit!r} vs {vrc_minus.unit!r}")
+        u = math.hypot(vrc_plus.u, vrc_minus.u)
+        k2 = Estimate((vrc_plus.value + vrc_minus.value) / 2, u / 2, vrc_plus.unit)
+        k3 = Estimate((vrc_plus.value - vrc_minus.value) / (6 * g0), u / (6 * g0), f"{vrc_plus.unit}/g")
+        return k2, k3
+    p = _validate.finite("vrc_plus", vrc_plus)
+    m = _validate.finite("vrc_minus", vrc_minus)
+    return _out((p + m) / 2), _out((p - m) / (6 * g0))
+
+
+def _out(x: NDArray[np.float64]) -> NDArray[np.float64] | float:
+    x = np.asarray(x, dtype=np.float64)
+    return x[()] if x.ndim == 0 else x
