@@ -173,17 +173,21 @@ def test_offset_adds():
 # ---------------------------------------------------------------------------- over-range
 
 
-def _reference_overrange(x, thr, h, value, retrigger):
+def _reference_overrange(x, thr, h, value, retrigger, tau_samples=0.0):
     """Per-sample loop: the obvious (slow) implementation to check the vectorised one."""
     y = x.copy()
-    remaining = 0
+    remaining, m, y0, prev, prev_held = 0, 0, 0.0, 0.0, False
     for i, v in enumerate(x):
-        trip = abs(v) > thr
-        if trip and (retrigger or remaining == 0):
-            remaining = h
+        if abs(v) > thr and (retrigger or remaining == 0):
+            if not prev_held:  # a new episode: remember the output just before it
+                m, y0 = 0, prev
+            remaining = h  # a hold that follows another without a gap continues its decay
+        prev_held = remaining > 0
         if remaining > 0:
-            y[i] = value
+            m += 1
+            y[i] = value if tau_samples == 0 else value + (y0 - value) * np.exp(-m / tau_samples)
             remaining -= 1
+        prev = v
     return y
 
 
@@ -211,21 +215,23 @@ def test_overrange_without_retrigger_ignores_trips_during_hold():
     expected[10:15] = 0.0  # 12 ignored; 15 is after the hold -> new hold 15..19
     expected[15:20] = 0.0
     stage = OverRange(8.0, 0.5e-3, 0.0, retrigger=False)
-    for block in (None, 1, 4, 13):
+    for block in (None, 1, 4, 13, 15):  # 15: the second hold starts right at a block edge
         y, state = _run(stage, x, fs, block=block)
         np.testing.assert_array_equal(y, expected)
-    assert state.events == 1  # 10..19 is one continuous episode
+        assert state.events == 1  # 10..19 is one continuous episode
 
 
 @pytest.mark.parametrize("retrigger", [True, False])
-def test_overrange_matches_per_sample_loop(rng, retrigger):
+@pytest.mark.parametrize("tau_samples", [0.0, 3.0])
+def test_overrange_matches_per_sample_loop(rng, retrigger, tau_samples):
     fs = 20000.0
     x = 1.0 + 3.0 * rng.standard_normal(20000)
-    stage = OverRange(7.0, 0.5e-3, -0.25, retrigger=retrigger)
-    expected = _reference_overrange(x, 7.0, 10, -0.25, retrigger)
-    for block in (None, 97, 4096):
+    stage = OverRange(7.0, 0.5e-3, -0.25, retrigger=retrigger, float_tau_s=tau_samples / fs)
+    expected = _reference_overrange(x, 7.0, 10, -0.25, retrigger, tau_samples)
+    assert np.count_nonzero(expected != x) > 100
+    for block in (None, 1, 97, 4096):
         y, _ = _run(stage, x, fs, block=block)
-        np.testing.assert_array_equal(y, expected)
+        np.testing.assert_allclose(y, expected, rtol=0, atol=1e-12)
 
 
 def test_overrange_float_tau_exponential_approach():

@@ -571,6 +571,7 @@ class _HoldState(NamedTuple):
     elapsed: int  # samples since the current episode started (at the block start)
     start_value: float  # output just before the current episode started
     last_input: float  # last input sample of the previous block
+    last_held: bool  # was the last sample of the previous block held (a hold may end right there)
     events: int
     held_samples: int
 
@@ -618,7 +619,7 @@ class OverRange(StageBase):
         return max(1, int(round(self.hold_s * fs_hz)))
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> _HoldState:
-        return _HoldState(0, 0, 0.0, 0.0, 0, 0)
+        return _HoldState(0, 0, 0.0, 0.0, False, 0, 0)
 
     def process(self, x: FloatArray, state: _HoldState, fs_hz: float) -> tuple[FloatArray, _HoldState]:
         n = x.size
@@ -628,7 +629,7 @@ class OverRange(StageBase):
         trips = np.flatnonzero(np.abs(x) > self.threshold_g)
         r = state.remaining
         if trips.size == 0 and r == 0:
-            return x.copy(), state._replace(last_input=float(x[-1]))
+            return x.copy(), state._replace(last_input=float(x[-1]), last_held=False)
         j = np.arange(n)
         if self.retrigger:
             # A carried hold with r samples left behaves like a trip at index r - h.
@@ -650,7 +651,7 @@ class OverRange(StageBase):
                 pos = s + h
             remaining = max(0, pos - n)
         was_held = np.empty(n, dtype=bool)
-        was_held[0] = r > 0
+        was_held[0] = state.last_held
         was_held[1:] = held[:-1]
         starts = np.flatnonzero(held & ~was_held)
         y = x.copy()
@@ -678,7 +679,13 @@ class OverRange(StageBase):
         else:
             elapsed, start_value = 0, 0.0
         new = _HoldState(
-            remaining, elapsed, start_value, float(x[-1]), state.events + starts.size, state.held_samples + int(held.sum())
+            remaining,
+            elapsed,
+            start_value,
+            float(x[-1]),
+            bool(held[-1]),
+            state.events + starts.size,
+            state.held_samples + int(held.sum()),
         )
         return y, new
 
