@@ -72,16 +72,16 @@ def test_clip_curves_reproduce_spec_reference_values_censored_83mg_truncated_283
     assert any("above 3 g rms" in t for t in labels), labels  # where the data leave the model
 
 
-def test_vre_points_in_mg_and_saturated_levels_drawn_hollow() -> None:
+def test_vre_points_in_mg_and_overrange_levels_drawn_hollow() -> None:
     res = _random_result()
     ax = plots.plot_vre_vs_rms(res).axes[0]
     bars = {c.get_label(): c for c in ax.containers}
-    filled = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field"].lines[0]  # unsaturated levels
+    filled = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field"].lines[0]  # no over-range flag
     x, y = filled.get_data()
-    assert list(x) == [0.25, 0.5]
-    assert y == pytest.approx([-0.0831 * 0.25**2 * 1e3, -0.0831 * 0.25 * 1e3])
-    hollow = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field: saturated / over-range"].lines[0]
-    assert hollow.get_markerfacecolor() == "white" and len(hollow.get_xdata()) == 5
+    assert list(x) == [0.25, 0.5, 1.0, 1.5, 2.0]
+    assert y == pytest.approx([-0.0831 * r**2 * 1e3 for r in x])
+    hollow = bars["ADXL355, ±2.048 g, Z axis, BW 1000 Hz, +1 g field: over-range protection tripped"].lines[0]
+    assert hollow.get_markerfacecolor() == "white" and list(hollow.get_xdata()) == [3.0, 3.5]
 
 
 def test_vrc_line_is_vrc_times_rms_squared() -> None:

@@ -177,6 +177,8 @@ def collect_warnings(
         )
     if prediction is not None:
         out += [f"Prediction: {n}" for n in prediction.get("notes") or ()]
+        for lv in prediction.get("levels") or ():
+            out += [f"Prediction at {lv.get('rms_g', float('nan')):.3g} g rms: {n}" for n in lv.get("notes") or ()]
     seen: set[str] = set()
     return [w for w in out if not (w in seen or seen.add(w))]
 
@@ -197,8 +199,16 @@ def psd_tolerance(freq_hz: np.ndarray, measured: np.ndarray, profile: np.ndarray
 
 
 # --------------------------------------------------------------------------- rendering
+def _cell(v: Any) -> str:
+    text = str(v)
+    if len(text) <= 160:
+        return _e(text)
+    # Long values (a sensor description in provenance) fold away: <details> needs no script.
+    return f"<details><summary>{_e(text[:80])}…</summary><code>{_e(text)}</code></details>"
+
+
 def _kv_table(rows: Sequence[tuple[str, Any]]) -> str:
-    body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows if v not in (None, "", {}))
+    body = "".join(f"<tr><th>{_e(k)}</th><td>{_cell(v)}</td></tr>" for k, v in rows if v not in (None, "", {}))
     return f'<table class="kv">{body}</table>' if body else ""
 
 
@@ -274,11 +284,20 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         for k in (lv.get("shares") or lv.get("mechanisms") or {}):
             if k not in share_keys:
                 share_keys.append(k)
-    head = ["level (g rms)", "VRE (mg)", "tilt error (°)"] + [f"{k.replace('_', ' ')} (mg)" for k in share_keys]
+    def share_name(k: str) -> str:
+        return (k[:-2] if k.endswith("_g") else k).replace("_", " ")
+
+    has_f = any(lv.get("freq_hz") is not None for lv in levels)
+    head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
+    head += [f"{share_name(k)} (mg)" for k in share_keys]
     rows = []
     for lv in levels:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
-        cells = [_fmt(lv.get("rms_g"), ".4g"), _mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–", _fmt(lv.get("tilt_error_deg"), ".3g")]
+        cells = ([_fmt(lv.get("freq_hz"), "g")] if has_f else []) + [
+            _fmt(lv.get("rms_g"), ".4g"),
+            _mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–",
+            _fmt(lv.get("tilt_error_deg"), ".3g"),
+        ]
         for k in share_keys:
             v = sh.get(k)
             if isinstance(v, Mapping):

@@ -104,6 +104,13 @@ def _fit_label(fit: FitResult) -> str:
     return f"fit {fit.model}: " + ", ".join(bits)
 
 
+def _significant(fit: FitResult) -> bool:
+    """A VRC fit worth drawing: its value at least twice its standard error (a VRC fitted to
+    levels that are all noise draws a line through nothing)."""
+    est = fit.params.get("vrc_ug_per_g2")
+    return est is None or (math.isfinite(est.value) and math.isfinite(est.u) and abs(est.value) >= 2 * est.u)
+
+
 def _rail_fit(result: VreResult) -> FitResult | None:
     return next((f for f in result.fits if "rail_g" in f.params or "rail_high_g" in f.params), None)
 
@@ -173,13 +180,15 @@ def model_curves(
         low = p["rail_low_g"].value if "rail_low_g" in p else None
         curves += clip_curves(result.conditions.static_g, high, grid, kinds, low, label_suffix=" (fitted)")
     vrc = next((f for f in result.fits if f.freq_hz is None and "vrc_ug_per_g2" in f.params), None)
-    if vrc is not None:
+    if vrc is not None and _significant(vrc):
         curves.append(vrc_curve(vrc.params["vrc_ug_per_g2"].value, grid))
     return curves
 
 
 # --------------------------------------------------------------------------- VRE vs rms
-def _draw_levels(ax, result: VreResult, label: str, color: str, x_square: bool = False, scale: float = 1e3) -> None:
+def _draw_levels(
+    ax, result: VreResult, label: str, color: str, x_square: bool = False, scale: float = 1e3, connect: bool = False
+) -> None:
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     if not lv:
         return
@@ -187,7 +196,12 @@ def _draw_levels(ax, result: VreResult, label: str, color: str, x_square: bool =
     vre = np.array([x.vre.value for x in lv]) * scale
     u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in lv]) * scale
     xs = rms**2 if x_square else rms
-    flagged = np.array([bool(x.n_saturated) or any("over" in f for f in x.flags) for x in lv])
+    # Hollow marks the over-range protection, the mechanism the clipping models leave out;
+    # saturation itself is what they describe (counted in the report's table).
+    flagged = np.array([any("over" in f for f in x.flags) for x in lv])
+    if connect:
+        order = np.argsort(xs)
+        ax.plot(xs[order], vre[order], "-", color=color, lw=0.9, alpha=0.6, zorder=2)
     ax.errorbar(xs[~flagged], vre[~flagged], yerr=u[~flagged], fmt="o", ms=5, color=color, capsize=3, label=label, zorder=3)
     if flagged.any():
         ax.errorbar(
@@ -199,7 +213,7 @@ def _draw_levels(ax, result: VreResult, label: str, color: str, x_square: bool =
             mfc="white",
             color=color,
             capsize=3,
-            label=f"{label}: saturated / over-range",
+            label=f"{label}: over-range protection tripped",
             zorder=3,
         )
 
@@ -230,7 +244,7 @@ def plot_vre_vs_rms(
     fig, (ax,) = _new_figure()
     for i, s in enumerate(series):
         color = COLORS[i % len(COLORS)]
-        _draw_levels(ax, s.result, s.label, color)
+        _draw_levels(ax, s.result, s.label, color, connect=len(series) > 1 and not s.curves)
         own = list(s.curves) if s.curves else (model_curves(s.result) if curves is None else [])
         for k, c in enumerate(own):
             # One series: each model its own colour; several: a model takes its series' colour.
@@ -238,7 +252,7 @@ def plot_vre_vs_rms(
             ax.plot(c.x, c.y * 1e3, c.linestyle, color=cc, lw=1.4, label=c.label, alpha=0.9)
         if show_fits:
             for f in s.result.fits:
-                if f.freq_hz is None and f.params:
+                if f.freq_hz is None and f.params and _significant(f):
                     ax.plot([], [], " ", label=_fit_label(f))
                 if f.departure_rms_g is not None:
                     ax.axvline(f.departure_rms_g, color=color, ls="-.", lw=1, alpha=0.7)
