@@ -164,7 +164,8 @@ def discretize_zpk(
     [0, fit_max_hz], the relative error of ``B/A`` against ``H_a``: a linear least-squares
     problem. The result is scaled so the DC gain is exactly the analog one. When every pole is
     below fs/64 the bilinear transform is already accurate (warping < 0.1 % in frequency) and
-    better conditioned, so it is used instead.
+    better conditioned, so it is used instead. Meant for low-pass prototypes (no zeros on the
+    jω axis, where the relative weight would be infinite).
     """
     z = np.atleast_1d(np.asarray(z, dtype=complex))
     p = np.atleast_1d(np.asarray(p, dtype=complex))
@@ -664,9 +665,13 @@ class OverRange(StageBase):
             start_idx = np.full(n, -state.elapsed, dtype=np.int64)
             start_idx[starts] = starts
             start_idx = np.maximum.accumulate(start_idx)
-            y0_at = np.where(starts >= 1, x[np.maximum(starts - 1, 0)], state.last_input)
-            episode = np.searchsorted(starts, j, side="right") - 1
-            y0 = np.where(episode >= 0, y0_at[np.maximum(episode, 0)] if starts.size else 0.0, state.start_value)
+            if starts.size:
+                # output just before each episode = the input there (it was not held)
+                y0_of_start = np.where(starts >= 1, x[np.maximum(starts - 1, 0)], state.last_input)
+                episode = np.searchsorted(starts, j, side="right") - 1
+                y0 = np.where(episode >= 0, y0_of_start[np.maximum(episode, 0)], state.start_value)
+            else:
+                y0 = np.full(n, state.start_value)
             m = (j - start_idx + 1)[held]
             y[held] = v + (y0[held] - v) * np.exp(-m / (self.float_tau_s * fs_hz))
         if held[-1]:
