@@ -1,0 +1,129 @@
+"""``vrelab simulate``: the virtual shaker test of a sensor (random or sine method).
+
+SPEC section 5::
+
+    vrelab simulate --sensor S [--range G] [--axis A] [--odr HZ] [--static G] [--k2] [--k3]
+                    (--profile PROFILE | --freq LIST) --levels LIST [--seconds S] [--seed N]
+                    [--out DIR] [--record] [--json] [--progress]
+
+``--json`` prints :meth:`vrelab.results.VreResult.to_dict` (``levels``: ``rms_g``, ``vre_g``,
+``u_vre_g``, ``freq_hz`` for sine; ``fit``). ``--out DIR`` writes ``results.json``,
+``levels.csv``, ``prediction.json`` (the analytic prediction for the same conditions) and, with
+``--record``, the raw record ``record.h5`` — all of them or none.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from vrelab import _validate as V
+from vrelab.cli import print_json
+from vrelab.cli.predict import add_sensor_arguments, positive_list, sensor_from_args
+
+
+def write_levels_csv(path: Path, result: Any) -> None:
+    """One row per level: the numbers of ``results.json`` in a spreadsheet-friendly form."""
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["freq_hz", "rms_g", "vre_g", "u_vre_g", "n_samples", "n_saturated", "flags"])
+        for lv in result.levels:
+            w.writerow([
+                "" if lv.freq_hz is None else repr(float(lv.freq_hz)),
+                repr(float(lv.rms_g)),
+                repr(float(lv.vre.value)),
+                repr(float(lv.vre.u)),
+                "" if lv.n_samples is None else lv.n_samples,
+                lv.n_saturated,
+                ";".join(lv.flags),
+            ])
+
+
+def _mg(x: float) -> str:
+    return "nan" if not math.isfinite(x) else f"{x * 1e3:.4g}"
+
+
+def print_result(result: Any) -> None:
+    c = result.conditions
+    odr = f"ODR {c.odr_hz:g} Hz" if c.odr_hz else "no ODR"
+    print(f"simulated {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  axis {c.axis}  "
+          f"{odr}  static {c.static_g:g} g")
+    print(f"vibration: {c.profile}")
+    sine = result.method == "sine"
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
+    for lv in result.levels:
+        f = f"{lv.freq_hz:7.4g}  " if sine else ""
+        sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
+        print(f"{f}{lv.rms_g:8.4g}  {_mg(lv.vre.value):>11} ± {_mg(lv.vre.u):<8}  {sat}")
+    for fit in result.fits:
+        where = f" at {fit.freq_hz:g} Hz" if fit.freq_hz is not None else ""
+        extra = f"; leaves the model from {fit.departure_rms_g:.3g} g rms" if fit.departure_rms_g is not None else ""
+        print(f"fit {fit}{where}{extra}")
+    for w in result.warnings:
+        print(f"warning: {w}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from vrelab import shaker
+    from vrelab.predict import predict
+    from vrelab.profiles import parse_profile
+
+    levels = positive_list(args.levels, "--levels")
+    seconds = V.positive_scalar("--seconds", args.seconds)
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    if args.record and not args.out:
+        raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
+    sensor = sensor_from_args(args)
+    profile = parse_profile(args.profile) if args.profile is not None else None
+    freqs = positive_list(args.freq, "--freq") if args.freq is not None else None
+    progress = bool(args.progress or (sys.stderr.isatty() and not args.json))
+
+    def simulate(record_path: Path | None) -> Any:
+        if profile is not None:
+            return shaker.run_random_test(sensor, profile, levels, static_g=args.static_g, seconds=seconds,
+                                          seed=args.seed, record_path=record_path, progress=progress)
+        return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
+                                    seed=args.seed, record_path=record_path, progress=progress)
+
+    if args.out:
+        from vrelab._io import output_dir, write_json
+
+        with output_dir(args.out) as stage:
+            result = simulate(stage / "record.h5" if args.record else None)
+            write_json(stage / "results.json", result.to_dict())
+            write_levels_csv(stage / "levels.csv", result)
+            pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g)
+            write_json(stage / "prediction.json", pred.to_dict())
+    else:
+        result = simulate(None)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print_result(result)
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "simulate",
+        help="simulated shaker test of a sensor (random or sine method), reduced like a lab record",
+        description="Run the virtual shaker: baselines and vibration levels through the sensor's "
+        "signal chain, then the same reduction and fits as `vrelab analyze`.",
+    )
+    add_sensor_arguments(p)
+    ex = p.add_mutually_exclusive_group(required=True)
+    ex.add_argument("--profile", metavar="PROFILE", help="random method: file, F:P,F:P,... or flat:F1-F2; scaled to each level")
+    ex.add_argument("--freq", metavar="LIST", help="sine method: frequencies [Hz], e.g. 100,1000")
+    p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms]")
+    p.add_argument("--seconds", type=float, default=4.0, metavar="S", help="duration of each level [s] (default 4)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")
+    p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
+    p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
+    p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
