@@ -92,3 +92,25 @@ def test_bad_input_exits_2_with_one_line(capsys, argv, word):
     assert rc == 2
     assert out == ""
     assert len(err.strip().splitlines()) == 1 and word in err, err
+
+
+def test_record_closes_the_loop_through_vrelab_analyze(tmp_path, capsys):
+    """simulate --record writes record.h5; `vrelab analyze record.h5 --dut dut --reference
+    reference` with the simulation's settling time and measurement band gives the same levels
+    and VRE as the simulation's own reduction (the same reduction code reads the file)."""
+    out_dir = tmp_path / "sim"
+    rc, out, err = _run(capsys, "simulate", "--sensor", "adxl355", "--axis", "z", "--profile", "flat:50-2000",
+                        "--levels", "1,2,3", "--seconds", "1", "--seed", "4", "--out", str(out_dir), "--record",
+                        "--json")
+    assert rc == 0, err
+    sim = json.loads(out)
+    rc, out, err = _run(capsys, "analyze", str(out_dir / "record.h5"), "--dut", "dut", "--reference", "reference",
+                        "--settle", "0.1", "--band", "25:4000", "--json")
+    assert rc == 0, err
+    ana = json.loads(out)
+    assert len(ana["levels"]) == 3
+    for a, s in zip(ana["levels"], sim["levels"]):
+        assert a["rms_g"] == pytest.approx(s["rms_g"], rel=1e-9)
+        assert a["vre_g"] == pytest.approx(s["vre_g"], rel=1e-9, abs=1e-12)
+        assert a["u_vre_g"] == pytest.approx(s["u_vre_g"], rel=1e-9)
+    assert ana["fit"]["rail_g"]["value"] == pytest.approx(sim["fit"]["rail_g"]["value"], rel=0.02)
