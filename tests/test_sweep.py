@@ -56,6 +56,14 @@ def bad(params, seed):
         raise RuntimeError("boom at x=3")
     return noisy(params, seed)
 
+def invalid(params, seed):
+    log = params.get("log_dir")
+    with open(Path(log) / f"calls-{params['x']}-{params['y']}", "a") as fh:
+        fh.write("x")
+    if params["x"] == 3:
+        raise ValueError("x must not be 3")
+    return noisy(params, seed)
+
 def die(params, seed):
     """Kills its worker process at x == 3, as a segfault or an OOM kill would."""
     if params["x"] == 3:
@@ -120,6 +128,37 @@ def test_same_sweep_is_bitwise_identical_serial_process_pool_and_dask(points_mod
     back = xr.load_dataset(tmp_path / "dask" / "result.nc", engine="h5netcdf")
     assert _bits(back[["a", "b"]]) == _bits(serial.dataset[["a", "b"]])
     assert [s for s in back["status"].values.ravel()] == ["ok"] * 36
+
+
+def test_analytic_model_lot_is_bitwise_identical_on_every_backend(cluster, tmp_path):
+    """The built-in `model` kind over a lot whose fn, Q, k2 and offset are drawn per unit."""
+    import xarray as xr
+
+    spec = parse_spec(
+        {
+            "kind": "model",
+            "seed": 3,
+            "fixed": {"range_g": 2.0, "f_lo_hz": 50.0, "f_hi_hz": 2000.0},
+            "grid": {"rms_g": "0.5:2:0.5", "static_g": [1.0, -1.0]},
+            "montecarlo": {
+                "units": 4,
+                "fn_hz": {"dist": "normal", "mean": 2400.0, "sd": 100.0},
+                "q": {"dist": "uniform", "low": 5.0, "high": 9.0},
+                "k2_ug_per_g2": {"dist": "normal", "mean": 0.0, "sd": 50.0},
+                "offset_g": {"dist": "normal", "mean": 0.0, "sd": 0.025},
+            },
+        }
+    )
+    serial = run_sweep(spec, tmp_path / "s").dataset
+    with ProcessBackend(2) as pool:
+        procs = run_sweep(spec, tmp_path / "p", backend=pool, chunk=3).dataset
+    dask = run_sweep(spec, tmp_path / "d", backend=DaskBackend(client=cluster), chunk=7).dataset
+    assert (serial["status"] == "ok").all() and dict(serial.sizes) == {"unit": 4, "rms_g": 4, "static_g": 2}
+    for other in (procs, dask):
+        xr.testing.assert_identical(serial, other)
+        assert _bits(serial) == _bits(other)
+    # each unit keeps its draws across the grid, and units differ
+    assert len(set(serial["fn_hz"].values)) == 4 and serial["offset_g"].dims == ("unit",)
 
 
 def test_point_seed_is_the_spawned_child_of_the_sweep_seed(points_module):
@@ -408,3 +447,11 @@ def test_missing_dask_extra_is_a_one_line_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # what an uninstalled package looks like
     with pytest.raises(ValueError, match=r"pip install 'vrelab\[dask\]'"):
         DaskBackend("local")
+
+
+def test_a_value_error_is_bad_input_and_is_not_retried(points_module, tmp_path):
+    res = run_sweep(parse_spec(_doc("invalid", fixed={"log_dir": str(tmp_path)})), tmp_path / "o", retries=3)
+    failed = [r for r in res.records.values() if r.status == "failed"]
+    assert len(failed) == 2 and {r.attempts for r in failed} == {1}
+    assert failed[0].error == "ValueError: x must not be 3"
+    assert (tmp_path / "calls-3.0-p").read_text() == "x"

@@ -10,7 +10,9 @@ Failures:
 
 * a point that raises: the exception is caught *in the worker* (so an unpicklable exception or
   a half-dead worker cannot take its neighbours along), and the point is retried up to
-  ``retries`` times; then it is recorded with ``status="failed"`` and the error.
+  ``retries`` times; then it is recorded with ``status="failed"`` and the error. A
+  ``ValueError`` is bad input by the library's convention and would fail the same way again:
+  it is recorded at once.
 * a worker that dies (``os._exit``, segfault, OOM-kill): a process pool then fails every pending
   future with ``BrokenProcessPool`` and cannot say which point did it. The engine rebuilds the
   pool and reruns the points that were in flight *one at a time*, so a crash is pinned on the
@@ -64,18 +66,21 @@ def _as_values(out: Any) -> dict[str, float]:
     return {str(k): float(v) for k, v in out.items()}
 
 
-def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, bool, Any, float]]:
-    """Worker side: evaluate each point; return (index, ok, values-or-error, seconds) per point."""
+def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, str, Any, float]]:
+    """Worker side: evaluate each point; return (index, outcome, values-or-error, seconds) per
+    point, outcome "ok", "error" (worth retrying) or "invalid" (a ValueError: by the library's
+    convention, bad input, which fails the same way every time)."""
     f = resolve(func)
     out = []
     for index, params, (entropy, key) in items:
         t0 = time.perf_counter()
         try:
             values: Any = _as_values(f(params, np.random.SeedSequence(entropy, spawn_key=key)))
-            ok = True
+            outcome = "ok"
         except Exception as exc:  # recorded, not raised: one bad point must not stop the lot
-            values, ok = f"{type(exc).__name__}: {exc}".splitlines()[0], False
-        out.append((index, ok, values, time.perf_counter() - t0))
+            values = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            outcome = "invalid" if isinstance(exc, ValueError) else "error"
+        out.append((index, outcome, values, time.perf_counter() - t0))
     return out
 
 
@@ -156,9 +161,11 @@ def run_points(
             on_records(recs)
         bar.update(len(recs), n_failed)
 
-    def attempt_failed(i: int, error: str, elapsed: float, queue: deque[int]) -> PointRecord | None:
+    def attempt_failed(
+        i: int, error: str, elapsed: float, queue: deque[int], final: bool = False
+    ) -> PointRecord | None:
         attempts[i] = attempts.get(i, 0) + 1
-        if attempts[i] > retries:
+        if final or attempts[i] > retries:
             return PointRecord(i, "failed", {}, error, attempts[i], elapsed, run)
         queue.appendleft(i)
         return None
@@ -183,10 +190,10 @@ def run_points(
             finish([r for i in idx if (r := attempt_failed(i, msg, math.nan, todo)) is not None])
             return
         recs = []
-        for i, ok, payload, dt in out:
-            if ok:
+        for i, outcome, payload, dt in out:
+            if outcome == "ok":
                 recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run))
-            elif (r := attempt_failed(i, payload, dt, todo)) is not None:
+            elif (r := attempt_failed(i, payload, dt, todo, final=outcome == "invalid")) is not None:
                 recs.append(r)
         finish(recs)
 

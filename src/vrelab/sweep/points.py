@@ -26,37 +26,30 @@ import math
 from typing import Any, Mapping
 
 import numpy as np
-from scipy import integrate
 
 _UG = 1e-6  # µg/g² -> 1/g
 
 
-def _resonance_power_gain(params: Mapping[str, Any]) -> float:
-    """|H|² at the sine frequency, or its mean over the flat random band; 1 without fn_hz."""
-    from vrelab.models.dynamics import second_order_response
+def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
+    """rms of the proof-mass motion: through the resonance at the sine frequency, or over the
+    flat random band (``effective_rms`` of a unit-variance flat PSD); unchanged without fn_hz."""
+    from vrelab.models.dynamics import effective_rms, resonator, rms_through
 
     fn, q = params.get("fn_hz"), params.get("q")
     if fn is None and q is None:
-        return 1.0
+        return rms_g
     if fn is None or q is None:
         raise ValueError("fn_hz and q go together: give both or neither")
-    shape = params.get("shape", "gaussian")
-    if shape == "sine":
+    h = resonator(fn, q)
+    if params.get("shape", "gaussian") == "sine":
         if "freq_hz" not in params:
             raise ValueError("freq_hz is needed with fn_hz for a sine")
-        return float(np.abs(second_order_response(params["freq_hz"], fn, q)) ** 2)
+        return float(rms_through(params["freq_hz"], rms_g, [h]))
     lo, hi = params.get("f_lo_hz"), params.get("f_hi_hz")
-    if lo is None or hi is None or not lo < hi:
-        raise ValueError(f"f_lo_hz < f_hi_hz is needed with fn_hz for random vibration, got {lo}, {hi}")
-    # quad, with the resonance as a break point, because the peak is narrow (width fn/Q)
-    val, _ = integrate.quad(
-        lambda f: float(np.abs(second_order_response(f, fn, q)) ** 2),
-        lo,
-        hi,
-        points=[fn] if lo < fn < hi else None,
-        limit=200,
-    )
-    return val / (hi - lo)
+    if lo is None or hi is None:
+        raise ValueError("f_lo_hz and f_hi_hz (the flat random band) are needed with fn_hz")
+    s0 = 1.0 / (hi - lo)  # flat PSD of unit variance over [lo, hi]
+    return rms_g * effective_rms(([lo, hi], [s0, s0]), [h], lo, hi)
 
 
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
@@ -70,7 +63,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     range_g = float(params.get("range_g", 2.0))
     shape = params.get("shape", "gaussian")
     clip_kind = params.get("clip_kind", "censored")
-    rms_mass = rms * math.sqrt(_resonance_power_gain(params))
+    rms_mass = _rms_at_proof_mass(rms, params)
     if clip_kind == "none":
         vre_clip = 0.0
     else:
