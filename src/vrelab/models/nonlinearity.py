@@ -219,7 +219,8 @@ def vre_poly(
         or 1.5·rms⁴ (sine); see :func:`polynomial_vre`.
     """
     _validate.one_of("shape", shape, ("gaussian", "sine"))
-    moments = (gaussian_moments if shape == "gaussian" else sine_moments)(rms_g, 4)
+    rms = _validate.non_negative("rms_g", rms_g)
+    moments = (gaussian_moments if shape == "gaussian" else sine_moments)(rms, 4)
     return polynomial_vre((k2_per_g, k3_per_g2, k4_per_g3), static_g, moments)
 
 
