@@ -42,7 +42,7 @@ class WindowStats:
     window: int  # samples per window
     n_samples: int
     count: NDArray[np.int64]
-    dut_sum: NDArray[np.float64]
+    dut_sum: NDArray[np.float64]  # of the low-passed DUT (see design_dut_lowpass)
     dut_sumsq: NDArray[np.float64]
     dut_max: NDArray[np.float64]
     dut_min: NDArray[np.float64]
@@ -112,6 +112,20 @@ def design_band(fs_hz: float, band_hz: tuple[float, float]) -> NDArray[np.float6
     return signal.butter(4, [f1, f2], btype="bandpass", fs=fs_hz, output="sos")
 
 
+def design_dut_lowpass(fs_hz: float, band_hz: tuple[float, float]) -> NDArray[np.float64]:
+    """Low-pass for the DUT's window means: Butterworth order 6 at a quarter of the band's lower edge.
+
+    The vibration the DUT reads averages to zero over a level, but over one 0.1 s window it
+    leaves a residual of order σ/(π·f·T) that would dominate the window-to-window scatter, and
+    so the batch-means uncertainty (for a band-limited signal the residuals of neighbouring
+    windows cancel, which batch means cannot see). The low-pass (-72 dB at the band edge, DC
+    gain exactly 1) removes it before averaging; its DC group delay (about 0.6/fc: 50 ms for a
+    50 Hz band) is well inside the settling time trimmed at every segment edge.
+    """
+    fc = min(band_hz[0] / 4.0, 0.2 * fs_hz)
+    return signal.butter(6, fc, btype="lowpass", fs=fs_hz, output="sos")
+
+
 def _window_reduce(x: NDArray[np.float64], w: int):
     """Reshape into full windows plus a tail; returns list of 2-D views."""
     nfull = len(x) // w
@@ -178,7 +192,9 @@ def window_pass(
     nmax, nmin, nrail = z(np.int64), z(np.int64), z(np.int64)
     rsum, rsq, rband = z(float), z(float), z(float)
     sos = design_band(fs, band_hz)
+    sos_lp = design_dut_lowpass(fs, band_hz)
     zi = None
+    zi_lp = None
     chans = ["dut"] if ref_name == "dut" else ["dut", "reference"]
     bar = None
     if progress:
@@ -194,14 +210,17 @@ def window_pass(
             check_finite("reference", r, pos)
         if zi is None:
             zi = signal.sosfilt_zi(sos) * r[0]
+            zi_lp = signal.sosfilt_zi(sos_lp) * d[0]
         rb, zi = signal.sosfilt(sos, r, zi=zi)
+        dl, zi_lp = signal.sosfilt(sos_lp, d, zi=zi_lp)
         k0 = pos // w
         kk = k0
-        for dv, rv, rbv in zip(_window_reduce(d, w), _window_reduce(r, w), _window_reduce(rb, w)):
+        parts = zip(_window_reduce(d, w), _window_reduce(dl, w), _window_reduce(r, w), _window_reduce(rb, w))
+        for dv, dlv, rv, rbv in parts:
             m = dv.shape[0]
             sl = slice(kk, kk + m)
             count[sl] = dv.shape[1]
-            dsum[sl] = dv.sum(axis=1)
+            dsum[sl] = dlv.sum(axis=1)
             dsq[sl] = np.einsum("ij,ij->i", dv, dv)
             mx = dv.max(axis=1)
             mn = dv.min(axis=1)
@@ -236,25 +255,61 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
+def _binary_segmentation(x: NDArray[np.float64], sigma: float, min_step: float) -> list[tuple[int, int]]:
+    """Piecewise-constant pieces of ``x`` by binary segmentation (Scott & Knott 1974).
+
+    A piece is split at the point that most reduces the squared error, when the reduction
+    exceeds ``4·ln(n)·σ²`` (a BIC-like penalty, so noise alone does not split) and the two
+    sides' means differ by more than ``min_step``. Cumulative sums make each split O(n).
+    """
+    n = len(x)
+    pen = 4.0 * math.log(max(n, 2)) * sigma**2
+    out: list[tuple[int, int]] = []
+    stack = [(0, n)]
+    c1 = np.concatenate([[0.0], np.cumsum(x)])
+    while stack:
+        a, b = stack.pop()
+        m = b - a
+        if m < 4:
+            out.append((a, b))
+            continue
+        k = np.arange(a + 1, b)
+        sl = c1[k] - c1[a]
+        sr = c1[b] - c1[k]
+        nl = (k - a).astype(float)
+        nr = (b - k).astype(float)
+        tot = c1[b] - c1[a]
+        gain = sl**2 / nl + sr**2 / nr - tot**2 / m
+        i = int(np.argmax(gain))
+        c = int(k[i])
+        if gain[i] > pen and abs(sl[i] / nl[i] - sr[i] / nr[i]) > min_step:
+            stack += [(c, b), (a, c)]
+        else:
+            out.append((a, b))
+    return sorted(out)
+
+
 def auto_segment(
     stats: WindowStats,
     min_duration_s: float = 1.0,
-    steady_tol: float = 0.15,
+    min_step: float = 0.05,
     off_threshold_g: float | None = None,
 ) -> tuple[Schedule, list[str]]:
     """Find baselines and level plateaus from the envelope (untrimmed; see :func:`trim`).
 
-    Rules (window = ``stats.window`` samples):
+    Rules (window = ``stats.window`` samples, 0.1 s):
 
     * envelope ``e_k`` = AC rms of the reference per window;
     * off: ``e_k`` below ``off_threshold_g`` (default: the larger of 4× the 5th percentile of
-      ``e`` and 1e-4 × its maximum: the reference's noise floor sets it, a silent synthetic
+      ``e`` (the reference's noise floor) and 1e-4 × its maximum, so that a silent synthetic
       reference does not make it zero);
-    * steady: the running median of ``log e`` (5 windows) changes by less than ``steady_tol``
-      across ±2 windows; ramps and steps fail this and are left out;
-    * a plateau is a run of steady "on" windows; neighbouring plateaus closer than 5 windows
-      whose medians agree within ``steady_tol`` are one plateau; runs shorter than
-      ``min_duration_s`` are dropped.
+    * on-runs are cut into pieces of constant ``log e`` by binary segmentation; the noise of
+      ``log e`` per window (a 0.1 s rms of band-limited noise scatters by ``1/√(2·B·T)``) is
+      measured robustly from the median absolute first difference, so noise does not cut; steps
+      smaller than ``min_step`` (5 % in level) do not cut either;
+    * a piece is a plateau when it lasts ``min_duration_s`` or more and its level does not
+      change across it (straight-line fit) by more than ``min_step`` or 5 standard errors of
+      that change, whichever is larger: ramps, cut into short or sloping pieces, are left out. Adjacent plateaus within ``min_step`` are merged.
 
     Levels may come in any order and repeat; each plateau is its own segment.
     """
@@ -272,43 +327,52 @@ def auto_segment(
         thr = V.positive_scalar("off_threshold_g", off_threshold_g)
     off = (e < thr) & ok
     on = (e >= thr) & ok
-    loge = np.log(np.maximum(e, thr * 1e-3))
-    med = _running_median(loge, 5)
-    h = 2
-    change = np.full(len(e), np.inf)
-    if len(e) > 2 * h:
-        change[h:-h] = np.abs(med[2 * h :] - med[: -2 * h])
-    steady = on & (change < steady_tol)
-    min_w = max(1, int(math.ceil(min_duration_s * fs / w)))
-    plateaus: list[list[int]] = []
-    for a, b in _runs(steady):
-        lvl = float(np.median(loge[a:b]))
-        if plateaus:
-            pa, pb = plateaus[-1]
-            plvl = float(np.median(loge[pa:pb]))
-            if a - pb <= 5 and on[pb:a].all() and abs(lvl - plvl) < steady_tol:
-                plateaus[-1][1] = b
+    min_w = max(2, int(math.ceil(min_duration_s * fs / w)))
+    loge = np.log(np.maximum(e, thr))
+    d = np.diff(loge[on])
+    sigma = float(1.4826 * np.median(np.abs(d)) / math.sqrt(2)) if len(d) else 0.0
+    plateaus: list[tuple[int, int, float]] = []
+    for a, b in _runs(on):
+        merged: list[list[float]] = []
+        for pa, pb in _binary_segmentation(loge[a:b], sigma, min_step):
+            if pb - pa < min_w:
+                merged.append([])  # a transition piece separates plateaus
                 continue
-        plateaus.append([a, b])
+            # binary segmentation places edges to a window or two: shed edge windows that are
+            # off the piece's median by more than 3σ (the start of the next ramp)
+            med = float(np.median(loge[a + pa : a + pb]))
+            while pb - pa > min_w and abs(loge[a + pa] - med) > 3 * sigma + min_step:
+                pa += 1
+            while pb - pa > min_w and abs(loge[a + pb - 1] - med) > 3 * sigma + min_step:
+                pb -= 1
+            seg = loge[a + pa : a + pb]
+            tt = np.arange(len(seg))
+            slope = np.polyfit(tt, seg, 1)[0]
+            # level change across the piece against its noise (5 standard errors of the change:
+            # band-limited noise and shaker controllers wander more than white noise would)
+            if abs(slope) * len(seg) > max(min_step, 5.0 * sigma * math.sqrt(12.0 / len(seg))):
+                merged.append([])
+                continue
+            lvl = float(np.mean(seg))
+            if merged and merged[-1] and abs(merged[-1][2] - lvl) < min_step and merged[-1][1] == a + pa:
+                m0 = merged[-1]
+                m0[2] = (m0[2] * (m0[1] - m0[0]) + lvl * (pb - pa)) / (m0[1] - m0[0] + pb - pa)
+                m0[1] = a + pb
+            else:
+                merged.append([a + pa, a + pb, lvl])
+        plateaus += [(int(m[0]), int(m[1]), m[2]) for m in merged if m]
     segs: list[Segment] = []
     for a, b in _runs(off):
         if b - a >= min_w:
             segs.append(Segment(a * w / fs, b * w / fs, 0.0))
-    for a, b in plateaus:
-        if b - a >= min_w:
-            segs.append(Segment(a * w / fs, b * w / fs, float(np.median(e[a:b]))))
+    for a, b, _ in plateaus:
+        segs.append(Segment(a * w / fs, b * w / fs, float(np.sqrt(np.mean(e[a:b] ** 2)))))
     segs.sort(key=lambda s: s.start_s)
     if not any(s.is_baseline for s in segs):
         warnings.append("automatic segmentation found no vibration-off baseline")
     if not any(not s.is_baseline for s in segs):
         warnings.append("automatic segmentation found no vibration level")
     return Schedule(tuple(segs)), warnings
-
-
-def _running_median(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-    if len(x) < k:
-        return x.copy()
-    return signal.medfilt(x, k)
 
 
 def trim(schedule: Schedule, settle_s: float) -> tuple[Schedule, list[str]]:

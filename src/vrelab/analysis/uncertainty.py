@@ -83,7 +83,8 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
     -----
     τ from the (detrended) series by Sokal's window; batch length ``b = ⌈10·τ⌉`` steps, capped so
     that there are at least 20 batches; ``u = s_b/√n_b`` with ``s_b`` the scatter of the batch
-    means of the residuals (2 degrees of freedom used by the line when detrending).
+    means of the residuals (2 degrees of freedom used by the line when detrending). When the
+    cap makes batches shorter than 10·τ, ``u`` is at least the direct ``√(s²·τ/n)``.
     """
     y = np.asarray(y, dtype=np.float64)
     n = len(y)
@@ -106,4 +107,9 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
     if dof < 1:
         return MeanEstimate(mean, math.inf, tau, b, nb)
     s2 = float(np.sum(rb**2) if detrend else np.sum((rb - rb.mean()) ** 2)) / dof
-    return MeanEstimate(mean, math.sqrt(s2 / nb), tau, b, nb)
+    u = math.sqrt(s2 / nb)
+    if b < BATCH_TAUS * tau:
+        # Batches capped by MIN_BATCHES are too short to be independent and batch means then
+        # understate u: fall back to the direct estimate var·τ/n when it is larger.
+        u = max(u, math.sqrt(float(np.sum(r**2)) / (n - (2 if detrend else 1)) * tau / n))
+    return MeanEstimate(mean, u, tau, b, nb)
