@@ -44,6 +44,7 @@ th, td { border-bottom: 1px solid var(--rule); padding: 3px 10px; text-align: le
 th { background: #f4f6f8; font-weight: 600; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 table.kv th { background: none; color: var(--mute); font-weight: 500; white-space: nowrap; }
+div.scroll { overflow-x: auto; max-width: 100%; }
 figure { margin: 1em 0 1.4em; }
 figure img { max-width: 100%; height: auto; border: 1px solid var(--rule); display: block; }
 figcaption { color: var(--mute); font-size: .92em; margin-top: .3em; }
@@ -177,8 +178,13 @@ def collect_warnings(
         )
     if prediction is not None:
         out += [f"Prediction: {n}" for n in prediction.get("notes") or ()]
-        for lv in prediction.get("levels") or ():
-            out += [f"Prediction at {lv.get('rms_g', float('nan')):.3g} g rms: {n}" for n in lv.get("notes") or ()]
+        invalid = [lv for lv in prediction.get("levels") or () if lv.get("valid") is False]
+        if invalid:
+            out.append(
+                "Prediction: the analytic model is outside its validity at "
+                + ", ".join(f"{lv.get('rms_g', float('nan')):.3g}" for lv in invalid)
+                + " g rms (see the notes of the prediction table); the simulation is the reference there."
+            )
     seen: set[str] = set()
     return [w for w in out if not (w in seen or seen.add(w))]
 
@@ -247,7 +253,7 @@ def _levels_table(result: VreResult) -> str:
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
     th = "".join(f'<th class="{"num" if h in num else ""}">{_e(h)}</th>' for h in head)
-    return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+    return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
 
 
 def _fits_table(fits: Sequence[FitResult]) -> str:
@@ -290,6 +296,9 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     has_f = any(lv.get("freq_hz") is not None for lv in levels)
     head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
     head += [f"{share_name(k)} (mg)" for k in share_keys]
+    has_notes = any(lv.get("notes") for lv in levels)
+    if has_notes:
+        head.append("notes")
     rows = []
     for lv in levels:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
@@ -303,14 +312,16 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
             cells.append(_mg(v) if isinstance(v, (int, float)) else _fmt(v))
-        rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
-    th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
+        if has_notes:
+            cells.append("; ".join(lv.get("notes") or ()))
+        rows.append("<tr>" + "".join(f'<td class="{"" if h == "notes" else "num"}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
+    th = "".join(f'<th class="{"" if h == "notes" else "num"}">{_e(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
         extra.append((k.replace("_", " "), v))
-    return _kv_table(extra) + f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+    return _kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
 
 
 def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
