@@ -74,6 +74,9 @@ def run(args: argparse.Namespace) -> int:
 
     levels = positive_list(args.levels, "--levels")
     seconds = V.positive_scalar("--seconds", args.seconds)
+    baseline_s = V.positive_scalar("--baseline", args.baseline)
+    if args.settle is not None and not (math.isfinite(args.settle) and args.settle >= 0):
+        raise ValueError(f"--settle must be >= 0, got {args.settle}")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
     if args.record and not args.out:
@@ -86,9 +89,11 @@ def run(args: argparse.Namespace) -> int:
     def simulate(record_path: Path | None) -> Any:
         if profile is not None:
             return shaker.run_random_test(sensor, profile, levels, static_g=args.static_g, seconds=seconds,
-                                          seed=args.seed, record_path=record_path, progress=progress)
+                                          baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
+                                          record_path=record_path, progress=progress)
         return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
-                                    seed=args.seed, record_path=record_path, progress=progress)
+                                    baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
+                                    record_path=record_path, progress=progress)
 
     if args.out:
         from vrelab._io import output_dir, write_json
@@ -121,6 +126,10 @@ def register(subparsers: Any) -> None:
     ex.add_argument("--freq", metavar="LIST", help="sine method: frequencies [Hz], e.g. 100,1000")
     p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms]")
     p.add_argument("--seconds", type=float, default=4.0, metavar="S", help="duration of each level [s] (default 4)")
+    p.add_argument("--baseline", type=float, default=2.0, metavar="S",
+                   help="duration of each vibration-off baseline [s] (default 2)")
+    p.add_argument("--settle", type=float, metavar="S",
+                   help="settling time trimmed at each segment edge [s] (default: the reduction's, 0.5)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
