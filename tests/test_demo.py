@@ -111,5 +111,5 @@ def test_sine_vrc_is_amplified_q_squared_at_resonance(demo: dict) -> None:
 
 def test_bad_seconds_is_refused_before_running(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "--seconds", "0.1", "--out", str(tmp_path / "d")]) == 2
-    assert "--seconds must be >= 0.7" in capsys.readouterr().err
+    assert "--seconds must be >= " in capsys.readouterr().err
     assert not (tmp_path / "d").exists()

@@ -12,7 +12,7 @@ record like a lab file, fits the models, and becomes one section of a combined r
 
 Every level is bracketed by vibration-off baselines; each VRE has a standard uncertainty from
 the record's own noise (batch means), which scales as 1/√(seconds per level): the quick mode's
-0.7 s levels have about 4.8× the uncertainty of the default 16 s.
+1.4 s levels have about 3.4× the uncertainty of the default 16 s.
 """
 
 from __future__ import annotations
@@ -38,8 +38,15 @@ ARTICLE_RAIL_G = 2.5  # Figure 2: truncated-model fit "to a 2.5 g truncation"
 ARTICLE_DEPARTURE_RMS_G = 2.5  # Figure 2: departs from the model above about 2.5 g rms
 DATASHEET_LIMIT = (2.5, 0.4)  # ADXL355 Rev. D: |VRE| < 0.4 g at 2.5 g rms, ±2 g, 1 g, ODR 4 kHz
 PROFILE = "flat:50-2000"  # the article's random profile, 50 Hz–2 kHz
-# Shortest level the reduction accepts: 0.1 s settling trimmed at each edge, 4 windows of 0.1 s.
-MIN_SECONDS = 0.7
+
+
+def min_seconds() -> float:
+    """Shortest segment the reduction accepts: its settling trim at each edge plus its minimum
+    number of averaging windows (read from the reduction, which owns those numbers)."""
+    from vrelab.analysis.reduction import DEFAULT_SETTLE_S, WINDOW_S
+    from vrelab.shaker import MIN_WINDOWS
+
+    return math.ceil((2 * DEFAULT_SETTLE_S + MIN_WINDOWS * WINDOW_S) * 10 - 1e-6) / 10
 
 
 @dataclass(frozen=True)
@@ -47,22 +54,23 @@ class DemoConfig:
     """Durations of the simulated test [s] and the root seed."""
 
     seconds: float = 16.0  # per vibration level
-    baseline_s: float = 1.0  # per vibration-off baseline
+    baseline_s: float = 2.0  # per vibration-off baseline
     sine_seconds: float = 4.0  # per sine level
     seed: int = 2017
     quick: bool = False
 
     @classmethod
     def make(cls, quick: bool = False, seconds: float | None = None, seed: int = 2017) -> "DemoConfig":
+        lo = min_seconds()
         if seconds is not None:
             seconds = V.positive_scalar("--seconds", seconds)
-            if seconds < MIN_SECONDS:
-                raise ValueError(f"--seconds must be >= {MIN_SECONDS:g} s (settling trim plus 4 averaging windows), got {seconds:g}")
+            if seconds < lo:
+                raise ValueError(f"--seconds must be >= {lo:g} s (settling trim at both edges plus 4 averaging windows), got {seconds:g}")
         if quick:
-            s = seconds or MIN_SECONDS
-            return cls(seconds=s, baseline_s=MIN_SECONDS, sine_seconds=s, seed=seed, quick=True)
+            s = seconds or lo
+            return cls(seconds=s, baseline_s=lo, sine_seconds=s, seed=seed, quick=True)
         s = seconds or cls.seconds
-        return cls(seconds=s, baseline_s=min(1.0, s), sine_seconds=max(MIN_SECONDS, s / 2), seed=seed)
+        return cls(seconds=s, baseline_s=max(lo, 2.0), sine_seconds=max(lo, s / 2), seed=seed)
 
 
 @dataclass(frozen=True)
@@ -415,9 +423,9 @@ def run_demo(
     out : path
         Output folder; written completely or not at all (staged, then moved in).
     quick : bool
-        Short levels (0.7 s) and fewer of them: a few seconds in all, for tests.
+        Short levels (the reduction's minimum, 1.4 s) and fewer of them: a few seconds in all, for tests.
     seconds : float, optional
-        Duration of each random level [s] (default 16, quick 0.7). VRE uncertainty scales as
+        Duration of each random level [s] (default 16, quick: the minimum). VRE uncertainty scales as
         1/√seconds.
     log : callable, optional
         Receives one progress line per study (default: print on stderr).

@@ -16,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "combined DIR/report.html. Progress: one line per study on stderr.",
     )
     p.add_argument("--out", default="demo-out", metavar="DIR", help="output folder (default demo-out)")
-    p.add_argument("--quick", action="store_true", help="short levels (0.7 s) and fewer of them: seconds, not tens")
+    p.add_argument("--quick", action="store_true", help="shortest levels the reduction accepts and fewer of them: seconds, not tens")
     p.add_argument("--seconds", type=float, metavar="S", help="duration of each random level [s] (default 16; u scales as 1/sqrt(S))")
     p.add_argument("--seed", type=int, default=2017, metavar="N", help="root random seed (default 2017)")
     p.add_argument("--json", action="store_true", help="print the report path and headline numbers as JSON")

@@ -296,9 +296,11 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     has_f = any(lv.get("freq_hz") is not None for lv in levels)
     head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
     head += [f"{share_name(k)} (mg)" for k in share_keys]
-    has_notes = any(lv.get("notes") for lv in levels)
-    if has_notes:
-        head.append("notes")
+    # Per-level notes are sentences: listed under the table, each once with its levels.
+    by_note: dict[str, list[str]] = {}
+    for lv in levels:
+        for n in lv.get("notes") or ():
+            by_note.setdefault(str(n), []).append(_fmt(lv.get("rms_g"), ".3g"))
     rows = []
     for lv in levels:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
@@ -312,16 +314,17 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
             cells.append(_mg(v) if isinstance(v, (int, float)) else _fmt(v))
-        if has_notes:
-            cells.append("; ".join(lv.get("notes") or ()))
-        rows.append("<tr>" + "".join(f'<td class="{"" if h == "notes" else "num"}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
-    th = "".join(f'<th class="{"" if h == "notes" else "num"}">{_e(h)}</th>' for h in head)
+        rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
+    th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
         extra.append((k.replace("_", " "), v))
-    return _kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
+    notes = ""
+    if by_note:
+        notes = '<ul class="notes">' + "".join(f"<li>{_e(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
+    return _kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
 def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
