@@ -38,6 +38,7 @@ from vrelab import _validate as V
 from vrelab.analysis.segmentation import (
     WindowStats,
     auto_segment,
+    channel_labels,
     check_finite,
     exact_blocks,
     segment_windows,
@@ -162,12 +163,13 @@ def _sine_level(
     ones = np.zeros(nb, dtype=complex)
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
+    labels = channel_labels(record)
     pos = i0
     for blk in exact_blocks(record, blk_len, chans, i0, stop):
         d = blk["dut"]
         r = blk[ref]
-        check_finite("dut", d, pos)
-        check_finite(ref, r, pos)
+        check_finite(labels["dut"], d, pos)
+        check_finite(labels[ref], r, pos)
         nn = len(d)
         # Phase from the segment start: batches of whole periods line up with it.
         ph = np.exp(-1j * w * ((pos - i0) + np.arange(nn)))

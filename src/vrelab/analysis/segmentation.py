@@ -161,11 +161,17 @@ def exact_blocks(
         yield {c: np.concatenate([b[c] for b in buf]) for c in channels}
 
 
+def channel_labels(record: Record) -> dict[str, str]:
+    """How to name a record channel in messages: with the file's name for it when known."""
+    mapping = getattr(record, "mapping", None) or {}
+    return {c: (f"'{mapping[c]}' ({c})" if c in mapping and mapping[c] != c else f"'{c}'") for c in ("dut", "reference")}
+
+
 def check_finite(name: str, x: NDArray[np.float64], offset: int) -> None:
     """NaN/inf in a channel: one line naming the channel and the first bad sample index."""
     if not np.isfinite(x).all():
         i = int(np.flatnonzero(~np.isfinite(x))[0])
-        raise ValueError(f"channel {name!r} has a non-finite value ({x[i]}) at sample index {offset + i}")
+        raise ValueError(f"channel {name} has a non-finite value ({x[i]}) at sample index {offset + i}")
 
 
 def window_pass(
@@ -196,6 +202,7 @@ def window_pass(
     zi = None
     zi_lp = None
     chans = ["dut"] if ref_name == "dut" else ["dut", "reference"]
+    labels = channel_labels(record)
     bar = None
     if progress:
         from tqdm import tqdm
@@ -205,9 +212,9 @@ def window_pass(
     for blk in exact_blocks(record, block, chans, 0, n):
         d = np.asarray(blk["dut"], dtype=np.float64)
         r = d if ref_name == "dut" else np.asarray(blk["reference"], dtype=np.float64)
-        check_finite("dut", d, pos)
+        check_finite(labels["dut"], d, pos)
         if r is not d:
-            check_finite("reference", r, pos)
+            check_finite(labels["reference"], r, pos)
         if zi is None:
             zi = signal.sosfilt_zi(sos) * r[0]
             zi_lp = signal.sosfilt_zi(sos_lp) * d[0]
