@@ -248,7 +248,9 @@ def _levels_table(result: VreResult) -> str:
     num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "duration (s)", "samples", "saturated"}
     rows = []
     for i, x in enumerate(lv, 1):
-        rms = _fmt(x.rms_g, ".4g") + (f" ± {x.u_rms_g:.2g}" if x.u_rms_g else "")
+        # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
+        shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
+        rms = _fmt(x.rms_g, ".4g") + (f" ± {x.u_rms_g:.2g}" if shown_u else "")
         cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, _mg(x.vre.value, x.vre.u)]
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")

@@ -83,7 +83,8 @@ def describe_conditions(result: VreResult, short: bool = False) -> str:
     if c.static_g is not None:
         parts.append(f"{c.static_g:+g} g field")
     if c.profile and not short:
-        parts.append(str(c.profile))
+        prof = str(c.profile)
+        parts.append(prof if len(prof) <= 40 else prof[:39] + "…")  # a title is one line
     return ", ".join(parts)
 
 
@@ -281,8 +282,16 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
     freqs = sorted({x.freq_hz for x in lv if x.freq_hz is not None}) or [None]
+    if len(freqs) > len(COLORS):
+        from matplotlib import colormaps
+
+        # More frequencies than distinct colours: an ordered colormap keeps them apart and
+        # reads low-to-high.
+        palette = [colormaps["viridis"](k / max(1, len(freqs) - 1) * 0.92) for k in range(len(freqs))]
+    else:
+        palette = list(COLORS)
     for i, fq in enumerate(freqs):
-        color = COLORS[i % len(COLORS)]
+        color = palette[i % len(palette)]
         pts = [x for x in lv if x.freq_hz == fq]
         fit = next((f for f in fits if f.freq_hz == fq), fits[0] if fits and fq is None else None)
         used = set(np.round(fit.levels_used, 12)) if fit and fit.levels_used else None
@@ -291,7 +300,8 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
         u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * 1e6
         mask = np.array([used is None or round(x.rms_g, 12) in used for x in pts], dtype=bool)
         name = f"{fq:g} Hz" if fq is not None else "measured"
-        ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt="o", color=color, capsize=3, label=name)
+        # With a fit, its line carries the name (one legend entry per frequency, not two).
+        ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt="o", color=color, capsize=3, label=name if fit is None else "_nolegend_")
         if (~mask).any():
             ax.errorbar(r2[~mask], y[~mask], yerr=u[~mask], fmt="o", mfc="white", color=color, capsize=3, label=f"{name}: not in fit")
         if fit is not None and len(r2):
@@ -302,8 +312,8 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     ax.set_xlabel("vibration level squared, rms² (g²)")
     ax.set_ylabel("VRE (µg)")
     ax.set_xlim(left=0)
-    ax.set_title(title or f"VRE vs rms² (slope = VRC)\n{describe_conditions(result)}", fontsize=10)
-    ax.legend(fontsize=7.5, loc="best", ncol=2 if len(freqs) > 4 else 1)
+    ax.set_title(title or f"VRE vs rms² (slope = VRC)\n{describe_conditions(result, short=True)}", fontsize=10)
+    ax.legend(fontsize=7.5, loc="best", ncol=2 if len(freqs) > 6 else 1)
     return fig
 
 
@@ -338,7 +348,7 @@ def plot_vrc_vs_freq(
         ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel("sine frequency (Hz)")
     ax.set_ylabel("VRC (µg/g²)")
-    ax.set_title(title or f"VRC vs frequency\n{describe_conditions(result)}", fontsize=10)
+    ax.set_title(title or f"VRC vs frequency\n{describe_conditions(result, short=True)}", fontsize=10)
     ax.legend(fontsize=8, loc="best")
     return fig
 
