@@ -328,3 +328,22 @@ def test_censored_magnitude_grows_with_sigma_and_sign(r, frac, s1, s2):
 def test_truncated_sign_for_positive_mean_in_symmetric_rails(r, frac, s):
     """μ in [0, R] with rails ±R: |α| >= |β| so φ(α) <= φ(β) and the truncated shift is <= 0."""
     assert truncated_mean_shift(frac * r, s, -r, r) <= 0.0
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    mu=st.floats(-1e3, 1e3),
+    log_s=st.floats(-6.0, 6.0),
+    r1=st.floats(-1e3, 1e3),
+    log_w=st.floats(-6.0, 3.0),
+)
+def test_both_gaussian_models_match_mpmath_across_the_space(mu, log_s, r1, log_w):
+    """Anywhere in σ 1e-6..1e6 g, rail width 1e-6..1e3 g: 1e-9 relative to 100-digit mpmath.
+
+    Results below 1e-290 g are compared absolutely (float64 cannot hold them relatively).
+    """
+    s, low = 10.0**log_s, r1
+    high = low + 10.0**log_w
+    for ours, ref in ((censored_mean_shift, _mp_censored), (truncated_mean_shift, _mp_truncated)):
+        expect = ref(mu, s, low, high)
+        assert ours(mu, s, low, high) == pytest.approx(expect, rel=1e-9, abs=1e-290)

@@ -28,6 +28,11 @@ Gaussian vibration uses sigma = rms; a sine uses amplitude = rms * sqrt(2).
 Example: vrelab model clip --mean 1 --rail 2 --rms 0.5:3:0.5
 """
 
+_DASH_NOTE = (
+    "A value that starts with '-' and is not a plain number (e.g. -1e-3 or a range -1:1:0.5) "
+    "must be attached with '=': --mean=-1e-3."
+)
+
 _POLY_HELP = """\
 VRE of a scale-factor nonlinearity y = a + k2*a^2 + k3*a^3 + k4*a^4 (a = static + vibration),
 coefficients in ug/g^2, ug/g^3, ug/g^4 (k2 is the VRC; 1 ug/g^2 = 1 ppm/g):
@@ -142,7 +147,7 @@ def register(subparsers: Any) -> None:
     sub.required = True
 
     fmt = argparse.RawDescriptionHelpFormatter
-    clip = sub.add_parser("clip", help="VRE from clipping at the rails", description=_CLIP_HELP, formatter_class=fmt)
+    clip = sub.add_parser("clip", help="VRE from clipping at the rails", description=_CLIP_HELP, epilog=_DASH_NOTE, formatter_class=fmt)
     clip.add_argument("--mean", required=True, metavar="G", help="static acceleration on the axis, g (+1: axis up in 1 g)")
     clip.add_argument("--rail", required=True, metavar="G", help="upper rail, g (the range, e.g. 2 for +-2 g)")
     clip.add_argument("--rail-low", metavar="G", help="lower rail, g (default: -RAIL)")
@@ -157,7 +162,7 @@ def register(subparsers: Any) -> None:
     clip.add_argument("--json", action="store_true", help="print one JSON object (keys rms_g, vre_g, ...)")
     clip.set_defaults(func=_run_clip)
 
-    poly = sub.add_parser("poly", help="VRE from a polynomial nonlinearity (VRC)", description=_POLY_HELP, formatter_class=fmt)
+    poly = sub.add_parser("poly", help="VRE from a polynomial nonlinearity (VRC)", description=_POLY_HELP, epilog=_DASH_NOTE, formatter_class=fmt)
     poly.add_argument("--k2", required=True, metavar="UG_PER_G2", help="quadratic coefficient = VRC, ug/g^2")
     poly.add_argument("--k3", default="0", metavar="UG_PER_G3", help="cubic coefficient, ug/g^3 (default 0)")
     poly.add_argument("--k4", default="0", metavar="UG_PER_G4", help="quartic coefficient, ug/g^4 (default 0)")
