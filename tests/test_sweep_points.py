@@ -157,7 +157,7 @@ def test_simulate_point_uses_the_point_seed_and_agrees_with_the_closed_form(tmp_
             "kind": "simulate",
             "seconds": 2.0,
             "seed": 7,
-            "fixed": {"sensor": "ideal", "profile": "flat:50-2000", "baseline_s": 1.0},
+            "fixed": {"sensor": "ideal", "profile": "flat:50-2000"},
             "grid": {"rms_g": [1.0, 1.5]},
         }
     )
@@ -165,7 +165,7 @@ def test_simulate_point_uses_the_point_seed_and_agrees_with_the_closed_form(tmp_
     assert (ds["status"] == "ok").all()
     seed = int(np.random.SeedSequence(7, spawn_key=(0, 1)).generate_state(1, dtype=np.uint64)[0])
     direct = run_random_test(
-        load_sensor("ideal"), parse_profile("flat:50-2000"), [1.5], 1.0, seconds=2.0, baseline_s=1.0, seed=seed
+        load_sensor("ideal"), parse_profile("flat:50-2000"), [1.5], 1.0, seconds=2.0, seed=seed
     ).levels[0]
     assert float(ds["vre_g"].sel(rms_g=1.5)) == direct.vre.value
     assert float(ds["u_vre_g"].sel(rms_g=1.5)) == direct.vre.u

@@ -150,8 +150,15 @@ def run_points(
     n_failed = 0
     isolated: Future | None = None  # the lone task run after a crash, to pin the crash on it
 
+    pending: list[PointRecord] = []  # finished in this turn of the loop: one checkpoint write
+
     def finish(recs: list[PointRecord]) -> None:
+        pending.extend(recs)
+
+    def flush() -> None:
         nonlocal n_failed
+        recs = pending[:]
+        pending.clear()
         if not recs:
             return
         for r in recs:
@@ -209,6 +216,7 @@ def run_points(
             crashed: list[int] = []
             for fut in sorted(done, key=lambda f: inflight[f][0]):  # index order when several land
                 collect(fut, inflight.pop(fut), crashed)
+            flush()
             if not crashed:
                 continue
             # The pool is broken: every other pending future fails too. Gather them all.
@@ -220,6 +228,7 @@ def run_points(
             if not backend.can_reset:
                 msg = f"{backend.name} executor broke (a worker died)"
                 finish([PointRecord(i, "failed", {}, msg, 1, math.nan, run) for i in crashed])
+                flush()
                 raise RuntimeError(msg)
             backend.reset()
             if culprit is not None:
@@ -227,6 +236,7 @@ def run_points(
                 finish([r for r in [attempt_failed(culprit, msg, math.nan, suspects)] if r is not None])
             else:
                 suspects.extend(sorted(crashed))
+            flush()
     finally:
         bar.close()
     return results

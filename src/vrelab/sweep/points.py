@@ -15,7 +15,9 @@
   level of a ``profile`` (or a sine at ``freq_hz``).
 
 ``simulate``: the simulated shaker test, :func:`vrelab.shaker.run_random_test` (or
-  ``run_sine_test`` with ``freq_hz``), one level of ``seconds``, seeded from the point's seed.
+  ``run_sine_test`` with ``freq_hz``), one level, seeded from the point's seed; ``seconds``
+  (top level of the file), ``baseline_s`` and ``settle_s`` are passed when given, else the
+  shaker's defaults apply.
 """
 
 from __future__ import annotations
@@ -157,14 +159,14 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     sensor = sensor_for(params)
     rms = float(params["rms_g"])
     static = float(params.get("static_g", 1.0))
-    seconds = float(params.get("seconds", 2.0))
-    baseline = float(params.get("baseline_s", 1.0))
+    # durations the file does not set keep the shaker's own defaults
+    timing = {k: float(params[k]) for k in ("seconds", "baseline_s", "settle_s") if k in params}
     # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
     seed_int = int(seed.generate_state(1, dtype=np.uint64)[0])
     if mode == "sine":
-        res = run_sine_test(sensor, [excitation], [rms], static, seconds=seconds, baseline_s=baseline, seed=seed_int)
+        res = run_sine_test(sensor, [excitation], [rms], static, seed=seed_int, **timing)
     else:
-        res = run_random_test(sensor, excitation, [rms], static, seconds=seconds, baseline_s=baseline, seed=seed_int)
+        res = run_random_test(sensor, excitation, [rms], static, seed=seed_int, **timing)
     lv = res.levels[0]
     return {
         "vre_g": lv.vre.value,

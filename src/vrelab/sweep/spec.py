@@ -6,7 +6,7 @@ The file (every key optional except ``kind`` and at least one of ``[grid]`` / ``
     kind = "model"                   # model | predict | simulate | python
     function = "mypkg.mod:point"     # python kind only: point(params, seed_seq) -> {name: float}
     seed = 20161121                  # root of every random number (numpy SeedSequence)
-    seconds = 2.0                    # simulate only: seconds of vibration per level
+    seconds = 2.0                    # simulate only: seconds of vibration per level (default: the shaker's)
     retries = 1                      # extra attempts for a point that raises or kills its worker
     chunk = 1                        # points per task sent to a worker (cheap points: raise it)
 
@@ -117,7 +117,7 @@ PARAMS: dict[str, dict[str, Param]] = {
         "freq_hz": _P,
     },
 }
-PARAMS["simulate"] = {**PARAMS["predict"], "baseline_s": _P}
+PARAMS["simulate"] = {**PARAMS["predict"], "baseline_s": _P, "settle_s": _N}
 REQUIRED: dict[str, tuple[str, ...]] = {"model": ("rms_g",), "predict": ("rms_g",), "simulate": ("rms_g",)}
 
 _DISTS: dict[str, tuple[str, ...]] = {
@@ -362,7 +362,8 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
     chunk = _int("chunk", doc.get("chunk", 1), 1)
     seconds = doc.get("seconds")
     if kind == "simulate":
-        seconds = Param(float, "positive").coerce("seconds", seconds if seconds is not None else 2.0)
+        if seconds is not None:  # else the shaker's default
+            seconds = Param(float, "positive").coerce("seconds", seconds)
     elif seconds is not None:
         raise ValueError(f"seconds is only for kind 'simulate', got {seconds!r} with kind {kind!r}")
 
