@@ -22,9 +22,10 @@ when to run the simulation (:mod:`vrelab.shaker`) instead.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +33,9 @@ from numpy.typing import NDArray
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 ClipKind = Literal["censored", "truncated"]
 
@@ -154,7 +158,7 @@ def _rails(sensor: Any) -> tuple[float, float]:
 
 
 def predict(
-    sensor: Any,
+    sensor: "Sensor",
     excitation: RandomProfile | float | Sequence[float],
     levels: Sequence[float],
     static_g: float = 1.0,
@@ -239,17 +243,8 @@ def predict(
                 out.append(_level(sensor, float(rms), float(f), g0, kind, "sine", sm, so, sc, float(f)))
         text = "sine " + ", ".join(f"{f:g}" for f in freqs) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); mechanisms added as independent")
-    cond = Conditions(
-        sensor=str(getattr(sensor, "name", "sensor")),
-        model=f"prediction-{kind}",
-        profile=text,
-        static_g=g0,
-        range_g=getattr(sensor, "range_g", None),
-        bandwidth_hz=getattr(sensor, "bandwidth_hz", None),
-        odr_hz=getattr(sensor, "odr_hz", None),
-        axis=getattr(sensor, "axis", None),
-        extra={"clip_position": clip_where},
-    )
+    base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
+    cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
     return Prediction(cond, tuple(out), tuple(notes))
 
 

@@ -34,10 +34,10 @@ import copy
 import dataclasses
 import math
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,7 +46,10 @@ from vrelab import __version__
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile
 from vrelab.record import Schedule, Segment, write_record_hdf5
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+from vrelab.results import Conditions, FitResult, LevelResult, VreResult
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 DriveMethod = Literal["gaussian", "multisine"]
 
@@ -335,17 +338,9 @@ def _sensor_name(sensor: Any) -> str:
 
 
 def _conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
-    return Conditions(
-        sensor=_sensor_name(sensor),
-        model="simulation",
-        profile=profile_text,
-        static_g=float(static_g),
-        range_g=getattr(sensor, "range_g", None),
-        bandwidth_hz=getattr(sensor, "bandwidth_hz", None),
-        odr_hz=getattr(sensor, "odr_hz", None),
-        axis=getattr(sensor, "axis", None),
-        extra=dict(extra),
-    )
+    """The sensor's conditions (range, axis, ODR, bandwidth, rails) plus the test's."""
+    base = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
+    return dataclasses.replace(base, extra={**dict(base.extra), **dict(extra)})
 
 
 def _provenance(function: str, sensor: Any) -> dict[str, Any]:
@@ -391,8 +386,11 @@ def _reduce(
         from vrelab.analysis.readers import open_record
 
         source = open_record(record_path, dut="dut", reference="reference")
+    # The simulation's own progress bar covers the pass that generates the record; the
+    # reduction shows one only when it reads the file back.
     levels, warnings = reduce_record(
-        source, schedule=record.schedule, method=method, band_hz=band_hz, settle_s=settle_s, progress=progress
+        source, schedule=record.schedule, method=method, band_hz=band_hz, settle_s=settle_s,
+        progress=progress and record_path is not None,
     )
     levels = list(levels)
     # The simulation knows exactly which DUT samples sat on a rail and where the chain clipped
@@ -451,7 +449,7 @@ def _validate_levels(name: str, levels: Sequence[float]) -> list[float]:
 
 
 def plan_random_test(
-    sensor: Any,
+    sensor: "Sensor",
     profile: RandomProfile,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
@@ -513,7 +511,7 @@ def plan_random_test(
 
 
 def run_random_test(
-    sensor: Any,
+    sensor: "Sensor",
     profile: RandomProfile,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
@@ -595,7 +593,18 @@ def _measurement_band(profile: RandomProfile) -> tuple[float, float]:
     return f_lo / 2, f_hi * 2
 
 
-def vrc_level_limit_g(sensor: Any, static_g: float) -> float:
+def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
+    """The reduction's default band (50-2000 Hz) unless the record rate cannot hold it; then
+    an octave around the drive frequencies, below the record's Nyquist frequency. (For the
+    sine method the band only serves the window statistics: levels come from the lock-in.)"""
+    nyquist = record.fs_hz / 2
+    if 50.0 < 0.9 * nyquist:
+        return None
+    freqs = [s.freq_hz for s in record.schedule.segments if s.freq_hz]
+    return min(freqs) / 2, min(2 * max(freqs), 0.9 * nyquist)
+
+
+def vrc_level_limit_g(sensor: "Sensor", static_g: float) -> float:
     """Largest rms [g] whose Gaussian peaks (4σ) stay inside the nominal rails at ``static_g``.
 
     Below it clipping contributes less than about 1e-5 of σ to the VRE, so a VRC fit over
@@ -629,7 +638,7 @@ def _random_fits(
 
 
 def plan_sine_test(
-    sensor: Any,
+    sensor: "Sensor",
     freqs_hz: Sequence[float],
     levels_rms_g: Sequence[float],
     static_g: float = 1.0,
@@ -689,7 +698,7 @@ def plan_sine_test(
 
 
 def run_sine_test(
-    sensor: Any,
+    sensor: "Sensor",
     freqs_hz: Sequence[float],
     levels_rms_g: Sequence[float],
     static_g: float = 1.0,
@@ -713,14 +722,20 @@ def run_sine_test(
         sensor, freqs_hz, levels_rms_g, static_g, seconds, baseline_s, settle_s, seed, fs_internal_hz, progress
     )
     settle = record.meta["simulation"]["settle_s"]
-    levels, warnings = _reduce(record, "sine", None, settle, record_path, progress)
+    levels, warnings = _reduce(record, "sine", _sine_band(record), settle, record_path, progress)
     from vrelab import fits as F
 
+    # Group the levels by the frequency they were run at (the schedule's), not by the
+    # reduction's estimate of it, which scatters in the last digits.
+    nominal = [seg.freq_hz for seg in record.schedule.segments if not seg.is_baseline]
     fits: list[FitResult] = []
     for f in dict.fromkeys(float(x) for x in freqs_hz):
-        at_f = [lv for lv in levels if lv.freq_hz is not None and math.isclose(lv.freq_hz, f, rel_tol=1e-9)]
+        if len(nominal) == len(levels):
+            at_f = [lv for lv, fn in zip(levels, nominal) if fn is not None and math.isclose(fn, f)]
+        else:  # the reduction dropped a level: fall back on its frequency estimates (1 %)
+            at_f = [lv for lv in levels if lv.freq_hz is not None and math.isclose(lv.freq_hz, f, rel_tol=0.01)]
         try:
-            fits.append(F.fit_vrc(at_f, freq_hz=f))
+            fits.append(dataclasses.replace(F.fit_vrc(at_f), freq_hz=f))
         except ValueError as exc:
             warnings.append(f"VRC fit at {f:g} Hz not possible: {exc}")
     freqs_text = ", ".join(f"{f:g}" for f in dict.fromkeys(float(x) for x in freqs_hz))
@@ -808,7 +823,7 @@ def _lot_unit(
 
 
 def monte_carlo_lot(
-    sensor: Any,
+    sensor: "Sensor",
     profile_or_freq: RandomProfile | float,
     levels: Sequence[float],
     n_units: int,
