@@ -114,3 +114,19 @@ def test_record_closes_the_loop_through_vrelab_analyze(tmp_path, capsys):
         assert a["vre_g"] == pytest.approx(s["vre_g"], rel=1e-9, abs=1e-12)
         assert a["u_vre_g"] == pytest.approx(s["u_vre_g"], rel=1e-9)
     assert ana["fit"]["rail_g"]["value"] == pytest.approx(sim["fit"]["rail_g"]["value"], rel=0.02)
+
+
+def test_out_is_complete_or_absent(tmp_path, capsys, monkeypatch):
+    """A failure during the run leaves no output folder (vrelab._io.output_dir)."""
+    from vrelab import shaker
+
+    def boom(*args, **kwargs):
+        raise ValueError("simulated failure")
+
+    monkeypatch.setattr(shaker, "run_random_test", boom)
+    out_dir = tmp_path / "never"
+    rc, out, err = _run(capsys, "simulate", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1",
+                        "--out", str(out_dir))
+    assert rc == 2 and "simulated failure" in err
+    assert not out_dir.exists()
+    assert list(tmp_path.iterdir()) == []  # no staging folder left behind either

@@ -137,3 +137,18 @@ def test_bad_input(levels, kwargs, match):
 def test_bad_frequency():
     with pytest.raises(ValueError, match="freq_hz"):
         predict(load_sensor("ideal"), -100.0, [1.0])
+
+
+def test_predict_agrees_with_simulate_proof_mass_clip():
+    """A clip at the proof mass (before the filters, SPEC 1.3) sees σ_m = rms·|H_mech| over the
+    band, not the filtered σ_out: prediction and simulation agree (3u + 10 %), and the clip
+    rectifies more than the same rail at the output."""
+    out_clip = load_sensor("adxl355", range_g=2, axis="z")
+    pm_clip = dataclasses.replace(out_clip, clip_position="proof-mass")
+    (p_pm,) = predict(pm_clip, FLAT, [1.0]).levels
+    (p_out,) = predict(out_clip, FLAT, [1.0]).levels
+    assert p_pm.sigma_at_clip_g == pytest.approx(p_pm.sigma_proof_mass_g)
+    assert p_out.sigma_at_clip_g == pytest.approx(p_out.sigma_output_g) and p_out.sigma_output_g < p_pm.sigma_proof_mass_g
+    assert p_pm.vre_g < 2 * p_out.vre_g < 0
+    (sim,) = shaker.run_random_test(pm_clip, FLAT, [1.0], seconds=2.0, baseline_s=1.5, seed=22).levels
+    assert abs(sim.vre.value - p_pm.vre_g) < 3 * sim.vre.u + 0.10 * abs(p_pm.vre_g), (sim.vre, p_pm.vre_g)
