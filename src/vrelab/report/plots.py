@@ -81,7 +81,7 @@ def describe_conditions(result: VreResult, short: bool = False) -> str:
     elif c.odr_hz is not None:
         parts.append(f"ODR {c.odr_hz:g} Hz")
     if c.static_g is not None:
-        parts.append(f"{c.static_g:+g} g field")
+        parts.append(f"{c.static_g:+.3g} g field")  # a measured static field: 3 digits
     if c.profile and not short:
         prof = str(c.profile)
         parts.append(prof if len(prof) <= 40 else prof[:39] + "…")  # a title is one line
@@ -627,16 +627,18 @@ def plot_psd(
 
     Points inside the band (when given) but outside the tolerance are marked.
     """
-    f = V.as_float_array("freq_hz", freq_hz)
-    pm = V.as_float_array("psd_measured", psd_measured)
-    pp = V.as_float_array("psd_profile", psd_profile)
+    # NaN is allowed here: a profile is undefined outside its band (psd.csv leaves it empty).
+    f = np.asarray(freq_hz, dtype=np.float64)
+    pm = np.asarray(psd_measured, dtype=np.float64)
+    pp = np.asarray(psd_profile, dtype=np.float64)
     if not (f.shape == pm.shape == pp.shape):
         raise ValueError(f"freq_hz, psd_measured, psd_profile must have one shape, got {f.shape}, {pm.shape}, {pp.shape}")
     tol_db = V.positive_scalar("tol_db", tol_db)
     fig, (ax,) = _new_figure()
-    ok = (f > 0) & (pm > 0)
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(f) & np.isfinite(pm) & (f > 0) & (pm > 0)
+        prof = np.isfinite(f) & np.isfinite(pp) & (f > 0) & (pp > 0)
     ax.loglog(f[ok], pm[ok], color=COLORS[0], lw=1, label=label)
-    prof = (f > 0) & (pp > 0)
     lo, hi = 10 ** (-tol_db / 10), 10 ** (tol_db / 10)
     ax.loglog(f[prof], pp[prof], color="k", lw=1.3, label="profile")
     ax.fill_between(f[prof], pp[prof] * lo, pp[prof] * hi, color=COLORS[2], alpha=0.2, lw=0, label=f"±{tol_db:g} dB tolerance")
@@ -657,6 +659,32 @@ def plot_psd(
     ax.set_title(title or "Reference PSD against the profile", fontsize=10)
     ax.legend(fontsize=8, loc="best")
     return fig
+
+
+def fractional_octave_average(
+    freq_hz: ArrayLike, psd: ArrayLike, fraction: int = 24, *others: ArrayLike
+) -> tuple[FloatArray, ...]:
+    """Average PSD lines in 1/``fraction``-octave bands (power average, the way analyzers do).
+
+    A short record's fine-resolution PSD scatters by ±5 dB or more line to line (few averages
+    per line); a band average has the variance of many lines and is what a ±3 dB tolerance is
+    read against. Returns the lines' mean frequency per band, the averaged PSD, and the same
+    average of each array in ``others`` (e.g. the profile). Lines with f <= 0 or NaN PSD are
+    dropped; empty bands are skipped.
+    """
+    f = np.asarray(freq_hz, dtype=np.float64)
+    arrays = [np.asarray(psd, dtype=np.float64)] + [np.asarray(o, dtype=np.float64) for o in others]
+    keep = (f > 0) & np.all([np.isfinite(a) for a in arrays], axis=0)
+    f = f[keep]
+    arrays = [a[keep] for a in arrays]
+    if f.size == 0:
+        return (f, *arrays)
+    band = np.floor(fraction * np.log2(f / f.min()) + 1e-9).astype(np.int64)
+    n = np.bincount(band)
+    used = n > 0
+    out = [np.bincount(band, weights=f)[used] / n[used]]
+    out += [np.bincount(band, weights=a)[used] / n[used] for a in arrays]
+    return tuple(out)
 
 
 def read_psd_csv(path: str | Path) -> dict[str, FloatArray]:
