@@ -455,3 +455,21 @@ def test_a_value_error_is_bad_input_and_is_not_retried(points_module, tmp_path):
     assert len(failed) == 2 and {r.attempts for r in failed} == {1}
     assert failed[0].error == "ValueError: x must not be 3"
     assert (tmp_path / "calls-3.0-p").read_text() == "x"
+
+
+def test_zarr_without_the_package_fails_before_any_point(points_module, monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "zarr", None)
+    with pytest.raises(ValueError, match="zarr"):
+        run_sweep(parse_spec(_doc(output={"formats": ["netcdf", "zarr"]})), tmp_path)
+    assert not (tmp_path / "result.nc").exists()
+
+
+def test_the_example_in_the_help_is_a_valid_sweep_file():
+    import tomllib
+
+    from vrelab.cli.sweep import _EXAMPLE
+
+    body = textwrap.dedent(_EXAMPLE.split("\n", 2)[2])
+    spec = parse_spec(tomllib.loads(body))
+    assert spec.dims == ("unit", "rms_g", "range_g", "odr_hz", "static_g")
+    assert spec.shape == (20, 6, 3, 3, 2)

@@ -9,13 +9,36 @@ from pathlib import Path
 from typing import Any
 
 
+_EXAMPLE = """example FILE (see vrelab.sweep.spec for every field):
+
+  kind = "predict"                # model | predict | simulate | python
+  seed = 1
+  [fixed]
+  sensor = "adxl355"
+  profile = "flat:50-2000"
+  [grid]
+  rms_g = "0.5:3:0.5"
+  range_g = [2, 4, 8]
+  odr_hz = [4000, 1000, 125]
+  static_g = [1, -1]
+  [montecarlo]                    # optional: a lot of units, one draw each
+  units = 20
+  q = {dist = "normal", mean = 7.4, sd = 0.7}
+  k2_ug_per_g2 = {dist = "uniform", low = -100, high = 100}
+"""
+
+
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="parameter sweep or Monte Carlo lot from a TOML file (serial, processes or Dask)",
         description="Evaluate a grid of parameters and/or a Monte Carlo lot described in a TOML "
         "file; checkpointed in --out so that rerunning the same command resumes an interrupted "
-        "sweep. Writes DIR/result.nc (xarray/NetCDF), DIR/result.csv and DIR/sweep.json.",
+        "sweep. Writes DIR/result.nc (xarray/NetCDF), DIR/result.csv and DIR/sweep.json. "
+        "Exit status 0 when every point is ok, 1 when some failed (they are in the outputs "
+        "with their errors; --retry-failed computes them again), 2 on bad input.",
+        epilog=_EXAMPLE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("file", metavar="FILE", help="sweep description (TOML)")
     where = p.add_mutually_exclusive_group()

@@ -113,6 +113,10 @@ def run_sweep(
         made them fail); finished ``ok`` points are still never recomputed.
     """
     func = point_function(spec)
+    if "zarr" in spec.formats:  # fail now, not after the last point
+        from vrelab.sweep.dataset import require_zarr
+
+        require_zarr()
     retries = spec.retries if retries is None else retries
     chunk = spec.chunk if chunk is None else chunk
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:

@@ -101,11 +101,15 @@ def write_netcdf(ds: Any, path: Path) -> None:
     ds.to_netcdf(path, engine="h5netcdf")
 
 
-def write_zarr(ds: Any, path: Path) -> None:
+def require_zarr() -> None:
     try:
         import zarr  # noqa: F401
     except ImportError:
         raise ValueError("output.formats: zarr needs the zarr package (pip install zarr)") from None
+
+
+def write_zarr(ds: Any, path: Path) -> None:
+    require_zarr()
     ds.to_zarr(path, mode="w")
 
 
