@@ -261,6 +261,23 @@ def test_cli_report_bad_folder_is_one_line_exit_2(tmp_path: Path, capsys: pytest
     assert not (tmp_path / "report.html").exists()
 
 
+def test_cli_report_malformed_optional_files_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
+    (tmp_path / "prediction.json").write_text('{"levels": [1, 2]}')
+    assert main(["report", str(tmp_path)]) == 2
+    assert "not a vrelab prediction" in capsys.readouterr().err
+    (tmp_path / "prediction.json").unlink()
+    (tmp_path / "record.h5").write_bytes(b"not hdf5")
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    (tmp_path / "record.h5").unlink()
+    (tmp_path / "psd.csv").write_text("a,b\n1,2\n")
+    assert main(["report", str(tmp_path)]) == 2
+    assert "need frequency" in capsys.readouterr().err
+    assert not (tmp_path / "report.html").exists()
+
+
 def test_cli_report_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["report", str(tmp_path / "nope")]) == 2
     assert "not a folder" in capsys.readouterr().err

@@ -131,18 +131,18 @@ def sha256_file(path: str | Path, block: int = 1 << 20) -> str:
     return h.hexdigest()
 
 
-def describe_fit_param(name: str) -> tuple[str, str, float]:
-    """Display name, unit and scale of a fit parameter from its unit-bearing name."""
+def describe_fit_param(name: str) -> tuple[str, str]:
+    """Display name and unit of a fit parameter from its unit-bearing name."""
     table = {
-        "vrc_ug_per_g2": ("VRC", "µg/g²", 1.0),
-        "rail_g": ("effective rail", "g", 1.0),
-        "rail_low_g": ("lower rail", "g", 1.0),
-        "rail_high_g": ("upper rail", "g", 1.0),
-        "k2_ug_per_g2": ("k2", "µg/g²", 1.0),
-        "k3_ug_per_g3": ("k3", "µg/g³", 1.0),
-        "k4_ug_per_g4": ("k4", "µg/g⁴", 1.0),
+        "vrc_ug_per_g2": ("VRC", "µg/g²"),
+        "rail_g": ("effective rail", "g"),
+        "rail_low_g": ("lower rail", "g"),
+        "rail_high_g": ("upper rail", "g"),
+        "k2_ug_per_g2": ("k2", "µg/g²"),
+        "k3_ug_per_g3": ("k3", "µg/g³"),
+        "k4_ug_per_g4": ("k4", "µg/g⁴"),
     }
-    return table.get(name, (name, "", 1.0))
+    return table.get(name, (name, ""))
 
 
 def collect_warnings(
@@ -195,21 +195,6 @@ def collect_warnings(
             )
     seen: set[str] = set()
     return [w for w in out if not (w in seen or seen.add(w))]
-
-
-def psd_tolerance(freq_hz: np.ndarray, measured: np.ndarray, profile: np.ndarray, tol_db: float = 3.0) -> dict[str, Any]:
-    """The ±tol_db check of a PSD table, for warnings (the synthesis module has the full check)."""
-    m = (freq_hz > 0) & (profile > 0) & (measured > 0)
-    if not m.any():
-        return {"passed": True, "max_dev_db": float("nan"), "min_dev_db": float("nan"), "tol_db": tol_db}
-    dev = 10 * np.log10(measured[m] / profile[m])
-    return {
-        "passed": bool(np.all(np.abs(dev) <= tol_db)),
-        "max_dev_db": float(dev.max()),
-        "min_dev_db": float(dev.min()),
-        "tol_db": tol_db,
-        "n_out": int(np.sum(np.abs(dev) > tol_db)),
-    }
 
 
 # --------------------------------------------------------------------------- rendering
@@ -459,7 +444,10 @@ def _load_prediction(folder: Path) -> Mapping[str, Any] | None:
         doc = json.loads(f.read_text(encoding="utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
-    return doc if isinstance(doc, dict) else None
+    levels = doc.get("levels") if isinstance(doc, dict) else None
+    if not isinstance(levels, list) or not all(isinstance(lv, dict) for lv in levels):
+        raise ValueError(f"report: {f} is not a vrelab prediction (needs a list of level objects under 'levels')")
+    return doc
 
 
 def _rails_of(result: VreResult) -> tuple[float, float] | None:
@@ -473,16 +461,15 @@ def _rails_of(result: VreResult) -> tuple[float, float] | None:
     return None
 
 
-def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[ReportFigure], list[str], dict[str, Any] | None]:
+def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[ReportFigure], list[str]]:
     """The standard figures of one result (and of the optional files next to its results.json).
 
-    Returns (figures, notes, psd_check).
+    Returns (figures, notes).
     """
     from vrelab.report import plots
 
     figs: list[ReportFigure] = []
     notes: list[str] = []
-    psd_check = None
     finite = [lv for lv in result.levels if math.isfinite(lv.rms_g) and math.isfinite(lv.vre.value)]
     if finite:
         if result.method == "random":
@@ -514,14 +501,13 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
             # Shown, not judged: the tolerance verdict is the analysis's (SPEC 3 check on the
             # whole level, flagged per level and listed in the warnings); a table of a short
             # record's PSD scatters too much line by line to be read against ±3 dB.
-            psd_check = psd_tolerance(f, pm, pp) | {"how": how}
             figs.append(
                 ReportFigure.from_figure(
                     plots.plot_psd(f, pm, pp, label=label),
                     f"Reference PSD at the highest level against the profile and its ±3 dB tolerance band ({how}).",
                 )
             )
-    return figs, notes, psd_check
+    return figs, notes
 
 
 def summary_sentence(result: VreResult) -> str:
@@ -547,7 +533,7 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
     folder = Path(folder)
     result = load_results(folder)
     prediction = _load_prediction(folder)
-    figs, notes, psd_check = result_figures(result, folder)
+    figs, notes = result_figures(result, folder)
     res_file = folder / "results.json"
     prov: dict[str, Any] = {"results_file": res_file.name, "results_sha256": sha256_file(res_file)}
     src = next((result.provenance.get(k) for k in ("input", "input_file", "file", "path") if result.provenance.get(k)), None)
@@ -561,7 +547,6 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
     if rec.is_file():
         prov["record_file"] = rec.name
         prov["record_sha256"] = sha256_file(rec)
-    extra_warn: list[str] = []
     sec = ReportSection(
         title=title or f"{describe(result)}",
         what=summary_sentence(result),
@@ -569,7 +554,6 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
         figures=figs,
         prediction=prediction,
         notes=notes,
-        extra_warnings=extra_warn,
         provenance=prov,
     )
     return write_report(

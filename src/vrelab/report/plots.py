@@ -16,7 +16,7 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Literal, Mapping, Sequence
+from typing import Literal, Mapping, Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -696,9 +696,3 @@ def read_psd_csv(path: str | Path) -> dict[str, FloatArray]:
     if fk is None or mk is None or pk is None:
         raise ValueError(f"{Path(path).name}: need frequency, measured and profile PSD columns, got {', '.join(cols)}")
     return {"freq_hz": np.asarray(cols[fk]), "psd_measured": np.asarray(cols[mk]), "psd_profile": np.asarray(cols[pk])}
-
-
-def figures_to_close(figs: Iterable[Figure]) -> None:
-    """Release figures' memory (they are not registered with pyplot, so clearing is enough)."""
-    for fig in figs:
-        fig.clear()
