@@ -161,16 +161,10 @@ def _example_folder(folder: Path) -> None:
     )
 
 
-def test_report_renders_in_chromium_with_all_figures_and_no_console_errors(tmp_path: Path) -> None:
-    exe = _chromium()
-    folder = tmp_path / "run"
-    folder.mkdir()
-    _example_folder(folder)
-    report = report_dir(folder)
-    n_img_expected = report.read_text().count("<img ")
-    assert n_img_expected == 3  # VRE vs rms, record, PSD (no VRC fit: no rms² plot)
-
-    cdp = CDP(exe, tmp_path / "chromium-profile")
+def render_in_chromium(report: Path, work: Path, screenshot: Path) -> tuple[dict, list[dict]]:
+    """Load ``report`` in headless Chromium; save a full-page screenshot; return the page state
+    (image count, decoded count, widths, height, title) and the DevTools events seen."""
+    cdp = CDP(_chromium(), work / "chromium-profile")
     try:
         target = cdp.send("Target.createTarget", {"url": "about:blank"})["targetId"]
         session = cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
@@ -192,27 +186,41 @@ def test_report_renders_in_chromium_with_all_figures_and_no_console_errors(tmp_p
         cdp.send("Runtime.evaluate", {"expression": "1"}, session=session)  # flush pending events
     finally:
         cdp.close()
-
     import base64
 
-    SCREENSHOT_DIR.mkdir(parents=True, exist_ok=True)
-    png = SCREENSHOT_DIR / "report.png"
-    png.write_bytes(base64.b64decode(shot["data"]))
-    assert png.stat().st_size > 20_000
+    screenshot.parent.mkdir(parents=True, exist_ok=True)
+    screenshot.write_bytes(base64.b64decode(shot["data"]))
+    return state, cdp.events
 
-    assert state["n"] == n_img_expected
+
+def assert_rendered_cleanly(state: dict, events: list[dict], n_images: int) -> None:
+    assert state["n"] == n_images
     assert state["ok"] == state["n"], f"figures that did not decode: widths {state['widths']}"
     assert min(state["widths"]) >= 400
     assert state["title"]
-
     errors = [
         e
-        for e in cdp.events
+        for e in events
         if e.get("method") == "Runtime.exceptionThrown"
         or (e.get("method") == "Runtime.consoleAPICalled" and e["params"].get("type") in ("error", "assert"))
         or (e.get("method") == "Log.entryAdded" and e["params"]["entry"].get("level") == "error")
     ]
     assert not errors, f"console errors: {errors}"
-    urls = [e["params"]["request"]["url"] for e in cdp.events if e.get("method") == "Network.requestWillBeSent"]
+    urls = [e["params"]["request"]["url"] for e in events if e.get("method") == "Network.requestWillBeSent"]
     remote = [u for u in urls if not u.startswith(("file:", "data:", "about:"))]
     assert not remote, f"the report requested the network: {remote}"
+
+
+def test_report_renders_in_chromium_with_all_figures_and_no_console_errors(tmp_path: Path) -> None:
+    _chromium()
+    folder = tmp_path / "run"
+    folder.mkdir()
+    _example_folder(folder)
+    report = report_dir(folder)
+    n_img_expected = report.read_text().count("<img ")
+    assert n_img_expected == 3  # VRE vs rms, record, PSD (no VRC fit: no rms² plot)
+    png = SCREENSHOT_DIR / "report.png"
+    state, events = render_in_chromium(report, tmp_path, png)
+    assert png.stat().st_size > 20_000
+    assert state["h"] > 2000  # the whole report laid out, not a blank page
+    assert_rendered_cleanly(state, events, n_img_expected)
