@@ -1,9 +1,9 @@
 """First streaming pass over a record, and its segmentation into baselines and levels.
 
 One pass reads the record in blocks and keeps, per short window (``window_s``, 0.1 s by
-default), a handful of sums: DUT sum / sum of squares / extremes / samples at its extremes,
-reference sum / sum of squares and band-limited power (a band-pass designed once, its state
-``zi`` carried across blocks). These small arrays (a 2 h record at 0.1 s: 72 000 windows) are
+default), a handful of numbers: DUT sum / extremes / samples at its extremes / a Hann-smoothed
+mean, the reference's AC and band-limited power (from the window's FFT, Parseval). These
+small arrays (a 2 h record at 0.1 s: 72 000 windows) are
 all that segmentation, baselines, random-method levels and their batch-means uncertainty need,
 so memory does not grow with the length of the record beyond them.
 
@@ -22,7 +22,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
 from vrelab import _validate as V
 from vrelab.record import Record, Schedule, Segment
@@ -42,16 +41,15 @@ class WindowStats:
     window: int  # samples per window
     n_samples: int
     count: NDArray[np.int64]
-    dut_sum: NDArray[np.float64]  # of the low-passed DUT (see design_dut_lowpass)
-    dut_sumsq: NDArray[np.float64]
+    dut_sum: NDArray[np.float64]  # raw sum: segment means are exact
+    dut_smooth: NDArray[np.float64]  # Hann-kernel mean centred on the window (for uncertainties)
     dut_max: NDArray[np.float64]
     dut_min: NDArray[np.float64]
-    n_at_max: NDArray[np.int64]  # samples within eps of the window's maximum
+    n_at_max: NDArray[np.int64]  # samples within eps of the window's maximum (candidate windows only)
     n_at_min: NDArray[np.int64]
     n_beyond_rail: NDArray[np.int64]  # samples at or beyond a given rail (0 when none given)
-    ref_sum: NDArray[np.float64]
-    ref_sumsq: NDArray[np.float64]
-    ref_band_sumsq: NDArray[np.float64]
+    ref_ac_sumsq: NDArray[np.float64]  # window length x mean square of the reference minus its mean
+    ref_band_sumsq: NDArray[np.float64]  # window length x mean square of the reference in the band
     band_hz: tuple[float, float]
     reference: str  # channel used as reference ("dut" when the record has no reference)
 
@@ -70,12 +68,10 @@ class WindowStats:
 
     def envelope(self) -> NDArray[np.float64]:
         """AC rms of the reference (its mean removed) per window, in g."""
-        n = np.maximum(self.count, 1)
-        m = self.ref_sum / n
-        return np.sqrt(np.maximum(self.ref_sumsq / n - m**2, 0.0))
+        return np.sqrt(np.maximum(self.ref_ac_sumsq, 0.0) / np.maximum(self.count, 1))
 
     def band_rms(self) -> NDArray[np.float64]:
-        return np.sqrt(self.ref_band_sumsq / np.maximum(self.count, 1))
+        return np.sqrt(np.maximum(self.ref_band_sumsq, 0.0) / np.maximum(self.count, 1))
 
     def saturated(self) -> tuple[NDArray[np.int64], list[str]]:
         """Saturated DUT samples per window, and a description of the rails found."""
@@ -90,8 +86,7 @@ class WindowStats:
             ("upper", hi, self.dut_max, self.n_at_max),
             ("lower", lo, self.dut_min, self.n_at_min),
         ):
-            eps = RAIL_EPS_REL * max(abs(ext), 1.0)
-            on = valid & (np.abs(wext - ext) <= eps)
+            on = valid & (np.abs(wext - ext) <= _eps(ext))
             n = int(nat[on].sum())
             if n >= RAIL_MIN_SAMPLES:
                 sat = sat + np.where(on, nat, 0)
@@ -99,31 +94,49 @@ class WindowStats:
         return sat, notes
 
 
-def design_band(fs_hz: float, band_hz: tuple[float, float]) -> NDArray[np.float64]:
-    """Butterworth band-pass (order 4 per edge) as sos; a high-pass when f2 reaches Nyquist."""
-    f1, f2 = band_hz
-    nyq = fs_hz / 2
-    if not (0 < f1 < f2):
-        raise ValueError(f"band_hz must satisfy 0 < f1 < f2, got {band_hz}")
-    if f1 >= nyq:
-        raise ValueError(f"band_hz lower edge {f1} Hz must be below Nyquist ({nyq} Hz)")
-    if f2 >= 0.95 * nyq:
-        return signal.butter(4, f1, btype="highpass", fs=fs_hz, output="sos")
-    return signal.butter(4, [f1, f2], btype="bandpass", fs=fs_hz, output="sos")
+def _eps(x: float | NDArray[np.float64]) -> float | NDArray[np.float64]:
+    return RAIL_EPS_REL * np.maximum(np.abs(x), 1.0)
 
 
-def design_dut_lowpass(fs_hz: float, band_hz: tuple[float, float]) -> NDArray[np.float64]:
-    """Low-pass for the DUT's window means: Butterworth order 6 at a quarter of the band's lower edge.
+# The DUT's smoothed series: a Hann kernel over SMOOTH_WINDOWS windows, centred on each window.
+SMOOTH_WINDOWS = 5
 
-    The vibration the DUT reads averages to zero over a level, but over one 0.1 s window it
-    leaves a residual of order σ/(π·f·T) that would dominate the window-to-window scatter, and
-    so the batch-means uncertainty (for a band-limited signal the residuals of neighbouring
-    windows cancel, which batch means cannot see). The low-pass (-72 dB at the band edge, DC
-    gain exactly 1) removes it before averaging; its DC group delay (about 0.6/fc: 50 ms for a
-    50 Hz band) is well inside the settling time trimmed at every segment edge.
+
+def smoothing_kernel(window: int) -> NDArray[np.float64]:
+    """Hann kernel of SMOOTH_WINDOWS·window samples, as a (window, SMOOTH_WINDOWS) matrix.
+
+    Why: the vibration the DUT reads averages to zero over a level, but over one 0.1 s window a
+    boxcar leaves a residual of order σ/(π·f·T) (-24 dB at 50 Hz) that would dominate the
+    window-to-window scatter and so the batch-means uncertainty, although neighbouring windows'
+    residuals cancel in the level's mean. A 0.5 s Hann kernel (sidelobes falling as 1/f³: -94 dB
+    at 50 Hz) removes it; it costs one small matrix product per block instead of a per-sample
+    IIR low-pass. Column q weighs the samples of window k-2+q for the value at window k.
     """
-    fc = min(band_hz[0] / 4.0, 0.2 * fs_hz)
-    return signal.butter(6, fc, btype="lowpass", fs=fs_hz, output="sos")
+    L = SMOOTH_WINDOWS * window
+    h = 0.5 - 0.5 * np.cos(2 * np.pi * (np.arange(L) + 0.5) / L)
+    return np.ascontiguousarray(h.reshape(SMOOTH_WINDOWS, window).T)
+
+
+def band_weights(window: int, fs_hz: float, band_hz: tuple[float, float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Weights turning |rfft|² of one window into (AC, in-band) sums of squares (Parseval).
+
+    One-sided: bins 1..N/2-1 count twice, the Nyquist bin of an even window once; divided by
+    the window length so that the weighted sum is Σx² over the window.
+    """
+    nb = window // 2 + 1
+    f = np.arange(nb) * fs_hz / window
+    two = np.full(nb, 2.0)
+    two[0] = 0.0  # the window's mean is not vibration
+    if window % 2 == 0:
+        two[-1] = 1.0
+    ac = two / window
+    band = np.where((f >= band_hz[0] - 1e-9) & (f <= band_hz[1] + 1e-9), ac, 0.0)
+    return ac, band
+
+
+def window_length(fs_hz: float, band_hz: tuple[float, float], window_s: float = 0.1) -> int:
+    """Samples per window: ``window_s``, longer when needed to put 5 FFT bins below the band's lower edge."""
+    return max(1, int(round(max(window_s, 5.0 / band_hz[0]) * fs_hz)))
 
 
 def _window_reduce(x: NDArray[np.float64], w: int):
@@ -182,25 +195,38 @@ def window_pass(
     rail_g: float | None = None,
     progress: bool = False,
 ) -> WindowStats:
-    """Stream the record once and return per-window sums (see module docstring)."""
+    """Stream the record once and return per-window sums (see module docstring).
+
+    Reference power per window from its FFT (Parseval): the AC power (all bins but DC) gives
+    the envelope, the bins in ``band_hz`` the band-limited power (a brick-wall band with the
+    window's leakage, no filter-edge attenuation). DUT: raw sums (exact means), extremes,
+    samples at the extremes (counted only in windows that can hold the record's extreme: those
+    at the running maximum or minimum), and the Hann-smoothed series of :func:`smoothing_kernel`.
+    """
+    from scipy import fft as sfft
+
     fs = V.positive_scalar("fs_hz", record.fs_hz)
     n = int(record.n_samples)
     if n <= 0:
         raise ValueError("record has no samples")
     if "dut" not in record.channels:
         raise ValueError(f"record has no 'dut' channel; channels: {', '.join(record.channels)}")
+    f1, f2 = (float(x) for x in band_hz)
+    if not (0 < f1 < f2):
+        raise ValueError(f"band_hz must satisfy 0 < f1 < f2, got {band_hz}")
     ref_name = "reference" if "reference" in record.channels else "dut"
-    w = max(1, int(round(window_s * fs)))
+    w = window_length(fs, (f1, f2), window_s)
     block = max(w, (int(block_size) // w) * w)  # windows never straddle blocks
     k = -(-n // w)
     z = lambda dt: np.zeros(k, dtype=dt)  # noqa: E731
-    count, dsum, dsq, dmax, dmin = z(np.int64), z(float), z(float), z(float), z(float)
+    count, dsum, dmax, dmin = z(np.int64), z(float), z(float), z(float)
     nmax, nmin, nrail = z(np.int64), z(np.int64), z(np.int64)
-    rsum, rsq, rband = z(float), z(float), z(float)
-    sos = design_band(fs, band_hz)
-    sos_lp = design_dut_lowpass(fs, band_hz)
-    zi = None
-    zi_lp = None
+    rac, rband = z(float), z(float)
+    parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
+    kern = smoothing_kernel(w)
+    ac_w, band_w = band_weights(w, fs, (f1, f2))
+    weights = np.column_stack([ac_w, band_w])
+    run_max, run_min = -np.inf, np.inf
     chans = ["dut"] if ref_name == "dut" else ["dut", "reference"]
     labels = channel_labels(record)
     bar = None
@@ -215,31 +241,39 @@ def window_pass(
         check_finite(labels["dut"], d, pos)
         if r is not d:
             check_finite(labels["reference"], r, pos)
-        if zi is None:
-            zi = signal.sosfilt_zi(sos) * r[0]
-            zi_lp = signal.sosfilt_zi(sos_lp) * d[0]
-        rb, zi = signal.sosfilt(sos, r, zi=zi)
-        dl, zi_lp = signal.sosfilt(sos_lp, d, zi=zi_lp)
-        k0 = pos // w
-        kk = k0
-        parts = zip(_window_reduce(d, w), _window_reduce(dl, w), _window_reduce(r, w), _window_reduce(rb, w))
-        for dv, dlv, rv, rbv in parts:
-            m = dv.shape[0]
+        kk = pos // w
+        for dv, rv in zip(_window_reduce(d, w), _window_reduce(r, w)):
+            m, L = dv.shape
             sl = slice(kk, kk + m)
-            count[sl] = dv.shape[1]
-            dsum[sl] = dlv.sum(axis=1)
-            dsq[sl] = np.einsum("ij,ij->i", dv, dv)
+            count[sl] = L
+            dsum[sl] = dv.sum(axis=1)
             mx = dv.max(axis=1)
             mn = dv.min(axis=1)
             dmax[sl], dmin[sl] = mx, mn
-            nmax[sl] = (dv >= (mx - RAIL_EPS_REL * np.maximum(np.abs(mx), 1.0))[:, None]).sum(axis=1)
-            nmin[sl] = (dv <= (mn + RAIL_EPS_REL * np.maximum(np.abs(mn), 1.0))[:, None]).sum(axis=1)
+            # A window can hold the record's extreme only if it reaches the running extreme.
+            run_max, run_min = max(run_max, float(mx.max())), min(run_min, float(mn.min()))
+            cand = np.flatnonzero(mx >= run_max - _eps(run_max))
+            if len(cand):
+                nmax[kk + cand] = (dv[cand] >= (mx[cand] - _eps(mx[cand]))[:, None]).sum(axis=1)
+            cand = np.flatnonzero(mn <= run_min + _eps(run_min))
+            if len(cand):
+                nmin[kk + cand] = (dv[cand] <= (mn[cand] + _eps(mn[cand]))[:, None]).sum(axis=1)
             if rail_g is not None:
                 thr = rail_g * (1 - RAIL_EPS_REL)
-                nrail[sl] = ((dv >= thr) | (dv <= -thr)).sum(axis=1)
-            rsum[sl] = rv.sum(axis=1)
-            rsq[sl] = np.einsum("ij,ij->i", rv, rv)
-            rband[sl] = np.einsum("ij,ij->i", rbv, rbv)
+                cand = np.flatnonzero((mx >= thr) | (mn <= -thr))
+                if len(cand):
+                    nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
+            if L == w:
+                spec = sfft.rfft(rv, axis=1)
+                pw = spec.real**2 + spec.imag**2
+                acb = pw @ weights
+                parts[kk : kk + m] = dv @ kern
+            else:  # the record's last, partial window
+                spec = sfft.rfft(rv, axis=1)
+                pw = spec.real**2 + spec.imag**2
+                acb = pw @ np.column_stack(band_weights(L, fs, (f1, f2)))
+                parts[kk : kk + m] = (dv @ kern[:L]) * (w / L)
+            rac[sl], rband[sl] = acb[:, 0], acb[:, 1]
             kk += m
         pos += len(d)
         if bar is not None:
@@ -248,10 +282,21 @@ def window_pass(
         bar.close()
     if pos != n:
         raise ValueError(f"record delivered {pos} samples, expected {n} (truncated file?)")
+    # value at window j = Σ_q parts[j - 2 + q, q] / Σ(kernel weights present)
+    h = SMOOTH_WINDOWS // 2
+    num = np.zeros(k)
+    den = np.zeros(k)
+    col = kern.sum(axis=0)
+    for q in range(SMOOTH_WINDOWS):
+        src = np.arange(k) - h + q
+        ok = (src >= 0) & (src < k)
+        num[ok] += parts[src[ok], q]
+        den[ok] += col[q]
+    smooth = num / den
     return WindowStats(
-        fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=dsum, dut_sumsq=dsq, dut_max=dmax,
-        dut_min=dmin, n_at_max=nmax, n_at_min=nmin, n_beyond_rail=nrail, ref_sum=rsum, ref_sumsq=rsq,
-        ref_band_sumsq=rband, band_hz=(float(band_hz[0]), float(band_hz[1])), reference=ref_name,
+        fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=dsum, dut_smooth=smooth, dut_max=dmax,
+        dut_min=dmin, n_at_max=nmax, n_at_min=nmin, n_beyond_rail=nrail, ref_ac_sumsq=rac,
+        ref_band_sumsq=rband, band_hz=(f1, f2), reference=ref_name,
     )  # fmt: skip
 
 
@@ -431,6 +476,5 @@ __all__: Sequence[str] = (
     "trim",
     "segment_windows",
     "segments_to_labels",
-    "design_band",
     "check_finite",
 )

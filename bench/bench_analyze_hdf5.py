@@ -1,0 +1,170 @@
+"""Benchmark: ``analyze`` on a long HDF5 record against a bare h5py read of the same channels.
+
+Writes once (cached under ``bench/out/``) a 2-channel record at 4 kHz (2 h by default: 28.8 M
+samples per channel, about 460 MB of float64) with a schedule of vibration levels, generated in
+blocks; then times
+
+(a) a bare h5py read of ``reference`` and ``dut`` in blocks (the floor: I/O and decoding), and
+(b) the whole analysis (``open_record`` + ``analyze``: window pass, segmentation, levels, fits),
+
+and prints their ratio (goal <= 3x) and the analysis's peak memory (goal < 400 MB). Memory is
+measured in a fresh subprocess with ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` (peak resident
+set of that process, imports included), and also reported above the process's resident size
+just before the analysis starts. ``--hours`` shows that the peak does not grow with length.
+
+    python bench/bench_analyze_hdf5.py [--hours 2] [--fs 4000] [--repeat 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Iterator, Sequence
+
+import numpy as np
+
+OUT = Path(__file__).resolve().parent / "out"
+BLOCK = 1 << 18
+LEVELS_G = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
+
+
+def _schedule(total_s: float):
+    """Off 60 s / level 240 s / ramp 5 s, cycling through LEVELS_G until total_s is filled."""
+    from vrelab.record import Schedule, Segment
+
+    segs = []
+    t, i = 0.0, 0
+    off, on, ramp = 60.0, 240.0, 5.0
+    while t + off + 2 * ramp + on + off <= total_s:
+        segs.append(Segment(t, t + off, 0.0))
+        t += off + ramp
+        segs.append(Segment(t, t + on, LEVELS_G[i % len(LEVELS_G)]))
+        t += on + ramp
+        i += 1
+    segs.append(Segment(t, min(t + off, total_s), 0.0))
+    return Schedule(tuple(segs))
+
+
+def _blocks(n: int, fs: float, schedule: Any, seed: int) -> Iterator[dict[str, np.ndarray]]:
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    sos = signal.butter(4, [50.0, min(2000.0, 0.45 * fs)], btype="band", fs=fs, output="sos")
+    zi = np.zeros((sos.shape[0], 2))
+    # target rms per sample from the schedule (0 when off, linear ramps in between)
+    knots_t, knots_v = [0.0], [0.0]
+    for s in schedule.segments:
+        knots_t += [s.start_s, s.end_s]
+        knots_v += [s.nominal_rms_g, s.nominal_rms_g]
+    knots_t = np.array(knots_t)
+    knots_v = np.array(knots_v)
+    gain = 1.0 / np.sqrt(2 * (min(2000.0, 0.45 * fs) - 50.0) / fs)  # white -> unit rms in band
+    for i in range(0, n, BLOCK):
+        m = min(BLOCK, n - i)
+        t = (i + np.arange(m)) / fs
+        x, zi = signal.sosfilt(sos, rng.standard_normal(m), zi=zi)
+        ref = x * gain * np.interp(t, knots_t, knots_v)
+        a = 1.0 + ref
+        dut = np.clip(a + 300e-6 * a**2, -2.5, 2.5) + 2e-5 * t / 3600 + 25e-6 * rng.standard_normal(m)
+        yield {"reference": ref, "dut": dut}
+
+
+def make_record(hours: float, fs: float, seed: int = 1) -> Path:
+    from vrelab.record import write_record_hdf5
+
+    OUT.mkdir(parents=True, exist_ok=True)
+    path = OUT / f"record_{hours:g}h_{fs:g}Hz.h5"
+    if path.exists():
+        return path
+    total = hours * 3600.0
+    n = int(round(total * fs))
+    sched = _schedule(total)
+    t0 = time.perf_counter()
+    write_record_hdf5(path, fs, _blocks(n, fs, sched, seed), schedule=None, meta={"bench": "bench_analyze_hdf5"})
+    print(f"wrote {path.name}: {n} samples x 2 channels in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return path
+
+
+def bare_read(path: Path) -> tuple[float, int]:
+    import h5py
+
+    t0 = time.perf_counter()
+    total = 0
+    with h5py.File(path, "r") as f:
+        r, d = f["reference"], f["dut"]
+        n = r.shape[0]
+        for i in range(0, n, BLOCK):
+            a = r[i : i + BLOCK]
+            b = d[i : i + BLOCK]
+            total += a.size + b.size
+    return time.perf_counter() - t0, total
+
+
+_CHILD = r"""
+import json, resource, sys, time
+from vrelab.analysis.readers import open_record
+from vrelab.analysis.reduction import analyze_full
+import vrelab.fits, vrelab.models.clipping, vrelab.synthesis, scipy.optimize, scipy.signal, scipy.fft, tqdm  # noqa: imports before the baseline
+rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+with open_record(sys.argv[1], "dut", "reference") as rec:
+    res, red = analyze_full(rec, "random")
+dt = time.perf_counter() - t0
+rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+fit = res.fit_summary()
+print(json.dumps({"seconds": dt, "maxrss_before_kb": rss0, "maxrss_kb": rss1, "n_levels": len(res.levels),
+                  "vrc": fit.get("vrc_ug_per_g2"), "rail": fit.get("rail_g"),
+                  "departure": [f.departure_rms_g for f in res.fits if f.departure_rms_g is not None]}))
+"""
+
+
+def analyze_in_subprocess(path: Path) -> dict[str, Any]:
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(path)], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--hours", type=float, default=2.0)
+    p.add_argument("--fs", type=float, default=4000.0)
+    p.add_argument("--repeat", type=int, default=1, help="repeat each timing, keep the fastest")
+    args = p.parse_args(argv)
+    path = make_record(args.hours, args.fs)
+    size_mb = path.stat().st_size / 1e6
+    bare_read(path)  # warm the page cache so both timings read from memory
+    t_bare = min(bare_read(path)[0] for _ in range(args.repeat))
+    runs = [analyze_in_subprocess(path) for _ in range(args.repeat)]
+    best = min(runs, key=lambda r: r["seconds"])
+    peak_mb = max(r["maxrss_kb"] for r in runs) / 1024
+    base_mb = min(r["maxrss_before_kb"] for r in runs) / 1024
+    result = {
+        "hours": args.hours,
+        "fs_hz": args.fs,
+        "file_mb": round(size_mb, 1),
+        "bare_read_s": round(t_bare, 3),
+        "analyze_s": round(best["seconds"], 3),
+        "ratio": round(best["seconds"] / t_bare, 2),
+        "peak_rss_mb": round(peak_mb, 1),
+        "rss_before_analysis_mb": round(base_mb, 1),
+        "analysis_increment_mb": round(peak_mb - base_mb, 1),
+        "n_levels": best["n_levels"],
+        "vrc_ug_per_g2": best["vrc"],
+        "rail_g": best["rail"],
+        "departure_rms_g": best["departure"],
+        "memory_method": "ru_maxrss of a fresh subprocess (peak RSS incl. imports); increment = peak - RSS after imports",
+    }
+    print(
+        f"{path.name} ({size_mb:.0f} MB): bare h5py read {t_bare:.2f} s, analyze {best['seconds']:.2f} s, "
+        f"ratio {result['ratio']:.2f}x (goal <= 3x); peak RSS {peak_mb:.0f} MB "
+        f"({base_mb:.0f} MB after imports, +{peak_mb - base_mb:.0f} MB for the analysis; goal < 400 MB)"
+    )
+    print(json.dumps(result))
+    return result
+
+
+if __name__ == "__main__":
+    main()
