@@ -46,86 +46,87 @@ def _commands() -> dict[str, argparse.ArgumentParser]:
 
 COMMANDS = _commands()
 
-# Bad-value cases per command: (case id, argv after the command words). "{d}" is a folder with
-# the fixture files (see `files`). Each argv is otherwise valid, so the one bad value is the cause.
+# Bad-value cases per command: (case id, argv after the command words, a token the one-line message
+# must contain, case-insensitive: the option or the value at fault). "{d}" is a folder with the
+# fixture files (see `files`). Each argv is otherwise valid, so the one bad value is the cause.
 SIM = ["--sensor", "ideal", "--range", "2", "--profile", "flat:50-2000", "--seconds", "0.2"]
 PRED = ["--sensor", "adxl355", "--profile", "flat:50-2000"]
-CASES: dict[str, list[tuple[str, list[str]]]] = {
+CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "model clip": [
-        ("negative-level", ["--mean", "1", "--rail", "2", "--rms", "-1"]),
-        ("nan-level", ["--mean", "1", "--rail", "2", "--rms", "nan"]),
-        ("malformed-list", ["--mean", "1", "--rail", "2", "--rms", "0.5,,1"]),
-        ("empty-range", ["--mean", "1", "--rail", "2", "--rms", "2:1:0.5"]),
-        ("nan-mean", ["--mean", "nan", "--rail", "2", "--rms", "1"]),
-        ("negative-rail", ["--mean", "1", "--rail", "-2", "--rms", "1"]),
-        ("unknown-kind", ["--mean", "1", "--rail", "2", "--rms", "1", "--kind", "chopped"]),
-        ("unknown-shape", ["--mean", "1", "--rail", "2", "--rms", "1", "--shape", "square"]),
+        ("negative-level", ["--mean", "1", "--rail", "2", "--rms", "-1"], 'rms'),
+        ("nan-level", ["--mean", "1", "--rail", "2", "--rms", "nan"], 'rms'),
+        ("malformed-list", ["--mean", "1", "--rail", "2", "--rms", "0.5,,1"], 'rms'),
+        ("empty-range", ["--mean", "1", "--rail", "2", "--rms", "2:1:0.5"], 'rms'),
+        ("nan-mean", ["--mean", "nan", "--rail", "2", "--rms", "1"], 'mean'),
+        ("negative-rail", ["--mean", "1", "--rail", "-2", "--rms", "1"], 'rail'),
+        ("unknown-kind", ["--mean", "1", "--rail", "2", "--rms", "1", "--kind", "chopped"], 'kind'),
+        ("unknown-shape", ["--mean", "1", "--rail", "2", "--rms", "1", "--shape", "square"], 'shape'),
     ],
     "model poly": [
-        ("negative-level", ["--k2", "20", "--rms", "-1"]),
-        ("nan-level", ["--k2", "20", "--rms", "nan"]),
-        ("malformed-list", ["--k2", "20", "--rms", "1;2"]),
-        ("nan-k2", ["--k2", "nan", "--rms", "1"]),
-        ("unknown-shape", ["--k2", "20", "--rms", "1", "--shape", "square"]),
+        ("negative-level", ["--k2", "20", "--rms", "-1"], 'rms'),
+        ("nan-level", ["--k2", "20", "--rms", "nan"], 'rms'),
+        ("malformed-list", ["--k2", "20", "--rms", "1;2"], 'rms'),
+        ("nan-k2", ["--k2", "nan", "--rms", "1"], 'k2'),
+        ("unknown-shape", ["--k2", "20", "--rms", "1", "--shape", "square"], 'shape'),
     ],
     "profile": [
-        ("non-monotonic", ["100:0.01,50:0.02,2000:0.01"]),
-        ("negative-psd", ["20:0.01,80:-0.04"]),
-        ("nan-psd", ["20:nan,80:0.04"]),
-        ("malformed-list", ["20:0.01,,80:0.04"]),
-        ("negative-grms", ["flat:50-2000", "--grms", "-1"]),
-        ("nan-grms", ["flat:50-2000", "--grms", "nan"]),
-        ("missing-file", ["{d}/no-such-profile.csv"]),
-        ("non-monotonic-file", ["{d}/backwards.csv"]),
-        ("unknown-named", ["no-such-profile-name"]),
+        ("non-monotonic", ["100:0.01,50:0.02,2000:0.01"], 'monotonic'),
+        ("negative-psd", ["20:0.01,80:-0.04"], 'psd'),
+        ("nan-psd", ["20:nan,80:0.04"], 'nan'),
+        ("malformed-list", ["20:0.01,,80:0.04"], '20:0.01,,80:0.04'),
+        ("negative-grms", ["flat:50-2000", "--grms", "-1"], 'grms'),
+        ("nan-grms", ["flat:50-2000", "--grms", "nan"], 'grms'),
+        ("missing-file", ["{d}/no-such-profile.csv"], 'no-such-profile.csv'),
+        ("non-monotonic-file", ["{d}/backwards.csv"], 'backwards.csv'),
+        ("unknown-named", ["no-such-profile-name"], 'no-such-profile-name'),
     ],
     "predict": [
-        ("negative-level", [*PRED, "--levels", "-1"]),
-        ("nan-level", [*PRED, "--levels", "nan"]),
-        ("malformed-list", [*PRED, "--levels", "1,x"]),
-        ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"]),
-        ("missing-sensor-file", ["--sensor", "{d}/missing.toml", "--profile", "flat:50-2000", "--levels", "1"]),
-        ("non-monotonic-profile", ["--sensor", "adxl355", "--profile", "100:0.01,50:0.02", "--levels", "1"]),
-        ("missing-profile-file", ["--sensor", "adxl355", "--profile", "{d}/none.csv", "--levels", "1"]),
-        ("negative-freq", ["--sensor", "adxl355", "--freq", "-100", "--levels", "1"]),
-        ("nan-static", [*PRED, "--levels", "1", "--static", "nan"]),
-        ("unknown-range", [*PRED, "--levels", "1", "--range", "3"]),
-        ("unknown-odr", [*PRED, "--levels", "1", "--odr", "1234"]),
+        ("negative-level", [*PRED, "--levels", "-1"], 'levels'),
+        ("nan-level", [*PRED, "--levels", "nan"], 'levels'),
+        ("malformed-list", [*PRED, "--levels", "1,x"], 'levels'),
+        ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"], 'no-such-sensor'),
+        ("missing-sensor-file", ["--sensor", "{d}/missing.toml", "--profile", "flat:50-2000", "--levels", "1"], 'missing.toml'),
+        ("non-monotonic-profile", ["--sensor", "adxl355", "--profile", "100:0.01,50:0.02", "--levels", "1"], 'monotonic'),
+        ("missing-profile-file", ["--sensor", "adxl355", "--profile", "{d}/none.csv", "--levels", "1"], 'none.csv'),
+        ("negative-freq", ["--sensor", "adxl355", "--freq", "-100", "--levels", "1"], 'freq'),
+        ("nan-static", [*PRED, "--levels", "1", "--static", "nan"], 'static'),
+        ("unknown-range", [*PRED, "--levels", "1", "--range", "3"], 'range'),
+        ("unknown-odr", [*PRED, "--levels", "1", "--odr", "1234"], 'odr'),
     ],
     "simulate": [
-        ("negative-level", [*SIM, "--levels", "-1"]),
-        ("nan-level", [*SIM, "--levels", "nan"]),
-        ("malformed-list", [*SIM, "--levels", "0.5,,1"]),
-        ("negative-seconds", [*SIM, "--levels", "1", "--seconds", "-1"]),
-        ("nan-seconds", [*SIM, "--levels", "1", "--seconds", "nan"]),
-        ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"]),
-        ("non-monotonic-profile", ["--sensor", "ideal", "--profile", "100:0.01,50:0.02", "--levels", "1"]),
-        ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "0.2"]),
-        ("out-is-a-file", [*SIM, "--levels", "1", "--out", "{d}/a-file.txt"]),
+        ("negative-level", [*SIM, "--levels", "-1"], 'levels'),
+        ("nan-level", [*SIM, "--levels", "nan"], 'levels'),
+        ("malformed-list", [*SIM, "--levels", "0.5,,1"], 'levels'),
+        ("negative-seconds", [*SIM, "--levels", "1", "--seconds", "-1"], 'seconds'),
+        ("nan-seconds", [*SIM, "--levels", "1", "--seconds", "nan"], 'seconds'),
+        ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"], 'no-such-sensor'),
+        ("non-monotonic-profile", ["--sensor", "ideal", "--profile", "100:0.01,50:0.02", "--levels", "1"], 'monotonic'),
+        ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "0.2"], 'freq'),
+        ("out-is-a-file", [*SIM, "--levels", "1", "--out", "{d}/a-file.txt"], 'a-file.txt'),
     ],
     "analyze": [
-        ("missing-file", ["{d}/no-such-record.h5", "--dut", "dut"]),
-        ("missing-channel", ["{d}/record.h5", "--dut", "no_such_channel"]),
-        ("missing-reference", ["{d}/record.h5", "--dut", "dut", "--reference", "no_such_channel"]),
-        ("negative-fs", ["{d}/record.csv", "--dut", "dut", "--fs", "-1000"]),
-        ("nan-fs", ["{d}/record.csv", "--dut", "dut", "--fs", "nan"]),
-        ("unknown-method", ["{d}/record.h5", "--dut", "dut", "--method", "chirp"]),
-        ("not-a-record", ["{d}/a-file.txt", "--dut", "dut"]),
+        ("missing-file", ["{d}/no-such-record.h5", "--dut", "dut"], 'no-such-record.h5'),
+        ("missing-channel", ["{d}/record.h5", "--dut", "no_such_channel"], 'no_such_channel'),
+        ("missing-reference", ["{d}/record.h5", "--dut", "dut", "--reference", "no_such_channel"], 'no_such_channel'),
+        ("negative-fs", ["{d}/record.csv", "--dut", "dut", "--fs", "-1000"], 'fs'),
+        ("nan-fs", ["{d}/record.csv", "--dut", "dut", "--fs", "nan"], 'fs'),
+        ("unknown-method", ["{d}/record.h5", "--dut", "dut", "--method", "chirp"], 'method'),
+        ("not-a-record", ["{d}/a-file.txt", "--dut", "dut"], 'a-file.txt'),
     ],
     "report": [
-        ("missing-folder", ["{d}/no-such-folder"]),
-        ("no-results", ["{d}/empty"]),
-        ("malformed-results", ["{d}/malformed"]),
+        ("missing-folder", ["{d}/no-such-folder"], 'no-such-folder'),
+        ("no-results", ["{d}/empty"], 'results.json'),
+        ("malformed-results", ["{d}/malformed"], 'results.json'),
     ],
     "demo": [
-        ("out-is-a-file", ["--quick", "--out", "{d}/a-file.txt"]),
-        ("negative-seconds", ["--seconds", "-1", "--out", "{d}/demo-out"]),
-        ("nan-seconds", ["--seconds", "nan", "--out", "{d}/demo-out"]),
+        ("out-is-a-file", ["--quick", "--out", "{d}/a-file.txt"], 'a-file.txt'),
+        ("negative-seconds", ["--seconds", "-1", "--out", "{d}/demo-out"], 'seconds'),
+        ("nan-seconds", ["--seconds", "nan", "--out", "{d}/demo-out"], 'seconds'),
     ],
     "sweep": [
-        ("missing-file", ["{d}/no-such-sweep.toml"]),
-        ("malformed-toml", ["{d}/malformed.toml"]),
-        ("negative-workers", ["{d}/malformed.toml", "--workers", "-1"]),
+        ("missing-file", ["{d}/no-such-sweep.toml"], 'no-such-sweep.toml'),
+        ("malformed-toml", ["{d}/malformed.toml"], 'malformed.toml'),
+        ("negative-workers", ["{d}/malformed.toml", "--workers", "-1"], 'workers'),
     ],
 }
 
@@ -171,16 +172,17 @@ def _assert_one_line_exit_2(rc: int, out: str, err: str, shown: list[str], argv:
 def _params() -> list:
     out = []
     for cmd in COMMANDS:
-        for case_id, argv in CASES.get(cmd, []):
-            out.append(pytest.param(cmd, argv, id=f"{cmd.replace(' ', '-')}:{case_id}"))
+        for case_id, argv, token in CASES.get(cmd, []):
+            out.append(pytest.param(cmd, argv, token, id=f"{cmd.replace(' ', '-')}:{case_id}"))
     return out
 
 
-@pytest.mark.parametrize("cmd, argv", _params())
-def test_bad_value_exits_2_with_one_line(cmd: str, argv: list[str], files: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("cmd, argv, token", _params())
+def test_bad_value_exits_2_with_one_line(cmd: str, argv: list[str], token: str, files: Path, capsys: pytest.CaptureFixture[str]) -> None:
     full = cmd.split() + [a.replace("{d}", str(files)) for a in argv]
     rc, out, err, shown = _run(full, capsys)
     _assert_one_line_exit_2(rc, out, err, shown, full)
+    assert token.lower() in err.lower(), f"{full}: the message should name {token!r}: {err!r}"
     if "--out" in full:  # outputs complete or not at all
         out_dir = Path(full[full.index("--out") + 1])
         assert not out_dir.is_dir() or not any(out_dir.iterdir())
