@@ -8,8 +8,8 @@ dynamics (:meth:`vrelab.sensor.Sensor.linear_responses`):
   (``σ_m² = ∫S·|H_mech|²df``) or, for an output-stage clip, after the anti-alias and digital
   filters (``σ_out² = ∫S·|H_mech·H_aa·H_lpf|²df``, SPEC 1.3) — censored or truncated mean of a
   Gaussian (random) or the sine closed form;
-* **nonlinearity** on the proof-mass motion: ``(k2 + 3·k3·g0)·σ_m²`` (SPEC 1.2), exact for a
-  cubic polynomial and any zero-mean vibration;
+* **nonlinearity** on the proof-mass motion: ``(k2 + 3·k3·g0)·σ_m²`` (SPEC 1.2, plus the k4
+  terms), exact for a cubic polynomial and any zero-mean vibration;
 * **over-range protection**: Rice's up-crossing rate of the threshold by the Gaussian
   proof-mass motion times the hold time (:func:`vrelab.models.design.overrange_vre`).
 
@@ -194,7 +194,7 @@ def predict(
     * clipping: :func:`vrelab.models.clipping.censored_mean_shift` ``(g0, σ_clip, L, U)``,
       each rail alone and both;
     * nonlinearity: :func:`vrelab.models.nonlinearity.vre_poly` on σ_m:
-      ``(k2 + 3·k3·g0)·σ_m²``;
+      ``(k2 + 3·k3·g0)·σ_m² + k4·(6·g0²·σ_m² + E[x⁴])`` (SPEC 1.2);
     * over-range: :func:`vrelab.models.design.overrange_vre` ``(g0, σ_m, threshold, hold,
       ν0)`` with ``ν0`` Rice's zero-crossing rate of the proof-mass motion.
 
@@ -216,7 +216,6 @@ def predict(
     clip_where = _clip_where(sensor)
     resp_m = _responses(sensor, "proof-mass")
     resp_out = _responses(sensor, "output")
-    resp_clip = resp_out if clip_where == "output" else resp_m
     notes: list[str] = []
     out: list[LevelPrediction] = []
     if isinstance(excitation, RandomProfile):

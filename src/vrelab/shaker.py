@@ -19,7 +19,14 @@ The record holds both channels at one rate ``fs_record_hz = fs_internal_hz / m``
   divisor of the chain's decimation for which the record's Nyquist frequency stays above
   ``1.25·f_max`` of the drive, so the drive (band-limited by construction to the profile's band
   or a single tone) is represented exactly, without an anti-alias filter: the level reported
-  is the true vibration rms in the profile's band, not the part a low ODR lets through.
+  is the true vibration rms in the profile's band, not the part a low ODR lets through. A
+  drive that is not band-limited (clipped at k·σ, or with a target kurtosis) is low-passed at
+  the record's Nyquist frequency first, as a DAQ's anti-alias filter would.
+
+The internal rate is the smallest multiple of the ODR at or above the sensor's
+(:meth:`~vrelab.sensor.Sensor.internal_rate_hz`) that minimises internal + record rate
+(:func:`_fast_internal_rate`): for the ADXL355 at ODR 4 kHz and a 2 kHz profile, 24 kHz
+internal and an 8 kHz record.
 
 The record is never held in memory: :class:`SimulatedRecord` implements the
 :class:`vrelab.record.Record` protocol by re-running the deterministic simulation (every random
@@ -41,6 +48,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import signal
 
 from vrelab import __version__
 from vrelab import _validate as V
@@ -189,7 +197,16 @@ class SimulatedRecord:
         self.overrange_events: list[int] | None = None
         self.clipped: list[int] | None = None
         self.chain_stats: dict[str, Any] | None = None
-        self._checkpoints: dict[int, Any] = {0: sensor.chain(rates.fs_internal_hz).start(rates.fs_internal_hz, chain_seed)}
+        # A drive that is not band-limited (clipped at k·σ, or given a kurtosis) needs an
+        # anti-alias filter on the reference when the record rate is below the internal rate.
+        # Butterworth order 10 at the record's Nyquist frequency: flat to 1e-6 up to f_max
+        # (<= 0.4·fs_record), 35 dB down where aliases into the band start (fs_record - f_max).
+        self._ref_sos = None
+        if rates.step > 1 and (clip_sigma is not None or kurtosis is not None):
+            self._ref_sos = signal.butter(10, rates.fs_record_hz / 2, fs=rates.fs_internal_hz, output="sos")
+        ref_zi = None if self._ref_sos is None else np.zeros((self._ref_sos.shape[0], 2))
+        runner0 = sensor.chain(rates.fs_internal_hz).start(rates.fs_internal_hz, chain_seed)
+        self._checkpoints: dict[int, Any] = {0: (runner0, ref_zi)}
 
     def _schedule(self) -> Schedule:
         segs, t = [], 0
@@ -248,21 +265,28 @@ class SimulatedRecord:
         full = first == 0
         if first not in self._checkpoints:
             first = max(k for k in self._checkpoints if k <= first)
-        runner = copy.deepcopy(self._checkpoints[first])
+        runner, ref_zi = copy.deepcopy(self._checkpoints[first])
         saturated = [0] * len(self._segments)
         events = [0] * len(self._segments)
         clipped = [0] * len(self._segments)
         for k in range(first, len(self._segments)):
             if k not in self._checkpoints:
-                self._checkpoints[k] = copy.deepcopy(runner)
+                self._checkpoints[k] = copy.deepcopy((runner, ref_zi))
             seg = self._segments[k]
             before = runner.stats
             for drive in self._drive(seg):
                 out = runner.process(drive + self.static_g)
                 saturated[k] += int(np.count_nonzero((out <= low) | (out >= high)))
-                # The drive is band-limited by construction below the record's Nyquist
-                # frequency (see _choose_rates): keeping every step-th sample is exact.
-                ref = drive[::step]
+                if self._ref_sos is not None:
+                    # A clipped or non-Gaussian drive spreads power above the profile's band:
+                    # low-pass it at the record's Nyquist frequency before keeping every
+                    # step-th sample, as a DAQ's anti-alias filter would.
+                    ref, ref_zi = signal.sosfilt(self._ref_sos, drive, zi=ref_zi)
+                    ref = ref[::step]
+                else:
+                    # Band-limited by construction below the record's Nyquist frequency (see
+                    # _choose_rates): keeping every step-th sample is exact.
+                    ref = drive[::step]
                 dut = np.repeat(out, hold) if hold > 1 else out
                 yield ref, dut
             after = runner.stats
