@@ -120,16 +120,36 @@ def _write_record(path: Path, fs: float, n_per_seg: int, seed: int = 3) -> tuple
 
 def test_record_envelope_is_exact_and_independent_of_read_block(tmp_path: Path) -> None:
     ref, dut, _ = _write_record(tmp_path / "r.h5", 1000.0, 10_000)
-    a = plots.record_envelope(tmp_path / "r.h5", n_bins=500, block_bins=7)
-    b = plots.record_envelope(tmp_path / "r.h5", n_bins=500, block_bins=10_000)
-    assert a.bin_size == 100 and len(a.t_s) == 500
     want = dut.reshape(500, 100)
-    for k, fn in enumerate((np.min, np.max, np.mean)):
-        np.testing.assert_allclose(a.channels["dut"][k], fn(want, axis=1), rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(a.channels["dut"][k], b.channels["dut"][k])
+    # reads smaller than a bin, not aligned to bins, and larger than the record
+    envs = [plots.record_envelope(tmp_path / "r.h5", n_bins=500, block_samples=b) for b in (37, 777, 10**6)]
+    for env in envs:
+        assert env.bin_size == 100 and len(env.t_s) == 500
+        for k, fn in enumerate((np.min, np.max, np.mean)):
+            np.testing.assert_allclose(env.channels["dut"][k], fn(want, axis=1), rtol=0, atol=1e-12)
+    a = envs[0]
     assert a.schedule is not None and len(a.schedule.segments) == 5
     with pytest.raises(ValueError, match="none of the channels"):
         plots.record_envelope(tmp_path / "r.h5", channels=("nope",))
+
+
+def test_record_envelope_reads_in_bounded_blocks(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Memory must not grow with the record: no read larger than block_samples."""
+    import h5py
+
+    _write_record(tmp_path / "r.h5", 1000.0, 20_000)
+    sizes: list[int] = []
+    orig = h5py.Dataset.__getitem__
+
+    def spy(self, key):
+        out = orig(self, key)
+        if self.name in ("/dut", "/reference"):
+            sizes.append(np.size(out))
+        return out
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", spy)
+    plots.record_envelope(tmp_path / "r.h5", n_bins=50, block_samples=4096)  # bins of 2000 samples
+    assert sizes and max(sizes) <= 4096 and sum(sizes) == 2 * 100_000
 
 
 def test_time_series_shows_clipping_and_the_segment_shift_near_minus_83mg(tmp_path: Path) -> None:

@@ -373,14 +373,14 @@ def record_envelope(
     path: str | Path,
     channels: Sequence[str] = ("dut", "reference"),
     n_bins: int = 4000,
-    block_bins: int = 256,
+    block_samples: int = 1 << 20,
     stop_s: float | None = None,
 ) -> Envelope:
     """Min/max/mean envelope of an HDF5 record written by :func:`vrelab.record.write_record_hdf5`.
 
-    Reads ``block_bins`` bins at a time, so memory stays ``O(block_bins · bin_size)`` whatever
-    the record's length: a 10⁹-sample record is never loaded whole. Channels absent from the file
-    are skipped.
+    Reads at most ``block_samples`` samples per channel at a time (a bin may span several
+    reads), so memory stays ``O(block_samples + n_bins)`` whatever the record's length: a
+    10⁹-sample record is never loaded whole. Channels absent from the file are skipped.
     """
     import json
 
@@ -390,6 +390,7 @@ def record_envelope(
     if not path.is_file():
         raise ValueError(f"record file not found: {path}")
     n_bins = int(V.positive_scalar("n_bins", n_bins))
+    block = int(V.positive_scalar("block_samples", block_samples))
     with h5py.File(path, "r") as f:
         fs = float(f.attrs["fs_hz"])
         names = [c for c in channels if c in f and isinstance(f[c], h5py.Dataset) and f[c].ndim == 1]
@@ -400,17 +401,22 @@ def record_envelope(
             n = min(n, int(round(stop_s * fs)))
         bin_size = max(1, math.ceil(n / n_bins))
         nb = n // bin_size  # a ragged last bin would bias its mean: drop it
-        out = {c: (np.empty(nb), np.empty(nb), np.empty(nb)) for c in names}
-        step = block_bins * bin_size
-        for i in range(0, nb * bin_size, step):
-            j = min(i + step, nb * bin_size)
-            k0, k1 = i // bin_size, j // bin_size
+        end = nb * bin_size
+        acc = {c: (np.full(nb, np.inf), np.full(nb, -np.inf), np.zeros(nb)) for c in names}
+        for i in range(0, end, block):
+            j = min(i + block, end)
+            # Offsets (within this read) where a bin starts, plus the read's first sample,
+            # which may fall inside a bin begun in the previous read.
+            first_edge = -(-i // bin_size) * bin_size
+            cuts = np.unique(np.concatenate(([0], np.arange(first_edge, j, bin_size) - i)))
+            bins = (i + cuts) // bin_size
             for c in names:
-                blk = np.asarray(f[c][i:j], dtype=np.float64).reshape(-1, bin_size)
-                mn, mx, me = out[c]
-                mn[k0:k1] = blk.min(axis=1)
-                mx[k0:k1] = blk.max(axis=1)
-                me[k0:k1] = blk.mean(axis=1)
+                x = np.asarray(f[c][i:j], dtype=np.float64)
+                mn, mx, sm = acc[c]
+                mn[bins] = np.minimum(mn[bins], np.minimum.reduceat(x, cuts))
+                mx[bins] = np.maximum(mx[bins], np.maximum.reduceat(x, cuts))
+                sm[bins] += np.add.reduceat(x, cuts)
+        out = {c: (mn, mx, sm / bin_size) for c, (mn, mx, sm) in acc.items()}
         sched = Schedule.from_array(f["schedule"][()]) if "schedule" in f and len(f["schedule"]) else None
         try:
             meta = json.loads(f.attrs.get("meta", "{}"))
