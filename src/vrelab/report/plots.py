@@ -154,9 +154,16 @@ def clip_curves(
 
 
 def vrc_curve(vrc_ug_per_g2: float, rms_g: ArrayLike, label: str | None = None) -> Curve:
-    """The small-signal nonlinearity line ``VRE = VRC·rms²`` (SPEC 1.2), VRE in g."""
+    """The small-signal nonlinearity line ``VRE = VRC·rms²`` (SPEC 1.2), VRE in g.
+
+    A measured VRC is the effective k2 at the test's static field (it already holds 3·k3·g0),
+    so the line is :func:`vrelab.models.nonlinearity.vre_poly` with k2 = VRC and no other term.
+    """
+    from vrelab.models.nonlinearity import ug_per_g2_to_per_g, vre_poly
+
     rms = V.non_negative("rms_g", rms_g)
-    return Curve(label or f"VRC·rms², VRC = {vrc_ug_per_g2:.3g} µg/g²", rms, vrc_ug_per_g2 * 1e-6 * rms**2, ":")
+    vre = np.asarray(vre_poly(rms, ug_per_g2_to_per_g(vrc_ug_per_g2)), dtype=np.float64)
+    return Curve(label or f"VRC·rms², VRC = {vrc_ug_per_g2:.3g} µg/g²", rms, vre, ":")
 
 
 def model_curves(
