@@ -12,7 +12,7 @@ record like a lab file, fits the models, and becomes one section of a combined r
 
 Every level is bracketed by vibration-off baselines; each VRE has a standard uncertainty from
 the record's own noise (batch means), which scales as 1/√(seconds per level): the quick mode's
-1.4 s levels have about 3.4× the uncertainty of the default 16 s.
+2 s levels have about 2.8× the uncertainty of the default 16 s.
 """
 
 from __future__ import annotations
@@ -41,12 +41,15 @@ PROFILE = "flat:50-2000"  # the article's random profile, 50 Hz–2 kHz
 
 
 def min_seconds() -> float:
-    """Shortest segment the reduction accepts: its settling trim at each edge plus its minimum
-    number of averaging windows (read from the reduction, which owns those numbers)."""
+    """Shortest segment the simulated test accepts (the rule of ``vrelab.shaker``): the settling
+    trim at both edges plus its minimum number of averaging windows, and at least four settling
+    times (the reduction trims at most a quarter of a segment per edge). The numbers are read
+    from the reduction and the shaker, which own them."""
     from vrelab.analysis.reduction import DEFAULT_SETTLE_S, WINDOW_S
     from vrelab.shaker import MIN_WINDOWS
 
-    return math.ceil((2 * DEFAULT_SETTLE_S + MIN_WINDOWS * WINDOW_S) * 10 - 1e-6) / 10
+    need = max(2 * DEFAULT_SETTLE_S + MIN_WINDOWS * WINDOW_S, 4 * DEFAULT_SETTLE_S)
+    return math.ceil(need * 10 - 1e-6) / 10
 
 
 @dataclass(frozen=True)
@@ -439,7 +442,7 @@ def run_demo(
     out : path
         Output folder; written completely or not at all (staged, then moved in).
     quick : bool
-        Short levels (the reduction's minimum, 1.4 s) and fewer of them: a few seconds in all, for tests.
+        Short levels (the shaker's minimum, 2 s) and fewer of them: a few seconds in all, for tests.
     seconds : float, optional
         Duration of each random level [s] (default 16, quick: the minimum). VRE uncertainty scales as
         1/√seconds.
