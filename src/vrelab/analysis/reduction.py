@@ -42,6 +42,7 @@ from vrelab.analysis.segmentation import (
     channel_labels,
     check_finite,
     exact_blocks,
+    kernel_tau,
     segment_windows,
     trim,
     window_pass,
@@ -195,18 +196,36 @@ def _sine_level(
 
 
 def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
-    """DUT mean over windows [k0, k1) with its batch-means uncertainty, from the smoothed series.
+    """DUT mean over windows [k0, k1) with its standard uncertainty.
 
     The Hann-smoothed values (see :func:`~vrelab.analysis.segmentation.smoothing_kernel`) of the
-    windows whose kernel stays inside the segment average the segment's samples with weights
-    that are flat inside and taper over the first and last 0.4 s: a hard-edged (boxcar) mean
-    would keep a residual of the vibration the DUT reads (of order σ/(π·f·T), 0.4 mg for 1.5 g
-    of 80-200 Hz noise over 9 s) that no batch-means uncertainty accounts for. Short segments
-    (fewer than 10 interior windows) use all their windows' smoothed values.
+    windows whose kernel stays inside the segment ("interior" windows) average the segment's
+    samples with weights that are flat inside and taper over its first and last 0.2 s: a
+    hard-edged (boxcar) mean would keep a residual of the vibration the DUT reads (of order
+    σ/(π·f·T): 0.4 mg for 1.5 g of 80-200 Hz noise over 9 s) that no batch-means uncertainty
+    accounts for.
+
+    * 10 interior windows or more: batch means (:func:`batch_mean`) of the interior values;
+    * 2 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s`` their scatter about a
+      straight line and ``τ_k`` the correlation the kernel itself puts between neighbours
+      (:func:`~vrelab.analysis.segmentation.kernel_tau`), i.e. noise taken as white at 0.1 s;
+    * fewer: the plain mean, uncertainty from the raw window means.
     """
     h = SMOOTH_WINDOWS // 2
-    a, b = (k0 + h, k1 - h) if k1 - k0 - 2 * h >= 10 else (k0, k1)
-    return batch_mean(stats.dut_smooth[a:b])
+    a, b = k0 + h, k1 - h
+    n = b - a
+    if n >= 10:
+        return batch_mean(stats.dut_smooth[a:b])
+    if n >= 3:
+        y = stats.dut_smooth[a:b]
+        t = np.arange(n, dtype=float)
+        r = y - np.polyval(np.polyfit(t, y, 1), t)
+        tau = kernel_tau(stats.window)
+        u = math.sqrt(float(r @ r) / (n - 2) * tau / n)
+        return MeanEstimate(float(y.mean()), u, tau, 1, n)
+    raw = batch_mean(stats.dut_mean()[k0:k1])
+    mean = float(stats.dut_sum[k0:k1].sum() / stats.count[k0:k1].sum())
+    return MeanEstimate(mean, raw.u, raw.tau, raw.batch, raw.n_batches)
 
 
 # --------------------------------------------------------------------------- bracketing
