@@ -18,7 +18,7 @@ def _run(capsys, *argv: str) -> tuple[int, str, str]:
 
 def test_random_json_has_the_contract_keys(capsys):
     rc, out, err = _run(capsys, "simulate", "--sensor", "adxl355", "--axis", "z", "--range", "2", "--odr", "4000",
-                        "--static", "1", "--profile", "flat:50-2000", "--levels", "0.5,1:2:1", "--seconds", "1.5",
+                        "--static", "1", "--profile", "flat:50-2000", "--levels", "0.5,1:2:1", "--seconds", "2",
                         "--seed", "3", "--json")
     assert rc == 0, err
     d = json.loads(out)  # exactly one JSON object on stdout
@@ -36,7 +36,7 @@ def test_random_json_has_the_contract_keys(capsys):
 def test_sine_json_has_freq_and_vrc_per_frequency(capsys):
     """Ideal sensor with --k2 (SPEC 5): VRE = k2·rms² (SPEC 1.2) at each frequency."""
     rc, out, err = _run(capsys, "simulate", "--sensor", "ideal", "--k2", "1000", "--static", "0",
-                        "--freq", "100,1000", "--levels", "0.5,1", "--seconds", "1.5", "--json")
+                        "--freq", "100,1000", "--levels", "0.5,1", "--seconds", "2", "--json")
     assert rc == 0, err
     d = json.loads(out)
     assert [lv["freq_hz"] for lv in d["levels"]] == pytest.approx([100, 100, 1000, 1000])
@@ -49,7 +49,7 @@ def test_sine_json_has_freq_and_vrc_per_frequency(capsys):
 def test_out_writes_every_file(tmp_path, capsys):
     out_dir = tmp_path / "run"
     rc, out, err = _run(capsys, "simulate", "--sensor", "adxl355", "--axis", "z", "--profile", "flat:50-2000",
-                        "--levels", "1,2", "--seconds", "1.5", "--out", str(out_dir), "--record", "--json")
+                        "--levels", "1,2", "--seconds", "2", "--out", str(out_dir), "--record", "--json")
     assert rc == 0, err
     assert sorted(p.name for p in out_dir.iterdir()) == ["levels.csv", "prediction.json", "record.h5", "results.json"]
     results = json.loads((out_dir / "results.json").read_text())
@@ -67,7 +67,7 @@ def test_out_writes_every_file(tmp_path, capsys):
 
 def test_human_output_is_a_table(capsys):
     rc, out, err = _run(capsys, "simulate", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1,2",
-                        "--seconds", "1.5")
+                        "--seconds", "2")
     assert rc == 0, err
     assert "VRE ± u (mg)" in out and "rail_g" in out
     assert not out.lstrip().startswith("{")
@@ -100,7 +100,7 @@ def test_record_closes_the_loop_through_vrelab_analyze(tmp_path, capsys):
     and VRE as the simulation's own reduction (the same reduction code reads the file)."""
     out_dir = tmp_path / "sim"
     rc, out, err = _run(capsys, "simulate", "--sensor", "adxl355", "--axis", "z", "--profile", "flat:50-2000",
-                        "--levels", "1,2,3", "--seconds", "1.5", "--seed", "4", "--out", str(out_dir), "--record",
+                        "--levels", "1,2,3", "--seconds", "2", "--seed", "4", "--out", str(out_dir), "--record",
                         "--json")
     assert rc == 0, err
     sim = json.loads(out)

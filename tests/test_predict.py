@@ -77,7 +77,7 @@ def test_predict_agrees_with_simulate_adxl355_z(rms):
     sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
     (lv,) = predict(sensor, FLAT, [rms]).levels
     assert lv.valid
-    (sim,) = shaker.run_random_test(sensor, FLAT, [rms], seconds=2.0, baseline_s=1.5, seed=21).levels
+    (sim,) = shaker.run_random_test(sensor, FLAT, [rms], seconds=2.0, baseline_s=2.0, seed=21).levels
     assert abs(sim.vre.value - lv.vre_g) < 3 * sim.vre.u + 0.10 * abs(lv.vre_g), (sim.vre, lv.vre_g)
 
 
@@ -86,7 +86,7 @@ def test_predict_agrees_with_simulate_sine_through_the_chain():
     motion, k2·(rms·|H(f)|)² (SPEC 1.3), agrees with the simulation within 3u + 1 %."""
     sensor = load_sensor("adxl355", range_g=8, axis="x", k2_ug_per_g2=1000.0)
     pred = predict(sensor, 1000.0, [1.0, 2.0], static_g=1.0)
-    sim = shaker.run_sine_test(sensor, [1000.0], [1.0, 2.0], static_g=1.0, seconds=1.5, baseline_s=1.5, seed=2)
+    sim = shaker.run_sine_test(sensor, [1000.0], [1.0, 2.0], static_g=1.0, seconds=2.0, baseline_s=2.0, seed=2)
     for p, s in zip(pred.levels, sim.levels):
         assert p.valid
         assert abs(s.vre.value - p.vre_g) < 3 * s.vre.u + 0.01 * abs(p.vre_g), (s.vre, p.vre_g)
@@ -150,5 +150,5 @@ def test_predict_agrees_with_simulate_proof_mass_clip():
     assert p_pm.sigma_at_clip_g == pytest.approx(p_pm.sigma_proof_mass_g)
     assert p_out.sigma_at_clip_g == pytest.approx(p_out.sigma_output_g) and p_out.sigma_output_g < p_pm.sigma_proof_mass_g
     assert p_pm.vre_g < 2 * p_out.vre_g < 0
-    (sim,) = shaker.run_random_test(pm_clip, FLAT, [1.0], seconds=2.0, baseline_s=1.5, seed=22).levels
+    (sim,) = shaker.run_random_test(pm_clip, FLAT, [1.0], seconds=2.0, baseline_s=2.0, seed=22).levels
     assert abs(sim.vre.value - p_pm.vre_g) < 3 * sim.vre.u + 0.10 * abs(p_pm.vre_g), (sim.vre, p_pm.vre_g)

@@ -453,15 +453,21 @@ def _settle(settle_s: float | None) -> float:
 
 
 def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None:
-    """Each segment must leave the reduction enough to average after the settling trim."""
+    """Each segment must leave the reduction enough to average after the settling trim.
+
+    The reduction ignores a segment with fewer than 3 whole averaging windows after the trim
+    (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
+    per edge, so a segment shorter than 4·settle_s would be trimmed less than asked.
+    """
     from vrelab.analysis.reduction import WINDOW_S
 
-    need = MIN_WINDOWS * WINDOW_S
+    need = max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
     for name, value in (("seconds", seconds), ("baseline_s", baseline_s)):
-        if value - 2 * settle_s < need - 1e-9:
+        if value < need - 1e-9:
             raise ValueError(
-                f"{name} must exceed 2·settle_s + {need:g} s (the reduction averages {MIN_WINDOWS} windows "
-                f"of {WINDOW_S:g} s at least), got {name}={value:g} with settle_s={settle_s:g}"
+                f"{name} must be >= {need:g} s with settle_s={settle_s:g} s (the settling trim at both "
+                f"edges, at most a quarter of the segment each, plus {MIN_WINDOWS} averaging windows of "
+                f"{WINDOW_S:g} s), got {name}={value:g}"
             )
 
 
