@@ -115,7 +115,10 @@ def _rail(result: VreResult) -> Any:
 
 
 def _mg(x: float, u: float | None = None) -> str:
-    return f"{x * 1e3:+.0f} mg" if u is None else f"{x * 1e3:+.0f} ± {u * 1e3:.0f} mg"
+    """In mg, with the decimals the uncertainty (or, without one, the size) calls for."""
+    ref = abs(u if u is not None else x) * 1e3
+    d = 0 if ref >= 1 or ref == 0 else min(3, 1 - math.floor(math.log10(ref)))
+    return f"{x * 1e3:+.{d}f} mg" if u is None else f"{x * 1e3:+.{d}f} ± {u * 1e3:.{d}f} mg"
 
 
 def _fig(fig: Any, caption: str) -> ReportFigure:
@@ -161,7 +164,7 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
             ("VRE at 1 g rms, simulated", _mg(vre1, u1)),
             (f"censored (saturating) model at {rms1:.3g} g rms", _mg(cens)),
             (f"truncated (article's) model at {rms1:.3g} g rms", _mg(trunc)),
-            ("article, Figure 1", "≈ −100 mg (read off a measured plot; the censored model is what a saturating output does)"),
+            ("article, Figure 1", f"≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg (read off a plot of a measurement; the censored model is what a saturating output does)"),
             ("VRE at 0.3 g rms, simulated", _mg(vre03, u03)),
         ],
     )
