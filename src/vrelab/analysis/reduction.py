@@ -206,8 +206,8 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
     accounts for.
 
     * 10 interior windows or more: batch means (:func:`batch_mean`) of the interior values;
-    * 2 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s`` their scatter about a
-      straight line and ``τ_k`` the correlation the kernel itself puts between neighbours
+    * 3 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s²`` their squared residuals
+      about a straight line over ``n - 2·τ_k`` degrees of freedom and ``τ_k`` the correlation the kernel itself puts between neighbours
       (:func:`~vrelab.analysis.segmentation.kernel_tau`), i.e. noise taken as white at 0.1 s;
     * fewer: the plain mean, uncertainty from the raw window means.
     """
@@ -215,13 +215,15 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
     a, b = k0 + h, k1 - h
     n = b - a
     if n >= 10:
-        return batch_mean(stats.dut_smooth[a:b])
+        return batch_mean(stats.dut_smooth[a:b], tau_min=kernel_tau(stats.window))
     if n >= 3:
         y = stats.dut_smooth[a:b]
         t = np.arange(n, dtype=float)
         r = y - np.polyval(np.polyfit(t, y, 1), t)
         tau = kernel_tau(stats.window)
-        u = math.sqrt(float(r @ r) / (n - 2) * tau / n)
+        # residuals of a correlated series about a fitted line understate its variance: about
+        # 2·τ degrees of freedom go to the line, not 2
+        u = math.sqrt(float(r @ r) / max(n - 2 * tau, 1.0) * tau / n)
         return MeanEstimate(float(y.mean()), u, tau, 1, n)
     raw = batch_mean(stats.dut_mean()[k0:k1])
     mean = float(stats.dut_sum[k0:k1].sum() / stats.count[k0:k1].sum())

@@ -63,7 +63,7 @@ def integrated_autocorr_time(x: ArrayLike, c: float = 5.0) -> float:
     return float(max(taus[M], 1.0))
 
 
-def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
+def batch_mean(y: ArrayLike, detrend: bool = True, tau_min: float = 1.0) -> MeanEstimate:
     """Mean of ``y`` (equally spaced, equal-weight steps) with a batch-means uncertainty.
 
     Parameters
@@ -74,6 +74,9 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
         Remove a straight line before measuring the scatter: a slow linear drift is handled by
         baseline bracketing (its mean over the segment is its value at the centre), so it must
         not inflate the uncertainty.
+    tau_min : float
+        A floor for τ when the series is known to be correlated at least that much (a smoothed
+        series: the kernel's own τ); short series underestimate τ.
 
     Returns
     -------
@@ -84,7 +87,8 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
     τ from the (detrended) series by Sokal's window; batch length ``b = ⌈10·τ⌉`` steps, capped so
     that there are at least 20 batches; ``u = s_b/√n_b`` with ``s_b`` the scatter of the batch
     means of the residuals (2 degrees of freedom used by the line when detrending). When the
-    cap makes batches shorter than 10·τ, ``u`` is at least the direct ``√(s²·τ/n)``.
+    cap makes batches shorter than 10·τ, ``u`` is at least the direct ``√(s²·τ/n)`` (``s²`` over
+    ``n - 2·τ`` degrees of freedom: a fitted line takes about τ each).
     """
     y = np.asarray(y, dtype=np.float64)
     n = len(y)
@@ -98,7 +102,7 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
         r = y - np.polyval(np.polyfit(t, y, 1), t)
     else:
         r = y - mean
-    tau = integrated_autocorr_time(r)
+    tau = max(integrated_autocorr_time(r), float(tau_min))
     b = int(math.ceil(BATCH_TAUS * tau))
     b = max(1, min(b, n // MIN_BATCHES))
     nb = n // b
@@ -111,5 +115,6 @@ def batch_mean(y: ArrayLike, detrend: bool = True) -> MeanEstimate:
     if b < BATCH_TAUS * tau:
         # Batches capped by MIN_BATCHES are too short to be independent and batch means then
         # understate u: fall back to the direct estimate var·τ/n when it is larger.
-        u = max(u, math.sqrt(float(np.sum(r**2)) / (n - (2 if detrend else 1)) * tau / n))
+        p = 2 if detrend else 1
+        u = max(u, math.sqrt(float(np.sum(r**2)) / max(n - p * tau, 1.0) * tau / n))
     return MeanEstimate(mean, u, tau, b, nb)
