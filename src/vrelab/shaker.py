@@ -155,11 +155,12 @@ class SimulatedRecord:
     """A shaker test record generated on demand (the :class:`vrelab.record.Record` protocol).
 
     Channels ``reference`` (the drive, g) and ``dut`` (the sensor output, g, held at its ODR),
-    both at :attr:`fs_hz`. Each call to :meth:`blocks` re-runs the simulation from the start,
-    deterministically from the seed, so two passes see the same samples and memory stays
-    bounded whatever the duration. A complete pass also counts, per segment, the DUT output
-    samples at a rail (:attr:`saturated`) and the sensor's over-range events
-    (:attr:`overrange_events`, when the chain reports them).
+    both at :attr:`fs_hz`. Each call to :meth:`blocks` re-runs the simulation, deterministically
+    from the seed, starting from the kept state of the segment where the pass begins, so two
+    passes see the same samples and memory stays bounded whatever the duration. A complete pass
+    also counts, per segment, the DUT output samples at a rail (:attr:`saturated`), the samples
+    the chain clipped (:attr:`clipped`, at the clip's own rate) and the over-range episodes
+    (:attr:`overrange_events`).
     """
 
     channels: tuple[str, ...] = ("reference", "dut")
@@ -593,6 +594,24 @@ def run_random_test(
         One level per ``levels_grms`` (VRE ± standard uncertainty from the record's own noise,
         rms of the drive in the profile's band, saturated-sample counts), the effective-rail
         fit and a VRC fit over the levels that stay clear of the rails, conditions, provenance.
+
+    Notes
+    -----
+    Schedule: baseline, level 1, baseline, ..., level n, baseline. Each level's drive is an
+    independent realisation (``SeedSequence(seed)`` children) of the profile scaled to its
+    grms; the sensor sees ``static_g + drive``. The reduction (SPEC 4) gives
+    ``VRE = mean(DUT over the level) − baseline interpolated between the bracketing
+    off-segments``, its standard uncertainty from the record's own scatter, and
+    ``vib_rms`` = reference rms over the profile's band widened by an octave on each side (the
+    drive has no power outside the band, and the band-pass edges then do not bias it). Fits:
+    effective rail of the clipping model (SPEC 1.1, :func:`vrelab.fits.fit_rail`, with the
+    level where the data depart from it) and ``VRE = VRC·rms²`` (SPEC 1.2,
+    :func:`vrelab.fits.fit_vrc`) over levels whose 4σ peaks stay inside the nominal rails.
+
+    References
+    ----------
+    .. [1] SPEC sections 1 and 4; the seed article's random method (ADXL355, 50 Hz-2 kHz).
+    .. [2] IEEE Std 1293-1998 (vibration rectification test procedure).
     """
     record = plan_random_test(
         sensor, profile, levels_grms, static_g, seconds, baseline_s, settle_s, seed,
