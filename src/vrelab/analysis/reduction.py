@@ -411,12 +411,17 @@ def _tolerance_checks(
     for i, (seg, lv) in enumerate(zip(segs, levels)):
         target = seg.nominal_rms_g if seg.nominal_rms_g > 0 else lv.rms_g
         prof = profile.scaled_to(target) if hasattr(profile, "scaled_to") else profile
-        res = psd_tolerance_check(_segment_blocks(record, seg, stats.reference), record.fs_hz, prof)
+        try:
+            res = psd_tolerance_check(_segment_blocks(record, seg, stats.reference), record.fs_hz, prof)
+        except ValueError as exc:
+            out.append(f"level {lv.rms_g:.4g} g rms: PSD tolerance check not possible: {exc}")
+            continue
         if not res.passed:
             levels[i] = replace(lv, flags=lv.flags + ("psd-out-of-tolerance",))
             out.append(
                 f"level {lv.rms_g:.4g} g rms: reference PSD outside the profile tolerance "
-                f"(max deviation {res.max_dev_db:.3g} dB)"
+                f"(deviation {res.min_dev_db:+.2f} to {res.max_dev_db:+.2f} dB, ±{res.tol_db:g} dB allowed; "
+                f"rms ratio {res.rms_ratio:.3f})"
             )
     return out
 

@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         provenance = {
             "input_file": path.name,
             "input_sha256": sha256_file(path),
-            "command": "vrelab " + shlex.join(sys.argv[1:]) if sys.argv and "vrelab" in sys.argv[0] else shlex.join(sys.argv),
+            "command": _command_line(args),
             "format": record.meta.get("format"),
             "channels": record.meta.get("channels"),
             "fs_from": record.meta.get("fs_from"),
@@ -144,6 +144,26 @@ def run(args: argparse.Namespace) -> int:
         if args.out:
             print(f"wrote {args.out}/results.json, levels.csv, envelope.csv")
     return 0
+
+
+def _command_line(args: argparse.Namespace) -> str:
+    """The command as typed, rebuilt from the parsed options (main() may be called with argv)."""
+    parts = ["vrelab", "analyze", args.file]
+    for key, value in vars(args).items():
+        if key in ("file", "func", "command") or value is None or value is False:
+            continue
+        if key in ("dut_units", "reference_units") and value == "g":
+            continue
+        if key == "settle" and value == 0.5 or key == "method" and value == "random" or key == "kind" and value == "censored":
+            continue
+        opt = "--" + key.replace("_", "-")
+        if value is True:
+            parts.append(opt)
+        elif key == "band":
+            parts += [opt, f"{value[0]:g}:{value[1]:g}"]
+        else:
+            parts += [opt, str(value)]
+    return shlex.join(parts)
 
 
 def _write_levels(path: Path, result: Any) -> None:
