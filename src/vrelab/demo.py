@@ -147,8 +147,8 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
     env = plots.record_envelope(rec, n_bins=3000)
     figs = [
         _fig(
-            plots.plot_time_series(env, rails_g=tuple(sensor.rails_g), title="Figure 1: a ±2 g sensor in a 1 g field, 0.3 then 1 g rms random vibration"),
-            "Top: the sensor output (min/max per bin) is cut at +2 g while its negative peaks never reach −2 g. "
+            plots.plot_time_series(env, rails_g=tuple(sensor.rails_g), static_g=1.0, title="Figure 1: a ±2 g sensor in a 1 g field, 0.3 then 1 g rms random vibration"),
+            "Top: the sensor output (blue, min/max per bin) is cut at +2 g, where the input (grey) goes on; its negative peaks never reach −2 g. "
             "Bottom: its mean steps down only when the vibration reaches the upper rail.",
         )
     ]

@@ -488,7 +488,7 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
         rec = folder / "record.h5"
         if rec.is_file():
             env = plots.record_envelope(rec)
-            figs.append(ReportFigure.from_figure(plots.plot_time_series(env, rails_g=_rails_of(result)), f"Record {rec.name} (min/max envelope of {env.bin_size}-sample bins), segments shaded."))
+            figs.append(ReportFigure.from_figure(plots.plot_time_series(env, rails_g=_rails_of(result), static_g=result.conditions.static_g), f"Record {rec.name} (min/max envelope of {env.bin_size}-sample bins), segments shaded."))
         elif (folder / "envelope.csv").is_file():
             figs.append(ReportFigure.from_figure(plots.plot_envelope_csv(folder / "envelope.csv"), "Analysis windows: vibration level and sensor mean against time."))
         if (folder / "psd.csv").is_file():

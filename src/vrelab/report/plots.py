@@ -469,11 +469,14 @@ def plot_time_series(
     rails_g: tuple[float, float] | None = None,
     title: str | None = None,
     mean_window_s: float | None = None,
+    static_g: float | None = None,
 ) -> Figure:
     """The record against time (article Figure 1 style): DUT and reference, segments shaded.
 
     Top panel: the DUT output as a min/max band (or the samples when not decimated), the rails
-    dashed, so clipping shows as a flat edge; the reference behind it. Bottom panel: the DUT's
+    dashed, so clipping shows as a flat edge; behind it the reference, shifted by ``static_g``
+    when given (a reference accelerometer sees the vibration, not gravity: shifted, it is what
+    the DUT would read without rails, so what the rails cut off shows). Bottom panel: the DUT's
     moving mean in mg relative to the first vibration-off segment, the offset shift that is VRE.
     """
     fig, (ax, ax2) = _new_figure(2, height_in=6.2)
@@ -482,10 +485,12 @@ def plot_time_series(
     have_ref = "reference" in env.channels
     if have_ref:
         mn, mx, me = env.channels["reference"]
+        off = static_g or 0.0
+        name = f"input: {off:+g} g static + reference vibration" if static_g else "reference (shaker)"
         if env.bin_size == 1:
-            ax.plot(t, me, color="0.6", lw=0.6, label="reference (shaker)")
+            ax.plot(t, me + off, color="0.6", lw=0.6, label=name)
         else:
-            ax.fill_between(t, mn, mx, color="0.75", lw=0, label="reference (shaker), min/max")
+            ax.fill_between(t, mn + off, mx + off, color="0.75", lw=0, label=f"{name}, min/max")
     if "dut" in env.channels:
         mn, mx, me = env.channels["dut"]
         if env.bin_size == 1:
@@ -540,7 +545,9 @@ def plot_time_series(
                         f"{level:+.0f} mg",
                         ((s.start_s + s.end_s) / 2, level),
                         textcoords="offset points",
-                        xytext=(0, 7),
+                        # Above a negative shift (room up to the zero line), below a null one
+                        # (the zero line is near the top of the panel).
+                        xytext=(0, 7) if level < -2.0 else (0, -16),
                         ha="center",
                         fontsize=8.5,
                         color=COLORS[1],
