@@ -149,7 +149,10 @@ def test_every_format_gives_the_same_levels(tmp_path, truth, reference_levels):
 def test_reader_notes_say_what_is_not_memory_mapped(tmp_path, truth):
     d = truth.record.data
     files = write_all(tmp_path, d["reference"], d["dut"])
-    notes = {Path(p).name: open_record(p, **kw).meta["reader_notes"] for p, kw in files.items()}
+    notes = {}
+    for p, kw in files.items():
+        with open_record(p, **kw) as rec:
+            notes[Path(p).name] = rec.meta["reader_notes"]
     assert any("compressed NPZ" in n for n in notes["rec_c.npz"])
     assert any("MAT v5" in n for n in notes["rec5.mat"])
     assert notes["rec.npz"] == [] and notes["rec.h5"] == [] and notes["rf64.wav"] == []
@@ -225,8 +228,24 @@ def test_tdms_channel_name_must_be_unique(tmp_path):
 
 def test_blocks_are_bounded_by_block_size(tmp_path, truth):
     d = truth.record.data
-    p = tmp_path / "r.h5"
-    write_record_hdf5(p, FS, [d])
-    rec = open_record(p, "dut", "reference")
-    sizes = [len(b["dut"]) for b in rec.blocks(1000, ["dut", "reference"], 10, 5010)]
-    assert max(sizes) <= 1000 and sum(sizes) == 5000
+    files = write_all(tmp_path, d["reference"], d["dut"])
+    for path, kw in files.items():
+        with open_record(path, **kw) as rec:
+            blocks = list(rec.blocks(1000, ["dut", "reference"], 10, 5010))
+        sizes = [len(b["dut"]) for b in blocks]
+        assert max(sizes) <= 1000 and sum(sizes) == 5000, path
+        tol = 1e-6 if path.endswith(".wav") else 0.0  # float32 WAV
+        assert np.allclose(np.concatenate([b["dut"] for b in blocks]), d["dut"][10:5010], rtol=tol, atol=0), path
+
+
+def test_csv_quirks_bom_comments_semicolons(tmp_path):
+    """A lab export: UTF-8 BOM, comment lines, ';' separator, a time column named by --time."""
+    t = np.arange(1000) / 200.0
+    body = "\n".join(f"{a:.6f};{b:.6f};{c:.6f}" for a, b, c in zip(t, np.sin(t), np.cos(t)))
+    p = tmp_path / "lab.csv"
+    p.write_bytes(("\ufeff# exported by DAQ\n# 2026-11-21\ntime [s];acc_ref;acc_dut\n" + body + "\n").encode())
+    rec = open_record(p, "acc_dut", "acc_ref", time_channel="time [s]")
+    assert rec.fs_hz == pytest.approx(200.0, rel=1e-6)
+    assert rec.n_samples == 1000
+    x = np.concatenate([b["dut"] for b in rec.blocks(300, ["dut"])])
+    assert np.allclose(x, np.round(np.cos(t), 6))

@@ -458,7 +458,7 @@ class CsvSource(_Source):
     def __init__(self, path: Path) -> None:
         super().__init__(path)
         with open(path, "rb") as fh:
-            head = fh.read(65536).decode("utf-8", errors="replace")
+            head = fh.read(65536).decode("utf-8-sig", errors="replace")
         lines = [ln for ln in head.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
         if not lines:
             raise ValueError(f"{path.name}: CSV file has no data lines")
@@ -525,7 +525,9 @@ class CsvSource(_Source):
             m = batch.num_rows
             a, b = max(start - pos, 0), min(stop - pos, m)
             if b > a:
-                yield {n: batch.column(i).to_numpy(zero_copy_only=False)[a:b] for i, n in enumerate(names)}
+                cols = {n: batch.column(i).to_numpy(zero_copy_only=False) for i, n in enumerate(names)}
+                for j in range(a, b, block):  # a parsed batch may hold more rows than a block
+                    yield {n: c[j : min(j + block, b)] for n, c in cols.items()}
             pos += m
             if pos >= stop:
                 break
