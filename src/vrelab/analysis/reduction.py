@@ -545,6 +545,7 @@ def analyze_full(
     extra = dict(conditions.extra)
     extra.setdefault("band_hz", list(default_band(record.fs_hz, band_hz, profile)) if method == "random" else None)
     extra.setdefault("settle_s", settle_s)
+    extra.setdefault("static_g_from", "given" if static_g is not None else "mean DUT reading at the baselines")
     desc = conditions.profile
     if desc is None and profile is not None and hasattr(profile, "describe"):
         desc = profile.describe()
@@ -558,13 +559,16 @@ def analyze_full(
         extra=extra,
     )
     prov = {"vrelab_version": __version__, "fs_hz": record.fs_hz, "n_samples": int(record.n_samples)}
+    for key in ("source", "format", "channels", "fs_from"):
+        if key in meta:
+            prov[key] = meta[key]
     prov.update(dict(provenance or {}))
     result = VreResult(
         method=method,
         conditions=conditions,
         levels=tuple(red.levels),
         fits=tuple(fits),
-        warnings=tuple(red.warnings + w),
+        warnings=tuple(list(meta.get("reader_notes") or []) + red.warnings + w),
         provenance=prov,
         kind="measurement",
     )

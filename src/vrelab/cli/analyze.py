@@ -105,9 +105,6 @@ def run(args: argparse.Namespace) -> int:
             "input_file": path.name,
             "input_sha256": sha256_file(path),
             "command": _command_line(args),
-            "format": record.meta.get("format"),
-            "channels": record.meta.get("channels"),
-            "fs_from": record.meta.get("fs_from"),
         }
         result, red = analyze_full(
             record,
@@ -124,11 +121,6 @@ def run(args: argparse.Namespace) -> int:
             provenance=provenance,
             psd=bool(args.out),
         )
-        notes = list(record.meta.get("reader_notes") or [])
-    if notes:
-        from dataclasses import replace
-
-        result = replace(result, warnings=tuple(notes) + result.warnings)
     doc = result.to_dict()
     if args.out:
         with _io.output_dir(args.out) as stage:
