@@ -133,11 +133,13 @@ def test_article_figure1_pm2g_in_1g_field():
     """Seed article Fig. 1: a ±2 g sensor in a 1 g field shows about -100 mg at 1 g rms and
     nothing visible at 0.3 g rms (SPEC 1.1: -83 mg censored)."""
     sensor = load_sensor("ideal", range_g=2)
-    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [0.3, 1.0], static_g=1.0, seconds=2.0,
+    res = shaker.run_random_test(sensor, ARTICLE_PROFILE, [0.3, 1.0], static_g=1.0, seconds=4.0,
                                  baseline_s=2.0, seed=3)
     small, one = res.levels
     assert abs(small.vre.value) < 1e-3
-    assert -0.100 - 3 * one.vre.u < one.vre.value < -0.075
+    # between the censored -83 mg and the article's -100 mg, to the simulation's uncertainty
+    assert -0.100 - 3 * one.vre.u < one.vre.value < -0.083 + 3 * one.vre.u
+    assert one.vre.u < 0.005
 
 
 def test_article_datasheet_vre_limit_adxl355_z():
