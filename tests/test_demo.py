@@ -46,7 +46,7 @@ def test_demo_runs_quickly_and_says_where_the_report_is(demo: dict) -> None:
 
 def test_report_holds_every_study_with_decodable_figures(demo: dict) -> None:
     text = (demo["out"] / "report.html").read_text(encoding="utf-8")
-    for title in ("Figure 1", "Figure 2", "Figure 3", "Figure 4", "Datasheet VRE limit", "Sine method"):
+    for title in ("At a glance", "Figure 1", "Figure 2", "Figure 3", "Figure 4", "Datasheet VRE limit", "Sine method"):
         assert f"{title}" in text
     imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', text)
     assert len(imgs) == 7  # time series, rail fit, X vs Z, bandwidths, limit, VRC(f), rms²
