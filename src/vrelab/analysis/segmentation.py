@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -194,6 +194,48 @@ def channel_labels(record: Record) -> dict[str, str]:
     return {c: (f"'{mapping[c]}' ({c})" if c in mapping and mapping[c] != c else f"'{c}'") for c in ("dut", "reference")}
 
 
+def prefetch(blocks: Iterator[dict[str, NDArray[np.float64]]], depth: int = 1) -> Iterator[dict[str, NDArray[np.float64]]]:
+    """Read the next block in a background thread while this one is processed.
+
+    File reads (h5py, memmap page faults) then overlap with the FFTs, reductions and matrix
+    products of the window pass, which release the GIL. Memory: ``depth`` blocks more.
+    """
+    import queue
+    import threading
+
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    done = object()
+    stop = threading.Event()
+
+    def work() -> None:
+        try:
+            for b in blocks:
+                if stop.is_set():
+                    return
+                q.put(b)
+            q.put(done)
+        except BaseException as exc:  # re-raised in the consumer
+            q.put(exc)
+
+    th = threading.Thread(target=work, daemon=True)
+    th.start()
+    try:
+        while True:
+            item = q.get()
+            if item is done:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        while th.is_alive():
+            try:
+                q.get_nowait()
+            except queue.Empty:
+                th.join(0.01)
+
+
 def check_finite(name: str, x: NDArray[np.float64], offset: int) -> None:
     """NaN/inf in a channel: one line naming the channel and the first bad sample index."""
     if not np.isfinite(x).all():
@@ -249,7 +291,7 @@ def window_pass(
 
         bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False)
     pos = 0
-    for blk in exact_blocks(record, block, chans, 0, n):
+    for blk in prefetch(exact_blocks(record, block, chans, 0, n)):
         d = np.asarray(blk["dut"], dtype=np.float64)
         r = d if ref_name == "dut" else np.asarray(blk["reference"], dtype=np.float64)
         check_finite(labels["dut"], d, pos)
