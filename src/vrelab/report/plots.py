@@ -116,13 +116,6 @@ def _rail_fit(result: VreResult) -> FitResult | None:
     return next((f for f in result.fits if "rail_g" in f.params or "rail_high_g" in f.params), None)
 
 
-def _vrc_fit(result: VreResult, freq_hz: float | None = None) -> FitResult | None:
-    for f in result.fits:
-        if "vrc_ug_per_g2" in f.params and (freq_hz is None or f.freq_hz == freq_hz):
-            return f
-    return None
-
-
 # --------------------------------------------------------------------------- model curves
 def clip_curves(
     static_g: float,
@@ -186,7 +179,8 @@ def model_curves(
         p = rail.params
         high = p["rail_g"].value if "rail_g" in p else p["rail_high_g"].value
         low = p["rail_low_g"].value if "rail_low_g" in p else None
-        curves += clip_curves(result.conditions.static_g, high, grid, kinds, low, label_suffix=" (fitted)")
+        if math.isfinite(high) and (low is None or math.isfinite(low)):  # a failed fit draws nothing
+            curves += clip_curves(result.conditions.static_g, high, grid, kinds, low, label_suffix=" (fitted)")
     vrc = next((f for f in result.fits if f.freq_hz is None and "vrc_ug_per_g2" in f.params), None)
     if vrc is not None and _significant(vrc):
         curves.append(vrc_curve(vrc.params["vrc_ug_per_g2"].value, grid))
@@ -194,16 +188,15 @@ def model_curves(
 
 
 # --------------------------------------------------------------------------- VRE vs rms
-def _draw_levels(
-    ax, result: VreResult, label: str, color: str, x_square: bool = False, scale: float = 1e3, connect: bool = False
-) -> None:
+def _draw_levels(ax, result: VreResult, label: str, color: str, connect: bool = False) -> None:
+    """VRE (mg) ± u against level (g rms); over-range levels hollow."""
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     if not lv:
         return
     rms = np.array([x.rms_g for x in lv])
-    vre = np.array([x.vre.value for x in lv]) * scale
-    u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in lv]) * scale
-    xs = rms**2 if x_square else rms
+    vre = np.array([x.vre.value for x in lv]) * 1e3
+    u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in lv]) * 1e3
+    xs = rms
     # Hollow marks the over-range protection, the mechanism the clipping models leave out;
     # saturation itself is what they describe (counted in the report's table).
     flagged = np.array([any("over" in f for f in x.flags) for x in lv])
