@@ -235,10 +235,24 @@ def test_report_dir_reads_the_output_folder_and_checksums_inputs(tmp_path: Path)
     assert text.count("<img ") == 4  # VRE vs rms, VRE vs rms², envelope.csv, PSD
 
 
-def test_sine_folder_gets_vrc_vs_frequency(tmp_path: Path) -> None:
-    (tmp_path / "results.json").write_text(json.dumps(_sine_result().to_dict()))
+def test_sine_folder_gets_vrc_vs_frequency(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    seen: dict = {}
+    orig = plots.plot_vrc_vs_freq
+
+    def spy(result, **kw):
+        seen.update(kw)
+        return orig(result, **kw)
+
+    monkeypatch.setattr(plots, "plot_vrc_vs_freq", spy)
+    res = _sine_result()
+    # fn from the sensor description in provenance when the conditions do not carry it
+    res = dataclasses.replace(res, conditions=dataclasses.replace(res.conditions, extra={}), provenance={"sensor": {"fn_hz": 2400.0}})
+    (tmp_path / "results.json").write_text(json.dumps(res.to_dict()))
     text = report_dir(tmp_path).read_text()
     assert text.count("<img ") == 2 and "VRC against sine frequency" in text
+    assert seen["fn_hz"] == 2400.0
 
 
 def test_report_write_is_atomic(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

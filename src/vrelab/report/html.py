@@ -461,6 +461,14 @@ def _rails_of(result: VreResult) -> tuple[float, float] | None:
     return None
 
 
+def _sensor_number(result: VreResult, key: str) -> float | None:
+    """A sensor parameter from the conditions, else from the sensor description in provenance."""
+    for src in (dict(result.conditions.extra), result.provenance.get("sensor")):
+        if isinstance(src, Mapping) and isinstance(src.get(key), (int, float)) and math.isfinite(src[key]):
+            return float(src[key])
+    return None
+
+
 def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[ReportFigure], list[str]]:
     """The standard figures of one result (and of the optional files next to its results.json).
 
@@ -482,7 +490,7 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
         if any("vrc_ug_per_g2" in f.params for f in result.fits) or result.method == "sine":
             figs.append(ReportFigure.from_figure(plots.plot_vre_vs_rms2(result), "VRE against rms²: the slope of the line through the origin is the VRC."))
         if sum(1 for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params) > 1:
-            fn = dict(result.conditions.extra).get("fn_hz")
+            fn = _sensor_number(result, "fn_hz")
             figs.append(ReportFigure.from_figure(plots.plot_vrc_vs_freq(result, fn_hz=fn), "VRC against sine frequency: resonance amplifies the nonlinearity."))
     if folder is not None:
         rec = folder / "record.h5"
