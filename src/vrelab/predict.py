@@ -264,13 +264,18 @@ def _level(
     low, high = _rails(sensor)
     notes: list[str] = []
     valid = True
-    if shape == "gaussian":
-        clip_low = float(clipping.mean_shift(g0, sigma_clip, low, math.inf, "gaussian", kind))
-        clip_high = float(clipping.mean_shift(g0, sigma_clip, -math.inf, high, "gaussian", kind))
-    else:
-        clip_low = float(clipping.mean_shift(g0, sigma_clip, low, math.inf, "sine", kind))
-        clip_high = float(clipping.mean_shift(g0, sigma_clip, -math.inf, high, "sine", kind))
-    clip = float(clipping.mean_shift(g0, sigma_clip, low, high, shape, kind))
+    if not low < g0 < high:
+        valid = False
+        notes.append(f"the static field {g0:g} g is at or beyond a rail [{low:g}, {high:g}] g: the sensor "
+                     "is saturated without vibration — simulate")
+
+    def shift(lo: float, hi: float) -> float:
+        # VRE is measured against the vibration-off reading, which a static field beyond a
+        # rail already clips: subtract the shift at zero vibration.
+        with_vibration = float(clipping.mean_shift(g0, sigma_clip, lo, hi, shape, kind))
+        return with_vibration - float(np.clip(g0, lo, hi) - g0)
+
+    clip_low, clip_high, clip = shift(low, math.inf), shift(-math.inf, high), shift(low, high)
     nonlin = float(nonlinearity.vre_poly(sigma_m, sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3,
                                          static_g=g0, shape=shape))
 
