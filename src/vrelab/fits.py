@@ -186,13 +186,13 @@ def _fit_clip_once(
     lo = abs(static_g) + 0.05 * float(np.min(rms))
     hi = abs(static_g) + 12.0 * float(np.max(rms))
     grid = np.geomspace(max(lo, 1e-6), hi, 200)
+    # all grid rails at once (the model broadcasts): rows = rails, columns = levels
+    pred = np.asarray(shift(static_g, rms[None, :], -grid[:, None], grid[:, None]), dtype=np.float64)
+    r0 = grid[int(np.argmin(np.sum(((pred - y) * sw) ** 2, axis=1)))]
     if symmetric:
-        costs = [np.sum(resid(np.array([r])) ** 2) for r in grid]
-        p0 = np.array([grid[int(np.argmin(costs))]])
+        p0 = np.array([r0])
         bounds = ([max(abs(static_g), 1e-9) * (1 + 1e-9)], [np.inf])
     else:
-        costs = [np.sum(resid(np.array([-r, r])) ** 2) for r in grid]
-        r0 = grid[int(np.argmin(costs))]
         p0 = np.array([-r0, r0])
         bounds = ([-np.inf, static_g], [static_g, np.inf])
     sol = least_squares(resid, p0, bounds=bounds, x_scale="jac")

@@ -281,7 +281,7 @@ def window_pass(
     parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
     kern = smoothing_kernel(w)
     ac_w, band_w = band_weights(w, fs, (f1, f2))
-    weights = np.column_stack([ac_w, band_w])
+    weights2 = np.repeat(np.column_stack([ac_w, band_w]), 2, axis=0)
     run_max, run_min = -np.inf, np.inf
     chans = ["dut"] if ref_name == "dut" else ["dut", "reference"]
     labels = channel_labels(record)
@@ -316,15 +316,14 @@ def window_pass(
                 cand = np.flatnonzero((mx >= thr) | (mn <= -thr))
                 if len(cand):
                     nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
+            # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square, and
+            # let one matrix product weigh both halves (no complex temporaries)
+            spec = sfft.rfft(rv, axis=1).view(np.float64)
             if L == w:
-                spec = sfft.rfft(rv, axis=1)
-                pw = spec.real**2 + spec.imag**2
-                acb = pw @ weights
+                acb = (spec * spec) @ weights2
                 parts[kk : kk + m] = dv @ kern
             else:  # the record's last, partial window
-                spec = sfft.rfft(rv, axis=1)
-                pw = spec.real**2 + spec.imag**2
-                acb = pw @ np.column_stack(band_weights(L, fs, (f1, f2)))
+                acb = (spec * spec) @ np.repeat(np.column_stack(band_weights(L, fs, (f1, f2))), 2, axis=0)
                 parts[kk : kk + m] = (dv @ kern[:L]) * (w / L)
             rac[sl], rband[sl] = acb[:, 0], acb[:, 1]
             # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
