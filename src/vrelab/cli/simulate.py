@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     sensor = sensor_from_args(args)
     profile = parse_profile(args.profile) if args.profile is not None else None
     freqs = positive_list(args.freq, "--freq") if args.freq is not None else None
-    progress = bool(args.progress or (sys.stderr.isatty() and not args.json))
+    progress = bool(args.progress or sys.stderr.isatty())
 
     def simulate(record_path: Path | None) -> Any:
         if profile is not None:
