@@ -2,18 +2,20 @@
 
 Steps, each over data streamed in blocks:
 
-1. :func:`~vrelab.analysis.segmentation.window_pass`: per-window sums (0.1 s windows).
+1. :func:`~vrelab.analysis.segmentation.window_pass`: per-window numbers (0.1 s windows, longer
+   when the band starts below 20 Hz), the next block read in a background thread.
 2. Segmentation: the user's schedule, else the one embedded in the record, else automatic from
    the reference's rms envelope; ``settle_s`` trimmed at both edges of every segment.
-3. Baselines (vibration off): DUT mean of the windows with a batch-means uncertainty.
-4. Levels. *Random*: level = reference rms in the test band (band-pass from the first pass),
-   DUT mean of the windows. *Sine*: a second pass over each level: the drive frequency from the
-   reference (Hann-windowed FFT peak, log-parabolic interpolation), then batches of a whole
-   number of drive periods (the number chosen so that a batch is within a small fraction of a
-   sample of whole periods), in each a single-bin DFT (lock-in) of reference and DUT at the
-   drive frequency: level = rms of the reference's component, DUT mean with the drive
-   component's leftover over the batch removed. A plain mean over a non-integer number of
-   periods would leave a residual of order A/(2π·f·T) (SPEC 4).
+3. DUT mean of a segment (baseline or random level) and its uncertainty: from the Hann-smoothed
+   window series (:func:`dut_mean_estimate`), batch means sized by the autocorrelation time.
+4. Levels. *Random*: level = reference rms in the test band (the window FFTs' in-band power).
+   *Sine*: a second pass over each level: the drive frequency from the reference
+   (Hann-windowed FFT peak, log-parabolic interpolation), then batches of a whole number of
+   drive periods (the number chosen so that a batch is within a small fraction of a sample of
+   whole periods), in each a single-bin DFT (lock-in) of reference and DUT at the drive
+   frequency: level = rms of the reference's component, DUT mean with the drive component's
+   leftover over the batch removed. A plain mean over a non-integer number of periods would
+   leave a residual of order A/(2π·f·T) (SPEC 4).
 5. VRE = DUT mean under vibration − baseline at the level's centre time, the baseline linearly
    interpolated between the off-segments before and after the level (bracketing removes a
    linear drift exactly); fall back to the nearest baseline with a warning.

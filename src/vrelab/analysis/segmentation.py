@@ -3,15 +3,17 @@
 One pass reads the record in blocks and keeps, per short window (``window_s``, 0.1 s by
 default), a handful of numbers: DUT sum / extremes / samples at its extremes / a Hann-smoothed
 mean, the reference's AC and band-limited power (from the window's FFT, Parseval). These
-small arrays (a 2 h record at 0.1 s: 72 000 windows) are
-all that segmentation, baselines, random-method levels and their batch-means uncertainty need,
-so memory does not grow with the length of the record beyond them.
+small arrays (a 2 h record at 0.1 s: 72 000 windows) are all that segmentation, baselines,
+random-method levels and their batch-means uncertainty need, so memory does not grow with the
+length of the record beyond them. No per-sample filter runs, so there is no filter state to
+carry across blocks: windows never straddle a block edge, and the smoothing kernel's parts
+are kept per window and combined after the pass.
 
 Segmentation is either given (a :class:`~vrelab.record.Schedule`: the user's, or the one
 embedded in the record) or found from the rms envelope of the reference (the DUT's AC part
 when there is no reference): windows below a noise threshold are "off"; among the "on"
-windows, plateaus are the stretches where the envelope is steady (ramps, where it changes,
-are left out); a settling time is trimmed at both edges of every segment.
+windows, plateaus are the pieces of constant envelope found by binary segmentation (ramps,
+where it changes, are left out); a settling time is trimmed at both edges of every segment.
 """
 
 from __future__ import annotations
