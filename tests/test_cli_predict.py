@@ -27,6 +27,14 @@ def test_profile_json_keys_and_values(capsys):
     assert d["levels"][1]["vre_g"] == pytest.approx(-0.0833, abs=0.0005)
 
 
+def test_truncated_kind_gives_the_articles_model(capsys):
+    """SPEC 1.1: truncated model, ±2 g, 1 g field, 1 g rms: -283 mg."""
+    rc, out, err = _run(capsys, "predict", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1",
+                        "--kind", "truncated", "--json")
+    assert rc == 0, err
+    assert json.loads(out)["levels"][0]["vre_g"] == pytest.approx(-0.283, abs=0.0005)
+
+
 def test_sine_with_sensor_options(capsys):
     """--k2/--k3 set the nonlinearity (SPEC 5): (k2 + 3·k3·g0)·rms² (SPEC 1.2), ideal sensor, no clip."""
     rc, out, err = _run(capsys, "predict", "--sensor", "ideal", "--range", "40", "--static", "1", "--k2", "100",

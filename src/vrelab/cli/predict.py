@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         excitation: Any = parse_profile(args.profile)
     else:
         excitation = V.positive_scalar("--freq", args.freq)
-    pred = predict(sensor, excitation, levels, static_g=args.static_g)
+    pred = predict(sensor, excitation, levels, static_g=args.static_g, kind=args.kind)
     if args.out:
         from vrelab._io import output_dir, write_json
 
@@ -118,6 +118,8 @@ def register(subparsers: Any) -> None:
     ex.add_argument("--profile", metavar="PROFILE", help="random profile: file, F:P,F:P,... or flat:F1-F2; scaled to each level")
     ex.add_argument("--freq", type=float, metavar="HZ", help="sine frequency [Hz]")
     p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms], e.g. 0.5,1,2 or 0.5:3:0.5")
+    p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
+                   help="clipping model: censored (a saturating sensor, default) or truncated (the article's)")
     p.add_argument("--out", metavar="DIR", help="write DIR/prediction.json")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
