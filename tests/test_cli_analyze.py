@@ -168,3 +168,30 @@ def test_bad_files_exit_2_with_one_line_and_leave_input_and_output_untouched(tmp
         if before is not None:
             assert path.read_bytes() == before, name
         assert not out_dir.exists(), name
+
+
+def test_progress_bar_goes_to_stderr_and_json_stays_clean(csv_file, capsys):
+    rc = main(["analyze", str(csv_file), "--dut", "adxl", "--reference", "ref", "--progress", "--json",
+               "--kind", "truncated", "--k4", "--band", "50:250"])  # fmt: skip
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    d = json.loads(out)  # stdout holds exactly one JSON object
+    assert "reading" in err
+    assert [f["model"] for f in d["fits"]] == ["vrc+k4", "clip-truncated"]
+    assert "c4_ug_per_g4" in d["fit"]
+    assert "--k4" in d["provenance"]["command"] and "--band 50:250" in d["provenance"]["command"]
+
+
+def test_schedule_file_option(tmp_path, truth, capsys):
+    d = truth.record.data
+    p = tmp_path / "rec.h5"
+    write_record_hdf5(p, FS, [d])
+    sched = tmp_path / "schedule.csv"
+    truth.schedule.write_csv(sched)
+    rc = main(["analyze", str(p), "--dut", "dut", "--reference", "reference", "--schedule", str(sched), "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    lv = json.loads(out)["levels"]
+    assert len(lv) == 3
+    for x, v in zip(lv, truth.vre_g):
+        assert abs(x["vre_g"] - v) < 4 * x["u_vre_g"]
