@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         if profile is not None:
             return shaker.run_random_test(sensor, profile, levels, static_g=args.static_g, seconds=seconds,
                                           baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                          record_path=record_path, progress=progress)
+                                          record_path=record_path, progress=progress, clip_kind=args.kind)
         return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
                                     baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
                                     record_path=record_path, progress=progress)
@@ -102,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
             result = simulate(stage / "record.h5" if args.record else None)
             write_json(stage / "results.json", result.to_dict())
             write_levels_csv(stage / "levels.csv", result)
-            pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g)
+            pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g,
+                           kind=args.kind)
             write_json(stage / "prediction.json", pred.to_dict())
     else:
         result = simulate(None)
@@ -131,6 +132,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--settle", type=float, metavar="S",
                    help="settling time trimmed at each segment edge [s] (default: the reduction's, 0.5)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")
+    p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
+                   help="clipping model of the effective-rail fit and the prediction (default censored)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
