@@ -286,9 +286,7 @@ def _level(
         hold = float(sensor.overrange_hold_s)
         value = float(sensor.overrange_value_g)
         if shape == "gaussian":
-            rate = float(
-                dynamics_rate(thr, g0, sigma_m, nu0_hz)
-            )
+            rate = _overrange_rate(thr, g0, sigma_m, nu0_hz)
             over = float(design.overrange_vre(g0, sigma_m, thr, hold, nu0_hz, value_g=value))
             duty = rate * hold
             if duty > _MAX_HOLD_DUTY:
@@ -336,7 +334,7 @@ def _level(
     )
 
 
-def dynamics_rate(threshold_g: float, mean_g: float, sigma_g: float, nu0_hz: float) -> float:
+def _overrange_rate(threshold_g: float, mean_g: float, sigma_g: float, nu0_hz: float) -> float:
     """Expected over-range trips per second: up-crossings of +threshold plus down-crossings
     of -threshold by Gaussian motion N(mean, σ²) (Rice, via :mod:`vrelab.models.dynamics`)."""
     from vrelab.models import dynamics
