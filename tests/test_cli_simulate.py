@@ -85,6 +85,9 @@ def test_human_output_is_a_table(capsys):
         (["--sensor", "ideal", "--freq", "100", "--levels", "1", "--seconds", "-2"], "--seconds"),
         (["--sensor", "adxl355", "--range", "3", "--freq", "100", "--levels", "1"], "range"),
         (["--sensor", "ideal", "--freq", "100", "--levels", "1", "--record"], "--out"),
+        (["--sensor", "ideal", "--freq", "100", "--levels", "1", "--kurtosis", "5"], "--kurtosis"),
+        (["--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1", "--kurtosis", "2"], "kurtosis"),
+        (["--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1", "--seconds", "1"], "seconds"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(capsys, argv, word):

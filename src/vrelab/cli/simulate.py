@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--settle must be >= 0, got {args.settle}")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    if args.freq is not None and (args.clip_sigma is not None or args.kurtosis is not None or args.drive != "gaussian"):
+        raise ValueError("--drive, --clip-sigma and --kurtosis apply to a random --profile, not to --freq")
     if args.record and not args.out:
         raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
     sensor = sensor_from_args(args)
@@ -90,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
         if profile is not None:
             return shaker.run_random_test(sensor, profile, levels, static_g=args.static_g, seconds=seconds,
                                           baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                          record_path=record_path, progress=progress, clip_kind=args.kind)
+                                          record_path=record_path, progress=progress, clip_kind=args.kind,
+                                          drive_method=args.drive, clip_sigma=args.clip_sigma,
+                                          kurtosis=args.kurtosis)
         return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
                                     baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
                                     record_path=record_path, progress=progress)
@@ -134,6 +138,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")
     p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
                    help="clipping model of the effective-rail fit and the prediction (default censored)")
+    p.add_argument("--drive", choices=("gaussian", "multisine"), default="gaussian",
+                   help="random drive: a Gaussian process (default) or a random-phase multisine")
+    p.add_argument("--clip-sigma", type=float, metavar="K",
+                   help="clip the random drive at ±K·σ, as shaker controllers do")
+    p.add_argument("--kurtosis", type=float, metavar="K", help="non-Gaussian random drive with this kurtosis (> 3)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
