@@ -405,6 +405,7 @@ def auto_segment(
     min_duration_s: float = 1.0,
     min_step: float = 0.05,
     off_threshold_g: float | None = None,
+    max_rate_per_s: float = 0.02,
 ) -> tuple[Schedule, list[str]]:
     """Find baselines and level plateaus from the envelope (untrimmed; see :func:`trim`).
 
@@ -418,9 +419,11 @@ def auto_segment(
       ``log e`` per window (a 0.1 s rms of band-limited noise scatters by ``1/√(2·B·T)``) is
       measured robustly from the median absolute first difference, so noise does not cut; steps
       smaller than ``min_step`` (5 % in level) do not cut either;
-    * a piece is a plateau when it lasts ``min_duration_s`` or more and its level does not
-      change across it (straight-line fit) by more than ``min_step`` or 5 standard errors of
-      that change, whichever is larger: ramps, cut into short or sloping pieces, are left out. Adjacent plateaus within ``min_step`` are merged.
+    * a piece is a plateau when it lasts ``min_duration_s`` or more and is not a ramp: its level
+      (straight-line fit of ``log e``) changes across it by more than 30 %, or significantly
+      (more than ``min_step`` and 4 standard errors) at more than ``max_rate_per_s`` (2 %/s).
+      Ramps, cut into short or sloping pieces, are left out; the slow wander of a shaker
+      controller on a long plateau is kept. Adjacent plateaus within ``min_step`` are merged.
 
     Levels may come in any order and repeat; each plateau is its own segment.
     """
@@ -459,9 +462,13 @@ def auto_segment(
             seg = loge[a + pa : a + pb]
             tt = np.arange(len(seg))
             slope = np.polyfit(tt, seg, 1)[0]
-            # level change across the piece against its noise (5 standard errors of the change:
-            # band-limited noise and shaker controllers wander more than white noise would)
-            if abs(slope) * len(seg) > max(min_step, 5.0 * sigma * math.sqrt(12.0 / len(seg))):
+            # A ramp: the level changes across the piece, significantly (4 standard errors of
+            # the change) and fast (more than max_rate_per_s in log level); or by more than 30 %
+            # whatever the rate. Slow wander of a controller on a long plateau is not a ramp.
+            change = abs(slope) * len(seg)
+            rate = abs(slope) * fs / w
+            significant = change > max(min_step, 4.0 * sigma * math.sqrt(12.0 / len(seg)))
+            if (significant and rate > max_rate_per_s) or change > 0.3:
                 merged.append([])
                 continue
             lvl = float(np.mean(seg))
