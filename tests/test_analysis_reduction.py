@@ -242,3 +242,17 @@ def test_sine_sweep_gives_one_vrc_fit_per_frequency():
         est = fit.params["vrc_ug_per_g2"]
         assert abs(est.value - vrc) < 3 * est.u + 1.0
         assert fit.n_points == 2
+
+
+def test_end_to_end_clipped_dut_gives_its_rail():
+    """DUT = clip(1 g + offset + vibration + noise, ±2 g): analyze finds the rail (SPEC 1.1,
+    censored) from the measured VRE, with the static field taken from the baselines."""
+    levels = (0.3, 0.45, 0.6, 0.75, 0.9)
+    tr = make_record(14, levels_g=levels, vre_g=(0.0,) * 5, rail_g=2.0, noise_g=1e-4, drift_g_per_s=0.0,
+                     t_on_s=30.0)  # fmt: skip
+    res = analyze(tr.record, "random", schedule=tr.schedule)
+    (rail,) = [f for f in res.fits if f.model == "clip-censored"]
+    est = rail.params["rail_g"]
+    assert abs(est.value - 2.0) < 3 * est.u + 0.005
+    assert est.u < 0.02
+    assert res.levels[-1].flags == ("saturated",)
