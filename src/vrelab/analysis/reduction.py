@@ -144,7 +144,8 @@ def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
         return float(r @ r)
 
     bw = fs_hz / n
-    res = minimize_scalar(residual, bounds=(f0 - 0.2 * bw, f0 + 0.2 * bw), method="bounded", options={"xatol": 1e-7 * bw})
+    bounds = (f0 - 0.2 * bw, f0 + 0.2 * bw)
+    res = minimize_scalar(residual, bounds=bounds, method="bounded", options={"xatol": 1e-7 * bw})
     return float(res.x) if res.success else f0
 
 
@@ -227,7 +228,8 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
 
     * 10 interior windows or more: batch means (:func:`batch_mean`) of the interior values;
     * 3 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s²`` their squared residuals
-      about a straight line over ``n - 2·τ_k`` degrees of freedom and ``τ_k`` the correlation the kernel itself puts between neighbours
+      about a straight line over ``n - 2·τ_k`` degrees of freedom and ``τ_k`` the correlation
+      the kernel itself puts between neighbours
       (:func:`~vrelab.analysis.segmentation.kernel_tau`), i.e. noise taken as white at 0.1 s;
     * fewer: the plain mean, uncertainty from the raw window means.
     """
@@ -561,7 +563,8 @@ def analyze_full(
     fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4)
     meta = dict(getattr(record, "meta", None) or {})
     if conditions is None:
-        conditions = Conditions.from_dict(meta["conditions"]) if isinstance(meta.get("conditions"), Mapping) else Conditions()
+        given = meta.get("conditions")
+        conditions = Conditions.from_dict(given) if isinstance(given, Mapping) else Conditions()
     extra = dict(conditions.extra)
     extra.setdefault("band_hz", list(default_band(record.fs_hz, band_hz, profile)) if method == "random" else None)
     extra.setdefault("settle_s", settle_s)

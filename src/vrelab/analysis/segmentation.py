@@ -129,7 +129,9 @@ def kernel_tau(window: int) -> float:
     return tau
 
 
-def band_weights(window: int, fs_hz: float, band_hz: tuple[float, float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def band_weights(
+    window: int, fs_hz: float, band_hz: tuple[float, float]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Weights turning |rfft|² of one window into (AC, in-band) sums of squares (Parseval).
 
     One-sided: bins 1..N/2-1 count twice, the Nyquist bin of an even window once; divided by
@@ -196,7 +198,10 @@ def channel_labels(record: Record) -> dict[str, str]:
     return {c: (f"'{mapping[c]}' ({c})" if c in mapping and mapping[c] != c else f"'{c}'") for c in ("dut", "reference")}
 
 
-def prefetch(blocks: Iterator[dict[str, NDArray[np.float64]]], depth: int = 1) -> Iterator[dict[str, NDArray[np.float64]]]:
+Block = dict[str, NDArray[np.float64]]
+
+
+def prefetch(blocks: Iterator[Block], depth: int = 1) -> Iterator[Block]:
     """Read the next block in a background thread while this one is processed.
 
     File reads (h5py, memmap page faults) then overlap with the FFTs, reductions and matrix

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 # Batches of this many integrated autocorrelation times: adjacent batch means then correlate by
 # about 1/(2·BATCH_TAUS), a few per cent, small enough for an honest standard error.

@@ -146,7 +146,7 @@ def _command_line(args: argparse.Namespace) -> str:
             continue
         if key in ("dut_units", "reference_units") and value == "g":
             continue
-        if key == "settle" and value == 0.5 or key == "method" and value == "random" or key == "kind" and value == "censored":
+        if (key, value) in (("settle", 0.5), ("method", "random"), ("kind", "censored")):
             continue
         opt = "--" + key.replace("_", "-")
         if value is True:
