@@ -195,3 +195,11 @@ def test_schedule_file_option(tmp_path, truth, capsys):
     assert len(lv) == 3
     for x, v in zip(lv, truth.vre_g):
         assert abs(x["vre_g"] - v) < 4 * x["u_vre_g"]
+
+
+def test_rail_vrc_option_adds_the_vrc_term_to_the_rail_fit(csv_file, capsys):
+    rc = main(["analyze", str(csv_file), "--dut", "adxl", "--reference", "ref", "--rail-vrc", "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    (rail,) = [f for f in json.loads(out)["fits"] if f["model"] == "clip-censored"]
+    assert {"rail_g", "vrc_ug_per_g2"} <= set(rail)

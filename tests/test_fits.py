@@ -178,3 +178,34 @@ def test_separate_k2_k3_spec_formula_and_uncertainty():
     assert out.params["k3_ug_per_g3"].u == pytest.approx(5.0 / 6)
     with pytest.raises(ValueError, match="vrc_ug_per_g2"):
         separate_k2_k3(fp, FitResult("clip-censored", {"rail_g": Estimate(2.5, 0.1)}, 5))
+
+
+def test_fit_rail_with_vrc_term_recovers_rail_and_k2():
+    """Clipping plus a quadratic term (VRE = censored shift + k2·σ²): the joint fit recovers
+    both; the clip-only fit of the same data has a large reduced χ²."""
+    rng = np.random.default_rng(3)
+    rail, g0, k2 = 2.5, 1.0, 2000e-6
+    rms = np.array([0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0])
+    u = np.full(len(rms), 2e-5) + 0.01 * np.abs([censored_vre_quad(g0, s, -rail, rail) for s in rms])
+    y = np.array([censored_vre_quad(g0, s, -rail, rail) for s in rms]) + k2 * rms**2
+    y = y + rng.standard_normal(len(rms)) * u
+    fit = fit_rail(_levels(rms, y, u), g0, with_vrc=True)
+    r, v = fit.params["rail_g"], fit.params["vrc_ug_per_g2"]
+    assert abs(r.value - rail) < 3 * r.u and r.u < 0.05
+    assert abs(v.value - 2000.0) < 3 * v.u and v.u < 200
+    assert fit.departure_rms_g is None
+    clip_only = fit_rail(_levels(rms, y, u), g0)
+    assert clip_only.chi2_reduced > 5 * max(fit.chi2_reduced, 1.0)
+
+
+def test_fit_rail_top_level_alone_needs_5_sigma_to_be_a_departure():
+    rail, g0 = 2.5, 1.0
+    rms = np.arange(0.5, 2.51, 0.25)
+    u = np.full(len(rms), 2e-3)
+    y = np.array([censored_vre_quad(g0, s, -rail, rail) for s in rms])
+    y4 = y.copy()
+    y4[-1] -= 4 * 2e-3  # 4 sigma: chance is possible, not reported
+    assert fit_rail(_levels(rms, y4, u), g0).departure_rms_g is None
+    y10 = y.copy()
+    y10[-1] -= 10 * 2e-3  # far out: over-range at the top level
+    assert fit_rail(_levels(rms, y10, u), g0).departure_rms_g == pytest.approx(2.5)

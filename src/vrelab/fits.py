@@ -34,6 +34,8 @@ ClipKind = Literal["censored", "truncated"]
 
 # Residual (in combined standard uncertainties) beyond which a level has left the model.
 DEPARTURE_SIGMA = 3.0
+# ... and when only the highest level is out, it must be this far out.
+DEPARTURE_SIGMA_LONE = 5.0
 
 
 def _arrays(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -160,6 +162,14 @@ def _clip_model(kind: ClipKind):
     return clipping.censored_mean_shift if kind == "censored" else clipping.truncated_mean_shift
 
 
+def _clip_predict(
+    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, shift, symmetric: bool, with_vrc: bool
+) -> NDArray[np.float64]:
+    low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
+    out = np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
+    return out + p[-1] * rms**2 if with_vrc else out
+
+
 def _fit_clip_once(
     rms: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -167,19 +177,16 @@ def _fit_clip_once(
     static_g: float,
     kind: ClipKind,
     symmetric: bool,
+    with_vrc: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Least-squares rail(s); returns (params, covariance unscaled, chi2)."""
+    """Least-squares rail(s) (and VRC in g/g²); returns (params, covariance unscaled, chi2)."""
     from scipy.optimize import least_squares
 
     shift = _clip_model(kind)
     sw = np.sqrt(w)
 
-    def predict(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
-        return np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
-
     def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        return (predict(p) - y) * sw
+        return (_clip_predict(p, rms, static_g, shift, symmetric, with_vrc) - y) * sw
 
     # The chi² surface is flat where the rail is far beyond every level (no clipping, no
     # information) and steep near the data: start from the best point of a log grid.
@@ -188,14 +195,21 @@ def _fit_clip_once(
     grid = np.geomspace(max(lo, 1e-6), hi, 200)
     # all grid rails at once (the model broadcasts): rows = rails, columns = levels
     pred = np.asarray(shift(static_g, rms[None, :], -grid[:, None], grid[:, None]), dtype=np.float64)
-    r0 = grid[int(np.argmin(np.sum(((pred - y) * sw) ** 2, axis=1)))]
+    if with_vrc:  # the VRC term is linear: its best value for each grid rail in closed form
+        x2 = rms**2
+        vrc = ((y - pred) * w * x2).sum(axis=1) / np.sum(w * x2**2)
+        pred = pred + vrc[:, None] * x2
+    i0 = int(np.argmin(np.sum(((pred - y) * sw) ** 2, axis=1)))
+    r0 = grid[i0]
     if symmetric:
-        p0 = np.array([r0])
-        bounds = ([max(abs(static_g), 1e-9) * (1 + 1e-9)], [np.inf])
+        p0 = [r0]
+        lb, ub = [max(abs(static_g), 1e-9) * (1 + 1e-9)], [np.inf]
     else:
-        p0 = np.array([-r0, r0])
-        bounds = ([-np.inf, static_g], [static_g, np.inf])
-    sol = least_squares(resid, p0, bounds=bounds, x_scale="jac")
+        p0 = [-r0, r0]
+        lb, ub = [-np.inf, static_g], [static_g, np.inf]
+    if with_vrc:
+        p0, lb, ub = p0 + [float(vrc[i0])], lb + [-np.inf], ub + [np.inf]
+    sol = least_squares(resid, np.array(p0), bounds=(lb, ub), x_scale="jac")
     J = sol.jac
     try:
         cov = np.linalg.inv(J.T @ J)
@@ -209,6 +223,7 @@ def fit_rail(
     static_g: float,
     kind: ClipKind = "censored",
     symmetric: bool = True,
+    with_vrc: bool = False,
 ) -> FitResult:
     r"""Effective rail of the clipping model fitted to VRE vs random vibration level.
 
@@ -222,6 +237,10 @@ def fit_rail(
         Clipping model (SPEC 1.1): samples beyond a rail read as the rail, or are discarded.
     symmetric : bool
         One rail parameter ``rail_g`` (rails at ±rail_g), or two (``rail_low_g``, ``rail_high_g``).
+    with_vrc : bool
+        Add the nonlinearity's share, ``VRC·rms²`` (param ``vrc_ug_per_g2``), to the clipping
+        model: at levels where clipping is small the VRC term is what is left, and without it
+        the rail fit's χ² is inflated when the sensor also has a k2.
 
     Returns
     -------
@@ -232,16 +251,19 @@ def fit_rail(
 
     Notes
     -----
-    Model (SPEC 1.1, [2]_): VRE(σ) = E[clip(g0 + x)] − g0 for x ~ N(0, σ²), from
+    Model (SPEC 1.1, [2]_): VRE(σ) = E[clip(g0 + x)] − g0 (+ VRC·σ² when ``with_vrc``) for
+    x ~ N(0, σ²), from
     :func:`vrelab.models.clipping.censored_mean_shift` (or ``truncated_mean_shift``). Weighted
     least squares (``scipy.optimize.least_squares`` on residuals (model − y)/u), covariance
     ``(JᵀJ)⁻¹`` scaled by χ²_red when it exceeds 1.
 
-    Departure rule (over-range protection, SPEC 1.3): fit all levels; sort by rms; scanning
-    upward, the departure is the first level whose residual exceeds 3 combined standard
-    uncertainties (√(u² + u_model²)) *and* every level above it does too ("leaves and stays
-    out"); refit on the levels below it and repeat until the departure level no longer moves
-    (at most 5 times). A lone outlier followed by levels back on the model is not a departure.
+    Departure rule (over-range protection, SPEC 1.3): sort the levels by rms; for each level i
+    scanning upward (from the first that leaves enough levels below it to fit), fit the levels
+    below i and predict the others; the departure is the first i from which every level lies
+    more than 3 combined standard uncertainties (√(u² + u_model²)) from the prediction ("leaves
+    and stays out"), or, when i is the highest level alone, more than 5 (a single 3σ draw is
+    chance). The reported fit is the one below the departure. A lone outlier followed by levels
+    back on the model is not a departure.
     """
     static_g = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, ("censored", "truncated"))
@@ -250,7 +272,7 @@ def fit_rail(
         (lv for lv in levels if np.isfinite(lv.rms_g) and lv.rms_g > 0 and np.isfinite(lv.vre.value)),
         key=lambda lv: lv.rms_g,
     )
-    n_par = 1 if symmetric else 2
+    n_par = (1 if symmetric else 2) + (1 if with_vrc else 0)
     if len(sel) < n_par + 1:
         raise ValueError(f"levels: need at least {n_par + 1} levels with rms_g > 0 for the rail fit, got {len(sel)}")
     rms, y, u = _arrays(sel)
@@ -258,39 +280,37 @@ def fit_rail(
     absolute = bool(np.all(np.isfinite(u)) and np.all(u > 0))
     shift = _clip_model(kind)
 
-    n_fit = len(sel)
-    departure: int | None = None
-    for _ in range(5):
-        p, cov, chi2 = _fit_clip_once(rms[:n_fit], y[:n_fit], w[:n_fit], static_g, kind, symmetric)
+    def fit_below(n_fit: int):
+        """Fit the lowest n_fit levels; z = |residual| / combined u for every level."""
+        p, cov, chi2 = _fit_clip_once(rms[:n_fit], y[:n_fit], w[:n_fit], static_g, kind, symmetric, with_vrc)
         dof = n_fit - n_par
         scale = chi2 / dof if (dof > 0 and (chi2 / dof > 1 or not absolute)) else 1.0
         covs = cov * scale
-        low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
-        pred = np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
+        pred = _clip_predict(p, rms, static_g, shift, symmetric, with_vrc)
         # Model uncertainty at each level by numerical derivative w.r.t. the parameters.
         grads = []
         for k in range(len(p)):
             dp = np.zeros_like(p)
             dp[k] = 1e-6 * max(abs(p[k]), 1e-3)
-            pp = p + dp
-            lo2, hi2 = (-pp[0], pp[0]) if symmetric else (pp[0], pp[1])
-            grads.append((np.asarray(shift(static_g, rms, lo2, hi2)) - pred) / dp[k])
+            grads.append((_clip_predict(p + dp, rms, static_g, shift, symmetric, with_vrc) - pred) / dp[k])
         G = np.array(grads).T
-        u_model = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", G, covs, G), 0.0))
-        u_res = np.sqrt(u**2 + u_model**2) if absolute else np.full_like(u, math.sqrt(scale) if scale > 0 else np.inf)
-        out = np.abs(y - pred) > DEPARTURE_SIGMA * u_res
-        new = None
-        for i in range(len(sel)):
-            if out[i:].all():
-                new = i
-                break
-        if new is not None and new < n_par + 1:
-            notes.append("data leave the model at the lowest levels: no departure reported, all levels fitted")
-            new = None
-        if new == departure:
+        with np.errstate(invalid="ignore", over="ignore"):
+            u_model = np.sqrt(np.maximum(np.nan_to_num(np.einsum("ij,jk,ik->i", G, covs, G), nan=np.inf), 0.0))
+        u_res = np.sqrt(u**2 + u_model**2) if absolute else np.full_like(u, math.sqrt(scale))
+        return p, covs, chi2, np.abs(y - pred) / u_res
+
+    # Scan upward: fit the levels below i, predict the rest; the departure is the first i from
+    # which every level is out (a lone top level: far out). Fitting below each candidate keeps
+    # the departing levels from pulling the fit toward themselves and masking their departure.
+    departure: int | None = None
+    for i in range(n_par + 1, len(sel)):
+        *_, z = fit_below(i)
+        tail = z[i:]
+        if (tail > DEPARTURE_SIGMA).all() and (len(tail) > 1 or tail[0] > DEPARTURE_SIGMA_LONE):
+            departure = i
             break
-        departure = new
-        n_fit = len(sel) if new is None else new
+    n_fit = len(sel) if departure is None else departure
+    p, covs, chi2, _ = fit_below(n_fit)
     chi2_red = chi2 / (n_fit - n_par) if n_fit > n_par else None
     if chi2_red is None:
         notes.append("as many parameters as points: chi2 undefined")
@@ -308,6 +328,8 @@ def fit_rail(
             "rail_low_g": Estimate(float(p[0]), float(se[0]), "g"),
             "rail_high_g": Estimate(float(p[1]), float(se[1]), "g"),
         }
+    if with_vrc:
+        params["vrc_ug_per_g2"] = Estimate(float(p[-1] * 1e6), float(se[-1] * 1e6), "ug/g^2")
     if departure is not None:
         notes.append(
             f"data leave the {kind} model from {rms[departure]:.4g} g rms on "

@@ -504,6 +504,7 @@ def fit_levels(
     static_g: float | None,
     clip_kind: Literal["censored", "truncated"] = "censored",
     fit_k4: bool = False,
+    rail_with_vrc: bool = False,
 ) -> tuple[list[FitResult], list[str]]:
     """The fits SPEC 4 asks for: VRC (per frequency for sine); for random also the rail."""
     from vrelab import fits as F
@@ -522,7 +523,7 @@ def fit_levels(
     rail_fit = None
     if static_g is not None:
         try:
-            rail_fit = F.fit_rail(levels, static_g, kind=clip_kind)
+            rail_fit = F.fit_rail(levels, static_g, kind=clip_kind, with_vrc=rail_with_vrc)
         except (ValueError, ImportError) as exc:
             warnings.append(f"rail fit skipped: {exc}")
     # VRC from the nonlinearity regime: unsaturated levels below any departure from the model.
@@ -553,6 +554,7 @@ def analyze_full(
     block_size: int = DEFAULT_BLOCK,
     provenance: Mapping[str, Any] | None = None,
     psd: bool = False,
+    rail_with_vrc: bool = False,
 ) -> tuple[VreResult, Reduction]:
     """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
     V.one_of("clip_kind", clip_kind, ("censored", "truncated"))
@@ -560,7 +562,7 @@ def analyze_full(
         static_g = V.finite_scalar("static_g", static_g)
     red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd)
     g0 = static_g if static_g is not None else red.static_g
-    fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4)
+    fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4, rail_with_vrc)
     meta = dict(getattr(record, "meta", None) or {})
     if conditions is None:
         given = meta.get("conditions")
@@ -613,6 +615,7 @@ def analyze(
     settle_s: float = DEFAULT_SETTLE_S,
     block_size: int = DEFAULT_BLOCK,
     provenance: Mapping[str, Any] | None = None,
+    rail_with_vrc: bool = False,
 ) -> VreResult:
     """Reduce a record and fit it: the whole test station in one call.
 
@@ -621,7 +624,8 @@ def analyze(
     against it), ``static_g`` (static field for the rail fit; default: the DUT's mean reading at
     the baselines), ``rail_g`` (DUT samples at or beyond ±rail_g count as saturated, besides
     the rails found from the data), ``clip_kind`` (rail-fit model), ``fit_k4`` (quartic term in
-    the VRC fit), ``conditions`` (default: those in the record's metadata).
+    the VRC fit), ``conditions`` (default: those in the record's metadata), ``rail_with_vrc``
+    (fit the rail jointly with a VRC·rms² term, see :func:`vrelab.fits.fit_rail`).
 
     Returns
     -------
@@ -631,5 +635,5 @@ def analyze(
     """
     return analyze_full(
         record, method, schedule, profile, static_g, rail_g, clip_kind, band_hz, fit_k4, progress,
-        conditions, settle_s, block_size, provenance,
+        conditions, settle_s, block_size, provenance, rail_with_vrc=rail_with_vrc,
     )[0]  # fmt: skip

@@ -6,7 +6,7 @@
                    [--dut-units g|lsb|mv|v|m/s2] [--dut-sensitivity S]
                    [--reference-units ...] [--reference-sensitivity S]
                    [--method random|sine] [--schedule FILE|auto] [--profile P] [--static G]
-                   [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4]
+                   [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4] [--rail-vrc]
                    [--out DIR] [--json] [--progress]
 
 Scaling: the file's raw values become g by dividing by the sensitivity in units per g, e.g.
@@ -74,6 +74,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--settle", type=float, default=0.5, metavar="S", help="settling time trimmed at each segment edge (s)")
     p.add_argument("--kind", choices=("censored", "truncated"), default="censored", help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
+    p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
@@ -120,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
             settle_s=args.settle,
             provenance=provenance,
             psd=bool(args.out),
+            rail_with_vrc=args.rail_vrc,
         )
     doc = result.to_dict()
     if args.out:
