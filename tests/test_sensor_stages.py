@@ -82,6 +82,31 @@ def test_resonator_matches_analog_within_1pct_to_fs_over_8(q, fs_over_fn):
     np.testing.assert_allclose(np.abs(h), np.abs(h_analog), rtol=0.01)
 
 
+@pytest.mark.parametrize("q", [0.5, 1.5, 7.4, 100.0])
+@pytest.mark.parametrize("fs_over_fn", [5.0, 6.67, 10.0, 50.0])
+def test_resonator_matches_analog_within_0p05pct_to_fs_over_8_from_fs_over_5(q, fs_over_fn):
+    """The rate rule of the simulated test (vrelab.shaker: fs >= 5·fn and >= 8·f_max) relies on
+    the discretised resonance matching the analog |H| (scipy.signal.freqs) to 0.05 % up to fs/8."""
+    fn = 2400.0
+    fs = fs_over_fn * fn
+    wn = 2 * np.pi * fn
+    f = np.linspace(1.0, fs / 8, 600)
+    _, h_analog = signal.freqs([wn**2], [1.0, wn / q, wn**2], worN=2 * np.pi * f)
+    _, h = signal.sosfreqz(Resonator(fn, q).design(fs), worN=f, fs=fs)
+    np.testing.assert_allclose(np.abs(h), np.abs(h_analog), rtol=5e-4)
+
+
+@pytest.mark.parametrize("order", [2, 3, 4])
+def test_anti_alias_matches_analog_within_0p05pct_to_fs_over_8_at_fs_5fc(order):
+    fc = 1500.0
+    fs = 5 * fc
+    f = np.linspace(1.0, fs / 8, 500)
+    b, a = signal.butter(order, 2 * np.pi * fc, analog=True)
+    _, h_analog = signal.freqs(b, a, worN=2 * np.pi * f)
+    _, h = signal.sosfreqz(AntiAlias(fc, order).init_state(fs, None).sos, worN=f, fs=fs)
+    np.testing.assert_allclose(np.abs(h), np.abs(h_analog), rtol=5e-4)
+
+
 def test_resonator_needs_fn_below_nyquist():
     with pytest.raises(ValueError, match="fn_hz"):
         Resonator(6000.0, 2.0).init_state(10000.0, None)
