@@ -502,7 +502,8 @@ class CsvSource(_Source):
         ro = pacsv.ReadOptions(
             column_names=self.names,
             skip_rows=self.skip_comments + (1 if self.has_header else 0),
-            block_size=1 << 22,
+            block_size=1 << 20,  # larger blocks make the reader hold ~40x the block size
+            use_threads=False,
         )
         po = pacsv.ParseOptions(delimiter=self.delim if self.delim != " " else " ", ignore_empty_lines=True)
         co = pacsv.ConvertOptions(
