@@ -249,3 +249,15 @@ def test_csv_quirks_bom_comments_semicolons(tmp_path):
     assert rec.n_samples == 1000
     x = np.concatenate([b["dut"] for b in rec.blocks(300, ["dut"])])
     assert np.allclose(x, np.round(np.cos(t), 6))
+
+
+def test_npz_structured_member_and_channel_listing(tmp_path):
+    arr = np.zeros(100, dtype=[("reference", "f8"), ("dut", "f8")])
+    arr["dut"] = 1.0
+    np.savez(tmp_path / "s.npz", data=arr, fs_hz=np.float64(50.0))
+    rec = open_record(tmp_path / "s.npz", "dut", "reference")
+    assert rec.channels == ("dut", "reference") and rec.fs_hz == 50.0
+    assert rec.mapping == {"dut": "data/dut", "reference": "data/reference"}
+    assert np.all(next(rec.blocks(10, ["dut"]))["dut"] == 1.0)
+    with pytest.raises(ValueError, match=r"channels: data/reference, data/dut"):
+        open_record(tmp_path / "s.npz", "nope")
