@@ -15,6 +15,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -22,14 +23,20 @@ import pytest
 
 from vrelab.cli import main
 from vrelab.sweep import (
+    Backend,
+    Checkpoint,
     DaskBackend,
     ProcessBackend,
     SerialBackend,
+    SerialExecutor,
+    SweepAborted,
     load_spec,
     parse_spec,
     run_points,
     run_sweep,
 )
+
+pytestmark = pytest.mark.timeout(120)  # a hang in the engine must fail, not stall the suite
 
 POINTS_MODULE = '''
 import os, time
@@ -473,3 +480,36 @@ def test_the_example_in_the_help_is_a_valid_sweep_file():
     spec = parse_spec(tomllib.loads(body))
     assert spec.dims == ("unit", "rms_g", "range_g", "odr_hz", "static_g")
     assert spec.shape == (20, 6, 3, 3, 2)
+
+
+class _DisconnectingExecutor(SerialExecutor):
+    """Runs `good` tasks, then behaves like a client that lost its scheduler."""
+
+    def __init__(self, good):
+        self.good = good
+
+    def submit(self, fn, /, *args, **kwargs):
+        if self.good > 0:
+            self.good -= 1
+            return super().submit(fn, *args, **kwargs)
+        fut = Future()
+        fut.cancel()
+        fut.set_running_or_notify_cancel()  # what an executor does with a cancelled task
+        return fut
+
+
+def test_a_lost_executor_stops_the_sweep_without_marking_points_failed(points_module, tmp_path):
+    spec = parse_spec(_doc())
+    with pytest.raises(SweepAborted, match="rerun to resume"):
+        run_sweep(spec, tmp_path, backend=Backend(_DisconnectingExecutor(3)))
+    lines = _point_lines(tmp_path / "checkpoint.jsonl")
+    assert sorted(p["i"] for p in lines) == [0, 1, 2] and {p["status"] for p in lines} == {"ok"}
+    res = run_sweep(spec, tmp_path)
+    assert res.summary["n_computed"] == 9 and res.summary["n_ok"] == 12
+
+
+def test_two_runs_cannot_share_a_checkpoint(points_module, tmp_path):
+    spec = parse_spec(_doc())
+    with Checkpoint(tmp_path, spec.fingerprint(), spec.n_points):
+        with pytest.raises(ValueError, match="another sweep is running"):
+            run_sweep(spec, tmp_path)

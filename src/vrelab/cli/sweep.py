@@ -36,7 +36,8 @@ def register(subparsers: Any) -> None:
         "file; checkpointed in --out so that rerunning the same command resumes an interrupted "
         "sweep. Writes DIR/result.nc (xarray/NetCDF), DIR/result.csv and DIR/sweep.json. "
         "Exit status 0 when every point is ok, 1 when some failed (they are in the outputs "
-        "with their errors; --retry-failed computes them again), 2 on bad input.",
+        "with their errors; --retry-failed computes them again), 2 on bad input, 3 when the "
+        "executor itself failed (rerun to resume), 130 on Ctrl-C (rerun to resume).",
         epilog=_EXAMPLE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -66,24 +67,28 @@ def _json_num(x: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab.cli import print_json
-    from vrelab.sweep import load_spec, run_sweep
+    from vrelab.sweep import SweepAborted, load_spec, run_sweep
     from vrelab.sweep.dataset import flat_rows
 
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     spec = load_spec(args.file)
     out = Path(args.out) if args.out else Path(f"{Path(args.file).stem}-sweep")
-    res = run_sweep(
-        spec,
-        out,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        fresh=args.fresh,
-        progress=not args.no_progress,
-        retries=args.retries,
-        chunk=args.chunk,
-        retry_failed=args.retry_failed,
-    )
+    try:
+        res = run_sweep(
+            spec,
+            out,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            fresh=args.fresh,
+            progress=not args.no_progress,
+            retries=args.retries,
+            chunk=args.chunk,
+            retry_failed=args.retry_failed,
+        )
+    except SweepAborted as exc:
+        sys.stderr.write(f"vrelab: sweep stopped: {exc}\n")
+        return 3
     s = res.summary
     if args.json:
         _, rows = flat_rows(spec, res.records)

@@ -24,7 +24,7 @@ from typing import Any, Mapping
 from vrelab import _io
 from vrelab.sweep.backends import Backend, DaskBackend, ProcessBackend, SerialBackend, SerialExecutor, make_backend
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
-from vrelab.sweep.engine import PointFunction, resolve, run_points, run_task
+from vrelab.sweep.engine import PointFunction, SweepAborted, resolve, run_points, run_task
 from vrelab.sweep.spec import SweepSpec, load_spec, parse_spec
 
 __all__ = [
@@ -37,6 +37,7 @@ __all__ = [
     "ProcessBackend",
     "SerialBackend",
     "SerialExecutor",
+    "SweepAborted",
     "SweepResult",
     "SweepSpec",
     "load_spec",

@@ -23,11 +23,12 @@ Failures:
 
 from __future__ import annotations
 
+import asyncio
 import importlib
 import math
 import time
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, wait
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, CancelledError, Future, wait
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -40,6 +41,10 @@ PointFunction = Callable[[Mapping[str, Any], np.random.SeedSequence], Mapping[st
 Item = tuple[int, Mapping[str, Any], tuple[int, tuple[int, ...]]]
 
 _resolved: dict[str, PointFunction] = {}
+
+
+class SweepAborted(RuntimeError):
+    """The executor itself failed (not a point): the sweep stops, resumable from its checkpoint."""
 
 
 def resolve(func: str | PointFunction) -> PointFunction:
@@ -192,7 +197,14 @@ def run_points(
         except BrokenExecutor:
             crashed.extend(idx)
             return
-        except Exception as exc:  # KilledWorker, a lost connection, an unpicklable argument...
+        except (CancelledError, asyncio.CancelledError):
+            # not the point's doing: the executor shut down or lost its scheduler. Recording
+            # these points as failed would make a resume skip them; stop instead.
+            raise SweepAborted(
+                f"{backend.name} executor cancelled its tasks (shut down or disconnected); "
+                "finished points are in the checkpoint: rerun to resume"
+            ) from None
+        except Exception as exc:  # KilledWorker, an unpicklable argument or result...
             msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
             finish([r for i in idx if (r := attempt_failed(i, msg, math.nan, todo)) is not None])
             return
@@ -226,10 +238,8 @@ def run_points(
                 collect(fut, inflight.pop(fut), crashed)
             isolated = None
             if not backend.can_reset:
-                msg = f"{backend.name} executor broke (a worker died)"
-                finish([PointRecord(i, "failed", {}, msg, 1, math.nan, run) for i in crashed])
-                flush()
-                raise RuntimeError(msg)
+                flush()  # the crashed points stay unfinished: a resume computes them
+                raise SweepAborted(f"{backend.name} executor broke (a worker died) and cannot be replaced")
             backend.reset()
             if culprit is not None:
                 msg = "worker process died while computing this point (BrokenProcessPool)"
@@ -238,5 +248,6 @@ def run_points(
                 suspects.extend(sorted(crashed))
             flush()
     finally:
+        flush()  # whatever finished before an interrupt still reaches the checkpoint
         bar.close()
     return results
