@@ -513,3 +513,17 @@ def test_two_runs_cannot_share_a_checkpoint(points_module, tmp_path):
     with Checkpoint(tmp_path, spec.fingerprint(), spec.n_points):
         with pytest.raises(ValueError, match="another sweep is running"):
             run_sweep(spec, tmp_path)
+
+
+def test_reserved_and_clashing_names_are_refused(points_module, tmp_path):
+    with pytest.raises(ValueError, match=r"grid\.status"):
+        parse_spec(_doc(grid={"status": [1, 2]}))
+    with pytest.raises(ValueError, match=r"grid\.unit"):
+        parse_spec(_doc(grid={"unit": [1, 2]}))
+    # a point function returning a value named like an axis: caught, and fixable by resuming
+    # with output.variables (which does not change the fingerprint: nothing is recomputed)
+    doc = _doc(grid={"a": [1.0, 2.0], "x": [0.0]})
+    with pytest.raises(ValueError, match="output variable 'a'"):
+        run_sweep(parse_spec(doc), tmp_path)
+    res = run_sweep(parse_spec({**doc, "output": {"variables": ["b"]}}), tmp_path)
+    assert res.summary["n_computed"] == 0 and list(res.dataset.data_vars) == ["b", "status", "error"]

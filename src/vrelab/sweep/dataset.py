@@ -34,6 +34,8 @@ VARIABLE_ATTRS: dict[str, dict[str, str]] = {
     "rms_out_g": {"units": "g", "long_name": "vibration rms at the output rails"},
     "rms_measured_g": {"units": "g", "long_name": "vibration rms measured on the reference"},
     "vrc_ug_per_g2": {"units": "ug/g^2", "long_name": "vibration rectification coefficient"},
+    "n_saturated": {"units": "1", "long_name": "DUT samples at a rail"},
+    "valid": {"units": "1", "long_name": "1 where the prediction's models hold, 0 where they do not"},
 }
 
 
@@ -60,6 +62,13 @@ def to_dataset(spec: SweepSpec, records: Mapping[int, PointRecord]) -> Any:
     xr = _import_xarray()
     shape, dims = spec.shape, spec.dims
     names = variable_names(spec, records)
+    taken = set(dims) | {d.param for d in spec.distributions} | {"status", "error"}
+    clash = sorted(taken & set(names))
+    if clash:
+        raise ValueError(
+            f"output variable {clash[0]!r} has the name of a sweep axis or parameter: "
+            "rename it in the point function, or leave it out with output.variables"
+        )
     data = {n: np.full(spec.n_points, np.nan) for n in names}
     status = np.full(spec.n_points, "missing", dtype=object)
     error = np.full(spec.n_points, "", dtype=object)

@@ -151,7 +151,7 @@ class Distribution:
 class SweepSpec:
     """A validated sweep: build it with :func:`load_spec` or :func:`parse_spec`."""
 
-    kind: str
+    kind: Kind
     grid: tuple[tuple[str, tuple[Any, ...]], ...] = ()
     fixed: Mapping[str, Any] = field(default_factory=dict)
     units: int | None = None
@@ -337,6 +337,7 @@ def _check_names(fixed: Mapping[str, Any], grid: list[tuple[str, tuple[Any, ...]
             raise ValueError(f"{field_name}: {exc}") from None
 
 
+_RESERVED = frozenset({"unit", "units", "index", "status", "error"})
 _TOP = {"name", "kind", "function", "seed", "seconds", "retries", "chunk", "fixed", "grid", "montecarlo", "output"}
 
 
@@ -367,6 +368,11 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
     elif seconds is not None:
         raise ValueError(f"seconds is only for kind 'simulate', got {seconds!r} with kind {kind!r}")
 
+    for table in ("fixed", "grid", "montecarlo"):
+        for k in _table(doc, table):
+            if k in _RESERVED and not (table == "montecarlo" and k == "units"):
+                raise ValueError(f"{table}.{k}: the name is reserved for the outputs ({', '.join(sorted(_RESERVED))})")
+
     fixed: dict[str, Any] = {}
     for k, v in _table(doc, "fixed").items():
         p = _param_spec(kind, f"fixed.{k}", k)
@@ -391,7 +397,7 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
             raise ValueError("montecarlo.units is missing")
         units = _int("montecarlo.units", mc.pop("units"), 1)
         for k in mc:
-            if k in fixed or k in dict(grid) or k == "unit":
+            if k in fixed or k in dict(grid):
                 raise ValueError(f"montecarlo.{k} is also in [fixed] or [grid]")
             dists.append(_distribution(kind, k, mc[k]))
         if not dists:
