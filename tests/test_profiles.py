@@ -258,10 +258,10 @@ def test_parse_profile_missing_file():
         parse_profile("/nonexistent/p.csv")
 
 
-def test_band_is_a_tuple_and_callable():
-    """`profile.band` is the contract; `profile.band()` (as some callers write it) gives the same."""
+def test_band_is_a_tuple():
+    """`profile.band` is the contract: the first and last breakpoint frequencies."""
     prof = parse_profile("navmat-p9492")
-    assert prof.band == (20.0, 2000.0) and prof.band() == (20.0, 2000.0)
+    assert prof.band == (20.0, 2000.0)
     lo, hi = prof.band
     assert (lo, hi) == (20.0, 2000.0)
 

@@ -140,17 +140,6 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     return p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r)
 
 
-class Band(tuple):  # type: ignore[type-arg]
-    """A frequency band ``(f_lo_hz, f_hi_hz)``: a plain tuple that can also be called.
-
-    ``RandomProfile.band`` is a property; calling it (``profile.band()``), as some callers
-    were written, returns the same tuple instead of failing, so both spellings work.
-    """
-
-    def __call__(self) -> tuple[float, float]:
-        return (self[0], self[1])
-
-
 @dataclass(frozen=True, eq=False)
 class RandomProfile:
     """A random-vibration PSD given by breakpoints, interpolated log-log (SPEC section 3).
@@ -283,9 +272,9 @@ class RandomProfile:
     # --- properties ---------------------------------------------------------------------------
 
     @property
-    def band(self) -> "Band":
+    def band(self) -> tuple[float, float]:
         """(lowest, highest) breakpoint frequency [Hz]."""
-        return Band((float(self.freq_hz[0]), float(self.freq_hz[-1])))
+        return (float(self.freq_hz[0]), float(self.freq_hz[-1]))
 
     @property
     def exponents(self) -> NDArray[np.float64]:

@@ -62,7 +62,7 @@ WINDOW_S = 0.1
 def default_band(fs_hz: float, band_hz: tuple[float, float] | None = None, profile: Any = None) -> tuple[float, float]:
     """The test band: given, else the profile's band, else 50–2000 Hz; clamped to Nyquist."""
     if band_hz is None:
-        band_hz = tuple(profile.band()) if profile is not None and hasattr(profile, "band") else DEFAULT_BAND_HZ
+        band_hz = tuple(profile.band) if profile is not None and hasattr(profile, "band") else DEFAULT_BAND_HZ
     f1, f2 = (float(x) for x in band_hz)
     if not (0 < f1 < f2) or not (math.isfinite(f1) and math.isfinite(f2)):
         raise ValueError(f"band_hz must be F1:F2 with 0 < F1 < F2, got {f1:g}:{f2:g}")
