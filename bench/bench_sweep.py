@@ -88,6 +88,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "seconds_per_level": args.seconds,
         "startup_s": {},
         "runs": {},
+        # other work on the machine caps the speed-up: 2 workers on 2 cores need both free
+        "loadavg_1min_before": os.getloadavg()[0],
     }
     with tempfile.TemporaryDirectory(prefix="bench-sweep-") as tmp:
         tmpd = Path(tmp)
@@ -139,6 +141,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             for b in backends.values():
                 b.close()
 
+    out["loadavg_1min_after"] = os.getloadavg()[0]
     runs = out["runs"]
     for workload in ("simulate", "model"):
         base = runs[f"{workload}/serial"]["engine_s"]
@@ -151,7 +154,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        print(f"{args.points}-point sweeps, {args.workers} workers, {os.cpu_count()} cores")
+        print(
+            f"{args.points}-point sweeps, {args.workers} workers, {os.cpu_count()} cores, load average "
+            f"{out['loadavg_1min_before']:.2f} before, {out['loadavg_1min_after']:.2f} after"
+        )
         print("start-up: " + ", ".join(f"{k} {v:.2f} s" for k, v in out["startup_s"].items()))
         print(
             f"{'run':<26}{'wall s':>8}{'engine s':>10}{'ms/pt':>8}{'compute':>9}{'overhead':>10}"

@@ -96,7 +96,7 @@ def cluster(points_module):
     import distributed
 
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as lc, distributed.Client(lc) as client:
         yield client
 

@@ -174,8 +174,9 @@ class DaskBackend(Backend):
                 n = address.partition(":")[2] or "2"
                 if not n.isdigit() or int(n) < 1:
                     raise ValueError(f"--scheduler local:N needs N >= 1, got {address!r}")
+                # dashboard ":0": any free port (None still binds 8787, so two clusters clash)
                 self._cluster = distributed.LocalCluster(
-                    n_workers=int(n), threads_per_worker=1, processes=True, dashboard_address=None
+                    n_workers=int(n), threads_per_worker=1, processes=True, dashboard_address=":0"
                 )
                 client = distributed.Client(self._cluster)
             else:
