@@ -92,10 +92,12 @@ def points_module(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cluster(points_module):
-    """One LocalCluster for the module: it takes about a second to start."""
+    """One LocalCluster for the module: it takes about a second to start. A task that kills its
+    worker fails at once (dask's default reruns it on 3 more workers, a second or so each)."""
+    import dask
     import distributed
 
-    with distributed.LocalCluster(
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as lc, distributed.Client(lc) as client:
         yield client
@@ -218,6 +220,18 @@ def test_on_dask_a_raising_point_is_retried_and_recorded(points_module, cluster,
     failed = {i: r for i, r in res.records.items() if r.status == "failed"}
     assert sorted(failed) == [6, 7] and {r.attempts for r in failed.values()} == {2}
     assert (tmp_path / "calls-3.0-q").read_text() == "xx"  # dask did not hand back the old result
+
+
+def test_on_dask_a_killed_worker_is_pinned_on_its_point_even_in_a_chunk(points_module, cluster, tmp_path):
+    res = run_sweep(parse_spec(_doc("die")), tmp_path / "die", backend=DaskBackend(client=cluster), chunk=3)
+    ref = run_sweep(parse_spec(_doc("noisy")), tmp_path / "ref").dataset
+    ds = res.dataset
+    dead = (ds["x"] == 3).broadcast_like(ds["a"]).values
+    assert (ds["status"].values == np.where(dead, "failed", "ok")).all()
+    assert all(e.startswith("KilledWorker") for e in ds["error"].values[dead])
+    assert {r.attempts for r in res.records.values() if r.status == "failed"} == {2}
+    # the chunk-mates of the dying points were rerun alone, not charged
+    assert ds["a"].values[~dead].tobytes() == ref["a"].values[~dead].tobytes()
 
 
 def test_a_worker_that_dies_is_pinned_on_its_point_and_loses_no_other(points_module, tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -32,12 +33,15 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="parameter sweep or Monte Carlo lot from a TOML file (serial, processes or Dask)",
-        description="Evaluate a grid of parameters and/or a Monte Carlo lot described in a TOML "
+        description=textwrap.fill(
+            "Evaluate a grid of parameters and/or a Monte Carlo lot described in a TOML "
         "file; checkpointed in --out so that rerunning the same command resumes an interrupted "
         "sweep. Writes DIR/result.nc (xarray/NetCDF), DIR/result.csv and DIR/sweep.json. "
         "Exit status 0 when every point is ok, 1 when some failed (they are in the outputs "
         "with their errors; --retry-failed computes them again), 2 on bad input, 3 when the "
         "executor itself failed (rerun to resume), 130 on Ctrl-C (rerun to resume).",
+            width=88,
+        ),
         epilog=_EXAMPLE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

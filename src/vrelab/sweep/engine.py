@@ -205,8 +205,11 @@ def run_points(
                 "finished points are in the checkpoint: rerun to resume"
             ) from None
         except Exception as exc:  # KilledWorker, an unpicklable argument or result...
+            if len(idx) > 1:  # a whole chunk failed: rerun its points alone to find which one
+                suspects.extend(idx)
+                return
             msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
-            finish([r for i in idx if (r := attempt_failed(i, msg, math.nan, todo)) is not None])
+            finish([r for r in [attempt_failed(idx[0], msg, math.nan, todo)] if r is not None])
             return
         recs = []
         for i, outcome, payload, dt in out:
