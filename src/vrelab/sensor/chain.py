@@ -25,7 +25,7 @@ from typing import Any, Iterable, Iterator, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab.sensor.stages import Stage
+from vrelab.sensor.stages import Stage, fused_filter_state, is_sos_filter, process_fused
 
 FloatArray = NDArray[np.float64]
 
@@ -149,6 +149,24 @@ class ChainRun:
             self._states.append(stage.init_state(rate, _child(ss, i)))
             rate = rate / int(stage.rate_factor)
         self.fs_out_hz = rate
+        # Consecutive linear filters (e.g. anti-alias -> low-pass) run as one sosfilt over their
+        # stacked sections: one pass over the block instead of one per stage. _ends[i] is the
+        # exclusive end of the run of stages starting at i that one step processes; a fused
+        # run keeps its state in the slot of its first stage.
+        stages = chain.stages
+        self._ends = list(range(1, len(stages) + 1))
+        i = 0
+        while i < len(stages):
+            j = i
+            while j < len(stages) and is_sos_filter(stages[j]):
+                j += 1
+            fused = fused_filter_state(stages[i:j], self._rates[i]) if j - i >= 2 else None
+            if fused is not None:
+                self._ends[i] = j
+                self._states[i] = fused
+                i = j
+            else:
+                i += 1
         self._n_in = 0
         self._n_out = 0
 
@@ -160,8 +178,13 @@ class ChainRun:
         if not np.isfinite(x).all():
             raise ValueError("block must be finite, got NaN or inf")
         y = x
-        for i, stage in enumerate(self.chain.stages):
-            y, self._states[i] = stage.process(y, self._states[i], self._rates[i])
+        stages, ends, i = self.chain.stages, self._ends, 0
+        while i < len(stages):
+            if ends[i] > i + 1:
+                y, self._states[i] = process_fused(y, self._states[i])
+            else:
+                y, self._states[i] = stages[i].process(y, self._states[i], self._rates[i])
+            i = ends[i]
         if np.may_share_memory(y, x):
             y = y.copy()  # the caller owns the output; never hand back (a view of) the input
         self._n_in += x.size
