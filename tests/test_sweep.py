@@ -386,8 +386,10 @@ def test_cli_writes_netcdf_csv_and_json_that_agree(points_module, tmp_path, caps
         'kind = "python"\nfunction = "sweep_test_points:noisy"\nseed = 3\n'
         '[grid]\nx = [1, 2]\n[montecarlo]\nunits = 3\nk = {dist = "lognormal", mean = 0.0, sigma = 0.1}\n'
     )
-    assert main(["sweep", str(f), "--out", str(tmp_path / "o"), "--json", "--no-progress"]) == 0
-    doc = json.loads(capsys.readouterr().out)
+    assert main(["sweep", str(f), "--out", str(tmp_path / "o"), "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)  # stdout: one JSON object and nothing else
+    assert "sweep" in captured.err and "6/6" in captured.err  # the progress bar, on stderr
     ds = xr.load_dataset(tmp_path / "o" / "result.nc", engine="h5netcdf")
     assert dict(ds.sizes) == {"unit": 3, "x": 2} and doc["dims"] == {"unit": 3, "x": 2}
     with open(tmp_path / "o" / "result.csv") as fh:
@@ -461,6 +463,12 @@ def test_cli_bad_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert "not valid TOML" in capsys.readouterr().err
     assert main(["sweep", str(tmp_path / "missing.toml")]) == 2
     assert main(["sweep", str(f), "--workers", "2", "--scheduler", "local"]) == 2
+    f.write_text('kind = "model"\n[grid]\nrms_g = [0.5]\n')
+    assert main(["sweep", str(f), "--workers", "0", "--out", str(tmp_path / "o")]) == 2
+    assert main(["sweep", str(f), "--retries", "-1", "--out", str(tmp_path / "o")]) == 2
+    assert main(["sweep", str(f), "--scheduler", "local:x", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--workers" in err and "retries" in err and "local:N" in err
     assert not (tmp_path / "o").exists()
 
 

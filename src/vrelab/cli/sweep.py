@@ -74,8 +74,6 @@ def run(args: argparse.Namespace) -> int:
     from vrelab.sweep import SweepAborted, load_spec, run_sweep
     from vrelab.sweep.dataset import flat_rows
 
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {args.workers}")
     spec = load_spec(args.file)
     out = Path(args.out) if args.out else Path(f"{Path(args.file).stem}-sweep")
     try:

@@ -22,7 +22,15 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from vrelab import _io
-from vrelab.sweep.backends import Backend, DaskBackend, ProcessBackend, SerialBackend, SerialExecutor, make_backend
+from vrelab.sweep.backends import (
+    Backend,
+    DaskBackend,
+    ProcessBackend,
+    SerialBackend,
+    SerialExecutor,
+    check_backend_args,
+    make_backend,
+)
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
 from vrelab.sweep.engine import PointFunction, SweepAborted, resolve, run_points, run_task
 from vrelab.sweep.spec import SweepSpec, load_spec, parse_spec
@@ -128,6 +136,8 @@ def run_sweep(
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out exists and is not a folder: {out}")
     own = backend is None
+    if own:
+        check_backend_args(workers, scheduler)
     with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh) as ck:
         keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
         resumed = len(keep)

@@ -170,13 +170,11 @@ class DaskBackend(Backend):
         if client is None:
             if address is None:
                 raise ValueError("scheduler address is missing")
-            if address == "local" or address.startswith("local:"):
-                n = address.partition(":")[2] or "2"
-                if not n.isdigit() or int(n) < 1:
-                    raise ValueError(f"--scheduler local:N needs N >= 1, got {address!r}")
+            n_local = local_workers(address)
+            if n_local is not None:
                 # dashboard ":0": any free port (None still binds 8787, so two clusters clash)
                 self._cluster = distributed.LocalCluster(
-                    n_workers=int(n), threads_per_worker=1, processes=True, dashboard_address=":0"
+                    n_workers=n_local, threads_per_worker=1, processes=True, dashboard_address=":0"
                 )
                 client = distributed.Client(self._cluster)
             else:
@@ -199,14 +197,36 @@ class DaskBackend(Backend):
         return {"backend": self.name, "n_workers": self.n_workers, "scheduler": self.client.scheduler.address}
 
 
-def make_backend(workers: int | None = None, scheduler: str | None = None) -> Backend:
-    """Serial (neither given), a process pool of ``workers``, or dask at ``scheduler``."""
+def local_workers(address: str) -> int | None:
+    """N of a ``"local"`` / ``"local:N"`` scheduler address (2 by default); None for others."""
+    if address != "local" and not address.startswith("local:"):
+        return None
+    n = address.partition(":")[2] or "2"
+    if not n.isdigit() or int(n) < 1:
+        raise ValueError(f"--scheduler local:N needs N >= 1, got {address!r}")
+    return int(n)
+
+
+def check_backend_args(workers: int | None, scheduler: str | None) -> None:
+    """Reject bad --workers / --scheduler values before anything is created."""
     if workers is not None and scheduler is not None:
         raise ValueError("give --workers or --scheduler, not both")
+    if workers is not None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"--workers must be an integer >= 1, got {workers!r}")
+        if workers > (os.cpu_count() or 1) * 4:
+            raise ValueError(f"--workers must be at most 4 x the {os.cpu_count()} cores, got {workers}")
+    if scheduler is not None:
+        if not isinstance(scheduler, str) or not scheduler:
+            raise ValueError(f"--scheduler must be an address, got {scheduler!r}")
+        local_workers(scheduler)
+
+
+def make_backend(workers: int | None = None, scheduler: str | None = None) -> Backend:
+    """Serial (neither given), a process pool of ``workers``, or dask at ``scheduler``."""
+    check_backend_args(workers, scheduler)
     if scheduler is not None:
         return DaskBackend(scheduler)
     if workers is not None:
-        if workers > (os.cpu_count() or 1) * 4:
-            raise ValueError(f"workers must be at most 4 x the {os.cpu_count()} cores, got {workers}")
         return ProcessBackend(workers)
     return SerialBackend()

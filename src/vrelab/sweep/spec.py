@@ -4,7 +4,8 @@ The file (every key optional except ``kind`` and at least one of ``[grid]`` / ``
 
     name = "vre-vs-range"            # label for the outputs
     kind = "model"                   # model | predict | simulate | python
-    function = "mypkg.mod:point"     # python kind only: point(params, seed_seq) -> {name: float}
+    function = "mypkg.mod:point"     # python kind only: point(params, seed_seq) -> {name: float},
+                                     # importable by every worker (installed, or on PYTHONPATH)
     seed = 20161121                  # root of every random number (numpy SeedSequence)
     seconds = 2.0                    # simulate only: seconds of vibration per level (default: the shaker's)
     retries = 1                      # extra attempts for a point that raises or kills its worker
