@@ -72,7 +72,14 @@ class Checkpoint:
     def __init__(self, out_dir: str | Path, fingerprint: str, n_points: int, *, fresh: bool = False) -> None:
         self.path = Path(out_dir) / CHECKPOINT_NAME
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        created = not self.path.exists()
         self._fh = open(self.path, "a+b")
+        if created:  # the new file's name must survive a crash too, not only its lines
+            dir_fd = os.open(self.path.parent, os.O_RDONLY)
+            try:
+                os.fsync(dir_fd)
+            finally:
+                os.close(dir_fd)
         try:
             fcntl.flock(self._fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

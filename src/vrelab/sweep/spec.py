@@ -53,8 +53,9 @@ from vrelab.cli._args import parse_list
 Kind = Literal["model", "predict", "simulate", "python"]
 KINDS: tuple[str, ...] = ("model", "predict", "simulate", "python")
 FORMATS: tuple[str, ...] = ("netcdf", "csv", "zarr")
-# A typo such as "0:3:0.00001" in two axes should fail at once, not fill a disk.
-MAX_POINTS = 10_000_000
+# A typo such as "0:3:0.00001" in two axes should fail at once, not fill memory: the engine
+# holds every point's parameters (about 1 kB each) while it runs.
+MAX_POINTS = 1_000_000
 
 _POINT_STREAM = 0
 _UNIT_STREAM = 1
