@@ -1,11 +1,14 @@
 """The built-in point kinds: each is ``f(params, seed) -> {name: float}`` (see the engine).
 
-``model``: closed forms only (SPEC 1.1-1.3), microseconds a point:
+``model``: closed forms only (SPEC 1.1-1.3); about 0.2 ms a point, a few ms with the
+  resonance integral of a random band:
   the vibration at the proof mass has rms ``rms_mass = rms_g·|H(freq_hz)|`` for a sine, or
   ``rms_g·sqrt(mean |H|² over [f_lo_hz, f_hi_hz])`` for a flat random band, with
   ``H = 1/(1 - r² + j·r/q)``, ``r = f/fn_hz`` (no resonance when ``fn_hz`` is not given);
   ``vre_clip_g`` = mean shift of that vibration between rails ±``range_g`` around
-  ``static_g + offset_g`` (censored / truncated Gaussian, or the sine closed form);
+  ``static_g + offset_g`` (censored / truncated Gaussian, or the sine closed form; the offset
+  is taken as a bias of the proof mass, which moves the clipping asymmetry, since a bias added
+  after the rails would not change the VRE at all);
   ``vre_poly_g`` = the polynomial VRE of ``k2_ug_per_g2``, ``k3_ug_per_g3`` at ``static_g``;
   ``vre_g`` = their sum (first-order superposition: each mechanism's shift is small next to
   the vibration, so their interaction is second order), ``tilt_error_deg`` from ``tilt_deg``.
@@ -28,9 +31,6 @@ import math
 from typing import Any, Mapping
 
 import numpy as np
-
-_UG = 1e-6  # µg/g² -> 1/g
-
 
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
     """rms of the proof-mass motion: through the resonance at the sine frequency, or over the
@@ -58,7 +58,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
     from vrelab.models.clipping import mean_shift
     from vrelab.models.design import tilt_error_deg
-    from vrelab.models.nonlinearity import vre_poly
+    from vrelab.models.nonlinearity import ug_per_g2_to_per_g, vre_poly
 
     rms = float(params["rms_g"])
     static = float(params.get("static_g", 1.0))
@@ -75,8 +75,8 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     vre_p = float(
         vre_poly(
             rms_mass,
-            float(params.get("k2_ug_per_g2", 0.0)) * _UG,
-            float(params.get("k3_ug_per_g3", 0.0)) * _UG,
+            ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0))),
+            ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))),  # µg/g³ -> 1/g²: same factor
             static_g=static,
             shape=shape,
         )
