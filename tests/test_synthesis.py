@@ -143,6 +143,25 @@ def test_block_size_does_not_change_values(method):
     assert all(np.array_equal(runs[0], r) for r in runs[1:])
 
 
+def test_gaussian_drive_is_valid_convolution_of_frame_keyed_noise():
+    """The Gaussian drive is h convolved ('valid' mode, numpy.convolve) with the white noise
+    whose frame j is default_rng(SeedSequence(entropy=seed, spawn_key=(j,))) drawn at once:
+    the overlap-save frames, whatever the FFT length, and the lazy drawing of each frame's
+    first M-1 samples change nothing (to FFT rounding)."""
+    h = design_fir(NAVMAT, FS)
+    m = h.size
+    n = 150_000  # more than two frames
+    y = random_signal(NAVMAT, FS, n, seed=5)
+    frame = max(2**16, 1 << math.ceil(math.log2(5 * m))) - (m - 1)  # the module's frame length
+    n_frames = -(-(n + m - 1) // frame)
+    w = np.concatenate([
+        np.random.default_rng(np.random.SeedSequence(entropy=5, spawn_key=(j,))).standard_normal(frame)
+        for j in range(n_frames)
+    ])
+    expected = np.convolve(w[: n + m - 1], h, mode="valid")
+    np.testing.assert_allclose(y, expected, rtol=0, atol=1e-12 * FLAT.grms * 10)
+
+
 def test_block_sizes_and_count():
     blocks = list(random_blocks(NAVMAT, FS, 10_001, 4096, seed=0))
     assert [b.size for b in blocks] == [4096, 4096, 1809]

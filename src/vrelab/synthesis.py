@@ -107,10 +107,10 @@ def _rechunk(frames: Iterator[NDArray[np.float64]], n_samples: int, block_size: 
     pending: list[NDArray[np.float64]] = []
     n_pending = 0
     remaining = n_samples
-    for frame in frames:
-        if remaining <= 0:
-            break
-        frame = frame[:remaining]
+    while remaining > 0:
+        # Pull a frame only while samples are still owed: a frame costs an FFT pair and its
+        # noise, and one pulled past the end would be thrown away.
+        frame = next(frames)[:remaining]
         remaining -= frame.size
         pending.append(frame)
         n_pending += frame.size
@@ -385,15 +385,26 @@ def _gaussian_frames(h: NDArray[np.float64], seed: int, frame: int) -> Iterator[
     nfft = scipy.fft.next_fast_len(frame + m - 1, real=True)
     h_f = scipy.fft.rfft(h, nfft)
 
-    def noise(j: int) -> NDArray[np.float64]:
-        rng = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(j,)))
-        return rng.standard_normal(frame)
+    def rng(j: int) -> np.random.Generator:
+        return np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(j,)))
 
-    nxt = noise(0)
+    # Frame j's output needs all of noise frame j and the first M-1 samples of frame j+1. A
+    # Generator draws its normals in sequence, so drawing those M-1 first and the rest of the
+    # frame when it is reached gives exactly the frame drawn at once, and the last frame of
+    # a record costs M-1 draws of its successor, not a whole frame.
+    if frame < m - 1:
+        raise ValueError(f"frame must be >= the filter length - 1 = {m - 1}, got {frame}")
+    seg = np.empty(frame + m - 1)
+    nxt_rng = rng(0)
+    head = nxt_rng.standard_normal(m - 1)
     j = 0
     while True:
-        cur, nxt = nxt, noise(j + 1)
-        seg = np.concatenate((cur, nxt[: m - 1]))
+        # seg = noise frame j (its head, drawn already, then the rest) + the head of frame j+1
+        cur_rng, nxt_rng = nxt_rng, rng(j + 1)
+        seg[: m - 1] = head
+        cur_rng.standard_normal(out=seg[m - 1 : frame])
+        head = nxt_rng.standard_normal(m - 1)
+        seg[frame:] = head
         spec = scipy.fft.rfft(seg, nfft)
         spec *= h_f
         y = scipy.fft.irfft(spec, nfft, overwrite_x=True)

@@ -160,7 +160,7 @@ class ChainRun:
             j = i
             while j < len(stages) and is_sos_filter(stages[j]):
                 j += 1
-            fused = fused_filter_state(stages[i:j], self._rates[i]) if j - i >= 2 else None
+            fused = fused_filter_state(stages[i:j], tuple(self._states[i:j])) if j - i >= 2 else None
             if fused is not None:
                 self._ends[i] = j
                 self._states[i] = fused

@@ -219,8 +219,10 @@ def _filter(x: FloatArray, state: _FilterState) -> tuple[FloatArray, _FilterStat
     return y, _FilterState(state.sos, zi)
 
 
-def fused_filter_state(stages: tuple[Any, ...], fs_hz: float) -> _FilterState | None:
+def fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> _FilterState | None:
     """One filter state for consecutive linear filter stages, or None if they cannot be fused.
+
+    ``states`` are the stages' fresh states (from ``init_state``, not yet run).
 
     Stages of exactly the types :class:`Resonator`, :class:`AntiAlias`, :class:`LowPass`,
     :class:`HighPass` (a subclass may change ``process``) are each one ``sosfilt`` with its
@@ -232,7 +234,9 @@ def fused_filter_state(stages: tuple[Any, ...], fs_hz: float) -> _FilterState | 
     """
     if len(stages) < 2 or not all(is_sos_filter(st) for st in stages):
         return None
-    return _FilterState(np.vstack([st.init_state(fs_hz, None).sos for st in stages]), None)
+    if not all(isinstance(s, _FilterState) and s.zi is None for s in states):
+        return None
+    return _FilterState(np.vstack([s.sos for s in states]), None)
 
 
 def is_sos_filter(stage: object) -> bool:
