@@ -126,12 +126,14 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                         ref.setdefault(workload, bits)
                         engine = res.summary["elapsed_s"]  # without writing NetCDF/CSV at the end
                         compute = sum(r.elapsed_s for r in res.records.values())  # in the point function
+                        cpu = sum(r.cpu_s for r in res.records.values())  # CPU time it got there
                         par = 1 if name == "serial" else args.workers
                         out["runs"][key] = {
                             "wall_s": wall,
                             "engine_s": engine,
                             "ms_per_point": 1e3 * engine / spec.n_points,
                             "compute_ms_per_point": 1e3 * compute / spec.n_points,
+                            "cpu_ms_per_point": 1e3 * cpu / spec.n_points,
                             # time per point beyond the compute spread over the workers
                             "overhead_ms_per_point": 1e3 * (engine - compute / par) / spec.n_points,
                             "n_ok": res.summary["n_ok"],
@@ -160,17 +162,19 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         )
         print("start-up: " + ", ".join(f"{k} {v:.2f} s" for k, v in out["startup_s"].items()))
         print(
-            f"{'run':<26}{'wall s':>8}{'engine s':>10}{'ms/pt':>8}{'compute':>9}{'overhead':>10}"
+            f"{'run':<26}{'wall s':>8}{'engine s':>10}{'ms/pt':>8}{'compute':>9}{'cpu':>7}{'overhead':>10}"
             f"{'speed-up':>10}  same bits"
         )
         for key, r in runs.items():
             print(
                 f"{key:<26}{r['wall_s']:8.2f}{r['engine_s']:10.2f}{r['ms_per_point']:8.2f}"
-                f"{r['compute_ms_per_point']:9.2f}{r['overhead_ms_per_point']:10.2f}"
+                f"{r['compute_ms_per_point']:9.2f}{r['cpu_ms_per_point']:7.2f}{r['overhead_ms_per_point']:10.2f}"
                 f"{r['speedup_vs_serial']:10.2f}  {r['identical_to_serial']}"
             )
-        print("(ms per point; compute = inside the point function; overhead = the rest, per point,")
-        print(" with the compute spread over the workers; engine = without the final NetCDF/CSV)")
+        print("(ms per point; compute = wall time inside the point function, cpu = the CPU time it")
+        print(" got there: compute well above cpu means the workers waited for a core; overhead =")
+        print(" the rest, per point, with the compute spread over the workers; engine = without")
+        print(" the final NetCDF/CSV)")
         print("overhead per point (ms): " + ", ".join(f"{k} {v:.2f}" for k, v in out["overhead_ms_per_point"].items()))
     return out
 

@@ -172,10 +172,16 @@ class DaskBackend(Backend):
                 raise ValueError("scheduler address is missing")
             n_local = local_workers(address)
             if n_local is not None:
+                import dask
+
+                # the workers' sampling profiler (every 10 ms) and GIL monitor (every 1 ms) take
+                # CPU from the points, which shows on a 2-core machine; a sweep does not need them.
                 # dashboard ":0": any free port (None still binds 8787, so two clusters clash)
-                self._cluster = distributed.LocalCluster(
-                    n_workers=n_local, threads_per_worker=1, processes=True, dashboard_address=":0"
-                )
+                quiet = {"distributed.worker.profile.enabled": False, "distributed.admin.system-monitor.gil.enabled": False}
+                with dask.config.set(quiet):
+                    self._cluster = distributed.LocalCluster(
+                        n_workers=n_local, threads_per_worker=1, processes=True, dashboard_address=":0"
+                    )
                 client = distributed.Client(self._cluster)
             else:
                 try:

@@ -30,8 +30,9 @@ class PointRecord:
     values: dict[str, float] = field(default_factory=dict)
     error: str | None = None
     attempts: int = 1
-    elapsed_s: float = math.nan
+    elapsed_s: float = math.nan  # wall time in the point function
     run: int = 0
+    cpu_s: float = math.nan  # CPU time of the worker process in it: far below elapsed_s = starved
 
     def to_line(self) -> str:
         # Python's json writes floats with repr, which round-trips exactly; NaN/inf are written
@@ -45,6 +46,7 @@ class PointRecord:
                 "error": self.error,
                 "attempts": self.attempts,
                 "elapsed_s": self.elapsed_s,
+                "cpu_s": self.cpu_s,
                 "run": self.run,
             }
         )
@@ -59,6 +61,7 @@ class PointRecord:
             attempts=int(d.get("attempts", 1)),
             elapsed_s=float(d.get("elapsed_s", math.nan)),
             run=int(d.get("run", 0)),
+            cpu_s=float(d.get("cpu_s", math.nan)),
         )
 
 

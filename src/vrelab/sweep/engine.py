@@ -71,21 +71,21 @@ def _as_values(out: Any) -> dict[str, float]:
     return {str(k): float(v) for k, v in out.items()}
 
 
-def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, str, Any, float]]:
-    """Worker side: evaluate each point; return (index, outcome, values-or-error, seconds) per
-    point, outcome "ok", "error" (worth retrying) or "invalid" (a ValueError: by the library's
+def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, str, Any, float, float]]:
+    """Worker side: evaluate each point; return (index, outcome, values-or-error, wall seconds,
+    CPU seconds of the worker process) per point, outcome "ok", "error" (worth retrying) or "invalid" (a ValueError: by the library's
     convention, bad input, which fails the same way every time)."""
     f = resolve(func)
     out = []
     for index, params, (entropy, key) in items:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             values: Any = _as_values(f(params, np.random.SeedSequence(entropy, spawn_key=key)))
             outcome = "ok"
         except Exception as exc:  # recorded, not raised: one bad point must not stop the lot
             values = f"{type(exc).__name__}: {exc}".splitlines()[0]
             outcome = "invalid" if isinstance(exc, ValueError) else "error"
-        out.append((index, outcome, values, time.perf_counter() - t0))
+        out.append((index, outcome, values, time.perf_counter() - t0, time.process_time() - c0))
     return out
 
 
@@ -212,9 +212,9 @@ def run_points(
             finish([r for r in [attempt_failed(idx[0], msg, math.nan, todo)] if r is not None])
             return
         recs = []
-        for i, outcome, payload, dt in out:
+        for i, outcome, payload, dt, cpu in out:
             if outcome == "ok":
-                recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run))
+                recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run, cpu))
             elif (r := attempt_failed(i, payload, dt, todo, final=outcome == "invalid")) is not None:
                 recs.append(r)
         finish(recs)
