@@ -7,7 +7,7 @@ import json
 import pytest
 
 from vrelab.cli import main
-from vrelab.cli._args import parse_list
+from vrelab._lists import parse_list
 
 
 def _json(capsys, argv):

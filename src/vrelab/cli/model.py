@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vrelab.cli import Parser, print_json
-from vrelab.cli._args import parse_list
+from vrelab._lists import parse_list
 from vrelab.models.clipping import mean_shift
 from vrelab.models.nonlinearity import UG, vre_poly
 

@@ -19,7 +19,7 @@ from typing import Any
 
 from vrelab import _validate as V
 from vrelab.cli import print_json
-from vrelab.cli._args import parse_list
+from vrelab._lists import parse_list
 
 
 def add_sensor_arguments(p: argparse.ArgumentParser) -> None:

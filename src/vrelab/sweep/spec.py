@@ -48,7 +48,7 @@ from typing import Any, Iterator, Literal, Mapping
 
 import numpy as np
 
-from vrelab.cli._args import parse_list
+from vrelab._lists import parse_list
 
 Kind = Literal["model", "predict", "simulate", "python"]
 KINDS: tuple[str, ...] = ("model", "predict", "simulate", "python")

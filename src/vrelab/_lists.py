@@ -1,4 +1,4 @@
-"""Argument helpers shared by the sub-commands (not a command itself: the name starts with ``_``).
+"""The list syntax of SPEC section 5, shared by the CLI and by sweep files.
 
 ``parse_list`` implements the list syntax of SPEC section 5: comma-separated numbers and ranges
 ``a:b:step``, a range inclusive of both ends when they fall on the grid.
