@@ -269,6 +269,37 @@ def test_record_is_deterministic_and_block_size_independent():
     assert rec.saturated is not None and rec.saturated[0] == 0
 
 
+def test_drive_thread_never_outlives_a_pass_and_passes_its_errors():
+    """The drive is synthesised one block ahead in a thread: a pass abandoned half-way (the
+    sine reduction's partial passes, a consumer that breaks) stops it, a complete pass ends
+    it, and an error raised while synthesising reaches the caller."""
+    import threading
+
+    def drive_threads() -> int:
+        return sum(t.name == "vrelab-drive" for t in threading.enumerate())
+
+    sensor = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    rec = shaker.plan_random_test(sensor, ARTICLE_PROFILE, [1.0], seconds=2.0, baseline_s=2.0, seed=1)
+    it = rec.blocks(1000, ["dut"])
+    next(it)
+    assert drive_threads() == 1
+    it.close()
+    assert drive_threads() == 0
+    for _ in rec.blocks(1 << 16, ["dut"]):
+        pass
+    assert drive_threads() == 0
+
+    def failing():
+        yield np.zeros(3)
+        raise RuntimeError("synthesis failed")
+
+    ahead = shaker._ahead(failing(), depth=1)
+    assert next(ahead).size == 3
+    with pytest.raises(RuntimeError, match="synthesis failed"):
+        next(ahead)
+    assert drive_threads() == 0
+
+
 def test_record_file_round_trip_gives_the_same_levels(tmp_path):
     """record_path writes reference, dut and schedule; reducing the file gives the same VRE as
     reducing the simulation."""

@@ -104,24 +104,24 @@ def _check_band(profile: RandomProfile, fs_hz: float) -> None:
 
 def _rechunk(frames: Iterator[NDArray[np.float64]], n_samples: int, block_size: int) -> Iterator[NDArray[np.float64]]:
     """Cut a stream of frames into blocks of ``block_size`` (last one shorter), ``n_samples`` in all."""
-    pending: list[NDArray[np.float64]] = []
-    n_pending = 0
+    # Each block is filled straight from the frames (one copy, no concatenation keeping
+    # earlier frames alive through views); a frame is pulled only while samples are still
+    # owed: it costs an FFT pair and its noise, and one pulled past the end would be wasted.
+    frame: NDArray[np.float64] = np.empty(0)
+    pos = 0  # read position in frame
     remaining = n_samples
     while remaining > 0:
-        # Pull a frame only while samples are still owed: a frame costs an FFT pair and its
-        # noise, and one pulled past the end would be thrown away.
-        frame = next(frames)[:remaining]
-        remaining -= frame.size
-        pending.append(frame)
-        n_pending += frame.size
-        while n_pending >= block_size:
-            buf = np.concatenate(pending) if len(pending) > 1 else pending[0]
-            yield buf[:block_size].copy()
-            rest = buf[block_size:]
-            pending = [rest] if rest.size else []
-            n_pending = rest.size
-    if n_pending:
-        yield np.concatenate(pending)
+        out = np.empty(min(block_size, remaining))
+        filled = 0
+        while filled < out.size:
+            if pos == frame.size:
+                frame, pos = next(frames), 0
+            take = min(frame.size - pos, out.size - filled)
+            out[filled : filled + take] = frame[pos : pos + take]
+            filled += take
+            pos += take
+        remaining -= out.size
+        yield out
 
 
 # --- sine -------------------------------------------------------------------------------------
