@@ -126,7 +126,8 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "sweep": [
         ("missing-file", ["{d}/no-such-sweep.toml"], 'no-such-sweep.toml'),
         ("malformed-toml", ["{d}/malformed.toml"], 'malformed.toml'),
-        ("negative-workers", ["{d}/malformed.toml", "--workers", "-1"], 'workers'),
+        ("negative-workers", ["{d}/sweep.toml", "--workers", "-1", "--out", "{d}/sweep-out"], 'workers'),
+        ("negative-level-in-file", ["{d}/sweep-bad-level.toml", "--out", "{d}/sweep-out"], 'rms_g'),
     ],
 }
 
@@ -137,6 +138,9 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "a-file.txt").write_text("not a folder, not a record\n")
     (d / "backwards.csv").write_text("freq_hz,psd_g2_per_hz\n100,0.01\n50,0.02\n2000,0.01\n")
     (d / "malformed.toml").write_text("this is = = not toml [\n")
+    sweep = 'kind = "predict"\nseed = 1\n[fixed]\nsensor = "adxl355"\nprofile = "flat:50-2000"\n[grid]\nrms_g = "0.5:1:0.5"\n'
+    (d / "sweep.toml").write_text(sweep)  # valid: the example of `vrelab sweep --help`, one axis
+    (d / "sweep-bad-level.toml").write_text(sweep.replace('"0.5:1:0.5"', '"-1,1"'))
     (d / "empty").mkdir()
     (d / "malformed").mkdir()
     (d / "malformed" / "results.json").write_text("{\"method\": ")
