@@ -49,7 +49,7 @@ COMMANDS = _commands()
 # Bad-value cases per command: (case id, argv after the command words, a token the one-line message
 # must contain, case-insensitive: the option or the value at fault). "{d}" is a folder with the
 # fixture files (see `files`). Each argv is otherwise valid, so the one bad value is the cause.
-SIM = ["--sensor", "ideal", "--range", "2", "--profile", "flat:50-2000", "--seconds", "0.2"]
+SIM = ["--sensor", "ideal", "--range", "2", "--profile", "flat:50-2000", "--seconds", "2"]
 PRED = ["--sensor", "adxl355", "--profile", "flat:50-2000"]
 CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "model clip": [
@@ -101,7 +101,7 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("nan-seconds", [*SIM, "--levels", "1", "--seconds", "nan"], 'seconds'),
         ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"], 'no-such-sensor'),
         ("non-monotonic-profile", ["--sensor", "ideal", "--profile", "100:0.01,50:0.02", "--levels", "1"], 'monotonic'),
-        ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "0.2"], 'freq'),
+        ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "2"], 'freq'),
         ("out-is-a-file", [*SIM, "--levels", "1", "--out", "{d}/a-file.txt"], 'a-file.txt'),
     ],
     "analyze": [
@@ -190,6 +190,33 @@ def test_bad_value_exits_2_with_one_line(cmd: str, argv: list[str], token: str, 
     if "--out" in full:  # outputs complete or not at all
         out_dir = Path(full[full.index("--out") + 1])
         assert not out_dir.is_dir() or not any(out_dir.iterdir())
+
+
+# The valid argv the bad-value cases are variations of: each must run (exit 0), or a case could
+# pass for a reason other than its one bad value.
+VALID: dict[str, list[str]] = {
+    "model clip": ["--mean", "1", "--rail", "2", "--rms", "0.5,1", "--json"],
+    "model poly": ["--k2", "20", "--rms", "1", "--json"],
+    "profile": ["20:0.01,80:0.04,2000:0.01", "--grms", "2", "--json"],
+    "predict": [*PRED, "--levels", "1", "--json"],
+    "simulate": [*SIM, "--levels", "1", "--json"],
+    "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],
+    "report": ["{d}/valid-results", "--json"],
+}
+
+
+@pytest.mark.parametrize("cmd", [c for c in VALID if c in COMMANDS])
+def test_the_valid_base_of_the_cases_runs(cmd: str, files: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    if cmd == "report":
+        from vrelab.results import Conditions, Estimate, LevelResult, VreResult
+
+        (files / "valid-results").mkdir(exist_ok=True)
+        res = VreResult("random", Conditions(static_g=1.0), (LevelResult(1.0, Estimate(-0.083, 0.001)),))
+        (files / "valid-results" / "results.json").write_text(json.dumps(res.to_dict()))
+    full = cmd.split() + [a.replace("{d}", str(files)) for a in VALID[cmd]]
+    rc, out, err, _ = _run(full, capsys)
+    assert rc == 0, f"{full}: {err}"
+    json.loads(out)  # --json: one object
 
 
 def _required(parser: argparse.ArgumentParser) -> list[argparse.Action]:
