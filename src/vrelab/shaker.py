@@ -418,9 +418,9 @@ class _ahead(Iterator[Any]):
         import queue
         import threading
 
+        self._closed = True  # until the thread runs: close() and __del__ then have nothing to do
         self._q: Any = queue.Queue(maxsize=max(1, int(depth)))
         self._stop = threading.Event()
-        self._closed = False
 
         def work() -> None:
             try:
@@ -433,6 +433,7 @@ class _ahead(Iterator[Any]):
 
         self._thread = threading.Thread(target=work, name="vrelab-drive", daemon=True)
         self._thread.start()
+        self._closed = False
 
     def _put(self, item: Any) -> bool:
         import queue

@@ -186,6 +186,12 @@ class Sensor:
         harmonics up to the 4th, made by the nonlinearity, stay below Nyquist, so E[x⁴] is
         exact). The rate is the smallest integer multiple of the ODR >= ``f_need`` (at least
         the ODR); without an ODR, the smallest multiple of 1 kHz >= ``f_need``.
+
+        This is the conservative rule for a chain run on its own. The simulated shaker test
+        uses a measured, lower one (``vrelab.shaker._fast_internal_rate``: 5× the resonance
+        and anti-alias corners, 8× the drive, 16× the digital low-pass corner), which the
+        resonance only needs up to the drive's highest frequency; for the ADXL355 and a 2 kHz
+        profile, 16 kHz instead of 20 kHz.
         """
         f_max = float(f_max_hz)
         if not math.isfinite(f_max) or f_max <= 0:

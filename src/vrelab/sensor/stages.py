@@ -36,6 +36,7 @@ filter stage has ``response(f_hz)``: the analog equivalent used by the analytic 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal, NamedTuple, Protocol, runtime_checkable
@@ -569,6 +570,12 @@ class _NoiseState(NamedTuple):
     frame_index: int  # index of the cached frame (-1: none)
     frame: FloatArray | None
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> "_NoiseState":
+        # The cached frame is never written after it is drawn (blocks copy out of it), so a
+        # copy of the run (the simulated test keeps one per segment as a checkpoint) shares it
+        # instead of holding another frame_size·8 bytes.
+        return _NoiseState(copy.deepcopy(self.seed_seq, memo), self.position, self.frame_index, self.frame)
+
 
 @dataclass(frozen=True)
 class Noise(StageBase):
@@ -589,7 +596,9 @@ class Noise(StageBase):
     """
 
     density_ug_per_rthz: float
-    frame_size: int = 16384  # 128 kB cached per run (runs are deep-copied as checkpoints)
+    # 512 kB cached per run (shared by its deep copies); drawing a frame starts a Generator
+    # (about 23 µs), 0.35 ns per sample at this size against 1.4 ns at 2^14.
+    frame_size: int = 65536
     is_static: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
