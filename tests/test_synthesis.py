@@ -162,6 +162,15 @@ def test_gaussian_drive_is_valid_convolution_of_frame_keyed_noise():
     np.testing.assert_allclose(y, expected, rtol=0, atol=1e-12 * FLAT.grms * 10)
 
 
+@pytest.mark.parametrize("n_short", [1, 5000, 70_000])
+def test_gaussian_record_is_a_prefix_of_a_longer_one(n_short):
+    """A record's first samples do not depend on its length: a short record (its last frame
+    convolved with a smaller FFT) equals the start of a long one, to FFT rounding."""
+    long = random_signal(NAVMAT, FS, 200_000, seed=9)
+    short = random_signal(NAVMAT, FS, n_short, seed=9)
+    np.testing.assert_allclose(short, long[:n_short], rtol=0, atol=1e-12 * NAVMAT.grms)
+
+
 def test_block_sizes_and_count():
     blocks = list(random_blocks(NAVMAT, FS, 10_001, 4096, seed=0))
     assert [b.size for b in blocks] == [4096, 4096, 1809]

@@ -370,8 +370,11 @@ def clip_prescale(clip_sigma: float, samples: NDArray[np.float64] | None = None)
 # --- random: generators -----------------------------------------------------------------------
 
 
-def _gaussian_frames(h: NDArray[np.float64], seed: int, frame: int) -> Iterator[NDArray[np.float64]]:
-    """Endless frames of white Gaussian noise filtered by h ('valid' convolution).
+def _gaussian_frames(
+    h: NDArray[np.float64], seed: int, frame: int, n_samples: int | None = None
+) -> Iterator[NDArray[np.float64]]:
+    """Frames of white Gaussian noise filtered by h ('valid' convolution), ``n_samples`` in all
+    (endless if None); the last one may be shorter.
 
     Output sample k is Σ_m h[m]·w[k + M-1 - m], with w the noise sequence: every output sample
     sees a full filter's worth of noise, so the record starts stationary (no filter
@@ -379,7 +382,10 @@ def _gaussian_frames(h: NDArray[np.float64], seed: int, frame: int) -> Iterator[
     ``default_rng(SeedSequence(entropy=seed, spawn_key=(j,)))``: the stream is a function of
     the frame index alone, hence the same for any block size and reproducible from the seed.
     The filter's transform is computed once; each frame costs one rfft/irfft pair of
-    length ≥ frame + M - 1 (overlap-save).
+    length ≥ frame + M - 1 (overlap-save). A last frame of ``k`` samples, when ``k + M - 1``
+    noise samples of its own frame suffice, draws only those and convolves them with an FFT of
+    the next power of two ≥ k + M - 1: the same values (to FFT rounding) for less work, which
+    matters for short segments (a 1 s level at 16 kHz uses a quarter of a 2^16 frame).
     """
     m = h.size
     nfft = scipy.fft.next_fast_len(frame + m - 1, real=True)
@@ -398,7 +404,22 @@ def _gaussian_frames(h: NDArray[np.float64], seed: int, frame: int) -> Iterator[
     nxt_rng = rng(0)
     head = nxt_rng.standard_normal(m - 1)
     j = 0
-    while True:
+    left = n_samples
+    while left is None or left > 0:
+        need = frame if left is None else min(frame, left)
+        if need + m - 1 <= frame and need < frame:
+            # The last, short frame: only the first need + M - 1 samples of noise frame j
+            # matter (drawn in sequence, they are those of the whole frame).
+            length = need + m - 1
+            seg[: m - 1] = head
+            nxt_rng.standard_normal(out=seg[m - 1 : length])
+            n_short = 1 << math.ceil(math.log2(length))
+            spec = scipy.fft.rfft(seg[:length], n_short)
+            spec *= scipy.fft.rfft(h, n_short)
+            yield scipy.fft.irfft(spec, n_short, overwrite_x=True)[m - 1 : m - 1 + need]
+            return
+        if left is not None:
+            left -= need
         # seg = noise frame j (its head, drawn already, then the rest) + the head of frame j+1
         cur_rng, nxt_rng = nxt_rng, rng(j + 1)
         seg[: m - 1] = head
@@ -494,7 +515,7 @@ def random_blocks(
     else:
         h = design_fir(profile, fs)
         nfft = max(_MIN_FFT, 1 << math.ceil(math.log2(5 * h.size)))
-        frames = _gaussian_frames(h, sd, nfft - (h.size - 1))
+        frames = _gaussian_frames(h, sd, nfft - (h.size - 1), n)
 
     if clip_sigma is not None:
         k = float(clip_sigma)
