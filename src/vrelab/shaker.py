@@ -155,6 +155,14 @@ def _fast_internal_rate(sensor: Any, f_max_hz: float) -> float:
     2 kHz profile, ``f_need = max(16, 12, 7.5, 16) kHz`` = 16 kHz internal, 8 kHz record (the
     sensor's own rule, 8·fn = 19.2 kHz, gives 20 kHz, and then 24 kHz for an 8 kHz record).
     A sensor without an ODR keeps :meth:`Sensor.internal_rate_hz`.
+
+    Limit: the over-range protection (:class:`~vrelab.sensor.stages.OverRange`) holds whole
+    samples from the first one past the threshold, so its hold window starts up to one sample
+    late, an error first-order in 1/fs that no filter accuracy removes. On the ADXL355 Z axis at
+    2.5 g rms (50 Hz-2 kHz, 1 g, multisine, 6 seeds) the VRE at 16 kHz is 3.4 % less negative
+    on average (0.4-5.7 %) than at 128 kHz; the former 24 kHz rate was 1.4 % (up to 3.4 %)
+    from 96 kHz. Below the over-range threshold the two rates agree within 0.5 %. Pass
+    ``fs_internal_hz`` (e.g. 4× this rate) for a test that lives in the over-range regime.
     """
     odr = getattr(sensor, "odr_hz", None)
     if not odr:
