@@ -171,7 +171,9 @@ def test_polynomial_mean_shift_sine_closed_form_spec_1_2():
     assert y.mean() - y0.mean() == pytest.approx(expected, rel=1e-9)
 
 
-@pytest.mark.parametrize("k", [(0.0, 0.0, 0.0), (2e-5, 0.0, 0.0), (2e-5, -3e-4, 0.0), (0.0, 0.0, 5e-3), (1e-2, 2e-3, -4e-4)])
+@pytest.mark.parametrize(
+    "k", [(0.0, 0.0, 0.0), (2e-5, 0.0, 0.0), (2e-5, -3e-4, 0.0), (0.0, 0.0, 5e-3), (1e-2, 2e-3, -4e-4)]
+)
 def test_polynomial_equals_its_power_series_and_leaves_input(rng, k):
     """SPEC 1.2: y = a + k2·a² + k3·a³ + k4·a⁴, summed term by term (numpy.polynomial)."""
     x = 1.0 + 2.0 * rng.standard_normal(5000)

@@ -129,9 +129,9 @@ def _choose_rates(chain: Any, fs_internal_hz: float, f_max_hz: float) -> _Rates:
 # (filters, output clip) see them unaliased;
 _DRIVE_OVERSAMPLING = 8.0
 # an analog corner (resonance, anti-alias) at or below fs/5: the matched-pole + least-squares
-# design (vrelab.sensor.stages.discretize_zpk) then matches the analog |H| within 0.5 % up to
+# design (vrelab.sensor.stages.discretize_zpk) then matches the analog |H| within 0.03 % up to
 # fs/8 >= f_max (measured with scipy.signal.sosfreqz for Q from 0.5 to 100 and Butterworth
-# orders 2 to 6; tests/test_shaker.py checks the ADXL355 presets);
+# orders 2 to 6; tests/test_sensor_stages.py holds it to 0.05 %);
 _ANALOG_OVERSAMPLING = 5.0
 # the sensor's digital low-pass corner at or below fs/16, where its design at the simulation
 # rate and its analog prototype differ by well under 1 % in band (LowPass docstring).
@@ -145,7 +145,7 @@ def _fast_internal_rate(sensor: Any, f_max_hz: float) -> float:
     factor are at ``_DRIVE_OVERSAMPLING`` and below), rounded up to a multiple ``k0·ODR``.
     :meth:`Sensor.internal_rate_hz` asks 8× *every* corner, including the resonance, which
     only the drive (≤ f_max) passes through: the 5× rule keeps every discretised analog
-    filter within 0.5 % of its analog ``|H|`` up to f_max, 8× keeps the nonlinearity's
+    filter within 0.05 % of its analog ``|H|`` up to f_max, 8× keeps the nonlinearity's
     harmonics unaliased, and the tests check that the VRE it gives matches a 4× faster
     simulation within a fraction of its uncertainty (article random case, sine near fn).
 
@@ -320,7 +320,7 @@ class SimulatedRecord:
         # The drive does not depend on the sensor: it is synthesised in a second thread, one
         # block ahead, while this one runs the chain (numpy's Gaussian draws,
         # pocketfft and sosfilt release the GIL, so on two cores the two overlap).
-        drives = _ahead(self._drives(first), depth=1)
+        drives = _Ahead(self._drives(first), depth=1)
         try:
             for k in range(first, len(self._segments)):
                 if k not in self._checkpoints:
@@ -410,10 +410,11 @@ class SimulatedRecord:
             bar.close()
 
 
-class _ahead(Iterator[Any]):
+class _Ahead(Iterator[Any]):
     """Iterate ``items`` in a background thread, at most ``depth`` items ahead of the consumer.
 
-    Memory: ``depth`` items more. An exception in the producer is raised in the consumer;
+    Memory: up to ``depth + 1`` items more (the queue and the one waiting to enter it). An
+    exception in the producer is raised in the consumer;
     :meth:`close` (also called when the consumer is garbage-collected) stops the producer and
     waits for it, so no thread outlives the pass. Written here rather than taken from the
     analysis (whose reader has its own) to keep the simulation free of the analysis's

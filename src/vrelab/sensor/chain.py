@@ -25,7 +25,7 @@ from typing import Any, Iterable, Iterator, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab.sensor.stages import Stage, fused_filter_state, is_sos_filter, process_fused
+from vrelab.sensor.stages import Stage, _fused_filter_state, _is_sos_filter, _process_fused
 
 FloatArray = NDArray[np.float64]
 
@@ -158,9 +158,9 @@ class ChainRun:
         i = 0
         while i < len(stages):
             j = i
-            while j < len(stages) and is_sos_filter(stages[j]):
+            while j < len(stages) and _is_sos_filter(stages[j]):
                 j += 1
-            fused = fused_filter_state(stages[i:j], tuple(self._states[i:j])) if j - i >= 2 else None
+            fused = _fused_filter_state(stages[i:j], tuple(self._states[i:j])) if j - i >= 2 else None
             if fused is not None:
                 self._ends[i] = j
                 self._states[i] = fused
@@ -181,7 +181,7 @@ class ChainRun:
         stages, ends, i = self.chain.stages, self._ends, 0
         while i < len(stages):
             if ends[i] > i + 1:
-                y, self._states[i] = process_fused(y, self._states[i])
+                y, self._states[i] = _process_fused(y, self._states[i])
             else:
                 y, self._states[i] = stages[i].process(y, self._states[i], self._rates[i])
             i = ends[i]

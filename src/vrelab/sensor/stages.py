@@ -29,8 +29,10 @@ so their response matches the analog one whatever the simulation rate: poles are
 to the analog complex response on [0, fs/8], relative error weighted. For a resonance at fs/5
 or below this matches ``|H|`` within 0.03 % up to fs/8 (Q from 0.5 to 100), where the bilinear
 transform is off by several percent (frequency warping); above fs/8, where a simulation at
-8× the drive's highest frequency has no drive left, the match loosens to about 2.5 % at fs/4. Digital filters of the sensor
-(:class:`LowPass`, :class:`HighPass`) are digital Butterworth designs, as in the part. Each
+8× the drive's highest frequency has no drive left, the match loosens to about 2.5 % at
+fs/4. Digital filters of the sensor (:class:`LowPass`, :class:`HighPass`) are digital
+Butterworth designs, as in the part. Consecutive filter stages run as one ``sosfilt`` over
+their stacked sections (:class:`~vrelab.sensor.chain.ChainRun` fuses them). Each
 filter stage has ``response(f_hz)``: the analog equivalent used by the analytic ``predict``.
 """
 
@@ -169,9 +171,8 @@ def discretize_zpk(
     Poles are mapped exactly, ``p_d = exp(p/fs)`` (matched-z), so the resonance frequency and
     damping are those of the analog filter. The numerator ``B(z)`` (two taps more than the
     denominator: the poles at z = 0 this adds are free, an FIR tail, and cut the error below
-    fs/8 from 0.03 % to 0.01 % (Q >= 1.5) for one more section of sosfilt, which costs
-    almost nothing)
-    minimises ``sum |(B - H_a·A)/(H_a·A)|²`` over 400 frequencies in
+    fs/8 from 0.3 % to 0.01-0.03 % for one more section of sosfilt, which costs almost
+    nothing) minimises ``sum |(B - H_a·A)/(H_a·A)|²`` over 400 frequencies in
     [0, fit_max_hz], the relative error of ``B/A`` against ``H_a``: a linear least-squares
     problem. The result is scaled so the DC gain is exactly the analog one. When every pole is
     below fs/64 the bilinear transform is already accurate (warping < 0.1 % in frequency) and
@@ -220,7 +221,7 @@ def _filter(x: FloatArray, state: _FilterState) -> tuple[FloatArray, _FilterStat
     return y, _FilterState(state.sos, zi)
 
 
-def fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> _FilterState | None:
+def _fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> _FilterState | None:
     """One filter state for consecutive linear filter stages, or None if they cannot be fused.
 
     ``states`` are the stages' fresh states (from ``init_state``, not yet run).
@@ -233,20 +234,20 @@ def fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> _Fil
     what the stages give one after another (to rounding): scipy's ``sosfilt_zi`` carries each
     section's DC gain to the next.
     """
-    if len(stages) < 2 or not all(is_sos_filter(st) for st in stages):
+    if len(stages) < 2 or not all(_is_sos_filter(st) for st in stages):
         return None
     if not all(isinstance(s, _FilterState) and s.zi is None for s in states):
         return None
     return _FilterState(np.vstack([s.sos for s in states]), None)
 
 
-def is_sos_filter(stage: object) -> bool:
+def _is_sos_filter(stage: object) -> bool:
     """True for a stage whose ``process`` is one ``sosfilt`` with a carried state (fusable)."""
     return type(stage) in _SOS_STAGES
 
 
-def process_fused(x: FloatArray, state: _FilterState) -> tuple[FloatArray, _FilterState]:
-    """Run a state made by :func:`fused_filter_state` over one block."""
+def _process_fused(x: FloatArray, state: _FilterState) -> tuple[FloatArray, _FilterState]:
+    """Run a state made by :func:`_fused_filter_state` over one block."""
     return _filter(x, state)
 
 
@@ -423,7 +424,7 @@ class HighPass(StageBase):
         return _filter(x, state)
 
 
-# Stages whose process is exactly one sosfilt with a carried zi (fused_filter_state).
+# Stages whose process is exactly one sosfilt with a carried zi (_fused_filter_state).
 _SOS_STAGES: tuple[type, ...] = (Resonator, AntiAlias, LowPass, HighPass)
 
 
