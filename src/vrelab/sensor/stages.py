@@ -572,10 +572,10 @@ class _NoiseState(NamedTuple):
     frame: FloatArray | None
 
     def __deepcopy__(self, memo: dict[int, Any]) -> "_NoiseState":
-        # The cached frame is never written after it is drawn (blocks copy out of it), so a
-        # copy of the run (the simulated test keeps one per segment as a checkpoint) shares it
-        # instead of holding another frame_size·8 bytes.
-        return _NoiseState(copy.deepcopy(self.seed_seq, memo), self.position, self.frame_index, self.frame)
+        # The cached frame is derived data (redrawn from the seed when needed), so a copy of
+        # the run (the simulated test keeps one per segment as a checkpoint) leaves it behind
+        # instead of holding another frame_size·8 bytes per copy.
+        return _NoiseState(copy.deepcopy(self.seed_seq, memo), self.position, -1, None)
 
 
 @dataclass(frozen=True)
@@ -597,7 +597,7 @@ class Noise(StageBase):
     """
 
     density_ug_per_rthz: float
-    # 512 kB cached per run (shared by its deep copies); drawing a frame starts a Generator
+    # 512 kB cached per run (not by its deep copies); drawing a frame starts a Generator
     # (about 23 µs), 0.35 ns per sample at this size against 1.4 ns at 2^14.
     frame_size: int = 65536
     is_static: ClassVar[bool] = False
