@@ -54,16 +54,36 @@ def test_fused_filters_give_the_stage_by_stage_output(rng, axis):
     x = 1.0 + _band_gaussian(rng, fs, 48_000, 50.0, 2000.0, 2.5)
     x0 = x.copy()
     ss = np.random.SeedSequence(3)
-    # stage by stage, no fusion: each stage's process over the whole record
+    # stage by stage, no fusion: each stage's process over the whole record; the decimator
+    # keeps the samples on the grid the over-range stage's 2-sample delay moved
     y, rate = x, fs
     for i, stage in enumerate(chain.stages):
         state = stage.init_state(rate, np.random.SeedSequence(entropy=ss.entropy, spawn_key=(i,)))
+        if isinstance(stage, Decimate):
+            state = OverRange.delay_samples % stage.factor
         y, _ = stage.process(y, state, rate)
         rate /= stage.rate_factor
     for block in (48_000, 4096, 1001):
         out, _ = chain.apply(x, fs, seed=ss, block_size=block)
         np.testing.assert_allclose(out, y, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(x, x0)
+
+
+@pytest.mark.parametrize("factor", [1, 2, 8])
+def test_decimated_output_samples_the_same_instants_after_a_delaying_stage(factor):
+    """The over-range stage delays by 2 input samples; the decimator after it keeps the
+    samples of the undelayed grid, so the output is the input at the output-rate instants
+    (delayed by whole output samples: 2 // factor), whatever the internal rate."""
+    fs_out = 1000.0
+    fs = fs_out * factor
+    t = np.arange(4000 * factor) / fs
+    x = np.sin(2 * np.pi * 37.0 * t)
+    chain = SensorChain((OverRange(1e6, 1e-3), Decimate(factor)))
+    for block in (None, 7, 1000):
+        out, _ = chain.apply(x, fs, block_size=block or x.size)
+        lag = 2 // factor
+        assert out.size == x.size // factor
+        np.testing.assert_array_equal(out[lag:], x[::factor][: out.size - lag])
 
 
 def test_run_iterator_exposes_stats_and_output_rate(rng):

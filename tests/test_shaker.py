@@ -132,9 +132,10 @@ def test_chosen_rate_reproduces_4x_rate_article_random_case():
     both rates). Where the output clip acts (1.5 g rms) the VREs differ by less than half the
     standard uncertainty the noisy sensor has for the same test and by under 0.5 % (the bar
     of the doubling test above). Once the over-range protection trips (2.5 g rms, the article's
-    departure) trips are detected on samples, which misses peaks between them: measured 16 kHz
-    vs 64/128 kHz, 1-5 % less negative (24 kHz, the former rate, 0.6-4 % on its own
-    multisine): bounded here at 6 %."""
+    departure) the same bar holds: the over-range hold is placed in continuous time (crossings
+    and peaks between samples interpolated, fractional coverage), so its effect on the mean no
+    longer moves with the rate to first order (measured 0.05 u and 0.14 % here; the former
+    whole-sample hold was 1-5 % off, 2-50 u, on seeds 1-3 of a 10 s level)."""
     noisy = load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
     clean = dataclasses.replace(noisy, noise_ug_per_rthz=0.0, lsb_g=None)
     kw = dict(static_g=1.0, seconds=2.0, baseline_s=2.0, seed=4, drive_method="multisine")
@@ -144,12 +145,12 @@ def test_chosen_rate_reproduces_4x_rate_article_random_case():
     assert (fs, base.conditions.extra["fs_record_hz"]) == (16000.0, 8000.0)
     fast = shaker.run_random_test(clean, ARTICLE_PROFILE, levels, fs_internal_hz=4 * fs, **kw)
     ref = shaker.run_random_test(noisy, ARTICLE_PROFILE, levels, **kw)
-    (a, a_or), (b, b_or), (r, _) = base.levels, fast.levels, ref.levels
-    assert "overrange" not in a.flags + b.flags and "overrange" in a_or.flags + b_or.flags
-    assert abs(a.vre.value) > 10 * r.vre.u
-    assert abs(a.vre.value - b.vre.value) < 0.5 * r.vre.u, (a.vre, b.vre, r.vre)
-    assert abs(a.vre.value - b.vre.value) < 0.005 * abs(b.vre.value)
-    assert abs(a_or.vre.value - b_or.vre.value) < 0.06 * abs(b_or.vre.value)
+    (a, a_or), (b, b_or), (r, r_or) = base.levels, fast.levels, ref.levels
+    assert "overrange" not in a.flags + b.flags and "overrange" in a_or.flags and "overrange" in b_or.flags
+    for lo, hi, noisy_lv in ((a, b, r), (a_or, b_or, r_or)):
+        assert abs(lo.vre.value) > 10 * noisy_lv.vre.u
+        assert abs(lo.vre.value - hi.vre.value) < 0.5 * noisy_lv.vre.u, (lo.vre, hi.vre, noisy_lv.vre)
+        assert abs(lo.vre.value - hi.vre.value) < 0.005 * abs(hi.vre.value)
 
 
 def test_chosen_rate_reproduces_4x_rate_sine_near_resonance():

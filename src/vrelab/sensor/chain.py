@@ -25,7 +25,7 @@ from typing import Any, Iterable, Iterator, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab.sensor.stages import Stage, _fused_filter_state, _is_sos_filter, _process_fused
+from vrelab.sensor.stages import Decimate, Stage, _fused_filter_state, _is_sos_filter, _process_fused
 
 FloatArray = NDArray[np.float64]
 
@@ -144,9 +144,20 @@ class ChainRun:
         self._rates: list[float] = []
         self._states: list[Any] = []
         rate = fs
+        # Whole samples (at the current rate) by which the stages so far delay the signal (the
+        # over-range stage looks two samples ahead). A decimator keeps the samples that fall
+        # on the undelayed grid, so the output samples the same instants at any internal rate
+        # (delayed by whole output samples); otherwise a delay of 2/fs would move the instants
+        # where the output clip and quantiser act with the internal rate.
+        latency = 0
         for i, stage in enumerate(chain.stages):
             self._rates.append(rate)
-            self._states.append(stage.init_state(rate, _child(ss, i)))
+            state = stage.init_state(rate, _child(ss, i))
+            latency += int(getattr(stage, "delay_samples", 0))
+            if isinstance(stage, Decimate):
+                state = latency % stage.factor
+                latency //= stage.factor
+            self._states.append(state)
             rate = rate / int(stage.rate_factor)
         self.fs_out_hz = rate
         # Consecutive linear filters (e.g. anti-alias -> low-pass) run as one sosfilt over their
