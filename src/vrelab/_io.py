@@ -43,3 +43,33 @@ def write_json(path: str | Path, obj: Any) -> None:
         json.dump(obj, fh, indent=2, allow_nan=False)
         fh.write("\n")
     os.replace(tmp, path)
+
+
+LEVELS_CSV_COLUMNS = (
+    "freq_hz", "rms_g", "u_rms_g", "vre_g", "u_vre_g", "duration_s", "n_samples", "n_saturated", "flags",
+)
+
+
+def write_levels_csv(path: str | Path, result: Any) -> None:
+    """``levels.csv``: one row per level of a ``VreResult``, the numbers of ``results.json``.
+
+    The one layout shared by ``simulate --out``, ``analyze --out`` and the demo. Floats are
+    written with ``repr`` so they read back bit for bit; unknown values are empty cells.
+    """
+    import csv
+
+    def cell(x: Any) -> str:
+        return "" if x is None else repr(float(x))
+
+    path = Path(path)
+    tmp = path.with_name(path.name + ".partial")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(LEVELS_CSV_COLUMNS)
+        for lv in result.levels:
+            w.writerow([
+                cell(lv.freq_hz), cell(lv.rms_g), cell(lv.u_rms_g), cell(lv.vre.value), cell(lv.vre.u),
+                cell(lv.duration_s), "" if lv.n_samples is None else lv.n_samples, lv.n_saturated,
+                ";".join(lv.flags),
+            ])  # fmt: skip
+    os.replace(tmp, path)

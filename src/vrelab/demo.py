@@ -26,7 +26,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from vrelab import _validate as V
+from vrelab import _io, _validate as V
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
@@ -458,11 +458,10 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
 
 # --------------------------------------------------------------------------- driver
 def _write_folder(folder: Path, result: VreResult, prediction: Mapping[str, Any] | None) -> None:
-    from vrelab.cli.simulate import write_levels_csv  # the one levels.csv layout, shared with `simulate --out`
 
     folder.mkdir(exist_ok=True)
     write_json(folder / "results.json", result.to_dict())
-    write_levels_csv(folder / "levels.csv", result)
+    _io.write_levels_csv(folder / "levels.csv", result)
     if prediction is not None:
         write_json(folder / "prediction.json", prediction)
 

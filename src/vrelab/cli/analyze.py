@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         with _io.output_dir(args.out) as stage:
             _io.write_json(stage / "results.json", doc)
-            _write_levels(stage / "levels.csv", result)
+            _io.write_levels_csv(stage / "levels.csv", result)
             _write_envelope(stage / "envelope.csv", red)
             if args.method == "random" and red.psd:
                 _write_psds(stage, red, profile)
@@ -158,24 +158,6 @@ def _command_line(args: argparse.Namespace) -> str:
         else:
             parts += [opt, str(value)]
     return shlex.join(parts)
-
-
-def _write_levels(path: Path, result: Any) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["freq_hz", "rms_g", "u_rms_g", "vre_g", "u_vre_g", "duration_s", "n_samples", "n_saturated", "flags"])
-        for lv in result.levels:
-            w.writerow([
-                "" if lv.freq_hz is None else repr(float(lv.freq_hz)),
-                repr(float(lv.rms_g)),
-                "" if lv.u_rms_g is None else repr(float(lv.u_rms_g)),
-                repr(float(lv.vre.value)),
-                repr(float(lv.vre.u)),
-                "" if lv.duration_s is None else repr(float(lv.duration_s)),
-                "" if lv.n_samples is None else lv.n_samples,
-                lv.n_saturated,
-                ";".join(lv.flags),
-            ])  # fmt: skip
 
 
 def _write_envelope(path: Path, red: Any) -> None:

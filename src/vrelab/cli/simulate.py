@@ -15,32 +15,14 @@ SPEC section 5::
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
 from typing import Any
 
-from vrelab import _validate as V
+from vrelab import _io, _validate as V
 from vrelab.cli import print_json
 from vrelab.cli.predict import add_sensor_arguments, positive_list, sensor_from_args
-
-
-def write_levels_csv(path: Path, result: Any) -> None:
-    """One row per level: the numbers of ``results.json`` in a spreadsheet-friendly form."""
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["freq_hz", "rms_g", "vre_g", "u_vre_g", "n_samples", "n_saturated", "flags"])
-        for lv in result.levels:
-            w.writerow([
-                "" if lv.freq_hz is None else repr(float(lv.freq_hz)),
-                repr(float(lv.rms_g)),
-                repr(float(lv.vre.value)),
-                repr(float(lv.vre.u)),
-                "" if lv.n_samples is None else lv.n_samples,
-                lv.n_saturated,
-                ";".join(lv.flags),
-            ])
 
 
 def _mg(x: float) -> str:
@@ -105,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         with output_dir(args.out) as stage:
             result = simulate(stage / "record.h5" if args.record else None)
             write_json(stage / "results.json", result.to_dict())
-            write_levels_csv(stage / "levels.csv", result)
+            _io.write_levels_csv(stage / "levels.csv", result)
             pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g,
                            kind=args.kind)
             write_json(stage / "prediction.json", pred.to_dict())
