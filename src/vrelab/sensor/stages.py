@@ -661,43 +661,57 @@ class _HoldState(NamedTuple):
     held_samples: float  # sum of the output samples' hold coverage
 
 
-def _cubic_crossing(z: FloatArray, seg: NDArray[np.intp], thr: float, sign: float) -> FloatArray:
-    """Where in segment ``w[i] .. w[i+1]`` (``w = sign·z``, ``i`` in ``seg``, one end beyond
-    ``thr``, the other not) the cubic through ``w[i-1 .. i+2]`` crosses ``thr``, as a fraction
-    of the segment.
+def _peak_margin(z: FloatArray) -> float:
+    """max|Δz|/4: how far a parabola through three consecutive samples can rise above them."""
+    d = np.diff(z)
+    np.abs(d, out=d)
+    return 0.25 * float(d.max())
 
-    The straight line between two samples puts a crossing near a peak late by up to a
-    tenth of a sample at 8 samples per period (it cuts under the curve); the cubic's error is
-    two orders of ``1/fs`` smaller. Newton steps from the straight line's crossing, kept in the
-    bracket [0, 1] (a step that leaves the shrinking bracket bisects instead).
+
+def _cubic_crossing(z0: FloatArray, z1: FloatArray, z2: FloatArray, z3: FloatArray, thr: float) -> FloatArray:
+    """Where the cubic through ``(-1, z0), (0, z1), (1, z2), (2, z3)`` crosses ``thr`` between
+    0 and 1 (``z1`` and ``z2`` on either side of it).
+
+    Near a peak the straight line between two samples cuts under the curve and puts the
+    crossing late; the cubic's error is two orders of ``1/fs`` smaller. Newton steps from the
+    straight line's crossing, kept in the shrinking bracket (a step that leaves it bisects).
     """
-    z0, z1, z2, z3 = sign * z[seg - 1], sign * z[seg], sign * z[seg + 1], sign * z[seg + 2]
     c1 = -z0 / 3.0 - z1 / 2.0 + z2 - z3 / 6.0
     c2 = (z0 + z2) / 2.0 - z1
     c3 = (z3 - z0) / 6.0 + (z1 - z2) / 2.0
     f0 = z1 - thr  # P(0) - thr; P(1) - thr = z2 - thr has the other sign
     tau = f0 / (z1 - z2)
-    lo, hi = np.zeros(seg.size), np.ones(seg.size)
-    # each crossing iterates until its own step is below 1e-15 (not until all have: the
-    # result must not depend on which crossings share a block)
-    active = np.ones(seg.size, dtype=bool)
-    for _ in range(60):  # Newton converges in a few steps; bisection alone would need ~50
-        f = f0 + tau * (c1 + tau * (c2 + tau * c3))
-        same = (f > 0) == (f0 > 0)
-        lo = np.where(same, tau, lo)
-        hi = np.where(same, hi, tau)
-        slope = c1 + tau * (2.0 * c2 + 3.0 * tau * c3)
+    lo, hi = np.zeros(z1.size), np.ones(z1.size)
+
+    def newton(t, g0, k1, k2, k3, lo, hi):  # one safeguarded step; updates lo, hi in place
+        f = g0 + t * (k1 + t * (k2 + t * k3))
+        same = (f > 0) == (g0 > 0)
+        np.copyto(lo, t, where=same)
+        np.copyto(hi, t, where=~same)
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = tau - f / slope
-        new = np.where(active, np.where((step > lo) & (step < hi), step, 0.5 * (lo + hi)), tau)
-        active &= np.abs(new - tau) > 1e-15
-        tau = new
-        if not active.any():
+            step = t - f / (k1 + t * (2.0 * k2 + 3.0 * t * k3))
+        return np.where((step >= lo) & (step <= hi), step, 0.5 * (lo + hi))
+
+    # Six steps on all crossings (most have converged by then), then each one still moving
+    # iterates until its own step is below 1e-15: per crossing, so the result does not
+    # depend on which crossings share a block.
+    for _ in range(6):
+        prev, tau = tau, newton(tau, f0, c1, c2, c3, lo, hi)
+    act = np.flatnonzero(np.abs(tau - prev) > 1e-15)
+    for _ in range(60):
+        if act.size == 0:
             break
+        t = tau[act]
+        a_lo, a_hi = lo[act], hi[act]
+        new = newton(t, f0[act], c1[act], c2[act], c3[act], a_lo, a_hi)
+        lo[act], hi[act], tau[act] = a_lo, a_hi, new
+        act = act[np.abs(new - t) > 1e-15]
     return tau
 
 
-def _excursions(z: FloatArray, thr: float, t0: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _excursions(
+    z: FloatArray, thr: float, t0: float, margin: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Where the input modelled from its samples ``z`` (``z[i]`` at time ``t0 + i``) is beyond ±thr.
 
     This block's share: the segments ``z[i] .. z[i+1]`` for ``1 <= i <= z.size - 3`` and the
@@ -711,44 +725,45 @@ def _excursions(z: FloatArray, thr: float, t0: float) -> tuple[FloatArray, Float
     (starts, ends, input at each start).
     """
     out = []
-    # A parabola's vertex exceeds its middle sample by at most max|Δz|/4 <= (max z - min z)/4:
-    # only samples within that margin of the threshold can matter. One pass over the block
-    # finds them; the rest works on those few.
-    margin = 0.25 * (float(z.max()) - float(z.min()))
+    # A parabola's vertex exceeds its middle sample by at most max|Δz|/4 (``margin``): only
+    # samples within that margin of the threshold can matter. A pass over the block finds
+    # them; the rest works on those few, both sides at once, mirrored so the threshold is +thr.
     near = np.flatnonzero(np.abs(z) > thr - margin)
-    last_seg, last_peak = z.size - 3, z.size - 2
-    for sign in (1.0, -1.0):
-        cand = near[sign * z[near] > thr - margin]
-        beyond = cand[sign * z[cand] > thr]
-        # segments with an end beyond the threshold
-        seg = np.union1d(beyond - 1, beyond)
-        seg = seg[(seg >= 1) & (seg <= last_seg)]
-        if seg.size:
-            p, q = sign * z[seg], sign * z[seg + 1]  # mirrored so the threshold is +thr
-            p_in, q_in = p > thr, q > thr
-            cross = np.flatnonzero(p_in != q_in)
-            tau = _cubic_crossing(z, seg[cross], thr, sign)
-            a, b = np.zeros(seg.size), np.ones(seg.size)
-            a[cross] = np.where(q_in[cross], tau, 0.0)  # entering the excursion
-            b[cross] = np.where(p_in[cross], tau, 1.0)  # leaving it
-            base = t0 + seg
-            out.append((base + a, base + b, sign * np.where(p_in, p, thr)))
-        k = cand[(cand >= 2) & (cand <= last_peak)]
-        if k.size:
-            left, mid, right = sign * z[k - 1], sign * z[k], sign * z[k + 1]
-            curv = left - 2.0 * mid + right
-            ok = (mid >= left) & (mid >= right) & (curv < 0) & (left <= thr) & (right <= thr)
-            k, left, mid, right, curv = k[ok], left[ok], mid[ok], right[ok], curv[ok]
-            slope = 0.5 * (right - left)
-            peak = mid - slope * slope / (2.0 * curv)
-            hit = peak > thr
-            if hit.any():
-                k, mid, slope, curv = k[hit], mid[hit], slope[hit], curv[hit]
-                # P(τ) = mid + slope·τ + curv·τ²/2 = thr, curv < 0: the two roots, lower first
-                root = np.sqrt(slope * slope - 2.0 * curv * (mid - thr))
-                base = t0 + k
-                out.append((base + (slope - root) / -curv, base + (slope + root) / -curv,
-                            np.full(k.size, sign * thr)))
+    side = np.where(z[near] > 0, 1.0, -1.0)
+    beyond = side * z[near] > thr
+    # segments with an end beyond the threshold, one per side: key = 2·segment + (side < 0)
+    key = 2 * near[beyond] + (side[beyond] < 0)
+    key = np.sort(np.concatenate((key - 2, key)))  # both sorted: few, cheap
+    key = key[np.concatenate(([True], key[1:] != key[:-1]))] if key.size else key
+    seg, sign = key // 2, np.where(key % 2 == 1, -1.0, 1.0)
+    keep = (seg >= 1) & (seg <= z.size - 3)
+    seg, sign = seg[keep], sign[keep]
+    if seg.size:
+        p, q = sign * z[seg], sign * z[seg + 1]
+        p_in, q_in = p > thr, q > thr
+        cross = np.flatnonzero(p_in != q_in)
+        sc, c = sign[cross], seg[cross]
+        tau = _cubic_crossing(sc * z[c - 1], sc * z[c], sc * z[c + 1], sc * z[c + 2], thr)
+        a, b = np.zeros(seg.size), np.ones(seg.size)
+        a[cross] = np.where(q_in[cross], tau, 0.0)  # entering the excursion
+        b[cross] = np.where(p_in[cross], tau, 1.0)  # leaving it
+        base = t0 + seg
+        out.append((base + a, base + b, sign * np.where(p_in, p, thr)))
+    inner = (near >= 2) & (near <= z.size - 2)
+    k, sign = near[inner], side[inner]
+    if k.size:
+        left, mid, right = sign * z[k - 1], sign * z[k], sign * z[k + 1]
+        curv = left - 2.0 * mid + right
+        ok = (mid >= left) & (mid >= right) & (curv < 0) & (left <= thr) & (right <= thr)
+        k, sign, left, mid, right, curv = k[ok], sign[ok], left[ok], mid[ok], right[ok], curv[ok]
+        slope = 0.5 * (right - left)
+        hit = mid - slope * slope / (2.0 * curv) > thr  # the vertex
+        if hit.any():
+            k, sign, mid, slope, curv = k[hit], sign[hit], mid[hit], slope[hit], curv[hit]
+            # P(τ) = mid + slope·τ + curv·τ²/2 = thr, curv < 0: the two roots, lower first
+            root = np.sqrt(slope * slope - 2.0 * curv * (mid - thr))
+            base = t0 + k
+            out.append((base + (slope - root) / -curv, base + (slope + root) / -curv, sign * thr))
     if not out:
         return np.empty(0), np.empty(0), np.empty(0)
     starts, ends, values = (np.concatenate(parts) for parts in zip(*out))
@@ -859,19 +874,24 @@ class OverRange(StageBase):
         z = h[1:]
         carried = state._replace(n_in=state.n_in + n, pending=(float(h[-3]), float(h[-2]), float(h[-1])))
         if state.end <= t0 - 0.5:
-            z_max, z_min = float(h.max()), float(h.min())
             # a block whose samples, and the peaks between them (a parabola through three
-            # samples rises at most (max - min)/4 above them), stay within the threshold and
-            # no hold carried in (most blocks): two reductions and one copy
-            if max(z_max, -z_min) + 0.25 * (z_max - z_min) <= thr:
+            # samples rises at most max|Δz|/4 above them), stay within the threshold and no
+            # hold carried in (most blocks): a copy and a few reductions
+            z_max, z_min = float(h.max()), float(h.min())
+            top = max(z_max, -z_min)
+            if top + 0.25 * (z_max - z_min) <= thr:
                 return z[:n], carried
-        starts, ends, values = _excursions(h, thr, t0 - 1.0)
+            margin = _peak_margin(h)
+            if top + margin <= thr:
+                return z[:n], carried
+        else:
+            margin = _peak_margin(h)
+        starts, ends, values = _excursions(h, thr, t0 - 1.0, margin)
         hold = self.hold_s * fs_hz
         ep_s, ep_e, ep_v, new = self._episodes(starts, ends, values, hold, state)
         y = z[:n].copy()
-        cov, extra = self._coverage(ep_s, ep_e, ep_v, h, t0, n, fs_hz)
-        held = np.flatnonzero(cov)
-        y[held] = cov[held] * self.value_g + (1.0 - cov[held]) * y[held] + extra[held]
+        held, cov, rest = self._coverage(ep_s, ep_e, ep_v, h, t0, n, fs_hz)
+        y[held] = cov * self.value_g + (1.0 - cov) * y[held] + rest
         return y, carried._replace(
             start=float(ep_s[-1]),
             end=float(ep_e[-1]),
@@ -915,8 +935,9 @@ class OverRange(StageBase):
     def _coverage(
         self, ep_s: FloatArray, ep_e: FloatArray, ep_v: FloatArray, h: FloatArray, t0: float, n: int,
         fs_hz: float,
-    ) -> tuple[FloatArray, FloatArray]:
-        """Held fraction ``c_k`` of each output sample's interval, and the rest of ``y_k``.
+    ) -> tuple[NDArray[np.intp], FloatArray, FloatArray]:
+        """The output samples (indices in the block) the holds touch, the held fraction ``c_k``
+        of each one's interval, and the rest of ``y_k``.
 
         ``h[j]`` is the input at ``t0 - 1 + j``; output ``k`` is ``h[k + 1]``. The rest is
         ``(1/T)·∫(v(t) - value_g) dt`` over the covered part (``float_tau_s``) minus the
@@ -940,7 +961,9 @@ class OverRange(StageBase):
         u2 = np.minimum(e[ep], c + 0.5)
         idx = (c - t0).astype(np.int64)
         part = u2 - u1
-        cov = np.bincount(idx, weights=part, minlength=n)
+        # idx does not decrease (episodes in time order); sum the parts that share a sample
+        first = np.flatnonzero(np.concatenate(([True], idx[1:] != idx[:-1]))) if idx.size else idx
+        cov = np.add.reduceat(part, first) if idx.size else part
         # slopes left and right of each sample [g per sample]; ∫τ·slope dτ over the covered part
         left = h[idx + 1] - h[idx]
         right = h[idx + 2] - h[idx + 1]
@@ -953,7 +976,7 @@ class OverRange(StageBase):
             tau = self.float_tau_s * fs_hz  # [samples]
             amp = (v0[ep] - self.value_g) * tau
             rest = rest + amp * (np.exp(-(u1 - s[ep]) / tau) - np.exp(-(u2 - s[ep]) / tau))
-        return cov, np.bincount(idx, weights=rest, minlength=n)
+        return idx[first], cov, (np.add.reduceat(rest, first) if idx.size else rest)
 
     def stats(self, state: _HoldState) -> dict[str, int | float]:
         return {"overrange_events": state.events, "overrange_samples": int(round(state.held_samples))}
