@@ -11,11 +11,13 @@ from vrelab.cli import print_json
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "report",
-        help="write DIR/report.html from a simulate/analyze output folder",
+        help="write DIR/report.html from a simulate/analyze or sweep output folder",
         description="Build one self-contained HTML report (figures embedded, no network needed) from "
-        "DIR/results.json and, when present, prediction.json, record.h5, envelope.csv and psd.csv.",
+        "DIR/results.json and, when present, prediction.json, record.h5, envelope.csv and psd.csv; "
+        "or, for a sweep folder (DIR/result.nc, no results.json), VRE against the grid, the spread "
+        "of a Monte Carlo lot and the failed points.",
     )
-    p.add_argument("dir", metavar="DIR", help="output folder of simulate/analyze --out")
+    p.add_argument("dir", metavar="DIR", help="output folder of simulate/analyze/sweep --out")
     p.add_argument("--title", help="report title")
     p.add_argument("--json", action="store_true", help="print {\"report\": PATH} on stdout")
     p.set_defaults(func=run)

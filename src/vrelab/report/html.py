@@ -73,11 +73,22 @@ class ReportFigure:
 
 
 @dataclass(frozen=True)
+class ReportTable:
+    """A table of text cells under a heading (cells are escaped; ``numeric`` columns align right)."""
+
+    title: str
+    header: Sequence[str]
+    rows: Sequence[Sequence[str]]
+    numeric: Sequence[int] = ()
+
+
+@dataclass(frozen=True)
 class ReportSection:
     """One study: a result, its figures, and a sentence of what it shows.
 
     ``facts`` are (label, value) rows shown first, e.g. ("VRE at 1 g rms", "-83 mg (article
-    ≈ -100 mg)"); ``prediction`` is a ``Prediction.to_dict()``; ``notes`` are extra sentences.
+    ≈ -100 mg)"); ``prediction`` is a ``Prediction.to_dict()``; ``notes`` are extra sentences;
+    ``tables`` are shown after the figures (a sweep's statistics and failed points).
     """
 
     title: str
@@ -89,6 +100,7 @@ class ReportSection:
     notes: Sequence[str] = ()
     extra_warnings: Sequence[str] = ()
     provenance: Mapping[str, Any] = field(default_factory=dict)
+    tables: Sequence[ReportTable] = ()
 
 
 # --------------------------------------------------------------------------- helpers
@@ -322,6 +334,15 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     return _kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
+def _table_html(t: ReportTable) -> str:
+    def cls(j: int) -> str:
+        return ' class="num"' if j in t.numeric else ""
+
+    th = "".join(f"<th{cls(j)}>{_e(h)}</th>" for j, h in enumerate(t.header))
+    body = "".join("<tr>" + "".join(f"<td{cls(j)}>{_cell(c)}</td>" for j, c in enumerate(row)) + "</tr>" for row in t.rows)
+    return f'<h3>{_e(t.title)}</h3><div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table></div>'
+
+
 def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
     rows = []
     for k, v in prov.items():
@@ -348,6 +369,7 @@ def render_section(sec: ReportSection, anchor: str) -> str:
         )
     if sec.notes:
         parts.append('<ul class="notes">' + "".join(f"<li>{_e(n)}</li>" for n in sec.notes) + "</ul>")
+    parts += [_table_html(t) for t in sec.tables]
     r = sec.result
     if r is not None:
         parts.append("<h3>Conditions</h3>" + _kv_table(_conditions_rows(r)))
@@ -537,8 +559,20 @@ def summary_sentence(result: VreResult) -> str:
 
 
 def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
-    """Build ``folder/report.html`` from ``results.json`` and whatever else the folder holds."""
+    """Build ``folder/report.html`` from ``results.json`` and whatever else the folder holds.
+
+    A sweep output folder (``result.nc`` and no ``results.json``) gets the sweep report of
+    :func:`vrelab.report.sweep.report_sweep_dir`.
+    """
     folder = Path(folder)
+    if folder.is_dir() and not (folder / "results.json").exists():
+        from vrelab.report import sweep
+
+        if (folder / sweep.RESULT_NC).exists():
+            return sweep.report_sweep_dir(folder, argv, title)
+        raise ValueError(
+            f"report: no results.json (simulate/analyze --out) and no {sweep.RESULT_NC} (sweep --out) in {folder}"
+        )
     result = load_results(folder)
     prediction = _load_prediction(folder)
     figs, notes = result_figures(result, folder)
