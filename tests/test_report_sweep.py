@@ -179,3 +179,19 @@ def test_sweep_report_renders_in_chromium_with_all_images(tmp_path: Path) -> Non
     state, events = render_in_chromium(folder / "report.html", tmp_path, png)
     assert_rendered_cleanly(state, events, 2)
     assert png.stat().st_size > 20_000
+
+
+def test_error_bars_are_plus_minus_u_in_mg_when_the_result_has_u_vre_g(tmp_path: Path) -> None:
+    """The simulate kind adds u_vre_g (too slow to run here): grafted on a real grid result."""
+    ds = _open(_grid(tmp_path / "grid"))
+    u = xr.full_like(ds["vre_g"], 0.0)
+    u.values[:] = np.linspace(0.001, 0.003, u.size).reshape(u.shape)
+    ds["u_vre_g"] = u
+    ax = S.plot_sweep_grid(ds).axes[0]
+    assert ax.get_ylabel() == "VRE (mg) ± u"
+    bars = ax.containers[1]  # static_g = -1
+    segs = np.array(bars.lines[2][0].get_segments())
+    np.testing.assert_allclose(segs[:, 0, 1], (ds["vre_g"] - u).sel(static_g=-1.0).values * 1e3, rtol=1e-12)
+    np.testing.assert_allclose(segs[:, 1, 1], (ds["vre_g"] + u).sel(static_g=-1.0).values * 1e3, rtol=1e-12)
+    figs, _ = S.sweep_figures(ds)
+    assert "±1 standard uncertainty" in figs[0].caption
