@@ -156,13 +156,16 @@ def _fast_internal_rate(sensor: Any, f_max_hz: float) -> float:
     sensor's own rule, 8·fn = 19.2 kHz, gives 20 kHz, and then 24 kHz for an 8 kHz record).
     A sensor without an ODR keeps :meth:`Sensor.internal_rate_hz`.
 
-    Limit: the over-range protection (:class:`~vrelab.sensor.stages.OverRange`) holds whole
-    samples from the first one past the threshold, so its hold window starts up to one sample
-    late, an error first-order in 1/fs that no filter accuracy removes. On the ADXL355 Z axis at
-    2.5 g rms (50 Hz-2 kHz, 1 g, multisine, 6 seeds) the VRE at 16 kHz is 3.4 % less negative
-    on average (0.4-5.7 %) than at 128 kHz; the former 24 kHz rate was 1.4 % (up to 3.4 %)
-    from 96 kHz. Below the over-range threshold the two rates agree within 0.5 %. Pass
-    ``fs_internal_hz`` (e.g. 4× this rate) for a test that lives in the over-range regime.
+    Over-range: the protection (:class:`~vrelab.sensor.stages.OverRange`) places its hold in
+    continuous time (crossings from a cubic through the samples, peaks between samples from a
+    parabola, fractional coverage of the samples), so its effect on the mean is second order in
+    1/fs. On the ADXL355 Z axis at 2.5 g rms (50 Hz-2 kHz, 1 g, multisine, noise-free, 10 s
+    levels, seeds 1-6) the VRE at 16 kHz is within 0.17 % (0.8 u) of 128 kHz for five seeds
+    and 1.0 % (1.8 u) for the sixth; the former whole-sample hold was 0.35-5.7 % off (3.4 %
+    mean, up to 56 u). What remains are peaks within a few mg of the threshold that trip at one
+    rate and not at the other; a multisine drive repeats its frame (0.256 s in the case
+    examined), so one such peak counts once per frame. Below the threshold the two rates agree
+    within 0.5 %.
     """
     odr = getattr(sensor, "odr_hz", None)
     if not odr:
