@@ -41,15 +41,11 @@ PROFILE = "flat:50-2000"  # the article's random profile, 50 Hz–2 kHz
 
 
 def min_seconds() -> float:
-    """Shortest segment the simulated test accepts (the rule of ``vrelab.shaker``): the settling
-    trim at both edges plus its minimum number of averaging windows, and at least four settling
-    times (the reduction trims at most a quarter of a segment per edge). The numbers are read
-    from the reduction and the shaker, which own them."""
-    from vrelab.analysis.reduction import DEFAULT_SETTLE_S, WINDOW_S
-    from vrelab.shaker import MIN_WINDOWS
+    """Shortest segment the simulated test accepts at its default settling time, rounded up to
+    0.1 s (the rule belongs to :func:`vrelab.shaker.min_segment_seconds`)."""
+    from vrelab.shaker import min_segment_seconds
 
-    need = max(2 * DEFAULT_SETTLE_S + MIN_WINDOWS * WINDOW_S, 4 * DEFAULT_SETTLE_S)
-    return math.ceil(need * 10 - 1e-6) / 10
+    return math.ceil(min_segment_seconds() * 10 - 1e-6) / 10
 
 
 @dataclass(frozen=True)

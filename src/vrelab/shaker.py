@@ -593,8 +593,8 @@ def _settle(settle_s: float | None) -> float:
     return float(V.non_negative("settle_s", settle_s))
 
 
-def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None:
-    """Each segment must leave the reduction enough to average after the settling trim.
+def min_segment_seconds(settle_s: float | None = None) -> float:
+    """Shortest baseline or level [s] the simulated test accepts for a settling time ``settle_s``.
 
     The reduction ignores a segment with fewer than 3 whole averaging windows after the trim
     (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
@@ -602,7 +602,15 @@ def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None
     """
     from vrelab.analysis.reduction import WINDOW_S
 
-    need = max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
+    settle_s = _settle(settle_s)
+    return max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
+
+
+def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None:
+    """Each segment must leave the reduction enough to average after the settling trim."""
+    from vrelab.analysis.reduction import WINDOW_S
+
+    need = min_segment_seconds(settle_s)
     for name, value in (("seconds", seconds), ("baseline_s", baseline_s)):
         if value < need - 1e-9:
             raise ValueError(
