@@ -87,6 +87,7 @@ class _Seg:
     rms_g: float  # 0: vibration off
     freq_hz: float | None = None  # sine method
     seed: int | None = None  # random drive
+    ramp: int = 0  # internal samples of the amplitude ramp at each end (inside n_internal)
 
 
 @dataclass(frozen=True)
@@ -255,16 +256,37 @@ class SimulatedRecord:
         self._checkpoints: dict[int, Any] = {0: (runner0, ref_zi)}
 
     def _schedule(self) -> Schedule:
+        """One schedule segment per simulated stretch; a level's segment leaves out its ramps
+        (the drive is not at its level there), so the schedule has gaps where they are."""
         segs, t = [], 0
         for s in self._segments:
             n = s.n_internal // self.rates.step
-            segs.append(Segment(t / self.fs_hz, (t + n) / self.fs_hz, s.rms_g, s.freq_hz))
+            r = s.ramp // self.rates.step
+            segs.append(Segment((t + r) / self.fs_hz, (t + n - r) / self.fs_hz, s.rms_g, s.freq_hz))
             t += n
         return Schedule(tuple(segs))
 
     # -- generation --
 
     def _drive(self, seg: _Seg) -> Iterator[NDArray[np.float64]]:
+        blocks = self._drive_at_level(seg)
+        if seg.ramp == 0 or seg.rms_g == 0:
+            yield from blocks
+            return
+        # A shaker controller brings the level up and down over the ramp: raised-cosine
+        # amplitude envelope over the first and last `ramp` samples (smooth, so it spreads no
+        # power far outside the drive's band), applied to the drive at its level.
+        pos, n, r = 0, seg.n_internal, seg.ramp
+        for x in blocks:
+            i = pos + np.arange(x.size)
+            env = np.ones(x.size)
+            up, down = i < r, i >= n - r
+            env[up] = 0.5 - 0.5 * np.cos(np.pi * (i[up] + 0.5) / r)
+            env[down] = 0.5 - 0.5 * np.cos(np.pi * (n - i[down] - 0.5) / r)
+            pos += x.size
+            yield x * env
+
+    def _drive_at_level(self, seg: _Seg) -> Iterator[NDArray[np.float64]]:
         from vrelab import synthesis
 
         fs = self.rates.fs_internal_hz
@@ -620,6 +642,12 @@ def _check_durations(seconds: float, baseline_s: float, settle_s: float) -> None
             )
 
 
+def _ramp_samples(ramp_s: float, fs_internal_hz: float, rates: _Rates) -> int:
+    """Internal samples of one ramp: whole DUT output samples, so the schedule's level segment
+    starts on a record sample (0 for no ramp)."""
+    return _round_up(ramp_s * fs_internal_hz, rates.decimation) if ramp_s > 0 else 0
+
+
 def _validate_levels(name: str, levels: Sequence[float]) -> list[float]:
     arr = V.positive(name, np.atleast_1d(np.asarray(levels, dtype=np.float64)))
     if arr.ndim != 1 or arr.size == 0:
@@ -641,6 +669,7 @@ def plan_random_test(
     kurtosis: float | None = None,
     fs_internal_hz: float | None = None,
     progress: bool = False,
+    ramp_s: float = 0.0,
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
     if not isinstance(profile, RandomProfile):
@@ -651,6 +680,7 @@ def plan_random_test(
     baseline_s = V.positive_scalar("baseline_s", baseline_s)
     settle_s = _settle(settle_s)
     V.one_of("drive_method", drive_method, ("gaussian", "multisine"))
+    ramp_s = float(V.non_negative("ramp_s", ramp_s))
     _check_durations(seconds, baseline_s, settle_s)
     f_lo, f_hi = profile.band
     fs_int = _fs_internal(sensor, f_hi, fs_internal_hz)
@@ -659,9 +689,11 @@ def plan_random_test(
     chain_seed, *level_seeds = root.spawn(len(levels) + 1)
     n_base = _round_up(baseline_s * fs_int, rates.decimation)
     n_level = _round_up(seconds * fs_int, rates.decimation)
+    n_ramp = _ramp_samples(ramp_s, fs_int, rates)
     segs: list[_Seg] = [_Seg(n_base, 0.0)]
     for g, s in zip(levels, level_seeds):
-        segs += [_Seg(n_level, g, None, int(s.generate_state(1, np.uint32)[0])), _Seg(n_base, 0.0)]
+        seed_g = int(s.generate_state(1, np.uint32)[0])
+        segs += [_Seg(n_level + 2 * n_ramp, g, None, seed_g, n_ramp), _Seg(n_base, 0.0)]
     extra = {
         "seed": int(seed),
         "seconds": seconds,
@@ -674,6 +706,8 @@ def plan_random_test(
         "kurtosis": kurtosis,
         "band_hz": [f_lo, f_hi],
     }
+    if n_ramp:
+        extra["ramp_s"] = n_ramp / fs_int
     return SimulatedRecord(
         sensor,
         segs,
@@ -705,6 +739,7 @@ def run_random_test(
     progress: bool = False,
     fs_internal_hz: float | None = None,
     clip_kind: Literal["censored", "truncated"] = "censored",
+    ramp_s: float = 0.0,
 ) -> VreResult:
     """Simulate the random method (SPEC 4) on ``sensor`` and reduce it like a lab record.
 
@@ -735,6 +770,12 @@ def run_random_test(
         Override the sensor's internal simulation rate (for convergence checks).
     clip_kind : {"censored", "truncated"}
         Clipping model of the effective-rail fit.
+    ramp_s : float
+        Duration [s] of the drive's amplitude ramp at each end of every level (raised cosine
+        from 0 to the level and back, as a shaker controller brings a level up and down),
+        added outside the ``seconds`` at level; rounded up to whole DUT output samples. The
+        schedule embedded in the record leaves the ramps out. 0 (default): the level starts
+        and stops at once.
 
     Returns
     -------
@@ -763,7 +804,7 @@ def run_random_test(
     """
     record = plan_random_test(
         sensor, profile, levels_grms, static_g, seconds, baseline_s, settle_s, seed,
-        drive_method, clip_sigma, kurtosis, fs_internal_hz, progress,
+        drive_method, clip_sigma, kurtosis, fs_internal_hz, progress, ramp_s=ramp_s,
     )
     settle = record.meta["simulation"]["settle_s"]
     levels, warnings = _reduce(record, "random", _measurement_band(profile), settle, record_path, progress)
@@ -845,6 +886,7 @@ def plan_sine_test(
     seed: int = 0,
     fs_internal_hz: float | None = None,
     progress: bool = False,
+    ramp_s: float = 0.0,
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
     freqs = _validate_levels("freqs_hz", freqs_hz)
@@ -853,6 +895,7 @@ def plan_sine_test(
     seconds = V.positive_scalar("seconds", seconds)
     baseline_s = V.positive_scalar("baseline_s", baseline_s)
     settle_s = _settle(settle_s)
+    ramp_s = float(V.non_negative("ramp_s", ramp_s))
     _check_durations(seconds, baseline_s, settle_s)
     f_max = max(freqs)
     fs_int = _fs_internal(sensor, f_max, fs_internal_hz)
@@ -861,6 +904,7 @@ def plan_sine_test(
     rates = _choose_rates(sensor.chain(fs_int), fs_int, f_max)
     chain_seed = np.random.SeedSequence(int(seed)).spawn(1)[0]
     n_base = _round_up(baseline_s * fs_int, rates.decimation)
+    n_ramp = _ramp_samples(ramp_s, fs_int, rates)
     segs: list[_Seg] = [_Seg(n_base, 0.0)]
     for f in freqs:
         # IEEE 1293: average over whole periods; the window left after trimming settle_s at
@@ -868,7 +912,7 @@ def plan_sine_test(
         periods = max(1, round((seconds - 2 * settle_s) * f))
         n_level = _round_up((periods / f + 2 * settle_s) * fs_int, rates.decimation)
         for g in levels:
-            segs += [_Seg(n_level, g, f), _Seg(n_base, 0.0)]
+            segs += [_Seg(n_level + 2 * n_ramp, g, f, None, n_ramp), _Seg(n_base, 0.0)]
     extra = {
         "seed": int(seed),
         "seconds": seconds,
@@ -878,6 +922,8 @@ def plan_sine_test(
         "fs_record_hz": rates.fs_record_hz,
         "drive_method": "sine",
     }
+    if n_ramp:
+        extra["ramp_s"] = n_ramp / fs_int
     return SimulatedRecord(
         sensor,
         segs,
@@ -906,6 +952,7 @@ def run_sine_test(
     record_path: str | Path | None = None,
     progress: bool = False,
     fs_internal_hz: float | None = None,
+    ramp_s: float = 0.0,
 ) -> VreResult:
     """Simulate the sine method (IEEE Std 1293-1998; SPEC 4) and fit VRC at each frequency.
 
@@ -913,10 +960,12 @@ def run_sine_test(
     ``seconds`` (rounded to whole periods of the drive after the settling trim), bracketed by
     vibration-off baselines. ``VRE = VRC·vib_rms²`` is fitted by weighted least squares
     through the origin at each frequency (:func:`vrelab.fits.fit_vrc`): ``VRC(f)`` shows the
-    resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters as in :func:`run_random_test`.
+    resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters (``ramp_s`` too) as in
+    :func:`run_random_test`; with a ramp the sine's amplitude rises and falls, its phase runs on.
     """
     record = plan_sine_test(
-        sensor, freqs_hz, levels_rms_g, static_g, seconds, baseline_s, settle_s, seed, fs_internal_hz, progress
+        sensor, freqs_hz, levels_rms_g, static_g, seconds, baseline_s, settle_s, seed, fs_internal_hz, progress,
+        ramp_s=ramp_s,
     )
     settle = record.meta["simulation"]["settle_s"]
     levels, warnings = _reduce(record, "sine", _sine_band(record), settle, record_path, progress)

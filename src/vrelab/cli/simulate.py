@@ -4,7 +4,11 @@ SPEC section 5::
 
     vrelab simulate --sensor S [--range G] [--axis A] [--odr HZ] [--static G] [--k2] [--k3]
                     (--profile PROFILE | --freq LIST) --levels LIST [--seconds S] [--seed N]
-                    [--out DIR] [--record] [--json] [--progress]
+                    [--ramp S] [--drift G_PER_S] [--out DIR] [--record] [--json] [--progress]
+
+``--ramp S`` brings each level up and down over S seconds (raised cosine, outside the
+``--seconds`` at level; the record's schedule leaves the ramps out); ``--drift`` adds a slow
+linear drift of the sensor's output [g/s] (both default 0).
 
 ``--json`` prints :meth:`vrelab.results.VreResult.to_dict` (``levels``: ``rms_g``, ``vre_g``,
 ``u_vre_g``, ``freq_hz`` for sine; ``fit``). ``--out DIR`` writes ``results.json``,
@@ -15,6 +19,7 @@ SPEC section 5::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -65,7 +70,12 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--drive, --clip-sigma and --kurtosis apply to a random --profile, not to --freq")
     if args.record and not args.out:
         raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
+    ramp_s = float(V.non_negative("--ramp", args.ramp))
+    drift = float(V.finite_scalar("--drift", args.drift))
     sensor = sensor_from_args(args)
+    if drift:
+        facts = {**dict(sensor.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"}
+        sensor = dataclasses.replace(sensor, drift_g_per_s=drift, facts=facts)
     profile = parse_profile(args.profile) if args.profile is not None else None
     freqs = positive_list(args.freq, "--freq") if args.freq is not None else None
     progress = bool(args.progress or sys.stderr.isatty())
@@ -76,10 +86,10 @@ def run(args: argparse.Namespace) -> int:
                                           baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
                                           record_path=record_path, progress=progress, clip_kind=args.kind,
                                           drive_method=args.drive, clip_sigma=args.clip_sigma,
-                                          kurtosis=args.kurtosis)
+                                          kurtosis=args.kurtosis, ramp_s=ramp_s)
         return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
                                     baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                    record_path=record_path, progress=progress)
+                                    record_path=record_path, progress=progress, ramp_s=ramp_s)
 
     if args.out:
         from vrelab._io import output_dir, write_json
@@ -118,6 +128,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--settle", type=float, metavar="S",
                    help="settling time trimmed at each segment edge [s] (default: the reduction's, 0.5)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")
+    p.add_argument("--ramp", type=float, default=0.0, metavar="S",
+                   help="ramp each level up and down over S seconds, as a shaker controller does (default 0)")
+    p.add_argument("--drift", type=float, default=0.0, metavar="G_PER_S",
+                   help="slow linear drift of the sensor's output [g/s] (default 0)")
     p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
                    help="clipping model of the effective-rail fit and the prediction (default censored)")
     p.add_argument("--drive", choices=("gaussian", "multisine"), default="gaussian",

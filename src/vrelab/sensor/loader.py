@@ -13,7 +13,7 @@ Chain built from a description (order is fixed here; write a :class:`SensorChain
 another order)::
 
     Resonator -> Polynomial -> OverRange -> [Clip if clip_position = "proof-mass"] -> Noise
-    -> AntiAlias -> LowPass (ODR/4) -> HighPass -> Offset -> Decimate (fs/ODR)
+    -> AntiAlias -> LowPass (ODR/4) -> HighPass -> Offset -> [Drift] -> Decimate (fs/ODR)
     -> [Clip if clip_position = "output"] -> Quantize
 
 The nonlinearity and the over-range trip act on the proof-mass motion (after the resonance,
@@ -40,6 +40,7 @@ from vrelab.sensor.stages import (
     AntiAlias,
     Clip,
     Decimate,
+    Drift,
     HighPass,
     LowPass,
     Noise,
@@ -84,6 +85,7 @@ NUMERIC_FIELDS: tuple[str, ...] = (
     "lowpass_order",
     "highpass_hz",
     "offset_g",
+    "drift_g_per_s",
 )
 
 
@@ -122,6 +124,9 @@ class Sensor:
     offset_g: float
     lowpass_kind: Literal["butterworth", "bessel"] = "butterworth"
     overrange_retrigger: bool = True
+    # Slow linear drift of the output [g/s] (bias drift: warm-up, temperature). Not a data-sheet
+    # number of any preset (none sets it): 0 unless a file or dataclasses.replace sets it.
+    drift_g_per_s: float = 0.0
     description: str = ""
     source: str = ""
     ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
@@ -148,7 +153,7 @@ class Sensor:
                      "lsb_g", "anti_alias_hz", "highpass_hz"):
             pos(name)
         for name in ("k2_per_g", "k3_per_g2", "k4_per_g3", "overrange_value_g", "overrange_float_tau_s",
-                     "noise_ug_per_rthz", "offset_g"):
+                     "noise_ug_per_rthz", "offset_g", "drift_g_per_s"):
             fin(name)
         for name in ("overrange_float_tau_s", "noise_ug_per_rthz"):
             if getattr(self, name) < 0:
@@ -254,6 +259,8 @@ class Sensor:
         stages.extend(self._filters())
         if self.offset_g:
             stages.append(Offset(self.offset_g))
+        if self.drift_g_per_s:
+            stages.append(Drift(self.drift_g_per_s))
         if factor > 1:
             stages.append(Decimate(factor))
         if self.clip_position == "output":
@@ -358,6 +365,7 @@ _VALUE_KEYS: dict[str, tuple[str, float]] = {
     "lowpass_kind": ("lowpass_kind", 1.0),
     "highpass_hz": ("highpass_hz", 1.0),
     "offset_g": ("offset_g", 1.0),
+    "drift_g_per_s": ("drift_g_per_s", 1.0),
 }
 _TOP_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
@@ -588,6 +596,7 @@ def load_sensor(
         lowpass_kind=values.get("lowpass_kind", "butterworth"),
         highpass_hz=values.get("highpass_hz"),
         offset_g=values.get("offset_g", 0.0),
+        drift_g_per_s=values.get("drift_g_per_s", 0.0),
         description=description if isinstance(description, str) else "",
         source=source if isinstance(source, str) else origin,
         ranges_g=tuple(sorted(nominal)),

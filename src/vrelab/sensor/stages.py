@@ -64,6 +64,7 @@ __all__ = [
     "Quantize",
     "Noise",
     "Offset",
+    "Drift",
     "discretize_zpk",
 ]
 
@@ -486,6 +487,36 @@ class Offset(StageBase):
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         return x + self.offset_g, state
+
+
+@dataclass(frozen=True)
+class Drift(StageBase):
+    """Slow linear drift of the output: ``y[n] = x[n] + rate_g_per_s·n/fs``.
+
+    Parameters
+    ----------
+    rate_g_per_s : drift rate [g/s] (e.g. a bias settling after power-up or following a slow
+        temperature change; 0.2 mg/s is an assumption, not a data-sheet value).
+
+    Notes
+    -----
+    ``n`` counts samples from the start of the run (the state), so the output does not depend
+    on the block size. A linear drift is what the bracketing of SPEC 4 removes exactly: the
+    baseline interpolated linearly between the vibration-off segments before and after a level.
+    """
+
+    rate_g_per_s: float = 0.0
+    is_static: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        _finite(self, "rate_g_per_s")
+
+    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> int:
+        return 0  # samples seen so far
+
+    def process(self, x: FloatArray, state: int, fs_hz: float) -> tuple[FloatArray, int]:
+        t = (state + np.arange(x.size, dtype=np.float64)) / fs_hz
+        return x + self.rate_g_per_s * t, state + x.size
 
 
 class _ClipCount(NamedTuple):
