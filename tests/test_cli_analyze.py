@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from test_analysis_helpers import make_record
 
-from vrelab.analysis.readers import sha256_file
+from vrelab._io import sha256_file
 from vrelab.cli import main
 from vrelab.record import write_record_hdf5
 

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
-from vrelab.results import Estimate, FitResult, LevelResult
+from vrelab.results import Estimate, FitResult, LevelResult, same_frequency
 
 ClipKind = Literal["censored", "truncated"]
 
@@ -67,10 +67,6 @@ def _scale_cov(
         return cov * chi2_red, chi2_red
     notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
     return cov, chi2_red
-
-
-def _same_freq(a: float | None, b: float | None) -> bool:
-    return a is None or b is None or abs(a - b) <= 0.01 * max(abs(a), abs(b))
 
 
 def fit_vrc(
@@ -119,7 +115,7 @@ def fit_vrc(
         and np.isfinite(lv.vre.value)
         and lv.rms_g > 0
         and (max_rms_g is None or lv.rms_g <= max_rms_g)
-        and (freq_hz is None or _same_freq(lv.freq_hz, freq_hz))
+        and (freq_hz is None or same_frequency(lv.freq_hz, freq_hz))
     ]
     n_sat = sum("saturated" in lv.flags for lv in levels)
     if n_sat:

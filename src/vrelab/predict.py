@@ -37,13 +37,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
+from vrelab._format import finite_or_none
+from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
 
-ClipKind = Literal["censored", "truncated"]
 
 # Shares below this fraction of the largest one are "negligible" in the validity notes.
 _MINOR = 0.1
@@ -78,26 +79,21 @@ class LevelPrediction:
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
             "rms_g": self.rms_g,
-            "vre_g": _num(self.vre_g),
-            "tilt_error_deg": _num(self.tilt_error_deg),
+            "vre_g": finite_or_none(self.vre_g),
+            "tilt_error_deg": finite_or_none(self.tilt_error_deg),
         }
         if self.freq_hz is not None:
             d["freq_hz"] = self.freq_hz
         d.update(
-            shares={k: _num(v) for k, v in self.shares.items()},
-            sigma_proof_mass_g=_num(self.sigma_proof_mass_g),
-            sigma_output_g=_num(self.sigma_output_g),
-            sigma_at_clip_g=_num(self.sigma_at_clip_g),
-            overrange_rate_hz=_num(self.overrange_rate_hz),
+            shares={k: finite_or_none(v) for k, v in self.shares.items()},
+            sigma_proof_mass_g=finite_or_none(self.sigma_proof_mass_g),
+            sigma_output_g=finite_or_none(self.sigma_output_g),
+            sigma_at_clip_g=finite_or_none(self.sigma_at_clip_g),
+            overrange_rate_hz=finite_or_none(self.overrange_rate_hz),
             valid=self.valid,
             notes=list(self.notes),
         )
         return d
-
-
-def _num(x: float) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)

@@ -11,13 +11,21 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal, Mapping
 
+from vrelab._format import finite_or_none
 
-def _num(x: float | None) -> float | None:
-    """JSON has no NaN/inf: map them to None."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
+
+# Two sine levels belong to the same frequency when they differ by at most this fraction: a
+# controller steps its drive by much more than 1 % between frequencies, and the frequency an
+# analysis estimates from a record scatters by far less.
+FREQ_RTOL = 0.01
+
+
+def same_frequency(a: float | None, b: float | None) -> bool:
+    """Whether two drive frequencies [Hz] are the same sine test point (within ``FREQ_RTOL``).
+
+    ``None`` (a random level, or an unknown frequency) matches anything.
+    """
+    return a is None or b is None or abs(a - b) <= FREQ_RTOL * max(abs(a), abs(b))
 
 
 @dataclass(frozen=True)
@@ -35,7 +43,7 @@ class Estimate:
         return f"{self.value:.6g} ± {self.u:.2g} {self.unit}{rel}"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"value": _num(self.value), "u": _num(self.u), "unit": self.unit}
+        return {"value": finite_or_none(self.value), "u": finite_or_none(self.u), "unit": self.unit}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Estimate":
@@ -86,15 +94,15 @@ class LevelResult:
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
-            "rms_g": _num(self.rms_g),
-            "vre_g": _num(self.vre.value),
-            "u_vre_g": _num(self.vre.u),
+            "rms_g": finite_or_none(self.rms_g),
+            "vre_g": finite_or_none(self.vre.value),
+            "u_vre_g": finite_or_none(self.vre.u),
         }
         if self.freq_hz is not None:
-            d["freq_hz"] = _num(self.freq_hz)
+            d["freq_hz"] = finite_or_none(self.freq_hz)
         d.update(
-            u_rms_g=_num(self.u_rms_g),
-            duration_s=_num(self.duration_s),
+            u_rms_g=finite_or_none(self.u_rms_g),
+            duration_s=finite_or_none(self.duration_s),
             n_samples=self.n_samples,
             n_saturated=int(self.n_saturated),
             flags=list(self.flags),
@@ -142,10 +150,10 @@ class FitResult:
         d.update({k: v.to_dict() for k, v in self.params.items()})
         d.update(
             n_points=self.n_points,
-            chi2_reduced=_num(self.chi2_reduced),
-            freq_hz=_num(self.freq_hz),
-            levels_used=[_num(x) for x in self.levels_used],
-            departure_rms_g=_num(self.departure_rms_g),
+            chi2_reduced=finite_or_none(self.chi2_reduced),
+            freq_hz=finite_or_none(self.freq_hz),
+            levels_used=[finite_or_none(x) for x in self.levels_used],
+            departure_rms_g=finite_or_none(self.departure_rms_g),
             notes=list(self.notes),
         )
         return d

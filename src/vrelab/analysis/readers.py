@@ -20,7 +20,6 @@ streaming).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
@@ -96,12 +95,6 @@ def _as_scale(s: Scale | float | None) -> Scale:
     if isinstance(s, Scale):
         return s
     return Scale("lsb", V.positive_scalar("scale", s))
-
-
-def sha256_file(path: str | Path) -> str:
-    """SHA-256 of a file, streamed (the file is read in chunks, never whole)."""
-    with open(path, "rb") as fh:
-        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 # ----------------------------------------------------------------------------- sources
@@ -815,4 +808,4 @@ def open_record(
         raise
 
 
-__all__ = ["open_record", "FileRecord", "Scale", "detect_format", "sha256_file", "UNITS"]
+__all__ = ["open_record", "FileRecord", "Scale", "detect_format", "UNITS"]

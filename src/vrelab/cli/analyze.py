@@ -82,7 +82,8 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab.analysis.readers import Scale, open_record, sha256_file
+    from vrelab._io import sha256_file
+    from vrelab.analysis.readers import Scale, open_record
     from vrelab.analysis.reduction import analyze_full
     from vrelab.record import Schedule
 

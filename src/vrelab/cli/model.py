@@ -12,6 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vrelab.cli import Parser, print_json
+from vrelab._format import finite_or_none
 from vrelab._lists import parse_list
 from vrelab.models.clipping import mean_shift
 from vrelab.models.nonlinearity import UG, vre_poly
@@ -63,10 +64,6 @@ def _levels(text: str) -> list[float]:
     return values
 
 
-def _json_num(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
 def _table(title: str, rms: Sequence[float], vre_g: Sequence[float]) -> str:
     lines = [title, f"  {'rms (g)':>10}  {'VRE (mg)':>14}"]
     for r, v in zip(rms, vre_g):
@@ -93,7 +90,7 @@ def _run_clip(args: argparse.Namespace) -> int:
                 "shape": args.shape,
                 "kind": args.kind,
                 "rms_g": rms,
-                "vre_g": [_json_num(v) for v in vre],
+                "vre_g": [finite_or_none(v) for v in vre],
             }
         )
     else:
@@ -124,7 +121,7 @@ def _run_poly(args: argparse.Namespace) -> int:
                 "static_g": static,
                 "shape": args.shape,
                 "rms_g": rms,
-                "vre_g": [_json_num(v) for v in vre],
+                "vre_g": [finite_or_none(v) for v in vre],
             }
         )
     else:

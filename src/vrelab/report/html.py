@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
-import hashlib
 import html
 import io
 import json
@@ -27,6 +26,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from vrelab import __version__
+from vrelab._io import sha256_file
 from vrelab.results import FitResult, VreResult
 
 _CSS = """
@@ -132,15 +132,6 @@ def _mg(value: float, u: float | None = None) -> str:
 # A PSD table with more lines than this is a fine-resolution estimate of a short record:
 # average it in fractional-octave bands before reading it against a ±3 dB tolerance.
 PSD_LINES_BEFORE_AVERAGING = 600
-
-
-def sha256_file(path: str | Path, block: int = 1 << 20) -> str:
-    """SHA-256 of a file, read in blocks (records can be larger than memory)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while chunk := fh.read(block):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def describe_fit_param(name: str) -> tuple[str, str]:

@@ -193,7 +193,7 @@ class Sensor:
         the ODR); without an ODR, the smallest multiple of 1 kHz >= ``f_need``.
 
         This is the conservative rule for a chain run on its own. The simulated shaker test
-        uses a measured, lower one (``vrelab.shaker._fast_internal_rate``: 5× the resonance
+        uses a measured, lower one (``vrelab.rates.simulation_rate_hz``: 5× the resonance
         and anti-alias corners, 8× the drive, 16× the digital low-pass corner), which the
         resonance only needs up to the drive's highest frequency; for the ADXL355 and a 2 kHz
         profile, 16 kHz instead of 20 kHz.
