@@ -286,3 +286,13 @@ def test_closed_form_vs_quad_property(log_steps, log_psd, f0):
     p = 10.0 ** np.array(log_psd[: f.size])
     prof = RandomProfile.from_breakpoints(f, p)
     assert prof.grms == pytest.approx(quad_grms(prof), rel=1e-8)
+
+
+@pytest.mark.parametrize("grms", [1e200, 1.5e5, math.inf])
+def test_scaling_refuses_levels_beyond_any_shaker(grms):
+    """A level of 1e200 g rms (an exponent slip) once overflowed squaring the ratio; it is refused
+    by name, with the bound, before any arithmetic (the bound itself still scales)."""
+    flat = RandomProfile.flat(50.0, 2000.0)
+    with pytest.raises(ValueError, match="grms must be"):
+        flat.scaled_to(grms)
+    assert flat.scaled_to(1e5).grms == pytest.approx(1e5, rel=1e-12)

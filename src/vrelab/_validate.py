@@ -15,8 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 
 def _show(value: Any) -> str:
     arr = np.asarray(value)
-    if arr.ndim == 0:
-        return repr(arr.item())
+    if arr.size == 1:
+        return f"{arr.item()!r}"
     bad = arr.ravel()
     return f"array of shape {arr.shape} (first values {np.array2string(bad[:3], separator=', ')})"
 
@@ -77,3 +77,20 @@ def one_of(name: str, value: str, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"{name} must be one of {', '.join(choices)}; got {value!r}")
     return value
+
+
+# The largest vibration level [g rms] any input may ask for. The strongest electrodynamic
+# shakers reach a few hundred g rms and pyroshock tests about 1e5 g peak; beyond this a level is
+# a slip (units, exponent), and squaring it (PSD values scale with level²) would overflow.
+MAX_LEVEL_G_RMS = 1e5
+
+
+def vibration_level(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """Vibration levels [g rms]: finite, > 0 and at most ``MAX_LEVEL_G_RMS``."""
+    arr = positive(name, value)
+    if (arr > MAX_LEVEL_G_RMS).any():
+        raise ValueError(
+            f"{name} must be at most {MAX_LEVEL_G_RMS:g} g rms (beyond any shaker or shock test), "
+            f"got {_show(arr[arr > MAX_LEVEL_G_RMS])}"
+        )
+    return arr

@@ -341,7 +341,7 @@ class RandomProfile:
 
     def scaled_to(self, grms: float) -> "RandomProfile":
         """The same shape at overall level ``grms`` [g rms]: every PSD value × (grms/self.grms)²."""
-        target = v.positive_scalar("grms", grms)
+        target = float(v.vibration_level("grms", v.positive_scalar("grms", grms)))
         ratio2 = (target / self.grms) ** 2
         return RandomProfile(self.freq_hz, self.psd_g2_per_hz * ratio2, self.name, self.source)
 
