@@ -1,0 +1,213 @@
+"""Plausibility checks on a recorded test: no confident wrong number (SPEC 4.2).
+
+Before a VRE leaves the reduction, the record is held against the mistakes labs make. Each check
+reads a short stretch (at most :data:`PROBE_SAMPLES` samples) from the middle of each segment, so
+it costs little and its memory does not grow with the record:
+
+* **units or sensitivity slip** (:func:`check_units`): the DUT's vibration against the
+  reference's, per level, where a DUT's response is flat: at the drive line for a sine level, in
+  the lowest octave of the test band for a random level (a DUT's low-pass or resonance shapes
+  the top of the band, not its bottom). A ratio beyond :data:`UNIT_RATIO_LIMIT` (or below its
+  inverse) at every level means a unit or a sensitivity is wrong.
+* **swapped channels** (:func:`check_channels`): a reference accelerometer (piezoelectric) has no
+  DC response; a DUT whose axis lies along the shaker's in a 1 g field reads it. A reference
+  reading a static field and a DUT reading none are the two channels swapped.
+* **method** (:func:`level_kinds`, :func:`resolve_methods`): a sine level's reference spectrum
+  is one line holding nearly all the in-band power, a random level's is broad. ``auto`` decides
+  per level; an explicit method that contradicts the data is refused with what was found.
+
+Each check raises ``ValueError`` with one line naming what was found and the option that
+accepts it on purpose; nothing here changes a number.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+
+from vrelab.record import Record
+
+Method = Literal["random", "sine"]
+MethodRequest = Literal["auto", "random", "sine"]
+
+# Samples read from the middle of each segment (2^16: 8 s at 8 kHz; a 0.12 Hz line spacing
+# resolves any drive frequency from the test band's bottom (tens of Hz) upwards).
+PROBE_SAMPLES = 1 << 16
+# DUT/reference rms ratio beyond which (or below whose inverse) a level's units look wrong:
+# SPEC 4.2. A flat-responding DUT agrees with the reference within a few per cent; a slip is a
+# factor of 9.81 (m/s² vs g), 10-1000 (mV vs g), 1e3 or more (LSB vs g).
+UNIT_RATIO_LIMIT = 3.0
+# Fraction of the reference's in-band AC power in its strongest line (the peak bin ± the Hann
+# window's main lobe) above which a level is a sine, below which it is random. A sine with
+# harmonic distortion of a few per cent keeps > 0.99; a broadband random level gives ~ 1e-3.
+SINE_LINE_FRACTION = 0.9
+RANDOM_LINE_FRACTION = 0.5
+# Hann main lobe: ± 2 bins; one more for a frequency between bins.
+_LINE_HALF_WIDTH_BINS = 3
+# |DC| of a reference [g] that reads as a static field (a 1 g field, or a tilted axis by more
+# than 30°), and the fraction of it below which the DUT reads "none".
+STATIC_FIELD_G = 0.5
+_DUT_STATIC_FRACTION = 0.25
+
+
+@dataclass(frozen=True)
+class SegmentProbe:
+    """What a short look at one segment shows (amplitudes in the record's units, g)."""
+
+    start_s: float
+    end_s: float
+    peak_hz: float  # the reference's strongest in-band line
+    line_fraction: float  # share of the reference's in-band AC power in that line
+    ref_rms_g: float  # reference AC rms where the DUT should be flat (see module notes)
+    dut_rms_g: float  # DUT AC rms over the same frequencies
+    ref_dc_g: float
+    dut_dc_g: float
+
+    @property
+    def kind(self) -> Method | None:
+        """``"sine"``, ``"random"``, or ``None`` when the spectrum is neither clearly."""
+        if self.line_fraction >= SINE_LINE_FRACTION:
+            return "sine"
+        if self.line_fraction <= RANDOM_LINE_FRACTION:
+            return "random"
+        return None
+
+    @property
+    def unit_ratio(self) -> float:
+        """DUT/reference rms where both should agree (NaN without reference vibration)."""
+        return self.dut_rms_g / self.ref_rms_g if self.ref_rms_g > 0 else math.nan
+
+
+def probe_segment(
+    record: Record,
+    dut: str,
+    reference: str,
+    start_s: float,
+    end_s: float,
+    band_hz: tuple[float, float],
+    max_samples: int = PROBE_SAMPLES,
+) -> SegmentProbe:
+    """Look at the middle of one segment: the reference's spectrum, both channels' DC and rms.
+
+    At most ``max_samples`` samples are read (one block). The spectrum is a Hann-windowed
+    periodogram; a level's line fraction is the power in the strongest in-band bin ± 3 bins over
+    all in-band power. The rms compared for units is taken at the line (±3 bins) when the level
+    is a sine, else over the lowest octave of the band ``[f1, 2·f1]``.
+    """
+    fs = float(record.fs_hz)
+    i0 = max(0, int(math.ceil(start_s * fs)))
+    i1 = min(int(record.n_samples), int(math.floor(end_s * fs)))
+    n = i1 - i0
+    if n < 16:
+        raise ValueError(f"segment {start_s:.4g}-{end_s:.4g} s holds {max(n, 0)} samples: too short to check")
+    if n > max_samples:
+        mid = (i0 + i1) // 2
+        i0, i1 = mid - max_samples // 2, mid - max_samples // 2 + max_samples
+        n = max_samples
+    chans = [dut] if reference == dut else [dut, reference]
+    block = next(iter(record.blocks(n, chans, i0, i1)))
+    x_dut = np.asarray(block[dut], dtype=np.float64)
+    x_ref = np.asarray(block[reference], dtype=np.float64)
+    ref_dc, dut_dc = float(np.mean(x_ref)), float(np.mean(x_dut))
+    win = np.hanning(n)
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    p_ref = np.abs(np.fft.rfft((x_ref - ref_dc) * win)) ** 2
+    p_dut = np.abs(np.fft.rfft((x_dut - dut_dc) * win)) ** 2
+    f1, f2 = band_hz
+    in_band = (freqs >= f1) & (freqs <= f2)
+    total = float(p_ref[in_band].sum())
+    if not in_band.any() or total <= 0:
+        return SegmentProbe(start_s, end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, dut_dc)
+    k_peak = int(np.flatnonzero(in_band)[np.argmax(p_ref[in_band])])
+    line = slice(max(0, k_peak - _LINE_HALF_WIDTH_BINS), k_peak + _LINE_HALF_WIDTH_BINS + 1)
+    fraction = float(p_ref[line].sum()) / total
+    if fraction >= SINE_LINE_FRACTION:
+        sel = np.zeros_like(in_band)
+        sel[line] = True
+    else:
+        sel = in_band & (freqs <= min(2.0 * f1, f2))
+    ref_rms = math.sqrt(float(p_ref[sel].sum()))
+    dut_rms = math.sqrt(float(p_dut[sel].sum()))
+    return SegmentProbe(start_s, end_s, float(freqs[k_peak]), fraction, ref_rms, dut_rms, ref_dc, dut_dc)
+
+
+def level_kinds(probes: Sequence[SegmentProbe]) -> list[Method | None]:
+    """The method each level's reference spectrum shows (None where it is neither clearly)."""
+    return [p.kind for p in probes]
+
+
+def resolve_methods(requested: MethodRequest, probes: Sequence[SegmentProbe], accept: bool = False) -> list[Method]:
+    """The method to reduce each level with.
+
+    ``auto``: what each level shows; a level that is neither clearly a sine nor random is
+    refused (name ``--method`` to decide). An explicit method is refused when a level clearly
+    shows the other one, unless ``accept`` (the user insists on purpose).
+    """
+    if requested not in ("auto", "random", "sine"):
+        raise ValueError(f"method must be one of auto, random, sine; got {requested!r}")
+    out: list[Method] = []
+    for p in probes:
+        kind = p.kind
+        if requested == "auto":
+            if kind is None:
+                raise ValueError(
+                    f"level {p.start_s:.4g}-{p.end_s:.4g} s: the reference's strongest line ({p.peak_hz:.4g} Hz) holds "
+                    f"{100 * p.line_fraction:.0f} % of the in-band power, neither a sine nor a random level: "
+                    "give --method sine or --method random"
+                )
+            out.append(kind)
+            continue
+        if kind is not None and kind != requested and not accept:
+            found = (
+                f"one line at {p.peak_hz:.4g} Hz holding {100 * p.line_fraction:.0f} % of the in-band power"
+                if kind == "sine"
+                else f"a broadband spectrum (its strongest line, {p.peak_hz:.4g} Hz, holds {100 * p.line_fraction:.1f} % of the power)"
+            )
+            raise ValueError(
+                f"--method {requested} does not fit the record: level {p.start_s:.4g}-{p.end_s:.4g} s shows {found}, "
+                f"a {kind} level; use --method auto (or {kind}), or --accept-method to insist"
+            )
+        out.append(requested)
+    return out
+
+
+def check_units(probes: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:
+    """Refuse when the DUT/reference rms ratio is beyond :data:`UNIT_RATIO_LIMIT` at every level."""
+    ratios = [p.unit_ratio for p in probes if math.isfinite(p.unit_ratio) and p.unit_ratio > 0]
+    if accept or not ratios or len(ratios) < len(probes):
+        return
+    limit = UNIT_RATIO_LIMIT
+    if all(r > limit or r < 1.0 / limit for r in ratios):
+        med = float(np.median(ratios))
+        raise ValueError(
+            f"DUT '{dut}' and reference '{reference}' vibration rms differ by a factor of {med:.3g} "
+            f"(DUT/reference, median over {len(ratios)} level(s); a flat DUT agrees within a few per cent): "
+            "check --dut-units/--dut-sensitivity and --reference-units/--reference-sensitivity, "
+            "or --accept-unit-ratio to accept it"
+        )
+
+
+def check_channels(baselines: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:
+    """Refuse when the reference reads a static field and the DUT none (channels swapped)."""
+    if accept or not baselines or reference == dut:
+        return
+    ref_dc = float(np.mean([b.ref_dc_g for b in baselines]))
+    dut_dc = float(np.mean([b.dut_dc_g for b in baselines]))
+    if abs(ref_dc) >= STATIC_FIELD_G and abs(dut_dc) < _DUT_STATIC_FRACTION * abs(ref_dc):
+        raise ValueError(
+            f"reference '{reference}' reads a static field of {ref_dc:+.3g} g with vibration off and the DUT "
+            f"'{dut}' {dut_dc:+.3g} g: a reference accelerometer has no DC response, so the channels look "
+            "swapped (check --dut and --reference), or --accept-channels to accept it"
+        )
+
+
+def baseline_off_scale(baseline_mean_g: float, rails_g: tuple[float, float] | None, tol_g: float) -> bool:
+    """Whether a vibration-off reading sits at or beyond a rail (VRE undefined there)."""
+    if rails_g is None or not math.isfinite(baseline_mean_g):
+        return False
+    low, high = rails_g
+    return baseline_mean_g <= low + tol_g or baseline_mean_g >= high - tol_g
+
