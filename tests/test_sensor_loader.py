@@ -104,15 +104,22 @@ def test_ideal_is_rails_and_nonlinearity_only():
 
 
 def test_internal_rate_rule():
+    """The one rate rule (vrelab.rates.simulation_rate_hz), worked by hand from its docstring:
+    f_need = max(8·f_max, 5·fn, 5·f_AA, 16·BW), then the multiple k·ODR (k0 <= k <= 2·k0) that
+    minimises fs + fs/m, m the largest divisor of k with fs/m >= 2·1.25·f_max."""
     s = load_sensor("adxl355")
-    # 8·max(2000, fn 2400, AA 1500, BW 1000) = 19200 -> 5 × ODR
-    assert s.internal_rate_hz(2000.0) == 20000.0
+    # f_max 2 kHz: max(16000, 12000, 7500, 16000) = 16000 = 4 × ODR; fs/m >= 5 kHz: k=4 -> m=2,
+    # cost 24 k; k=5 -> m=1, 40 k; k=6 -> 32 k; k=7 -> 56 k; k=8 -> 40 k: 16 kHz
+    assert s.internal_rate_hz(2000.0) == 16000.0
+    # f_max 5 kHz: 40000 = 10 × ODR; fs/m >= 12.5 kHz: k=10 -> m=2, cost 60 k; no k up to 20 does better
     assert s.internal_rate_hz(5000.0) == 40000.0
-    assert load_sensor("adxl357").internal_rate_hz(100.0) == 44000.0  # 8 × 5.5 kHz = 11 × ODR
+    # ADXL357, f_max 100 Hz: 5 × 5.5 kHz = 27.5 kHz -> k0 = 7 (28 kHz, record 4 kHz, cost 32 k)
+    assert load_sensor("adxl357").internal_rate_hz(100.0) == 28000.0
+    # no ODR: 8 × 100 Hz rounded up to the 1 kHz grid
     assert load_sensor("ideal").internal_rate_hz(100.0) == 1000.0
     for odr in load_sensor("adxl355").odrs_hz:
         fs = load_sensor("adxl355", odr_hz=odr).internal_rate_hz(2000.0)
-        assert fs >= 19200.0 and math.isclose(fs / odr, round(fs / odr))
+        assert fs >= 16000.0 and math.isclose(fs / odr, round(fs / odr))
 
 
 def test_linear_responses_proof_mass_and_output():
@@ -162,9 +169,9 @@ def test_readme_example_user_file_loads(tmp_path):
     s4 = load_sensor(str(path), range_g=4.096, axis="x")
     assert s4.rails_g == (-4.096, 4.096) and s4.q == 5.0 and s4.noise_ug_per_rthz == 35.0
     fs = s4.internal_rate_hz(500.0)
-    assert fs == 24000.0  # 8 × 3 kHz resonance, a multiple of the 1 kHz ODR
-    y, _ = s4.chain(fs).apply(np.ones(2400), fs)
-    assert y.size == 100
+    assert fs == 15000.0  # 5 × 3 kHz resonance, a multiple of the 1 kHz ODR (record 3 kHz, cost 18 k)
+    y, _ = s4.chain(fs).apply(np.ones(3000), fs)
+    assert y.size == 200
 
 
 @pytest.mark.parametrize(

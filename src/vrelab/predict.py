@@ -1,17 +1,22 @@
 """Analytic VRE of a sensor in a vibration environment, without simulating it.
 
-The sensor's mechanisms (SPEC 1) are evaluated one by one with the closed forms of
-:mod:`vrelab.models`, each fed the vibration that reaches it through the sensor's linear
-dynamics (:meth:`vrelab.sensor.Sensor.linear_responses`):
+The sensor is read through :meth:`vrelab.sensor.Sensor.stages`, the same tuple of stages the
+simulation runs, walked in signal order: each stage that has a closed form gives it (its
+``analytic`` tag), fed the vibration that reaches it through the linear stages before it and
+the static level the offsets before it leave (SPEC 1.3):
 
-* **clipping** at each rail, with the rms that reaches the clip: at the proof mass
-  (``σ_m² = ∫S·|H_mech|²df``) or, for an output-stage clip, after the anti-alias and digital
-  filters (``σ_out² = ∫S·|H_mech·H_aa·H_lpf|²df``, SPEC 1.3) — censored or truncated mean of a
-  Gaussian (random) or the sine closed form;
-* **nonlinearity** on the proof-mass motion: ``(k2 + 3·k3·g0)·σ_m²`` (SPEC 1.2, plus the k4
-  terms), exact for a cubic polynomial and any zero-mean vibration;
-* **over-range protection**: Rice's up-crossing rate of the threshold by the Gaussian
-  proof-mass motion times the hold time (:func:`vrelab.models.design.overrange_vre`).
+* **rails** (:class:`~vrelab.sensor.stages.Clip`): censored or truncated mean of a Gaussian
+  (random) or the sine closed form, at the static level ``g0 + offset`` the clip sees — at the
+  proof mass (``σ_m² = ∫S·|H_mech|²df``) or, for an output-stage clip, after the anti-alias and
+  digital filters (``σ_out² = ∫S·|H_mech·H_aa·H_lpf|²df``);
+* **nonlinearity** (:class:`~vrelab.sensor.stages.Polynomial`) on the proof-mass motion:
+  ``(k2 + 3·k3·g0)·σ_m²`` (SPEC 1.2, plus the k4 terms), exact for a cubic polynomial and any
+  zero-mean vibration;
+* **over-range protection** (:class:`~vrelab.sensor.stages.OverRange`): Rice's up-crossing rate
+  of the threshold by the Gaussian proof-mass motion times the hold time
+  (:func:`vrelab.models.design.overrange_vre`);
+* noise, quantisation, decimation and drift shift no mean; a stage with no closed form makes
+  the prediction say so (``valid`` False).
 
 The total is their sum. That is an approximation: the mechanisms interact (the clip sees the
 output of the polynomial; while the protection holds, neither clips), the over-range model
@@ -21,7 +26,8 @@ when to run the simulation (:mod:`vrelab.shaker`) instead.
 
 How close: where ``valid`` holds, the tests hold the prediction within 3 standard
 uncertainties of the simulated test plus 10 % (random, ADXL355 ±2 g Z at 1-2 g rms; output and
-proof-mass clips) and within 3u + 1 % for the sine nonlinearity through the resonance. Beyond
+proof-mass clips) and within 3u + 1 % for the sine nonlinearity through the resonance; an
+offset before the rails within 2 mg of the censored closed form at ``g0 + offset``. Beyond
 (over-range protection firing often, ADXL355 X at 4 g rms on ±8 g) the estimate can be off by
 a factor of two, and ``valid`` is False.
 """
@@ -118,17 +124,66 @@ class Prediction:
         }
 
 
-# --- the sensor's linear dynamics ---------------------------------------------------------------
+# --- the sensor, read as its stages -------------------------------------------------------------
 
 
 Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
+# What each stage's ``analytic`` tag makes of it (vrelab.sensor.stages.StageBase.analytic).
+_NONLINEAR = ("polynomial", "overrange", "clip")
+_NEUTRAL_WHY = {
+    "Noise": "zero-mean noise",
+    "Quantize": "rounding to the LSB (mean error 0 for vibration spanning many LSB)",
+    "Decimate": "decimation (keeps the mean)",
+    "Drift": "a slow drift (bracketing removes it from a measured VRE)",
+}
 
 
-def _responses(sensor: Any, where: str) -> list[Response]:
-    return list(sensor.linear_responses(where))
+@dataclass(frozen=True)
+class _Site:
+    """A stage with a closed-form mean shift, and what reaches it."""
+
+    stage: Any
+    responses: tuple[Response, ...]  # the linear stages before it
+    offset_g: float  # offsets added before it
 
 
-def _spectral(profile: RandomProfile, responses: Sequence[Response], sensor: Any) -> tuple[float, float]:
+@dataclass(frozen=True)
+class _Reading:
+    """A sensor's stages, read once for the analytic model."""
+
+    sites: tuple[_Site, ...]
+    proof_mass: tuple[Response, ...]  # the mechanical responses (resonance)
+    output: tuple[Response, ...]  # every linear response
+    unmodelled: tuple[str, ...]  # stages without a closed form
+
+
+def _read_stages(stages: Sequence[Any]) -> _Reading:
+    """Walk the stages in order, as the signal goes (SPEC 1.3): a linear stage shapes what every
+    later stage sees, an offset moves the static level of every later stage, and a stage with a
+    closed-form mean shift becomes a site evaluated with the vibration that reaches it."""
+    from vrelab.sensor.stages import Resonator
+
+    responses: list[Response] = []
+    mechanical: list[Response] = []
+    offset = 0.0
+    sites: list[_Site] = []
+    unmodelled: list[str] = []
+    for st in stages:
+        tag = getattr(st, "analytic", None)
+        if tag == "linear":
+            responses.append(st.response)
+            if isinstance(st, Resonator):
+                mechanical.append(st.response)
+        elif tag == "offset":
+            offset += float(st.offset_g)
+        elif tag in _NONLINEAR:
+            sites.append(_Site(st, tuple(responses), offset))
+        elif tag != "neutral":
+            unmodelled.append(type(st).__name__)
+    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled))
+
+
+def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float]) -> tuple[float, float]:
     """(σ² [g²], ν0 [Hz]) of the profile seen through ``responses``.
 
     ``σ² = ∫S·|H|²df`` (:func:`vrelab.models.dynamics.effective_rms`) and Rice's zero
@@ -140,20 +195,14 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], sensor: Any
 
     lo, hi = profile.band
     psd = (np.asarray(profile.freq_hz), np.asarray(profile.psd_g2_per_hz))
-    points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
-    sigma = dynamics.effective_rms(psd, responses, lo, hi, points_hz=points)
-    nu0 = dynamics.zero_crossing_rate_hz(psd, responses, lo, hi, points_hz=points)
+    sigma = dynamics.effective_rms(psd, list(responses), lo, hi, points_hz=list(points_hz))
+    nu0 = dynamics.zero_crossing_rate_hz(psd, list(responses), lo, hi, points_hz=list(points_hz))
     return sigma**2, nu0
 
 
 def _clip_where(sensor: Any) -> str:
     pos = str(getattr(sensor, "clip_position", "output") or "output")
     return "output" if pos == "output" else "proof-mass"
-
-
-def _rails(sensor: Any) -> tuple[float, float]:
-    low, high = sensor.rails_g
-    return float(low), float(high)
 
 
 # --- prediction ---------------------------------------------------------------------------------
@@ -171,7 +220,7 @@ def predict(
     Parameters
     ----------
     sensor : vrelab.sensor.Sensor
-        Rails, clip position, linear dynamics, k2/k3, over-range protection.
+        Read through :meth:`~vrelab.sensor.Sensor.stages`, the same stages the simulation runs.
     excitation : RandomProfile, float or sequence of float
         A random profile (its shape is scaled to each level, Gaussian drive assumed) or sine
         frequencies [Hz] (levels are then run at each frequency in turn).
@@ -190,19 +239,22 @@ def predict(
 
     Notes
     -----
-    Random drive with PSD S(f), proof-mass response ``H_m``, output response ``H_out``:
+    The stages are walked in order. A linear stage (resonance, anti-alias, low-pass,
+    high-pass) shapes the vibration every later stage sees; an offset moves their static level;
+    each stage with a closed form adds its mean shift, evaluated with the vibration ``H`` of the
+    linear stages before it and the static level ``g0 + offsets`` before it. Random drive with
+    PSD S(f): ``σ² = ∫S|H|²df`` (SPEC 1.3); sine at f, rms A/√2: ``σ = rms·|H(f)|``.
 
-    * ``σ_m² = ∫S|H_m|²df``, ``σ_out² = ∫S|H_out|²df`` (SPEC 1.3);
-    * clipping: :func:`vrelab.models.clipping.censored_mean_shift` ``(g0, σ_clip, L, U)``,
-      each rail alone and both;
-    * nonlinearity: :func:`vrelab.models.nonlinearity.vre_poly` on σ_m:
-      ``(k2 + 3·k3·g0)·σ_m² + k4·(6·g0²·σ_m² + E[x⁴])`` (SPEC 1.2);
-    * over-range: :func:`vrelab.models.design.overrange_vre` ``(g0, σ_m, threshold, hold,
-      ν0)`` with ``ν0`` Rice's zero-crossing rate of the proof-mass motion.
-
-    Sine at f, rms A/√2: the same with ``σ_m = rms·|H_m(f)|``, ``σ_out = rms·|H_out(f)|`` and
-    :func:`~vrelab.models.clipping.sine_clip_mean_shift`. A sine whose proof-mass peak reaches
-    the over-range threshold trips every period: not modelled (``valid`` False).
+    * rails: :func:`vrelab.models.design.clip_vre` ``(g0 + offset, σ, L, U)`` (censored or
+      truncated mean of a Gaussian, or the sine closed form), each rail alone and both,
+      referred to the vibration-off reading;
+    * polynomial: :func:`vrelab.models.nonlinearity.vre_poly`:
+      ``(k2 + 3·k3·g0)·σ² + k4·(6·g0²·σ² + E[x⁴])`` (SPEC 1.2);
+    * over-range: :func:`vrelab.models.design.overrange_vre` ``(g0, σ, threshold, hold, ν0)``
+      with ``ν0`` Rice's zero-crossing rate of the motion there. A sine whose peak reaches the
+      threshold trips every period: not modelled (``valid`` False).
+    * noise, quantisation, decimation, drift: no mean shift. A stage with no closed form makes
+      every level invalid, naming it.
 
     References
     ----------
@@ -210,26 +262,27 @@ def predict(
     .. [2] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944):
        up-crossing rate ``ν0·exp(-(a-μ)²/(2σ²))``.
     """
-    levels_arr = V.positive("levels", np.atleast_1d(np.asarray(levels, dtype=np.float64)))
+    levels_arr = V.vibration_level("levels", np.atleast_1d(np.asarray(levels, dtype=np.float64)))
     if levels_arr.ndim != 1 or levels_arr.size == 0:
         raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, ("censored", "truncated"))
+    reading = _read_stages(sensor.stages())
     clip_where = _clip_where(sensor)
-    resp_m = _responses(sensor, "proof-mass")
-    resp_out = _responses(sensor, "output")
     notes: list[str] = []
     out: list[LevelPrediction] = []
     if isinstance(excitation, RandomProfile):
-        m0_m, nu0_m = _spectral(excitation, resp_m, sensor)
-        m0_out, _ = _spectral(excitation, resp_out, sensor)
-        m0_clip = m0_out if clip_where == "output" else m0_m
+        points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
         m0_drive = excitation.mean_square_g2
+        # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
+        seen = [_spectral(excitation, site.responses, points) for site in reading.sites]
+        m0_m, _ = _spectral(excitation, reading.proof_mass, points)
+        m0_out, _ = _spectral(excitation, reading.output, points)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
-            out.append(_level(sensor, float(rms), None, g0, kind, "gaussian",
-                              math.sqrt(m0_m * scale), math.sqrt(m0_out * scale),
-                              math.sqrt(m0_clip * scale), nu0_m))
+            sites = [(math.sqrt(m0 * scale), nu0) for m0, nu0 in seen]
+            out.append(_level(reading, float(rms), None, g0, kind, "gaussian", sites,
+                              math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
         text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
         notes.append("random drive assumed Gaussian (a clipped or high-kurtosis drive needs `simulate`)")
     else:
@@ -237,75 +290,76 @@ def predict(
         from vrelab.models.dynamics import rms_through
 
         for f in freqs:
+            f = float(f)
             for rms in levels_arr:
-                sm = float(rms_through(float(f), float(rms), resp_m))
-                so = float(rms_through(float(f), float(rms), resp_out))
-                sc = so if clip_where == "output" else sm
-                out.append(_level(sensor, float(rms), float(f), g0, kind, "sine", sm, so, sc, float(f)))
+                sites = [(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
+                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
+                                  float(rms_through(f, float(rms), list(reading.proof_mass))),
+                                  float(rms_through(f, float(rms), list(reading.output)))))
         text = "sine " + ", ".join(f"{f:g}" for f in freqs) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); mechanisms added as independent")
+    if reading.unmodelled:
+        notes.append(f"no closed form for stage(s) {', '.join(reading.unmodelled)}: simulate")
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
     return Prediction(cond, tuple(out), tuple(notes))
 
 
 def _level(
-    sensor: Any,
+    reading: _Reading,
     rms_g: float,
     freq_hz: float | None,
     g0: float,
     kind: ClipKind,
     shape: Literal["gaussian", "sine"],
+    sites: Sequence[tuple[float, float]],
     sigma_m: float,
     sigma_out: float,
-    sigma_clip: float,
-    nu0_hz: float,
 ) -> LevelPrediction:
-    from vrelab.models import clipping, design, nonlinearity
+    """One level: each site's mean shift with ``(σ, ν0)`` at the site (ν0: the sine's frequency)."""
+    from vrelab.models import design, nonlinearity
 
-    low, high = _rails(sensor)
     notes: list[str] = []
-    valid = True
-    if not low < g0 < high:
-        valid = False
-        notes.append(f"the static field {g0:g} g is at or beyond a rail [{low:g}, {high:g}] g: the sensor "
-                     "is saturated without vibration — simulate")
-
-    def shift(lo: float, hi: float) -> float:
-        # VRE is measured against the vibration-off reading, which a static field beyond a
-        # rail already clips: subtract the shift at zero vibration.
-        with_vibration = float(clipping.mean_shift(g0, sigma_clip, lo, hi, shape, kind))
-        return with_vibration - float(np.clip(g0, lo, hi) - g0)
-
-    clip_low, clip_high, clip = shift(low, math.inf), shift(-math.inf, high), shift(low, high)
-    nonlin = float(nonlinearity.vre_poly(sigma_m, sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3,
-                                         static_g=g0, shape=shape))
-
-    over = 0.0
-    rate = 0.0
-    if sensor.overrange_threshold_g is not None:
-        thr = float(sensor.overrange_threshold_g)
-        hold = float(sensor.overrange_hold_s)
-        value = float(sensor.overrange_value_g)
-        if shape == "gaussian":
-            rate = _overrange_rate(thr, g0, sigma_m, nu0_hz)
-            over = float(design.overrange_vre(g0, sigma_m, thr, hold, nu0_hz, value_g=value))
-            duty = rate * hold
-            if duty > _MAX_HOLD_DUTY:
+    valid = not reading.unmodelled
+    clip_low = clip_high = clip = nonlin = over = rate = 0.0
+    sigma_clip = math.nan
+    for site, (sigma, nu0) in zip(reading.sites, sites):
+        st, mean = site.stage, g0 + site.offset_g
+        if st.analytic == "clip":
+            low, high = float(st.low_g), float(st.high_g)
+            if math.isnan(sigma_clip):
+                sigma_clip = sigma
+            if not low < mean < high:
                 valid = False
-                notes.append(
-                    f"over-range holds fill {100 * duty:.0f} % of the time: holds overlap, "
-                    "the rare-event model fails — simulate"
-                )
-        else:
-            peak = math.sqrt(2) * sigma_m
-            if abs(g0) + peak > thr:
-                valid = False
-                rate = freq_hz or 0.0
-                notes.append(
-                    f"sine peak at the proof mass ({abs(g0) + peak:.3g} g) reaches the over-range "
-                    f"threshold ({thr:g} g): trips every period, not modelled — simulate"
-                )
+                notes.append(f"the static level {mean:g} g (field {g0:g} g + offset {site.offset_g:g} g) is at or "
+                             f"beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
+            clip_low += float(design.clip_vre(mean, sigma, low, math.inf, shape, kind))
+            clip_high += float(design.clip_vre(mean, sigma, -math.inf, high, shape, kind))
+            clip += float(design.clip_vre(mean, sigma, low, high, shape, kind))
+        elif st.analytic == "polynomial":
+            nonlin += float(nonlinearity.vre_poly(sigma, st.k2_per_g, st.k3_per_g2, st.k4_per_g3,
+                                                  static_g=mean, shape=shape))
+        elif st.analytic == "overrange":
+            thr, hold = float(st.threshold_g), float(st.hold_s)
+            if shape == "gaussian":
+                rate += float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0))
+                over += float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=float(st.value_g)))
+                duty = rate * hold
+                if duty > _MAX_HOLD_DUTY:
+                    valid = False
+                    notes.append(
+                        f"over-range holds fill {100 * duty:.0f} % of the time: holds overlap, "
+                        "the rare-event model fails — simulate"
+                    )
+            else:
+                peak = math.sqrt(2) * sigma
+                if abs(mean) + peak > thr:
+                    valid = False
+                    rate = freq_hz or 0.0
+                    notes.append(
+                        f"sine peak at the proof mass ({abs(mean) + peak:.3g} g) reaches the over-range "
+                        f"threshold ({thr:g} g): trips every period, not modelled — simulate"
+                    )
     total = clip + nonlin + over
     big = max(abs(clip), abs(nonlin), abs(over))
     if big > 0:
@@ -314,6 +368,8 @@ def _level(
             notes.append("over-range share is large: the Rice×hold estimate is rough — simulate")
         if abs(clip) > _MINOR * big and abs(nonlin) > _MINOR * big:
             notes.append("clipping and nonlinearity both matter: not separable, their sum is approximate")
+    if reading.unmodelled:
+        notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
     tilt = float(design.tilt_error_deg(total))
     return LevelPrediction(
         rms_g=rms_g,
@@ -334,13 +390,3 @@ def _level(
         notes=tuple(notes),
         freq_hz=freq_hz,
     )
-
-
-def _overrange_rate(threshold_g: float, mean_g: float, sigma_g: float, nu0_hz: float) -> float:
-    """Expected over-range trips per second: up-crossings of +threshold plus down-crossings
-    of -threshold by Gaussian motion N(mean, σ²) (Rice, via :mod:`vrelab.models.dynamics`)."""
-    from vrelab.models import dynamics
-
-    up = dynamics.rice_upcrossing_rate(threshold_g, mean_g, sigma_g, nu0_hz)
-    down = dynamics.rice_upcrossing_rate(threshold_g, -mean_g, sigma_g, nu0_hz)
-    return float(up) + float(down)

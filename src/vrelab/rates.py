@@ -18,7 +18,10 @@ _RATE_GRID_HZ = 1000.0
 
 def record_step(decimation: int, fs_internal_hz: float, f_max_hz: float) -> int:
     """Largest divisor m of the decimation with fs_internal/m >= 2·1.25·f_max (1 if none)."""
-    for m in range(decimation, 0, -1):
+    # fs/m >= need  <=>  m <= fs/need: start the search there, not at the decimation (a low
+    # ODR makes decimations in the thousands, and simulation_rate_hz asks for each of k0..2·k0).
+    m_max = int(min(decimation, math.floor(fs_internal_hz / (2 * NYQUIST_MARGIN * f_max_hz) + 1e-9)))
+    for m in range(m_max, 0, -1):
         if decimation % m == 0 and fs_internal_hz / m >= 2 * NYQUIST_MARGIN * f_max_hz:
             return m
     return 1

@@ -10,19 +10,60 @@
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
 from vrelab import _validate
-from vrelab.models.clipping import mean_shift
+from vrelab.models.clipping import Kind, Shape, mean_shift
 from vrelab.models.dynamics import rice_upcrossing_rate
 from vrelab.models.nonlinearity import vre_poly
 
-Shape = Literal["gaussian", "sine"]
-Kind = Literal["censored", "truncated"]
+
+
+def clip_vre(
+    mean_g: float,
+    sigma_g: ArrayLike,
+    rail_low_g: float,
+    rail_high_g: float,
+    shape: Shape = "gaussian",
+    kind: Kind = "censored",
+) -> NDArray[np.float64] | float:
+    """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading.
+
+    ``mean_shift(μ, σ, L, U) - (clip(μ, L, U) - μ)`` (:func:`vrelab.models.clipping.mean_shift`,
+    SPEC 1.1). A VRE is measured against the reading with the vibration off, which a static
+    field ``μ`` beyond a rail already clips: the second term removes that static part, so the
+    result is 0 at σ = 0 wherever ``μ`` is. ``μ`` is the static level *at the rails*: the
+    static field plus any offset the sensor adds before them.
+    """
+    with_vibration = np.asarray(mean_shift(mean_g, sigma_g, rail_low_g, rail_high_g, shape=shape, kind=kind))
+    out = with_vibration - (float(np.clip(mean_g, rail_low_g, rail_high_g)) - float(mean_g))
+    return out[()] if out.ndim == 0 else out
+
+
+def ideal_vre_shares(
+    rms_g: ArrayLike,
+    mean_g: float,
+    rail_low_g: float,
+    rail_high_g: float,
+    k2_per_g: float = 0.0,
+    k3_per_g2: float = 0.0,
+    shape: Shape = "gaussian",
+    kind: Kind = "censored",
+    offset_g: float = 0.0,
+) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
+    """(clipping, polynomial) VRE of an ideal sensor [g], the terms :func:`total_vre` adds.
+
+    The ideal sensor's chain (``vrelab.sensor`` preset ``ideal``): polynomial on the total input
+    ``g0 + x``, then the offset, then the rails. So the nonlinearity rectifies around
+    ``mean_g`` (:func:`vrelab.models.nonlinearity.vre_poly`) and the rails clip around
+    ``mean_g + offset_g`` (:func:`clip_vre`): the convention :func:`vrelab.predict.predict`
+    follows for any sensor by walking its stages, and the sweep's ``model`` points use.
+    """
+    clip = clip_vre(mean_g + offset_g, rms_g, rail_low_g, rail_high_g, shape, kind)
+    return clip, vre_poly(rms_g, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape)
 
 
 def total_vre(
@@ -34,16 +75,15 @@ def total_vre(
     k3_per_g2: float = 0.0,
     shape: Shape = "gaussian",
     kind: Kind = "censored",
+    offset_g: float = 0.0,
 ) -> NDArray[np.float64] | float:
-    """Clipping plus polynomial VRE, the two added (each small against the signal) [g].
+    """Clipping plus polynomial VRE of an ideal sensor [g] (:func:`ideal_vre_shares`, added).
 
-    ``mean_shift(...) + vre_poly(...)``: the nonlinearity's rectified offset plus the shift the
-    rails cause; adding them neglects the clipping of the nonlinearity's own distortion, a
-    second-order effect for k2·rms << 1.
+    Adding the two neglects the clipping of the nonlinearity's own distortion, a second-order
+    effect for k2·rms << 1.
     """
-    return mean_shift(mean_g, rms_g, rail_low_g, rail_high_g, shape=shape, kind=kind) + vre_poly(
-        rms_g, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape
-    )
+    clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind, offset_g)
+    return clip + poly
 
 
 def max_rms_for_budget(
@@ -99,7 +139,7 @@ def max_rms_for_budget(
     def excess(rms: float) -> float:
         return abs(float(total_vre(rms, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind))) - budget
 
-    if excess(0.0) >= 0:
+    if not rail_low_g < mu < rail_high_g or excess(0.0) >= 0:
         raise ValueError(
             f"budget_g={budget_g!r} is already exceeded with no vibration (mean_g={mean_g!r} "
             f"outside the rails [{rail_low_g!r}, {rail_high_g!r}])"
@@ -164,6 +204,22 @@ def grms_at_peak_threshold(threshold_g: float, static_g: float = 0.0, crest_fact
     return (t - abs(g0)) / cf
 
 
+def overrange_trip_rate_hz(
+    threshold_g: ArrayLike, mean_g: ArrayLike, sigma_g: ArrayLike, nu0_hz: ArrayLike
+) -> NDArray[np.float64] | float:
+    """Expected over-range trips per second of Gaussian motion N(mean, σ²) [Hz] (SPEC 1.3).
+
+    ``ν = ν⁺(+T) + ν⁻(-T)``: up-crossings of +T plus down-crossings of -T (the latter are the
+    up-crossings of +T by the mirrored motion), each Rice's
+    ``ν0·exp(-(T ∓ μ)²/(2σ²))`` (:func:`~vrelab.models.dynamics.rice_upcrossing_rate`).
+    """
+    t = _validate.positive("threshold_g", threshold_g)
+    mu = _validate.finite("mean_g", mean_g)
+    out = np.asarray(rice_upcrossing_rate(t, mu, sigma_g, nu0_hz) + rice_upcrossing_rate(t, -mu, sigma_g, nu0_hz),
+                     dtype=np.float64)
+    return out[()] if out.ndim == 0 else out
+
+
 def overrange_vre(
     mean_g: ArrayLike,
     sigma_g: ArrayLike,
@@ -210,10 +266,9 @@ def overrange_vre(
     re-triggering with the motion), and ignores the transient as the output floats.
     """
     mu = _validate.finite("mean_g", mean_g)
-    t = _validate.positive("threshold_g", threshold_g)
     hold = _validate.non_negative("hold_s", hold_s)
     v = _validate.finite("value_g", value_g)
-    nu = rice_upcrossing_rate(t, mu, sigma_g, nu0_hz) + rice_upcrossing_rate(-t, mu, sigma_g, nu0_hz)
+    nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz)
     p = -np.expm1(-nu * hold)
     out = np.asarray(p * (v - mu), dtype=np.float64)
     return out[()] if out.ndim == 0 else out

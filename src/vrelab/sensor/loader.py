@@ -183,27 +183,11 @@ class Sensor:
     # ------------------------------------------------------------------ rates and chain
 
     def internal_rate_hz(self, f_max_hz: float) -> float:
-        """Simulation rate for a profile reaching ``f_max_hz`` [Hz].
+        """The simulation rate for a drive reaching ``f_max_hz`` [Hz]: the one rate rule,
+        :func:`vrelab.rates.simulation_rate_hz` (its docstring gives the rule and its error bound)."""
+        from vrelab.rates import simulation_rate_hz
 
-        Rule: ``f_need = 8·max(f_max, fn, anti-alias corner, bandwidth)``, so every analog
-        filter is discretised where it matches its analog response within 1 % (see
-        :func:`vrelab.sensor.stages.discretize_zpk`) and the drive is 8× oversampled (its
-        harmonics up to the 4th, made by the nonlinearity, stay below Nyquist, so E[x⁴] is
-        exact). The rate is the smallest integer multiple of the ODR >= ``f_need`` (at least
-        the ODR); without an ODR, the smallest multiple of 1 kHz >= ``f_need``.
-
-        This is the conservative rule for a chain run on its own. The simulated shaker test
-        uses a measured, lower one (``vrelab.rates.simulation_rate_hz``: 5× the resonance
-        and anti-alias corners, 8× the drive, 16× the digital low-pass corner), which the
-        resonance only needs up to the drive's highest frequency; for the ADXL355 and a 2 kHz
-        profile, 16 kHz instead of 20 kHz.
-        """
-        f_max = float(f_max_hz)
-        if not math.isfinite(f_max) or f_max <= 0:
-            raise ValueError(f"f_max_hz must be a finite number > 0, got {f_max_hz!r}")
-        need = 8.0 * max(f_max, self.fn_hz or 0.0, self.anti_alias_hz or 0.0, self.bandwidth_hz or 0.0)
-        step = self.odr_hz if self.odr_hz is not None else 1000.0
-        return max(1, math.ceil(need / step - 1e-9)) * step
+        return simulation_rate_hz(self, f_max_hz)
 
     def decimation(self, fs_hz: float) -> int:
         """fs / ODR, checked to be an integer (1 without an ODR)."""
@@ -220,26 +204,19 @@ class Sensor:
             )
         return m
 
-    def _resonator(self) -> Resonator | None:
-        return Resonator(self.fn_hz, self.q) if self.fn_hz is not None and self.q is not None else None
+    def stages(self, fs_hz: float | None = None) -> tuple[Stage, ...]:
+        """The sensor as an ordered tuple of stages: the one reading of a sensor description.
 
-    def _filters(self) -> list[Stage]:
+        Both the simulation (:meth:`chain`) and the analytic prediction
+        (:func:`vrelab.predict.predict`, which walks these stages and takes each one's closed
+        form) use it, so they cannot read a sensor two ways. With ``fs_hz`` (an integer multiple
+        of the ODR) a :class:`Decimate` to the ODR is included; without, the stages are
+        rate-free (what the prediction needs). Order: see the module docstring.
+        """
+        factor = 1 if fs_hz is None else self.decimation(fs_hz)
         stages: list[Stage] = []
-        if self.anti_alias_hz is not None:
-            stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
-        if self.odr_hz is not None and self.bandwidth_hz is not None:
-            stages.append(LowPass(self.bandwidth_hz, self.lowpass_order or 4, self.lowpass_kind))
-        if self.highpass_hz is not None:
-            stages.append(HighPass(self.highpass_hz))
-        return stages
-
-    def chain(self, fs_hz: float) -> SensorChain:
-        """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
-        factor = self.decimation(fs_hz)
-        stages: list[Stage] = []
-        res = self._resonator()
-        if res is not None:
-            stages.append(res)
+        if self.fn_hz is not None and self.q is not None:
+            stages.append(Resonator(self.fn_hz, self.q))
         if self.k2_per_g or self.k3_per_g2 or self.k4_per_g3:
             stages.append(Polynomial(self.k2_per_g, self.k3_per_g2, self.k4_per_g3))
         if self.overrange_threshold_g is not None:
@@ -256,7 +233,12 @@ class Sensor:
             stages.append(Clip(*self.rails_g))
         if self.noise_ug_per_rthz > 0:
             stages.append(Noise(self.noise_ug_per_rthz))
-        stages.extend(self._filters())
+        if self.anti_alias_hz is not None:
+            stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
+        if self.odr_hz is not None and self.bandwidth_hz is not None:
+            stages.append(LowPass(self.bandwidth_hz, self.lowpass_order or 4, self.lowpass_kind))
+        if self.highpass_hz is not None:
+            stages.append(HighPass(self.highpass_hz))
         if self.offset_g:
             stages.append(Offset(self.offset_g))
         if self.drift_g_per_s:
@@ -267,25 +249,29 @@ class Sensor:
             stages.append(Clip(*self.rails_g))
         if self.lsb_g is not None:
             stages.append(Quantize(self.lsb_g))
-        return SensorChain(tuple(stages))
+        return tuple(stages)
+
+    def chain(self, fs_hz: float) -> SensorChain:
+        """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
+        return SensorChain(self.stages(fs_hz))
 
     def fs_out_hz(self, fs_hz: float) -> float:
         return float(fs_hz) / self.decimation(fs_hz)
 
     def linear_responses(self, where: Where = "output") -> list[Callable[[NDArray[np.float64]], NDArray[np.complex128]]]:
-        """Analog equivalents of the linear dynamics up to ``where``, as functions of f [Hz].
+        """Analog responses of the linear stages of :meth:`stages`, as functions of f [Hz].
 
-        ``"proof-mass"``: the resonance (what the nonlinearity and the over-range trip see).
-        ``"output"``: resonance, anti-alias, low-pass, high-pass (what an output clip sees).
-        Multiply them for the overall response. Empty list: flat (ideal sensor).
+        ``"proof-mass"``: the mechanical ones (the resonance: what the nonlinearity and the
+        over-range trip see). ``"output"``: every linear stage (resonance, anti-alias, low-pass,
+        high-pass: what an output clip sees). Empty list: flat (ideal sensor).
         """
         if where not in ("proof-mass", "output"):
             raise ValueError(f"where must be one of proof-mass, output; got {where!r}")
-        res = self._resonator()
-        out: list[Any] = [res.response] if res is not None else []
-        if where == "output":
-            out.extend(s.response for s in self._filters())  # type: ignore[attr-defined]
-        return out
+        return [
+            s.response  # type: ignore[attr-defined]
+            for s in self.stages()
+            if hasattr(s, "response") and (where == "output" or isinstance(s, Resonator))
+        ]
 
     def response(self, f_hz: Any, where: Where = "output") -> NDArray[np.complex128]:
         """Product of :meth:`linear_responses` at ``f_hz``."""

@@ -134,6 +134,11 @@ class StageBase:
     """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one."""
 
     is_static: ClassVar[bool] = True
+    # What the analytic prediction (vrelab.predict) takes from this stage: "linear" (a
+    # ``response(f)``), "offset", "polynomial", "overrange", "clip", "neutral" (no mean shift:
+    # zero-mean noise, rounding, decimation, a drift that bracketing removes), or None (no closed
+    # form: a prediction for a chain with such a stage says so and is not valid).
+    analytic: ClassVar[str | None] = None
     rate_factor: ClassVar[int] = 1
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> Any:
@@ -276,6 +281,7 @@ class Resonator(StageBase):
     fn_hz: float
     q: float
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "linear"
 
     def __post_init__(self) -> None:
         _positive(self, "fn_hz")
@@ -320,6 +326,7 @@ class AntiAlias(StageBase):
     corner_hz: float
     order: int = 2
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "linear"
 
     def __post_init__(self) -> None:
         _positive(self, "corner_hz")
@@ -365,6 +372,7 @@ class LowPass(StageBase):
     order: int = 4
     kind: LowPassKind = "butterworth"
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "linear"
 
     def __post_init__(self) -> None:
         _positive(self, "corner_hz")
@@ -404,6 +412,7 @@ class HighPass(StageBase):
     corner_hz: float
     order: int = 1
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "linear"
 
     def __post_init__(self) -> None:
         _positive(self, "corner_hz")
@@ -450,6 +459,7 @@ class Polynomial(StageBase):
     k2_per_g: float = 0.0
     k3_per_g2: float = 0.0
     k4_per_g3: float = 0.0
+    analytic: ClassVar[str | None] = "polynomial"
 
     def __post_init__(self) -> None:
         for f in ("k2_per_g", "k3_per_g2", "k4_per_g3"):
@@ -481,6 +491,7 @@ class Offset(StageBase):
     """Constant offset ``y = x + offset_g`` (0 g offset of the part, ±25 mg typ. for ADXL355)."""
 
     offset_g: float = 0.0
+    analytic: ClassVar[str | None] = "offset"
 
     def __post_init__(self) -> None:
         _finite(self, "offset_g")
@@ -507,6 +518,7 @@ class Drift(StageBase):
 
     rate_g_per_s: float = 0.0
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
         _finite(self, "rate_g_per_s")
@@ -534,6 +546,7 @@ class Clip(StageBase):
 
     low_g: float
     high_g: float
+    analytic: ClassVar[str | None] = "clip"
 
     def __post_init__(self) -> None:
         lo = _finite(self, "low_g")
@@ -558,6 +571,7 @@ class Quantize(StageBase):
     """Rounding to the output LSB: ``y = lsb·round(x/lsb)`` (ties to even)."""
 
     lsb_g: float
+    analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
         _positive(self, "lsb_g")
@@ -578,6 +592,7 @@ class Decimate(StageBase):
     """
 
     factor: int
+    analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
         _positive_int(self, "factor")
@@ -632,6 +647,7 @@ class Noise(StageBase):
     # (about 23 µs), 0.35 ns per sample at this size against 1.4 ns at 2^14.
     frame_size: int = 65536
     is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
         _non_negative(self, "density_ug_per_rthz")
@@ -879,6 +895,7 @@ class OverRange(StageBase):
     float_tau_s: float = 0.0
     is_static: ClassVar[bool] = False
     delay_samples: ClassVar[int] = 2  # output k is input k - 2 (see Notes)
+    analytic: ClassVar[str | None] = "overrange"
 
     def __post_init__(self) -> None:
         _positive(self, "threshold_g")

@@ -5,11 +5,9 @@
   the vibration at the proof mass has rms ``rms_mass = rms_g·|H(freq_hz)|`` for a sine, or
   ``rms_g·sqrt(mean |H|² over [f_lo_hz, f_hi_hz])`` for a flat random band, with
   ``H = 1/(1 - r² + j·r/q)``, ``r = f/fn_hz`` (no resonance when ``fn_hz`` is not given);
-  ``vre_clip_g`` = mean shift of that vibration between rails ±``range_g`` around
-  ``static_g + offset_g`` (censored / truncated Gaussian, or the sine closed form; the offset
-  is taken as a bias of the proof mass, which moves the clipping asymmetry, since a bias added
-  after the rails would not change the VRE at all);
-  ``vre_poly_g`` = the polynomial VRE of ``k2_ug_per_g2``, ``k3_ug_per_g3`` at ``static_g``;
+  ``vre_clip_g``, ``vre_poly_g`` = :func:`vrelab.models.design.ideal_vre_shares`: the ideal
+  sensor's chain (polynomial, then ``offset_g``, then rails ±``range_g``), so the rails clip
+  around ``static_g + offset_g`` and the polynomial rectifies around ``static_g``;
   ``vre_g`` = their sum (first-order superposition: each mechanism's shift is small next to
   the vibration, so their interaction is second order), ``tilt_error_deg`` from ``tilt_deg``.
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
@@ -56,8 +54,7 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
 
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
-    from vrelab.models.clipping import mean_shift
-    from vrelab.models.design import tilt_error_deg
+    from vrelab.models.design import ideal_vre_shares, tilt_error_deg
     from vrelab.models.nonlinearity import ug_per_g2_to_per_g, vre_poly
 
     rms = float(params["rms_g"])
@@ -66,21 +63,14 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     shape = params.get("shape", "gaussian")
     clip_kind = params.get("clip_kind", "censored")
     rms_mass = _rms_at_proof_mass(rms, params)
+    k2 = ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0)))
+    k3 = ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0)))  # µg/g³ -> 1/g²: same factor
     if clip_kind == "none":
-        vre_clip = 0.0
+        vre_clip, vre_p = 0.0, float(vre_poly(rms_mass, k2, k3, static_g=static, shape=shape))
     else:
-        vre_clip = float(
-            mean_shift(static + float(params.get("offset_g", 0.0)), rms_mass, -range_g, range_g, shape, clip_kind)
-        )
-    vre_p = float(
-        vre_poly(
-            rms_mass,
-            ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0))),
-            ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))),  # µg/g³ -> 1/g²: same factor
-            static_g=static,
-            shape=shape,
-        )
-    )
+        clip, poly = ideal_vre_shares(rms_mass, static, -range_g, range_g, k2, k3, shape, clip_kind,
+                                      offset_g=float(params.get("offset_g", 0.0)))
+        vre_clip, vre_p = float(clip), float(poly)
     vre = vre_clip + vre_p
     return {
         "vre_g": vre,
