@@ -190,7 +190,9 @@ def test_analyze_returns_result_with_fits_and_conditions():
     res = analyze(tr.record, "random", schedule=tr.schedule)
     d = res.to_dict()
     assert {"rms_g", "vre_g", "u_vre_g"} <= set(d["levels"][0])
-    vrc = res.fits[0].params["vrc_ug_per_g2"]
+    # random method: the clipping model first, then the VRC (vrelab.fits.fit_levels)
+    assert [f.model for f in res.fits] == ["clip-censored", "vrc"]
+    vrc = res.fits[1].params["vrc_ug_per_g2"]
     assert abs(vrc.value - 500.0) < 3 * vrc.u + 5.0
     assert "rail_g" in d["fit"] and "vrc_ug_per_g2" in d["fit"]
     assert res.conditions.model == "measured"

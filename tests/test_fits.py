@@ -7,6 +7,7 @@ by scipy.stats.truncnorm.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -209,3 +210,50 @@ def test_fit_rail_top_level_alone_needs_5_sigma_to_be_a_departure():
     y10 = y.copy()
     y10[-1] -= 10 * 2e-3  # far out: over-range at the top level
     assert fit_rail(_levels(rms, y10, u), g0).departure_rms_g == pytest.approx(2.5)
+
+
+def test_fits_keep_their_covariance_in_the_units_of_their_parameters(rng):
+    """FitResult.covariance: the diagonal is each parameter's u² (identification needs the
+    off-diagonal too); it survives to_dict/from_dict."""
+    from vrelab.results import Estimate, FitResult, LevelResult
+
+    rms = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
+    levels = [LevelResult(float(r), Estimate(300e-6 * r * r + 20e-6 * r**4 + 1e-6 * rng.standard_normal(), 1e-6))
+              for r in rms]
+    fit = fit_vrc(levels, with_k4=True)
+    cov = np.array(fit.covariance)
+    u = [fit.params["vrc_ug_per_g2"].u, fit.params["c4_ug_per_g4"].u]
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), u, rtol=1e-12)
+    assert cov[0, 1] < 0  # rms² and rms⁴ columns trade off: anti-correlated estimates
+    back = FitResult.from_dict(json.loads(json.dumps(fit.to_dict())))
+    np.testing.assert_allclose(back.covariance, cov, rtol=1e-15)
+
+
+def test_k2_k3_covariance_is_the_linear_map_of_independent_vrcs():
+    """k2 = (1-c)·VRC+ + c·VRC-, k3 = (VRC+ - VRC-)/d: cov = J·diag(u+², u-²)·Jᵀ (GUM 5.1)."""
+    from vrelab.results import Estimate, FitResult
+
+    fp = FitResult("vrc", {"vrc_ug_per_g2": Estimate(130.0, 3.0, "ug/g^2")}, 4)
+    fm = FitResult("vrc", {"vrc_ug_per_g2": Estimate(70.0, 5.0, "ug/g^2")}, 4)
+    out = separate_k2_k3(fp, fm, 1.0, -0.5)
+    c, d = 1.0 / 1.5, 3.0 * 1.5
+    J = np.array([[1 - c, c], [1 / d, -1 / d]])
+    expect = J @ np.diag([9.0, 25.0]) @ J.T
+    np.testing.assert_allclose(np.array(out.covariance), expect, rtol=1e-12)
+    assert out.params["k2_ug_per_g2"].value == pytest.approx(130 * (1 - c) + 70 * c)
+    assert out.params["k3_ug_per_g3"].value == pytest.approx(60.0 / d)
+
+
+def test_notices_are_strings_with_a_code_that_survive_json_and_pickle():
+    import pickle
+
+    from vrelab.results import Notice, VreResult, Conditions
+
+    n = Notice("rail-found", "DUT upper rail found at 2.048 g (40 samples on it)")
+    assert n == "DUT upper rail found at 2.048 g (40 samples on it)" and n.code == "rail-found"
+    assert pickle.loads(pickle.dumps(n)).code == "rail-found"
+    res = VreResult("random", Conditions(), (), (), (n, "a plain note"))
+    d = json.loads(json.dumps(res.to_dict()))
+    assert d["warnings"] == [str(n), "a plain note"]
+    assert d["notices"] == [{"code": "rail-found", "text": str(n)}, {"code": "note", "text": "a plain note"}]
+    assert [w.code for w in VreResult.from_dict(d).warnings] == ["rail-found", "note"]

@@ -21,16 +21,17 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Literal, Sequence
+from typing import Any, Literal, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
-from vrelab.results import Estimate, FitResult, LevelResult, same_frequency
+from vrelab.models.clipping import Kind as ClipKind
+from vrelab.results import Estimate, FitResult, LevelResult, Notice, same_frequency
 
-ClipKind = Literal["censored", "truncated"]
 
 # Residual (in combined standard uncertainties) beyond which a level has left the model.
 DEPARTURE_SIGMA = 3.0
@@ -148,7 +149,12 @@ def fit_vrc(
         freq_hz=freq_hz,
         levels_used=tuple(float(r) for r in rms),
         notes=tuple(notes),
+        covariance=_cov_tuple(cov * 1e12),  # both parameters in µg units: (1e6)²
     )
+
+
+def _cov_tuple(cov: Any) -> tuple[tuple[float, ...], ...]:
+    return tuple(tuple(float(c) for c in row) for row in np.atleast_2d(cov))
 
 
 def _clip_model(kind: ClipKind):
@@ -317,6 +323,9 @@ def fit_rail(
     else:
         notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
     se = np.sqrt(np.diag(covs))
+    scale = np.ones(len(p))  # units of params: g for rails, µg/g² for the joint VRC term
+    if with_vrc:
+        scale[-1] = 1e6
     if symmetric:
         params = {"rail_g": Estimate(float(p[0]), float(se[0]), "g")}
     else:
@@ -340,6 +349,7 @@ def fit_rail(
         levels_used=tuple(float(r) for r in rms[:n_fit]),
         departure_rms_g=None if departure is None else float(rms[departure]),
         notes=tuple(notes),
+        covariance=_cov_tuple(covs * np.outer(scale, scale)),
     )
 
 
@@ -366,6 +376,9 @@ def separate_k2_k3(
     at ±1 g, k2 = (VRC₊ + VRC₋)/2 and k3 = (VRC₊ − VRC₋)/6. The two recordings are
     independent, so their uncertainties add in quadrature through these linear maps.
     """
+    from vrelab.models.nonlinearity import k2_k3_covariance
+    from vrelab.models.nonlinearity import separate_k2_k3 as separate
+
     gp = V.finite_scalar("static_plus_g", static_plus_g)
     gm = V.finite_scalar("static_minus_g", static_minus_g)
     if gp == gm:
@@ -374,22 +387,129 @@ def separate_k2_k3(
         if "vrc_ug_per_g2" not in f.params:
             raise ValueError(f"{name} has no vrc_ug_per_g2 parameter (model {f.model!r})")
     a, b = fit_plus.params["vrc_ug_per_g2"], fit_minus.params["vrc_ug_per_g2"]
-    d = 3.0 * (gp - gm)
-    k3 = (a.value - b.value) / d
-    u_k3 = math.hypot(a.u, b.u) / abs(d)
-    # k2 = VRC+ - 3 k3 g+ = VRC+ (1 - g+/(g+-g-)) + VRC- g+/(g+-g-)
-    c = gp / (gp - gm)
-    k2 = a.value * (1 - c) + b.value * c
-    u_k2 = math.hypot(a.u * (1 - c), b.u * c)
+    if gp < gm:  # the formula takes the higher orientation first
+        a, b, gp, gm = b, a, gm, gp
+    k2, k3 = separate(a, b, static_g=gp, static_minus_g=gm)
+    cov23 = k2_k3_covariance(a.u, b.u, gp, gm)
     return FitResult(
         model="k2-k3",
         params={
-            "k2_ug_per_g2": Estimate(k2, u_k2, "ug/g^2"),
-            "k3_ug_per_g3": Estimate(k3, u_k3, "ug/g^3"),
+            "k2_ug_per_g2": Estimate(k2.value, k2.u, "ug/g^2"),
+            "k3_ug_per_g3": Estimate(k3.value, k3.u, "ug/g^3"),
         },
+        covariance=((k2.u**2, cov23), (cov23, k3.u**2)),
         n_points=2,
         freq_hz=fit_plus.freq_hz,
         notes=(
             f"VRC(g0) = k2 + 3*k3*g0 from fits at {gp:g} g and {gm:g} g; k4 (if any) folds into k2",
         ),
     )
+
+
+# --- the fit policy -------------------------------------------------------------------------------
+
+# A level belongs to the nonlinearity regime when its Gaussian peaks (this many σ) stay inside the
+# rails: there clipping adds less than about 1e-5·σ to the VRE (the censored mean shift at 4σ).
+VRC_PEAK_SIGMAS = 4.0
+
+
+def vrc_level_limit_g(rails_g: tuple[float, float], static_g: float) -> float:
+    """Largest rms [g] whose Gaussian peaks (4σ) stay inside ``rails_g`` at ``static_g``."""
+    low, high = (float(x) for x in rails_g)
+    return max(0.0, min(high - static_g, static_g - low)) / VRC_PEAK_SIGMAS
+
+
+def _rails_of(fit: FitResult) -> tuple[float, float] | None:
+    """The fitted rails, when the fit determines them (finite, with u below the distance)."""
+    p = fit.params
+    if "rail_g" in p:
+        r = p["rail_g"]
+        ok = math.isfinite(r.value) and math.isfinite(r.u) and 0 <= r.u < abs(r.value)
+        return (-abs(r.value), abs(r.value)) if ok else None
+    lo, hi = p.get("rail_low_g"), p.get("rail_high_g")
+    if lo is None or hi is None:
+        return None
+    ok = all(math.isfinite(e.value) and math.isfinite(e.u) for e in (lo, hi)) and lo.value + lo.u < hi.value - hi.u
+    return (lo.value, hi.value) if ok else None
+
+
+def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
+    """Indices of the levels run at each sine frequency (:func:`vrelab.results.same_frequency`),
+    in increasing frequency."""
+    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz)
+    groups: list[list[int]] = []
+    for i in order:
+        if groups and same_frequency(levels[groups[-1][0]].freq_hz, levels[i].freq_hz):
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return groups
+
+
+def fit_levels(
+    levels: Sequence[LevelResult],
+    method: Literal["random", "sine"],
+    static_g: float | None,
+    clip_kind: ClipKind = "censored",
+    fit_k4: bool = False,
+    rail_with_vrc: bool = False,
+    nominal_freqs_hz: Sequence[float | None] | None = None,
+) -> tuple[list[FitResult], list[Notice]]:
+    """The fits of SPEC 4, decided in one place for every reducer of a record.
+
+    The simulated test (:mod:`vrelab.shaker`) and the analysis of a recorded file
+    (:func:`vrelab.analysis.reduction.analyze`) both call this, with what both know (the
+    levels, the method, the static field), so one record gives the same ``fits`` whichever
+    command reduced it.
+
+    * **sine**: one VRC fit (:func:`fit_vrc`) per frequency; levels at the same frequency
+      within 1 % (:func:`vrelab.results.same_frequency`) form a group, reported at the
+      schedule's nominal frequency (``nominal_freqs_hz``, aligned with ``levels``) when the
+      group's levels share one, else at the mean of their estimates.
+    * **random**: first the clipping model's effective rail (:func:`fit_rail`, with the static
+      field; skipped when it is unknown), then the VRC over the nonlinearity regime: unsaturated
+      levels whose 4σ peaks stay inside the fitted rails (:func:`vrc_level_limit_g`), or every
+      unsaturated level when the rail fit does not determine the rails.
+
+    Returns the fits and :class:`~vrelab.results.Notice` s (code ``fit`` or ``departure``).
+    """
+    V.one_of("method", method, ("random", "sine"))
+    out: list[FitResult] = []
+    notes: list[Notice] = []
+    if method == "sine":
+        groups = _frequency_groups(levels) or [list(range(len(levels)))]
+        for grp in groups:
+            sel = [levels[i] for i in grp]
+            nominal = {nominal_freqs_hz[i] for i in grp} if nominal_freqs_hz is not None else {None}
+            if len(nominal) == 1 and None not in nominal:
+                f = float(next(iter(nominal)))  # type: ignore[arg-type]
+            else:
+                known = [lv.freq_hz for lv in sel if lv.freq_hz is not None]
+                f = float(np.mean(known)) if known else None
+            try:
+                fit = fit_vrc(sel, with_k4=fit_k4)
+                out.append(dataclasses.replace(fit, freq_hz=f))
+            except ValueError as exc:
+                notes.append(Notice("fit", f"VRC fit at {f:g} Hz skipped: {exc}" if f else f"VRC fit skipped: {exc}"))
+        return out, notes
+    limit: float | None = None
+    if static_g is not None:
+        try:
+            rail_fit = fit_rail(levels, static_g, kind=clip_kind, with_vrc=rail_with_vrc)
+        except (ValueError, ImportError) as exc:
+            notes.append(Notice("fit", f"rail fit skipped: {exc}"))
+        else:
+            out.append(rail_fit)
+            if rail_fit.departure_rms_g is not None:
+                notes.append(Notice("departure", f"data leave the clipping model from {rail_fit.departure_rms_g:.4g} g rms on"))
+            rails = _rails_of(rail_fit)
+            if rails is not None:
+                limit = vrc_level_limit_g(rails, static_g)
+    if limit is not None and not any(lv.rms_g <= limit for lv in levels):
+        notes.append(Notice("fit", f"no level at or below {limit:.3g} g rms (4 sigma clear of the fitted rails): no VRC fit"))
+        return out, notes
+    try:
+        out.append(fit_vrc(levels, max_rms_g=limit, with_k4=fit_k4))
+    except ValueError as exc:
+        notes.append(Notice("fit", f"VRC fit skipped: {exc}"))
+    return out, notes

@@ -28,6 +28,35 @@ def same_frequency(a: float | None, b: float | None) -> bool:
     return a is None or b is None or abs(a - b) <= FREQ_RTOL * max(abs(a), abs(b))
 
 
+class Notice(str):
+    """A warning a result carries: its text (a ``Notice`` *is* that string, so it prints, joins
+    and serialises as one) and a stable ``code`` that code decides on, never the wording.
+
+    Codes in use: ``rail-found`` (a DUT rail found in the data), ``saturated-levels``,
+    ``schedule``, ``segment``, ``reference``, ``bracket``, ``frequency``, ``tolerance``,
+    ``fit`` (a fit skipped or limited), ``departure`` (data leave the clipping model),
+    ``simulation`` (the simulated test's own), ``note`` (anything else).
+    """
+
+    code: str
+
+    def __new__(cls, code: str, text: str) -> "Notice":
+        obj = super().__new__(cls, text)
+        obj.code = code
+        return obj
+
+    def __getnewargs__(self) -> tuple[str, str]:  # type: ignore[override]  # pickling (process pools)
+        return (self.code, str(self))
+
+    def to_dict(self) -> dict[str, str]:
+        return {"code": self.code, "text": str(self)}
+
+
+def notice(text: str, code: str = "note") -> Notice:
+    """``text`` as a :class:`Notice` (kept as it is when it already is one)."""
+    return text if isinstance(text, Notice) else Notice(code, text)
+
+
 @dataclass(frozen=True)
 class Estimate:
     """A value with its standard uncertainty (k = 1), in ``unit``."""
@@ -140,6 +169,9 @@ class FitResult:
     levels_used: tuple[float, ...] = ()  # rms_g of the levels that entered the fit
     departure_rms_g: float | None = None
     notes: tuple[str, ...] = ()
+    # Covariance of the fitted parameters, in the order and units of ``params`` (each row and
+    # column a parameter; its diagonal is each ``u``²): identification and prediction carry it.
+    covariance: tuple[tuple[float, ...], ...] | None = None
 
     def __str__(self) -> str:
         ps = ", ".join(f"{k} = {v}" for k, v in self.params.items())
@@ -156,11 +188,14 @@ class FitResult:
             departure_rms_g=finite_or_none(self.departure_rms_g),
             notes=list(self.notes),
         )
+        if self.covariance is not None:
+            d["covariance"] = {"params": list(self.params),
+                               "matrix": [[finite_or_none(c) for c in row] for row in self.covariance]}
         return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "FitResult":
-        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes"}
+        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes", "covariance"}
         params = {k: Estimate.from_dict(v) for k, v in d.items() if k not in fixed and isinstance(v, Mapping)}
         return cls(
             model=d["model"],
@@ -171,6 +206,8 @@ class FitResult:
             levels_used=tuple(x for x in d.get("levels_used") or () if x is not None),
             departure_rms_g=d.get("departure_rms_g"),
             notes=tuple(d.get("notes") or ()),
+            covariance=tuple(tuple(math.nan if c is None else float(c) for c in row)
+                             for row in d["covariance"]["matrix"]) if d.get("covariance") else None,
         )
 
 
@@ -213,7 +250,8 @@ class VreResult:
             "levels": [lv.to_dict() for lv in self.levels],
             "fit": self.fit_summary(),
             "fits": [f.to_dict() for f in self.fits],
-            "warnings": list(self.warnings),
+            "warnings": [str(w) for w in self.warnings],
+            "notices": [notice(w).to_dict() for w in self.warnings],
             "provenance": dict(self.provenance),
         }
 
@@ -224,7 +262,8 @@ class VreResult:
             conditions=Conditions.from_dict(d.get("conditions") or {}),
             levels=tuple(LevelResult.from_dict(x) for x in d.get("levels") or ()),
             fits=tuple(FitResult.from_dict(x) for x in d.get("fits") or ()),
-            warnings=tuple(d.get("warnings") or ()),
+            warnings=tuple(Notice(n["code"], n["text"]) for n in d["notices"]) if d.get("notices")
+            else tuple(d.get("warnings") or ()),
             provenance=dict(d.get("provenance") or {}),
             kind=d.get("kind", "measurement"),
         )

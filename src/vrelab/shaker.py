@@ -56,7 +56,7 @@ from vrelab import _validate as V
 from vrelab.profiles import RandomProfile
 from vrelab.rates import NYQUIST_MARGIN, record_step, simulation_rate_hz
 from vrelab.record import Schedule, Segment, write_record_hdf5
-from vrelab.results import Conditions, FitResult, LevelResult, VreResult
+from vrelab.results import Conditions, FitResult, LevelResult, Notice, VreResult
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -473,16 +473,20 @@ def _fs_internal(sensor: Any, f_max_hz: float, fs_internal_hz: float | None) -> 
     return simulation_rate_hz(sensor, f_max_hz)
 
 
-def _reduce(
+def _reduce_and_fit(
     record: SimulatedRecord,
     method: Literal["random", "sine"],
     band_hz: tuple[float, float] | None,
     settle_s: float,
     record_path: str | Path | None,
     progress: bool,
-) -> tuple[list[LevelResult], list[str]]:
-    """Reduce the record as a lab file; attach saturation counts and over-range flags."""
-    from vrelab.analysis import reduce_record
+    clip_kind: str = "censored",
+) -> tuple[list[LevelResult], list[FitResult], list[str]]:
+    """Reduce the record as a lab file (saturation counts and over-range flags from the
+    simulation's truth), then fit it with the one fit policy (:func:`vrelab.fits.fit_levels`)
+    that ``vrelab analyze`` applies to the same record."""
+    from vrelab.analysis import reduce
+    from vrelab.fits import fit_levels
 
     source: Any = record
     if record_path is not None:
@@ -500,20 +504,27 @@ def _reduce(
         source = open_record(record_path, dut="dut", reference="reference")
     # The simulation's own progress bar covers the pass that generates the record; the
     # reduction shows one only when it reads the file back.
-    levels, warnings = reduce_record(
+    red = reduce(
         source, schedule=record.schedule, method=method, band_hz=band_hz, settle_s=settle_s,
         progress=progress and record_path is not None,
     )
-    levels = list(levels)
+    levels, warnings = _with_simulated_saturation(record, list(red.levels), list(red.warnings))
+    nominal = [seg.freq_hz for seg in red.level_segments]
+    fits, notes = fit_levels(levels, method, red.static_g, clip_kind, nominal_freqs_hz=nominal)
+    return levels, fits, warnings + notes
+
+
+def _with_simulated_saturation(
+    record: SimulatedRecord, levels: list[LevelResult], warnings: list[str]
+) -> tuple[list[LevelResult], list[str]]:
     # The simulation knows exactly which DUT samples sat on a rail and where the chain clipped
     # or tripped its over-range protection; the reduction can only guess rails from the
     # record (a noise-free sine repeats its peak value every period and looks like a rail).
     # Replace its saturation guess by the truth, keep its other flags.
-    warnings = [w for w in warnings if not (w.startswith("DUT ") and " rail found at " in w)
-                and "saturated DUT samples" not in w]
+    warnings = [w for w in warnings if getattr(w, "code", None) not in ("rail-found", "saturated-levels")]
     on = [i for i, s in enumerate(record.schedule.segments) if not s.is_baseline]
     if record.saturated is None or len(levels) != len(on):
-        warnings.append("saturation counts of the simulation could not be matched to the levels")
+        warnings.append(Notice("simulation", "saturation counts of the simulation could not be matched to the levels"))
         return levels, warnings
     n_flagged = 0
     for j, i in enumerate(on):
@@ -526,7 +537,7 @@ def _reduce(
             flags += ("overrange",)
         levels[j] = dataclasses.replace(levels[j], n_saturated=n_sat, flags=flags)
     if n_flagged:
-        warnings.append(f"{n_flagged} level(s) reached a rail of the sensor (flagged 'saturated')")
+        warnings.append(Notice("saturated-levels", f"{n_flagged} level(s) reached a rail of the sensor (flagged 'saturated')"))
     return levels, warnings
 
 
@@ -718,9 +729,10 @@ def run_random_test(
     off-segments``, its standard uncertainty from the record's own scatter, and
     ``vib_rms`` = reference rms over the profile's band widened by an octave on each side (the
     drive has no power outside the band, and the band-pass edges then do not bias it). Fits:
-    effective rail of the clipping model (SPEC 1.1, :func:`vrelab.fits.fit_rail`, with the
-    level where the data depart from it) and ``VRE = VRC·rms²`` (SPEC 1.2,
-    :func:`vrelab.fits.fit_vrc`) over levels whose 4σ peaks stay inside the nominal rails.
+    the one policy :func:`vrelab.fits.fit_levels`, as ``vrelab analyze`` applies it to the
+    same record: the effective rail of the clipping model (SPEC 1.1, at the static reading
+    of the baselines, with the level where the data depart from it), then ``VRE = VRC·rms²``
+    (SPEC 1.2) over levels whose 4σ peaks stay inside the fitted rails.
 
     References
     ----------
@@ -732,8 +744,8 @@ def run_random_test(
         drive_method, clip_sigma, kurtosis, fs_internal_hz, progress, ramp_s=ramp_s,
     )
     settle = record.meta["simulation"]["settle_s"]
-    levels, warnings = _reduce(record, "random", _measurement_band(profile), settle, record_path, progress)
-    fits, fit_notes = _random_fits(levels, sensor, static_g, clip_kind)
+    levels, fits, warnings = _reduce_and_fit(record, "random", _measurement_band(profile), settle, record_path,
+                                             progress, clip_kind)
     return VreResult(
         method="random",
         conditions=_conditions(sensor, f"random {profile.band[0]:g}-{profile.band[1]:g} Hz"
@@ -741,7 +753,7 @@ def run_random_test(
                                record.meta["simulation"]),
         levels=tuple(levels),
         fits=tuple(fits),
-        warnings=tuple(warnings + fit_notes),
+        warnings=tuple(warnings),
         provenance=_provenance("vrelab.shaker.run_random_test", sensor),
         kind="simulation",
     )
@@ -765,39 +777,6 @@ def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
         return None
     freqs = [s.freq_hz for s in record.schedule.segments if s.freq_hz]
     return min(freqs) / 2, min(2 * max(freqs), 0.9 * nyquist)
-
-
-def vrc_level_limit_g(sensor: "Sensor", static_g: float) -> float:
-    """Largest rms [g] whose Gaussian peaks (4σ) stay inside the nominal rails at ``static_g``.
-
-    Below it clipping contributes less than about 1e-5 of σ to the VRE, so a VRC fit over
-    those levels measures the nonlinearity alone.
-    """
-    low, high = (float(x) for x in sensor.rails_g)
-    return max(0.0, min(high - static_g, static_g - low)) / 4.0
-
-
-def _random_fits(
-    levels: Sequence[LevelResult], sensor: Any, static_g: float, clip_kind: str
-) -> tuple[list[FitResult], list[str]]:
-    from vrelab import fits as F
-
-    out: list[FitResult] = []
-    notes: list[str] = []
-    try:
-        out.append(F.fit_rail(levels, static_g, kind=clip_kind))
-    except ValueError as exc:
-        notes.append(f"effective-rail fit not possible: {exc}")
-    limit = vrc_level_limit_g(sensor, static_g)
-    small = [lv for lv in levels if lv.rms_g <= limit]
-    if small:
-        try:
-            out.append(F.fit_vrc(small, max_rms_g=limit))
-        except ValueError as exc:
-            notes.append(f"VRC fit not possible: {exc}")
-    else:
-        notes.append(f"no level at or below {limit:.3g} g rms (clear of the rails): no VRC fit")
-    return out, notes
 
 
 def plan_sine_test(
@@ -893,22 +872,7 @@ def run_sine_test(
         ramp_s=ramp_s,
     )
     settle = record.meta["simulation"]["settle_s"]
-    levels, warnings = _reduce(record, "sine", _sine_band(record), settle, record_path, progress)
-    from vrelab import fits as F
-
-    # Group the levels by the frequency they were run at (the schedule's), not by the
-    # reduction's estimate of it, which scatters in the last digits.
-    nominal = [seg.freq_hz for seg in record.schedule.segments if not seg.is_baseline]
-    fits: list[FitResult] = []
-    for f in dict.fromkeys(float(x) for x in freqs_hz):
-        if len(nominal) == len(levels):
-            at_f = [lv for lv, fn in zip(levels, nominal) if fn is not None and math.isclose(fn, f)]
-        else:  # the reduction dropped a level: fall back on its frequency estimates (1 %)
-            at_f = [lv for lv in levels if lv.freq_hz is not None and math.isclose(lv.freq_hz, f, rel_tol=0.01)]
-        try:
-            fits.append(dataclasses.replace(F.fit_vrc(at_f), freq_hz=f))
-        except ValueError as exc:
-            warnings.append(f"VRC fit at {f:g} Hz not possible: {exc}")
+    levels, fits, warnings = _reduce_and_fit(record, "sine", _sine_band(record), settle, record_path, progress)
     freqs_text = ", ".join(f"{f:g}" for f in dict.fromkeys(float(x) for x in freqs_hz))
     return VreResult(
         method="sine",

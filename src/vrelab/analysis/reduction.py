@@ -51,7 +51,8 @@ from vrelab.analysis.segmentation import (
 )
 from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.record import Record, Schedule, Segment
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+from vrelab.fits import fit_levels
+from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Notice, VreResult
 
 DEFAULT_BAND_HZ = (50.0, 2000.0)
 DEFAULT_SETTLE_S = 0.5
@@ -173,7 +174,7 @@ def _sine_level(
     probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
     f = estimate_frequency(probe, fs)
     if freq_hint is not None and abs(f - freq_hint) > 0.05 * freq_hint:
-        warnings.append(f"drive found at {f:.4g} Hz, schedule says {freq_hint:.4g} Hz")
+        warnings.append(Notice("frequency", f"drive found at {f:.4g} Hz, schedule says {freq_hint:.4g} Hz"))
     m, L = whole_period_batch(f, fs)
     nb = (i1 - i0) // L
     if nb < 3:
@@ -283,7 +284,7 @@ def _resolve_schedule(
     warnings: list[str] = []
     if schedule is None and getattr(record, "schedule", None) is not None:
         schedule = record.schedule
-        warnings.append("segments from the schedule embedded in the record")
+        warnings.append(Notice("schedule", "segments from the schedule embedded in the record"))
     if schedule is None:
         schedule, w = auto_segment(stats)
         warnings += w
@@ -315,7 +316,7 @@ def reduce(
     stats = window_pass(record, band, WINDOW_S, block_size, rail_g, progress)
     warnings: list[str] = []
     if stats.reference == "dut":
-        warnings.append("no reference channel: levels and segmentation from the DUT's AC part")
+        warnings.append(Notice("reference", "no reference channel: levels and segmentation from the DUT's AC part"))
     sched, w = _resolve_schedule(record, schedule, stats, settle_s)
     warnings += w
     sat, rail_notes = stats.saturated()
@@ -327,7 +328,7 @@ def reduce(
             continue
         k0, k1 = segment_windows(stats, seg)
         if k1 - k0 < 3:
-            warnings.append(f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored")
+            warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         est = dut_mean_estimate(stats, k0, k1)
         t_c = float(np.mean(stats.times_s[k0:k1]))
@@ -344,7 +345,7 @@ def reduce(
             continue
         k0, k1 = segment_windows(stats, seg)
         if k1 - k0 < 3:
-            warnings.append(f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored")
+            warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         n_sat = int(sat[k0:k1].sum())
         freq = None
@@ -364,7 +365,7 @@ def reduce(
             rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
         base, u_base, note = bracket(t_c, baselines)
         if note:
-            warnings.append(note)
+            warnings.append(Notice("bracket", note))
         flags = ("saturated",) if n_sat > 0 else ()
         levels.append(
             LevelResult(
@@ -386,7 +387,7 @@ def reduce(
         raise ValueError("no vibration level found in the record (or schedule)")
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
-        warnings.append(f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')")
+        warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
     if profile is not None and method == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds)
@@ -436,15 +437,16 @@ def _tolerance_checks(
         try:
             res = psd_tolerance_check(_segment_blocks(record, seg, stats.reference), record.fs_hz, prof)
         except ValueError as exc:
-            out.append(f"level {lv.rms_g:.4g} g rms: PSD tolerance check not possible: {exc}")
+            out.append(Notice("tolerance", f"level {lv.rms_g:.4g} g rms: PSD tolerance check not possible: {exc}"))
             continue
         if not res.passed:
             levels[i] = replace(lv, flags=lv.flags + ("psd-out-of-tolerance",))
-            out.append(
+            out.append(Notice(
+                "tolerance",
                 f"level {lv.rms_g:.4g} g rms: reference PSD outside the profile tolerance "
                 f"(deviation {res.min_dev_db:+.2f} to {res.max_dev_db:+.2f} dB, ±{res.tol_db:g} dB allowed; "
                 f"rms ratio {res.rms_ratio:.3f})"
-            )
+            ))
     return out
 
 
@@ -489,55 +491,6 @@ def reduce_record(
 # --------------------------------------------------------------------------- analyze
 
 
-def _freq_groups(levels: Sequence[LevelResult]) -> list[float]:
-    fs = sorted(lv.freq_hz for lv in levels if lv.freq_hz is not None)
-    groups: list[float] = []
-    for f in fs:
-        if not groups or abs(f - groups[-1]) > 0.01 * groups[-1]:
-            groups.append(f)
-    return groups
-
-
-def fit_levels(
-    levels: Sequence[LevelResult],
-    method: Literal["random", "sine"],
-    static_g: float | None,
-    clip_kind: Literal["censored", "truncated"] = "censored",
-    fit_k4: bool = False,
-    rail_with_vrc: bool = False,
-) -> tuple[list[FitResult], list[str]]:
-    """The fits SPEC 4 asks for: VRC (per frequency for sine); for random also the rail."""
-    from vrelab import fits as F
-
-    out: list[FitResult] = []
-    warnings: list[str] = []
-    if method == "sine":
-        for f in _freq_groups(levels) or [None]:
-            grp = [lv for lv in levels if f is None or (lv.freq_hz is not None and abs(lv.freq_hz - f) <= 0.01 * f)]
-            f_mean = float(np.mean([lv.freq_hz for lv in grp])) if f is not None else None
-            try:
-                out.append(F.fit_vrc(grp, with_k4=fit_k4, freq_hz=f_mean))
-            except ValueError as exc:
-                warnings.append(f"VRC fit at {f_mean} Hz skipped: {exc}")
-        return out, warnings
-    rail_fit = None
-    if static_g is not None:
-        try:
-            rail_fit = F.fit_rail(levels, static_g, kind=clip_kind, with_vrc=rail_with_vrc)
-        except (ValueError, ImportError) as exc:
-            warnings.append(f"rail fit skipped: {exc}")
-    # VRC from the nonlinearity regime: unsaturated levels below any departure from the model.
-    try:
-        out.append(F.fit_vrc(levels, with_k4=fit_k4))
-    except ValueError as exc:
-        warnings.append(f"VRC fit skipped: {exc}")
-    if rail_fit is not None:
-        out.append(rail_fit)
-        if rail_fit.departure_rms_g is not None:
-            warnings.append(f"data leave the clipping model from {rail_fit.departure_rms_g:.4g} g rms on")
-    return out, warnings
-
-
 def analyze_full(
     record: Record,
     method: Literal["random", "sine"],
@@ -562,7 +515,8 @@ def analyze_full(
         static_g = V.finite_scalar("static_g", static_g)
     red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd)
     g0 = static_g if static_g is not None else red.static_g
-    fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4, rail_with_vrc)
+    nominal = [seg.freq_hz for seg in red.level_segments]
+    fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4, rail_with_vrc, nominal_freqs_hz=nominal)
     meta = dict(getattr(record, "meta", None) or {})
     if conditions is None:
         given = meta.get("conditions")

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from vrelab import _validate as V
 from vrelab.record import Record, Schedule, Segment
+from vrelab.results import Notice
 
 # Samples within this relative distance of the record's extreme count as "at the rail".
 RAIL_EPS_REL = 1e-6
@@ -92,7 +93,7 @@ class WindowStats:
             n = int(nat[on].sum())
             if n >= RAIL_MIN_SAMPLES:
                 sat = sat + np.where(on, nat, 0)
-                notes.append(f"DUT {side} rail found at {ext:.6g} g ({n} samples on it)")
+                notes.append(Notice("rail-found", f"DUT {side} rail found at {ext:.6g} g ({n} samples on it)"))
         return sat, notes
 
 
@@ -492,9 +493,9 @@ def auto_segment(
         segs.append(Segment(a * w / fs, b * w / fs, float(np.sqrt(np.mean(e[a:b] ** 2)))))
     segs.sort(key=lambda s: s.start_s)
     if not any(s.is_baseline for s in segs):
-        warnings.append("automatic segmentation found no vibration-off baseline")
+        warnings.append(Notice("schedule", "automatic segmentation found no vibration-off baseline"))
     if not any(not s.is_baseline for s in segs):
-        warnings.append("automatic segmentation found no vibration level")
+        warnings.append(Notice("schedule", "automatic segmentation found no vibration level"))
     return Schedule(tuple(segs)), warnings
 
 
@@ -510,9 +511,9 @@ def trim(schedule: Schedule, settle_s: float) -> tuple[Schedule, list[str]]:
         cut = settle_s
         if 2 * cut > 0.5 * dur:
             cut = 0.25 * dur
-            warnings.append(
-                f"segment {s.start_s:.3g}-{s.end_s:.3g} s is short for settle_s={settle_s:g} s: trimmed {cut:.3g} s per edge"
-            )
+            warnings.append(Notice(
+                "segment", f"segment {s.start_s:.3g}-{s.end_s:.3g} s is short for settle_s={settle_s:g} s: trimmed {cut:.3g} s per edge"
+            ))
         out.append(Segment(s.start_s + cut, s.end_s - cut, s.nominal_rms_g, s.freq_hz))
     return Schedule(tuple(out)), warnings
 

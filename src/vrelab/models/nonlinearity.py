@@ -279,45 +279,75 @@ def vrc_ug_per_g2_from_vre(vre_g: ArrayLike, rms_g: ArrayLike) -> NDArray[np.flo
 
 
 @overload
-def separate_k2_k3(vrc_plus: Estimate, vrc_minus: Estimate, static_g: float = 1.0) -> tuple[Estimate, Estimate]: ...
+def separate_k2_k3(vrc_plus: Estimate, vrc_minus: Estimate, static_g: float = 1.0,
+                   static_minus_g: float | None = None) -> tuple[Estimate, Estimate]: ...
 @overload
-def separate_k2_k3(vrc_plus: ArrayLike, vrc_minus: ArrayLike, static_g: float = 1.0) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]: ...
-def separate_k2_k3(vrc_plus, vrc_minus, static_g=1.0):
-    """Separate k2 and k3 from VRCs measured at +g0 and -g0 orientation (SPEC 1.2).
+def separate_k2_k3(vrc_plus: ArrayLike, vrc_minus: ArrayLike, static_g: float = 1.0,
+                   static_minus_g: float | None = None) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]: ...
+def separate_k2_k3(vrc_plus, vrc_minus, static_g=1.0, static_minus_g=None):
+    """Separate k2 and k3 from VRCs measured at two orientations (SPEC 1.2).
 
     Parameters
     ----------
     vrc_plus, vrc_minus : Estimate or array_like
-        Apparent VRC (VRE/rms²) with the axis at +g0 and at -g0, any unit U (e.g. µg/g²).
-        Estimates carry a standard uncertainty; the two are taken as independent.
+        Apparent VRC (VRE/rms²) with the axis at ``static_g`` and at ``static_minus_g``, any
+        unit U (e.g. µg/g²). Estimates carry a standard uncertainty; the two are taken as
+        independent.
     static_g : float
-        |g0| [g], 1 for the usual up/down test.
+        g₊ [g]: 1 for the usual up/down test (> 0 when ``static_minus_g`` is not given).
+    static_minus_g : float, optional
+        g₋ [g], < g₊; default ``-static_g``.
 
     Returns
     -------
     (k2, k3)
-        k2 = (VRC₊ + VRC₋)/2 in U, and k3 = (VRC₊ - VRC₋)/(6·g0) in U/g (µg/g³ for µg/g²
-        input). For Estimates: u(k2) = √(u₊² + u₋²)/2, u(k3) = √(u₊² + u₋²)/(6·g0).
+        ``k3 = (VRC₊ - VRC₋)/(3·(g₊ - g₋))`` in U/g (µg/g³ for µg/g² input) and
+        ``k2 = VRC₊ - 3·k3·g₊ = VRC₊·(1 - c) + VRC₋·c``, ``c = g₊/(g₊ - g₋)``, in U; at ±g0
+        these are k2 = (VRC₊ + VRC₋)/2 and k3 = (VRC₊ - VRC₋)/(6·g0). For Estimates the
+        uncertainties propagate through these linear maps: u(k2) = √((1-c)²u₊² + c²u₋²),
+        u(k3) = √(u₊² + u₋²)/(3·(g₊ - g₋)) (:func:`k2_k3_covariance` gives their covariance).
 
     Notes
     -----
-    VRC(g0) = k2 + 3·k3·g0 (the g0 term of :func:`polynomial_vre` for n = 3), so the sum
-    cancels k3 and the difference cancels k2. A k4 term adds 6·k4·g0² + 3·k4·σ² to both
-    orientations alike and ends up in k2.
+    VRC(g0) = k2 + 3·k3·g0 (the g0 term of :func:`polynomial_vre` for n = 3), so two
+    orientations determine both. A k4 term adds 6·k4·g0² + 3·k4·σ² to both orientations
+    alike (at ±g0) and ends up in k2.
     """
-    g0 = _validate.positive_scalar("static_g", static_g)
+    if static_minus_g is None:
+        gp = _validate.positive_scalar("static_g", static_g)
+        gm = -gp
+    else:
+        gp = _validate.finite_scalar("static_g", static_g)
+        gm = _validate.finite_scalar("static_minus_g", static_minus_g)
+    if not gm < gp:
+        raise ValueError(f"static_minus_g must be below static_g, got {gm!r} and {gp!r}")
+    d = 3.0 * (gp - gm)
+    c = gp / (gp - gm)
     if isinstance(vrc_plus, Estimate) or isinstance(vrc_minus, Estimate):
         if not (isinstance(vrc_plus, Estimate) and isinstance(vrc_minus, Estimate)):
             raise ValueError("separate_k2_k3: give both VRCs as Estimate, or both as numbers")
         if vrc_plus.unit != vrc_minus.unit:
             raise ValueError(f"separate_k2_k3: units differ, {vrc_plus.unit!r} vs {vrc_minus.unit!r}")
-        u = math.hypot(vrc_plus.u, vrc_minus.u)
-        k2 = Estimate((vrc_plus.value + vrc_minus.value) / 2, u / 2, vrc_plus.unit)
-        k3 = Estimate((vrc_plus.value - vrc_minus.value) / (6 * g0), u / (6 * g0), f"{vrc_plus.unit}/g")
+        a, b = vrc_plus, vrc_minus
+        k2 = Estimate(a.value * (1 - c) + b.value * c, math.hypot(a.u * (1 - c), b.u * c), a.unit)
+        k3 = Estimate((a.value - b.value) / d, math.hypot(a.u, b.u) / d, f"{a.unit}/g")
         return k2, k3
     p = _validate.finite("vrc_plus", vrc_plus)
     m = _validate.finite("vrc_minus", vrc_minus)
-    return _out((p + m) / 2), _out((p - m) / (6 * g0))
+    return _out(p * (1 - c) + m * c), _out((p - m) / d)
+
+
+def k2_k3_covariance(u_plus: float, u_minus: float, static_g: float = 1.0, static_minus_g: float | None = None) -> float:
+    """cov(k2, k3) of :func:`separate_k2_k3` from independent VRC uncertainties [U²/g].
+
+    ``k2 = (1-c)·VRC₊ + c·VRC₋`` and ``k3 = (VRC₊ - VRC₋)/d`` share both inputs:
+    ``cov = ((1-c)·u₊² - c·u₋²)/d`` (0 at ±g0 with equal uncertainties).
+    """
+    gp = float(static_g)
+    gm = -gp if static_minus_g is None else float(static_minus_g)
+    d = 3.0 * (gp - gm)
+    c = gp / (gp - gm)
+    return ((1 - c) * u_plus**2 - c * u_minus**2) / d
 
 
 def _out(x: NDArray[np.float64]) -> NDArray[np.float64] | float:
