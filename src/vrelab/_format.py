@@ -50,3 +50,9 @@ def format_value_u(value: float | None, u: float | None = None, scale: float = 1
 def format_mg(value_g: float | None, u_g: float | None = None, signed: bool = True) -> str:
     """A value [g] in mg (no unit appended), ± its uncertainty when given (see module notes)."""
     return format_value_u(value_g, u_g, scale=1e3, signed=signed)
+
+
+def format_mg_text(value_g: float | None, u_g: float | None = None) -> str:
+    """:func:`format_mg` with its unit: ``"-83.1 ± 0.4 mg"`` (``"–"`` when unknown)."""
+    text = format_mg(value_g, u_g)
+    return text if text == MISSING else f"{text} mg"

@@ -26,7 +26,9 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from vrelab import _io, _validate as V
+from vrelab import _io
+from vrelab import _validate as V
+from vrelab._format import format_mg_text
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
@@ -110,13 +112,6 @@ def _rail(result: VreResult) -> Any:
     return next((f for f in result.fits if "rail_g" in f.params), None)
 
 
-def _mg(x: float, u: float | None = None) -> str:
-    """In mg, with the decimals the uncertainty (or, without one, the size) calls for."""
-    ref = abs(u if u is not None else x) * 1e3
-    d = 0 if ref >= 1 or ref == 0 else min(3, 1 - math.floor(math.log10(ref)))
-    return f"{x * 1e3:+.{d}f} mg" if u is None else f"{x * 1e3:+.{d}f} ± {u * 1e3:.{d}f} mg"
-
-
 def _fig(fig: Any, caption: str) -> ReportFigure:
     return ReportFigure.from_figure(fig, caption)
 
@@ -152,16 +147,16 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
         title="Figure 1 — asymmetric rails: clipping in a 1 g field",
         what=(
             f"In a 1 g field a ±2 g sensor has 1 g of headroom upwards and 3 g downwards, so 1 g rms vibration is clipped on one side "
-            f"and its mean moves by {_mg(vre1, u1)}; at 0.3 g rms the rail is 3.3 σ away, a few samples touch it and the mean does not move ({_mg(vre03, u03)})."
+            f"and its mean moves by {format_mg_text(vre1, u1)}; at 0.3 g rms the rail is 3.3 σ away, a few samples touch it and the mean does not move ({format_mg_text(vre03, u03)})."
         ),
         result=res,
         figures=figs,
         facts=[
-            ("VRE at 1 g rms, simulated", _mg(vre1, u1)),
-            (f"censored (saturating) model at {rms1:.3g} g rms", _mg(cens)),
-            (f"truncated (article's) model at {rms1:.3g} g rms", _mg(trunc)),
+            ("VRE at 1 g rms, simulated", format_mg_text(vre1, u1)),
+            (f"censored (saturating) model at {rms1:.3g} g rms", format_mg_text(cens)),
+            (f"truncated (article's) model at {rms1:.3g} g rms", format_mg_text(trunc)),
             ("article, Figure 1", f"≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg (read off a plot of a measurement; the censored model is what a saturating output does)"),
-            ("VRE at 0.3 g rms, simulated", _mg(vre03, u03)),
+            ("VRE at 0.3 g rms, simulated", format_mg_text(vre03, u03)),
         ],
     )
     return _Study("fig1-clipping", sec, {"fig1-clipping": res}, numbers={"fig1_vre_1g": vre1, "fig1_u_1g": u1, "fig1_censored_model": cens, "fig1_vre_03g": vre03})
@@ -202,7 +197,7 @@ def study_fig2(cfg: DemoConfig) -> _Study:
     v1, u1 = _vre_at(res, 1.0)
     facts = [
         ("effective rail (censored fit)", rail_txt + f" (article: {ARTICLE_RAIL_G:g} g, truncated fit)"),
-        ("VRE at 1 g rms", f"{_mg(v1, u1)}, against −83 mg for a sensor with bare ±2 g rails (Figure 1): the output clip sits after the 1 kHz low-pass"),
+        ("VRE at 1 g rms", f"{format_mg_text(v1, u1)}, against −83 mg for a sensor with bare ±2 g rails (Figure 1): the output clip sits after the 1 kHz low-pass"),
         ("data leave the model above", f"{dep:.3g} g rms" if dep else "not within the levels run"),
         ("article", f"departs above ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms: ±8 g over-range protection with a Gaussian crest factor ≈ 3"),
     ]
@@ -255,11 +250,11 @@ def study_fig3(cfg: DemoConfig) -> _Study:
         title="Figure 3 — resonance Q: X/Y axis (Q 7.4) against Z axis (Q 1.5), ±8 g",
         what=(
             f"The high-Q X axis amplifies vibration near its 2.4 kHz resonance, so its over-range protection trips and its VRE grows sooner: "
-            f"at {at:g} g rms it reads {_mg(vx)} against {_mg(vz)} for the Z axis."
+            f"at {at:g} g rms it reads {format_mg_text(vx)} against {format_mg_text(vz)} for the Z axis."
         ),
         result=rx,
         figures=figs,
-        facts=[(f"VRE at {at:g} g rms, X axis (Q 7.4)", _mg(vx)), (f"VRE at {at:g} g rms, Z axis (Q 1.5)", _mg(vz))],
+        facts=[(f"VRE at {at:g} g rms, X axis (Q 7.4)", format_mg_text(vx)), (f"VRE at {at:g} g rms, Z axis (Q 1.5)", format_mg_text(vz))],
         notes=["The tables below are the X axis; the Z axis is in fig3-z-8g/results.json (run `vrelab report` on it)."],
     )
     return _Study("fig3", sec, out, numbers={"fig3_x_at_5": vx, "fig3_z_at_5": vz})
@@ -290,12 +285,12 @@ def study_fig4(cfg: DemoConfig) -> _Study:
     sec = ReportSection(
         title="Figure 4 — bandwidth: 125 Hz against 1 kHz (ADXL355 Y axis, ±2 g)",
         what=(
-            f"Filtering before the output rail shrinks what it clips: at {at:g} g rms the 125 Hz setting reads {_mg(vl)} against {_mg(vh)} at 1 kHz. "
+            f"Filtering before the output rail shrinks what it clips: at {at:g} g rms the 125 Hz setting reads {format_mg_text(vl)} against {format_mg_text(vh)} at 1 kHz. "
             "Choose the narrowest bandwidth the application allows."
         ),
         result=lo,
         figures=figs,
-        facts=[(f"VRE at {at:g} g rms, 1 kHz bandwidth", _mg(vh)), (f"VRE at {at:g} g rms, 125 Hz bandwidth", _mg(vl))],
+        facts=[(f"VRE at {at:g} g rms, 1 kHz bandwidth", format_mg_text(vh)), (f"VRE at {at:g} g rms, 125 Hz bandwidth", format_mg_text(vl))],
         notes=["The tables below are the 125 Hz setting; the 1 kHz one is in fig4-y-1khz/results.json."],
     )
     return _Study("fig4", sec, out, numbers={"fig4_1khz_at_2": vh, "fig4_125hz_at_2": vl})
@@ -323,16 +318,16 @@ def study_limit(fig2: _Study) -> _Study:
     sec = ReportSection(
         title="Datasheet VRE limit: |VRE| < 0.4 g at 2.5 g rms",
         what=(
-            f"Under the datasheet's conditions (±2 g, 1 g orientation, random 50 Hz–2 kHz, ODR 4 kHz) the simulated ADXL355 reads {_mg(v)} at {rms:g} g rms "
-            f"({'inside' if ok else 'OUTSIDE'} the ±{lim * 1e3:.0f} mg limit). The article's 2.5 g rail gives {_mg(art_cens)} with the censored model "
-            f"but {_mg(art_trunc)} with its truncated one: only the censored model is consistent with the data sheet."
+            f"Under the datasheet's conditions (±2 g, 1 g orientation, random 50 Hz–2 kHz, ODR 4 kHz) the simulated ADXL355 reads {format_mg_text(v)} at {rms:g} g rms "
+            f"({'inside' if ok else 'OUTSIDE'} the ±{lim * 1e3:.0f} mg limit). The article's 2.5 g rail gives {format_mg_text(art_cens)} with the censored model "
+            f"but {format_mg_text(art_trunc)} with its truncated one: only the censored model is consistent with the data sheet."
         ),
         figures=figs,
         facts=[
-            (f"VRE at {rms:g} g rms (interpolated)", _mg(v)),
-            (f"nearest level: {near.rms_g:.3g} g rms", _mg(near.vre.value, near.vre.u)),
+            (f"VRE at {rms:g} g rms (interpolated)", format_mg_text(v)),
+            (f"nearest level: {near.rms_g:.3g} g rms", format_mg_text(near.vre.value, near.vre.u)),
             ("datasheet limit", f"|VRE| < {lim * 1e3:.0f} mg"),
-            ("article's 2.5 g rail, censored / truncated", f"{_mg(art_cens)} / {_mg(art_trunc)}"),
+            ("article's 2.5 g rail, censored / truncated", f"{format_mg_text(art_cens)} / {format_mg_text(art_trunc)}"),
             ("verdict", "inside the limit" if ok else "outside the limit"),
         ],
     )
@@ -430,16 +425,16 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
     rows = [
         (
             "Figure 1: VRE at 1 g rms, ±2 g, 1 g field",
-            f"article ≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg · censored model {_mg(g('fig1_censored_model'))} · simulated {_mg(g('fig1_vre_1g'), g('fig1_u_1g'))}",
+            f"article ≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg · censored model {format_mg_text(g('fig1_censored_model'))} · simulated {format_mg_text(g('fig1_vre_1g'), g('fig1_u_1g'))}",
         ),
         ("Figure 2: effective rail, ±2 g Z", f"article {ARTICLE_RAIL_G:g} g (truncated fit) · simulated {g('fig2_rail_g'):.3g} ± {g('fig2_u_rail_g'):.2g} g (censored fit)"),
         (
             "Figure 2: data leave the model above",
             f"article ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms · simulated " + (f"{dep:.3g} g rms" if math.isfinite(dep) else "no departure within the levels run"),
         ),
-        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · simulated X {_mg(g('fig3_x_at_5'))}, Z {_mg(g('fig3_z_at_5'))}"),
-        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · simulated 125 Hz {_mg(g('fig4_125hz_at_2'))}, 1 kHz {_mg(g('fig4_1khz_at_2'))}"),
-        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated {_mg(g('limit_vre_at_2p5'))}"),
+        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · simulated X {format_mg_text(g('fig3_x_at_5'))}, Z {format_mg_text(g('fig3_z_at_5'))}"),
+        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · simulated 125 Hz {format_mg_text(g('fig4_125hz_at_2'))}, 1 kHz {format_mg_text(g('fig4_1khz_at_2'))}"),
+        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated {format_mg_text(g('limit_vre_at_2p5'))}"),
         (
             "Sine method: VRC at fn = 2.4 kHz",
             f"model k2·Q² = {g('sine_model_vrc_2400'):.4g} µg/g² · simulated {g('sine_vrc_2400'):.4g} ± {g('sine_u_vrc_2400'):.2g} µg/g²",

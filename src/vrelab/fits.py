@@ -23,15 +23,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Literal, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
+from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.results import Estimate, FitResult, LevelResult, Notice, same_frequency
-
+from vrelab.results import (
+    Estimate,
+    FitResult,
+    LevelResult,
+    Method,
+    Notice,
+    same_frequency,
+)
 
 # Residual (in combined standard uncertainties) beyond which a level has left the model.
 DEPARTURE_SIGMA = 3.0
@@ -268,7 +275,7 @@ def fit_rail(
     back on the model is not a departure.
     """
     static_g = V.finite_scalar("static_g", static_g)
-    V.one_of("kind", kind, ("censored", "truncated"))
+    V.one_of("kind", kind, KINDS)
     notes: list[str] = []
     sel = sorted(
         (lv for lv in levels if np.isfinite(lv.rms_g) and lv.rms_g > 0 and np.isfinite(lv.vre.value)),
@@ -448,7 +455,7 @@ def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
 
 def fit_levels(
     levels: Sequence[LevelResult],
-    method: Literal["random", "sine"],
+    method: Method,
     static_g: float | None,
     clip_kind: ClipKind = "censored",
     fit_k4: bool = False,

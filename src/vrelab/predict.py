@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
+from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
@@ -266,7 +267,7 @@ def predict(
     if levels_arr.ndim != 1 or levels_arr.size == 0:
         raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
     g0 = V.finite_scalar("static_g", static_g)
-    V.one_of("kind", kind, ("censored", "truncated"))
+    V.one_of("kind", kind, KINDS)
     reading = _read_stages(sensor.stages())
     clip_where = _clip_where(sensor)
     notes: list[str] = []

@@ -13,7 +13,6 @@ from typing import Any, Literal, Mapping
 
 from vrelab._format import finite_or_none
 
-
 # Two sine levels belong to the same frequency when they differ by at most this fraction: a
 # controller steps its drive by much more than 1 % between frequencies, and the frequency an
 # analysis estimates from a record scatters by far less.

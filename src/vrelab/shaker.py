@@ -53,15 +53,16 @@ from scipy import signal
 
 from vrelab import __version__
 from vrelab import _validate as V
+from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.rates import NYQUIST_MARGIN, record_step, simulation_rate_hz
 from vrelab.record import Schedule, Segment, write_record_hdf5
-from vrelab.results import Conditions, FitResult, LevelResult, Notice, VreResult
+from vrelab.results import Conditions, FitResult, LevelResult, Method, Notice, VreResult
+from vrelab.synthesis import Method as DriveMethod
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
 
-DriveMethod = Literal["gaussian", "multisine"]
 
 # Internal samples per simulated block: large enough that per-block Python overhead is small
 # against the numpy/scipy work (2^16 runs as fast as 2^17, measured on the ADXL355 random test),
@@ -475,7 +476,7 @@ def _fs_internal(sensor: Any, f_max_hz: float, fs_internal_hz: float | None) -> 
 
 def _reduce_and_fit(
     record: SimulatedRecord,
-    method: Literal["random", "sine"],
+    method: Method,
     band_hz: tuple[float, float] | None,
     settle_s: float,
     record_path: str | Path | None,
@@ -674,7 +675,7 @@ def run_random_test(
     record_path: str | Path | None = None,
     progress: bool = False,
     fs_internal_hz: float | None = None,
-    clip_kind: Literal["censored", "truncated"] = "censored",
+    clip_kind: ClipKind = "censored",
     ramp_s: float = 0.0,
 ) -> VreResult:
     """Simulate the random method (SPEC 4) on ``sensor`` and reduce it like a lab record.

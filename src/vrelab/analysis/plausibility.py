@@ -29,8 +29,8 @@ from typing import Literal, Sequence
 import numpy as np
 
 from vrelab.record import Record
+from vrelab.results import Method
 
-Method = Literal["random", "sine"]
 MethodRequest = Literal["auto", "random", "sine"]
 
 # Samples read from the middle of each segment (2^16: 8 s at 8 kHz; a 0.12 Hz line spacing

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,9 +50,18 @@ from vrelab.analysis.segmentation import (
     window_pass,
 )
 from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
-from vrelab.record import Record, Schedule, Segment
 from vrelab.fits import fit_levels
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Notice, VreResult
+from vrelab.models.clipping import KINDS
+from vrelab.models.clipping import Kind as ClipKind
+from vrelab.record import Record, Schedule, Segment
+from vrelab.results import (
+    Conditions,
+    Estimate,
+    LevelResult,
+    Method,
+    Notice,
+    VreResult,
+)
 
 DEFAULT_BAND_HZ = (50.0, 2000.0)
 DEFAULT_SETTLE_S = 0.5
@@ -295,7 +304,7 @@ def _resolve_schedule(
 def reduce(
     record: Record,
     schedule: Schedule | None = None,
-    method: Literal["random", "sine"] = "random",
+    method: Method = "random",
     band_hz: tuple[float, float] | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
     block_size: int = DEFAULT_BLOCK,
@@ -453,7 +462,7 @@ def _tolerance_checks(
 def reduce_record(
     record: Record,
     schedule: Schedule | None = None,
-    method: Literal["random", "sine"] = "random",
+    method: Method = "random",
     band_hz: tuple[float, float] | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
     block_size: int = DEFAULT_BLOCK,
@@ -493,12 +502,12 @@ def reduce_record(
 
 def analyze_full(
     record: Record,
-    method: Literal["random", "sine"],
+    method: Method,
     schedule: Schedule | None = None,
     profile: Any = None,
     static_g: float | None = None,
     rail_g: float | None = None,
-    clip_kind: Literal["censored", "truncated"] = "censored",
+    clip_kind: ClipKind = "censored",
     band_hz: tuple[float, float] | None = None,
     fit_k4: bool = False,
     progress: bool = False,
@@ -510,7 +519,7 @@ def analyze_full(
     rail_with_vrc: bool = False,
 ) -> tuple[VreResult, Reduction]:
     """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
-    V.one_of("clip_kind", clip_kind, ("censored", "truncated"))
+    V.one_of("clip_kind", clip_kind, KINDS)
     if static_g is not None:
         static_g = V.finite_scalar("static_g", static_g)
     red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd)
@@ -556,12 +565,12 @@ def analyze_full(
 
 def analyze(
     record: Record,
-    method: Literal["random", "sine"],
+    method: Method,
     schedule: Schedule | None = None,
     profile: Any = None,
     static_g: float | None = None,
     rail_g: float | None = None,
-    clip_kind: Literal["censored", "truncated"] = "censored",
+    clip_kind: ClipKind = "censored",
     band_hz: tuple[float, float] | None = None,
     fit_k4: bool = False,
     progress: bool = False,

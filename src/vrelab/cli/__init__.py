@@ -11,32 +11,18 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import pkgutil
 import sys
-from typing import Any, Sequence
+from typing import Sequence
 
 from vrelab import __version__
+from vrelab.cli._common import Parser, UsageError, print_json
+
+__all__ = ["main", "build_parser", "Parser", "UsageError", "print_json"]
 
 # Order in `vrelab --help`; modules not listed come after, alphabetically.
 _ORDER = ("model", "profile", "predict", "simulate", "analyze", "report", "demo", "sweep")
-
-
-class UsageError(ValueError):
-    """A command-line usage problem (unknown option, missing argument)."""
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse prints usage plus a message and exits 2; we want one line and the same status."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(f"{self.prog}: error: {message}")
-
-
-def print_json(obj: Any) -> None:
-    """Print exactly one JSON object on stdout (NaN/inf are not JSON: they must be None already)."""
-    sys.stdout.write(json.dumps(obj, allow_nan=False) + "\n")
 
 
 def _command_modules() -> list[str]:

@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 
 from vrelab import _io
-from vrelab.cli import print_json
+from vrelab.cli._common import print_json, print_levels
+from vrelab.models.clipping import KINDS
 
 
 def _band(text: str) -> tuple[float, float]:
@@ -72,7 +73,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--rail", type=float, metavar="G", help="DUT samples at or beyond ±G count as saturated")
     p.add_argument("--band", type=_band, metavar="F1:F2", help="test band in Hz (default: profile's, or 50:2000)")
     p.add_argument("--settle", type=float, default=0.5, metavar="S", help="settling time trimmed at each segment edge (s)")
-    p.add_argument("--kind", choices=("censored", "truncated"), default="censored", help="clipping model of the rail fit")
+    p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
     p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
@@ -202,22 +203,6 @@ def _write_psds(stage: Path, red: Any, profile: Any) -> None:
             w.writerow([f"{fk:.6g}", f"{pk:.6g}", "" if not np.isfinite(qk) else f"{qk:.6g}"])
 
 
-def _mg(x: float) -> str:
-    return "nan" if not math.isfinite(x) else f"{x * 1e3:.4g}"
-
-
 def _print_summary(result: Any, path: Path) -> None:
-    sine = result.method == "sine"
     print(f"{path.name}: {result.method} method, {len(result.levels)} level(s)")
-    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
-    for lv in result.levels:
-        f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ""
-        sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
-        print(f"{f}{lv.rms_g:8.4g}  {_mg(lv.vre.value):>11} ± {_mg(lv.vre.u):<8}  {sat}")
-    for fit in result.fits:
-        at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
-        print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
-        if fit.departure_rms_g is not None:
-            print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
-    for w in result.warnings:
-        print(f"warning: {w}")
+    print_levels(result)

@@ -11,10 +11,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vrelab.cli import Parser, print_json
 from vrelab._format import finite_or_none
 from vrelab._lists import parse_list
-from vrelab.models.clipping import mean_shift
+from vrelab.cli._common import Parser, print_json
+from vrelab.models.clipping import KINDS, mean_shift
 from vrelab.models.nonlinearity import UG, vre_poly
 
 _CLIP_HELP = """\
@@ -152,7 +152,7 @@ def register(subparsers: Any) -> None:
     clip.add_argument("--shape", choices=("gaussian", "sine"), default="gaussian", help="vibration shape (default gaussian)")
     clip.add_argument(
         "--kind",
-        choices=("censored", "truncated"),
+        choices=KINDS,
         default="censored",
         help="censored: beyond-rail samples read as the rail (default); truncated: they are discarded (article's model)",
     )

@@ -14,51 +14,17 @@ shared with ``vrelab simulate``.
 from __future__ import annotations
 
 import argparse
-import math
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab.cli import print_json
-from vrelab._lists import parse_list
-
-
-def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
-    """The sensor options common to ``predict`` and ``simulate`` (SPEC 5)."""
-    p.add_argument("--sensor", required=True, metavar="S", help="preset (adxl355, adxl354, adxl357, ideal) or a sensor file")
-    p.add_argument("--range", dest="range_g", type=float, metavar="G", help="measurement range [g], e.g. 2, 4, 8")
-    p.add_argument("--axis", choices=("x", "y", "z"), help="sensing axis (sets fn and Q)")
-    p.add_argument("--odr", dest="odr_hz", type=float, metavar="HZ", help="output data rate [Hz] (sets the digital low-pass)")
-    p.add_argument("--static", dest="static_g", type=float, default=1.0, metavar="G",
-                   help="static acceleration along the axis [g] (default 1: axis up in a 1 g field)")
-    p.add_argument("--k2", dest="k2_ug_per_g2", type=float, metavar="UG_PER_G2", help="second-order nonlinearity [µg/g²]")
-    p.add_argument("--k3", dest="k3_ug_per_g3", type=float, metavar="UG_PER_G3", help="third-order nonlinearity [µg/g³]")
-
-
-def sensor_from_args(args: argparse.Namespace) -> Any:
-    from vrelab.sensor import load_sensor
-
-    V.finite_scalar("--static", args.static_g)
-    return load_sensor(
-        args.sensor,
-        range_g=args.range_g,
-        axis=args.axis,
-        odr_hz=args.odr_hz,
-        k2_ug_per_g2=args.k2_ug_per_g2,
-        k3_ug_per_g3=args.k3_ug_per_g3,
-    )
-
-
-def positive_list(text: str, name: str) -> list[float]:
-    """A LIST option whose values must all be > 0 (levels, frequencies)."""
-    values = parse_list(text, name)
-    for x in values:
-        if not x > 0:
-            raise ValueError(f"{name}: values must be > 0, got {x:g}")
-    return values
-
-
-def _fmt_mg(x: float | None) -> str:
-    return "—" if x is None or not math.isfinite(x) else f"{x * 1e3:.4g}"
+from vrelab._format import format_mg
+from vrelab.cli._common import (
+    add_sensor_arguments,
+    positive_list,
+    print_json,
+    sensor_from_args,
+)
+from vrelab.models.clipping import KINDS
 
 
 def print_prediction(pred: Any) -> None:
@@ -75,9 +41,9 @@ def print_prediction(pred: Any) -> None:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
         print(
-            f"{f}{lv['rms_g']:8.4g} {_fmt_mg(lv['vre_g']):>10} {lv['tilt_error_deg']:10.3g} "
-            f"{_fmt_mg(sh.get('clip_g')):>9} {_fmt_mg(sh.get('nonlinearity_g')):>9} "
-            f"{_fmt_mg(sh.get('overrange_g')):>12}  {'yes' if lv['valid'] else 'no'}"
+            f"{f}{lv['rms_g']:8.4g} {format_mg(lv['vre_g'], signed=False):>10} {lv['tilt_error_deg']:10.3g} "
+            f"{format_mg(sh.get('clip_g'), signed=False):>9} {format_mg(sh.get('nonlinearity_g'), signed=False):>9} "
+            f"{format_mg(sh.get('overrange_g'), signed=False):>12}  {'yes' if lv['valid'] else 'no'}"
         )
     for note in d["notes"]:
         print(f"note: {note}")
@@ -118,7 +84,7 @@ def register(subparsers: Any) -> None:
     ex.add_argument("--profile", metavar="PROFILE", help="random profile: file, F:P,F:P,... or flat:F1-F2; scaled to each level")
     ex.add_argument("--freq", type=float, metavar="HZ", help="sine frequency [Hz]")
     p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms], e.g. 0.5,1,2 or 0.5:3:0.5")
-    p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
+    p.add_argument("--kind", choices=KINDS, default="censored",
                    help="clipping model: censored (a saturating sensor, default) or truncated (the article's)")
     p.add_argument("--out", metavar="DIR", help="write DIR/prediction.json")
     p.add_argument("--json", action="store_true", help="print one JSON object")

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab.cli import print_json
+from vrelab.cli._common import print_json
 
 
 def _table(profile: Any) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vrelab.cli import print_json
+from vrelab.cli._common import print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -25,13 +25,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vrelab import _io, _validate as V
-from vrelab.cli import print_json
-from vrelab.cli.predict import add_sensor_arguments, positive_list, sensor_from_args
-
-
-def _mg(x: float) -> str:
-    return "nan" if not math.isfinite(x) else f"{x * 1e3:.4g}"
+from vrelab import _io
+from vrelab import _validate as V
+from vrelab.cli._common import (
+    add_sensor_arguments,
+    positive_list,
+    print_json,
+    print_levels,
+    sensor_from_args,
+)
+from vrelab.models.clipping import KINDS
 
 
 def print_result(result: Any) -> None:
@@ -40,18 +43,7 @@ def print_result(result: Any) -> None:
     print(f"simulated {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  axis {c.axis}  "
           f"{odr}  static {c.static_g:g} g")
     print(f"vibration: {c.profile}")
-    sine = result.method == "sine"
-    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
-    for lv in result.levels:
-        f = f"{lv.freq_hz:7.4g}  " if sine else ""
-        sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
-        print(f"{f}{lv.rms_g:8.4g}  {_mg(lv.vre.value):>11} ± {_mg(lv.vre.u):<8}  {sat}")
-    for fit in result.fits:
-        where = f" at {fit.freq_hz:g} Hz" if fit.freq_hz is not None else ""
-        extra = f"; leaves the model from {fit.departure_rms_g:.3g} g rms" if fit.departure_rms_g is not None else ""
-        print(f"fit {fit}{where}{extra}")
-    for w in result.warnings:
-        print(f"warning: {w}")
+    print_levels(result)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -132,7 +124,7 @@ def register(subparsers: Any) -> None:
                    help="ramp each level up and down over S seconds, as a shaker controller does (default 0)")
     p.add_argument("--drift", type=float, default=0.0, metavar="G_PER_S",
                    help="slow linear drift of the sensor's output [g/s] (default 0)")
-    p.add_argument("--kind", choices=("censored", "truncated"), default="censored",
+    p.add_argument("--kind", choices=KINDS, default="censored",
                    help="clipping model of the effective-rail fit and the prediction (default censored)")
     p.add_argument("--drive", choices=("gaussian", "multisine"), default="gaussian",
                    help="random drive: a Gaussian process (default) or a random-phase multisine")

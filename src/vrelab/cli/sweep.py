@@ -9,7 +9,6 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-
 _EXAMPLE = """example FILE (see vrelab.sweep.spec for every field):
 
   kind = "predict"                # model | predict | simulate | python
@@ -70,7 +69,7 @@ def _json_num(x: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab.cli import print_json
+    from vrelab.cli._common import print_json
     from vrelab.sweep import SweepAborted, load_spec, run_sweep
     from vrelab.sweep.dataset import flat_rows
 

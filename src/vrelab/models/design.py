@@ -21,7 +21,6 @@ from vrelab.models.dynamics import rice_upcrossing_rate
 from vrelab.models.nonlinearity import vre_poly
 
 
-
 def clip_vre(
     mean_g: float,
     sigma_g: ArrayLike,

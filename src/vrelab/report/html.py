@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-import numpy as np
 from matplotlib.figure import Figure
 
 from vrelab import __version__
+from vrelab._format import format_mg
 from vrelab._io import sha256_file
 from vrelab.results import FitResult, VreResult
 
@@ -114,19 +114,6 @@ def _fmt(x: Any, spec: str = ".4g") -> str:
     if isinstance(x, float):
         return "–" if not math.isfinite(x) else format(x, spec)
     return str(x)
-
-
-def _mg(value: float, u: float | None = None) -> str:
-    if value is None or not math.isfinite(value):
-        return "–"
-    # Enough digits that the uncertainty's first two digits show.
-    digits = 1
-    if u is not None and math.isfinite(u) and u > 0:
-        digits = max(0, min(4, 1 - math.floor(math.log10(u * 1e3))))
-    s = f"{value * 1e3:+.{digits}f}"
-    if u is not None and math.isfinite(u):
-        s += f" ± {u * 1e3:.{digits}f}"
-    return s
 
 
 # A PSD table with more lines than this is a fine-resolution estimate of a short record:
@@ -247,7 +234,7 @@ def _levels_table(result: VreResult) -> str:
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
         rms = _fmt(x.rms_g, ".4g") + (f" ± {x.u_rms_g:.2g}" if shown_u else "")
-        cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, _mg(x.vre.value, x.vre.u)]
+        cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
     th = "".join(f'<th class="{"num" if h in num else ""}">{_e(h)}</th>' for h in head)
@@ -304,14 +291,14 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
         cells = ([_fmt(lv.get("freq_hz"), "g")] if has_f else []) + [
             _fmt(lv.get("rms_g"), ".4g"),
-            _mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–",
+            format_mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–",
             _fmt(lv.get("tilt_error_deg"), ".3g"),
         ]
         for k in share_keys:
             v = sh.get(k)
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
-            cells.append(_mg(v) if isinstance(v, (int, float)) else _fmt(v))
+            cells.append(format_mg(v) if isinstance(v, (int, float)) else _fmt(v))
         rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
     th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
     extra = []
@@ -539,7 +526,7 @@ def summary_sentence(result: VreResult) -> str:
         return f"{what}: no valid levels."
     lo, hi = min(x.rms_g for x in lv), max(x.rms_g for x in lv)
     top = max(lv, key=lambda x: x.rms_g)
-    s = f"{what} at {len(lv)} levels from {lo:.3g} to {hi:.3g} g rms ({result.method} method): {_mg(top.vre.value, top.vre.u)} mg at {hi:.3g} g rms"
+    s = f"{what} at {len(lv)} levels from {lo:.3g} to {hi:.3g} g rms ({result.method} method): {format_mg(top.vre.value, top.vre.u)} mg at {hi:.3g} g rms"
     bits = []
     for f in result.fits:
         if "rail_g" in f.params:

@@ -16,7 +16,7 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -24,6 +24,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
+from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
 from vrelab.results import FitResult, VreResult
 
@@ -121,7 +122,7 @@ def clip_curves(
     static_g: float,
     rail_g: float,
     rms_g: ArrayLike,
-    kinds: Sequence[Literal["censored", "truncated"]] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = ("censored", "truncated"),
     rail_low_g: float | None = None,
     label_suffix: str = "",
 ) -> list[Curve]:
@@ -162,7 +163,7 @@ def vrc_curve(vrc_ug_per_g2: float, rms_g: ArrayLike, label: str | None = None) 
 def model_curves(
     result: VreResult,
     rms_max_g: float | None = None,
-    kinds: Sequence[Literal["censored", "truncated"]] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = ("censored", "truncated"),
     n: int = 200,
 ) -> list[Curve]:
     """The curves a result's own fits imply: clipping models at the fitted rail, VRC·rms².

@@ -31,6 +31,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from vrelab._format import format_mg
 from vrelab.report.html import (
     ReportFigure,
     ReportSection,
@@ -363,7 +364,7 @@ def sweep_tables(ds: Any) -> list[ReportTable]:
         rows = []
         for sel in grid_points(ds)[:MAX_STATS_ROWS]:
             s = lot_statistics(ds["vre_g"].sel(sel).values)
-            rows.append([describe_point(sel), str(s["n"])] + [_fmt_mg(s[k], signed=k != "sd") for k in ("mean", "sd", "p5", "p95")])
+            rows.append([describe_point(sel), str(s["n"])] + [format_mg(s[k], signed=k != "sd") for k in ("mean", "sd", "p5", "p95")])
         n_pts = len(grid_points(ds))
         title = "VRE across the lot" + (f" (first {MAX_STATS_ROWS} of {n_pts} grid points)" if n_pts > MAX_STATS_ROWS else "")
         tables.append(ReportTable(title, ("grid point", "units ok", "mean (mg)", "sd (mg)", "5th pct (mg)", "95th pct (mg)"), rows, numeric=(1, 2, 3, 4, 5)))
@@ -373,10 +374,6 @@ def sweep_tables(ds: Any) -> list[ReportTable]:
         title = "Failed points" + (f" (first {MAX_FAILED_ROWS} of {len(bad)})" if len(bad) > MAX_FAILED_ROWS else "")
         tables.append(ReportTable(title, ("point", "error"), rows))
     return tables
-
-
-def _fmt_mg(value_g: float, signed: bool = True) -> str:
-    return "–" if not math.isfinite(value_g) else format(value_g * 1e3, "+.4g" if signed else ".4g")
 
 
 def _describe_dist(d: dict[str, Any]) -> str:

@@ -25,7 +25,13 @@ from typing import Any, Iterable, Iterator, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab.sensor.stages import Decimate, Stage, _fused_filter_state, _is_sos_filter, _process_fused
+from vrelab.sensor.stages import (
+    Decimate,
+    Stage,
+    _fused_filter_state,
+    _is_sos_filter,
+    _process_fused,
+)
 
 FloatArray = NDArray[np.float64]
 

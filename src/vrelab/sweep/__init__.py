@@ -32,7 +32,13 @@ from vrelab.sweep.backends import (
     make_backend,
 )
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
-from vrelab.sweep.engine import PointFunction, SweepAborted, resolve, run_points, run_task
+from vrelab.sweep.engine import (
+    PointFunction,
+    SweepAborted,
+    resolve,
+    run_points,
+    run_task,
+)
 from vrelab.sweep.spec import SweepSpec, load_spec, parse_spec
 
 __all__ = [

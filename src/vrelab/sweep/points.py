@@ -30,6 +30,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
     """rms of the proof-mass motion: through the resonance at the sine frequency, or over the
     flat random band (``effective_rms`` of a unit-variance flat PSD); unchanged without fn_hz."""

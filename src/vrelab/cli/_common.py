@@ -1,0 +1,82 @@
+"""What the sub-commands share: the parser class, JSON output, the sensor options, list options
+and the levels table. Sub-commands import this module and never each other (``_``-prefixed
+modules are not discovered as commands)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from vrelab import _validate as V
+from vrelab._format import format_mg
+from vrelab._lists import parse_list
+
+
+class UsageError(ValueError):
+    """A command-line usage problem (unknown option, missing argument)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse prints usage plus a message and exits 2; we want one line and the same status."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{self.prog}: error: {message}")
+
+
+def print_json(obj: Any) -> None:
+    """Print exactly one JSON object on stdout (NaN/inf are not JSON: they must be None already)."""
+    sys.stdout.write(json.dumps(obj, allow_nan=False) + "\n")
+
+
+def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
+    """The sensor options common to ``predict`` and ``simulate`` (SPEC 5)."""
+    p.add_argument("--sensor", required=True, metavar="S", help="preset (adxl355, adxl354, adxl357, ideal) or a sensor file")
+    p.add_argument("--range", dest="range_g", type=float, metavar="G", help="measurement range [g], e.g. 2, 4, 8")
+    p.add_argument("--axis", choices=("x", "y", "z"), help="sensing axis (sets fn and Q)")
+    p.add_argument("--odr", dest="odr_hz", type=float, metavar="HZ", help="output data rate [Hz] (sets the digital low-pass)")
+    p.add_argument("--static", dest="static_g", type=float, default=1.0, metavar="G",
+                   help="static acceleration along the axis [g] (default 1: axis up in a 1 g field)")
+    p.add_argument("--k2", dest="k2_ug_per_g2", type=float, metavar="UG_PER_G2", help="second-order nonlinearity [µg/g²]")
+    p.add_argument("--k3", dest="k3_ug_per_g3", type=float, metavar="UG_PER_G3", help="third-order nonlinearity [µg/g³]")
+
+
+def sensor_from_args(args: argparse.Namespace) -> Any:
+    from vrelab.sensor import load_sensor
+
+    V.finite_scalar("--static", args.static_g)
+    return load_sensor(
+        args.sensor,
+        range_g=args.range_g,
+        axis=args.axis,
+        odr_hz=args.odr_hz,
+        k2_ug_per_g2=args.k2_ug_per_g2,
+        k3_ug_per_g3=args.k3_ug_per_g3,
+    )
+
+
+def positive_list(text: str, name: str) -> list[float]:
+    """A LIST option whose values must all be > 0 (levels, frequencies)."""
+    values = parse_list(text, name)
+    for x in values:
+        if not x > 0:
+            raise ValueError(f"{name}: values must be > 0, got {x:g}")
+    return values
+
+
+def print_levels(result: Any) -> None:
+    """The levels of a ``VreResult`` as a table, then its fits and warnings (simulate, analyze)."""
+    sine = result.method == "sine"
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
+    for lv in result.levels:
+        f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ("        " if sine else "")
+        sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
+        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}  {sat}")
+    for fit in result.fits:
+        at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
+        print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
+        if fit.departure_rms_g is not None:
+            print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
+    for w in result.warnings:
+        print(f"warning: {w}")
