@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from vrelab.cli import main
 from vrelab._lists import parse_list
+from vrelab.cli import main
 
 
 def _json(capsys, argv):

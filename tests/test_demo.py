@@ -120,7 +120,11 @@ def test_bad_seconds_is_refused_before_running(tmp_path: Path, capsys: pytest.Ca
 
 @pytest.mark.browser
 def test_demo_report_renders_in_chromium(demo: dict, tmp_path: Path) -> None:
-    from test_report_browser import SCREENSHOT_DIR, assert_rendered_cleanly, render_in_chromium
+    from test_report_browser import (
+        SCREENSHOT_DIR,
+        assert_rendered_cleanly,
+        render_in_chromium,
+    )
 
     state, events = render_in_chromium(demo["out"] / "report.html", tmp_path, SCREENSHOT_DIR / "demo-report.png")
     assert_rendered_cleanly(state, events, 7)

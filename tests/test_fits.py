@@ -247,7 +247,7 @@ def test_k2_k3_covariance_is_the_linear_map_of_independent_vrcs():
 def test_notices_are_strings_with_a_code_that_survive_json_and_pickle():
     import pickle
 
-    from vrelab.results import Notice, VreResult, Conditions
+    from vrelab.results import Conditions, Notice, VreResult
 
     n = Notice("rail-found", "DUT upper rail found at 2.048 g (40 samples on it)")
     assert n == "DUT upper rail found at 2.048 g (40 samples on it)" and n.code == "rail-found"

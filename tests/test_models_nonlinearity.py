@@ -18,8 +18,8 @@ from vrelab.models.nonlinearity import (
     sine_moments,
     ug_per_g2_from_ppm_fs,
     ug_per_g2_to_per_g,
-    vre_poly,
     vrc_ug_per_g2_from_vre,
+    vre_poly,
 )
 from vrelab.results import Estimate
 

@@ -17,8 +17,13 @@ import pytest
 
 from vrelab.cli import main
 from vrelab.record import Schedule, Segment, write_record_hdf5
-from vrelab.report import plots
-from vrelab.report.html import ReportFigure, ReportSection, collect_warnings, report_dir, write_report
+from vrelab.report import plots, report_dir
+from vrelab.report.html import (
+    ReportFigure,
+    ReportSection,
+    collect_warnings,
+    write_report,
+)
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from vrelab.record import Schedule, Segment, write_record_hdf5
-from vrelab.report.html import report_dir
+from vrelab.report import report_dir
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
 
 pytestmark = pytest.mark.browser

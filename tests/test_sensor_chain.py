@@ -13,7 +13,15 @@ import numpy as np
 import pytest
 from scipy import integrate, signal
 
-from vrelab.sensor import Clip, Decimate, Noise, OverRange, Polynomial, SensorChain, load_sensor
+from vrelab.sensor import (
+    Clip,
+    Decimate,
+    Noise,
+    OverRange,
+    Polynomial,
+    SensorChain,
+    load_sensor,
+)
 
 
 def _band_gaussian(rng, fs, n, f1, f2, rms):

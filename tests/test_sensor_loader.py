@@ -12,7 +12,16 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from vrelab.sensor import Clip, Decimate, LowPass, OverRange, Quantize, Resonator, list_presets, load_sensor
+from vrelab.sensor import (
+    Clip,
+    Decimate,
+    LowPass,
+    OverRange,
+    Quantize,
+    Resonator,
+    list_presets,
+    load_sensor,
+)
 from vrelab.sensor.loader import NUMERIC_FIELDS, Sensor
 
 

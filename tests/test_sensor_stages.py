@@ -17,6 +17,7 @@ from scipy.integrate import quad
 from scipy.interpolate import lagrange
 from scipy.optimize import brentq
 
+from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.stages import (
     AntiAlias,
     Clip,
@@ -32,7 +33,6 @@ from vrelab.sensor.stages import (
     Stage,
     StageBase,
 )
-from vrelab.sensor.chain import SensorChain
 
 
 def _run(stage, x, fs, block=None, seed=None):

@@ -26,9 +26,9 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from vrelab import _io
 from vrelab import _validate as V
-from vrelab._format import format_mg_text
+from vrelab import folder as F
+from vrelab._format import finite_or_none, format_mg_text
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
@@ -126,7 +126,7 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
 
     sensor = load_sensor("ideal", range_g=2)
     (stage / "fig1-clipping").mkdir()
-    rec = stage / "fig1-clipping" / "record.h5"
+    rec = stage / "fig1-clipping" / F.RECORD
     res = shaker.run_random_test(
         sensor, parse_profile(PROFILE), [0.3, 1.0], static_g=1.0, seconds=cfg.seconds, baseline_s=cfg.baseline_s, seed=cfg.seed, record_path=rec
     )
@@ -448,15 +448,6 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
 
 
 # --------------------------------------------------------------------------- driver
-def _write_folder(folder: Path, result: VreResult, prediction: Mapping[str, Any] | None) -> None:
-
-    folder.mkdir(exist_ok=True)
-    write_json(folder / "results.json", result.to_dict())
-    _io.write_levels_csv(folder / "levels.csv", result)
-    if prediction is not None:
-        write_json(folder / "prediction.json", prediction)
-
-
 def run_demo(
     out: str | Path = "demo-out",
     quick: bool = False,
@@ -498,7 +489,7 @@ def run_demo(
             st = fn(stage)
             studies.append(st)
             for key, res in st.results.items():
-                _write_folder(stage / key, res, st.predictions.get(key))
+                F.write_result(stage / key, res, st.predictions.get(key))
                 folders.append(key)
             numbers.update(st.numbers)
             say(f"vrelab demo: [{i}/{len(steps)}] {label}: done in {time.monotonic() - t:.1f} s")
@@ -510,12 +501,12 @@ def run_demo(
             "preset assumptions, listed in each result's provenance."
         )
         report = write_report(
-            stage / "report.html",
+            stage / F.REPORT,
             [summary_section(numbers)] + [s.section for s in studies],
             title="Vibration rectification in the ADXL355: the article's case study, simulated",
             intro=intro,
             provenance={"demo_seed": cfg.seed, "seconds_per_level": cfg.seconds, "sub_folders": ", ".join(folders)},
         )
-        write_json(stage / "summary.json", {k: (v if math.isfinite(v) else None) for k, v in numbers.items()})
+        write_json(stage / F.SUMMARY, {k: finite_or_none(v) for k, v in numbers.items()})
     final = Path(out) / report.name
     return DemoOutcome(final, numbers, tuple(folders), time.monotonic() - t0)

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from vrelab import _io
+from vrelab import _io, folder
 from vrelab.cli._common import print_json, print_levels
 from vrelab.models.clipping import KINDS
 
@@ -128,9 +128,8 @@ def run(args: argparse.Namespace) -> int:
     doc = result.to_dict()
     if args.out:
         with _io.output_dir(args.out) as stage:
-            _io.write_json(stage / "results.json", doc)
-            _io.write_levels_csv(stage / "levels.csv", result)
-            _write_envelope(stage / "envelope.csv", red)
+            folder.write_result(stage, result)
+            _write_envelope(stage / folder.ENVELOPE, red)
             if args.method == "random" and red.psd:
                 _write_psds(stage, red, profile)
     if args.json:
@@ -181,7 +180,7 @@ def _write_envelope(path: Path, red: Any) -> None:
 
 
 def _write_psds(stage: Path, red: Any, profile: Any) -> None:
-    with open(stage / "psd_levels.csv", "w", newline="") as fh:
+    with open(stage / folder.PSD_LEVELS, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["level", "rms_g", "freq_hz", "psd_g2_per_hz"])
         for i, ((f, p), lv) in enumerate(zip(red.psd, red.levels), start=1):
@@ -196,7 +195,7 @@ def _write_psds(stage: Path, red: Any, profile: Any) -> None:
     prof = profile.scaled_to(red.levels[i].rms_g)
     with np.errstate(all="ignore"):
         pp = np.asarray(prof.psd(f), dtype=float)
-    with open(stage / "psd.csv", "w", newline="") as fh:
+    with open(stage / folder.PSD, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["freq_hz", "psd_measured_g2_per_hz", "psd_profile_g2_per_hz"])
         for fk, pk, qk in zip(f, p, pp):

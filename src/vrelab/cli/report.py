@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab.report.html import report_dir
+    from vrelab.report import report_dir
 
     path = report_dir(args.dir, argv=["vrelab", *sys.argv[1:]], title=args.title)
     if args.json:

@@ -25,7 +25,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vrelab import _io
 from vrelab import _validate as V
 from vrelab.cli._common import (
     add_sensor_arguments,
@@ -84,15 +83,14 @@ def run(args: argparse.Namespace) -> int:
                                     record_path=record_path, progress=progress, ramp_s=ramp_s)
 
     if args.out:
-        from vrelab._io import output_dir, write_json
+        from vrelab import folder
+        from vrelab._io import output_dir
 
         with output_dir(args.out) as stage:
-            result = simulate(stage / "record.h5" if args.record else None)
-            write_json(stage / "results.json", result.to_dict())
-            _io.write_levels_csv(stage / "levels.csv", result)
+            result = simulate(stage / folder.RECORD if args.record else None)
             pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g,
                            kind=args.kind)
-            write_json(stage / "prediction.json", pred.to_dict())
+            folder.write_result(stage, result, pred.to_dict())
     else:
         result = simulate(None)
     if args.json:

@@ -4,7 +4,7 @@ A report is a title, an introduction and a sequence of :class:`ReportSection`; e
 result (a :class:`~vrelab.results.VreResult`), its figures and one sentence of what it shows,
 rendered as conditions, a table of levels (VRE ± u in mg, saturation counts), the fits with
 standard errors, the mechanisms' shares from a prediction, warnings and provenance.
-:func:`report_dir` builds the one-section report of an output folder (``vrelab report DIR``);
+:func:`report_result_dir` builds the one-section report of a results folder (``vrelab report DIR``);
 the demo builds a multi-section report with :func:`write_report`.
 """
 
@@ -25,8 +25,10 @@ from typing import Any, Mapping, Sequence
 from matplotlib.figure import Figure
 
 from vrelab import __version__
+from vrelab import folder as F
 from vrelab._format import format_mg
 from vrelab._io import sha256_file
+from vrelab.folder import ResultsFolder
 from vrelab.results import FitResult, VreResult
 
 _CSS = """
@@ -413,43 +415,6 @@ def write_report(
 
 
 # --------------------------------------------------------------------------- output folders
-def load_results(folder: str | Path) -> VreResult:
-    """Read ``folder/results.json``; a missing or malformed file is a one-line ``ValueError``."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise ValueError(f"report: not a folder: {folder}")
-    f = folder / "results.json"
-    if not f.is_file():
-        raise ValueError(f"report: no results.json in {folder} (run simulate/analyze with --out {folder} first)")
-    try:
-        doc = json.loads(f.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
-    if not isinstance(doc, dict):
-        raise ValueError(f"report: {f} must hold a JSON object, got {type(doc).__name__}")
-    try:
-        result = VreResult.from_dict(doc)
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise ValueError(f"report: {f} is not a vrelab results file ({type(exc).__name__}: {exc})") from None
-    if result.method not in ("random", "sine"):
-        raise ValueError(f"report: {f}: method must be random or sine, got {result.method!r}")
-    return result
-
-
-def _load_prediction(folder: Path) -> Mapping[str, Any] | None:
-    f = folder / "prediction.json"
-    if not f.is_file():
-        return None
-    try:
-        doc = json.loads(f.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
-    levels = doc.get("levels") if isinstance(doc, dict) else None
-    if not isinstance(levels, list) or not all(isinstance(lv, dict) for lv in levels):
-        raise ValueError(f"report: {f} is not a vrelab prediction (needs a list of level objects under 'levels')")
-    return doc
-
-
 def _rails_of(result: VreResult) -> tuple[float, float] | None:
     ex = dict(result.conditions.extra)
     for key in ("rails_g", "rails"):
@@ -493,14 +458,14 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
             fn = _sensor_number(result, "fn_hz")
             figs.append(ReportFigure.from_figure(plots.plot_vrc_vs_freq(result, fn_hz=fn), "VRC against sine frequency: resonance amplifies the nonlinearity."))
     if folder is not None:
-        rec = folder / "record.h5"
+        rec = folder / F.RECORD
         if rec.is_file():
             env = plots.record_envelope(rec)
             figs.append(ReportFigure.from_figure(plots.plot_time_series(env, rails_g=_rails_of(result), static_g=result.conditions.static_g), f"Record {rec.name} (min/max envelope of {env.bin_size}-sample bins), segments shaded."))
-        elif (folder / "envelope.csv").is_file():
-            figs.append(ReportFigure.from_figure(plots.plot_envelope_csv(folder / "envelope.csv"), "Analysis windows: vibration level and sensor mean against time."))
-        if (folder / "psd.csv").is_file():
-            d = plots.read_psd_csv(folder / "psd.csv")
+        elif (folder / F.ENVELOPE).is_file():
+            figs.append(ReportFigure.from_figure(plots.plot_envelope_csv(folder / F.ENVELOPE), "Analysis windows: vibration level and sensor mean against time."))
+        if (folder / F.PSD).is_file():
+            d = plots.read_psd_csv(folder / F.PSD)
             f, pm, pp = d["freq_hz"], d["psd_measured"], d["psd_profile"]
             label, how = "reference PSD", "line by line"
             if f.size > PSD_LINES_BEFORE_AVERAGING:
@@ -536,25 +501,15 @@ def summary_sentence(result: VreResult) -> str:
     return s + ("; " + "; ".join(bits) if bits else "") + "."
 
 
-def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
-    """Build ``folder/report.html`` from ``results.json`` and whatever else the folder holds.
-
-    A sweep output folder (``result.nc`` and no ``results.json``) gets the sweep report of
-    :func:`vrelab.report.sweep.report_sweep_dir`.
-    """
-    folder = Path(folder)
-    if folder.is_dir() and not (folder / "results.json").exists():
-        from vrelab.report import sweep
-
-        if (folder / sweep.RESULT_NC).exists():
-            return sweep.report_sweep_dir(folder, argv, title)
-        raise ValueError(
-            f"report: no results.json (simulate/analyze --out) and no {sweep.RESULT_NC} (sweep --out) in {folder}"
-        )
-    result = load_results(folder)
-    prediction = _load_prediction(folder)
+def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+    """Write ``report.html`` into a simulate/analyze/demo results folder (``vrelab report DIR``
+    goes through :func:`vrelab.report.report_dir`, which reads the folder and picks this or the
+    sweep report)."""
+    folder = rf.path
+    result, prediction = rf.result, rf.prediction
+    assert result is not None
     figs, notes = result_figures(result, folder)
-    res_file = folder / "results.json"
+    res_file = folder / F.RESULTS
     prov: dict[str, Any] = {"results_file": res_file.name, "results_sha256": sha256_file(res_file)}
     src = next((result.provenance.get(k) for k in ("input", "input_file", "file", "path") if result.provenance.get(k)), None)
     if src and not any(k.endswith("sha256") for k in result.provenance):
@@ -563,7 +518,7 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
             p = folder / p if (folder / p).is_file() else p
         if p.is_file():
             prov["input_sha256"] = sha256_file(p)
-    rec = folder / "record.h5"
+    rec = folder / F.RECORD
     if rec.is_file():
         prov["record_file"] = rec.name
         prov["record_sha256"] = sha256_file(rec)
@@ -577,10 +532,10 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
         provenance=prov,
     )
     return write_report(
-        folder / "report.html",
+        folder / F.REPORT,
         [sec],
         title=title or "Vibration rectification error report",
-        intro=f"Report of {folder.name or folder.resolve().name}/results.json.",
+        intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS}.",
         provenance=default_provenance(argv),
     )
 

@@ -15,7 +15,7 @@ matplotlib ``Figure`` (no pyplot, VRE in mg), like :mod:`vrelab.report.plots`:
 
 :func:`sweep_section` turns the Dataset into a :class:`~vrelab.report.html.ReportSection`;
 :func:`report_sweep_dir` writes ``DIR/report.html`` (``vrelab report DIR`` calls it through
-:func:`vrelab.report.html.report_dir` when DIR holds ``result.nc`` and no ``results.json``).
+:func:`vrelab.report.report_dir` when DIR holds ``result.nc`` and no ``results.json``).
 """
 
 from __future__ import annotations
@@ -31,18 +31,18 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from vrelab import folder as F
 from vrelab._format import format_mg
+from vrelab._io import sha256_file
 from vrelab.report.html import (
     ReportFigure,
     ReportSection,
     ReportTable,
     default_provenance,
-    sha256_file,
     write_report,
 )
 from vrelab.report.plots import COLORS
 
-RESULT_NC = "result.nc"  # the name vrelab.sweep.run_sweep writes (vrelab.sweep.RESULT_NC)
 UNIT = "unit"
 # More lines than this on one plot cannot be told apart, even in the colour-blind-safe cycle
 # with markers; the caption says how many combinations were left out.
@@ -450,14 +450,14 @@ def sweep_section(ds: Any, title: str | None = None, provenance: dict[str, Any] 
 def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
     """Write ``folder/report.html`` from the sweep result ``folder/result.nc``."""
     folder = Path(folder)
-    nc = folder / RESULT_NC
+    nc = folder / F.SWEEP_RESULT
     ds = load_sweep(nc)
     prov = {"result_file": nc.name, "result_sha256": sha256_file(nc)}
     sec = sweep_section(ds, title, prov)
     return write_report(
-        folder / "report.html",
+        folder / F.REPORT,
         [sec],
         title=title or f"Sweep report: {_title(ds)}",
-        intro=f"Report of {folder.name or folder.resolve().name}/{RESULT_NC}.",
+        intro=f"Report of {folder.name or folder.resolve().name}/{F.SWEEP_RESULT}.",
         provenance=default_provenance(argv),
     )

@@ -31,6 +31,7 @@ from vrelab.sweep.backends import (
     check_backend_args,
     make_backend,
 )
+from vrelab.folder import SWEEP_RESULT
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
 from vrelab.sweep.engine import (
     PointFunction,
@@ -68,7 +69,7 @@ POINT_FUNCTIONS = {
     "predict": "vrelab.sweep.points:predict_point",
     "simulate": "vrelab.sweep.points:simulate_point",
 }
-RESULT_NC = "result.nc"
+RESULT_NC = SWEEP_RESULT  # the name vrelab.folder owns
 RESULT_CSV = "result.csv"
 RESULT_ZARR = "result.zarr"
 SUMMARY = "sweep.json"

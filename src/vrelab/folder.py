@@ -1,0 +1,132 @@
+"""A results folder: the one owner of its file names, of how it is written and how it is read.
+
+``vrelab simulate --out DIR``, ``vrelab analyze --out DIR``, the demo and ``vrelab sweep --out
+DIR`` write folders; ``vrelab report DIR`` reads them. Each file's name lives here and nowhere
+else, so a writer and a reader cannot drift apart:
+
+======================  ===========================================================  =========
+file                    what                                                          written by
+======================  ===========================================================  =========
+``results.json``        :meth:`vrelab.results.VreResult.to_dict` (the ``--json``)      simulate, analyze, demo
+``levels.csv``          one row per level (:func:`vrelab._io.write_levels_csv`)       simulate, analyze, demo
+``prediction.json``     the analytic prediction for the same conditions               simulate, demo
+``record.h5``           the raw record (HDF5, channels ``dut`` and ``reference``)    simulate ``--record``
+``envelope.csv``        per analysis window: time, rms, DUT mean, segment label      analyze
+``psd.csv``             reference PSD against the profile                             analyze (random)
+``psd_levels.csv``      reference PSD per level                                       analyze (random)
+``result.nc``           the sweep's xarray Dataset                                   sweep
+``report.html``         the report                                                   report, demo
+``summary.json``        the demo's numbers against the article's                     demo
+======================  ===========================================================  =========
+
+Writing goes through :func:`vrelab._io.output_dir` (a folder is written completely or not at
+all); reading refuses a missing or malformed file with one line naming it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+from vrelab._io import write_json, write_levels_csv
+from vrelab.results import VreResult
+
+RESULTS = "results.json"
+LEVELS = "levels.csv"
+PREDICTION = "prediction.json"
+RECORD = "record.h5"
+ENVELOPE = "envelope.csv"
+PSD = "psd.csv"
+PSD_LEVELS = "psd_levels.csv"
+SWEEP_RESULT = "result.nc"
+REPORT = "report.html"
+SUMMARY = "summary.json"
+
+FolderKind = Literal["result", "sweep"]
+
+
+def write_result(folder: str | Path, result: VreResult, prediction: Mapping[str, Any] | None = None) -> None:
+    """``results.json``, ``levels.csv`` and, when given, ``prediction.json`` into ``folder``.
+
+    ``folder`` is a staging folder of :func:`vrelab._io.output_dir` (or one the caller owns);
+    each file is itself written atomically.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_json(folder / RESULTS, result.to_dict())
+    write_levels_csv(folder / LEVELS, result)
+    if prediction is not None:
+        write_json(folder / PREDICTION, dict(prediction))
+
+
+@dataclass(frozen=True)
+class ResultsFolder:
+    """What a results folder holds, read back (``result`` is None for a sweep folder)."""
+
+    path: Path
+    kind: FolderKind
+    result: VreResult | None = None
+    prediction: Mapping[str, Any] | None = None
+
+    def file(self, name: str) -> Path | None:
+        """``path/name`` when that file exists, else None."""
+        p = self.path / name
+        return p if p.is_file() else None
+
+
+def read_folder(folder: str | Path) -> ResultsFolder:
+    """Read a results folder: a simulate/analyze/demo result, or a sweep.
+
+    Raises ``ValueError`` (one line, naming the folder or file) when the folder is missing,
+    holds neither ``results.json`` nor ``result.nc``, or a file is not what it should be.
+    """
+    path = Path(folder)
+    if not path.is_dir():
+        raise ValueError(f"report: not a folder: {path}")
+    if not (path / RESULTS).exists():
+        if (path / SWEEP_RESULT).exists():
+            return ResultsFolder(path, "sweep")
+        raise ValueError(
+            f"report: no {RESULTS} (simulate/analyze --out) and no {SWEEP_RESULT} (sweep --out) in {path}"
+        )
+    return ResultsFolder(path, "result", load_results(path), _load_prediction(path))
+
+
+def _read_json(f: Path) -> Any:
+    try:
+        return json.loads(f.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
+
+
+def load_results(folder: str | Path) -> VreResult:
+    """Read ``folder/results.json``; a missing or malformed file is a one-line ``ValueError``."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"report: not a folder: {folder}")
+    f = folder / RESULTS
+    if not f.is_file():
+        raise ValueError(f"report: no {RESULTS} in {folder} (run simulate/analyze with --out {folder} first)")
+    doc = _read_json(f)
+    if not isinstance(doc, dict):
+        raise ValueError(f"report: {f} must hold a JSON object, got {type(doc).__name__}")
+    try:
+        result = VreResult.from_dict(doc)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"report: {f} is not a vrelab results file ({type(exc).__name__}: {exc})") from None
+    if result.method not in ("random", "sine"):
+        raise ValueError(f"report: {f}: method must be random or sine, got {result.method!r}")
+    return result
+
+
+def _load_prediction(folder: Path) -> Mapping[str, Any] | None:
+    f = folder / PREDICTION
+    if not f.is_file():
+        return None
+    doc = _read_json(f)
+    levels = doc.get("levels") if isinstance(doc, dict) else None
+    if not isinstance(levels, list) or not all(isinstance(lv, dict) for lv in levels):
+        raise ValueError(f"report: {f} is not a vrelab prediction (needs a list of level objects under 'levels')")
+    return doc
