@@ -262,3 +262,44 @@ def test_npz_structured_member_and_channel_listing(tmp_path):
     assert np.all(next(rec.blocks(10, ["dut"]))["dut"] == 1.0)
     with pytest.raises(ValueError, match=r"channels: data/reference, data/dut"):
         open_record(tmp_path / "s.npz", "nope")
+
+
+def test_a_new_format_is_one_registered_class(tmp_path, truth, reference_levels):
+    """The reader registry (xarray's backend shape): a format declares its magic bytes,
+    extensions and how it reads; open_record finds it by content, whatever the file's name."""
+    from vrelab.analysis.readers import READERS, Source, register
+
+    class Toy(Source):
+        """'TOY1' + float64 fs + uint32 n + two little-endian float64 columns (ref, dut)."""
+
+        fmt = "toy"
+        extensions = (".toy",)
+
+        @classmethod
+        def can_open(cls, head: bytes) -> bool:
+            return head.startswith(b"TOY1")
+
+        def __init__(self, path):
+            super().__init__(path)
+            raw = path.read_bytes()
+            self.fs_hz, n = struct.unpack("<dI", raw[4:16])
+            self.cols = np.frombuffer(raw, "<f8", offset=16).reshape(2, n)
+            self.lengths = {"ref": n, "dut": n}
+
+        def read(self, name, start, stop):
+            return self.cols[0 if name == "ref" else 1, start:stop]
+
+    ref = truth.record.data["reference"]
+    dut = truth.record.data["dut"]
+    path = tmp_path / "run.bin"  # an extension no reader claims: the magic bytes decide
+    path.write_bytes(b"TOY1" + struct.pack("<dI", FS, len(ref)) + np.concatenate([ref, dut]).astype("<f8").tobytes())
+    register(Toy)
+    try:
+        assert detect_format(path) == "toy"
+        rec = open_record(path, dut="dut", reference="ref")
+        levels, _ = reduce_record(rec)
+    finally:
+        READERS.remove(Toy)
+    assert [lv.vre.value for lv in levels] == pytest.approx([lv.vre.value for lv in reference_levels], rel=1e-9)
+    with pytest.raises(ValueError, match="unknown file format"):
+        detect_format(path)

@@ -1,0 +1,300 @@
+"""Readers for recorded shaker tests: lab files as a streaming :class:`~vrelab.record.Record`.
+
+:func:`open_record` opens CSV, NPY, NPZ, HDF5, NI TDMS, WAV (PCM, float, RF64) and MATLAB
+(v7.3 through h5py, v5 through scipy) files read-only, picks the DUT and reference channels by
+name, scales them to g, and returns a record whose ``blocks`` read lazily: memory is bounded by
+the block size whatever the length of the file. Exceptions, said in ``meta["reader_notes"]``:
+compressed NPZ members and MAT v5 files cannot be memory-mapped and are read whole (one member /
+the file), 24-bit WAV is read whole (scipy cannot memory-map it).
+
+Sample rate, in this order: the file's own (HDF5/MAT attributes or variables ``fs_hz``, ``fs``,
+``sample_rate``, ``sampling_rate``, ``wf_increment`` (its inverse), TDMS ``wf_increment``, the
+WAV header), else a time column (checked increasing and evenly spaced), else ``fs_hz``. A given
+``fs_hz`` that disagrees with the file's is an error.
+
+Every problem is a one-line ``ValueError``: unknown format, empty or truncated file, missing
+channel (the message lists the channels that exist), mismatched channel lengths, a bad time
+column (the first bad index), non-finite values (channel and first index, found while
+streaming).
+
+Formats are a registry (:mod:`vrelab.analysis.readers._base`): each is one
+:class:`~vrelab.analysis.readers._base.Source` subclass in its own module that declares its
+extensions and magic bytes and how it opens and streams; :func:`register` adds another.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab import _validate as V
+from vrelab.analysis.readers import hdf5, matlab, numpy_, tdms, text, wav  # noqa: F401  (they register)
+from vrelab.analysis.readers._base import (
+    _TIME_NAMES,
+    G0,
+    READERS,
+    UNITS,
+    Scale,
+    Source,
+    _as_scale,
+    reader_for,
+    register,
+)
+from vrelab.record import Schedule
+
+
+# SPEC 4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
+# DAQs sample at up to a few hundred kHz (IEPE front ends at 51.2-204.8 kHz); 10 MHz leaves a
+# wide margin, while a corrupt header (a WAV claiming 4.29 GHz) is far beyond it.
+MAX_PLAUSIBLE_FS_HZ = 1e7
+
+
+def detect_format(path: Path) -> str:
+    """The format name of ``path`` from the registry: its magic bytes, else its extension."""
+    return reader_for(Path(path)).fmt
+
+
+def _open_source(path: Path) -> Source:
+    cls = reader_for(path)
+    fmt = cls.fmt
+    try:
+        return cls.open(path)
+    except ValueError as exc:
+        if str(exc).startswith(path.name):
+            raise
+        raise ValueError(f"{path.name}: cannot read as {fmt.upper()} (truncated or corrupt?): {exc}") from None
+    except MemoryError:
+        raise
+    except Exception as exc:  # each format's library raises its own types on a corrupt file
+        raise ValueError(f"{path.name}: cannot read as {fmt.upper()} (truncated or corrupt?): "
+                         f"{type(exc).__name__}: {exc}") from None
+
+
+def _resolve(name: str, src: Source, role: str) -> str:
+    chans = src.channels
+    if name in chans:
+        return name
+    low = {c.lower(): c for c in chans}
+    key = name.lower().lstrip("/")
+    if key in low:
+        return low[key]
+    m = re.fullmatch(r"(?:ch|col|channel|c)?_?(\d+)", key)
+    if m and m.group(1) in chans:
+        return m.group(1)
+    tails = [c for c in chans if c.lower().split("/")[-1] == key]
+    if len(tails) == 1:
+        return tails[0]
+    listing = ", ".join(chans) if chans else "none"
+    if len(tails) > 1:
+        raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: matches {', '.join(tails)}")
+    raise ValueError(f"{role} channel {name!r} not found in {src.path.name}; channels: {listing}")
+
+
+def _time_rate(src: Source, name: str, block: int = 1 << 20) -> float:
+    """Sample rate from a time column, checked increasing and evenly spaced (first bad index)."""
+    n = src.lengths[name]
+    if n < 2:
+        raise ValueError(f"time column {name!r} has fewer than 2 samples")
+    dt0 = None
+    prev = None
+    first = None
+    last = None
+    pos = 0
+    for blk in src.stream([name], 0, n, block):
+        t = np.asarray(blk[name], dtype=np.float64)
+        if not np.isfinite(t).all():
+            i = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise ValueError(f"time column {name!r} has a non-finite value at index {pos + i}")
+        if prev is not None:
+            t = np.concatenate([[prev], t])
+            off = pos - 1
+        else:
+            first = float(t[0])
+            off = pos
+        d = np.diff(t)
+        if len(d):
+            if dt0 is None:
+                dt0 = float(np.median(d[: min(len(d), 1000)]))
+            bad_mono = np.flatnonzero(d <= 0)
+            if len(bad_mono):
+                i = off + int(bad_mono[0]) + 1
+                raise ValueError(f"time column {name!r} is not increasing at index {i}")
+            bad = np.flatnonzero(np.abs(d - dt0) > 0.25 * dt0)
+            if len(bad):
+                i = off + int(bad[0]) + 1
+                raise ValueError(
+                    f"time column {name!r} has a gap or uneven step at index {i} "
+                    f"(step {d[bad[0]]:.6g} s, expected {dt0:.6g} s)"
+                )
+        prev = float(t[-1])
+        last = prev
+        pos += len(blk[name])
+    return (n - 1) / (last - first)  # type: ignore[operator]
+
+
+# ----------------------------------------------------------------------------- the record
+
+
+@dataclass
+class FileRecord:
+    """A lab file as a :class:`~vrelab.record.Record` with channels ``dut`` (and ``reference``) in g."""
+
+    source: Source
+    mapping: dict[str, str]  # record channel -> file channel
+    scales: dict[str, Scale]
+    fs_hz: float
+    n_samples: int
+    schedule: Schedule | None = None
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(self.mapping)
+
+    @property
+    def path(self) -> Path:
+        return self.source.path
+
+    def blocks(
+        self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None
+    ) -> Iterator[dict[str, NDArray[np.float64]]]:
+        for c in channels:
+            if c not in self.mapping:
+                raise ValueError(f"record has no channel {c!r}; channels: {', '.join(self.mapping)}")
+        stop = self.n_samples if stop is None else min(int(stop), self.n_samples)
+        block_size = int(block_size)
+        raw = [self.mapping[c] for c in channels]
+        blocks = self.source.stream(raw, int(start), stop, block_size)
+        while True:
+            try:
+                blk = next(blocks)
+            except StopIteration:
+                return
+            except ValueError:
+                raise
+            except MemoryError:
+                raise
+            except Exception as exc:  # a decoder's own error on a corrupt file (zlib, struct, h5py, ...)
+                name = self.path.name
+                raise ValueError(f"{name}: cannot read its samples (truncated or corrupt?): {type(exc).__name__}: {exc}") from None
+            yield {c: self.scales[c].to_g(blk[r]) for c, r in zip(channels, raw)}
+
+    def close(self) -> None:
+        self.source.close()
+
+    def __enter__(self) -> "FileRecord":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def open_record(
+    path: str | Path,
+    dut: str,
+    reference: str | None = None,
+    fs_hz: float | None = None,
+    dut_scale: Scale | float | None = None,
+    reference_scale: Scale | float | None = None,
+    time_channel: str | None = None,
+) -> FileRecord:
+    """Open a recorded test read-only as a streaming record with channels ``dut``/``reference`` in g.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV/TSV, NPY, NPZ, HDF5, NI TDMS, WAV (PCM, float, RF64), MAT (v5 or v7.3).
+    dut, reference : str
+        Channel names in the file: a CSV column (or its index ``0``/``ch0``), an HDF5/MAT dataset
+        path, a TDMS ``group/channel`` (or a unique channel name), a WAV/NPY column index.
+    fs_hz : float, optional
+        Sample rate [Hz] when neither the file nor a time column gives it.
+    dut_scale, reference_scale : Scale or float, optional
+        Raw units to g (a float is a sensitivity in LSB/g). Default: the file holds g.
+    time_channel : str, optional
+        Time column [s]; by default a column named ``time``/``t``/``time_s``/``timestamp`` is
+        used when the file has no sample rate of its own.
+
+    Returns
+    -------
+    FileRecord
+        ``blocks()`` reads lazily; ``meta`` holds ``source``, ``format``, ``channels`` and
+        ``reader_notes`` (plus the HDF5 ``meta`` attribute of vrelab's own records).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"input file not found: {path}")
+    if not path.is_file():
+        raise ValueError(f"input path is not a file: {path}")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path.name}: file is empty")
+    if fs_hz is not None:
+        fs_hz = V.positive_scalar("fs_hz", fs_hz)
+    src = _open_source(path)
+    try:
+        if not src.channels:
+            raise ValueError(f"{path.name}: no numeric channels found")
+        mapping = {"dut": _resolve(dut, src, "DUT")}
+        if reference is not None:
+            mapping["reference"] = _resolve(reference, src, "reference")
+            if mapping["reference"] == mapping["dut"]:
+                raise ValueError(f"reference and DUT are the same channel {mapping['dut']!r}")
+        lens = {f"{role} {ch!r}": src.lengths[ch] for role, ch in mapping.items()}
+        tcol = None
+        if time_channel is not None:
+            tcol = _resolve(time_channel, src, "time")
+        elif src.fs_hz is None:
+            cands = [c for c in src.channels if c.lower().split("/")[-1] in _TIME_NAMES and c not in mapping.values()]
+            tcol = cands[0] if len(cands) == 1 else None
+        if tcol is not None:
+            lens[f"time {tcol!r}"] = src.lengths[tcol]
+        if len(set(lens.values())) > 1:
+            raise ValueError(
+                f"{path.name}: channels have mismatched lengths: "
+                + ", ".join(f"{k} has {v} samples" for k, v in lens.items())
+            )
+        n = next(iter(lens.values()))
+        if n == 0:
+            raise ValueError(f"{path.name}: channels hold no samples")
+        fs = src.fs_hz
+        how = "file"
+        if fs is None and tcol is not None:
+            fs, how = _time_rate(src, tcol), f"time column {tcol!r}"
+        if fs is None:
+            if fs_hz is None:
+                raise ValueError(f"{path.name}: no sample rate in the file and no time column: give --fs HZ")
+            fs, how = fs_hz, "given"
+        elif fs_hz is not None and abs(fs - fs_hz) > 1e-6 * fs:
+            raise ValueError(f"--fs {fs_hz:g} Hz disagrees with the sample rate from the {how}: {fs:.9g} Hz")
+        if not (math.isfinite(fs) and fs > 0):
+            raise ValueError(f"{path.name}: bad sample rate {fs!r} from the {how}")
+        if fs > MAX_PLAUSIBLE_FS_HZ:
+            raise ValueError(
+                f"{path.name}: sample rate {fs:.6g} Hz from the {how} is implausible for a vibration record "
+                f"(above {MAX_PLAUSIBLE_FS_HZ:g} Hz; {n} samples would last {n / fs:.3g} s): a corrupt header? "
+                "give the true rate with --fs"
+            )
+        scales = {"dut": _as_scale(dut_scale)}
+        if reference is not None:
+            scales["reference"] = _as_scale(reference_scale)
+        meta = dict(src.meta)
+        meta.update(
+            source=path.name,
+            format=src.fmt,
+            channels=dict(mapping),
+            fs_from=how,
+            reader_notes=list(src.notes),
+        )
+        return FileRecord(src, mapping, scales, float(fs), int(n), src.schedule, meta)
+    except BaseException:
+        src.close()
+        raise
+
+
+__all__ = ["open_record", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
