@@ -95,7 +95,6 @@ def _header_claiming(path: Path, fs_hz: int, tmp: Path) -> Path:
 @pytest.fixture(scope="module")
 def fuzz_results(tmp_path_factory):
     from scipy.io import wavfile
-
     from test_analysis_helpers import make_record
 
     tmp = tmp_path_factory.mktemp("fuzz")

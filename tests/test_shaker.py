@@ -294,7 +294,9 @@ def test_drive_thread_never_outlives_a_pass_and_passes_its_errors():
         yield np.zeros(3)
         raise RuntimeError("synthesis failed")
 
-    ahead = shaker._Ahead(failing(), depth=1)
+    from vrelab._ahead import Ahead
+
+    ahead = Ahead(failing(), depth=1)
     assert next(ahead).size == 3
     with pytest.raises(RuntimeError, match="synthesis failed"):
         next(ahead)

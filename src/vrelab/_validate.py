@@ -7,6 +7,7 @@ value, in one line; the CLI prints exactly that message on stderr and exits with
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any
 
 import numpy as np
@@ -94,3 +95,17 @@ def vibration_level(name: str, value: ArrayLike) -> NDArray[np.float64]:
             f"got {_show(arr[arr > MAX_LEVEL_G_RMS])}"
         )
     return arr
+
+
+def integer(name: str, value: Any, minimum: int) -> int:
+    """An integer >= ``minimum`` (a float with an integral value is accepted)."""
+    try:
+        n = operator.index(value)
+    except TypeError:
+        if isinstance(value, float) and value.is_integer():
+            n = int(value)
+        else:
+            raise ValueError(f"{name} must be an integer, got {value!r}") from None
+    if n < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
+    return n

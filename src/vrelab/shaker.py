@@ -53,6 +53,7 @@ from scipy import signal
 
 from vrelab import __version__
 from vrelab import _validate as V
+from vrelab._ahead import Ahead
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.rates import NYQUIST_MARGIN, record_step, simulation_rate_hz
@@ -271,7 +272,7 @@ class SimulatedRecord:
         # The drive does not depend on the sensor: it is synthesised in a second thread, one
         # block ahead, while this one runs the chain (numpy's Gaussian draws,
         # pocketfft and sosfilt release the GIL, so on two cores the two overlap).
-        drives = _Ahead(self._drives(first), depth=1)
+        drives = Ahead(self._drives(first), depth=1, name="vrelab-drive")
         try:
             for k in range(first, len(self._segments)):
                 if k not in self._checkpoints:
@@ -359,74 +360,6 @@ class SimulatedRecord:
                 yield {c: v[:filled] for c, v in out.items()}
         finally:
             bar.close()
-
-
-class _Ahead(Iterator[Any]):
-    """Iterate ``items`` in a background thread, at most ``depth`` items ahead of the consumer.
-
-    Memory: up to ``depth + 1`` items more (the queue and the one waiting to enter it). An
-    exception in the producer is raised in the consumer;
-    :meth:`close` (also called when the consumer is garbage-collected) stops the producer and
-    waits for it, so no thread outlives the pass. Written here rather than taken from the
-    analysis (whose reader has its own) to keep the simulation free of the analysis's
-    internals.
-    """
-
-    _DONE = object()
-
-    def __init__(self, items: Iterator[Any], depth: int = 1) -> None:
-        import queue
-        import threading
-
-        self._closed = True  # until the thread runs: close() and __del__ then have nothing to do
-        self._q: Any = queue.Queue(maxsize=max(1, int(depth)))
-        self._stop = threading.Event()
-
-        def work() -> None:
-            try:
-                for item in items:
-                    if not self._put(item):
-                        return
-                self._put(self._DONE)
-            except BaseException as exc:  # re-raised in the consumer
-                self._put(exc)
-
-        self._thread = threading.Thread(target=work, name="vrelab-drive", daemon=True)
-        self._thread.start()
-        self._closed = False
-
-    def _put(self, item: Any) -> bool:
-        import queue
-
-        while not self._stop.is_set():
-            try:
-                self._q.put(item, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def __next__(self) -> Any:
-        if self._closed:
-            raise StopIteration
-        item = self._q.get()
-        if item is self._DONE:
-            self.close()
-            raise StopIteration
-        if isinstance(item, BaseException):
-            self.close()
-            raise item
-        return item
-
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        self._stop.set()
-        self._thread.join()
-
-    def __del__(self) -> None:
-        self.close()
 
 
 def _rail_window(sensor: Any) -> tuple[float, float]:

@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
+from vrelab._ahead import prefetch
 from vrelab.record import Record, Schedule, Segment
 from vrelab.results import Notice
 
@@ -200,48 +201,6 @@ def channel_labels(record: Record) -> dict[str, str]:
 
 
 Block = dict[str, NDArray[np.float64]]
-
-
-def prefetch(blocks: Iterator[Block], depth: int = 1) -> Iterator[Block]:
-    """Read the next block in a background thread while this one is processed.
-
-    File reads (h5py, memmap page faults) then overlap with the FFTs, reductions and matrix
-    products of the window pass, which release the GIL. Memory: ``depth`` blocks more.
-    """
-    import queue
-    import threading
-
-    q: queue.Queue = queue.Queue(maxsize=depth)
-    done = object()
-    stop = threading.Event()
-
-    def work() -> None:
-        try:
-            for b in blocks:
-                if stop.is_set():
-                    return
-                q.put(b)
-            q.put(done)
-        except BaseException as exc:  # re-raised in the consumer
-            q.put(exc)
-
-    th = threading.Thread(target=work, daemon=True)
-    th.start()
-    try:
-        while True:
-            item = q.get()
-            if item is done:
-                return
-            if isinstance(item, BaseException):
-                raise item
-            yield item
-    finally:
-        stop.set()
-        while th.is_alive():
-            try:
-                q.get_nowait()
-            except queue.Empty:
-                th.join(0.01)
 
 
 def check_finite(name: str, x: NDArray[np.float64], offset: int) -> None:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from vrelab import _io
+from vrelab.folder import SWEEP_RESULT
 from vrelab.sweep.backends import (
     Backend,
     DaskBackend,
@@ -31,7 +32,6 @@ from vrelab.sweep.backends import (
     check_backend_args,
     make_backend,
 )
-from vrelab.folder import SWEEP_RESULT
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
 from vrelab.sweep.engine import (
     PointFunction,
