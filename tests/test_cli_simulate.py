@@ -133,3 +133,12 @@ def test_out_is_complete_or_absent(tmp_path, capsys, monkeypatch):
     assert rc == 2 and "simulated failure" in err
     assert not out_dir.exists()
     assert list(tmp_path.iterdir()) == []  # no staging folder left behind either
+
+
+def test_a_test_beyond_the_budget_is_refused_up_front_with_its_cost(capsys):
+    """`--seconds 1e9` once tried to allocate 74.5 GiB; the plan now states the time it would take
+    (1e9 s at 16 kHz: 1.6e13 samples at 0.5 µs, about 93 days per level) and refuses at once."""
+    rc = main(["simulate", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "1", "--seconds", "1e9"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "would take about" in err and "days" in err and "VRELAB_TIME_BUDGET_H" in err

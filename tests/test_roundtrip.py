@@ -69,7 +69,7 @@ def _disturbed(sensor, offset_g: float = OFFSET_G, drift_g_per_s: float = DRIFT_
 
 
 # ADXL355 Z axis at 1 g: levels up to 0.25 g rms keep their 4σ peaks inside the ±2.048 g rails
-# (shaker.vrc_level_limit_g: 0.262 g); 1 and 1.5 g rms clip.
+# (vrelab.fits.vrc_level_limit_g at the nominal ±2.048 g: 0.262 g); 1 and 1.5 g rms clip.
 CLEAR_LEVELS = [0.1, 0.25]
 CLIPPING_LEVELS = [1.0, 1.5]
 RANDOM_KW = dict(static_g=1.0, seconds=3.0, baseline_s=2.0, seed=21, ramp_s=RAMP_S)

@@ -356,29 +356,6 @@ def test_bad_input_raises_one_line_value_error(kwargs, match):
         shaker.run_random_test(sensor, ARTICLE_PROFILE, **args)
 
 
-def test_monte_carlo_lot_is_reproducible_and_spreads_with_q():
-    """Per-unit seeds from SeedSequence.spawn: the same lot whatever the executor; a zero
-    spread gives identical units; a spread of Q spreads the VRE (sine at fn: VRE ∝ |H|² ≈ Q²)."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    sensor = load_sensor("adxl355", range_g=8, axis="z", k2_ug_per_g2=1000.0)
-    lot = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=6, spreads={"q": (1.5, 0.2)}, seed=3,
-                                 static_g=0.0)
-    with ThreadPoolExecutor(2) as ex:
-        again = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=6, spreads={"q": (1.5, 0.2)},
-                                       seed=3, static_g=0.0, executor=ex)
-    np.testing.assert_array_equal(lot.vre_g, again.vre_g)
-    qs = np.array([p["q"] for p in lot.params])
-    assert qs.std() > 0.05
-    # VRE = k2·(0.5·|H(fn)|)² = k2·0.25·Q² at the resonance (SPEC 1.3)
-    np.testing.assert_allclose(lot.vre_g[:, 0], 1000e-6 * 0.25 * qs**2, rtol=0.02)
-    flat = shaker.monte_carlo_lot(sensor, 2400.0, [0.5], n_units=3, spreads={"q": (1.5, 0.0)}, seed=3,
-                                  static_g=0.0)
-    assert np.all(flat.vre_g == flat.vre_g[0])
-    d = lot.to_dict()
-    assert len(d["units"]) == 6 and d["summary"][0]["rms_g"] == 0.5
-
-
 @pytest.mark.parametrize("drive", [dict(clip_sigma=2.0), dict(kurtosis=6.0)])
 def test_non_gaussian_drive_matches_numerical_expectation_spec_1_1(drive):
     """SPEC 1.1, "any other distribution": the clipping VRE of a non-Gaussian drive (clipped at
@@ -412,29 +389,6 @@ def test_non_band_limited_drive_is_anti_aliased_in_the_record():
     assert res.conditions.extra["fs_record_hz"] < res.conditions.extra["fs_internal_hz"]
     for lv, nominal in zip(res.levels, [1.0, 2.0]):
         assert lv.rms_g == pytest.approx(nominal, rel=0.02)
-
-
-def test_monte_carlo_lot_simulate_mode_is_executor_independent():
-    """mode="simulate": each unit runs the virtual test with its own SeedSequence child, so a
-    thread pool gives the same lot as a serial run; the result is JSON-ready."""
-    import json
-    from concurrent.futures import ThreadPoolExecutor
-
-    sensor = load_sensor("adxl355", range_g=8, axis="z", k2_ug_per_g2=1000.0)
-    kw = dict(n_units=2, spreads={"fn_hz": (2400.0, 100.0)}, seed=5, static_g=0.0, mode="simulate", seconds=2.0)
-    serial = shaker.monte_carlo_lot(sensor, 1000.0, [1.0], **kw)
-    with ThreadPoolExecutor(2) as ex:
-        pooled = shaker.monte_carlo_lot(sensor, 1000.0, [1.0], executor=ex, **kw)
-    np.testing.assert_array_equal(serial.vre_g, pooled.vre_g)
-    assert np.all(serial.u_vre_g > 0)
-    # each simulated unit agrees with its own prediction (sine: k2·(rms·|H(f)|)², SPEC 1.3)
-    from vrelab.predict import predict
-
-    for p, v, u in zip(serial.params, serial.vre_g[:, 0], serial.u_vre_g[:, 0]):
-        unit = dataclasses.replace(sensor, **p)
-        expected = predict(unit, 1000.0, [1.0], static_g=0.0).levels[0].vre_g
-        assert abs(v - expected) < 3 * u + 0.01 * abs(expected)
-    json.dumps(serial.to_dict(), allow_nan=False)
 
 
 def test_memory_does_not_grow_with_duration():

@@ -174,3 +174,23 @@ def test_simulate_point_uses_the_point_seed_and_agrees_with_the_closed_form(tmp_
         measured = float(got["rms_measured_g"])
         closed = _censored_by_quad(1.0, measured, -2.0, 2.0)
         assert abs(float(got["vre_g"]) - closed) < 4 * float(got["u_vre_g"]) + 2e-3
+
+
+def test_a_lot_spread_in_q_spreads_the_vre_as_q_squared_at_resonance(tmp_path):
+    """A production lot (the sweep's [montecarlo], which replaced shaker.monte_carlo_lot): Q drawn
+    per unit; a sine at fn gives VRE = k2·(rms·|H(fn)|)² = k2·rms²·Q² (SPEC 1.3), per unit; the
+    same file gives the same lot (seeded per unit)."""
+    spec = {
+        "kind": "predict",
+        "seed": 3,
+        "fixed": {"sensor": "adxl355", "range_g": 8.0, "axis": "z", "k2_ug_per_g2": 1000.0, "freq_hz": 2400.0,
+                  "static_g": 0.0, "rms_g": 0.5},
+        "montecarlo": {"units": 6, "q": {"dist": "normal", "mean": 1.5, "sd": 0.2}},
+    }
+    ds = run_sweep(parse_spec(spec), tmp_path / "a").dataset
+    again = run_sweep(parse_spec(spec), tmp_path / "b").dataset
+    q = ds["q"].values
+    assert q.std() > 0.05
+    np.testing.assert_array_equal(ds["vre_g"].values, again["vre_g"].values)
+    # the clip and over-range shares are 0 here (0.5·Q g rms stays far inside ±8 g)
+    np.testing.assert_allclose(ds["vre_g"].values.ravel(), 1000e-6 * 0.25 * q**2, rtol=1e-9)

@@ -18,7 +18,6 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as v
 from vrelab.profiles import RandomProfile
 
-
 # --- tolerance check --------------------------------------------------------------------------
 
 

@@ -1,0 +1,249 @@
+"""The plan of a simulated shaker test: every choice made once, validated once, passed whole.
+
+A :class:`TestPlan` holds what a lab's test plan holds (method, levels, frequencies or profile,
+static field, durations, seed, drive options) and makes the :class:`SimulatedRecord` that runs
+it (:meth:`TestPlan.record`). :mod:`vrelab.shaker` runs a plan and reduces its record; nothing
+is handed on by position.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Sequence
+
+import numpy as np
+
+from vrelab import _budget
+from vrelab import _validate as V
+from vrelab.profiles import RandomProfile
+from vrelab.rates import NYQUIST_MARGIN, simulation_rate_hz
+from vrelab.results import Method
+from vrelab.simulation.record import (
+    MIN_WINDOWS,
+    Rates,
+    SimulatedRecord,
+    Stretch,
+    choose_rates,
+    round_up,
+)
+from vrelab.synthesis import Method as DriveMethod
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
+
+# What the reduction keeps per 0.1 s analysis window of a record (a dozen float64/int64 arrays,
+# vrelab.analysis.segmentation.WindowStats): sized against the memory budget up front.
+_WINDOW_STATS_BYTES = 12 * 8
+
+
+def default_settle_s(settle_s: float | None = None) -> float:
+    """The settling time trimmed at each segment edge: by default the reduction's own default
+    (its DUT low-pass must settle after every level change)."""
+    if settle_s is None:
+        from vrelab.analysis.reduction import DEFAULT_SETTLE_S
+
+        return float(DEFAULT_SETTLE_S)
+    return float(V.non_negative("settle_s", settle_s))
+
+
+def min_segment_seconds(settle_s: float | None = None) -> float:
+    """Shortest baseline or level [s] the simulated test accepts for a settling time ``settle_s``.
+
+    The reduction ignores a segment with fewer than 3 whole averaging windows after the trim
+    (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
+    per edge, so a segment shorter than 4·settle_s would be trimmed less than asked.
+    """
+    from vrelab.analysis.reduction import WINDOW_S
+
+    settle_s = default_settle_s(settle_s)
+    return max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
+
+
+def _levels(name: str, levels: Sequence[float]) -> tuple[float, ...]:
+    arr = V.vibration_level(name, np.atleast_1d(np.asarray(levels, dtype=np.float64)))
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name} must be a non-empty list of levels, got {levels!r}")
+    return tuple(float(x) for x in arr)
+
+
+def _freqs(name: str, freqs: Sequence[float]) -> tuple[float, ...]:
+    arr = V.positive(name, np.atleast_1d(np.asarray(freqs, dtype=np.float64)))
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name} must be a non-empty list of frequencies, got {freqs!r}")
+    return tuple(float(x) for x in arr)
+
+
+@dataclass(frozen=True)
+class TestPlan:
+    """A shaker test to simulate (SPEC 4), validated on construction.
+
+    ``method`` "random": every level of ``levels_g`` [g rms] runs the ``profile`` scaled to it;
+    "sine": at each of ``freqs_hz`` every level runs as a sine. Each level lasts ``seconds``
+    (sine: rounded to whole periods after the settling trim) between vibration-off baselines of
+    ``baseline_s``; ``settle_s`` (default: the reduction's) is what the analysis trims at each
+    edge; ``ramp_s`` raises and lowers each level (raised cosine, outside ``seconds``). ``seed``
+    is the root of every random draw. ``drive_method``, ``clip_sigma``, ``kurtosis`` shape a
+    random drive (:func:`vrelab.synthesis.random_blocks`); ``fs_internal_hz`` overrides the rate
+    rule (:func:`vrelab.rates.simulation_rate_hz`).
+    """
+
+    __test__ = False  # a pytest collection hint: this is not a test class
+
+    method: Method
+    sensor: Any
+    levels_g: tuple[float, ...]
+    static_g: float = 1.0
+    seconds: float = 4.0
+    baseline_s: float = 2.0
+    settle_s: float = field(default=math.nan)  # NaN: the reduction's default
+    seed: int = 0
+    profile: RandomProfile | None = None
+    freqs_hz: tuple[float, ...] = ()
+    drive_method: DriveMethod = "gaussian"
+    clip_sigma: float | None = None
+    kurtosis: float | None = None
+    fs_internal_hz: float | None = None
+    ramp_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        V.one_of("method", self.method, ("random", "sine"))
+        name = "levels_grms" if self.method == "random" else "levels_rms_g"
+        put = object.__setattr__
+        put(self, "levels_g", _levels(name, self.levels_g))
+        put(self, "static_g", V.finite_scalar("static_g", self.static_g))
+        put(self, "seconds", V.positive_scalar("seconds", self.seconds))
+        put(self, "baseline_s", V.positive_scalar("baseline_s", self.baseline_s))
+        settle = None if self.settle_s is None or (isinstance(self.settle_s, float) and math.isnan(self.settle_s)) \
+            else self.settle_s
+        put(self, "settle_s", default_settle_s(settle))
+        put(self, "ramp_s", float(V.non_negative("ramp_s", self.ramp_s)))
+        put(self, "seed", int(self.seed))
+        if self.method == "random":
+            if not isinstance(self.profile, RandomProfile):
+                raise ValueError(f"profile must be a RandomProfile, got {type(self.profile).__name__}")
+            V.one_of("drive_method", self.drive_method, ("gaussian", "multisine"))
+        else:
+            put(self, "freqs_hz", _freqs("freqs_hz", self.freqs_hz))
+        if self.fs_internal_hz is not None:
+            put(self, "fs_internal_hz", V.positive_scalar("fs_internal_hz", self.fs_internal_hz))
+        need = min_segment_seconds(self.settle_s)
+        from vrelab.analysis.reduction import WINDOW_S
+
+        for key in ("seconds", "baseline_s"):
+            value = getattr(self, key)
+            if value < need - 1e-9:
+                raise ValueError(
+                    f"{key} must be >= {need:g} s with settle_s={self.settle_s:g} s (the settling trim at both "
+                    f"edges, at most a quarter of the segment each, plus {MIN_WINDOWS} averaging windows of "
+                    f"{WINDOW_S:g} s), got {key}={value:g}"
+                )
+
+    @classmethod
+    def random(cls, sensor: "Sensor", profile: RandomProfile, levels_grms: Sequence[float], **kw: Any) -> "TestPlan":
+        """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms``."""
+        return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
+
+    @classmethod
+    def sine(cls, sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> "TestPlan":
+        """The sine method (IEEE 1293): each level at each frequency."""
+        return cls("sine", sensor, tuple(np.atleast_1d(levels_rms_g)), freqs_hz=tuple(np.atleast_1d(freqs_hz)), **kw)
+
+    @property
+    def f_max_hz(self) -> float:
+        """The drive's highest frequency [Hz]."""
+        return float(self.profile.band[1]) if self.method == "random" else max(self.freqs_hz)  # type: ignore[union-attr]
+
+    @property
+    def profile_text(self) -> str:
+        """The vibration, as the result's conditions state it."""
+        if self.method == "random":
+            p = self.profile
+            return f"random {p.band[0]:g}-{p.band[1]:g} Hz" + (f" ({p.name})" if p.name else "")  # type: ignore[union-attr]
+        return "sine " + ", ".join(f"{f:g}" for f in dict.fromkeys(self.freqs_hz)) + " Hz"
+
+    def record(self, progress: bool = False) -> SimulatedRecord:
+        """The record of this test, not yet run (its blocks are generated on demand)."""
+        fs_int = self.fs_internal_hz if self.fs_internal_hz is not None else simulation_rate_hz(self.sensor, self.f_max_hz)
+        if self.method == "sine" and self.f_max_hz >= fs_int / (2 * NYQUIST_MARGIN):
+            raise ValueError(f"freqs_hz: {self.f_max_hz:g} Hz is too high for the internal rate {fs_int:g} Hz")
+        rates = choose_rates(self.sensor.chain(fs_int), fs_int, self.f_max_hz)
+        segs, chain_seed = (self._random_stretches if self.method == "random" else self._sine_stretches)(rates)
+        self._check_budget(segs, rates)
+        extra: dict[str, Any] = {
+            "seed": self.seed,
+            "seconds": self.seconds,
+            "baseline_s": self.baseline_s,
+            "settle_s": self.settle_s,
+            "fs_internal_hz": fs_int,
+            "fs_record_hz": rates.fs_record_hz,
+        }
+        n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
+        if self.method == "random":
+            extra.update(drive_method=self.drive_method, clip_sigma=self.clip_sigma, kurtosis=self.kurtosis,
+                         band_hz=list(self.profile.band))  # type: ignore[union-attr]
+            meta_more: dict[str, Any] = {"profile": self.profile.to_dict()}  # type: ignore[union-attr]
+        else:
+            extra["drive_method"] = "sine"
+            meta_more = {"freqs_hz": list(self.freqs_hz)}
+        if n_ramp:
+            extra["ramp_s"] = n_ramp / fs_int
+        return SimulatedRecord(
+            self.sensor,
+            segs,
+            rates,
+            self.static_g,
+            profile=self.profile,
+            drive_method=self.drive_method if self.method == "random" else "gaussian",
+            clip_sigma=self.clip_sigma if self.method == "random" else None,
+            kurtosis=self.kurtosis if self.method == "random" else None,
+            chain_seed=chain_seed,
+            meta={"simulation": extra, "sensor": str(getattr(self.sensor, "name", type(self.sensor).__name__)),
+                  "static_g": self.static_g, **meta_more},
+            progress=progress,
+        )
+
+    def _random_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
+        fs_int = rates.fs_internal_hz
+        chain_seed, *level_seeds = np.random.SeedSequence(self.seed).spawn(len(self.levels_g) + 1)
+        n_base = round_up(self.baseline_s * fs_int, rates.decimation)
+        n_level = round_up(self.seconds * fs_int, rates.decimation)
+        n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
+        segs = [Stretch(n_base, 0.0)]
+        for g, s in zip(self.levels_g, level_seeds):
+            seed_g = int(s.generate_state(1, np.uint32)[0])
+            segs += [Stretch(n_level + 2 * n_ramp, g, None, seed_g, n_ramp), Stretch(n_base, 0.0)]
+        return segs, chain_seed
+
+    def _sine_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
+        fs_int = rates.fs_internal_hz
+        chain_seed = np.random.SeedSequence(self.seed).spawn(1)[0]
+        n_base = round_up(self.baseline_s * fs_int, rates.decimation)
+        n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
+        segs = [Stretch(n_base, 0.0)]
+        for f in self.freqs_hz:
+            # IEEE 1293: average over whole periods; the window left after trimming settle_s at
+            # each edge holds a whole number of periods (to within one record sample).
+            periods = max(1, round((self.seconds - 2 * self.settle_s) * f))
+            n_level = round_up((periods / f + 2 * self.settle_s) * fs_int, rates.decimation)
+            for g in self.levels_g:
+                segs += [Stretch(n_level + 2 * n_ramp, g, f, None, n_ramp), Stretch(n_base, 0.0)]
+        return segs, chain_seed
+
+    def _check_budget(self, segs: Sequence[Stretch], rates: Rates) -> None:
+        """Refuse, before anything runs, a test beyond the time or memory budget (vrelab._budget):
+        its compute grows with the internal samples, the reduction's window table with the record."""
+        from vrelab.analysis.reduction import WINDOW_S
+
+        n_internal = float(sum(s.n_internal for s in segs))
+        duration_s = n_internal / rates.fs_internal_hz
+        window_bytes = duration_s / WINDOW_S * _WINDOW_STATS_BYTES
+        what = (f"simulate: {len(self.levels_g) * max(1, len(self.freqs_hz))} level(s) of {self.seconds:g} s "
+                f"({duration_s:.4g} s of record at {rates.fs_internal_hz:g} Hz)")
+        _budget.check_simulation(what, n_internal, window_bytes)
+
+
+def _ramp_samples(ramp_s: float, fs_internal_hz: float, rates: Rates) -> int:
+    """Internal samples of one ramp: whole DUT output samples, so the schedule's level segment
+    starts on a record sample (0 for no ramp)."""
+    return round_up(ramp_s * fs_internal_hz, rates.decimation) if ramp_s > 0 else 0
