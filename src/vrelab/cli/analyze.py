@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from vrelab import _io, folder
+from vrelab.analysis.reduction import DEFAULT_SETTLE_S
 from vrelab.cli._common import print_json, print_levels
 from vrelab.models.clipping import KINDS
 
@@ -72,7 +73,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--static", type=float, metavar="G", help="static field for the rail fit (default: baseline mean)")
     p.add_argument("--rail", type=float, metavar="G", help="DUT samples at or beyond ±G count as saturated")
     p.add_argument("--band", type=_band, metavar="F1:F2", help="test band in Hz (default: profile's, or 50:2000)")
-    p.add_argument("--settle", type=float, default=0.5, metavar="S", help="settling time trimmed at each segment edge (s)")
+    p.add_argument("--settle", type=float, default=DEFAULT_SETTLE_S, metavar="S",
+                   help=f"settling time trimmed at each segment edge [s] (default {DEFAULT_SETTLE_S:g})")
     p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
     p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
@@ -149,7 +151,7 @@ def _command_line(args: argparse.Namespace) -> str:
             continue
         if key in ("dut_units", "reference_units") and value == "g":
             continue
-        if (key, value) in (("settle", 0.5), ("method", "random"), ("kind", "censored")):
+        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "random"), ("kind", "censored")):
             continue
         opt = "--" + key.replace("_", "-")
         if value is True:

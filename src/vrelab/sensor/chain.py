@@ -25,13 +25,9 @@ from typing import Any, Iterable, Iterator, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab.sensor.stages import (
-    Decimate,
-    Stage,
-    _fused_filter_state,
-    _is_sos_filter,
-    _process_fused,
-)
+from vrelab.sensor.base import Stage
+from vrelab.sensor.filtering import fused_filter_state, is_sos_filter, process_fused
+from vrelab.sensor.stages import Decimate
 
 FloatArray = NDArray[np.float64]
 
@@ -175,9 +171,9 @@ class ChainRun:
         i = 0
         while i < len(stages):
             j = i
-            while j < len(stages) and _is_sos_filter(stages[j]):
+            while j < len(stages) and is_sos_filter(stages[j]):
                 j += 1
-            fused = _fused_filter_state(stages[i:j], tuple(self._states[i:j])) if j - i >= 2 else None
+            fused = fused_filter_state(stages[i:j], tuple(self._states[i:j])) if j - i >= 2 else None
             if fused is not None:
                 self._ends[i] = j
                 self._states[i] = fused
@@ -198,7 +194,7 @@ class ChainRun:
         stages, ends, i = self.chain.stages, self._ends, 0
         while i < len(stages):
             if ends[i] > i + 1:
-                y, self._states[i] = _process_fused(y, self._states[i])
+                y, self._states[i] = process_fused(y, self._states[i])
             else:
                 y, self._states[i] = stages[i].process(y, self._states[i], self._rates[i])
             i = ends[i]

@@ -1,0 +1,86 @@
+"""What every stage shares: the :class:`Stage` protocol, :class:`StageBase` and the field checks
+that name the stage in their message."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab import _validate as V
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+
+@runtime_checkable
+class Stage(Protocol):
+    """What the chain needs from a stage (see the module docstring)."""
+
+    is_static: bool
+    rate_factor: int
+
+    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> Any: ...
+
+    def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]: ...
+
+    def stats(self, state: Any) -> dict[str, int | float]: ...
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def _name(stage: object) -> str:
+    return type(stage).__name__
+
+
+def _finite(stage: object, field: str) -> float:
+    return V.finite_scalar(f"{_name(stage)} {field}", getattr(stage, field))
+
+
+def _positive(stage: object, field: str) -> float:
+    x = _finite(stage, field)
+    if x <= 0:
+        raise ValueError(f"{_name(stage)} {field} must be > 0, got {getattr(stage, field)!r}")
+    return x
+
+
+def _non_negative(stage: object, field: str) -> float:
+    x = _finite(stage, field)
+    if x < 0:
+        raise ValueError(f"{_name(stage)} {field} must be >= 0, got {getattr(stage, field)!r}")
+    return x
+
+
+def _positive_int(stage: object, field: str) -> int:
+    value = getattr(stage, field)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{_name(stage)} {field} must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+def _below_nyquist(stage: object, field: str, f_hz: float, fs_hz: float) -> None:
+    if not f_hz < fs_hz / 2:
+        raise ValueError(
+            f"{_name(stage)} {field} must be below fs/2 = {fs_hz / 2:g} Hz, got {f_hz:g} Hz "
+            "(raise the simulation rate)"
+        )
+
+
+class StageBase:
+    """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one."""
+
+    is_static: ClassVar[bool] = True
+    # What the analytic prediction (vrelab.predict) takes from this stage: "linear" (a
+    # ``response(f)``), "offset", "polynomial", "overrange", "clip", "neutral" (no mean shift:
+    # zero-mean noise, rounding, decimation, a drift that bracketing removes), or None (no closed
+    # form: a prediction for a chain with such a stage says so and is not valid).
+    analytic: ClassVar[str | None] = None
+    rate_factor: ClassVar[int] = 1
+
+    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> Any:
+        return None
+
+    def stats(self, state: Any) -> dict[str, int | float]:
+        return {}
