@@ -202,3 +202,43 @@ def test_invalid_user_file_names_the_field(tmp_path, edit, message):
     path.write_text(edit(_readme_example()), encoding="utf-8")
     with pytest.raises(ValueError, match=message):
         load_sensor(str(path))
+
+
+def test_one_field_table_drives_the_file_the_sensor_and_the_readme():
+    """vrelab.sensor.fields.FIELDS: every row is a Sensor attribute and a file key, and the presets
+    README lists exactly the table (a new parameter is one row, one attribute, one stage)."""
+    import dataclasses
+
+    from vrelab.sensor import Sensor
+    from vrelab.sensor.fields import FIELDS, schema_text
+
+    attrs = {f.name for f in dataclasses.fields(Sensor)}
+    assert {f.name for f in FIELDS} <= attrs
+    readme = (resources.files("vrelab.sensor") / "presets" / "README").read_text("utf-8")
+    assert schema_text() in readme
+    s = load_sensor("adxl355")
+    for f in FIELDS:  # every preset value passes its own row's check
+        f.check(getattr(s, f.name), s.name)
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("", r"no schema key: a sensor file starts with schema = 1"),
+        ("schema = 9\n", r"schema must be 1 \(the sensor schema this version reads\), got 9"),
+        ("schema = 1\nodrs_hz = []\n", r"odrs_hz must be a non-empty list of rates"),
+        ("schema = 1\nlowpass_order = 400\n", r"lowpass_order must be at most 12"),
+        ("schema = 1\nanti_alias_order = 0\n", r"anti_alias_order must be an integer >= 1"),
+        ("schema = 1\nfn_hz = 1e9\nq = 2.0\n", r"fn_hz must be at most 1e\+06 \(a resonance above 1 MHz"),
+        ("schema = 1\nq = -1.0\nfn_hz = 100.0\n", r"q must be a number > 0"),
+        ("schema = 1\nclip_position = 'middle'\n", r"clip_position must be one of output, proof-mass"),
+        ("schema = 1\noverrange_retrigger = 1\n", r"overrange_retrigger must be true or false"),
+    ],
+)
+def test_impossible_sensor_files_are_refused_naming_the_field(tmp_path, body, message):
+    """Issue 9: an empty file once acted as an ideal ±2 g sensor, lowpass_order = 400 overflowed,
+    fn_hz = 1e9 ran the simulation at a runaway rate."""
+    path = tmp_path / "part.toml"
+    path.write_text(body, encoding="utf-8")
+    with pytest.raises(ValueError, match=message):
+        load_sensor(str(path))

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from vrelab.results import Conditions
 from vrelab.sensor.chain import SensorChain
+from vrelab.sensor.fields import BY_KEY, FIELDS, is_number
 from vrelab.sensor.stages import (
     AntiAlias,
     Clip,
@@ -57,35 +58,18 @@ __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 ClipPosition = Literal["output", "proof-mass"]
 Where = Literal["proof-mass", "output"]
 
+# The sensor-file schema this version reads (the ``schema`` key every file starts with).
+SCHEMA = 1
 # Relative tolerance when matching a requested ODR to the list (the data sheet rounds 7.8125
 # to 7.813 and 3.90625 to 3.906).
 _ODR_RTOL = 1e-3
 # A requested range matches a nominal range or its full scale within this.
 _RANGE_RTOL = 1e-6
 
-NUMERIC_FIELDS: tuple[str, ...] = (
-    "range_g",
-    "full_scale_g",
-    "odr_hz",
-    "bandwidth_hz",
-    "fn_hz",
-    "q",
-    "k2_per_g",
-    "k3_per_g2",
-    "k4_per_g3",
-    "rails_g",
-    "overrange_threshold_g",
-    "overrange_hold_s",
-    "overrange_value_g",
-    "overrange_float_tau_s",
-    "noise_ug_per_rthz",
-    "lsb_g",
-    "anti_alias_hz",
-    "anti_alias_order",
-    "lowpass_order",
-    "highpass_hz",
-    "offset_g",
-    "drift_g_per_s",
+# Every number a Sensor holds, for describe() and the facts a user file must mark (the table's
+# numeric rows, plus the resolved range and ODR).
+NUMERIC_FIELDS: tuple[str, ...] = ("range_g", "odr_hz") + tuple(
+    f.name for f in FIELDS if f.kind in ("positive", "finite", "non_negative", "order", "rails")
 )
 
 
@@ -135,45 +119,20 @@ class Sensor:
     facts: Mapping[str, str] = field(default_factory=dict, hash=False)  # a dict: not hashable
 
     def __post_init__(self) -> None:
-        def pos(name: str, optional: bool = True) -> None:
-            v = getattr(self, name)
-            if v is None and optional:
-                return
-            if not _is_number(v) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
-
-        def fin(name: str) -> None:
-            v = getattr(self, name)
-            if not _is_number(v) or not math.isfinite(v):
-                raise ValueError(f"sensor {self.name}: {name} must be a finite number, got {v!r}")
-
         for name in ("range_g", "full_scale_g"):
-            pos(name, optional=False)
-        for name in ("odr_hz", "bandwidth_hz", "fn_hz", "q", "overrange_threshold_g", "overrange_hold_s",
-                     "lsb_g", "anti_alias_hz", "highpass_hz"):
-            pos(name)
-        for name in ("k2_per_g", "k3_per_g2", "k4_per_g3", "overrange_value_g", "overrange_float_tau_s",
-                     "noise_ug_per_rthz", "offset_g", "drift_g_per_s"):
-            fin(name)
-        for name in ("overrange_float_tau_s", "noise_ug_per_rthz"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"sensor {self.name}: {name} must be >= 0, got {getattr(self, name)!r}")
-        for name in ("anti_alias_order", "lowpass_order"):
             v = getattr(self, name)
-            if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
-                raise ValueError(f"sensor {self.name}: {name} must be an integer >= 1, got {v!r}")
+            if not is_number(v) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
+        if self.odr_hz is not None and (not is_number(self.odr_hz) or not math.isfinite(self.odr_hz) or self.odr_hz <= 0):
+            raise ValueError(f"sensor {self.name}: odr_hz must be a number > 0, got {self.odr_hz!r}")
+        for f in FIELDS:
+            if f.name != "full_scale_g":
+                f.check(getattr(self, f.name), self.name)
         if (self.fn_hz is None) != (self.q is None):
             raise ValueError(f"sensor {self.name}: fn_hz and q must be given together, got fn_hz={self.fn_hz!r}, q={self.q!r}")
         if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
             raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
-        rails = tuple(self.rails_g)
-        if len(rails) != 2 or not all(_is_number(r) and math.isfinite(r) for r in rails) or not rails[0] < rails[1]:
-            raise ValueError(f"sensor {self.name}: rails_g must be [low, high] with low < high, got {self.rails_g!r}")
-        object.__setattr__(self, "rails_g", (float(rails[0]), float(rails[1])))
-        if self.clip_position not in ("output", "proof-mass"):
-            raise ValueError(f"sensor {self.name}: clip_position must be one of output, proof-mass; got {self.clip_position!r}")
-        if self.lowpass_kind not in ("butterworth", "bessel"):
-            raise ValueError(f"sensor {self.name}: lowpass_kind must be one of butterworth, bessel; got {self.lowpass_kind!r}")
+        object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
         if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
             raise ValueError(
                 f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
@@ -320,45 +279,15 @@ class Sensor:
         return "\n".join(lines)
 
 
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-
-
 # ---------------------------------------------------------------------------- files
 
-# Keys a file may set at top level, in [axes.*] or in [ranges.*], and how they map to Sensor
-# fields (name, divisor). The nonlinearity is written in the field's units (µg/g², SPEC 1.2).
-_VALUE_KEYS: dict[str, tuple[str, float]] = {
-    "full_scale_g": ("full_scale_g", 1.0),
-    "bandwidth_hz": ("bandwidth_hz", 1.0),
-    "fn_hz": ("fn_hz", 1.0),
-    "q": ("q", 1.0),
-    "k2_ug_per_g2": ("k2_per_g", 1e6),
-    "k3_ug_per_g3": ("k3_per_g2", 1e6),
-    "k4_ug_per_g4": ("k4_per_g3", 1e6),
-    "rails_g": ("rails_g", 1.0),
-    "clip_position": ("clip_position", 1.0),
-    "overrange_threshold_g": ("overrange_threshold_g", 1.0),
-    "overrange_hold_s": ("overrange_hold_s", 1.0),
-    "overrange_value_g": ("overrange_value_g", 1.0),
-    "overrange_float_tau_s": ("overrange_float_tau_s", 1.0),
-    "overrange_retrigger": ("overrange_retrigger", 1.0),
-    "noise_ug_per_rthz": ("noise_ug_per_rthz", 1.0),
-    "lsb_g": ("lsb_g", 1.0),
-    "anti_alias_hz": ("anti_alias_hz", 1.0),
-    "anti_alias_order": ("anti_alias_order", 1.0),
-    "lowpass_order": ("lowpass_order", 1.0),
-    "lowpass_kind": ("lowpass_kind", 1.0),
-    "highpass_hz": ("highpass_hz", 1.0),
-    "offset_g": ("offset_g", 1.0),
-    "drift_g_per_s": ("drift_g_per_s", 1.0),
-}
+# Keys a file may set at top level, in [axes.*] or in [ranges.*]: the rows of the field table
+# (vrelab.sensor.fields), written in the field's units (µg/g² for the nonlinearity, SPEC 1.2).
 _TOP_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
     "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts",
-} | set(_VALUE_KEYS)
-_FACT_ALIASES = {k: v[0] for k, v in _VALUE_KEYS.items()}
-_STRING_KEYS = {"clip_position", "lowpass_kind"}
+} | set(BY_KEY)
+_FACT_ALIASES = {f.key: f.name for f in FIELDS}
 
 
 def _preset_dir() -> Any:
@@ -397,32 +326,15 @@ def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None
 
 
 def _number(value: Any, key: str, where: str) -> float:
-    if not _is_number(value):
+    if not is_number(value):
         raise ValueError(f"sensor {where}: {key} must be a number, got {value!r}")
     return float(value)
 
 
 def _apply(values: dict[str, Any], table: Mapping[str, Any], where: str) -> None:
     for key, raw in table.items():
-        name, scale = _VALUE_KEYS[key]
-        if key in _STRING_KEYS:
-            if not isinstance(raw, str):
-                raise ValueError(f"sensor {where}: {key} must be a string, got {raw!r}")
-            values[name] = raw
-        elif key == "overrange_retrigger":
-            if not isinstance(raw, bool):
-                raise ValueError(f"sensor {where}: {key} must be true or false, got {raw!r}")
-            values[name] = raw
-        elif key == "rails_g":
-            if not isinstance(raw, list) or len(raw) != 2:
-                raise ValueError(f"sensor {where}: rails_g must be [low, high], got {raw!r}")
-            values[name] = tuple(_number(r, key, where) for r in raw)
-        elif key in ("anti_alias_order", "lowpass_order"):
-            if not isinstance(raw, int) or isinstance(raw, bool):
-                raise ValueError(f"sensor {where}: {key} must be an integer, got {raw!r}")
-            values[name] = raw
-        else:
-            values[name] = _number(raw, key, where) / scale
+        f = BY_KEY[key]
+        values[f.name] = f.parse(raw, where)
 
 
 def _fmt(xs: Any) -> str:
@@ -457,6 +369,12 @@ def load_sensor(
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
     data, origin = _read(spec)
     _check_keys(data, _TOP_KEYS, origin)
+    if "schema" not in data:
+        raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "
+                         "(see the presets README); an empty file is not a sensor")
+    if data["schema"] != SCHEMA or isinstance(data["schema"], bool):
+        raise ValueError(f"sensor {origin}: schema must be {SCHEMA} (the sensor schema this version reads), "
+                         f"got {data['schema']!r}")
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
@@ -501,13 +419,14 @@ def load_sensor(
 
     # ---- ODR
     odrs_raw = data.get("odrs_hz", [])
-    if not isinstance(odrs_raw, list):
-        raise ValueError(f"sensor {where}: odrs_hz must be a list of rates in Hz, got {odrs_raw!r}")
+    if not isinstance(odrs_raw, list) or ("odrs_hz" in data and not odrs_raw):
+        raise ValueError(f"sensor {where}: odrs_hz must be a non-empty list of rates in Hz "
+                         f"(leave it out for an analog part), got {odrs_raw!r}")
     odrs = tuple(_number(o, "odrs_hz", where) for o in odrs_raw)
     chosen_odr: float | None = None
     if odrs:
         want = odr_hz if odr_hz is not None else data.get("default_odr_hz", odrs[0])
-        w = _number(want, "odr_hz", where) if _is_number(want) else math.nan
+        w = _number(want, "odr_hz", where) if is_number(want) else math.nan
         for o in odrs:
             if math.isclose(w, o, rel_tol=_ODR_RTOL):
                 chosen_odr = o
@@ -519,12 +438,12 @@ def load_sensor(
 
     # ---- values: top level < axis < range
     values: dict[str, Any] = {}
-    _apply(values, {k: v for k, v in data.items() if k in _VALUE_KEYS}, where)
+    _apply(values, {k: v for k, v in data.items() if k in BY_KEY}, where)
     if axes_table:
-        _check_keys(axes_table[chosen_axis], set(_VALUE_KEYS), f"{where} [axes.{chosen_axis}]")
+        _check_keys(axes_table[chosen_axis], set(BY_KEY), f"{where} [axes.{chosen_axis}]")
         _apply(values, axes_table[chosen_axis], f"{where} [axes.{chosen_axis}]")
     if range_key is not None:
-        _check_keys(ranges_table[range_key], set(_VALUE_KEYS), f"{where} [ranges.{range_key}]")
+        _check_keys(ranges_table[range_key], set(BY_KEY), f"{where} [ranges.{range_key}]")
         _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
     if chosen_odr is not None:
         per_odr = data.get("bandwidth_per_odr")
@@ -537,7 +456,7 @@ def load_sensor(
     if not isinstance(facts_raw, dict):
         raise ValueError(f"sensor {where}: facts must be a table of strings, got {facts_raw!r}")
     facts: dict[str, str] = {}
-    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {"clip_position", "lowpass_kind", "overrange_retrigger"}
+    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {f.name for f in FIELDS}
     _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
     for key, text in facts_raw.items():
         if not isinstance(text, str):
@@ -561,28 +480,8 @@ def load_sensor(
         full_scale_g=full_scale,
         axis=chosen_axis,
         odr_hz=chosen_odr,
-        bandwidth_hz=values.get("bandwidth_hz"),
-        fn_hz=values.get("fn_hz"),
-        q=values.get("q"),
-        k2_per_g=values.get("k2_per_g", 0.0),
-        k3_per_g2=values.get("k3_per_g2", 0.0),
-        k4_per_g3=values.get("k4_per_g3", 0.0),
         rails_g=rails,
-        clip_position=values.get("clip_position", "output"),
-        overrange_threshold_g=values.get("overrange_threshold_g"),
-        overrange_hold_s=values.get("overrange_hold_s"),
-        overrange_value_g=values.get("overrange_value_g", 0.0),
-        overrange_float_tau_s=values.get("overrange_float_tau_s", 0.0),
-        overrange_retrigger=values.get("overrange_retrigger", True),
-        noise_ug_per_rthz=values.get("noise_ug_per_rthz", 0.0),
-        lsb_g=values.get("lsb_g"),
-        anti_alias_hz=values.get("anti_alias_hz"),
-        anti_alias_order=values.get("anti_alias_order"),
-        lowpass_order=values.get("lowpass_order"),
-        lowpass_kind=values.get("lowpass_kind", "butterworth"),
-        highpass_hz=values.get("highpass_hz"),
-        offset_g=values.get("offset_g", 0.0),
-        drift_g_per_s=values.get("drift_g_per_s", 0.0),
+        **{f.name: values.get(f.name, f.default) for f in FIELDS if f.name not in ("full_scale_g", "rails_g")},
         description=description if isinstance(description, str) else "",
         source=source if isinstance(source, str) else origin,
         ranges_g=tuple(sorted(nominal)),

@@ -1,0 +1,146 @@
+"""The one table of sensor fields: TOML parsing, validation, the ``Sensor`` and the schema docs.
+
+Each row says how a value is written in a sensor file (its key, in the file's units), what the
+:class:`~vrelab.sensor.loader.Sensor` holds (its attribute, in g and Hz), what is allowed, its
+default when a file leaves it out, and what it means. The loader parses and checks a file by
+this table, ``Sensor`` validates itself by it, and ``presets/README`` documents every row (a
+test holds the README to the table). A new sensor parameter is one row here and one stage.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+Kind = Literal["positive", "finite", "non_negative", "order", "bool", "choice", "rails"]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One sensor parameter."""
+
+    key: str  # TOML key (in the file's units)
+    name: str  # Sensor attribute (g, Hz, s; nonlinearity in 1/g^(n-1))
+    kind: Kind
+    default: Any  # when a file leaves it out (None: the element is absent)
+    doc: str
+    scale: float = 1.0  # attribute = file value / scale (µg/g² -> 1/g: 1e6)
+    choices: tuple[str, ...] = ()
+    upper: float | None = None  # largest allowed value
+    why_upper: str = ""  # and why
+
+    def parse(self, raw: Any, where: str) -> Any:
+        """A file's value as the attribute's value, or ``ValueError`` naming ``where`` and the key."""
+        if self.kind == "bool":
+            if not isinstance(raw, bool):
+                raise ValueError(f"sensor {where}: {self.key} must be true or false, got {raw!r}")
+            return raw
+        if self.kind == "choice":
+            if raw not in self.choices:
+                raise ValueError(f"sensor {where}: {self.key} must be one of {', '.join(self.choices)}; got {raw!r}")
+            return raw
+        if self.kind == "rails":
+            if not isinstance(raw, list) or len(raw) != 2:
+                raise ValueError(f"sensor {where}: {self.key} must be [low, high], got {raw!r}")
+            return tuple(_number(r, self.key, where) for r in raw)
+        if self.kind == "order":
+            if not isinstance(raw, int) or isinstance(raw, bool):
+                raise ValueError(f"sensor {where}: {self.key} must be an integer, got {raw!r}")
+            return raw
+        return _number(raw, self.key, where) / self.scale
+
+    def check(self, value: Any, sensor: str) -> None:
+        """Validate an attribute value (``None`` allowed where the default is None)."""
+        if value is None and self.default is None:
+            return
+        bad = f"sensor {sensor}: {self.name}"
+        if self.kind == "bool":
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{bad} must be true or false, got {value!r}")
+            return
+        if self.kind == "choice":
+            if value not in self.choices:
+                raise ValueError(f"{bad} must be one of {', '.join(self.choices)}; got {value!r}")
+            return
+        if self.kind == "rails":
+            rails = tuple(value) if isinstance(value, (tuple, list)) else ()
+            if len(rails) != 2 or not all(is_number(r) and math.isfinite(r) for r in rails) or not rails[0] < rails[1]:
+                raise ValueError(f"{bad} must be [low, high] with low < high, got {value!r}")
+            return
+        if self.kind == "order":
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{bad} must be an integer >= 1, got {value!r}")
+        elif not is_number(value) or not math.isfinite(value):
+            raise ValueError(f"{bad} must be a {'number > 0' if self.kind == 'positive' else 'finite number'}, got {value!r}")
+        elif self.kind == "positive" and value <= 0:
+            raise ValueError(f"{bad} must be a number > 0, got {value!r}")
+        elif self.kind == "non_negative" and value < 0:
+            raise ValueError(f"{bad} must be >= 0, got {value!r}")
+        if self.upper is not None and value > self.upper:
+            raise ValueError(f"{bad} must be at most {self.upper:g} ({self.why_upper}), got {value!r}")
+
+
+def is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _number(value: Any, key: str, where: str) -> float:
+    if not is_number(value):
+        raise ValueError(f"sensor {where}: {key} must be a number, got {value!r}")
+    return float(value)
+
+
+FIELDS: tuple[Field, ...] = (
+    Field("full_scale_g", "full_scale_g", "positive", None, "digital full scale [g] (default: the nominal range)"),
+    Field("bandwidth_hz", "bandwidth_hz", "positive", None,
+          "digital low-pass corner [Hz] (or bandwidth_per_odr × ODR); below ODR/2"),
+    Field("fn_hz", "fn_hz", "positive", None,
+          "proof-mass resonance [Hz] (with q; omit both for none)", upper=1e6,
+          why_upper="a resonance above 1 MHz is beyond any accelerometer's; it would only make the simulation rate run away"),
+    Field("q", "q", "positive", None, "quality factor of the resonance (the gain at fn_hz)"),
+    Field("k2_ug_per_g2", "k2_per_g", "finite", 0.0, "second-order nonlinearity k2 = K2/K1 [µg/g²] (the VRC)",
+          scale=1e6),
+    Field("k3_ug_per_g3", "k3_per_g2", "finite", 0.0, "third-order nonlinearity k3 [µg/g³]", scale=1e6),
+    Field("k4_ug_per_g4", "k4_per_g3", "finite", 0.0, "fourth-order nonlinearity k4 [µg/g⁴]", scale=1e6),
+    Field("rails_g", "rails_g", "rails", None, "[low, high] clip levels [g] (default ±full_scale_g)"),
+    Field("clip_position", "clip_position", "choice", "output",
+          "where the rails sit: output (after the low-pass) or proof-mass", choices=("output", "proof-mass")),
+    Field("overrange_threshold_g", "overrange_threshold_g", "positive", None,
+          "over-range trip level on |proof-mass motion| [g] (omit for none)"),
+    Field("overrange_hold_s", "overrange_hold_s", "positive", None, "how long the output is held after a trip [s]"),
+    Field("overrange_value_g", "overrange_value_g", "finite", 0.0, "what the output reads while held [g]"),
+    Field("overrange_float_tau_s", "overrange_float_tau_s", "non_negative", 0.0,
+          "time constant of the float toward overrange_value_g [s] (0: a jump)"),
+    Field("overrange_retrigger", "overrange_retrigger", "bool", True,
+          "a hold re-arms while the input stays beyond the threshold"),
+    Field("noise_ug_per_rthz", "noise_ug_per_rthz", "non_negative", 0.0, "noise density [µg/√Hz]"),
+    Field("lsb_g", "lsb_g", "positive", None, "output resolution [g] (omit for none)"),
+    Field("anti_alias_hz", "anti_alias_hz", "positive", None, "analog anti-alias corner [Hz] (omit for none)"),
+    Field("anti_alias_order", "anti_alias_order", "order", None,
+          "anti-alias Butterworth order (default 2)", upper=12,
+          why_upper="higher orders are no part's filter and lose precision as second-order sections"),
+    Field("lowpass_order", "lowpass_order", "order", None,
+          "digital low-pass order (default 4)", upper=12,
+          why_upper="higher orders are no part's filter and lose precision as second-order sections"),
+    Field("lowpass_kind", "lowpass_kind", "choice", "butterworth", "digital low-pass family",
+          choices=("butterworth", "bessel")),
+    Field("highpass_hz", "highpass_hz", "positive", None, "high-pass corner [Hz] (omit: off)"),
+    Field("offset_g", "offset_g", "finite", 0.0, "0 g offset [g], added before the output rails"),
+    Field("drift_g_per_s", "drift_g_per_s", "finite", 0.0, "slow linear output drift [g/s]"),
+)
+
+BY_KEY: dict[str, Field] = {f.key: f for f in FIELDS}
+BY_NAME: dict[str, Field] = {f.name: f for f in FIELDS}
+
+
+def schema_text() -> str:
+    """The value keys as the presets README lists them (a test holds the README to this)."""
+    lines = ["Value keys (top level, `[axes.*]` or `[ranges.*]`), from vrelab/sensor/fields.py:", ""]
+    for f in FIELDS:
+        default = "absent" if f.default is None else repr(f.default).lower() if isinstance(f.default, bool) else f"{f.default!r}"
+        bound = f"; at most {f.upper:g}" if f.upper is not None else ""
+        lines.append(f"    {f.key:<24} {f.kind:<13} default {default:<14} {f.doc}{bound}")
+    return "\n".join(lines) + "\n"
