@@ -30,7 +30,6 @@ from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, FitResult, LevelResult, Method, Notice, VreResult
 from vrelab.simulation.plan import TestPlan, min_segment_seconds
 from vrelab.simulation.record import SimulatedRecord
-from vrelab.synthesis import Method as DriveMethod
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -137,27 +136,11 @@ def _with_simulated_saturation(
 
 
 def plan_random_test(
-    sensor: "Sensor",
-    profile: RandomProfile,
-    levels_grms: Sequence[float],
-    static_g: float = 1.0,
-    seconds: float = 4.0,
-    baseline_s: float = 2.0,
-    settle_s: float | None = None,
-    seed: int = 0,
-    drive_method: DriveMethod = "gaussian",
-    clip_sigma: float | None = None,
-    kurtosis: float | None = None,
-    fs_internal_hz: float | None = None,
-    progress: bool = False,
-    ramp_s: float = 0.0,
+    sensor: "Sensor", profile: RandomProfile, levels_grms: Sequence[float], static_g: float = 1.0, *,
+    progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
-    return TestPlan.random(
-        sensor, profile, levels_grms, static_g=static_g, seconds=seconds, baseline_s=baseline_s,
-        settle_s=settle_s, seed=seed, drive_method=drive_method, clip_sigma=clip_sigma, kurtosis=kurtosis,
-        fs_internal_hz=fs_internal_hz, ramp_s=ramp_s,
-    ).record(progress)
+    return TestPlan.random(sensor, profile, levels_grms, static_g=static_g, **plan).record(progress)
 
 
 def run_random_test(
@@ -165,18 +148,11 @@ def run_random_test(
     profile: RandomProfile,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
-    seconds: float = 4.0,
-    baseline_s: float = 2.0,
-    settle_s: float | None = None,
-    seed: int = 0,
-    drive_method: DriveMethod = "gaussian",
-    clip_sigma: float | None = None,
-    kurtosis: float | None = None,
+    *,
     record_path: str | Path | None = None,
     progress: bool = False,
-    fs_internal_hz: float | None = None,
     clip_kind: ClipKind = "censored",
-    ramp_s: float = 0.0,
+    **plan: Any,
 ) -> VreResult:
     """Simulate the random method (SPEC 4) on ``sensor`` and reduce it like a lab record.
 
@@ -190,62 +166,45 @@ def run_random_test(
         Vibration levels [g rms], each > 0, run in the order given.
     static_g : float
         Static acceleration along the axis [g] (+1: axis up in a 1 g field).
-    seconds, baseline_s, settle_s : float
-        Duration of each level, of each vibration-off baseline, and the settling time trimmed
-        at each edge by the analysis [s] (default: the reduction's default, long enough for its
-        DUT low-pass to settle after a level change).
-    seed : int
-        Root of every random draw (drive of each level, sensor noise): same seed, same result.
-    drive_method, clip_sigma, kurtosis
-        Passed to :func:`vrelab.synthesis.random_blocks`.
     record_path : path, optional
-        Also write the raw record (``reference``, ``dut``, schedule, meta) as HDF5; the
-        analysis then reads it back, so ``vrelab analyze`` on that file gives the same levels.
+        Write the record there (HDF5) and reduce the file, as a lab would.
     progress : bool
-        A progress bar on stderr.
-    fs_internal_hz : float, optional
-        Override the sensor's internal simulation rate (for convergence checks).
+        Progress bars on stderr.
     clip_kind : {"censored", "truncated"}
         Clipping model of the effective-rail fit.
-    ramp_s : float
-        Duration [s] of the drive's amplitude ramp at each end of every level (raised cosine
-        from 0 to the level and back, as a shaker controller brings a level up and down),
-        added outside the ``seconds`` at level; rounded up to whole DUT output samples. The
-        schedule embedded in the record leaves the ramps out. 0 (default): the level starts
-        and stops at once.
+    **plan
+        The rest of the test, as :class:`~vrelab.simulation.plan.TestPlan` fields: ``seconds``
+        (default 4), ``baseline_s`` (2), ``settle_s`` (the reduction's), ``seed`` (0: every
+        random draw, drive and sensor noise, comes from it), ``drive_method``, ``clip_sigma``,
+        ``kurtosis`` (:func:`vrelab.synthesis.random_blocks`), ``fs_internal_hz``, ``ramp_s``.
 
     Returns
     -------
     VreResult
-        One level per ``levels_grms`` (VRE ± standard uncertainty from the record's own noise,
-        rms of the drive in the profile's band, saturated-sample counts), the effective-rail
-        fit and a VRC fit over the levels that stay clear of the rails, conditions, provenance.
+        Per level ``vre`` (value, standard uncertainty), ``rms_g``, saturation counts and flags
+        ("saturated", "overrange"); fits and conditions (internal and record rates, seed).
 
     Notes
     -----
-    Schedule: baseline, level 1, baseline, ..., level n, baseline. Each level's drive is an
-    independent realisation (``SeedSequence(seed)`` children) of the profile scaled to its
-    grms; the sensor sees ``static_g + drive``. The reduction (SPEC 4) gives
-    ``VRE = mean(DUT over the level) − baseline interpolated between the bracketing
-    off-segments``, its standard uncertainty from the record's own scatter, and
-    ``vib_rms`` = reference rms over the profile's band widened by an octave on each side (the
-    drive has no power outside the band, and the band-pass edges then do not bias it). Fits:
-    the one policy :func:`vrelab.fits.fit_levels`, as ``vrelab analyze`` applies it to the
-    same record: the effective rail of the clipping model (SPEC 1.1, at the static reading
-    of the baselines, with the level where the data depart from it), then ``VRE = VRC·rms²``
-    (SPEC 1.2) over levels whose 4σ peaks stay inside the fitted rails.
+    The test (:class:`~vrelab.simulation.plan.TestPlan`): a vibration-off baseline, then each
+    level followed by a baseline. Each level's drive is an independent realisation
+    (``SeedSequence(seed)`` children) of the profile scaled to its grms; the sensor sees
+    ``static_g + drive``. The reduction (SPEC 4) gives ``VRE = mean(DUT over the level) −
+    baseline interpolated between the bracketing off-segments``, its standard uncertainty from
+    the record's own scatter, and ``vib_rms`` = reference rms over the profile's band widened by
+    an octave on each side (the drive has no power outside the band, and the band-pass edges
+    then do not bias it). Fits: the one policy :func:`vrelab.fits.fit_levels`, as ``vrelab
+    analyze`` applies it to the same record: the effective rail of the clipping model (SPEC
+    1.1, at the static reading of the baselines, with the level where the data depart from it),
+    then ``VRE = VRC·rms²`` (SPEC 1.2) over levels whose 4σ peaks stay inside the fitted rails.
 
     References
     ----------
     .. [1] SPEC sections 1 and 4; the seed article's random method (ADXL355, 50 Hz-2 kHz).
     .. [2] IEEE Std 1293-1998 (vibration rectification test procedure).
     """
-    plan = TestPlan.random(
-        sensor, profile, levels_grms, static_g=static_g, seconds=seconds, baseline_s=baseline_s,
-        settle_s=settle_s, seed=seed, drive_method=drive_method, clip_sigma=clip_sigma, kurtosis=kurtosis,
-        fs_internal_hz=fs_internal_hz, ramp_s=ramp_s,
-    )
-    return run_test(plan, record_path=record_path, progress=progress, clip_kind=clip_kind)
+    plan_ = TestPlan.random(sensor, profile, levels_grms, static_g=static_g, **plan)
+    return run_test(plan_, record_path=record_path, progress=progress, clip_kind=clip_kind)
 
 
 def run_test(
@@ -292,23 +251,12 @@ def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
 
 
 def plan_sine_test(
-    sensor: "Sensor",
-    freqs_hz: Sequence[float],
-    levels_rms_g: Sequence[float],
-    static_g: float = 1.0,
-    seconds: float = 2.0,
-    baseline_s: float = 2.0,
-    settle_s: float | None = None,
-    seed: int = 0,
-    fs_internal_hz: float | None = None,
-    progress: bool = False,
-    ramp_s: float = 0.0,
+    sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
+    progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
-    return TestPlan.sine(
-        sensor, freqs_hz, levels_rms_g, static_g=static_g, seconds=seconds, baseline_s=baseline_s,
-        settle_s=settle_s, seed=seed, fs_internal_hz=fs_internal_hz, ramp_s=ramp_s,
-    ).record(progress)
+    plan.setdefault("seconds", 2.0)
+    return TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan).record(progress)
 
 
 def run_sine_test(
@@ -316,26 +264,20 @@ def run_sine_test(
     freqs_hz: Sequence[float],
     levels_rms_g: Sequence[float],
     static_g: float = 1.0,
-    seconds: float = 2.0,
-    baseline_s: float = 2.0,
-    settle_s: float | None = None,
-    seed: int = 0,
+    *,
     record_path: str | Path | None = None,
     progress: bool = False,
-    fs_internal_hz: float | None = None,
-    ramp_s: float = 0.0,
+    **plan: Any,
 ) -> VreResult:
     """Simulate the sine method (IEEE Std 1293-1998; SPEC 4) and fit VRC at each frequency.
 
     At each frequency in ``freqs_hz`` every level of ``levels_rms_g`` [g rms] runs for
-    ``seconds`` (rounded to whole periods of the drive after the settling trim), bracketed by
-    vibration-off baselines. ``VRE = VRC·vib_rms²`` is fitted by weighted least squares
-    through the origin at each frequency (:func:`vrelab.fits.fit_vrc`): ``VRC(f)`` shows the
-    resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters (``ramp_s`` too) as in
+    ``seconds`` (default 2; rounded to whole periods of the drive after the settling trim),
+    bracketed by vibration-off baselines. ``VRE = VRC·vib_rms²`` is fitted by weighted least
+    squares through the origin at each frequency (:func:`vrelab.fits.fit_levels`): ``VRC(f)``
+    shows the resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters (``ramp_s`` too) as in
     :func:`run_random_test`; with a ramp the sine's amplitude rises and falls, its phase runs on.
     """
-    plan = TestPlan.sine(
-        sensor, freqs_hz, levels_rms_g, static_g=static_g, seconds=seconds, baseline_s=baseline_s,
-        settle_s=settle_s, seed=seed, fs_internal_hz=fs_internal_hz, ramp_s=ramp_s,
-    )
-    return run_test(plan, record_path=record_path, progress=progress)
+    plan.setdefault("seconds", 2.0)
+    plan_ = TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan)
+    return run_test(plan_, record_path=record_path, progress=progress)

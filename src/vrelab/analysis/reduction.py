@@ -555,26 +555,11 @@ def analyze_full(
     return result, red
 
 
-def analyze(
-    record: Record,
-    method: Method,
-    schedule: Schedule | None = None,
-    profile: Any = None,
-    static_g: float | None = None,
-    rail_g: float | None = None,
-    clip_kind: ClipKind = "censored",
-    band_hz: tuple[float, float] | None = None,
-    fit_k4: bool = False,
-    progress: bool = False,
-    conditions: Conditions | None = None,
-    settle_s: float = DEFAULT_SETTLE_S,
-    block_size: int = DEFAULT_BLOCK,
-    provenance: Mapping[str, Any] | None = None,
-    rail_with_vrc: bool = False,
-) -> VreResult:
+def analyze(record: Record, method: Method, schedule: Schedule | None = None, **options: Any) -> VreResult:
     """Reduce a record and fit it: the whole test station in one call.
 
-    Parameters are those of :func:`reduce_record` plus: ``profile`` (a
+    ``options`` are the keywords of :func:`analyze_full`: those of :func:`reduce_record` plus:
+    ``profile`` (a
     :class:`~vrelab.profiles.RandomProfile`: default band, and the reference PSD is checked
     against it), ``static_g`` (static field for the rail fit; default: the DUT's mean reading at
     the baselines), ``rail_g`` (DUT samples at or beyond ±rail_g count as saturated, besides
@@ -585,10 +570,7 @@ def analyze(
     Returns
     -------
     VreResult
-        ``kind="measurement"``; fits: "vrc" (per frequency for sine) and, for random,
-        "clip-<kind>" with ``rail_g`` and ``departure_rms_g``.
+        ``kind="measurement"``; fits by :func:`vrelab.fits.fit_levels`: "vrc" per frequency for
+        sine; for random "clip-<kind>" (``rail_g``, ``departure_rms_g``), then "vrc".
     """
-    return analyze_full(
-        record, method, schedule, profile, static_g, rail_g, clip_kind, band_hz, fit_k4, progress,
-        conditions, settle_s, block_size, provenance, rail_with_vrc=rail_with_vrc,
-    )[0]  # fmt: skip
+    return analyze_full(record, method, schedule, **options)[0]
