@@ -100,7 +100,7 @@ def test_unit_slip_is_refused_naming_the_ratio(scale, trips):
 
 def test_a_dut_with_a_narrow_bandwidth_is_not_taken_for_a_unit_slip():
     """ODR 500 (125 Hz low-pass, the article's Figure 4) sees little of a 50-2000 Hz drive, yet is
-    flat in the band's lowest octave, where the check looks."""
+    flat at the bottom of the band, where the check looks."""
     rec = _record("random")
     sos = signal.butter(4, 125.0, fs=FS, output="sos")
     dut = signal.sosfilt(sos, rec.data["ref"]) + 1.0

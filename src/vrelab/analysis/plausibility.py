@@ -5,9 +5,9 @@ reads a short stretch (at most :data:`PROBE_SAMPLES` samples) from the middle of
 it costs little and its memory does not grow with the record:
 
 * **units or sensitivity slip** (:func:`check_units`): the DUT's vibration against the
-  reference's, per level, where a DUT's response is flat: at the drive line for a sine level, in
-  the lowest octave of the test band for a random level (a DUT's low-pass or resonance shapes
-  the top of the band, not its bottom). A ratio beyond :data:`UNIT_RATIO_LIMIT` (or below its
+  reference's, per level, where a DUT's response is flat: at the drive line for a sine level,
+  over the lowest lines holding a tenth of the reference's in-band power for a random level (a
+  DUT's low-pass or resonance shapes the top of the band, not its bottom). A ratio beyond :data:`UNIT_RATIO_LIMIT` (or below its
   inverse) at every level means a unit or a sensitivity is wrong.
 * **swapped channels** (:func:`check_channels`): a reference accelerometer (piezoelectric) has no
   DC response; a DUT whose axis lies along the shaker's in a 1 g field reads it. A reference
@@ -45,6 +45,9 @@ UNIT_RATIO_LIMIT = 3.0
 # harmonic distortion of a few per cent keeps > 0.99; a broadband random level gives ~ 1e-3.
 SINE_LINE_FRACTION = 0.9
 RANDOM_LINE_FRACTION = 0.5
+# Share of a random level's in-band reference power, from the bottom of its band, over which the
+# DUT is compared with the reference (units check).
+LOW_POWER_SHARE = 0.1
 # Hann main lobe: ± 2 bins; one more for a frequency between bins.
 _LINE_HALF_WIDTH_BINS = 3
 # |DC| of a reference [g] that reads as a static field (a 1 g field, or a tilted axis by more
@@ -93,9 +96,10 @@ def probe_segment(
     """Look at the middle of one segment: the reference's spectrum, both channels' DC and rms.
 
     At most ``max_samples`` samples are read (one block). The spectrum is a Hann-windowed
-    periodogram; a level's line fraction is the power in the strongest in-band bin ± 3 bins over
-    all in-band power. The rms compared for units is taken at the line (±3 bins) when the level
-    is a sine, else over the lowest octave of the band ``[f1, 2·f1]``.
+    periodogram; a level's line fraction is the power in its strongest line (± 3 bins) over all
+    its AC power (a sine below or above the test band is still a sine). The rms compared for units is taken at the line (±3 bins) when the level
+    is a sine, else over the lowest in-band lines holding :data:`LOW_POWER_SHARE` of the
+    reference's power.
     """
     fs = float(record.fs_hz)
     i0 = max(0, int(math.ceil(start_s * fs)))
@@ -117,18 +121,27 @@ def probe_segment(
     p_ref = np.abs(np.fft.rfft((x_ref - ref_dc) * win)) ** 2
     p_dut = np.abs(np.fft.rfft((x_dut - dut_dc) * win)) ** 2
     f1, f2 = band_hz
-    in_band = (freqs >= f1) & (freqs <= f2)
-    total = float(p_ref[in_band].sum())
-    if not in_band.any() or total <= 0:
+    # A sine is one line wherever it is (a drive below the test band too): classify over the
+    # whole spectrum but the mean's own main lobe; compare units in the band.
+    ac = np.arange(freqs.size) > _LINE_HALF_WIDTH_BINS
+    total_ac = float(p_ref[ac].sum())
+    if total_ac <= 0:
         return SegmentProbe(start_s, end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, dut_dc)
-    k_peak = int(np.flatnonzero(in_band)[np.argmax(p_ref[in_band])])
+    k_peak = int(np.flatnonzero(ac)[np.argmax(p_ref[ac])])
     line = slice(max(0, k_peak - _LINE_HALF_WIDTH_BINS), k_peak + _LINE_HALF_WIDTH_BINS + 1)
-    fraction = float(p_ref[line].sum()) / total
-    if fraction >= SINE_LINE_FRACTION:
-        sel = np.zeros_like(in_band)
+    fraction = float(p_ref[line].sum()) / total_ac
+    in_band = ac & (freqs >= f1) & (freqs <= f2)
+    if fraction >= SINE_LINE_FRACTION or not in_band.any() or float(p_ref[in_band].sum()) <= 0:
+        sel = np.zeros_like(ac)
         sel[line] = True
     else:
-        sel = in_band & (freqs <= min(2.0 * f1, f2))
+        # the bottom of the reference's own band: the lowest in-band lines holding a tenth of
+        # its power (at least 8 lines), where a DUT's low-pass or resonance has not yet acted
+        k_in = np.flatnonzero(in_band)
+        total = float(p_ref[k_in].sum())
+        n_low = max(8, int(np.searchsorted(np.cumsum(p_ref[k_in]), LOW_POWER_SHARE * total)) + 1)
+        sel = np.zeros_like(ac)
+        sel[k_in[:n_low]] = True
     ref_rms = math.sqrt(float(p_ref[sel].sum()))
     dut_rms = math.sqrt(float(p_dut[sel].sum()))
     return SegmentProbe(start_s, end_s, float(freqs[k_peak]), fraction, ref_rms, dut_rms, ref_dc, dut_dc)
@@ -175,9 +188,19 @@ def resolve_methods(requested: MethodRequest, probes: Sequence[SegmentProbe], ac
 
 
 def check_units(probes: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:
-    """Refuse when the DUT/reference rms ratio is beyond :data:`UNIT_RATIO_LIMIT` at every level."""
+    """Refuse when the DUT/reference rms ratio is beyond :data:`UNIT_RATIO_LIMIT` at every level
+    (for sine levels: at every level of the lowest drive frequency, the likeliest to lie in the
+    DUT's flat band; a record whose frequencies all lie above the DUT's bandwidth can trip it,
+    and ``accept`` passes it on purpose)."""
+    if accept or not probes:
+        return
+    sines = [p for p in probes if p.kind == "sine"]
+    if sines:
+        # a DUT's filters attenuate a sine above its bandwidth: judge at the lowest drive frequency
+        f_low = min(p.peak_hz for p in sines)
+        probes = [p for p in sines if p.peak_hz <= 1.01 * f_low]
     ratios = [p.unit_ratio for p in probes if math.isfinite(p.unit_ratio) and p.unit_ratio > 0]
-    if accept or not ratios or len(ratios) < len(probes):
+    if not ratios or len(ratios) < len(probes):
         return
     limit = UNIT_RATIO_LIMIT
     if all(r > limit or r < 1.0 / limit for r in ratios):

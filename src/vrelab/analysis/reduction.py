@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import __version__
 from vrelab import _validate as V
+from vrelab.analysis.plausibility import MethodRequest
 from vrelab.analysis.segmentation import (
     SMOOTH_WINDOWS,
     WindowStats,
@@ -102,6 +103,7 @@ class Reduction:
     level_segments: list[Segment]
     level_times_s: list[float]
     psd: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=list)
+    method: Method = "random"  # what the levels were reduced as (auto: what they showed)
 
     @property
     def static_g(self) -> float | None:
@@ -304,7 +306,7 @@ def _resolve_schedule(
 def reduce(
     record: Record,
     schedule: Schedule | None = None,
-    method: Method = "random",
+    method: MethodRequest = "auto",
     band_hz: tuple[float, float] | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
     block_size: int = DEFAULT_BLOCK,
@@ -312,9 +314,20 @@ def reduce(
     rail_g: float | None = None,
     profile: Any = None,
     psd: bool = False,
+    accept: Collection[str] = (),
 ) -> Reduction:
-    """Reduce a record; see the module docstring. :func:`reduce_record` is the short form."""
-    V.one_of("method", method, ("random", "sine"))
+    """Reduce a record; see the module docstring. :func:`reduce_record` is the short form.
+
+    ``method`` "auto" reduces each level as its reference spectrum shows (one line: sine;
+    broad: random); an explicit method that a level contradicts is refused. Before any number
+    is made the record is held against SPEC 4.2 (:mod:`vrelab.analysis.plausibility`): a units
+    or sensitivity slip, swapped channels, a method that does not fit. ``accept`` names the
+    checks to pass on purpose: ``"unit-ratio"``, ``"channels"``, ``"method"``.
+    """
+    V.one_of("method", method, ("auto", "random", "sine"))
+    unknown = set(accept) - set(ACCEPTABLE)
+    if unknown:
+        raise ValueError(f"accept: unknown check {sorted(unknown)[0]!r}; one of {', '.join(ACCEPTABLE)}")
     block_size = int(block_size)
     if block_size < 1:
         raise ValueError(f"block_size must be >= 1, got {block_size}")
@@ -344,21 +357,20 @@ def reduce(
         baselines.append(Baseline(t_c, est.mean, est.u, seg))
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
+    methods = _plausible_methods(record, sched, stats, band, method, baselines, accept)
 
     levels: list[LevelResult] = []
     level_segs: list[Segment] = []
     times: list[float] = []
     psds: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
-    for seg in sched.segments:
-        if seg.is_baseline:
-            continue
+    for seg, seg_method in zip((g for g in sched.segments if not g.is_baseline), methods):
         k0, k1 = segment_windows(stats, seg)
         if k1 - k0 < 3:
             warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         n_sat = int(sat[k0:k1].sum())
         freq = None
-        if method == "random":
+        if seg_method == "random":
             dm = dut_mean_estimate(stats, k0, k1)
             power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
             pm = batch_mean(power, detrend=False)
@@ -390,16 +402,60 @@ def reduce(
         )
         level_segs.append(seg)
         times.append(t_c)
-        if psd and method == "random":
+        if psd and seg_method == "random":
             psds.append(_level_psd(record, seg, stats))
     if not levels:
         raise ValueError("no vibration level found in the record (or schedule)")
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
-    if profile is not None and method == "random":
+    kinds = set(methods)
+    if profile is not None and kinds == {"random"}:
         warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
-    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds)
+    found: Method = "sine" if kinds == {"sine"} else "random"
+    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=found)
+
+
+# Checks of SPEC 4.2 a user may accept on purpose (``accept=``; CLI ``--accept-<name>``).
+ACCEPTABLE = ("unit-ratio", "channels", "method")
+
+
+def _plausible_methods(
+    record: Record,
+    sched: Schedule,
+    stats: WindowStats,
+    band: tuple[float, float],
+    method: MethodRequest,
+    baselines: Sequence[Baseline],
+    accept: Collection[str],
+) -> list[Method]:
+    """The method of each level, after SPEC 4.2's checks on a short probe of every segment
+    (:mod:`vrelab.analysis.plausibility`); one kind per record (levels of both kinds are refused)."""
+    from vrelab.analysis import plausibility as P
+
+    level_segs = [g for g in sched.segments if not g.is_baseline]
+    # segments the reduction will skip as too short are not probed (their method is moot)
+    usable = [(lambda k: k[1] - k[0] >= 3)(segment_windows(stats, g)) for g in level_segs]
+    ref = stats.reference
+    probes = [P.probe_segment(record, "dut", ref, g.start_s, g.end_s, band)
+              for g, ok in zip(level_segs, usable) if ok]
+    found = iter(P.resolve_methods(method, probes, accept="method" in accept))
+    methods: list[Method] = [next(found) if ok else "random" for ok in usable]
+    methods_used = [m for m, ok in zip(methods, usable) if ok]
+    if ref != "dut":
+        P.check_units(probes, record.meta.get("channels", {}).get("dut", "dut"),
+                      record.meta.get("channels", {}).get("reference", ref), accept="unit-ratio" in accept)
+        base = [P.probe_segment(record, "dut", ref, b.segment.start_s, b.segment.end_s, band) for b in baselines]
+        P.check_channels(base, record.meta.get("channels", {}).get("dut", "dut"),
+                         record.meta.get("channels", {}).get("reference", ref), accept="channels" in accept)
+    if len(set(methods_used)) > 1:
+        n_sine = methods_used.count("sine")
+        raise ValueError(
+            f"the record holds {n_sine} sine and {len(methods_used) - n_sine} random level(s): reduce each kind "
+            "on its own (--schedule with the levels of one kind, and --method)"
+        )
+    kind = methods_used[0] if methods_used else ("sine" if method == "sine" else "random")
+    return [kind] * len(methods)
 
 
 def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK):
@@ -454,11 +510,12 @@ def _tolerance_checks(
 def reduce_record(
     record: Record,
     schedule: Schedule | None = None,
-    method: Method = "random",
+    method: MethodRequest = "auto",
     band_hz: tuple[float, float] | None = None,
     settle_s: float = DEFAULT_SETTLE_S,
     block_size: int = DEFAULT_BLOCK,
     progress: bool = False,
+    accept: Collection[str] = (),
 ) -> tuple[list[LevelResult], list[str]]:
     """Reduce a record to VRE per level.
 
@@ -469,8 +526,9 @@ def reduce_record(
     schedule : Schedule, optional
         Segments (``nominal_rms_g == 0`` for vibration off). Default: the record's embedded
         schedule, else automatic segmentation from the reference's rms envelope.
-    method : {"random", "sine"}
-        Level = reference rms in ``band_hz`` (random) or at the drive frequency (sine).
+    method : {"auto", "random", "sine"}
+        Level = reference rms in ``band_hz`` (random) or at the drive frequency (sine); "auto"
+        decides per level from the reference's spectrum (:func:`reduce`).
     band_hz : (f1, f2), optional
         Test band for the random method [Hz]; default 50–2000 Hz, clamped to Nyquist.
     settle_s : float
@@ -485,7 +543,7 @@ def reduce_record(
         when the DUT sat on a rail.
     warnings : list of str
     """
-    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress)
+    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, accept=accept)
     return red.levels, red.warnings
 
 
@@ -494,7 +552,7 @@ def reduce_record(
 
 def analyze_full(
     record: Record,
-    method: Method,
+    method: MethodRequest = "auto",
     schedule: Schedule | None = None,
     profile: Any = None,
     static_g: float | None = None,
@@ -509,12 +567,14 @@ def analyze_full(
     provenance: Mapping[str, Any] | None = None,
     psd: bool = False,
     rail_with_vrc: bool = False,
+    accept: Collection[str] = (),
 ) -> tuple[VreResult, Reduction]:
     """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
     V.one_of("clip_kind", clip_kind, KINDS)
     if static_g is not None:
         static_g = V.finite_scalar("static_g", static_g)
-    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd)
+    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd, accept)
+    method = red.method
     g0 = static_g if static_g is not None else red.static_g
     nominal = [seg.freq_hz for seg in red.level_segments]
     fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4, rail_with_vrc, nominal_freqs_hz=nominal)
@@ -555,7 +615,7 @@ def analyze_full(
     return result, red
 
 
-def analyze(record: Record, method: Method, schedule: Schedule | None = None, **options: Any) -> VreResult:
+def analyze(record: Record, method: MethodRequest = "auto", schedule: Schedule | None = None, **options: Any) -> VreResult:
     """Reduce a record and fit it: the whole test station in one call.
 
     ``options`` are the keywords of :func:`analyze_full`: those of :func:`reduce_record` plus:

@@ -5,9 +5,15 @@
     vrelab analyze FILE --dut CH [--reference CH] [--fs HZ] [--time CH]
                    [--dut-units g|lsb|mv|v|m/s2] [--dut-sensitivity S]
                    [--reference-units ...] [--reference-sensitivity S]
-                   [--method random|sine] [--schedule FILE|auto] [--profile P] [--static G]
+                   [--method auto|random|sine] [--schedule FILE|auto] [--profile P] [--static G]
                    [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4] [--rail-vrc]
+                   [--accept-unit-ratio] [--accept-channels] [--accept-method]
                    [--out DIR] [--json] [--progress]
+
+Before any number is made the record is checked (SPEC 4.2): a DUT/reference vibration ratio
+beyond 3 at every level (a units or sensitivity slip), a reference reading a static field while
+the DUT reads none (swapped channels), a method the spectra contradict. Each is refused with what
+was found; ``--accept-...`` passes it on purpose.
 
 Scaling: the file's raw values become g by dividing by the sensitivity in units per g, e.g.
 ``--dut-units lsb --dut-sensitivity 256000`` (ADXL355 on ±2 g) and ``--reference-units mv
@@ -33,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from vrelab import _io, folder
-from vrelab.analysis.reduction import DEFAULT_SETTLE_S
+from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
 from vrelab.cli._common import print_json, print_levels
 from vrelab.models.clipping import KINDS
 
@@ -67,7 +73,14 @@ def register(subparsers: Any) -> None:
     for who in ("dut", "reference"):
         p.add_argument(f"--{who}-units", default="g", metavar="U", help="raw units: g, lsb, mv, v, m/s2 (default g)")
         p.add_argument(f"--{who}-sensitivity", type=float, metavar="S", help="units per g (LSB/g, mV/g, V/g)")
-    p.add_argument("--method", choices=("random", "sine"), default="random")
+    p.add_argument("--method", choices=("auto", "random", "sine"), default="auto",
+                   help="auto (default): each level as its reference spectrum shows it, one line = sine, broad = "
+                   "random; an explicit method the data contradict is refused")
+    p.add_argument("--accept-unit-ratio", action="store_true",
+                   help="accept a DUT/reference rms ratio beyond 3 at every level (SPEC 4.2: a units slip otherwise)")
+    p.add_argument("--accept-channels", action="store_true",
+                   help="accept a reference reading a static field while the DUT reads none (swapped channels otherwise)")
+    p.add_argument("--accept-method", action="store_true", help="reduce with --method even where the data show the other")
     p.add_argument("--schedule", metavar="FILE", help="schedule CSV (start_s,end_s,nominal_rms_g[,freq_hz]) or 'auto'")
     p.add_argument("--profile", metavar="P", help="random profile (file, F:P,... or flat:F1-F2): band and PSD check")
     p.add_argument("--static", type=float, metavar="G", help="static field for the rail fit (default: baseline mean)")
@@ -126,13 +139,14 @@ def run(args: argparse.Namespace) -> int:
             provenance=provenance,
             psd=bool(args.out),
             rail_with_vrc=args.rail_vrc,
+            accept=[name for name in ACCEPTABLE if getattr(args, "accept_" + name.replace("-", "_"))],
         )
     doc = result.to_dict()
     if args.out:
         with _io.output_dir(args.out) as stage:
             folder.write_result(stage, result)
             _write_envelope(stage / folder.ENVELOPE, red)
-            if args.method == "random" and red.psd:
+            if red.method == "random" and red.psd:
                 _write_psds(stage, red, profile)
     if args.json:
         print_json(doc)
@@ -151,7 +165,7 @@ def _command_line(args: argparse.Namespace) -> str:
             continue
         if key in ("dut_units", "reference_units") and value == "g":
             continue
-        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "random"), ("kind", "censored")):
+        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "auto"), ("kind", "censored")):
             continue
         opt = "--" + key.replace("_", "-")
         if value is True:
