@@ -88,3 +88,19 @@ def test_right_records_pass_every_check(records, capsys):
                                      "--method", method, "--json"])
         assert rc == 0, err
         assert np.isfinite([lv["vre_g"] for lv in json.loads(out)["levels"]]).all()
+
+
+def test_a_static_field_beyond_the_range_gives_no_plain_number(capsys):
+    """Issue 9: `simulate --static 5` on the ±2 g range printed "VRE -40.5 ± 3.1 mg". The DUT sits
+    on its +2.048 g rail with the vibration off, so VRE is undefined: each level is flagged
+    baseline-off-scale and its VRE is null, with a notice saying why."""
+    rc, out, _ = _run(capsys, ["simulate", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1",
+                               "--static", "5", "--json"])
+    assert rc == 0
+    d = json.loads(out)
+    assert all(lv["vre_g"] is None and "baseline-off-scale" in lv["flags"] for lv in d["levels"])
+    assert any(n["code"] == "baseline-off-scale" for n in d["notices"])
+    # the same sensor at +1 g gives plain numbers
+    rc, out, _ = _run(capsys, ["simulate", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1",
+                               "--json"])
+    assert all(lv["vre_g"] is not None and "baseline-off-scale" not in lv["flags"] for lv in json.loads(out)["levels"])

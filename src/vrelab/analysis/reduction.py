@@ -89,6 +89,15 @@ class Baseline:
     mean_g: float
     u_g: float
     segment: Segment
+    n_saturated: int = 0  # DUT samples at a rail: the vibration-off reading is off-scale
+
+
+def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Baseline]:
+    """The baselines a level at ``t_s`` is referred to (:func:`bracket`) that sit at a rail."""
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    used = ([before[-1]] if before else []) + ([after[0]] if after else [])
+    return [b for b in used if b.n_saturated > 0]
 
 
 @dataclass
@@ -354,7 +363,7 @@ def reduce(
             continue
         est = dut_mean_estimate(stats, k0, k1)
         t_c = float(np.mean(stats.times_s[k0:k1]))
-        baselines.append(Baseline(t_c, est.mean, est.u, seg))
+        baselines.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum())))
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
     methods = _plausible_methods(record, sched, stats, band, method, baselines, accept)
@@ -388,10 +397,21 @@ def reduce(
         if note:
             warnings.append(Notice("bracket", note))
         flags = ("saturated",) if n_sat > 0 else ()
+        vre = Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g")
+        off = _off_scale_baselines(t_c, baselines)
+        if off:
+            # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
+            flags += ("baseline-off-scale",)
+            vre = Estimate(math.nan, math.nan, "g")
+            warnings.append(Notice(
+                "baseline-off-scale",
+                f"level {rms:.4g} g rms: its baseline at {off[0].t_s:.4g} s sits at a rail ({off[0].n_saturated} "
+                f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
+            ))
         levels.append(
             LevelResult(
                 rms_g=rms,
-                vre=Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g"),
+                vre=vre,
                 freq_hz=freq,
                 u_rms_g=u_rms,
                 duration_s=n_used / fs,
