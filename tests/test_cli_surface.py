@@ -269,3 +269,23 @@ def test_json_output_of_report_is_one_object(tmp_path: Path, capsys: pytest.Capt
     rc, out, err, _ = _run(["report", str(tmp_path), "--json"], capsys)
     assert rc == 0 and err == ""
     assert len(out.splitlines()) == 1 and json.loads(out)["report"].endswith("report.html")
+
+
+def test_an_unexpected_error_is_one_line_exit_1_and_debug_shows_the_traceback(monkeypatch, capsys):
+    """Issue 9: only ValueError/OSError were caught, any other exception printed a traceback.
+    Bad input stays exit 2; a bug is exit 1 with one line, and --debug gives the traceback."""
+    import vrelab.predict
+
+    def broken(*a, **k):
+        raise RuntimeError("the model blew up\nsecond line")
+
+    monkeypatch.setattr(vrelab.predict, "predict", broken)
+    argv = ["predict", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "internal error: RuntimeError: the model blew up" in err and "--debug" in err
+    assert main(["--debug", *argv]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "RuntimeError" in err
+    assert main(["predict", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "-1"]) == 2

@@ -61,6 +61,19 @@ def _weights(u: NDArray[np.float64], notes: list[str]) -> NDArray[np.float64]:
     return np.ones_like(u)
 
 
+# A reduced chi2 beyond this is not noise: the model misses the levels by far more than their
+# uncertainties (or those are tiny, as in a noise-free simulation).
+_CHI2_FAR = 100.0
+
+
+def _chi2_note(chi2_red: float) -> str:
+    """What a reduced chi2 above 1 did to the standard errors, in words."""
+    if chi2_red > _CHI2_FAR:
+        return (f"the levels scatter about the model far beyond their uncertainties (reduced chi2 = {chi2_red:.3g}; "
+                "tiny uncertainties of a noise-free record do this): standard errors from the residual scatter")
+    return f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)"
+
+
 def _scale_cov(
     cov: NDArray[np.float64], chi2: float, dof: int, weighted_abs: bool, notes: list[str]
 ) -> tuple[NDArray[np.float64], float | None]:
@@ -71,7 +84,7 @@ def _scale_cov(
     if not weighted_abs:
         return cov * chi2_red, chi2_red
     if chi2_red > 1.0:
-        notes.append(f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)")
+        notes.append(_chi2_note(chi2_red))
         return cov * chi2_red, chi2_red
     notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
     return cov, chi2_red
@@ -326,7 +339,7 @@ def fit_rail(
     elif not absolute:
         notes.append("unweighted: errors scaled by the residual scatter")
     elif chi2_red > 1:
-        notes.append(f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)")
+        notes.append(_chi2_note(chi2_red))
     else:
         notes.append(f"errors from the level uncertainties (reduced chi2 = {chi2_red:.3g} <= 1, not scaled)")
     se = np.sqrt(np.diag(covs))

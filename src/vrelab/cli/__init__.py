@@ -37,6 +37,8 @@ def build_parser() -> argparse.ArgumentParser:
         "a simulated shaker test, reduction of recorded shaker tests, reports.",
     )
     parser.add_argument("--version", action="version", version=f"vrelab {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an unexpected error, print the whole traceback (for a bug report)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     for name in _command_modules():
@@ -45,6 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command. Exit status: 0 done, 2 bad input (one line on stderr: a ``ValueError``
+    or ``OSError`` names the problem), 1 an unexpected error (one line; ``--debug`` prints the
+    traceback), 130 interrupted."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -64,6 +71,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("vrelab: interrupted\n")
         return 130
+    except Exception as exc:  # a bug of ours: one line, the traceback on request
+        if debug:
+            import traceback
+
+            traceback.print_exc()
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        sys.stderr.write(f"vrelab: internal error: {type(exc).__name__}{': ' + first if first else ''} "
+                         "(run again with --debug for the traceback, and please report it)\n")
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

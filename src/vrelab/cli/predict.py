@@ -45,6 +45,14 @@ def print_prediction(pred: Any) -> None:
             f"{format_mg(sh.get('clip_g'), signed=False):>9} {format_mg(sh.get('nonlinearity_g'), signed=False):>9} "
             f"{format_mg(sh.get('overrange_g'), signed=False):>12}  {'yes' if lv['valid'] else 'no'}"
         )
+    # why a level is not valid: each distinct reason once, with the levels it concerns
+    reasons: dict[str, list[str]] = {}
+    for lv in d["levels"]:
+        for note in lv["notes"]:
+            where = f"{lv['rms_g']:.4g} g rms" + (f" at {lv['freq_hz']:g} Hz" if lv.get("freq_hz") is not None else "")
+            reasons.setdefault(note, []).append(where)
+    for note, where in reasons.items():
+        print(f"level {', '.join(where)}: {note}")
     for note in d["notes"]:
         print(f"note: {note}")
 
