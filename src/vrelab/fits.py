@@ -69,8 +69,9 @@ _CHI2_FAR = 100.0
 def _chi2_note(chi2_red: float) -> str:
     """What a reduced chi2 above 1 did to the standard errors, in words."""
     if chi2_red > _CHI2_FAR:
-        return (f"the levels scatter about the model far beyond their uncertainties (reduced chi2 = {chi2_red:.3g}; "
-                "tiny uncertainties of a noise-free record do this): standard errors from the residual scatter")
+        return ("the levels scatter about the model far beyond their uncertainties (tiny uncertainties of a "
+                f"noise-free record do this): standard errors scaled by reduced chi2 = {chi2_red:.3g}, i.e. taken "
+                "from the residual scatter")
     return f"errors scaled by reduced chi2 = {chi2_red:.3g} (scatter larger than the level uncertainties)"
 
 
