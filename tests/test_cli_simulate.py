@@ -51,7 +51,7 @@ def test_out_writes_every_file(tmp_path, capsys):
     rc, out, err = _run(capsys, "simulate", "--sensor", "adxl355", "--axis", "z", "--profile", "flat:50-2000",
                         "--levels", "1,2", "--seconds", "2", "--out", str(out_dir), "--record", "--json")
     assert rc == 0, err
-    assert sorted(p.name for p in out_dir.iterdir()) == ["levels.csv", "prediction.json", "record.h5", "results.json"]
+    assert sorted(p.name for p in out_dir.iterdir()) == [".vrelab-output", "levels.csv", "prediction.json", "record.h5", "results.json"]
     results = json.loads((out_dir / "results.json").read_text())
     assert results == json.loads(out)
     rows = list(csv.DictReader(open(out_dir / "levels.csv")))

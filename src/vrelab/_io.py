@@ -11,22 +11,99 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator
 
+# Every output folder vrelab writes holds this file, so a later run may replace the folder
+# (and never a folder of the user's that merely has the same name).
+MARKER = ".vrelab-output"
+_STAGE_PREFIX = ".vrelab-stage-"
+
+
+# Files only vrelab writes: a folder holding one came from an earlier version (before MARKER).
+_OUR_FILES = ("results.json", "report.html", "summary.json", "result.nc")
+
+
+def _ours(folder: Path) -> bool:
+    """An empty folder, or one vrelab wrote (its marker, or a file only vrelab writes)."""
+    entries = [p for p in folder.iterdir() if not p.name.startswith(_STAGE_PREFIX)]
+    return not entries or (folder / MARKER).exists() or any((folder / n).is_file() for n in _OUR_FILES)
+
+
+def _owner_alive(stage: Path) -> bool:
+    """Whether the process that made a staging folder (``.vrelab-stage-<pid>-...``) still runs."""
+    try:
+        pid = int(stage.name[len(_STAGE_PREFIX):].split("-", 1)[0])
+    except ValueError:
+        return True  # not ours to judge
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return pid != 0
+
+
+def remove_orphan_stages(folder: Path) -> list[Path]:
+    """Remove staging folders left in ``folder`` by runs that were killed (SIGKILL, a batch
+    scheduler's timeout, a container stop): those whose process is gone. Returns what it removed."""
+    removed = []
+    if not folder.is_dir():
+        return removed
+    for stage in folder.glob(_STAGE_PREFIX + "*"):
+        if stage.is_dir() and not stage.is_symlink() and not _owner_alive(stage):
+            shutil.rmtree(stage, ignore_errors=True)
+            removed.append(stage)
+    return removed
+
 
 @contextmanager
-def output_dir(path: str | Path) -> Iterator[Path]:
-    """Yield a staging folder; on success its files move into ``path``, on failure nothing does.
+def output_dir(path: str | Path, replace: bool = True) -> Iterator[Path]:
+    """Yield a staging folder; on success it becomes ``path``, on failure nothing changes.
 
-    Existing files in ``path`` with other names are left alone; files of the same name are
-    replaced only once every new file is complete.
+    ``replace=True`` (a run's results): the folder afterwards holds exactly this run's files.
+    An existing ``path`` is replaced only when it is empty or a vrelab output folder (it holds
+    :data:`MARKER`); any other folder is refused, never emptied. ``replace=False`` (a sweep,
+    whose checkpoint lives beside its results): new files are moved in, same-named ones
+    replaced, others left alone.
+
+    Staging happens beside ``path`` (same file system: the final step is a rename), or inside
+    it when its parent is read-only. Staging folders whose process is gone (a run killed by
+    SIGKILL) are removed first, in both places.
     """
     dest = Path(path)
     if dest.exists() and not dest.is_dir():
         raise ValueError(f"output path exists and is not a folder: {dest}")
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".vrelab-", dir=dest.parent))
+    if replace and dest.is_dir() and not _ours(dest):
+        raise ValueError(
+            f"output folder {dest} exists and is not a vrelab output folder (no {MARKER}): "
+            "choose a new or empty folder, so nothing of yours is overwritten"
+        )
+    parent = dest.parent
+    parent.mkdir(parents=True, exist_ok=True)
+    remove_orphan_stages(parent)
+    remove_orphan_stages(dest)
+    beside = os.access(parent, os.W_OK | os.X_OK)
+    if not beside:
+        dest.mkdir(exist_ok=True)
+    where = parent if beside else dest
+    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGE_PREFIX}{os.getpid()}-", dir=where))
     try:
         yield stage
+        (stage / MARKER).write_text("written by vrelab; a later run may replace this folder\n")
+        if replace and beside:
+            old = None
+            if dest.exists():
+                old = Path(tempfile.mkdtemp(prefix=f"{_STAGE_PREFIX}{os.getpid()}-old-", dir=parent))
+                os.replace(dest, old / "x")
+            os.replace(stage, dest)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+            return
         dest.mkdir(exist_ok=True)
+        new = {item.name for item in stage.iterdir()}
+        if replace:  # staging inside dest (read-only parent): drop what the new run does not have
+            for item in dest.iterdir():
+                if item != stage and item.name not in new:
+                    shutil.rmtree(item) if item.is_dir() and not item.is_symlink() else item.unlink()
         for item in stage.iterdir():
             target = dest / item.name
             if target.is_dir() and not target.is_symlink():

@@ -200,7 +200,7 @@ def run_sweep(
     names = {"netcdf": RESULT_NC, "csv": RESULT_CSV, "zarr": RESULT_ZARR}
     files = {f: out / names[f] for f in spec.formats}
     summary["files"] = {f: str(p) for f, p in files.items()}
-    with _io.output_dir(out) as stage:
+    with _io.output_dir(out, replace=False) as stage:
         if "netcdf" in spec.formats:
             D.write_netcdf(ds, stage / RESULT_NC)
         if "csv" in spec.formats:
