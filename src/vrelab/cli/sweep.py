@@ -97,11 +97,17 @@ def run(args: argparse.Namespace) -> int:
         doc["points"] = [{k: _json_num(v) for k, v in row.items()} for row in rows]
         print_json(doc)
     else:
+        where = (f"on {s['backend']} in {s['elapsed_s']:.2f} s" if s["n_computed"]
+                 else "nothing computed: every point came from the checkpoint")
         print(
             f"{s['name']}: {s['n_ok']}/{s['n_points']} points ok, {s['n_failed']} failed "
-            f"({s['n_computed']} computed, {s['n_resumed']} from the checkpoint) on {s['backend']} "
-            f"in {s['elapsed_s']:.2f} s -> {', '.join(s['files'].values())}"
+            f"({s['n_computed']} computed, {s['n_resumed']} from the checkpoint) {where} "
+            f"-> {', '.join(s['files'].values())}"
         )
+        if s.get("n_quarantined"):
+            print(f"vrelab: {s['n_quarantined']} bad checkpoint line(s) moved to checkpoint.quarantine.jsonl "
+                  f"and their points recomputed (first: line {s['quarantined'][0]['line']}, "
+                  f"{s['quarantined'][0]['why']})", file=sys.stderr)
         for f in s["failed"][:5]:
             print(f"  point {f['index']} failed: {f['error']}", file=sys.stderr)
     return 1 if s["n_failed"] else 0

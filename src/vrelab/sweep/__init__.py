@@ -145,7 +145,8 @@ def run_sweep(
     own = backend is None
     if own:
         check_backend_args(workers, scheduler)
-    with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh) as ck:
+    with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh, inputs=spec.inputs()) as ck:
+        quarantined = [{"line": n, "why": why} for n, _, why in ck.quarantined]
         keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
         resumed = len(keep)
         units = [spec.unit_params(u) for u in range(spec.units or 0)]
@@ -166,7 +167,8 @@ def run_sweep(
                 progress=progress,
                 total=spec.n_points,
             )
-            described = backend.describe()
+            # nothing to compute (every point from the checkpoint): say so, claim no backend
+            described = backend.describe() if items else {"backend": "none: nothing computed", "n_workers": 0}
         finally:
             if own:
                 backend.close()
@@ -188,6 +190,8 @@ def run_sweep(
         "n_failed": n_failed,
         "n_computed": len(items),
         "n_resumed": resumed,
+        "n_quarantined": len(quarantined),
+        "quarantined": quarantined[:20],
         "run": run,
         "dims": dict(zip(spec.dims, spec.shape)),
         "variables": D.variable_names(spec, records),

@@ -147,6 +147,10 @@ def _import_distributed() -> Any:
     return distributed
 
 
+# How long a scheduler address may take to answer as a Dask scheduler [s].
+CONNECT_TIMEOUT_S = 10.0
+
+
 class DaskBackend(Backend):
     """A ``dask.distributed`` client's executor.
 
@@ -182,12 +186,16 @@ class DaskBackend(Backend):
                     self._cluster = distributed.LocalCluster(
                         n_workers=n_local, threads_per_worker=1, processes=True, dashboard_address=":0"
                     )
-                client = distributed.Client(self._cluster)
+                client = distributed.Client(self._cluster, set_as_default=False)
             else:
                 try:
-                    client = distributed.Client(address, timeout="10s")
-                except OSError as exc:
-                    raise ValueError(f"--scheduler {address}: cannot connect ({exc})") from None
+                    client = distributed.Client(address, timeout=f"{CONNECT_TIMEOUT_S:g}s", set_as_default=False)
+                except Exception as exc:  # a port that is not a Dask scheduler fails in any of many ways
+                    first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                    raise ValueError(
+                        f"--scheduler {address}: no Dask scheduler answered within {CONNECT_TIMEOUT_S:g} s "
+                        f"({type(exc).__name__}: {first})"
+                    ) from None
         self.client = client
         n_workers = max(1, sum(client.nthreads().values()))
         super().__init__(client.get_executor(pure=False), n_workers)

@@ -10,6 +10,7 @@ point line names the run that computed it: a point computed twice shows up as tw
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import json
 import math
 import os
@@ -19,6 +20,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 CHECKPOINT_NAME = "checkpoint.jsonl"
+QUARANTINE_NAME = "checkpoint.quarantine.jsonl"
+_STATUSES = ("ok", "failed")
+
+
+def _line_sum(obj: dict[str, Any]) -> str:
+    """Checksum of a point line: SHA-256 of its canonical JSON without the ``sum`` key (16 hex)."""
+    body = {k: v for k, v in obj.items() if k != "sum"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()[:16]
 
 
 @dataclass(frozen=True)
@@ -36,20 +45,21 @@ class PointRecord:
 
     def to_line(self) -> str:
         # Python's json writes floats with repr, which round-trips exactly; NaN/inf are written
-        # as the (non-standard) tokens that json reads back, since this file is ours alone.
-        return json.dumps(
-            {
-                "type": "point",
-                "i": self.index,
-                "status": self.status,
-                "values": self.values,
-                "error": self.error,
-                "attempts": self.attempts,
-                "elapsed_s": self.elapsed_s,
-                "cpu_s": self.cpu_s,
-                "run": self.run,
-            }
-        )
+        # as the (non-standard) tokens that json reads back, since this file is ours alone. The
+        # line carries its own checksum, so an edit by hand is found on resume.
+        obj: dict[str, Any] = {
+            "type": "point",
+            "i": self.index,
+            "status": self.status,
+            "values": self.values,
+            "error": self.error,
+            "attempts": self.attempts,
+            "elapsed_s": self.elapsed_s,
+            "cpu_s": self.cpu_s,
+            "run": self.run,
+        }
+        obj["sum"] = _line_sum(obj)
+        return json.dumps(obj)
 
     @classmethod
     def from_obj(cls, d: dict[str, Any]) -> "PointRecord":
@@ -72,7 +82,8 @@ class Checkpoint:
     sweep. ``records`` maps point index to its latest record; ``append`` writes and fsyncs.
     """
 
-    def __init__(self, out_dir: str | Path, fingerprint: str, n_points: int, *, fresh: bool = False) -> None:
+    def __init__(self, out_dir: str | Path, fingerprint: str, n_points: int, *, fresh: bool = False,
+                 inputs: dict[str, str] | None = None) -> None:
         self.path = Path(out_dir) / CHECKPOINT_NAME
         self.path.parent.mkdir(parents=True, exist_ok=True)
         created = not self.path.exists()
@@ -94,7 +105,8 @@ class Checkpoint:
             self.records: dict[int, PointRecord] = {}
             self.runs = 0
             self.n_lines = 0  # point lines, duplicates included: counts evaluations
-            self._load(fingerprint, n_points)
+            self.quarantined: list[tuple[int, bytes, str]] = []
+            self._load(fingerprint, n_points, inputs)
             self.run = self.runs + 1
             self._write(
                 json.dumps(
@@ -103,6 +115,7 @@ class Checkpoint:
                         "run": self.run,
                         "fingerprint": fingerprint,
                         "n_points": n_points,
+                        "inputs": dict(inputs or {}),
                         "started_unix_s": time.time(),
                         "pid": os.getpid(),
                     }
@@ -112,28 +125,57 @@ class Checkpoint:
             self._fh.close()
             raise
 
-    def _load(self, fingerprint: str, n_points: int) -> None:
+    def _load(self, fingerprint: str, n_points: int, inputs: dict[str, str] | None = None) -> None:
+        """Read the lines: run headers must match the sweep; a point line that is not one of
+        this sweep's (not JSON, not an object, no or a foreign index, an edited value caught by
+        its checksum) is quarantined: moved to ``checkpoint.quarantine.jsonl`` and its point
+        recomputed, while every good line is kept. Lines written before checksums existed
+        (no ``sum``) are accepted: they predate the check, and refusing them would recompute
+        whole sweeps that are almost surely intact."""
         self._fh.seek(0)
         data = self._fh.read()
         good = data.rfind(b"\n") + 1
         if good < len(data):  # a torn last line from a kill mid-write: drop it
             self._fh.truncate(good)
+        kept: list[bytes] = []
+        bad: list[tuple[int, bytes, str]] = []
         for lineno, line in enumerate(data[:good].splitlines(), 1):
+            why = None
             try:
                 obj = json.loads(line)
-            except json.JSONDecodeError:
-                raise ValueError(f"checkpoint {self.path} line {lineno} is corrupt; rerun with --fresh") from None
-            if obj.get("type") == "run":
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                obj, why = None, "not JSON"
+            if why is None and not isinstance(obj, dict):
+                why = f"not a JSON object ({type(obj).__name__})"
+            if why is None and obj.get("type") == "run":
                 if obj.get("fingerprint") != fingerprint or obj.get("n_points") != n_points:
-                    raise ValueError(
-                        f"checkpoint {self.path} belongs to a different sweep (the file changed); "
-                        "rerun with --fresh or another --out"
-                    )
+                    raise ValueError(f"checkpoint {self.path} belongs to a different sweep: {_what_changed(obj, inputs)}; "
+                                     "rerun with --fresh or another --out")
                 self.runs = max(self.runs, int(obj["run"]))
-            elif obj.get("type") == "point":
-                rec = PointRecord.from_obj(obj)
-                self.records[rec.index] = rec
-                self.n_lines += 1
+                kept.append(line)
+                continue
+            if why is None:
+                why = _bad_point(obj, n_points)
+            if why is not None:
+                bad.append((lineno, line, why))
+                continue
+            rec = PointRecord.from_obj(obj)
+            self.records[rec.index] = rec
+            self.n_lines += 1
+            kept.append(line)
+        self.quarantined = bad
+        if bad:
+            qpath = self.path.with_name(QUARANTINE_NAME)
+            with open(qpath, "ab") as q:
+                for lineno, line, why in bad:
+                    q.write(json.dumps({"line": lineno, "why": why, "text": line.decode("utf-8", "replace")}).encode() + b"\n")
+                q.flush()
+                os.fsync(q.fileno())
+            self._fh.seek(0)
+            self._fh.truncate(0)
+            self._fh.write(b"".join(k + b"\n" for k in kept))
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
 
     def _write(self, line: str) -> None:
         self._fh.write(line.encode() + b"\n")
@@ -161,3 +203,30 @@ class Checkpoint:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _bad_point(obj: dict[str, Any], n_points: int) -> str | None:
+    """Why a point line is not one of this sweep's, or None."""
+    if obj.get("type") != "point":
+        return f"unknown line type {obj.get('type')!r}"
+    i = obj.get("i")
+    if isinstance(i, bool) or not isinstance(i, int):
+        return f"no point index (i = {i!r})"
+    if not 0 <= i < n_points:
+        return f"point index {i} outside the sweep's 0..{n_points - 1}"
+    if obj.get("status") not in _STATUSES or not isinstance(obj.get("values"), dict):
+        return "no status or values"
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in obj["values"].values()):
+        return "a value is not a number"
+    if "sum" in obj and obj["sum"] != _line_sum(obj):
+        return "checksum mismatch (the line was edited)"
+    return None
+
+
+def _what_changed(header: dict[str, Any], inputs: dict[str, str] | None) -> str:
+    """Name the input file whose content changed since the checkpoint's run, if one did."""
+    before = header.get("inputs") or {}
+    for name, digest in (inputs or {}).items():
+        if name in before and before[name] != digest:
+            return f"{name} changed since the checkpoint was written"
+    return "the sweep file changed"

@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 from typing import Any, Mapping
 
 import numpy as np
@@ -82,9 +83,20 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     }
 
 
-@functools.lru_cache(maxsize=64)
 def _base_sensor(name: str, range_g: float | None, axis: str | None, odr_hz: float | None,
                  k2: float | None, k3: float | None) -> Any:
+    # A sensor file's state is part of the cache key: an edited file is read again.
+    try:
+        st = os.stat(name)
+        version: tuple[int, int] | None = (st.st_mtime_ns, st.st_size)
+    except OSError:
+        version = None  # a preset name
+    return _load_sensor_cached(name, version, range_g, axis, odr_hz, k2, k3)
+
+
+@functools.lru_cache(maxsize=64)
+def _load_sensor_cached(name: str, version: tuple[int, int] | None, range_g: float | None, axis: str | None,
+                        odr_hz: float | None, k2: float | None, k3: float | None) -> Any:
     from vrelab.sensor import load_sensor
 
     return load_sensor(name, range_g=range_g, axis=axis, odr_hz=odr_hz, k2_ug_per_g2=k2, k3_ug_per_g3=k3)

@@ -209,11 +209,27 @@ class SweepSpec:
         for i in range(self.n_points):
             yield self.point_params(i, units)
 
+    def inputs(self) -> dict[str, str]:
+        """SHA-256 of every file the points read (a sensor or profile given as a path, in
+        ``[fixed]`` or on a grid axis), by the name the file gives it; presets and inline
+        profiles need none."""
+        from vrelab._io import sha256_file
+
+        names: list[Any] = [self.fixed.get(k) for k in _FILE_KEYS]
+        names += [v for k, values in self.grid if k in _FILE_KEYS for v in values]
+        out: dict[str, str] = {}
+        for name in names:
+            if isinstance(name, str) and Path(name).is_file():
+                out[name] = sha256_file(name)
+        return out
+
     def fingerprint(self) -> str:
-        """Hash of what the results depend on (not retries, chunk, outputs): guards a resume."""
+        """Hash of what the results depend on (not retries, chunk, outputs), including the
+        content of the files the points read (:meth:`inputs`): guards a resume."""
         d = self.to_dict()
         for k in ("retries", "chunk", "variables", "formats", "name"):
             d.pop(k)
+        d["inputs"] = self.inputs()
         return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_dict(self) -> dict[str, Any]:
@@ -340,6 +356,8 @@ def _check_names(fixed: Mapping[str, Any], grid: list[tuple[str, tuple[Any, ...]
 
 
 _RESERVED = frozenset({"unit", "units", "index", "status", "error"})
+# Point parameters that may name a file (a sensor TOML, a profile CSV/TOML).
+_FILE_KEYS = ("sensor", "profile")
 _TOP = {"name", "kind", "function", "seed", "seconds", "retries", "chunk", "fixed", "grid", "montecarlo", "output"}
 
 
