@@ -31,11 +31,15 @@ def main(argv: list[str] | None = None) -> int:
             continue
         print(f"=== {path.stem}", flush=True)
         t0 = time.perf_counter()
+        argv0 = sys.argv
+        sys.argv = [str(path)]  # a benchmark parses its own options: give it none of ours
         try:
             _load(path).main()
         except Exception:  # report and go on: one broken benchmark must not hide the others
             traceback.print_exc()
             failed.append(path.stem)
+        finally:
+            sys.argv = argv0
         print(f"=== {path.stem}: {time.perf_counter() - t0:.1f} s", flush=True)
     if failed:
         print(f"failed: {', '.join(failed)}", file=sys.stderr)
