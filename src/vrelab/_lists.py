@@ -15,7 +15,8 @@ _GRID_TOL = 1e-9
 _MAX_POINTS = 100_000
 
 
-def _number(token: str, name: str) -> float:
+def number(token: str, name: str) -> float:
+    """One finite number of a list option, or a ValueError naming the option."""
     try:
         x = float(token)
     except ValueError:
@@ -34,7 +35,7 @@ def _expand_range(token: str, name: str) -> list[float]:
     parts = token.split(":")
     if len(parts) != 3:
         raise ValueError(f"{name}: bad range {token!r} (expected start:stop:step)")
-    start, stop, step = (_number(p.strip(), name) for p in parts)
+    start, stop, step = (number(p.strip(), name) for p in parts)
     if step == 0:
         raise ValueError(f"{name}: range step must not be zero in {token!r}")
     if (stop - start) * step < 0:
@@ -79,7 +80,7 @@ def parse_list(text: str, name: str) -> list[float]:
         if ":" in token:
             values.extend(_expand_range(token, name))
         else:
-            values.append(_number(token, name))
+            values.append(number(token, name))
         if len(values) > _MAX_POINTS:
             raise ValueError(f"{name}: list has more than {_MAX_POINTS} values")
     return values

@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vrelab._format import finite_or_none
-from vrelab._lists import parse_list
+from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
 from vrelab.models.clipping import KINDS, mean_shift
 from vrelab.models.nonlinearity import UG, vre_poly
@@ -46,16 +46,6 @@ Example: vrelab model poly --k2 100 --k3 5 --static 1 --rms 0.5,1,2
 _LIST = "comma-separated values and ranges start:stop:step (inclusive), e.g. 0.5,1,2:4:0.5"
 
 
-def _finite(text: str, name: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise ValueError(f"{name}: bad number {text!r}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"{name}: must be a finite number, got {text!r}")
-    return x
-
-
 def _levels(text: str) -> list[float]:
     values = parse_list(text, "--rms")
     bad = [v for v in values if v < 0]
@@ -73,9 +63,9 @@ def _table(title: str, rms: Sequence[float], vre_g: Sequence[float]) -> str:
 
 
 def _run_clip(args: argparse.Namespace) -> int:
-    mean = _finite(args.mean, "--mean")
-    rail = _finite(args.rail, "--rail")
-    rail_low = -rail if args.rail_low is None else _finite(args.rail_low, "--rail-low")
+    mean = number(args.mean, "--mean")
+    rail = number(args.rail, "--rail")
+    rail_low = -rail if args.rail_low is None else number(args.rail_low, "--rail-low")
     if rail_low >= rail:
         raise ValueError(f"--rail-low ({rail_low:g} g) must be below --rail ({rail:g} g)")
     rms = _levels(args.rms)
@@ -105,10 +95,10 @@ def _run_clip(args: argparse.Namespace) -> int:
 
 
 def _run_poly(args: argparse.Namespace) -> int:
-    k2 = _finite(args.k2, "--k2")
-    k3 = _finite(args.k3, "--k3")
-    k4 = _finite(args.k4, "--k4")
-    static = _finite(args.static, "--static")
+    k2 = number(args.k2, "--k2")
+    k3 = number(args.k3, "--k3")
+    k4 = number(args.k4, "--k4")
+    static = number(args.static, "--static")
     rms = _levels(args.rms)
     vre = np.atleast_1d(vre_poly(np.array(rms), k2 * UG, k3 * UG, k4 * UG, static_g=static, shape=args.shape))
     if args.json:

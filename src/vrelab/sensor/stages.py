@@ -85,8 +85,26 @@ __all__ = [
 # ----------------------------------------------------------------------------- dynamics
 
 
+class FilterStage(StageBase):
+    """A linear filter stage: ``design(fs)`` gives its second-order sections at rate ``fs``, run
+    as one ``sosfilt`` whose state is carried across blocks (started in steady state for the
+    first input), and ``response(f)`` its analog equivalent for the prediction."""
+
+    is_static: ClassVar[bool] = False
+    analytic: ClassVar[str | None] = "linear"
+
+    def design(self, fs_hz: float) -> FloatArray:
+        raise NotImplementedError
+
+    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> FilterState:
+        return FilterState(self.design(fs_hz), None)
+
+    def process(self, x: FloatArray, state: FilterState, fs_hz: float) -> tuple[FloatArray, FilterState]:
+        return run_filter(x, state)
+
+
 @dataclass(frozen=True)
-class Resonator(StageBase):
+class Resonator(FilterStage):
     """Proof-mass resonance: a second-order low-pass with unity gain at DC.
 
     Parameters
@@ -125,15 +143,11 @@ class Resonator(StageBase):
         _below_nyquist(self, "fn_hz", self.fn_hz, fs_hz)
         return discretize_zpk(*self.analog_zpk(), fs_hz)
 
-    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> FilterState:
-        return FilterState(self.design(fs_hz), None)
 
-    def process(self, x: FloatArray, state: FilterState, fs_hz: float) -> tuple[FloatArray, FilterState]:
-        return run_filter(x, state)
 
 
 @dataclass(frozen=True)
-class AntiAlias(StageBase):
+class AntiAlias(FilterStage):
     """Analog anti-alias filter, modelled as an analog Butterworth low-pass.
 
     Parameters
@@ -167,19 +181,17 @@ class AntiAlias(StageBase):
         _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
         return h.reshape(np.shape(f_hz))
 
-    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> FilterState:
+    def design(self, fs_hz: float) -> FloatArray:
         _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
-        return FilterState(discretize_zpk(*self.analog_zpk(), fs_hz), None)
+        return discretize_zpk(*self.analog_zpk(), fs_hz)
 
-    def process(self, x: FloatArray, state: FilterState, fs_hz: float) -> tuple[FloatArray, FilterState]:
-        return run_filter(x, state)
 
 
 LowPassKind = Literal["butterworth", "bessel"]
 
 
 @dataclass(frozen=True)
-class LowPass(StageBase):
+class LowPass(FilterStage):
     """Digital low-pass of the sensor (ADXL355: corner = ODR/4), designed once per rate.
 
     Parameters
@@ -222,15 +234,11 @@ class LowPass(StageBase):
         _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
         return self._design(self.corner_hz, fs=fs_hz, output="sos")
 
-    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> FilterState:
-        return FilterState(self.design(fs_hz), None)
 
-    def process(self, x: FloatArray, state: FilterState, fs_hz: float) -> tuple[FloatArray, FilterState]:
-        return run_filter(x, state)
 
 
 @dataclass(frozen=True)
-class HighPass(StageBase):
+class HighPass(FilterStage):
     """Digital high-pass (Butterworth). Off in every preset.
 
     A high-pass after the nonlinearity removes the very DC shift (VRE) one wants to measure;
@@ -252,18 +260,14 @@ class HighPass(StageBase):
         _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
         return h.reshape(np.shape(f_hz))
 
-    def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> FilterState:
+    def design(self, fs_hz: float) -> FloatArray:
         _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
-        sos = signal.butter(self.order, self.corner_hz, btype="highpass", fs=fs_hz, output="sos")
-        # Zero initial state: the steady state of a high-pass for a constant input is zero
-        # output, which is what sosfilt_zi·x0 gives too; keep the shared code path.
-        return FilterState(sos, None)
-
-    def process(self, x: FloatArray, state: FilterState, fs_hz: float) -> tuple[FloatArray, FilterState]:
-        return run_filter(x, state)
+        # the steady state of a high-pass for a constant input is zero output, which is what
+        # the shared start (sosfilt_zi·x0) gives too
+        return signal.butter(self.order, self.corner_hz, btype="highpass", fs=fs_hz, output="sos")
 
 
-# Stages whose process is exactly one sosfilt with a carried zi (_fused_filter_state).
+
 
 
 # ----------------------------------------------------------------------------- static maps
