@@ -353,17 +353,7 @@ def reduce(
     sat, rail_notes = stats.saturated()
     warnings += rail_notes
 
-    baselines: list[Baseline] = []
-    for seg in sched.segments:
-        if not seg.is_baseline:
-            continue
-        k0, k1 = segment_windows(stats, seg)
-        if k1 - k0 < 3:
-            warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
-            continue
-        est = dut_mean_estimate(stats, k0, k1)
-        t_c = float(np.mean(stats.times_s[k0:k1]))
-        baselines.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum())))
+    baselines = _baselines(stats, sched, sat, warnings)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
     methods = _plausible_methods(record, sched, stats, band, method, baselines, accept)
@@ -377,49 +367,9 @@ def reduce(
         if k1 - k0 < 3:
             warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
-        n_sat = int(sat[k0:k1].sum())
-        freq = None
-        if seg_method == "random":
-            dm = dut_mean_estimate(stats, k0, k1)
-            power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
-            pm = batch_mean(power, detrend=False)
-            rms = math.sqrt(max(pm.mean, 0.0))
-            u_rms = pm.u / (2 * rms) if rms > 0 else math.nan
-            t_c = float(np.mean(stats.times_s[k0:k1]))
-            n_used = int(stats.count[k0:k1].sum())
-        else:
-            i0 = int(math.ceil(seg.start_s * fs - 1e-9))
-            i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), stats.n_samples)
-            freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz)
-            warnings += w
-            rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
-        base, u_base, note = bracket(t_c, baselines)
-        if note:
-            warnings.append(Notice("bracket", note))
-        flags = ("saturated",) if n_sat > 0 else ()
-        vre = Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g")
-        off = _off_scale_baselines(t_c, baselines)
-        if off:
-            # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
-            flags += ("baseline-off-scale",)
-            vre = Estimate(math.nan, math.nan, "g")
-            warnings.append(Notice(
-                "baseline-off-scale",
-                f"level {rms:.4g} g rms: its baseline at {off[0].t_s:.4g} s sits at a rail ({off[0].n_saturated} "
-                f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
-            ))
-        levels.append(
-            LevelResult(
-                rms_g=rms,
-                vre=vre,
-                freq_hz=freq,
-                u_rms_g=u_rms,
-                duration_s=n_used / fs,
-                n_samples=n_used,
-                n_saturated=n_sat,
-                flags=flags,
-            )
-        )
+        level, t_c = _level(record, stats, seg, seg_method, k0, k1, int(sat[k0:k1].sum()), baselines, block_size,
+                            warnings)
+        levels.append(level)
         level_segs.append(seg)
         times.append(t_c)
         if psd and seg_method == "random":
@@ -434,6 +384,72 @@ def reduce(
         warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
     found: Method = "sine" if kinds == {"sine"} else "random"
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=found)
+
+
+def _baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warnings: list[str]) -> list[Baseline]:
+    """The DUT's vibration-off readings, one per baseline segment long enough to average."""
+    out: list[Baseline] = []
+    for seg in sched.segments:
+        if not seg.is_baseline:
+            continue
+        k0, k1 = segment_windows(stats, seg)
+        if k1 - k0 < 3:
+            warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
+            continue
+        est = dut_mean_estimate(stats, k0, k1)
+        t_c = float(np.mean(stats.times_s[k0:k1]))
+        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum())))
+    return out
+
+
+def _level(
+    record: Record,
+    stats: WindowStats,
+    seg: Segment,
+    method: Method,
+    k0: int,
+    k1: int,
+    n_sat: int,
+    baselines: Sequence[Baseline],
+    block_size: int,
+    warnings: list[str],
+) -> tuple[LevelResult, float]:
+    """One level (windows ``k0:k1``): its rms and DUT mean by ``method``, its VRE against the
+    bracketing baselines; and its centre time."""
+    fs = record.fs_hz
+    freq = None
+    if method == "random":
+        dm = dut_mean_estimate(stats, k0, k1)
+        power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
+        pm = batch_mean(power, detrend=False)
+        rms = math.sqrt(max(pm.mean, 0.0))
+        u_rms = pm.u / (2 * rms) if rms > 0 else math.nan
+        t_c = float(np.mean(stats.times_s[k0:k1]))
+        n_used = int(stats.count[k0:k1].sum())
+    else:
+        i0 = int(math.ceil(seg.start_s * fs - 1e-9))
+        i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), stats.n_samples)
+        freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz)
+        warnings += w
+        rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
+    base, u_base, note = bracket(t_c, baselines)
+    if note:
+        warnings.append(Notice("bracket", note))
+    flags: tuple[str, ...] = ("saturated",) if n_sat > 0 else ()
+    vre = Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g")
+    off = _off_scale_baselines(t_c, baselines)
+    if off:
+        # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
+        flags += ("baseline-off-scale",)
+        vre = Estimate(math.nan, math.nan, "g")
+        warnings.append(Notice(
+            "baseline-off-scale",
+            f"level {rms:.4g} g rms: its baseline at {off[0].t_s:.4g} s sits at a rail ({off[0].n_saturated} "
+            f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
+        ))
+    level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
+                        n_saturated=n_sat, flags=flags)
+    return level, t_c
 
 
 # Checks of SPEC 4.2 a user may accept on purpose (``accept=``; CLI ``--accept-<name>``).

@@ -337,6 +337,93 @@ def _apply(values: dict[str, Any], table: Mapping[str, Any], where: str) -> None
         values[f.name] = f.parse(raw, where)
 
 
+
+def _choose_axis(data: Mapping[str, Any], axis: str | None, name: str, where: str) -> tuple[dict[str, Any], tuple[str, ...], str]:
+    """(the [axes] table, the axes, the chosen axis) of a description."""
+    axes_table = data.get("axes", {})
+    if not isinstance(axes_table, dict) or not all(isinstance(v, dict) for v in axes_table.values()):
+        raise ValueError(f"sensor {where}: axes must be a table of tables ([axes.x] ...), got {axes_table!r}")
+    axes = tuple(axes_table) if axes_table else ("x", "y", "z")
+    chosen_axis = axis if axis is not None else data.get("default_axis", axes[0])
+    if not isinstance(chosen_axis, str) or chosen_axis.lower() not in axes:
+        raise ValueError(f"axis must be one of {', '.join(axes)} for {name}; got {chosen_axis!r}")
+    chosen_axis = chosen_axis.lower()
+    return axes_table, axes, chosen_axis
+
+
+def _choose_range(
+    data: Mapping[str, Any], range_g: float | None, name: str, where: str
+) -> tuple[dict[str, Any], dict[float, str], str | None, float]:
+    """(the [ranges] table, nominal range -> table key, the chosen key, the nominal range [g]);
+    a requested range matches a nominal range or its full scale."""
+    ranges_table = data.get("ranges", {})
+    if not isinstance(ranges_table, dict) or not all(isinstance(v, dict) for v in ranges_table.values()):
+        raise ValueError(f"sensor {where}: ranges must be a table of tables ([ranges.\"2\"] ...), got {ranges_table!r}")
+    nominal: dict[float, str] = {}
+    for key in ranges_table:
+        try:
+            nominal[float(key)] = key
+        except ValueError:
+            raise ValueError(f"sensor {where}: range keys must be numbers in g, got {key!r}") from None
+    requested = range_g if range_g is not None else data.get("default_range_g", 2.0)
+    req = _number(requested, "range_g", where) if not isinstance(requested, str) else math.nan
+    range_key: str | None = None
+    if nominal:
+        for nom, key in nominal.items():
+            fs_g = _number(ranges_table[key].get("full_scale_g", nom), "full_scale_g", f"{where} [ranges.{key}]")
+            if math.isclose(req, nom, rel_tol=_RANGE_RTOL) or math.isclose(req, fs_g, rel_tol=_RANGE_RTOL):
+                range_key, req = key, nom
+                break
+        if range_key is None:
+            full = [ranges_table[k].get("full_scale_g", n) for n, k in nominal.items()]
+            raise ValueError(
+                f"range_g must be one of {_fmt(nominal)} g (full scale {_fmt(full)}) for {name}; got {requested!r}"
+            )
+    elif not (math.isfinite(req) and req > 0):
+        raise ValueError(f"range_g must be a number > 0 for {name}; got {requested!r}")
+    return ranges_table, nominal, range_key, req
+
+
+def _choose_odr(data: Mapping[str, Any], odr_hz: float | None, name: str, where: str) -> tuple[tuple[float, ...], float | None]:
+    """(the ODRs a description declares, the chosen one or None for a part without ODR)."""
+    odrs_raw = data.get("odrs_hz", [])
+    if not isinstance(odrs_raw, list) or ("odrs_hz" in data and not odrs_raw):
+        raise ValueError(f"sensor {where}: odrs_hz must be a non-empty list of rates in Hz "
+                         f"(leave it out for an analog part), got {odrs_raw!r}")
+    odrs = tuple(_number(o, "odrs_hz", where) for o in odrs_raw)
+    chosen_odr: float | None = None
+    if odrs:
+        want = odr_hz if odr_hz is not None else data.get("default_odr_hz", odrs[0])
+        w = _number(want, "odr_hz", where) if is_number(want) else math.nan
+        for o in odrs:
+            if math.isclose(w, o, rel_tol=_ODR_RTOL):
+                chosen_odr = o
+                break
+        if chosen_odr is None:
+            raise ValueError(f"odr_hz must be one of {_fmt(odrs)} Hz for {name}; got {want!r}")
+    elif odr_hz is not None:
+        raise ValueError(f"odr_hz must not be given for {name}: it has no ODR (output at the input rate); got {odr_hz!r}")
+    return odrs, chosen_odr
+
+
+def _facts(data: Mapping[str, Any], where: str, origin: str) -> dict[str, str]:
+    """Where each number comes from ([facts], by field name); a user file's unmarked numbers say so."""
+    facts_raw = data.get("facts", {})
+    if not isinstance(facts_raw, dict):
+        raise ValueError(f"sensor {where}: facts must be a table of strings, got {facts_raw!r}")
+    facts: dict[str, str] = {}
+    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {f.name for f in FIELDS}
+    _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
+    for key, text in facts_raw.items():
+        if not isinstance(text, str):
+            raise ValueError(f"sensor {where}: facts.{key} must be a string, got {text!r}")
+        facts[_FACT_ALIASES.get(key, key)] = text
+    if origin.startswith("file"):
+        for f in NUMERIC_FIELDS:
+            facts.setdefault(f, f"unmarked, from user {origin}")
+    return facts
+
+
 def _fmt(xs: Any) -> str:
     return ", ".join(f"{x:g}" for x in xs)
 
@@ -380,61 +467,9 @@ def load_sensor(
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
     where = f"{name} ({origin})"
 
-    # ---- axis
-    axes_table = data.get("axes", {})
-    if not isinstance(axes_table, dict) or not all(isinstance(v, dict) for v in axes_table.values()):
-        raise ValueError(f"sensor {where}: axes must be a table of tables ([axes.x] ...), got {axes_table!r}")
-    axes = tuple(axes_table) if axes_table else ("x", "y", "z")
-    chosen_axis = axis if axis is not None else data.get("default_axis", axes[0])
-    if not isinstance(chosen_axis, str) or chosen_axis.lower() not in axes:
-        raise ValueError(f"axis must be one of {', '.join(axes)} for {name}; got {chosen_axis!r}")
-    chosen_axis = chosen_axis.lower()
-
-    # ---- range
-    ranges_table = data.get("ranges", {})
-    if not isinstance(ranges_table, dict) or not all(isinstance(v, dict) for v in ranges_table.values()):
-        raise ValueError(f"sensor {where}: ranges must be a table of tables ([ranges.\"2\"] ...), got {ranges_table!r}")
-    nominal: dict[float, str] = {}
-    for key in ranges_table:
-        try:
-            nominal[float(key)] = key
-        except ValueError:
-            raise ValueError(f"sensor {where}: range keys must be numbers in g, got {key!r}") from None
-    requested = range_g if range_g is not None else data.get("default_range_g", 2.0)
-    req = _number(requested, "range_g", where) if not isinstance(requested, str) else math.nan
-    range_key: str | None = None
-    if nominal:
-        for nom, key in nominal.items():
-            fs_g = _number(ranges_table[key].get("full_scale_g", nom), "full_scale_g", f"{where} [ranges.{key}]")
-            if math.isclose(req, nom, rel_tol=_RANGE_RTOL) or math.isclose(req, fs_g, rel_tol=_RANGE_RTOL):
-                range_key, req = key, nom
-                break
-        if range_key is None:
-            full = [ranges_table[k].get("full_scale_g", n) for n, k in nominal.items()]
-            raise ValueError(
-                f"range_g must be one of {_fmt(nominal)} g (full scale {_fmt(full)}) for {name}; got {requested!r}"
-            )
-    elif not (math.isfinite(req) and req > 0):
-        raise ValueError(f"range_g must be a number > 0 for {name}; got {requested!r}")
-
-    # ---- ODR
-    odrs_raw = data.get("odrs_hz", [])
-    if not isinstance(odrs_raw, list) or ("odrs_hz" in data and not odrs_raw):
-        raise ValueError(f"sensor {where}: odrs_hz must be a non-empty list of rates in Hz "
-                         f"(leave it out for an analog part), got {odrs_raw!r}")
-    odrs = tuple(_number(o, "odrs_hz", where) for o in odrs_raw)
-    chosen_odr: float | None = None
-    if odrs:
-        want = odr_hz if odr_hz is not None else data.get("default_odr_hz", odrs[0])
-        w = _number(want, "odr_hz", where) if is_number(want) else math.nan
-        for o in odrs:
-            if math.isclose(w, o, rel_tol=_ODR_RTOL):
-                chosen_odr = o
-                break
-        if chosen_odr is None:
-            raise ValueError(f"odr_hz must be one of {_fmt(odrs)} Hz for {name}; got {want!r}")
-    elif odr_hz is not None:
-        raise ValueError(f"odr_hz must not be given for {name}: it has no ODR (output at the input rate); got {odr_hz!r}")
+    axes_table, axes, chosen_axis = _choose_axis(data, axis, name, where)
+    ranges_table, nominal, range_key, req = _choose_range(data, range_g, name, where)
+    odrs, chosen_odr = _choose_odr(data, odr_hz, name, where)
 
     # ---- values: top level < axis < range
     values: dict[str, Any] = {}
@@ -452,19 +487,7 @@ def load_sensor(
     full_scale = values.pop("full_scale_g", req)
     rails = values.pop("rails_g", (-full_scale, full_scale))
 
-    facts_raw = data.get("facts", {})
-    if not isinstance(facts_raw, dict):
-        raise ValueError(f"sensor {where}: facts must be a table of strings, got {facts_raw!r}")
-    facts: dict[str, str] = {}
-    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {f.name for f in FIELDS}
-    _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
-    for key, text in facts_raw.items():
-        if not isinstance(text, str):
-            raise ValueError(f"sensor {where}: facts.{key} must be a string, got {text!r}")
-        facts[_FACT_ALIASES.get(key, key)] = text
-    if origin.startswith("file"):
-        for f in NUMERIC_FIELDS:
-            facts.setdefault(f, f"unmarked, from user {origin}")
+    facts = _facts(data, where, origin)
     if k2_ug_per_g2 is not None:
         values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
         facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
