@@ -470,6 +470,8 @@ def _plausible_methods(
     from vrelab.analysis import plausibility as P
 
     level_segs = [g for g in sched.segments if not g.is_baseline]
+    if method != "auto" and set(ACCEPTABLE) <= set(accept):
+        return [method] * len(level_segs)  # nothing to check: no probe (a simulated record re-runs for one)
     # segments the reduction will skip as too short are not probed (their method is moot)
     usable = [(lambda k: k[1] - k[0] >= 3)(segment_windows(stats, g)) for g in level_segs]
     ref = stats.reference
