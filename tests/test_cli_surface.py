@@ -76,6 +76,7 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("malformed-list", ["20:0.01,,80:0.04"], '20:0.01,,80:0.04'),
         ("negative-grms", ["flat:50-2000", "--grms", "-1"], 'grms'),
         ("nan-grms", ["flat:50-2000", "--grms", "nan"], 'grms'),
+        ("huge-grms", ["flat:50-2000", "--grms", "1e200"], 'grms'),
         ("missing-file", ["{d}/no-such-profile.csv"], 'no-such-profile.csv'),
         ("non-monotonic-file", ["{d}/backwards.csv"], 'backwards.csv'),
         ("unknown-named", ["no-such-profile-name"], 'no-such-profile-name'),
@@ -83,6 +84,7 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "predict": [
         ("negative-level", [*PRED, "--levels", "-1"], 'levels'),
         ("nan-level", [*PRED, "--levels", "nan"], 'levels'),
+        ("huge-level", [*PRED, "--levels", "1e200"], 'levels'),
         ("malformed-list", [*PRED, "--levels", "1,x"], 'levels'),
         ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"], 'no-such-sensor'),
         ("missing-sensor-file", ["--sensor", "{d}/missing.toml", "--profile", "flat:50-2000", "--levels", "1"], 'missing.toml'),
@@ -99,6 +101,7 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("malformed-list", [*SIM, "--levels", "0.5,,1"], 'levels'),
         ("negative-seconds", [*SIM, "--levels", "1", "--seconds", "-1"], 'seconds'),
         ("nan-seconds", [*SIM, "--levels", "1", "--seconds", "nan"], 'seconds'),
+        ("huge-seconds", [*SIM, "--levels", "1", "--seconds", "1e9"], 'would take about'),
         ("unknown-sensor", ["--sensor", "no-such-sensor", "--profile", "flat:50-2000", "--levels", "1"], 'no-such-sensor'),
         ("non-monotonic-profile", ["--sensor", "ideal", "--profile", "100:0.01,50:0.02", "--levels", "1"], 'monotonic'),
         ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "2"], 'freq'),
@@ -289,3 +292,42 @@ def test_an_unexpected_error_is_one_line_exit_1_and_debug_shows_the_traceback(mo
     err = capsys.readouterr().err
     assert "Traceback" in err and "RuntimeError" in err
     assert main(["predict", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "-1"]) == 2
+
+
+def test_every_bad_value_case_under_a_memory_cap(files: Path, tmp_path: Path) -> None:
+    """Issue 9's fuzz table: every case above, run again in one child process under RLIMIT_AS
+    (3 GiB) with an alarm per case, so a case that sizes memory from its input or hangs fails
+    here instead of taking the machine (the in-process runs above have no such cap)."""
+    import textwrap
+
+    cases = [cmd.split() + [a.replace("{d}", str(files)) for a in argv] for cmd in COMMANDS for _, argv, _ in CASES.get(cmd, [])]
+    driver = tmp_path / "driver.py"
+    driver.write_text(textwrap.dedent("""
+        import contextlib, io, json, resource, signal, sys
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+        from vrelab.cli import main
+        def hang(*_):
+            raise TimeoutError("case took over 60 s")
+        signal.signal(signal.SIGALRM, hang)
+        out = []
+        for argv in json.load(open(sys.argv[1])):
+            err = io.StringIO()
+            signal.alarm(60)
+            try:
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    rc = main(argv)
+            except BaseException as exc:
+                rc = f"escaped {type(exc).__name__}: {exc}"
+            finally:
+                signal.alarm(0)
+            out.append([argv, rc, err.getvalue()])
+        json.dump(out, open(sys.argv[2], "w"))
+    """))
+    (tmp_path / "cases.json").write_text(json.dumps(cases))
+    p = subprocess.run([sys.executable, str(driver), str(tmp_path / "cases.json"), str(tmp_path / "out.json")],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    results = json.loads((tmp_path / "out.json").read_text())
+    assert len(results) == len(cases) > 80
+    bad = [(argv, rc, err) for argv, rc, err in results if rc != 2 or len(err.splitlines()) != 1 or "Traceback" in err]
+    assert not bad, bad[:5]

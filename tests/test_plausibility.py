@@ -54,7 +54,7 @@ def test_auto_method_recognises_each_level(kind):
     if kind == "sine":
         assert level.line_fraction > 0.99 and level.peak_hz == pytest.approx(160.0, abs=0.5)
     else:
-        assert level.line_fraction < 0.01
+        assert level.line_fraction < 0.05  # 7 of ~2000 lines of a broad spectrum
     assert resolve_methods("auto", [level]) == [kind]
     assert resolve_methods(kind, [level]) == [kind]
 

@@ -33,10 +33,10 @@ from vrelab.results import Method
 
 MethodRequest = Literal["auto", "random", "sine"]
 
-# Samples read from the middle of each segment (2^14: 2 s at 8 kHz, a 0.5 Hz line spacing, which
+# Samples read from the middle of each level (2^13: 1 s at 8 kHz, a 1 Hz line spacing, which
 # resolves a drive from the test band's bottom (tens of Hz) upwards, for a few per cent of the
 # reading the reduction itself does).
-PROBE_SAMPLES = 1 << 14
+PROBE_SAMPLES = 1 << 13
 # DUT/reference rms ratio beyond which (or below whose inverse) a level's units look wrong:
 # SPEC 4.2. A flat-responding DUT agrees with the reference within a few per cent; a slip is a
 # factor of 9.81 (m/s² vs g), 10-1000 (mV vs g), 1e3 or more (LSB vs g).

@@ -483,7 +483,13 @@ def _plausible_methods(
     if ref != "dut":
         P.check_units(probes, record.meta.get("channels", {}).get("dut", "dut"),
                       record.meta.get("channels", {}).get("reference", ref), accept="unit-ratio" in accept)
-        base = [P.probe_segment(record, "dut", ref, b.segment.start_s, b.segment.end_s, band) for b in baselines]
+        # the baselines' DC readings come from the window pass (no probe): the DUT's mean, and the
+        # reference's from its windows' sums
+        base = []
+        for b in baselines:
+            k0, k1 = segment_windows(stats, b.segment)
+            ref_dc = float(stats.ref_sum[k0:k1].sum() / max(stats.count[k0:k1].sum(), 1))
+            base.append(P.SegmentProbe(b.segment.start_s, b.segment.end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, b.mean_g))
         P.check_channels(base, record.meta.get("channels", {}).get("dut", "dut"),
                          record.meta.get("channels", {}).get("reference", ref), accept="channels" in accept)
     if len(set(methods_used)) > 1:

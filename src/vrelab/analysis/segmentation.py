@@ -25,6 +25,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab import _budget
 from vrelab import _validate as V
 from vrelab._ahead import prefetch
 from vrelab.record import Record, Schedule, Segment
@@ -53,6 +54,7 @@ class WindowStats:
     n_at_min: NDArray[np.int64]
     n_beyond_rail: NDArray[np.int64]  # samples at or beyond a given rail (0 when none given)
     ref_ac_sumsq: NDArray[np.float64]  # window length x mean square of the reference minus its mean
+    ref_sum: NDArray[np.float64]  # raw sum of the reference (its DC: a reference reads none)
     ref_band_sumsq: NDArray[np.float64]  # window length x mean square of the reference in the band
     band_hz: tuple[float, float]
     reference: str  # channel used as reference ("dut" when the record has no reference)
@@ -241,10 +243,14 @@ def window_pass(
     w = window_length(fs, (f1, f2), window_s)
     block = max(w, (int(block_size) // w) * w)  # windows never straddle blocks
     k = -(-n // w)
+    # a dozen 8-byte numbers per window, and the smoothing kernel's partial sums: sized before
+    # anything is allocated from the record's length
+    _budget.check_memory(f"the analysis of {n} samples ({k} windows of {w} samples)",
+                         k * (13 + SMOOTH_WINDOWS) * 8.0)
     z = lambda dt: np.zeros(k, dtype=dt)  # noqa: E731
     count, dsum, dmax, dmin = z(np.int64), z(float), z(float), z(float)
     nmax, nmin, nrail = z(np.int64), z(np.int64), z(np.int64)
-    rac, rband = z(float), z(float)
+    rac, rband, rsum = z(float), z(float), z(float)
     parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
     kern = smoothing_kernel(w)
     ac_w, band_w = band_weights(w, fs, (f1, f2))
@@ -293,6 +299,7 @@ def window_pass(
                 acb = (spec * spec) @ np.repeat(np.column_stack(band_weights(L, fs, (f1, f2))), 2, axis=0)
                 parts[kk : kk + m] = (dv @ kern[:L]) * (w / L)
             rac[sl], rband[sl] = acb[:, 0], acb[:, 1]
+            rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
             # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
             # a sum): test the small arrays, and scan the samples only to name the first bad one.
             if not (np.isfinite(dsum[sl]).all() and np.isfinite(acb).all()):
@@ -320,7 +327,7 @@ def window_pass(
     return WindowStats(
         fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=dsum, dut_smooth=smooth, dut_max=dmax,
         dut_min=dmin, n_at_max=nmax, n_at_min=nmin, n_beyond_rail=nrail, ref_ac_sumsq=rac,
-        ref_band_sumsq=rband, band_hz=(f1, f2), reference=ref_name,
+        ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2), reference=ref_name,
     )  # fmt: skip
 
 
