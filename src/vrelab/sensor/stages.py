@@ -118,7 +118,7 @@ class Resonator(FilterStage):
     :func:`discretize_zpk`: the analog poles ``s = ωn(-1/(2Q) ± j·sqrt(1 - 1/(4Q²)))`` are
     mapped exactly; the numerator is fitted so ``|H|`` matches within 0.03 % up to fs/8 when
     fn <= fs/5 (the simulation rate should be at least 5·fn and 8× the drive's highest
-    frequency, see ``vrelab.rates.simulation_rate_hz`` and ``Sensor.internal_rate_hz``).
+    frequency, see ``vrelab.rates.simulation_rate_hz``).
     """
 
     fn_hz: float
