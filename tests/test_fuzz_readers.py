@@ -159,3 +159,21 @@ def test_implausible_header_rates_are_refused_naming_the_rate(fuzz_results):
     for rate in (4_294_967_295, 2_000_000_000):
         r = by_name[f"wav header says {rate} Hz"]
         assert r["code"] == 2 and "rate" in r["stderr"], r
+
+
+def test_a_corrupt_header_rate_can_be_overridden_with_fs(tmp_path):
+    """The refusal says 'give the true rate with --fs': that must then work, and say so."""
+    from scipy.io import wavfile
+
+    from vrelab.analysis.readers import open_record
+
+    x = np.random.default_rng(5).standard_normal((4000, 2)).astype(np.float32)
+    wav = tmp_path / "ok.wav"
+    wavfile.write(wav, 500, x)
+    bad = _header_claiming(wav, 4_294_967_295, tmp_path)
+    with pytest.raises(ValueError, match="implausible"):
+        open_record(bad, dut="1", reference="0")
+    rec = open_record(bad, dut="1", reference="0", fs_hz=500.0)
+    assert rec.fs_hz == 500.0 and any("implausible" in n for n in rec.meta["reader_notes"])
+    with pytest.raises(ValueError, match="disagrees"):
+        open_record(wav, dut="1", reference="0", fs_hz=400.0)  # a plausible header still wins over a slip

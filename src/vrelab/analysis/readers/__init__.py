@@ -269,6 +269,10 @@ def open_record(
             if fs_hz is None:
                 raise ValueError(f"{path.name}: no sample rate in the file and no time column: give --fs HZ")
             fs, how = fs_hz, "given"
+        elif fs_hz is not None and fs > MAX_PLAUSIBLE_FS_HZ and fs_hz <= MAX_PLAUSIBLE_FS_HZ:
+            # a corrupt header: the user's rate wins, and the record says so
+            src.notes.append(f"the file's sample rate {fs:.6g} Hz is implausible: --fs {fs_hz:g} Hz used instead")
+            fs, how = fs_hz, "given (the file's is implausible)"
         elif fs_hz is not None and abs(fs - fs_hz) > 1e-6 * fs:
             raise ValueError(f"--fs {fs_hz:g} Hz disagrees with the sample rate from the {how}: {fs:.9g} Hz")
         if not (math.isfinite(fs) and fs > 0):
