@@ -146,3 +146,26 @@ def test_probe_reads_a_bounded_stretch():
 
     probe_segment(Spy(), "dut", "ref", 0.0, 8.0, BAND, max_samples=4096)
     assert calls == [(4096, 32000 - 2048, 32000 + 2048)]
+
+
+def test_a_sequential_record_is_probed_in_one_pass():
+    """A CSV file is parsed from its start: its probes are cut from one pass over the record, not
+    one pass per probe, and give the same probes as reads by position."""
+    from vrelab.analysis.plausibility import probe_segments
+
+    rec = _record("random")
+    calls = []
+
+    class Sequential:
+        fs_hz, n_samples, channels, schedule, meta = rec.fs_hz, rec.n_samples, rec.channels, None, {}
+        random_access = False
+
+        def blocks(self, block_size, channels, start=0, stop=None):
+            calls.append((start, stop))
+            return rec.blocks(block_size, channels, start, stop)
+
+    segs = [(0.2, 1.8), (2.5, 5.5), (6.2, 7.8)]
+    one_pass = probe_segments(Sequential(), "dut", "ref", segs, BAND, max_samples=4096)
+    by_position = probe_segments(rec, "dut", "ref", segs, BAND, max_samples=4096)
+    assert len(calls) == 1
+    assert one_pass == by_position

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Literal, Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from vrelab.record import Record
 from vrelab.results import Method
@@ -85,6 +86,53 @@ class SegmentProbe:
         return self.dut_rms_g / self.ref_rms_g if self.ref_rms_g > 0 else math.nan
 
 
+def _window(record: Record, start_s: float, end_s: float, max_samples: int) -> tuple[int, int]:
+    """The stretch a probe reads: the middle ``max_samples`` samples of the segment."""
+    fs = float(record.fs_hz)
+    i0 = max(0, int(math.ceil(start_s * fs)))
+    i1 = min(int(record.n_samples), int(math.floor(end_s * fs)))
+    if i1 - i0 < 16:
+        raise ValueError(f"segment {start_s:.4g}-{end_s:.4g} s holds {max(i1 - i0, 0)} samples: too short to check")
+    if i1 - i0 > max_samples:
+        mid = (i0 + i1) // 2
+        i0, i1 = mid - max_samples // 2, mid - max_samples // 2 + max_samples
+    return i0, i1
+
+
+def probe_segments(
+    record: Record,
+    dut: str,
+    reference: str,
+    segments: Sequence[tuple[float, float]],
+    band_hz: tuple[float, float],
+    max_samples: int = PROBE_SAMPLES,
+) -> list[SegmentProbe]:
+    """:func:`probe_segment` for each ``(start_s, end_s)``. A record read in one direction only
+    (``record.random_access`` False: a CSV file, which must be parsed from its start) is read in
+    one pass over all the probes' stretches, not once per probe."""
+    if getattr(record, "random_access", True):
+        return [probe_segment(record, dut, reference, a, b, band_hz, max_samples) for a, b in segments]
+    windows = [_window(record, a, b, max_samples) for a, b in segments]
+    if not windows:
+        return []
+    chans = [dut] if reference == dut else [dut, reference]
+    lo, hi = min(w[0] for w in windows), max(w[1] for w in windows)
+    parts: list[dict[str, list[NDArray[np.float64]]]] = [{c: [] for c in chans} for _ in windows]
+    pos = lo
+    for blk in record.blocks(max_samples, chans, lo, hi):
+        m = len(blk[chans[0]])
+        for (i0, i1), part in zip(windows, parts):
+            a, b = max(i0, pos), min(i1, pos + m)
+            if b > a:
+                for c in chans:
+                    part[c].append(np.asarray(blk[c][a - pos : b - pos], dtype=np.float64))
+        pos += m
+    return [
+        _probe_arrays(record.fs_hz, seg[0], seg[1], np.concatenate(part[dut]), np.concatenate(part[reference]), band_hz)
+        for seg, part in zip(segments, parts)
+    ]
+
+
 def probe_segment(
     record: Record,
     dut: str,
@@ -98,24 +146,23 @@ def probe_segment(
 
     At most ``max_samples`` samples are read (one block). The spectrum is a Hann-windowed
     periodogram; a level's line fraction is the power in its strongest line (± 3 bins) over all
-    its AC power (a sine below or above the test band is still a sine). The rms compared for units is taken at the line (±3 bins) when the level
-    is a sine, else over the lowest in-band lines holding :data:`LOW_POWER_SHARE` of the
-    reference's power.
+    its AC power (a sine below or above the test band is still a sine). The rms compared for
+    units is taken at the line (±3 bins) when the level is a sine, else over the lowest in-band
+    lines holding :data:`LOW_POWER_SHARE` of the reference's power.
     """
-    fs = float(record.fs_hz)
-    i0 = max(0, int(math.ceil(start_s * fs)))
-    i1 = min(int(record.n_samples), int(math.floor(end_s * fs)))
-    n = i1 - i0
-    if n < 16:
-        raise ValueError(f"segment {start_s:.4g}-{end_s:.4g} s holds {max(n, 0)} samples: too short to check")
-    if n > max_samples:
-        mid = (i0 + i1) // 2
-        i0, i1 = mid - max_samples // 2, mid - max_samples // 2 + max_samples
-        n = max_samples
+    i0, i1 = _window(record, start_s, end_s, max_samples)
     chans = [dut] if reference == dut else [dut, reference]
-    block = next(iter(record.blocks(n, chans, i0, i1)))
-    x_dut = np.asarray(block[dut], dtype=np.float64)
-    x_ref = np.asarray(block[reference], dtype=np.float64)
+    block = next(iter(record.blocks(i1 - i0, chans, i0, i1)))
+    return _probe_arrays(record.fs_hz, start_s, end_s, np.asarray(block[dut], dtype=np.float64),
+                         np.asarray(block[reference], dtype=np.float64), band_hz)
+
+
+def _probe_arrays(
+    fs_hz: float, start_s: float, end_s: float, x_dut: NDArray[np.float64], x_ref: NDArray[np.float64],
+    band_hz: tuple[float, float],
+) -> SegmentProbe:
+    fs = float(fs_hz)
+    n = x_dut.size
     ref_dc, dut_dc = float(np.mean(x_ref)), float(np.mean(x_dut))
     win = np.hanning(n)
     freqs = np.fft.rfftfreq(n, 1.0 / fs)

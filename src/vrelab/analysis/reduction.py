@@ -475,8 +475,7 @@ def _plausible_methods(
     # segments the reduction will skip as too short are not probed (their method is moot)
     usable = [(lambda k: k[1] - k[0] >= 3)(segment_windows(stats, g)) for g in level_segs]
     ref = stats.reference
-    probes = [P.probe_segment(record, "dut", ref, g.start_s, g.end_s, band)
-              for g, ok in zip(level_segs, usable) if ok]
+    probes = P.probe_segments(record, "dut", ref, [(g.start_s, g.end_s) for g, ok in zip(level_segs, usable) if ok], band)
     found = iter(P.resolve_methods(method, probes, accept="method" in accept))
     methods: list[Method] = [next(found) if ok else "random" for ok in usable]
     methods_used = [m for m, ok in zip(methods, usable) if ok]

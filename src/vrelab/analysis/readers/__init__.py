@@ -184,6 +184,11 @@ class FileRecord:
                 raise ValueError(f"{name}: cannot read its samples (truncated or corrupt?): {type(exc).__name__}: {exc}") from None
             yield {c: self.scales[c].to_g(blk[r]) for c, r in zip(channels, raw)}
 
+    @property
+    def random_access(self) -> bool:
+        """Whether a stretch can be read without reading what comes before it (not so for CSV)."""
+        return bool(getattr(self.source, "random_access", True))
+
     def close(self) -> None:
         self.source.close()
 

@@ -91,6 +91,7 @@ class Source:
     fmt: ClassVar[str] = "?"
     extensions: ClassVar[tuple[str, ...]] = ()
     has_magic: ClassVar[bool] = True
+    random_access: ClassVar[bool] = True  # False: a stretch costs reading all before it (text)
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:

@@ -25,6 +25,7 @@ class CsvSource(Source):
     fmt = "csv"
     extensions = (".csv", ".tsv", ".txt", ".dat")
     has_magic = False  # text: chosen by extension
+    random_access = False  # parsed from the start: read in passes, not by position
 
     def __init__(self, path: Path) -> None:
         super().__init__(path)
