@@ -33,9 +33,13 @@ def print_json(obj: Any) -> None:
 def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     """The sensor options common to ``predict`` and ``simulate`` (SPEC 5)."""
     p.add_argument("--sensor", required=True, metavar="S", help="preset (adxl355, adxl354, adxl357, ideal) or a sensor file")
-    p.add_argument("--range", dest="range_g", type=float, metavar="G", help="measurement range [g], e.g. 2, 4, 8")
-    p.add_argument("--axis", choices=("x", "y", "z"), help="sensing axis (sets fn and Q)")
-    p.add_argument("--odr", dest="odr_hz", type=float, metavar="HZ", help="output data rate [Hz] (sets the digital low-pass)")
+    p.add_argument("--range", dest="range_g", type=float, metavar="G",
+                   help="measurement range [g], e.g. 2, 4, 8 (default: the sensor's default_range_g: 2, or 10 for the ADXL357)")
+    p.add_argument("--axis", choices=("x", "y", "z"),
+                   help="sensing axis, sets fn and Q (default: the sensor's default_axis; x for the ADXL presets)")
+    p.add_argument("--odr", dest="odr_hz", type=float, metavar="HZ",
+                   help="output data rate [Hz], sets the digital low-pass (default: the sensor's default_odr_hz; "
+                   "4000 for the ADXL355 and ADXL357)")
     p.add_argument("--static", dest="static_g", type=float, default=1.0, metavar="G",
                    help="static acceleration along the axis [g] (default 1: axis up in a 1 g field)")
     p.add_argument("--k2", dest="k2_ug_per_g2", type=float, metavar="UG_PER_G2", help="second-order nonlinearity [µg/g²]")
