@@ -12,7 +12,7 @@ it costs little and its memory does not grow with the record:
 * **swapped channels** (:func:`check_channels`): a reference accelerometer (piezoelectric) has no
   DC response; a DUT whose axis lies along the shaker's in a 1 g field reads it. A reference
   reading a static field and a DUT reading none are the two channels swapped.
-* **method** (:func:`level_kinds`, :func:`resolve_methods`): a sine level's reference spectrum
+* **method** (:func:`resolve_methods`): a sine level's reference spectrum
   is one line holding nearly all the in-band power, a random level's is broad. ``auto`` decides
   per level; an explicit method that contradicts the data is refused with what was found.
 
@@ -195,11 +195,6 @@ def _probe_arrays(
     return SegmentProbe(start_s, end_s, float(freqs[k_peak]), fraction, ref_rms, dut_rms, ref_dc, dut_dc)
 
 
-def level_kinds(probes: Sequence[SegmentProbe]) -> list[Method | None]:
-    """The method each level's reference spectrum shows (None where it is neither clearly)."""
-    return [p.kind for p in probes]
-
-
 def resolve_methods(requested: MethodRequest, probes: Sequence[SegmentProbe], accept: bool = False) -> list[Method]:
     """The method to reduce each level with.
 
@@ -273,12 +268,3 @@ def check_channels(baselines: Sequence[SegmentProbe], dut: str, reference: str, 
             f"'{dut}' {dut_dc:+.3g} g: a reference accelerometer has no DC response, so the channels look "
             "swapped (check --dut and --reference), or --accept-channels to accept it"
         )
-
-
-def baseline_off_scale(baseline_mean_g: float, rails_g: tuple[float, float] | None, tol_g: float) -> bool:
-    """Whether a vibration-off reading sits at or beyond a rail (VRE undefined there)."""
-    if rails_g is None or not math.isfinite(baseline_mean_g):
-        return False
-    low, high = rails_g
-    return baseline_mean_g <= low + tol_g or baseline_mean_g >= high - tol_g
-

@@ -68,6 +68,8 @@ DEFAULT_BAND_HZ = (50.0, 2000.0)
 DEFAULT_SETTLE_S = 0.5
 DEFAULT_BLOCK = 1 << 18
 WINDOW_S = 0.1
+# A segment needs this many whole averaging windows after the trim, or it is ignored.
+MIN_SEGMENT_WINDOWS = 3
 
 
 def default_band(fs_hz: float, band_hz: tuple[float, float] | None = None, profile: Any = None) -> tuple[float, float]:
@@ -356,34 +358,37 @@ def reduce(
     baselines = _baselines(stats, sched, sat, warnings)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
-    methods = _plausible_methods(record, sched, stats, band, method, baselines, accept)
+    kind = _plausible_method(record, sched, stats, band, method, baselines, accept)
 
     levels: list[LevelResult] = []
     level_segs: list[Segment] = []
     times: list[float] = []
     psds: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
-    for seg, seg_method in zip((g for g in sched.segments if not g.is_baseline), methods):
+    for seg in (g for g in sched.segments if not g.is_baseline):
         k0, k1 = segment_windows(stats, seg)
-        if k1 - k0 < 3:
+        if k1 - k0 < MIN_SEGMENT_WINDOWS:
             warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
-        level, t_c = _level(record, stats, seg, seg_method, k0, k1, int(sat[k0:k1].sum()), baselines, block_size,
+        level, t_c = _level(record, stats, seg, kind, k0, k1, int(sat[k0:k1].sum()), baselines, block_size,
                             warnings)
         levels.append(level)
         level_segs.append(seg)
         times.append(t_c)
-        if psd and seg_method == "random":
+        if psd and kind == "random":
             psds.append(_level_psd(record, seg, stats))
     if not levels:
         raise ValueError("no vibration level found in the record (or schedule)")
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
-    kinds = set(methods)
-    if profile is not None and kinds == {"random"}:
+    if profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
-    found: Method = "sine" if kinds == {"sine"} else "random"
-    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=found)
+    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind)
+
+
+def _n_windows(stats: WindowStats, seg: Segment) -> int:
+    k0, k1 = segment_windows(stats, seg)
+    return k1 - k0
 
 
 def _baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warnings: list[str]) -> list[Baseline]:
@@ -393,7 +398,7 @@ def _baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warn
         if not seg.is_baseline:
             continue
         k0, k1 = segment_windows(stats, seg)
-        if k1 - k0 < 3:
+        if k1 - k0 < MIN_SEGMENT_WINDOWS:
             warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         est = dut_mean_estimate(stats, k0, k1)
@@ -456,7 +461,7 @@ def _level(
 ACCEPTABLE = ("unit-ratio", "channels", "method")
 
 
-def _plausible_methods(
+def _plausible_method(
     record: Record,
     sched: Schedule,
     stats: WindowStats,
@@ -464,24 +469,22 @@ def _plausible_methods(
     method: MethodRequest,
     baselines: Sequence[Baseline],
     accept: Collection[str],
-) -> list[Method]:
-    """The method of each level, after SPEC 4.2's checks on a short probe of every segment
-    (:mod:`vrelab.analysis.plausibility`); one kind per record (levels of both kinds are refused)."""
+) -> Method:
+    """The method the record's levels are reduced with, after SPEC 4.2's checks on a short probe
+    of every level (:mod:`vrelab.analysis.plausibility`); levels of both kinds are refused."""
     from vrelab.analysis import plausibility as P
 
-    level_segs = [g for g in sched.segments if not g.is_baseline]
     if method != "auto" and set(ACCEPTABLE) <= set(accept):
-        return [method] * len(level_segs)  # nothing to check: no probe (a simulated record re-runs for one)
-    # segments the reduction will skip as too short are not probed (their method is moot)
-    usable = [(lambda k: k[1] - k[0] >= 3)(segment_windows(stats, g)) for g in level_segs]
+        return method  # nothing to check: no probe (a simulated record re-runs for one)
+    # levels the reduction will skip as too short are not probed (their method is moot)
+    usable = [g for g in sched.segments if not g.is_baseline and _n_windows(stats, g) >= MIN_SEGMENT_WINDOWS]
     ref = stats.reference
-    probes = P.probe_segments(record, "dut", ref, [(g.start_s, g.end_s) for g, ok in zip(level_segs, usable) if ok], band)
-    found = iter(P.resolve_methods(method, probes, accept="method" in accept))
-    methods: list[Method] = [next(found) if ok else "random" for ok in usable]
-    methods_used = [m for m, ok in zip(methods, usable) if ok]
+    probes = P.probe_segments(record, "dut", ref, [(g.start_s, g.end_s) for g in usable], band)
+    kinds = P.resolve_methods(method, probes, accept="method" in accept)
     if ref != "dut":
-        P.check_units(probes, record.meta.get("channels", {}).get("dut", "dut"),
-                      record.meta.get("channels", {}).get("reference", ref), accept="unit-ratio" in accept)
+        names = record.meta.get("channels", {})
+        dut_name, ref_name = names.get("dut", "dut"), names.get("reference", ref)
+        P.check_units(probes, dut_name, ref_name, accept="unit-ratio" in accept)
         # the baselines' DC readings come from the window pass (no probe): the DUT's mean, and the
         # reference's from its windows' sums
         base = []
@@ -489,16 +492,14 @@ def _plausible_methods(
             k0, k1 = segment_windows(stats, b.segment)
             ref_dc = float(stats.ref_sum[k0:k1].sum() / max(stats.count[k0:k1].sum(), 1))
             base.append(P.SegmentProbe(b.segment.start_s, b.segment.end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, b.mean_g))
-        P.check_channels(base, record.meta.get("channels", {}).get("dut", "dut"),
-                         record.meta.get("channels", {}).get("reference", ref), accept="channels" in accept)
-    if len(set(methods_used)) > 1:
-        n_sine = methods_used.count("sine")
+        P.check_channels(base, dut_name, ref_name, accept="channels" in accept)
+    if len(set(kinds)) > 1:
+        n_sine = kinds.count("sine")
         raise ValueError(
-            f"the record holds {n_sine} sine and {len(methods_used) - n_sine} random level(s): reduce each kind "
+            f"the record holds {n_sine} sine and {len(kinds) - n_sine} random level(s): reduce each kind "
             "on its own (--schedule with the levels of one kind, and --method)"
         )
-    kind = methods_used[0] if methods_used else ("sine" if method == "sine" else "random")
-    return [kind] * len(methods)
+    return kinds[0] if kinds else ("sine" if method == "sine" else "random")
 
 
 def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK):
