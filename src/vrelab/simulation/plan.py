@@ -8,8 +8,7 @@ is handed on by position.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
@@ -96,7 +95,7 @@ class TestPlan:
     static_g: float = 1.0
     seconds: float = 4.0
     baseline_s: float = 2.0
-    settle_s: float = field(default=math.nan)  # NaN: the reduction's default
+    settle_s: float | None = None  # None: the reduction's default (a float once constructed)
     seed: int = 0
     profile: RandomProfile | None = None
     freqs_hz: tuple[float, ...] = ()
@@ -114,9 +113,7 @@ class TestPlan:
         put(self, "static_g", V.finite_scalar("static_g", self.static_g))
         put(self, "seconds", V.positive_scalar("seconds", self.seconds))
         put(self, "baseline_s", V.positive_scalar("baseline_s", self.baseline_s))
-        settle = None if self.settle_s is None or (isinstance(self.settle_s, float) and math.isnan(self.settle_s)) \
-            else self.settle_s
-        put(self, "settle_s", default_settle_s(settle))
+        put(self, "settle_s", default_settle_s(self.settle_s))
         put(self, "ramp_s", float(V.non_negative("ramp_s", self.ramp_s)))
         put(self, "seed", int(self.seed))
         if self.method == "random":
