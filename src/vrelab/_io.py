@@ -9,7 +9,7 @@ import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Iterator, Mapping, Sequence
 
 # Every output folder vrelab writes holds this file, so a later run may replace the folder
 # (and never a folder of the user's that merely has the same name).
@@ -140,20 +140,29 @@ def write_levels_csv(path: str | Path, result: Any) -> None:
     The one layout shared by ``simulate --out``, ``analyze --out`` and the demo. Floats are
     written with ``repr`` so they read back bit for bit; unknown values are empty cells.
     """
+    write_levels_table(path, [({}, result)])
+
+
+def write_levels_table(path: str | Path, groups: Sequence[tuple[Mapping[str, Any], Any]]) -> None:
+    """Levels of several results in one CSV: each group's leading columns (``channel``,
+    ``run``, ...: the keys of the first group, in order) then :data:`LEVELS_CSV_COLUMNS`."""
     import csv
 
     def cell(x: Any) -> str:
         return "" if x is None else repr(float(x))
 
+    lead = list(groups[0][0]) if groups else []
     path = Path(path)
     tmp = path.with_name(path.name + ".partial")
     with open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(LEVELS_CSV_COLUMNS)
-        for lv in result.levels:
-            w.writerow([
-                cell(lv.freq_hz), cell(lv.rms_g), cell(lv.u_rms_g), cell(lv.vre.value), cell(lv.vre.u),
-                cell(lv.duration_s), "" if lv.n_samples is None else lv.n_samples, lv.n_saturated,
-                ";".join(lv.flags),
-            ])  # fmt: skip
+        w.writerow(lead + list(LEVELS_CSV_COLUMNS))
+        for keys, result in groups:
+            first = ["" if keys.get(k) is None else str(keys.get(k)) for k in lead]
+            for lv in result.levels:
+                w.writerow(first + [
+                    cell(lv.freq_hz), cell(lv.rms_g), cell(lv.u_rms_g), cell(lv.vre.value), cell(lv.vre.u),
+                    cell(lv.duration_s), "" if lv.n_samples is None else lv.n_samples, lv.n_saturated,
+                    ";".join(lv.flags),
+                ])  # fmt: skip
     os.replace(tmp, path)

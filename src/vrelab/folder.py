@@ -8,6 +8,8 @@ else, so a writer and a reader cannot drift apart:
 file                    what                                                          written by
 ======================  ===========================================================  =========
 ``results.json``        :meth:`vrelab.results.VreResult.to_dict` (the ``--json``)      simulate, analyze, demo
+                        or, several DUTs: ``channels`` (one sub-folder each)         analyze ``--dut a,b``
+                        or a campaign's ``runs`` and ``channels``                    campaign
 ``levels.csv``          one row per level (:func:`vrelab._io.write_levels_csv`)       simulate, analyze, demo
 ``prediction.json``     the analytic prediction for the same conditions               simulate, demo
 ``record.h5``           the raw record (HDF5, channels ``dut`` and ``reference``)    simulate ``--record``
@@ -28,9 +30,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, Mapping
+import re
+from typing import Any, Literal, Mapping, Sequence
 
-from vrelab._io import write_json, write_levels_csv
+from vrelab._io import write_json, write_levels_csv, write_levels_table
 from vrelab.results import VreResult
 
 RESULTS = "results.json"
@@ -44,7 +47,39 @@ SWEEP_RESULT = "result.nc"
 REPORT = "report.html"
 SUMMARY = "summary.json"
 
-FolderKind = Literal["result", "sweep"]
+FolderKind = Literal["result", "sweep", "channels", "campaign"]
+
+
+def channel_folder_names(names: Sequence[str]) -> dict[str, str]:
+    """A sub-folder name per channel (or run): its name with anything but letters, digits,
+    ``.``, ``_``, ``-`` replaced, made unique."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for name in names:
+        base = re.sub(r"[^A-Za-z0-9._-]+", "_", str(name)).strip("._") or "channel"
+        cand, i = base, 2
+        while cand.lower() in used:
+            cand, i = f"{base}_{i}", i + 1
+        used.add(cand.lower())
+        out[name] = cand
+    return out
+
+
+def write_channels(folder: str | Path, results: Sequence[tuple[str, VreResult]], doc: Mapping[str, Any],
+                   lead: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, Path]:
+    """Several channels' results into ``folder``: ``results.json`` (``doc``), ``levels.csv`` of
+    all of them (first column ``channel``, then ``lead[name]``'s keys) and one sub-folder per
+    channel written by :func:`write_result`. Returns name -> sub-folder."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    subs = channel_folder_names([n for n, _ in results])
+    out: dict[str, Path] = {}
+    for name, res in results:
+        out[name] = folder / subs[name]
+        write_result(out[name], res)
+    write_json(folder / RESULTS, dict(doc))
+    write_levels_table(folder / LEVELS, [({"channel": n, **dict((lead or {}).get(n, {}))}, r) for n, r in results])
+    return out
 
 
 def write_result(folder: str | Path, result: VreResult, prediction: Mapping[str, Any] | None = None) -> None:
@@ -69,6 +104,7 @@ class ResultsFolder:
     kind: FolderKind
     result: VreResult | None = None
     prediction: Mapping[str, Any] | None = None
+    doc: Mapping[str, Any] | None = None  # results.json of a several-channel or campaign folder
 
     def file(self, name: str) -> Path | None:
         """``path/name`` when that file exists, else None."""
@@ -91,6 +127,11 @@ def read_folder(folder: str | Path) -> ResultsFolder:
         raise ValueError(
             f"report: no {RESULTS} (simulate/analyze --out) and no {SWEEP_RESULT} (sweep --out) in {path}"
         )
+    doc = _read_json(path / RESULTS) if (path / RESULTS).is_file() else None
+    if isinstance(doc, dict) and isinstance(doc.get("runs"), list):
+        return ResultsFolder(path, "campaign", doc=doc)
+    if isinstance(doc, dict) and isinstance(doc.get("channels"), list) and "levels" not in doc:
+        return ResultsFolder(path, "channels", doc=doc)
     return ResultsFolder(path, "result", load_results(path), _load_prediction(path))
 
 

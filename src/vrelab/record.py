@@ -198,3 +198,48 @@ def write_record_hdf5(
         tmp.unlink(missing_ok=True)
         raise
     return n
+
+
+class ChannelView:
+    """One DUT of a several-DUT record, seen as a record with channels ``dut`` and ``reference``.
+
+    A lab file with several DUT channels opens as one record whose DUTs are ``dut:<name>``
+    (:func:`vrelab.analysis.readers.open_record`); the reduction reads one of them through this
+    view, so it never needs to know that the file holds others.
+    """
+
+    def __init__(self, record: Any, dut: str) -> None:
+        if dut not in record.channels:
+            raise ValueError(f"record has no channel {dut!r}; channels: {', '.join(record.channels)}")
+        self.base = record
+        self.dut = dut
+        self.names = {"dut": dut}
+        if "reference" in record.channels:
+            self.names["reference"] = "reference"
+        self.fs_hz = record.fs_hz
+        self.n_samples = record.n_samples
+        self.schedule = record.schedule
+        meta = dict(record.meta or {})
+        files = dict(meta.get("channels") or {})
+        meta["channels"] = {k: files.get(v, v) for k, v in self.names.items()}
+        self.meta = meta
+        base_map = getattr(record, "mapping", None) or {}
+        self.mapping = {k: base_map.get(v, v) for k, v in self.names.items()}
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(self.names)
+
+    @property
+    def random_access(self) -> bool:
+        return bool(getattr(self.base, "random_access", True))
+
+    def blocks(
+        self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None
+    ) -> Iterator[dict[str, NDArray[np.float64]]]:
+        for c in channels:
+            if c not in self.names:
+                raise ValueError(f"record has no channel {c!r}; channels: {', '.join(self.names)}")
+        raw = [self.names[c] for c in channels]
+        for blk in self.base.blocks(block_size, list(dict.fromkeys(raw)), start, stop):
+            yield {c: blk[r] for c, r in zip(channels, raw)}

@@ -326,8 +326,12 @@ def reduce(
     profile: Any = None,
     psd: bool = False,
     accept: Collection[str] = (),
+    stats: WindowStats | None = None,
 ) -> Reduction:
     """Reduce a record; see the module docstring. :func:`reduce_record` is the short form.
+
+    ``stats``: the record's first pass when already made (:func:`analyze_channels` makes one
+    pass for all the DUTs of a file).
 
     ``method`` "auto" reduces each level as its reference spectrum shows (one line: sine;
     broad: random); an explicit method that a level contradicts is refused. Before any number
@@ -346,7 +350,10 @@ def reduce(
         rail_g = V.positive_scalar("rail_g", rail_g)
     fs = V.positive_scalar("fs_hz", record.fs_hz)
     band = default_band(fs, band_hz, profile)
-    stats = window_pass(record, band, WINDOW_S, block_size, rail_g, progress)
+    if stats is None:
+        stats = window_pass(record, band, WINDOW_S, block_size, rail_g, progress)
+    elif stats.band_hz != band or stats.n_samples != record.n_samples:
+        raise ValueError("reduce: the given window stats were made for another band or record")
     warnings: list[str] = []
     if stats.reference == "dut":
         warnings.append(Notice("reference", "no reference channel: levels and segmentation from the DUT's AC part"))
@@ -612,12 +619,14 @@ def analyze_full(
     psd: bool = False,
     rail_with_vrc: bool = False,
     accept: Collection[str] = (),
+    stats: WindowStats | None = None,
 ) -> tuple[VreResult, Reduction]:
     """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
     V.one_of("clip_kind", clip_kind, KINDS)
     if static_g is not None:
         static_g = V.finite_scalar("static_g", static_g)
-    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd, accept)
+    red = reduce(record, schedule, method, band_hz, settle_s, block_size, progress, rail_g, profile, psd, accept,
+                 stats)
     method = red.method
     g0 = static_g if static_g is not None else red.static_g
     nominal = [seg.freq_hz for seg in red.level_segments]
@@ -678,3 +687,53 @@ def analyze(record: Record, method: MethodRequest = "auto", schedule: Schedule |
         sine; for random "clip-<kind>" (``rail_g``, ``departure_rms_g``), then "vrc".
     """
     return analyze_full(record, method, schedule, **options)[0]
+
+
+def analyze_channels(
+    record: Record,
+    duts: Sequence[str] | None = None,
+    method: MethodRequest = "auto",
+    schedule: Schedule | None = None,
+    static_g: float | Mapping[str, float] | None = None,
+    band_hz: tuple[float, float] | None = None,
+    rail_g: float | None = None,
+    block_size: int = DEFAULT_BLOCK,
+    progress: bool = False,
+    **options: Any,
+) -> list[tuple[str, VreResult, Reduction]]:
+    """Several DUT channels of one record, each reduced against one reference.
+
+    One streaming pass makes every DUT's window sums beside the reference's
+    (:func:`~vrelab.analysis.segmentation.window_pass_many`); the segmentation comes from the
+    reference, so every channel has the same levels; each channel's static field is its own
+    (``static_g`` a number for all, a mapping name -> g, or None: each from its baselines).
+    ``duts`` are record channels (``dut:<name>`` from :func:`vrelab.analysis.readers.open_record`
+    with several DUTs; default: all of them). Returns (name, result, reduction) per channel,
+    in order. ``options`` are :func:`analyze_full`'s.
+    """
+    from vrelab.analysis.segmentation import window_pass_many
+    from vrelab.record import ChannelView
+
+    if duts is None:
+        duts = [c for c in record.channels if c == "dut" or c.startswith("dut:")]
+    duts = list(duts)
+    if len(duts) > 1 and "reference" not in record.channels:
+        raise ValueError("several DUT channels need a reference channel: their levels and segments come from it")
+    if rail_g is not None:
+        rail_g = V.positive_scalar("rail_g", rail_g)
+    band = default_band(V.positive_scalar("fs_hz", record.fs_hz), band_hz, options.get("profile"))
+    stats = window_pass_many(record, band, duts, WINDOW_S, int(block_size), rail_g, progress)
+    out: list[tuple[str, VreResult, Reduction]] = []
+    for d in duts:
+        name = d[4:] if d.startswith("dut:") else d
+        if isinstance(static_g, Mapping):
+            if name not in static_g:
+                raise ValueError(f"no static field for DUT channel {name!r}")
+            g0 = static_g[name]
+        else:
+            g0 = static_g
+        view = record if d == "dut" else ChannelView(record, d)
+        result, red = analyze_full(view, method, schedule, static_g=g0, band_hz=band_hz, rail_g=rail_g,
+                                   block_size=block_size, stats=stats[d], **options)
+        out.append((name, result, red))
+    return out

@@ -199,7 +199,8 @@ def exact_blocks(
 def channel_labels(record: Record) -> dict[str, str]:
     """How to name a record channel in messages: with the file's name for it when known."""
     mapping = getattr(record, "mapping", None) or {}
-    return {c: (f"'{mapping[c]}' ({c})" if c in mapping and mapping[c] != c else f"'{c}'") for c in ("dut", "reference")}
+    names = dict.fromkeys(("dut", "reference", *record.channels))
+    return {c: (f"'{mapping[c]}' ({c})" if c in mapping and mapping[c] != c else f"'{c}'") for c in names}
 
 
 Block = dict[str, NDArray[np.float64]]
@@ -212,6 +213,59 @@ def check_finite(name: str, x: NDArray[np.float64], offset: int) -> None:
         raise ValueError(f"channel {name} has a non-finite value ({x[i]}) at sample index {offset + i}")
 
 
+class _DutWindows:
+    """One DUT channel's per-window sums, filled block by block (see :func:`window_pass_many`)."""
+
+    def __init__(self, k: int, w: int, rail_g: float | None) -> None:
+        z = lambda dt: np.zeros(k, dtype=dt)  # noqa: E731
+        self.dsum, self.dmax, self.dmin = z(float), z(float), z(float)
+        self.nmax, self.nmin, self.nrail = z(np.int64), z(np.int64), z(np.int64)
+        self.parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
+        self.run_max, self.run_min = -np.inf, np.inf
+        self.k, self.w, self.rail_g = k, w, rail_g
+
+    def add(self, dv: NDArray[np.float64], kk: int, kern: NDArray[np.float64]) -> None:
+        """Windows ``kk ...`` of this block, ``dv`` shaped (windows, samples)."""
+        m, L = dv.shape
+        sl = slice(kk, kk + m)
+        self.dsum[sl] = dv.sum(axis=1)
+        mx = dv.max(axis=1)
+        mn = dv.min(axis=1)
+        self.dmax[sl], self.dmin[sl] = mx, mn
+        # A window can hold the record's extreme only if it reaches the running extreme.
+        self.run_max = max(self.run_max, float(mx.max()))
+        self.run_min = min(self.run_min, float(mn.min()))
+        cand = np.flatnonzero(mx >= self.run_max - _eps(self.run_max))
+        if len(cand):
+            self.nmax[kk + cand] = (dv[cand] >= (mx[cand] - _eps(mx[cand]))[:, None]).sum(axis=1)
+        cand = np.flatnonzero(mn <= self.run_min + _eps(self.run_min))
+        if len(cand):
+            self.nmin[kk + cand] = (dv[cand] <= (mn[cand] + _eps(mn[cand]))[:, None]).sum(axis=1)
+        if self.rail_g is not None:
+            thr = self.rail_g * (1 - RAIL_EPS_REL)
+            cand = np.flatnonzero((mx >= thr) | (mn <= -thr))
+            if len(cand):
+                self.nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
+        if L == self.w:
+            self.parts[kk : kk + m] = dv @ kern
+        else:  # the record's last, partial window
+            self.parts[kk : kk + m] = (dv @ kern[:L]) * (self.w / L)
+
+    def smooth(self, kern: NDArray[np.float64]) -> NDArray[np.float64]:
+        """value at window j = Σ_q parts[j - h + q, q] / Σ(kernel weights present)"""
+        k = self.k
+        h = SMOOTH_WINDOWS // 2
+        num = np.zeros(k)
+        den = np.zeros(k)
+        col = kern.sum(axis=0)
+        for q in range(SMOOTH_WINDOWS):
+            src = np.arange(k) - h + q
+            ok = (src >= 0) & (src < k)
+            num[ok] += self.parts[src[ok], q]
+            den[ok] += col[q]
+        return num / den
+
+
 def window_pass(
     record: Record,
     band_hz: tuple[float, float],
@@ -220,13 +274,29 @@ def window_pass(
     rail_g: float | None = None,
     progress: bool = False,
 ) -> WindowStats:
-    """Stream the record once and return per-window sums (see module docstring).
+    """Stream the record once and return per-window sums of its ``dut`` channel (see
+    :func:`window_pass_many`, which does it for several DUT channels in one pass)."""
+    return window_pass_many(record, band_hz, ["dut"], window_s, block_size, rail_g, progress)["dut"]
+
+
+def window_pass_many(
+    record: Record,
+    band_hz: tuple[float, float],
+    duts: Sequence[str],
+    window_s: float = 0.1,
+    block_size: int = 1 << 18,
+    rail_g: float | None = None,
+    progress: bool = False,
+) -> dict[str, WindowStats]:
+    """Stream the record once and return per-window sums for each DUT channel in ``duts``.
 
     Reference power per window from its FFT (Parseval): the AC power (all bins but DC) gives
     the envelope, the bins in ``band_hz`` the band-limited power (a brick-wall band with the
-    window's leakage, no filter-edge attenuation). DUT: raw sums (exact means), extremes,
-    samples at the extremes (counted only in windows that can hold the record's extreme: those
-    at the running maximum or minimum), and the Hann-smoothed series of :func:`smoothing_kernel`.
+    window's leakage, no filter-edge attenuation); computed once and shared by every DUT's
+    stats. DUT: raw sums (exact means), extremes, samples at the extremes (counted only in
+    windows that can hold the record's extreme: those at the running maximum or minimum), and
+    the Hann-smoothed series of :func:`smoothing_kernel`. Without a ``reference`` channel the
+    first DUT is the reference.
     """
     from scipy import fft as sfft
 
@@ -234,29 +304,30 @@ def window_pass(
     n = int(record.n_samples)
     if n <= 0:
         raise ValueError("record has no samples")
-    if "dut" not in record.channels:
-        raise ValueError(f"record has no 'dut' channel; channels: {', '.join(record.channels)}")
+    duts = list(duts)
+    if not duts:
+        raise ValueError("no DUT channel to reduce")
+    for d in duts:
+        if d not in record.channels:
+            raise ValueError(f"record has no {d!r} channel; channels: {', '.join(record.channels)}")
     f1, f2 = (float(x) for x in band_hz)
     if not (0 < f1 < f2):
         raise ValueError(f"band_hz must satisfy 0 < f1 < f2, got {band_hz}")
-    ref_name = "reference" if "reference" in record.channels else "dut"
+    ref_name = "reference" if "reference" in record.channels else duts[0]
     w = window_length(fs, (f1, f2), window_s)
     block = max(w, (int(block_size) // w) * w)  # windows never straddle blocks
     k = -(-n // w)
-    # a dozen 8-byte numbers per window, and the smoothing kernel's partial sums: sized before
-    # anything is allocated from the record's length
-    _budget.check_memory(f"the analysis of {n} samples ({k} windows of {w} samples)",
-                         k * (13 + SMOOTH_WINDOWS) * 8.0)
-    z = lambda dt: np.zeros(k, dtype=dt)  # noqa: E731
-    count, dsum, dmax, dmin = z(np.int64), z(float), z(float), z(float)
-    nmax, nmin, nrail = z(np.int64), z(np.int64), z(np.int64)
-    rac, rband, rsum = z(float), z(float), z(float)
-    parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
+    # a dozen 8-byte numbers per window and DUT, and the smoothing kernel's partial sums: sized
+    # before anything is allocated from the record's length
+    _budget.check_memory(f"the analysis of {n} samples ({k} windows of {w} samples, {len(duts)} DUT channel(s))",
+                         k * (4 + len(duts) * (9 + SMOOTH_WINDOWS)) * 8.0)
+    count = np.zeros(k, dtype=np.int64)
+    rac, rband, rsum = np.zeros(k), np.zeros(k), np.zeros(k)
+    accs = {d: _DutWindows(k, w, rail_g) for d in duts}
     kern = smoothing_kernel(w)
     ac_w, band_w = band_weights(w, fs, (f1, f2))
     weights2 = np.repeat(np.column_stack([ac_w, band_w]), 2, axis=0)
-    run_max, run_min = -np.inf, np.inf
-    chans = ["dut"] if ref_name == "dut" else ["dut", "reference"]
+    chans = list(dict.fromkeys(duts + [ref_name]))
     labels = channel_labels(record)
     bar = None
     if progress:
@@ -265,70 +336,49 @@ def window_pass(
         bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False)
     pos = 0
     for blk in prefetch(exact_blocks(record, block, chans, 0, n)):
-        d = np.asarray(blk["dut"], dtype=np.float64)
-        r = d if ref_name == "dut" else np.asarray(blk["reference"], dtype=np.float64)
+        r = np.asarray(blk[ref_name], dtype=np.float64)
         kk = pos // w
-        for dv, rv in zip(_window_reduce(d, w), _window_reduce(r, w)):
-            m, L = dv.shape
+        for rv in _window_reduce(r, w):
+            m, L = rv.shape
             sl = slice(kk, kk + m)
             count[sl] = L
-            dsum[sl] = dv.sum(axis=1)
-            mx = dv.max(axis=1)
-            mn = dv.min(axis=1)
-            dmax[sl], dmin[sl] = mx, mn
-            # A window can hold the record's extreme only if it reaches the running extreme.
-            run_max, run_min = max(run_max, float(mx.max())), min(run_min, float(mn.min()))
-            cand = np.flatnonzero(mx >= run_max - _eps(run_max))
-            if len(cand):
-                nmax[kk + cand] = (dv[cand] >= (mx[cand] - _eps(mx[cand]))[:, None]).sum(axis=1)
-            cand = np.flatnonzero(mn <= run_min + _eps(run_min))
-            if len(cand):
-                nmin[kk + cand] = (dv[cand] <= (mn[cand] + _eps(mn[cand]))[:, None]).sum(axis=1)
-            if rail_g is not None:
-                thr = rail_g * (1 - RAIL_EPS_REL)
-                cand = np.flatnonzero((mx >= thr) | (mn <= -thr))
-                if len(cand):
-                    nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
             # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square, and
             # let one matrix product weigh both halves (no complex temporaries)
             spec = sfft.rfft(rv, axis=1).view(np.float64)
-            if L == w:
-                acb = (spec * spec) @ weights2
-                parts[kk : kk + m] = dv @ kern
-            else:  # the record's last, partial window
-                acb = (spec * spec) @ np.repeat(np.column_stack(band_weights(L, fs, (f1, f2))), 2, axis=0)
-                parts[kk : kk + m] = (dv @ kern[:L]) * (w / L)
+            wts = weights2 if L == w else np.repeat(np.column_stack(band_weights(L, fs, (f1, f2))), 2, axis=0)
+            acb = (spec * spec) @ wts
             rac[sl], rband[sl] = acb[:, 0], acb[:, 1]
             rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
-            # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
-            # a sum): test the small arrays, and scan the samples only to name the first bad one.
-            if not (np.isfinite(dsum[sl]).all() and np.isfinite(acb).all()):
-                check_finite(labels["dut"], d, pos)
-                check_finite(labels["reference"], r, pos)
             kk += m
-        pos += len(d)
+        for d, acc in accs.items():
+            x = np.asarray(blk[d], dtype=np.float64)
+            kk = pos // w
+            for dv in _window_reduce(x, w):
+                acc.add(dv, kk, kern)
+                kk += dv.shape[0]
+        # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
+        # a sum): test the small arrays, and scan the samples only to name the first bad one.
+        sl = slice(pos // w, kk)
+        if not (np.isfinite(rac[sl]).all() and np.isfinite(rband[sl]).all()
+                and all(np.isfinite(a.dsum[sl]).all() for a in accs.values())):
+            for c in chans:
+                check_finite(labels.get(c, repr(c)), np.asarray(blk[c]), pos)
+        pos += len(r)
         if bar is not None:
-            bar.update(len(d))
+            bar.update(len(r))
     if bar is not None:
         bar.close()
     if pos != n:
         raise ValueError(f"record delivered {pos} samples, expected {n} (truncated file?)")
-    # value at window j = Σ_q parts[j - h + q, q] / Σ(kernel weights present)
-    h = SMOOTH_WINDOWS // 2
-    num = np.zeros(k)
-    den = np.zeros(k)
-    col = kern.sum(axis=0)
-    for q in range(SMOOTH_WINDOWS):
-        src = np.arange(k) - h + q
-        ok = (src >= 0) & (src < k)
-        num[ok] += parts[src[ok], q]
-        den[ok] += col[q]
-    smooth = num / den
-    return WindowStats(
-        fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=dsum, dut_smooth=smooth, dut_max=dmax,
-        dut_min=dmin, n_at_max=nmax, n_at_min=nmin, n_beyond_rail=nrail, ref_ac_sumsq=rac,
-        ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2), reference=ref_name,
-    )  # fmt: skip
+    return {
+        d: WindowStats(
+            fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
+            dut_max=a.dmax, dut_min=a.dmin, n_at_max=a.nmax, n_at_min=a.nmin, n_beyond_rail=a.nrail,
+            ref_ac_sumsq=rac, ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2),
+            reference="dut" if ref_name == d else ref_name,
+        )
+        for d, a in accs.items()
+    }  # fmt: skip
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:

@@ -40,7 +40,7 @@ import numpy as np
 
 from vrelab import _io, folder
 from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
-from vrelab.cli._common import print_json, print_levels
+from vrelab.cli._common import positive_list, print_json, print_levels
 from vrelab.models.clipping import KINDS
 
 
@@ -66,13 +66,17 @@ def register(subparsers: Any) -> None:
         "vibration, the effective rail of the clipping model.",
     )
     p.add_argument("file", metavar="FILE", help="recorded test: .csv .npy .npz .h5 .tdms .wav .mat")
-    p.add_argument("--dut", required=True, metavar="CH", help="DUT channel (column, dataset path, group/channel, index)")
+    p.add_argument("--dut", required=True, metavar="CH[,CH...]",
+                   help="DUT channel(s) (column, dataset path, group/channel, index, UFF id1 or NODE:DIR); several "
+                   "(x,y,z or several parts) are each reduced against the one reference")
     p.add_argument("--reference", metavar="CH", help="reference accelerometer channel (default: levels from the DUT)")
     p.add_argument("--fs", type=float, metavar="HZ", help="sample rate when the file has none and no time column")
     p.add_argument("--time", metavar="CH", help="time column in s (default: a column named time/t/time_s)")
     for who in ("dut", "reference"):
         p.add_argument(f"--{who}-units", default="g", metavar="U", help="raw units: g, lsb, mv, v, m/s2 (default g)")
-        p.add_argument(f"--{who}-sensitivity", type=float, metavar="S", help="units per g (LSB/g, mV/g, V/g)")
+    p.add_argument("--dut-sensitivity", metavar="S[,S...]",
+                   help="units per g (LSB/g, mV/g, V/g); one for all DUTs or one per DUT")
+    p.add_argument("--reference-sensitivity", type=float, metavar="S", help="units per g (mV/g, V/g, LSB/g)")
     p.add_argument("--method", choices=("auto", "random", "sine"), default="auto",
                    help="auto (default): each level as its reference spectrum shows it, one line = sine, broad = "
                    "random; an explicit method the data contradict is refused")
@@ -83,7 +87,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--accept-method", action="store_true", help="reduce with --method even where the data show the other")
     p.add_argument("--schedule", metavar="FILE", help="schedule CSV (start_s,end_s,nominal_rms_g[,freq_hz]) or 'auto'")
     p.add_argument("--profile", metavar="P", help="random profile (file, F:P,... or flat:F1-F2): band and PSD check")
-    p.add_argument("--static", type=float, metavar="G", help="static field for the rail fit (default: baseline mean)")
+    p.add_argument("--static", type=float, metavar="G",
+                   help="static field along the DUT axis for the fits (default: each DUT's baseline mean)")
     p.add_argument("--rail", type=float, metavar="G", help="DUT samples at or beyond ±G count as saturated")
     p.add_argument("--band", type=_band, metavar="F1:F2", help="test band in Hz (default: profile's, or 50:2000)")
     p.add_argument("--settle", type=float, default=DEFAULT_SETTLE_S, metavar="S",
@@ -100,10 +105,16 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from vrelab._io import sha256_file
     from vrelab.analysis.readers import Scale, open_record
-    from vrelab.analysis.reduction import analyze_full
     from vrelab.record import Schedule
 
-    dut_scale = Scale.parse(args.dut_units, args.dut_sensitivity, "--dut")
+    duts = [d.strip() for d in args.dut.split(",")]
+    if any(not d for d in duts):
+        raise ValueError(f"--dut {args.dut!r}: an empty channel name")
+    sens: list[float | None] = (positive_list(args.dut_sensitivity, "--dut-sensitivity")
+                                if args.dut_sensitivity else [None])
+    if len(sens) not in (1, len(duts)):
+        raise ValueError(f"--dut-sensitivity: give one value or one per DUT ({len(duts)}), got {len(sens)}")
+    scales = [Scale.parse(args.dut_units, s, "--dut") for s in (sens * len(duts) if len(sens) == 1 else sens)]
     ref_scale = Scale.parse(args.reference_units, args.reference_sensitivity, "--reference")
     profile = None
     if args.profile:
@@ -111,7 +122,12 @@ def run(args: argparse.Namespace) -> int:
 
         profile = parse_profile(args.profile)
     path = Path(args.file)
-    record = open_record(path, args.dut, args.reference, args.fs, dut_scale, ref_scale, args.time)
+    several = len(duts) > 1
+    if several and not args.reference:
+        raise ValueError("several DUT channels need --reference: their levels and segments come from it")
+    dut_arg = duts if several else duts[0]
+    dut_scale = dict(zip(duts, scales)) if several else scales[0]
+    record = open_record(path, dut_arg, args.reference, args.fs, dut_scale, ref_scale, args.time)
     with record:
         schedule = None
         if args.schedule and args.schedule != "auto":
@@ -124,10 +140,7 @@ def run(args: argparse.Namespace) -> int:
             "input_sha256": sha256_file(path),
             "command": _command_line(args),
         }
-        result, red = analyze_full(
-            record,
-            args.method,
-            schedule=schedule,
+        options = dict(
             profile=profile,
             static_g=args.static,
             rail_g=args.rail,
@@ -141,20 +154,47 @@ def run(args: argparse.Namespace) -> int:
             rail_with_vrc=args.rail_vrc,
             accept=[name for name in ACCEPTABLE if getattr(args, "accept_" + name.replace("-", "_"))],
         )
-    doc = result.to_dict()
+        if several:
+            from vrelab.analysis.reduction import analyze_channels
+
+            reduced = analyze_channels(record, None, args.method, schedule, **options)
+        else:
+            from vrelab.analysis.reduction import analyze_full
+
+            reduced = [(duts[0], *analyze_full(record, args.method, schedule, **options))]
+    doc = channels_doc(reduced, provenance) if several else reduced[0][1].to_dict()
     if args.out:
-        with _io.output_dir(args.out) as stage:
-            folder.write_result(stage, result)
-            _write_envelope(stage / folder.ENVELOPE, red)
-            if red.method == "random" and red.psd:
-                _write_psds(stage, red, profile)
+        _write_out(Path(args.out), reduced, doc, profile, several)
     if args.json:
         print_json(doc)
     else:
-        _print_summary(result, path)
+        for name, result, _ in reduced:
+            _print_summary(result, path, name if several else None)
         if args.out:
-            print(f"wrote {args.out}/results.json, levels.csv, envelope.csv")
+            print(f"wrote {args.out}/results.json, levels.csv" + (" and a folder per channel" if several
+                                                                  else ", envelope.csv"))
     return 0
+
+
+def channels_doc(reduced: Any, provenance: dict[str, Any]) -> dict[str, Any]:
+    """The JSON of several DUTs of one file (SPEC 5.1): ``channels``: [{``channel``, ``levels``,
+    ``fit``, ...}], each a whole result; top level: the file's provenance."""
+    chans = [{"channel": name, **result.to_dict()} for name, result, _ in reduced]
+    return {"kind": "measurement", "method": chans[0]["method"], "channels": chans, "provenance": dict(provenance)}
+
+
+def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool) -> None:
+    with _io.output_dir(out) as stage:
+        if several:
+            subs = folder.write_channels(stage, [(n, r) for n, r, _ in reduced], doc)
+            targets = [(subs[n], red) for n, _, red in reduced]
+        else:
+            folder.write_result(stage, reduced[0][1])
+            targets = [(stage, reduced[0][2])]
+        for sub, red in targets:
+            _write_envelope(sub / folder.ENVELOPE, red)
+            if red.method == "random" and red.psd:
+                _write_psds(sub, red, profile)
 
 
 def _command_line(args: argparse.Namespace) -> str:
@@ -218,6 +258,6 @@ def _write_psds(stage: Path, red: Any, profile: Any) -> None:
             w.writerow([f"{fk:.6g}", f"{pk:.6g}", "" if not np.isfinite(qk) else f"{qk:.6g}"])
 
 
-def _print_summary(result: Any, path: Path) -> None:
-    print(f"{path.name}: {result.method} method, {len(result.levels)} level(s)")
+def _print_summary(result: Any, path: Path, channel: str | None = None) -> None:
+    print(f"{path.name}{f' channel {channel}' if channel else ''}: {result.method} method, {len(result.levels)} level(s)")
     print_levels(result)

@@ -28,6 +28,14 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
     (:func:`vrelab.report.html.report_result_dir`) or a sweep
     (:func:`vrelab.report.sweep.report_sweep_dir`, which needs the ``sweep`` extra)."""
     rf = read_folder(folder)
+    if rf.kind == "channels":
+        from vrelab.report.html import report_channels_dir
+
+        return report_channels_dir(rf, argv, title)
+    if rf.kind == "campaign":
+        from vrelab.report.campaign import report_campaign_dir
+
+        return report_campaign_dir(rf, argv, title)
     if rf.kind == "sweep":
         from vrelab.report.sweep import report_sweep_dir
 

@@ -501,10 +501,8 @@ def summary_sentence(result: VreResult) -> str:
     return s + ("; " + "; ".join(bits) if bits else "") + "."
 
 
-def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
-    """Write ``report.html`` into a simulate/analyze/demo results folder (``vrelab report DIR``
-    goes through :func:`vrelab.report.report_dir`, which reads the folder and picks this or the
-    sweep report)."""
+def result_section(rf: ResultsFolder, title: str | None = None) -> ReportSection:
+    """The report section of one simulate/analyze/demo results folder (one channel's folder)."""
     folder = rf.path
     result, prediction = rf.result, rf.prediction
     assert result is not None
@@ -522,7 +520,7 @@ def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, titl
     if rec.is_file():
         prov["record_file"] = rec.name
         prov["record_sha256"] = sha256_file(rec)
-    sec = ReportSection(
+    return ReportSection(
         title=title or f"{describe(result)}",
         what=summary_sentence(result),
         result=result,
@@ -531,11 +529,39 @@ def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, titl
         notes=notes,
         provenance=prov,
     )
+
+
+def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+    """Write ``report.html`` into a simulate/analyze/demo results folder (``vrelab report DIR``
+    goes through :func:`vrelab.report.report_dir`, which reads the folder and picks this or the
+    sweep report)."""
+    folder = rf.path
     return write_report(
         folder / F.REPORT,
-        [sec],
+        [result_section(rf, title)],
         title=title or "Vibration rectification error report",
         intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS}.",
+        provenance=default_provenance(argv),
+    )
+
+
+def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+    """``report.html`` of several DUT channels of one file (``analyze --dut a,b --out DIR``):
+    one section per channel, each from its sub-folder."""
+    folder = rf.path
+    doc = rf.doc or {}
+    subs = F.channel_folder_names([str(c.get("channel")) for c in doc.get("channels", [])])
+    sections = []
+    for name, sub in subs.items():
+        sf = F.read_folder(folder / sub)
+        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name))
+    src = (doc.get("provenance") or {}).get("input_file", "")
+    return write_report(
+        folder / F.REPORT,
+        sections,
+        title=title or f"Vibration rectification error report: {len(sections)} channels" + (f" of {src}" if src else ""),
+        intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS}: each DUT channel reduced against "
+        "the one reference, with the same segments.",
         provenance=default_provenance(argv),
     )
 

@@ -199,12 +199,32 @@ class FileRecord:
         self.close()
 
 
+def dut_channels(dut: str | Sequence[str] | Mapping[str, str]) -> dict[str, str]:
+    """Record channel -> file channel for ``open_record``'s ``dut``: one name gives ``dut``;
+    a list (the file's names are the campaign's) or a mapping name -> file channel gives
+    ``dut:<name>`` for each."""
+    if isinstance(dut, str):
+        return {"dut": dut}
+    pairs = list(dut.items()) if isinstance(dut, Mapping) else [(str(d), str(d)) for d in dut]
+    if not pairs:
+        raise ValueError("no DUT channel given")
+    out: dict[str, str] = {}
+    for name, ch in pairs:
+        if not isinstance(ch, str) or not str(name).strip() or not ch.strip():
+            raise ValueError(f"DUT channel {name!r} = {ch!r}: give a channel name")
+        key = f"dut:{str(name).strip()}"
+        if key in out:
+            raise ValueError(f"DUT channel {name!r} given twice")
+        out[key] = ch.strip()
+    return out
+
+
 def open_record(
     path: str | Path,
-    dut: str,
+    dut: str | Sequence[str] | Mapping[str, str],
     reference: str | None = None,
     fs_hz: float | None = None,
-    dut_scale: Scale | float | None = None,
+    dut_scale: Scale | float | None | Mapping[str, Scale | float | None] = None,
     reference_scale: Scale | float | None = None,
     time_channel: str | None = None,
 ) -> FileRecord:
@@ -216,7 +236,10 @@ def open_record(
         CSV/TSV, NPY, NPZ, HDF5, NI TDMS, WAV (PCM, float, RF64), MAT (v5 or v7.3).
     dut, reference : str
         Channel names in the file: a CSV column (or its index ``0``/``ch0``), an HDF5/MAT dataset
-        path, a TDMS ``group/channel`` (or a unique channel name), a WAV/NPY column index.
+        path, a TDMS ``group/channel`` (or a unique channel name), a WAV/NPY column index, a
+        UFF58 ``id1`` or ``NODE:DIR``. Several DUTs: a list of the file's names, or a mapping
+        campaign name -> file channel; the record's channels are then ``dut:<name>`` (read one
+        with :class:`vrelab.record.ChannelView`) and ``dut_scale`` may map names to scales.
     fs_hz : float, optional
         Sample rate [Hz] when neither the file nor a time column gives it.
     dut_scale, reference_scale : Scale or float, optional
@@ -244,11 +267,16 @@ def open_record(
     try:
         if not src.channels:
             raise ValueError(f"{path.name}: no numeric channels found")
-        mapping = {"dut": _resolve(dut, src, "DUT")}
+        mapping = {key: _resolve(ch, src, "DUT") for key, ch in dut_channels(dut).items()}
+        seen: dict[str, str] = {}
+        for key, ch in mapping.items():
+            if ch in seen:
+                raise ValueError(f"DUTs {seen[ch][4:]!r} and {key[4:]!r} are the same file channel {ch!r}")
+            seen[ch] = key
         if reference is not None:
             mapping["reference"] = _resolve(reference, src, "reference")
-            if mapping["reference"] == mapping["dut"]:
-                raise ValueError(f"reference and DUT are the same channel {mapping['dut']!r}")
+            if mapping["reference"] in seen:
+                raise ValueError(f"reference and DUT are the same channel {mapping['reference']!r}")
         lens = {f"{role} {ch!r}": src.lengths[ch] for role, ch in mapping.items()}
         tcol = None
         if time_channel is not None:
@@ -288,7 +316,7 @@ def open_record(
                 f"(above {MAX_PLAUSIBLE_FS_HZ:g} Hz; {n} samples would last {n / fs:.3g} s): a corrupt header? "
                 "give the true rate with --fs"
             )
-        scales = {"dut": _as_scale(dut_scale)}
+        scales = {key: _dut_scale(dut_scale, key) for key in mapping if key != "reference"}
         if reference is not None:
             scales["reference"] = _as_scale(reference_scale)
         meta = dict(src.meta)
@@ -299,10 +327,23 @@ def open_record(
             fs_from=how,
             reader_notes=list(src.notes),
         )
+        if not isinstance(dut, str):
+            meta["duts"] = {key[4:]: ch for key, ch in mapping.items() if key.startswith("dut:")}
         return FileRecord(src, mapping, scales, float(fs), int(n), src.schedule, meta)
     except BaseException:
         src.close()
         raise
 
 
-__all__ = ["open_record", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
+def _dut_scale(scale: Any, key: str) -> Scale:
+    """The scale of record channel ``key`` (``dut`` or ``dut:<name>``) from ``open_record``'s
+    ``dut_scale``: one for all, or a mapping name -> scale."""
+    if isinstance(scale, Mapping):
+        name = key[4:]
+        if name not in scale:
+            raise ValueError(f"no DUT sensitivity for channel {name!r} (the table names {', '.join(map(str, scale))})")
+        return _as_scale(scale[name])
+    return _as_scale(scale)
+
+
+__all__ = ["open_record", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
