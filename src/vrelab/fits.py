@@ -427,6 +427,86 @@ def separate_k2_k3(
     )
 
 
+def fit_k2_k3(points: Sequence[tuple[float, Estimate]], freq_hz: float | None = None) -> FitResult:
+    r"""k2 and k3 from VRCs measured at several orientations (SPEC 1.2, 4.1).
+
+    ``points`` are (static field g0 [g], VRC [µg/g²]) pairs. Weighted least squares of
+    ``VRC(g0) = k2 + 3·k3·g0`` (weights 1/u², parameter covariance ``(AᵀWA)⁻¹``); with two
+    orientations it is exactly :func:`separate_k2_k3`. Needs at least two distinct fields
+    (SPEC: +1 g and −1 g); the k4 term ``6·k4·g0²`` is the same at ±g0 and folds into k2.
+    """
+    g = np.array([float(p[0]) for p in points])
+    y = np.array([float(p[1].value) for p in points])
+    u = np.array([float(p[1].u) for p in points])
+    if len(points) < 2 or np.ptp(g) < 0.1:
+        raise ValueError("k2 and k3 need VRCs at two orientations at least (static fields 0.1 g apart or more)")
+    if not (np.isfinite(y).all() and np.isfinite(u).all() and (u > 0).all()):
+        raise ValueError("k2 and k3: every VRC needs a finite value and a positive uncertainty")
+    A = np.column_stack([np.ones_like(g), 3.0 * g])
+    W = 1.0 / u**2
+    cov = np.linalg.inv(A.T @ (A * W[:, None]))
+    beta = cov @ (A.T @ (W * y))
+    resid = y - A @ beta
+    dof = len(y) - 2
+    chi2 = float(np.sum(W * resid**2) / dof) if dof > 0 else None
+    return FitResult(
+        model="k2-k3",
+        params={
+            "k2_ug_per_g2": Estimate(float(beta[0]), math.sqrt(cov[0, 0]), "ug/g^2"),
+            "k3_ug_per_g3": Estimate(float(beta[1]), math.sqrt(cov[1, 1]), "ug/g^3"),
+        },
+        covariance=tuple(tuple(float(c) for c in row) for row in cov),
+        n_points=len(y),
+        chi2_reduced=chi2,
+        freq_hz=freq_hz,
+        levels_used=tuple(float(x) for x in g),
+        notes=(f"VRC(g0) = k2 + 3*k3*g0, weighted least squares over static fields {', '.join(f'{x:+g}' for x in g)} g",),
+    )
+
+
+def combine_fits(fits: Sequence[FitResult], names: Sequence[str], model: str) -> FitResult:
+    """Weighted mean of the same parameters ``names`` from independent fits, with their
+    covariances (generalised least squares: ``x̄ = (Σ C_i⁻¹)⁻¹ Σ C_i⁻¹ x_i``).
+
+    ``chi2_reduced`` = χ²/(p·(n−1)) of the fits about the mean. When it exceeds 1 the fits
+    disagree by more than their uncertainties (for k2/k3 across frequencies: the resonance, or
+    an effect the model lacks): the covariance is scaled by it (the Birge ratio²) and a note
+    says so, so the combined ``u`` covers the spread instead of hiding it.
+    """
+    if not fits:
+        raise ValueError("combine_fits: no fit to combine")
+    p = len(names)
+    xs, invs = [], []
+    for f in fits:
+        x = np.array([f.params[n].value for n in names], dtype=float)
+        if f.covariance is not None and list(f.params)[:p] == list(names):
+            C = np.array(f.covariance, dtype=float)[:p, :p]
+        else:
+            C = np.diag([f.params[n].u ** 2 for n in names])
+        xs.append(x)
+        invs.append(np.linalg.inv(C))
+    cov = np.linalg.inv(np.sum(invs, axis=0))
+    mean = cov @ np.sum([Ci @ x for Ci, x in zip(invs, xs)], axis=0)
+    notes: list[str] = [f"weighted mean of {len(fits)} fit(s)"]
+    chi2 = None
+    if len(fits) > 1:
+        chi2 = float(sum((x - mean) @ Ci @ (x - mean) for Ci, x in zip(invs, xs)) / (p * (len(fits) - 1)))
+        if chi2 > 1.0:
+            cov = cov * chi2
+            notes.append(f"the fits scatter more than their uncertainties (chi2/dof = {chi2:.3g}): "
+                         "u scaled by its square root")
+    units = {n: fits[0].params[n].unit for n in names}
+    return FitResult(
+        model=model,
+        params={n: Estimate(float(mean[i]), math.sqrt(cov[i, i]), units[n]) for i, n in enumerate(names)},
+        covariance=tuple(tuple(float(c) for c in row) for row in cov),
+        n_points=sum(f.n_points for f in fits),
+        chi2_reduced=chi2,
+        levels_used=tuple(f.freq_hz for f in fits if f.freq_hz is not None),
+        notes=tuple(notes),
+    )
+
+
 # --- the fit policy -------------------------------------------------------------------------------
 
 # A level belongs to the nonlinearity regime when its Gaussian peaks (this many σ) stay inside the

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal, Mapping
+from typing import Any, Literal, Mapping, Sequence
 
 from vrelab._format import finite_or_none
 
@@ -266,3 +266,11 @@ class VreResult:
             provenance=dict(d.get("provenance") or {}),
             kind=d.get("kind", "measurement"),
         )
+
+
+def channels_to_dict(results: Sequence[tuple[str, VreResult]], provenance: Mapping[str, Any]) -> dict[str, Any]:
+    """The document of several DUT channels of one file (SPEC 5.1): ``channels``: [{``channel``,
+    ``levels``, ``fit``, ...}], each a whole :meth:`VreResult.to_dict`; the file's provenance."""
+    chans = [{"channel": name, **result.to_dict()} for name, result in results]
+    return {"kind": "measurement", "method": chans[0]["method"] if chans else None, "channels": chans,
+            "provenance": dict(provenance)}

@@ -42,6 +42,7 @@ from vrelab import _io, folder
 from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
 from vrelab.cli._common import positive_list, print_json, print_levels
 from vrelab.models.clipping import KINDS
+from vrelab.results import channels_to_dict
 
 
 def _band(text: str) -> tuple[float, float]:
@@ -162,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
             from vrelab.analysis.reduction import analyze_full
 
             reduced = [(duts[0], *analyze_full(record, args.method, schedule, **options))]
-    doc = channels_doc(reduced, provenance) if several else reduced[0][1].to_dict()
+    doc = channels_to_dict([(n, r) for n, r, _ in reduced], provenance) if several else reduced[0][1].to_dict()
     if args.out:
         _write_out(Path(args.out), reduced, doc, profile, several)
     if args.json:
@@ -174,13 +175,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {args.out}/results.json, levels.csv" + (" and a folder per channel" if several
                                                                   else ", envelope.csv"))
     return 0
-
-
-def channels_doc(reduced: Any, provenance: dict[str, Any]) -> dict[str, Any]:
-    """The JSON of several DUTs of one file (SPEC 5.1): ``channels``: [{``channel``, ``levels``,
-    ``fit``, ...}], each a whole result; top level: the file's provenance."""
-    chans = [{"channel": name, **result.to_dict()} for name, result, _ in reduced]
-    return {"kind": "measurement", "method": chans[0]["method"], "channels": chans, "provenance": dict(provenance)}
 
 
 def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool) -> None:

@@ -1,0 +1,122 @@
+"""UFF dataset 58 time records (ASCII 58 and binary 58b) through pyuff, as vibration controllers
+export them.
+
+A channel is one record of function type 1 (time response) with even abscissa spacing, named by
+its ``id1`` (trailing spaces stripped) and by ``NODE:DIR`` (response node and direction, e.g.
+``101:+Z``: UFF directions 1/2/3 = X/Y/Z, 4/5/6 = RX/RY/RZ, signed). The sample rate is
+``1/abscissa_inc``; every channel must share it. Records of other kinds (spectra, FRFs) are left
+out with a note.
+
+Memory: pyuff reads a record whole, and lists the file by reading it whole. Opening reads the
+headers only (``read_sets(header_only=True)``); a channel's samples are parsed on its first read
+and kept, so the peak is about the file's size (pyuff's index pass) plus 8 bytes per sample of
+each channel read (float64). Reading the headers costs one pass over the file's bytes.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab.analysis.readers._base import Source, register
+
+_DIRS = {1: "X", 2: "Y", 3: "Z", 4: "RX", 5: "RY", 6: "RZ"}
+# a UFF file starts with the "    -1" delimiter line, then the dataset number (58, or 58b)
+_HEAD = re.compile(rb"\A\s*-1[ \t]*\r?\n\s*(\d+)(b?)\b")
+
+
+def node_dir(node: Any, direction: Any) -> str:
+    """``NODE:DIR`` of a record: ``101:+Z``; scalar (direction 0): ``101``."""
+    d = int(direction)
+    if d == 0 or abs(d) not in _DIRS:
+        return f"{int(node)}"
+    return f"{int(node)}:{'+' if d > 0 else '-'}{_DIRS[abs(d)]}"
+
+
+@register
+class UffSource(Source):
+    fmt = "uff"
+    extensions = (".uff", ".unv")
+    has_magic = False  # text: chosen by its first lines or its extension
+
+    @classmethod
+    def can_open(cls, head: bytes) -> bool:
+        m = _HEAD.match(head)
+        return bool(m and m.group(1) in (b"58", b"151", b"164", b"15", b"55", b"82", b"2411", b"2412"))
+
+    def __init__(self, path: Path) -> None:
+        import pyuff
+
+        super().__init__(path)
+        try:
+            self.uff = pyuff.UFF(str(path))
+            types = np.asarray(self.uff.get_set_types()).astype(int)
+        except Exception as exc:
+            raise ValueError(f"{path.name}: cannot read as UFF: {type(exc).__name__}: {exc}") from None
+        if not len(types):
+            raise ValueError(f"{path.name}: no UFF dataset found (no '    -1' delimiters)")
+        self.sets: dict[str, int] = {}
+        self.alias: dict[str, str] = {}
+        self.cache: dict[str, NDArray[np.float64]] = {}
+        rates: dict[str, float] = {}
+        skipped = 0
+        for i in np.flatnonzero(types == 58):
+            h = self._header(int(i))
+            if int(h.get("func_type", 0)) != 1 or int(h.get("abscissa_spacing", 1)) != 1:
+                skipped += 1
+                continue
+            name = str(h.get("id1", "")).strip() or f"record {i}"
+            nd = node_dir(h.get("rsp_node", 0), h.get("rsp_dir", 0))
+            if name in self.sets:
+                name = nd if nd not in self.sets else f"{name} #{i}"
+            self.sets[name] = int(i)
+            self.lengths[name] = int(h.get("num_pts", 0))
+            if nd not in self.alias and nd not in self.sets:
+                self.alias[nd] = name
+            inc = float(h.get("abscissa_inc", 0.0))
+            if not inc > 0:
+                raise ValueError(f"{path.name}: record {name!r} has abscissa increment {inc!r}: no sample rate")
+            rates[name] = 1.0 / inc
+        if skipped:
+            self.notes.append(f"{skipped} UFF58 record(s) that are not evenly sampled time responses were left out")
+        if not self.sets:
+            raise ValueError(f"{path.name}: no UFF58 time record (function type 1) in the file")
+        # NODE:DIR names are channels too (the campaign's and the CLI's lookups see them)
+        for nd, name in self.alias.items():
+            self.lengths[nd] = self.lengths[name]
+        vals = np.array(list(rates.values()))
+        if np.ptp(vals) > 1e-9 * vals.max():
+            lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
+            raise ValueError(f"{path.name}: records have different sample rates: {lo!r} {rates[lo]:.6g} Hz, "
+                             f"{hi!r} {rates[hi]:.6g} Hz")
+        self.fs_hz = float(vals[0])
+        self.notes.append("UFF58: each channel's record is parsed whole on its first read (pyuff)")
+
+    def _header(self, i: int) -> dict[str, Any]:
+        try:
+            return dict(self.uff.read_sets(i, header_only=True))
+        except Exception as exc:
+            raise ValueError(f"{self.path.name}: UFF record {i} has a malformed header: {type(exc).__name__}: {exc}") from None
+
+    def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
+        name = self.alias.get(name, name)
+        if name not in self.cache:
+            try:
+                d = self.uff.read_sets(self.sets[name])
+                data = np.asarray(d["data"])
+            except Exception as exc:
+                raise ValueError(f"{self.path.name}: cannot read UFF record {name!r}: {type(exc).__name__}: {exc}") from None
+            if np.iscomplexobj(data):
+                raise ValueError(f"{self.path.name}: UFF record {name!r} holds complex values, not a time record")
+            if len(data) != self.lengths[name]:
+                raise ValueError(f"{self.path.name}: UFF record {name!r} holds {len(data)} values, its header says "
+                                 f"{self.lengths[name]} (truncated file?)")
+            self.cache[name] = data.astype(np.float64, copy=False)
+        return self.cache[name][start:stop]
+
+    def close(self) -> None:
+        self.cache.clear()

@@ -1,0 +1,590 @@
+"""Campaigns: every run of one shaker test, from a TOML manifest (SPEC 4.1).
+
+A lab's test is many files: one per run (frequency, orientation, level block), each holding
+several DUT channels (a 3-axis part, several parts on one fixture) and a reference. The
+manifest names them; :func:`read_manifest` validates it whole before anything is read (an
+unknown key, a missing file or channel, a channel without its static field, one file channel
+named twice: one line naming the run and the key); :func:`run_campaign` reduces every run
+(in parallel with ``workers``; a run that fails is kept as failed with its error, the others
+go on) and :func:`combine` gives per channel:
+
+* ``vrc_by_freq``: the VRC of every sine frequency at every orientation;
+* ``k2`` and ``k3`` per frequency measured at two orientations or more
+  (``VRC(g0) = k2 + 3·k3·g0``, :func:`vrelab.fits.fit_k2_k3`), combined over those
+  frequencies by their covariance-weighted mean (:func:`vrelab.fits.combine_fits`); k2 alone
+  from a frequency measured only at g0 = 0 (where VRC = k2); null with the reason otherwise;
+* the effective ``rail`` from every random run (weighted mean).
+
+Data flow: manifest -> :class:`Run` -> record (:func:`vrelab.analysis.readers.open_record`,
+several DUTs) -> :func:`vrelab.analysis.reduction.analyze_channels` -> per-run results ->
+:func:`combine` -> the campaign document (``results.json``) and folder.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+from vrelab import __version__
+from vrelab import _validate as V
+from vrelab._format import finite_or_none
+from vrelab._io import sha256_file
+from vrelab.results import Estimate, FitResult, VreResult, same_frequency
+
+RUN_KEYS = (
+    "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
+    "dut_sensitivity", "reference_units", "reference_sensitivity", "schedule", "profile", "band",
+    "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g",
+)  # fmt: skip
+BUDGET_KEYS = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
+TOP_KEYS = ("name", "description", "defaults", "run")
+# Orientations closer than this [g] are the same orientation (a fixture's alignment error).
+SAME_ORIENTATION_G = 0.1
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run of a campaign, validated: paths absolute, one static field per DUT channel."""
+
+    index: int  # 1-based, in manifest order
+    file: Path
+    dut: Mapping[str, str]  # campaign channel name -> the file's channel
+    static_g: Mapping[str, float]
+    label: str
+    reference: str | None = None
+    method: str = "auto"
+    fs_hz: float | None = None
+    time: str | None = None
+    dut_units: str = "g"
+    dut_sensitivity: Mapping[str, float | None] = field(default_factory=dict)
+    reference_units: str = "g"
+    reference_sensitivity: float | None = None
+    schedule: Path | None = None
+    profile: str | None = None
+    band: tuple[float, float] | None = None
+    settle_s: float | None = None
+    rail_g: float | None = None
+    budget: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def where(self) -> str:
+        return f"run {self.index} ({self.label!r})"
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A campaign manifest, validated (:func:`read_manifest`)."""
+
+    path: Path
+    name: str
+    runs: tuple[Run, ...]
+    description: str = ""
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Every campaign channel, in order of first appearance."""
+        return tuple(dict.fromkeys(c for r in self.runs for c in r.dut))
+
+
+# --------------------------------------------------------------------------- the manifest
+
+
+def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
+    """Read and validate a campaign manifest (SPEC 4.1); paths are relative to it.
+
+    With ``check_files`` each run's file is opened (its header only where the format allows)
+    to check that the channels exist. Every problem is one ``ValueError`` line naming the run
+    and the key.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"campaign manifest not found: {path}")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path.name}: not valid TOML ({exc})") from None
+    for key in doc:
+        if key not in TOP_KEYS:
+            raise ValueError(f"{path.name}: unknown key {key!r} (top level keys: {', '.join(TOP_KEYS)})")
+    defaults = doc.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise ValueError(f"{path.name}: [defaults] must be a table")
+    for key in defaults:
+        if key not in RUN_KEYS or key == "file":
+            raise ValueError(f"{path.name}: [defaults]: unknown key {key!r} (run keys: {', '.join(RUN_KEYS[1:])})")
+    runs_doc = doc.get("run")
+    if not isinstance(runs_doc, list) or not runs_doc:
+        raise ValueError(f"{path.name}: no [[run]] table: a campaign needs one run at least")
+    runs = tuple(_run(path, i, {**defaults, **r} if isinstance(r, dict) else r) for i, r in enumerate(runs_doc, 1))
+    name = doc.get("name", path.stem)
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"{path.name}: name must be a non-empty string")
+    m = Manifest(path.resolve(), name.strip(), runs, str(doc.get("description", "")))
+    if check_files:
+        for run in runs:
+            _check_channels(run)
+    return m
+
+
+def _run(manifest: Path, index: int, d: Any) -> Run:
+    where = f"{manifest.name}: run {index}"
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: must be a table")
+    label = d.get("label")
+    if label is not None:
+        if not isinstance(label, str):
+            raise ValueError(f"{where}: label must be a string")
+        where = f"{manifest.name}: run {index} ({label!r})"
+    for key in d:
+        if key not in RUN_KEYS:
+            raise ValueError(f"{where}: unknown key {key!r} (run keys: {', '.join(RUN_KEYS)})")
+    if "file" not in d:
+        raise ValueError(f"{where}: key 'file' missing")
+    file = _path(manifest, where, "file", d["file"])
+    label = label or file.name
+    dut = _duts(where, d.get("dut"))
+    static = _per_channel(where, "static_g", d.get("static_g"), dut, required=True)
+    sens = _per_channel(where, "dut_sensitivity", d.get("dut_sensitivity"), dut, required=False, positive=True)
+    try:
+        run = Run(
+            index=index, file=file, dut=dut, label=label,
+            static_g={k: float(v) for k, v in static.items()},  # type: ignore[arg-type]
+            reference=_opt_str(where, "reference", d.get("reference")),
+            method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
+            fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
+            time=_opt_str(where, "time", d.get("time")),
+            dut_units=str(d.get("dut_units", "g")),
+            dut_sensitivity=sens,
+            reference_units=str(d.get("reference_units", "g")),
+            reference_sensitivity=_number(where, "reference_sensitivity", d.get("reference_sensitivity"), positive=True),
+            schedule=_path(manifest, where, "schedule", d["schedule"]) if "schedule" in d else None,
+            profile=_profile(manifest, where, d.get("profile")),
+            band=_band(where, d.get("band")),
+            settle_s=_number(where, "settle_s", d.get("settle_s"), positive=False),
+            rail_g=_number(where, "rail_g", d.get("rail_g"), positive=True),
+            budget={k: _number(where, k, d[k], positive=False) for k in BUDGET_KEYS if k in d},  # type: ignore[misc]
+        )  # fmt: skip
+        _scales(run)  # units and sensitivities agree
+    except ValueError as exc:
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(manifest.name) else f"{where}: {msg}") from None
+    return run
+
+
+def _path(manifest: Path, where: str, key: str, value: Any) -> Path:
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"{where}: {key} must be a path (relative to the manifest)")
+    p = Path(value)
+    p = p if p.is_absolute() else manifest.parent / p
+    if not p.is_file():
+        raise ValueError(f"{where}: {key} {value!r} not found ({p})")
+    return p.resolve()
+
+
+def _duts(where: str, value: Any) -> dict[str, str]:
+    if value is None:
+        raise ValueError(f"{where}: key 'dut' missing (the DUT channels along the shaker axis)")
+    if isinstance(value, str):
+        value = [value]
+    if isinstance(value, list):
+        pairs = [(v, v) for v in value]
+    elif isinstance(value, dict):
+        pairs = list(value.items())
+    else:
+        raise ValueError(f"{where}: dut must be a channel, a list of channels or a table name = channel")
+    out: dict[str, str] = {}
+    seen: dict[str, str] = {}
+    for name, ch in pairs:
+        if not isinstance(ch, str) or not ch.strip() or not str(name).strip():
+            raise ValueError(f"{where}: dut {name!r}: give a channel name of the file")
+        if name in out:
+            raise ValueError(f"{where}: dut: channel {name!r} named twice")
+        if ch.strip() in seen:
+            raise ValueError(f"{where}: dut: the file's channel {ch!r} given twice ({seen[ch.strip()]!r} and {name!r})")
+        seen[ch.strip()] = name
+        out[str(name).strip()] = ch.strip()
+    if not out:
+        raise ValueError(f"{where}: dut: no channel")
+    return out
+
+
+def _per_channel(where: str, key: str, value: Any, dut: Mapping[str, str], required: bool,
+                 positive: bool = False) -> dict[str, float | None]:
+    """A number for all the run's DUT channels, or a table name -> number covering each."""
+    if value is None:
+        if required:
+            raise ValueError(f"{where}: key {key!r} missing: give the static field of "
+                             f"{', '.join(dut)} (a number for all, or a table per channel)")
+        return {c: None for c in dut}
+    if isinstance(value, dict):
+        for c in value:
+            if c not in dut:
+                raise ValueError(f"{where}: {key}: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
+        missing = [c for c in dut if c not in value]
+        if missing and required:
+            raise ValueError(f"{where}: {key}: no value for channel {missing[0]!r}")
+        return {c: (_number(where, f"{key}.{c}", value[c], positive) if c in value else None) for c in dut}
+    x = _number(where, key, value, positive)
+    return {c: x for c in dut}
+
+
+def _number(where: str, key: str, value: Any, positive: bool) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{where}: {key} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ValueError(f"{where}: {key} must be > 0, got {value!r}")
+    if not positive and key in ("settle_s", *BUDGET_KEYS) and value < 0:
+        raise ValueError(f"{where}: {key} must be >= 0, got {value!r}")
+    return float(value)
+
+
+def _opt_str(where: str, key: str, value: Any) -> str | None:
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"{where}: {key} must be a non-empty string")
+    return value.strip()
+
+
+def _choice(where: str, key: str, value: Any, options: Sequence[str]) -> str:
+    if value not in options:
+        raise ValueError(f"{where}: {key} must be one of {', '.join(options)}, got {value!r}")
+    return str(value)
+
+
+def _profile(manifest: Path, where: str, value: Any) -> str | None:
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"{where}: profile must be a string (a file, a name, F:P,... or flat:F1-F2)")
+    p = manifest.parent / value
+    text = str(p.resolve()) if p.is_file() else value
+    from vrelab.profiles import parse_profile
+
+    parse_profile(text)  # validated now, parsed again where used (a string crosses processes)
+    return text
+
+
+def _band(where: str, value: Any) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    if (not isinstance(value, list) or len(value) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+            or not 0 < value[0] < value[1]):
+        raise ValueError(f"{where}: band must be [F1, F2] in Hz with 0 < F1 < F2, got {value!r}")
+    return float(value[0]), float(value[1])
+
+
+def _scales(run: Run) -> tuple[dict[str, Any], Any]:
+    from vrelab.analysis.readers import Scale
+
+    dut = {c: Scale.parse(run.dut_units, run.dut_sensitivity.get(c), f"dut {c}") for c in run.dut}
+    ref = Scale.parse(run.reference_units, run.reference_sensitivity, "reference")
+    return dut, ref
+
+
+def _check_channels(run: Run) -> None:
+    """The run's file opens and holds its channels (the reader's header: no samples read)."""
+    from vrelab.analysis.readers import _open_source, _resolve
+
+    try:
+        src = _open_source(run.file)
+    except ValueError as exc:
+        raise ValueError(f"{run.where}: file: {exc}") from None
+    try:
+        for name, ch in run.dut.items():
+            try:
+                _resolve(ch, src, f"DUT {name!r}")
+            except ValueError as exc:
+                raise ValueError(f"{run.where}: dut: {exc}") from None
+        if run.reference is not None:
+            try:
+                _resolve(run.reference, src, "reference")
+            except ValueError as exc:
+                raise ValueError(f"{run.where}: reference: {exc}") from None
+    finally:
+        src.close()
+
+
+# --------------------------------------------------------------------------- reducing runs
+
+
+@dataclass
+class RunResult:
+    """One run reduced (``error`` set when it failed): per channel its result."""
+
+    run: Run
+    results: list[tuple[str, VreResult]] = field(default_factory=list)
+    error: str | None = None
+    folder: str | None = None  # sub-folder of the campaign folder, when written
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def reduce_run(run: Run, out: Path | None = None, progress: bool = False) -> RunResult:
+    """Reduce one run: its record opened with every DUT, each reduced against the reference
+    (:func:`vrelab.analysis.reduction.analyze_channels`). With ``out`` the run's folder is
+    written there (a ``results.json`` of its channels and a sub-folder per channel)."""
+    from vrelab.analysis.readers import open_record
+    from vrelab.analysis.reduction import DEFAULT_SETTLE_S, analyze_channels
+    from vrelab.profiles import parse_profile
+    from vrelab.record import Schedule
+
+    dut_scales, ref_scale = _scales(run)
+    profile = parse_profile(run.profile) if run.profile else None
+    schedule = Schedule.read_csv(run.schedule) if run.schedule else None
+    prov = {"input_file": run.file.name, "input_sha256": sha256_file(run.file), "run": run.index, "label": run.label}
+    with open_record(run.file, dict(run.dut), run.reference, run.fs_hz, dut_scales, ref_scale, run.time) as rec:
+        reduced = analyze_channels(
+            rec, None, run.method, schedule, static_g=dict(run.static_g), band_hz=run.band, rail_g=run.rail_g,
+            progress=progress, profile=profile,
+            settle_s=DEFAULT_SETTLE_S if run.settle_s is None else run.settle_s, provenance=prov,
+        )  # fmt: skip
+    res = RunResult(run, [(name, result) for name, result, _ in reduced])
+    if out is not None:
+        from vrelab import folder as F
+        from vrelab.results import channels_to_dict
+
+        F.write_channels(out, res.results, channels_to_dict(res.results, prov))
+    return res
+
+
+def _reduce_safely(run: Run, out: Path | None) -> RunResult:
+    try:
+        return reduce_run(run, out)
+    except MemoryError:
+        return RunResult(run, error="out of memory")
+    except Exception as exc:  # a run's failure is reported with the others kept
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if not isinstance(exc, (ValueError, OSError)):
+            msg = f"internal error: {type(exc).__name__}: {msg}"
+        return RunResult(run, error=msg)
+
+
+def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
+                 on_done: Callable[[RunResult], None] | None = None) -> list[RunResult]:
+    """Reduce every run (``workers`` processes; 1: here, in order). A failing run is kept with
+    its error. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``."""
+    workers = V.integer("workers", workers, 1)
+    subs = run_folders(manifest)
+    dests = [None if out is None else out / "runs" / subs[r.index] for r in manifest.runs]
+    results: list[RunResult]
+    if workers == 1 or len(manifest.runs) == 1:
+        results = []
+        for run, dest in zip(manifest.runs, dests):
+            results.append(_reduce_safely(run, dest))
+            if on_done:
+                on_done(results[-1])
+    else:
+        with ProcessPoolExecutor(max_workers=min(workers, len(manifest.runs))) as pool:
+            futures = [pool.submit(_reduce_safely, run, dest) for run, dest in zip(manifest.runs, dests)]
+            results = []
+            for fut in futures:
+                results.append(fut.result())
+                if on_done:
+                    on_done(results[-1])
+    for r, dest in zip(results, dests):
+        if dest is not None and r.ok:
+            r.folder = f"runs/{dest.name}"
+    return results
+
+
+def run_folders(manifest: Manifest) -> dict[int, str]:
+    """Run index -> its sub-folder name, ``NN-<label>``."""
+    from vrelab.folder import channel_folder_names
+
+    names = channel_folder_names([f"{r.index:02d}-{r.label}" for r in manifest.runs])
+    return {r.index: names[f"{r.index:02d}-{r.label}"] for r in manifest.runs}
+
+
+# --------------------------------------------------------------------------- combining
+
+
+@dataclass(frozen=True)
+class ChannelSummary:
+    """What a campaign gives for one channel (SPEC 4.1, 5.1)."""
+
+    channel: str
+    vrc_by_freq: tuple[dict[str, Any], ...]
+    k2_k3_by_freq: tuple[FitResult, ...]
+    k2: Estimate | None
+    k3: Estimate | None
+    k2_k3: FitResult | None  # the combined fit (covariance kept), when both are determined
+    rail: Estimate | None
+    rails_by_run: tuple[dict[str, Any], ...]
+    notes: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        def est(e: Estimate | None) -> dict[str, Any] | None:
+            return None if e is None else {"value": finite_or_none(e.value), "u": finite_or_none(e.u)}
+
+        return {
+            "channel": self.channel,
+            "vrc_by_freq": list(self.vrc_by_freq),
+            "k2_ug_per_g2": est(self.k2),
+            "k3_ug_per_g3": est(self.k3),
+            "k2_k3": None if self.k2_k3 is None else self.k2_k3.to_dict(),
+            "k2_k3_by_freq": [f.to_dict() for f in self.k2_k3_by_freq],
+            "rail_g": est(self.rail),
+            "rails_by_run": list(self.rails_by_run),
+            "notes": list(self.notes),
+        }
+
+
+def combine(results: Sequence[RunResult], channels: Sequence[str]) -> list[ChannelSummary]:
+    """Per channel: VRC by frequency and orientation, k2/k3, the rail (see the module docstring)."""
+    return [_combine_channel(ch, results) for ch in channels]
+
+
+def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSummary:
+    from vrelab.fits import combine_fits, fit_k2_k3
+
+    vrcs: list[dict[str, Any]] = []
+    rails: list[dict[str, Any]] = []
+    notes: list[str] = []
+    for rr in results:
+        for name, res in rr.results:
+            if name != channel:
+                continue
+            g0 = rr.run.static_g[name]
+            for f in res.fits:
+                if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
+                    e = f.params["vrc_ug_per_g2"]
+                    if f.n_points < 2 or not (math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0):
+                        notes.append(f"{rr.run.where}: the VRC at {f.freq_hz:g} Hz rests on {f.n_points} level(s): "
+                                     "not used for k2/k3")
+                        continue
+                    vrcs.append({"freq_hz": f.freq_hz, "static_g": g0, "run": rr.run.index, "label": rr.run.label,
+                                 "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points})
+                elif f.model.startswith("clip-") and "rail_g" in f.params:
+                    e = f.params["rail_g"]
+                    if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
+                        rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
+                                      "rail_g": {"value": e.value, "u": e.u}, "model": f.model})
+    vrcs.sort(key=lambda v: (v["freq_hz"], v["static_g"]))
+    groups: list[list[dict[str, Any]]] = []
+    for v in vrcs:
+        if groups and same_frequency(groups[-1][0]["freq_hz"], v["freq_hz"]):
+            groups[-1].append(v)
+        else:
+            groups.append([v])
+    est = lambda v: Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")  # noqa: E731
+    by_freq: list[FitResult] = []
+    k2_only: list[FitResult] = []
+    for grp in groups:
+        fields = [v["static_g"] for v in grp]
+        f0 = grp[0]["freq_hz"]
+        if max(fields) - min(fields) >= SAME_ORIENTATION_G:
+            by_freq.append(fit_k2_k3([(v["static_g"], est(v)) for v in grp], freq_hz=f0))
+        elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
+            k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
+                                     if len(grp) == 1 else {"k2_ug_per_g2": _wmean([est(v) for v in grp])},
+                                     n_points=len(grp), freq_hz=f0))
+    k2 = k3 = None
+    both = None
+    names = ["k2_ug_per_g2", "k3_ug_per_g3"]
+    if by_freq:
+        both = combine_fits(by_freq, names, "k2-k3")
+        k2, k3 = both.params[names[0]], both.params[names[1]]
+        notes += [n for n in both.notes if "scatter" in n]
+        if k2_only:
+            notes.append("k2 from the orientations' fits; frequencies measured at 0 g only are not combined with them")
+    elif k2_only:
+        c = combine_fits(k2_only, names[:1], "k2")
+        k2 = c.params[names[0]]
+        notes.append("k2 from VRC at 0 g (VRC = k2 there); k3 needs two orientations (+g and -g): "
+                     "one orientation only, k3 = null")
+        notes += [n for n in c.notes if "scatter" in n]
+    elif vrcs:
+        notes.append("one orientation only (no sine frequency measured at two static fields, nor at 0 g): "
+                     "k2 and k3 = null")
+    else:
+        notes.append("no sine run with a VRC fit of two levels or more: k2 and k3 = null")
+    rail = None
+    if rails:
+        rail = _wmean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
+    elif not any(rr.run.method != "sine" for rr in results):
+        notes.append("no random run: rail = null")
+    else:
+        notes.append("no random run with a rail fit: rail = null")
+    return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes))
+
+
+def _wmean(es: Sequence[Estimate]) -> Estimate:
+    """Inverse-variance weighted mean; u scaled by the Birge ratio when the values scatter more
+    than their uncertainties."""
+    w = [1.0 / e.u**2 for e in es]
+    m = sum(wi * e.value for wi, e in zip(w, es)) / sum(w)
+    u = math.sqrt(1.0 / sum(w))
+    if len(es) > 1:
+        chi2 = sum(wi * (e.value - m) ** 2 for wi, e in zip(w, es)) / (len(es) - 1)
+        u *= math.sqrt(max(chi2, 1.0))
+    return Estimate(m, u, es[0].unit)
+
+
+# --------------------------------------------------------------------------- the document
+
+
+def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Sequence[ChannelSummary],
+                 command: str | None = None) -> dict[str, Any]:
+    """The campaign's JSON (SPEC 5.1): ``runs`` and ``channels``."""
+    runs = []
+    for rr in results:
+        r = rr.run
+        d: dict[str, Any] = {
+            "index": r.index, "file": _rel(r.file, manifest.path.parent), "label": r.label,
+            "status": "ok" if rr.ok else "failed", "error": rr.error, "folder": rr.folder,
+            "method": rr.results[0][1].method if rr.results else r.method,
+            "channels": [],
+        }  # fmt: skip
+        for name, res in rr.results:
+            rd = res.to_dict()
+            d["channels"].append({"channel": name, "static_g": r.static_g[name], **{k: rd[k] for k in (
+                "levels", "fit", "fits", "warnings", "notices", "conditions")}})
+        runs.append(d)
+    n_failed = sum(1 for rr in results if not rr.ok)
+    return {
+        "kind": "campaign",
+        "name": manifest.name,
+        "description": manifest.description,
+        "runs": runs,
+        "channels": [s.to_dict() for s in summaries],
+        "n_runs": len(results),
+        "n_failed": n_failed,
+        "provenance": {
+            "vrelab_version": __version__,
+            "manifest": manifest.path.name,
+            "manifest_sha256": sha256_file(manifest.path),
+            **({"command": command} if command else {}),
+        },
+    }
+
+
+def _rel(p: Path, base: Path) -> str:
+    try:
+        return str(p.relative_to(base))
+    except ValueError:
+        return str(p)
+
+
+def write_campaign(stage: Path, manifest: Manifest, results: Sequence[RunResult],
+                   summaries: Sequence[ChannelSummary], doc: Mapping[str, Any]) -> None:
+    """``results.json`` (the document), ``levels.csv`` of every level of every run and channel;
+    the run folders were written by :func:`run_campaign`."""
+    from vrelab._io import write_json, write_levels_table
+    from vrelab.folder import LEVELS, RESULTS
+
+    write_json(stage / RESULTS, dict(doc))
+    groups = [({"run": rr.run.index, "label": rr.run.label, "channel": name, "static_g": rr.run.static_g[name],
+                "method": res.method}, res)
+              for rr in results for name, res in rr.results]
+    if groups:
+        write_levels_table(stage / LEVELS, groups)
