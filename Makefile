@@ -19,11 +19,11 @@ $(STAMP_BASE): pyproject.toml | $(BIN)/python
 	touch $@
 
 $(STAMP_TEST): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask]"
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats]"
 	touch $@ $(STAMP_BASE)
 
 $(STAMP_BENCH): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,bench]"
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats,bench]"
 	touch $@ $(STAMP_TEST) $(STAMP_BASE)
 
 demo: $(STAMP_BASE)

@@ -37,6 +37,23 @@ def node_dir(node: Any, direction: Any) -> str:
     return f"{int(node)}:{'+' if d > 0 else '-'}{_DIRS[abs(d)]}"
 
 
+def rate_from_increment(inc: float) -> float:
+    """The sample rate behind an abscissa increment that an exporter printed with a few digits.
+
+    UFF58 writes the increment as E13.5 (6 significant digits): 6 kHz becomes 1.66667E-04 s, whose
+    inverse is 5999.988 Hz. The rate with the fewest significant digits whose inverse prints as
+    the same increment (to 6 digits) is the one the controller ran at; when none does, or the
+    increment has more digits than that (a double-precision export), 1/inc.
+    """
+    if float(f"{inc:.5E}") != inc:
+        return 1.0 / inc
+    for digits in range(1, 8):
+        fs = float(f"{1.0 / inc:.{digits}g}")
+        if float(f"{1.0 / fs:.5E}") == float(f"{inc:.5E}"):
+            return fs
+    return 1.0 / inc
+
+
 @register
 class UffSource(Source):
     fmt = "uff"
@@ -93,7 +110,10 @@ class UffSource(Source):
             lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
             raise ValueError(f"{path.name}: records have different sample rates: {lo!r} {rates[lo]:.6g} Hz, "
                              f"{hi!r} {rates[hi]:.6g} Hz")
-        self.fs_hz = float(vals[0])
+        self.fs_hz = rate_from_increment(float(1.0 / vals[0]))
+        if self.fs_hz != float(vals[0]):
+            self.notes.append(f"UFF58 abscissa increment {1.0 / vals[0]:.6g} s is the rounded inverse of "
+                              f"{self.fs_hz:g} Hz: that rate used (1/increment = {vals[0]:.9g} Hz)")
         self.notes.append("UFF58: each channel's record is parsed whole on its first read (pyuff)")
 
     def _header(self, i: int) -> dict[str, Any]:

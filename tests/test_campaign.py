@@ -1,0 +1,318 @@
+"""Campaigns (SPEC 4.1, 5.1): manifests, several DUTs per file, lab formats, recovery of the truth.
+
+The campaign is simulated (vrelab.simulation.campaign) with a known truth: k2, k3 per part, rails
+±2.048 g at the output, a proof-mass resonance fn = 1200 Hz, Q = 4. The expected apparent VRC at
+a sine f and static field g0 is (k2 + 3·k3·g0)·|H(f)|² with H(f) = 1/(1 - r² + j·r/Q) (SPEC 1.2,
+1.3), computed here independently of the reduction.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from vrelab.campaign import combine, read_manifest, run_campaign
+from vrelab.cli import main
+from vrelab.simulation.campaign import example_truth, write_campaign
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_campaign(tmp_path_factory.mktemp("campaign"))
+
+
+@pytest.fixture(scope="module")
+def reduced(example: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    out = tmp_path_factory.mktemp("cout") / "out"
+    assert main(["campaign", str(example), "--out", str(out), "--json"]) == 0
+    return json.loads((out / "results.json").read_text())
+
+
+def _h2(f: float, fn: float, q: float) -> float:
+    r = f / fn
+    return 1.0 / ((1 - r * r) ** 2 + (r / q) ** 2)
+
+
+def test_vrc_by_frequency_recovers_the_truth_within_3u(reduced: dict) -> None:
+    truth = example_truth()
+    parts = {p.name: p for p in truth.parts}
+    seen = 0
+    for ch in reduced["channels"]:
+        p = parts[ch["channel"]]
+        for v in ch["vrc_by_freq"]:
+            expected = (p.k2_ug_per_g2 + 3 * p.k3_ug_per_g3 * v["static_g"]) * _h2(v["freq_hz"], truth.fn_hz, truth.q)
+            e = v["vrc_ug_per_g2"]
+            assert abs(e["value"] - expected) < 3 * e["u"], (ch["channel"], v, expected)
+            seen += 1
+    # every sine run of both parts gave a VRC, the resonance's rise included (1 kHz: |H|² = 7.3)
+    assert seen == 2 * sum(1 for r in truth.runs if r.freq_hz)
+    top = max(reduced["channels"][0]["vrc_by_freq"], key=lambda v: v["freq_hz"])
+    low = min(reduced["channels"][0]["vrc_by_freq"], key=lambda v: (v["freq_hz"], -v["static_g"]))
+    assert top["vrc_ug_per_g2"]["value"] > 5 * low["vrc_ug_per_g2"]["value"]
+
+
+def test_k2_k3_per_frequency_and_combined(reduced: dict) -> None:
+    truth = example_truth()
+    parts = {p.name: p for p in truth.parts}
+    for ch in reduced["channels"]:
+        p = parts[ch["channel"]]
+        assert len(ch["k2_k3_by_freq"]) == 2  # 80 Hz and 300 Hz were run at +1 g and -1 g
+        for f in ch["k2_k3_by_freq"]:
+            h2 = _h2(f["freq_hz"], truth.fn_hz, truth.q)
+            for key, true in (("k2_ug_per_g2", p.k2_ug_per_g2 * h2), ("k3_ug_per_g3", p.k3_ug_per_g3 * h2)):
+                assert abs(f[key]["value"] - true) < 3 * f[key]["u"], (ch["channel"], f["freq_hz"], key)
+        # combined over frequencies whose |H|² differ by 13 %: the Birge scaling widens u to cover it
+        for key, true in (("k2_ug_per_g2", p.k2_ug_per_g2), ("k3_ug_per_g3", p.k3_ug_per_g3)):
+            e = ch[key]
+            assert abs(e["value"] - true) < 3 * e["u"], (ch["channel"], key, e, true)
+
+
+def test_effective_rail_from_the_random_run(reduced: dict) -> None:
+    # The clip sits at the output, after the resonance: it sees the reference's vibration times
+    # |H|, so the effective rail (in reference rms terms) is the physical rail over the rms gain
+    # of |H|² averaged over the flat 50-500 Hz band (an independent quadrature).
+    truth = example_truth()
+    gain2 = integrate.quad(lambda f: _h2(f, truth.fn_hz, truth.q), 50, 500)[0] / 450
+    expected = truth.rail_g / math.sqrt(gain2)
+    for ch in reduced["channels"]:
+        e = ch["rail_g"]
+        assert e is not None
+        assert abs(e["value"] - expected) < 3 * e["u"], (ch["channel"], e, expected)
+
+
+def test_runs_keep_their_conditions_and_files(reduced: dict) -> None:
+    assert reduced["n_failed"] == 0
+    fmts = {Path(r["file"]).suffix for r in reduced["runs"]}
+    assert fmts == {".tdms", ".csv", ".uff", ".h5"}
+    for r in reduced["runs"]:
+        assert {c["channel"] for c in r["channels"]} == {"sn1", "sn2"}
+        for c in r["channels"]:
+            assert c["static_g"] in (1.0, -1.0)
+            assert all("u_vre_g" in lv for lv in c["levels"])
+
+
+def test_workers_give_the_same_campaign(example: Path) -> None:
+    m = read_manifest(example)
+    one = combine(run_campaign(m, 1), m.channels)
+    two = combine(run_campaign(m, 2), m.channels)
+    assert [c.to_dict() for c in one] == [c.to_dict() for c in two]
+
+
+def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
+    out = tmp_path / "c"
+    assert main(["campaign", str(example), "--out", str(out)]) == 0
+    assert main(["report", str(out)]) == 0
+    html = (out / "report.html").read_text()
+    assert "Channel sn1" in html and "Channel sn2" in html
+    assert "VRC by frequency and orientation" in html
+    assert html.count("<section") == 1 + 2 + 2 * 6  # summary, channels, each run's channels
+
+
+# ----------------------------------------------------------------------------- honest nulls
+
+
+def test_one_orientation_gives_null_k2_k3_with_the_reason(example: Path, tmp_path: Path) -> None:
+    text = example.read_text()
+    runs = text.split("[[run]]")
+    keep = [r for r in runs[1:] if "static_g = 1" in r and "random" not in r]
+    (tmp_path / "runs").symlink_to(example.parent / "runs")
+    m = tmp_path / "up_only.toml"
+    m.write_text(runs[0] + "".join("[[run]]" + r for r in keep))
+    man = read_manifest(m)
+    ch = combine(run_campaign(man), man.channels)[0]
+    assert ch.k2 is None and ch.k3 is None and ch.rail is None
+    assert any("one orientation only" in n for n in ch.notes)
+    assert any("no random run" in n for n in ch.notes)
+
+
+# ----------------------------------------------------------------------------- bad manifests
+
+
+def _manifest(tmp: Path, example: Path, body: str, defaults: str = "") -> Path:
+    runs = tmp / "runs"
+    if not runs.exists():
+        runs.symlink_to(example.parent / "runs")
+    m = tmp / "m.toml"
+    m.write_text('name = "t"\n[defaults]\nreference_units = "mv"\nreference_sensitivity = 10\n'
+                 'dut_units = "lsb"\ndut_sensitivity = 256000\n' + defaults + body)
+    return m
+
+
+GOOD = '[[run]]\nfile = "runs/01_z_up_80hz.tdms"\nreference = "shaker/ref"\ndut = {a = "shaker/sn1_z"}\nstatic_g = 1\n'
+
+
+@pytest.mark.parametrize(
+    "body, defaults, words",
+    [
+        (GOOD.replace("static_g", "statc_g"), "", ["run 1", "unknown key 'statc_g'"]),
+        (GOOD, "colour = 1\n", ["[defaults]", "unknown key 'colour'"]),
+        (GOOD.replace("01_z_up_80hz.tdms", "nope.tdms"), "", ["run 1", "file", "nope.tdms", "not found"]),
+        (GOOD.replace("shaker/sn1_z", "shaker/sn9_z"), "", ["run 1", "dut", "sn9_z", "not found"]),
+        (GOOD.replace('reference = "shaker/ref"', 'reference = "shaker/rf"'), "", ["run 1", "reference", "rf"]),
+        (GOOD.replace("static_g = 1\n", ""), "", ["run 1", "static_g", "missing"]),
+        (GOOD.replace('{a = "shaker/sn1_z"}', '{a = "shaker/sn1_z", b = "shaker/sn2_z"}')
+         .replace("static_g = 1", "static_g = {a = 1}"), "", ["run 1", "static_g", "'b'"]),
+        (GOOD.replace('{a = "shaker/sn1_z"}', '{a = "shaker/sn1_z", b = "shaker/sn1_z"}'), "",
+         ["run 1", "dut", "given twice"]),
+        (GOOD + 'label = "x"\nmethod = "sweep"\n', "", ["run 1 ('x')", "method"]),
+        ("", "", ["no [[run]]"]),
+        (GOOD + "[[run]\n", "", ["not valid TOML"]),
+    ],
+)
+def test_bad_manifest_is_one_line_exit_2(example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                         body: str, defaults: str, words: list[str]) -> None:
+    m = _manifest(tmp_path, example, body, defaults)
+    assert main(["campaign", str(m), "--json"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == ""
+    err = cap.err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    for w in words:
+        assert w in err, (w, err)
+    with pytest.raises(ValueError):
+        read_manifest(m)
+
+
+def test_a_failing_run_does_not_lose_the_rest(example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    runs = tmp_path / "runs"
+    shutil.copytree(example.parent / "runs", runs)
+    csv = runs / "02_z_down_80hz.csv"
+    lines = csv.read_text().splitlines()
+    parts = lines[5000].split(",")
+    parts[1] = "nan"  # a NaN in the reference, found while streaming
+    lines[5000] = ",".join(parts)
+    csv.write_text("\n".join(lines) + "\n")
+    m = tmp_path / "campaign.toml"
+    m.write_text(example.read_text())
+    out = tmp_path / "out"
+    assert main(["campaign", str(m), "--out", str(out), "--json"]) == 1
+    cap = capsys.readouterr()
+    doc = json.loads(cap.out)
+    failed = [r for r in doc["runs"] if r["status"] != "ok"]
+    assert [r["index"] for r in failed] == [2]
+    assert "non-finite" in failed[0]["error"]
+    assert "run 2" in cap.err and "failed" in cap.err
+    assert doc["n_failed"] == 1 and len(doc["runs"]) == 6
+    assert all(r["channels"] for r in doc["runs"] if r["status"] == "ok")
+    # the -1 g at 80 Hz is gone, so 80 Hz gives no k2/k3; 300 Hz still does
+    assert [f["freq_hz"] for f in doc["channels"][0]["k2_k3_by_freq"]] == pytest.approx([300.0], rel=1e-3)
+    assert (out / "results.json").is_file() and (out / "levels.csv").is_file()
+
+
+# ----------------------------------------------------------------------------- several DUTs in analyze
+
+
+def test_several_duts_equal_each_reduced_alone(example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = str(example.parent / "runs" / "01_z_up_80hz.tdms")
+    common = ["--reference", "shaker/ref", "--reference-units", "mv", "--reference-sensitivity", "10",
+              "--dut-units", "lsb", "--dut-sensitivity", "256000", "--json"]
+    assert main(["analyze", f, "--dut", "shaker/sn1_z,shaker/sn2_z", *common, "--out", str(tmp_path / "o")]) == 0
+    both = json.loads(capsys.readouterr().out)
+    assert [c["channel"] for c in both["channels"]] == ["shaker/sn1_z", "shaker/sn2_z"]
+    for c in both["channels"]:
+        assert main(["analyze", f, "--dut", c["channel"], *common]) == 0
+        alone = json.loads(capsys.readouterr().out)
+        assert [lv["vre_g"] for lv in c["levels"]] == [lv["vre_g"] for lv in alone["levels"]]
+        assert [lv["u_vre_g"] for lv in c["levels"]] == [lv["u_vre_g"] for lv in alone["levels"]]
+        assert c["fit"]["vrc_ug_per_g2"] == alone["fit"]["vrc_ug_per_g2"]
+    # one segmentation: the same levels for both channels
+    assert [lv["rms_g"] for lv in both["channels"][0]["levels"]] == [lv["rms_g"] for lv in both["channels"][1]["levels"]]
+    assert main(["report", str(tmp_path / "o")]) == 0
+    assert (tmp_path / "o" / "report.html").read_text().count("<section") == 2
+
+
+def test_several_duts_need_a_reference(example: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = str(example.parent / "runs" / "01_z_up_80hz.tdms")
+    assert main(["analyze", f, "--dut", "shaker/sn1_z,shaker/sn2_z"]) == 2
+    assert "need --reference" in capsys.readouterr().err
+
+
+def test_the_same_record_in_every_format_gives_the_same_levels(tmp_path: Path) -> None:
+    from vrelab.analysis.readers import Scale, open_record
+    from vrelab.analysis.reduction import analyze_channels
+    from vrelab.simulation import campaign as C
+
+    truth = example_truth()
+    run = C.ExampleRun("tdms", 1.0, 80.0, (0.2, 0.4, 0.6))
+    sensor = tmp_path / "sensor.toml"
+    sensor.write_text(truth.sensor)
+    got = {}
+    for fmt, writer in C._WRITERS.items():
+        fs, n, blocks = C.simulate_run(truth, run, 7, 2.0, sensor)
+        path = tmp_path / f"r.{fmt}"
+        names = writer(path, fs, n, blocks, ["sn1", "sn2"])
+        duts = {p: names[p] for p in ("sn1", "sn2")}
+        with open_record(path, duts, names["reference"], None, Scale("lsb", 256000), Scale("mv", 10)) as rec:
+            got[fmt] = {name: res for name, res, _ in analyze_channels(rec, static_g=1.0)}
+    ref = got["h5"]
+    for fmt, res in got.items():
+        for name in ("sn1", "sn2"):
+            a, b = ref[name].levels, res[name].levels
+            assert len(a) == len(b) == 3, fmt
+            for la, lb in zip(a, b):
+                # CSV keeps 7 digits of the reference and UFF single precision: far below u
+                assert abs(la.vre.value - lb.vre.value) < 0.02 * la.vre.u, (fmt, name)
+                assert lb.rms_g == pytest.approx(la.rms_g, rel=1e-6), (fmt, name)
+
+
+# ----------------------------------------------------------------------------- UFF58
+
+
+def test_uff_names_rates_and_bad_files(example: Path, tmp_path: Path) -> None:
+    from vrelab.analysis.readers import open_record
+    from vrelab.analysis.readers.uff import UffSource
+
+    path = example.parent / "runs" / "03_z_up_300hz.uff"
+    src = UffSource.open(path)
+    assert {"reference mV", "sn1 LSB", "sn2 LSB", "1:+Z", "101:+Z", "201:+Z"} <= set(src.channels)
+    assert np.array_equal(src.read("101:+Z", 0, 100), src.read("sn1 LSB", 0, 100))
+    src.close()
+    with open_record(path, "sn1 LSB", "1:+Z") as rec:
+        assert rec.fs_hz == pytest.approx(6000.0)
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with pytest.raises(ValueError, match="cut.uff"):
+        with open_record(cut, "sn2 LSB", "1:+Z") as rec:
+            next(rec.blocks(1 << 20, ["dut"]))
+
+
+def _uff58_ascii(id1: str, node: int, direction: int, dt: float, values: list[float], double: bool) -> str:
+    """One UFF58 ASCII record written by hand (the layout of the I-DEAS universal file format:
+    11 header records, then the ordinates 4E20.12 (double) or 6E13.5 (single))."""
+    lines = ["    -1", "    58", f"{id1:<80}", "NONE", "NONE", "NONE", "NONE",
+             f"{1:5d}{0:10d}{0:5d}{0:10d} {'NONE':<10}{node:10d}{direction:4d} {'NONE':<10}{0:10d}{0:4d}",
+             f"{4 if double else 2:10d}{len(values):10d}{1:10d}{0.0:13.5E}{dt:13.5E}{0.0:13.5E}",
+             f"{17:10d}{0:5d}{0:5d}{0:5d} {'Time':<20} {'s':<20}",
+             f"{12:10d}{0:5d}{0:5d}{0:5d} {'Acceleration':<20} {'g':<20}",
+             f"{0:10d}{0:5d}{0:5d}{0:5d} {'NONE':<20} {'NONE':<20}",
+             f"{0:10d}{0:5d}{0:5d}{0:5d} {'NONE':<20} {'NONE':<20}"]
+    per, fmt = (4, "{:20.12E}") if double else (6, "{:13.5E}")
+    for i in range(0, len(values), per):
+        lines.append("".join(fmt.format(v) for v in values[i : i + per]))
+    lines.append("    -1")
+    return "\n".join(lines) + "\n"
+
+
+def test_uff_by_hand_trailing_spaces_and_mixed_precision(tmp_path: Path) -> None:
+    from vrelab.analysis.readers.uff import UffSource
+
+    rng = np.random.default_rng(3)
+    a = list(np.round(rng.standard_normal(50), 6))
+    b = list(np.round(rng.standard_normal(50), 4))
+    p = tmp_path / "hand.uff"
+    p.write_text(_uff58_ascii("ref   ", 1, 3, 1e-3, a, True) + _uff58_ascii("dut z    ", 101, -3, 1e-3, b, False))
+    src = UffSource.open(p)
+    assert set(src.channels) >= {"ref", "dut z", "1:+Z", "101:-Z"}
+    assert src.fs_hz == pytest.approx(1000.0)
+    np.testing.assert_allclose(src.read("ref", 0, 50), a, rtol=1e-11)
+    np.testing.assert_allclose(src.read("101:-Z", 0, 50), b, rtol=1e-5)
+    q = tmp_path / "rates.uff"
+    q.write_text(_uff58_ascii("ref", 1, 3, 1e-3, a, True) + _uff58_ascii("dut", 101, 3, 5e-4, b, True))
+    with pytest.raises(ValueError, match="rates.uff: records have different sample rates"):
+        UffSource.open(q)
