@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
-from vrelab.analysis.readers import hdf5, matlab, numpy_, tdms, text, uff, wav  # noqa: F401  (they register)
+from vrelab.analysis.readers import hdf5, lvm, matlab, mdf, numpy_, tdms, text, uff, wav  # noqa: F401  (they register)
 from vrelab.analysis.readers._base import (
     _TIME_NAMES,
     G0,
@@ -277,6 +277,7 @@ def open_record(
             mapping["reference"] = _resolve(reference, src, "reference")
             if mapping["reference"] in seen:
                 raise ValueError(f"reference and DUT are the same channel {mapping['reference']!r}")
+        src.select(list(mapping.values()))
         lens = {f"{role} {ch!r}": src.lengths[ch] for role, ch in mapping.items()}
         tcol = None
         if time_channel is not None:

@@ -114,6 +114,10 @@ class Source:
     def channels(self) -> tuple[str, ...]:
         return tuple(self.lengths)
 
+    def select(self, names: Sequence[str]) -> None:
+        """Called with the channels a record will read, before its rate is taken: a format whose
+        channels may have different rates (MDF groups) sets ``fs_hz`` for these, or refuses."""
+
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         raise NotImplementedError
 

@@ -42,6 +42,13 @@ class CsvSource(Source):
         if len(set(self.names)) != len(self.names):
             raise ValueError(f"{path.name}: duplicate column names in the header: {self.names}")
         self.skip_comments = head.splitlines().index(first)
+        self.columns = list(self.names)  # every column of a row, channels or not
+        self.decimal_point = "."
+        self._scan()
+
+    def _scan(self) -> None:
+        """One pass: the row count, and each column's length (empty cells only at its end)."""
+        path = self.path
         n = 0
         first_null: dict[str, int] = {}
         last_valid: dict[str, int] = {}
@@ -72,17 +79,18 @@ class CsvSource(Source):
         from pyarrow import csv as pacsv
 
         ro = pacsv.ReadOptions(
-            column_names=self.names,
+            column_names=self.columns,
             skip_rows=self.skip_comments + (1 if self.has_header else 0),
             block_size=1 << 20,  # larger blocks make the reader hold ~40x the block size
             use_threads=False,
         )
         po = pacsv.ParseOptions(delimiter=self.delim if self.delim != " " else " ", ignore_empty_lines=True)
         co = pacsv.ConvertOptions(
-            column_types={c: pa.float64() for c in self.names},
+            column_types={c: pa.float64() for c in names},
             include_columns=list(names),
             null_values=[""],
             strings_can_be_null=True,
+            decimal_point=self.decimal_point,
         )
         try:
             reader = pacsv.open_csv(self.path, read_options=ro, parse_options=po, convert_options=co)
@@ -90,7 +98,7 @@ class CsvSource(Source):
                 yield batch
         except pa.ArrowInvalid as exc:
             msg = str(exc).splitlines()[0]
-            raise ValueError(f"{self.path.name}: cannot parse CSV (truncated or malformed row?): {msg}") from None
+            raise ValueError(f"{self.path.name}: cannot parse {self.fmt.upper()} (truncated or malformed row?): {msg}") from None
 
     def stream(self, names: Sequence[str], start: int, stop: int, block: int) -> Iterator[dict[str, NDArray[Any]]]:
         pos = 0

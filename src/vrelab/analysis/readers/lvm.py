@@ -1,0 +1,110 @@
+"""LabVIEW measurement files (LVM text), as LabVIEW's Write To Measurement File writes them.
+
+Written here: no maintained PyPI library reads LVM while streaming (``lvm_read`` loads the whole
+file into Python lists). The layout (NI, "The LabVIEW Measurement (.lvm) file format"): a file
+header from ``LabVIEW Measurement`` to ``***End_of_Header***`` (``Separator`` Tab or Comma,
+``Decimal_Separator``, ``X_Columns`` No/One/Multi), then a segment header (``Channels``,
+``Samples``, ``Delta_X`` per channel, ...) ending with ``***End_of_Header***``, the column
+names line (``X_Value``, channel names, ``Comment``) and the rows. One segment is read; a file
+with several segments is refused (each segment restarts its time base). The sample rate is
+``1/Delta_X``; every channel must share it. Rows are parsed in streaming batches by pyarrow,
+as CSV is (:class:`~vrelab.analysis.readers.text.CsvSource`), the decimal comma included.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vrelab.analysis.readers._base import register
+from vrelab.analysis.readers.text import CsvSource
+
+_END = "***End_of_Header***"
+_SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
+
+
+@register
+class LvmSource(CsvSource):
+    fmt = "lvm"
+    extensions = (".lvm",)
+    has_magic = True
+    random_access = False
+
+    @classmethod
+    def can_open(cls, head: bytes) -> bool:
+        return head.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement")
+
+    def __init__(self, path: Path) -> None:  # noqa: D107  (CsvSource's header sniffing does not apply)
+        self.path = path
+        self.lengths = {}
+        self.fs_hz = None
+        self.notes = []
+        self.meta = {}
+        self.schedule = None
+        lines: list[str] = []
+        with open(path, encoding="utf-8-sig", errors="replace") as fh:
+            for line in fh:
+                lines.append(line.rstrip("\r\n"))
+                if sum(1 for x in lines if x.split("\t")[0].split(",")[0].strip() == _END) == 2:
+                    lines.append(fh.readline().rstrip("\r\n"))  # the column names
+                    lines.append(fh.readline().rstrip("\r\n"))  # the first row
+                    break
+                if len(lines) > 10_000:
+                    break
+        ends = [i for i, x in enumerate(lines) if x.split("\t")[0].split(",")[0].strip() == _END]
+        if len(ends) < 2:
+            raise ValueError(f"{path.name}: LVM header incomplete (no segment header ending in {_END})")
+        file_head = self._table(lines[: ends[0]])
+        sep_name = file_head.get("Separator", ["Tab"])[0].strip().lower()
+        if sep_name not in _SEPARATORS:
+            raise ValueError(f"{path.name}: LVM Separator {sep_name!r} not understood (Tab or Comma)")
+        self.delim = _SEPARATORS[sep_name]
+        self.decimal_point = (file_head.get("Decimal_Separator", ["."])[0] or ".")[0]
+        seg = self._table(lines[ends[0] + 1 : ends[1]])
+        names_line = lines[ends[1] + 1] if len(lines) > ends[1] + 1 else ""
+        cols = [c.strip() for c in names_line.split(self.delim)]
+        if not cols or cols[0] == "":
+            raise ValueError(f"{path.name}: LVM file has no column names line after the segment header")
+        first_row = lines[ends[1] + 2] if len(lines) > ends[1] + 2 else ""
+        n_cells = len(first_row.split(self.delim))
+        if cols[-1] == "Comment" and n_cells == len(cols) - 1:
+            cols = cols[:-1]  # rows without a comment cell (LabVIEW writes none when there is none)
+        # unique names (X_Columns = Multi repeats X_Value): later copies numbered
+        seen: dict[str, int] = {}
+        self.columns = []
+        for c in cols:
+            seen[c] = seen.get(c, 0) + 1
+            self.columns.append(c if seen[c] == 1 else f"{c}_{seen[c]}")
+        self.names = [c for c in self.columns if c and not c.startswith("X_Value") and c != "Comment"]
+        self.has_header = True
+        self.skip_comments = ends[1] + 1
+        dx = [float(x.replace(self.decimal_point, ".")) for x in seg.get("Delta_X", []) if x.strip()]
+        if not dx:
+            raise ValueError(f"{path.name}: LVM segment header has no Delta_X: no sample rate")
+        if max(dx) - min(dx) > 1e-9 * max(dx):
+            raise ValueError(f"{path.name}: LVM channels have different Delta_X: {sorted(set(dx))}")
+        if not dx[0] > 0:
+            raise ValueError(f"{path.name}: LVM Delta_X must be > 0, got {dx[0]}")
+        self.fs_hz = 1.0 / dx[0]
+        self._scan()
+        self.lengths = {n: self.lengths[n] for n in self.names}
+
+    @staticmethod
+    def _table(lines: list[str]) -> dict[str, list[str]]:
+        out: dict[str, list[str]] = {}
+        for line in lines:
+            cells = line.split("\t") if "\t" in line else line.split(",")
+            if cells and cells[0].strip():
+                out[cells[0].strip()] = cells[1:]
+        return out
+
+    def _scan(self) -> None:
+        # a second segment header in the rows is a row that does not parse: say what it is
+        try:
+            super()._scan()
+        except ValueError as exc:
+            with open(self.path, encoding="utf-8-sig", errors="replace") as fh:
+                n_end = sum(1 for line in fh if line.startswith(_END))
+            if n_end > 2:
+                raise ValueError(f"{self.path.name}: LVM file holds {n_end - 1} segments; one is read (export "
+                                 "each segment on its own)") from None
+            raise exc
