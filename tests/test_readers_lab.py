@@ -149,8 +149,36 @@ def test_tdms_daqmx_raw_data_is_read_scaled(tmp_path: Path) -> None:
     linear scale), built with npTDMS's own segment generator for its DAQmx tests: the reader
     gives the scaled values, i.e. what npTDMS's ``read_data(scaled=True)`` gives."""
     from nptdms import TdmsFile
-    from nptdms.test.test_daqmx import daqmx_channel_metadata, daqmx_scaler_metadata, segment_toc
-    from nptdms.test.util import GeneratedFile, group_metadata, hexlify_value, root_metadata, segment_objects_metadata, string_hexlify
+    from nptdms.test.util import (
+        GeneratedFile,
+        group_metadata,
+        hex_properties,
+        hexlify_value,
+        root_metadata,
+        segment_objects_metadata,
+        string_hexlify,
+    )
+
+    # DAQmx metadata as npTDMS's own DAQmx tests build it (nptdms/test/test_daqmx.py: raw data
+    # index 0x1269, data type 0xFFFFFFFF, one scaler per channel, raw widths); restated here
+    # because importing that pytest module from site-packages is not what it is for
+    def scaler(type_id: int, byte_offset: int) -> str:
+        return (hexlify_value("<I", type_id) + hexlify_value("<I", 0) + hexlify_value("<I", byte_offset)
+                + "00 00 00 00" + hexlify_value("<I", 0))
+
+    def daqmx_channel_metadata(name: str, n: int, widths: list[int], scalers: list[str], properties: dict) -> str:
+        path = "/'Group'/'" + name + "'"
+        return (hexlify_value("<I", len(path)) + string_hexlify(path) + "69 12 00 00"
+                + hexlify_value("<I", 0xFFFFFFFF) + "01 00 00 00" + hexlify_value("<Q", n)
+                + hexlify_value("<I", len(scalers)) + "".join(scalers)
+                + hexlify_value("<I", len(widths)) + "".join(hexlify_value("<I", w) for w in widths)
+                + hex_properties(properties))
+
+    def daqmx_scaler_metadata(scale_id: int, type_id: int, byte_offset: int) -> str:
+        return scaler(type_id, byte_offset)
+
+    def segment_toc() -> tuple[str, ...]:
+        return ("kTocMetaData", "kTocRawData", "kTocNewObjList", "kTocDAQmxRawData")
 
     rng = np.random.default_rng(5)
     counts = rng.integers(-3000, 3000, size=(2, 400)).astype(np.int16)

@@ -290,26 +290,38 @@ def _scales(run: Run) -> tuple[dict[str, Any], Any]:
 
 
 def _check_channels(run: Run) -> None:
-    """The run's file opens and holds its channels (the reader's header: no samples read)."""
-    from vrelab.analysis.readers import _open_source, _resolve
+    """The run's file is of a known format and holds its channels (its names only: a text
+    format is not parsed, a UFF58 file's headers only)."""
+    from vrelab.analysis.readers import _resolve
+    from vrelab.analysis.readers._base import reader_for
 
     try:
-        src = _open_source(run.file)
+        cls = reader_for(run.file)
+        names = cls.channel_names(run.file)
     except ValueError as exc:
         raise ValueError(f"{run.where}: file: {exc}") from None
-    try:
-        for name, ch in run.dut.items():
-            try:
-                _resolve(ch, src, f"DUT {name!r}")
-            except ValueError as exc:
-                raise ValueError(f"{run.where}: dut: {exc}") from None
-        if run.reference is not None:
-            try:
-                _resolve(run.reference, src, "reference")
-            except ValueError as exc:
-                raise ValueError(f"{run.where}: reference: {exc}") from None
-    finally:
-        src.close()
+    except Exception as exc:  # a format library's own error on a corrupt file
+        raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
+                         f"{type(exc).__name__}: {exc}") from None
+    listing = _Names(run.file, names)
+    for name, ch in run.dut.items():
+        try:
+            _resolve(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
+        except ValueError as exc:
+            raise ValueError(f"{run.where}: dut: {exc}") from None
+    if run.reference is not None:
+        try:
+            _resolve(run.reference, listing, "reference")  # type: ignore[arg-type]
+        except ValueError as exc:
+            raise ValueError(f"{run.where}: reference: {exc}") from None
+
+
+@dataclass(frozen=True)
+class _Names:
+    """What channel lookup needs of a source: its path and channel names."""
+
+    path: Path
+    channels: tuple[str, ...]
 
 
 # --------------------------------------------------------------------------- reducing runs

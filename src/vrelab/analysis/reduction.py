@@ -159,12 +159,19 @@ def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
 
     t = np.arange(n) / fs_hz
     xc = x - x.mean()
+    xx = float(xc @ xc)
+    sx = float(xc.sum())
 
     def residual(f: float) -> float:
-        B = np.stack([np.ones(n), np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)], axis=1)
-        coef, *_ = np.linalg.lstsq(B, xc, rcond=None)
-        r = xc - B @ coef
-        return float(r @ r)
+        # the 3x3 normal equations of the (offset, cos, sin) fit: the residual is xᵀx − coefᵀ·Bᵀx
+        # (no n×3 design matrix and SVD per evaluation; columns this well conditioned need none)
+        ph = 2 * np.pi * f * t
+        c, s = np.cos(ph), np.sin(ph)
+        G = np.array([[n, c.sum(), s.sum()], [0.0, c @ c, c @ s], [0.0, 0.0, s @ s]])
+        G = np.triu(G) + np.triu(G, 1).T
+        rhs = np.array([sx, c @ xc, s @ xc])
+        coef = np.linalg.solve(G, rhs)
+        return xx - float(coef @ rhs)
 
     bw = fs_hz / n
     bounds = (f0 - 0.2 * bw, f0 + 0.2 * bw)
@@ -187,14 +194,24 @@ def whole_period_batch(freq_hz: float, fs_hz: float, target_s: float = WINDOW_S)
 
 
 def _sine_level(
-    record: Record, i0: int, i1: int, ref: str, block_size: int, freq_hint: float | None
+    record: Record, i0: int, i1: int, ref: str, block_size: int, freq_hint: float | None,
+    shared: dict[Any, Any] | None = None,
 ) -> tuple[float, MeanEstimate, MeanEstimate, float, float, list[str]]:
-    """Second pass over one sine level: (freq, DUT mean, ref rms estimate, t_centre, n, warnings)."""
+    """Second pass over one sine level: (freq, DUT mean, ref rms estimate, t_centre, n, warnings).
+
+    ``shared``: what the DUT channels of one record share (their window stats' ``shared``): the
+    drive frequency of a level is the reference's, found once for all of them."""
     fs = record.fs_hz
     warnings: list[str] = []
-    n_probe = min(i1 - i0, 1 << 17)
-    probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
-    f = estimate_frequency(probe, fs)
+    key = ("frequency", i0, i1)
+    if shared is not None and key in shared:
+        f = shared[key]
+    else:
+        n_probe = min(i1 - i0, 1 << 17)
+        probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
+        f = estimate_frequency(probe, fs)
+        if shared is not None:
+            shared[key] = f
     if freq_hint is not None and abs(f - freq_hint) > 0.05 * freq_hint:
         warnings.append(Notice("frequency", f"drive found at {f:.4g} Hz, schedule says {freq_hint:.4g} Hz"))
     m, L = whole_period_batch(f, fs)
@@ -441,7 +458,8 @@ def _level(
     else:
         i0 = int(math.ceil(seg.start_s * fs - 1e-9))
         i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), stats.n_samples)
-        freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz)
+        freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz,
+                                                stats.shared)
         warnings += w
         rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
     base, u_base, note = bracket(t_c, baselines)

@@ -19,7 +19,7 @@ where it changes, are left out); a settling time is trimmed at both edges of eve
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -58,6 +58,8 @@ class WindowStats:
     ref_band_sumsq: NDArray[np.float64]  # window length x mean square of the reference in the band
     band_hz: tuple[float, float]
     reference: str  # channel used as reference ("dut" when the record has no reference)
+    # what the DUT channels of one pass share beyond these arrays (a sine level's drive frequency)
+    shared: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_windows(self) -> int:
@@ -370,12 +372,13 @@ def window_pass_many(
         bar.close()
     if pos != n:
         raise ValueError(f"record delivered {pos} samples, expected {n} (truncated file?)")
+    shared: dict = {}
     return {
         d: WindowStats(
             fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
             dut_max=a.dmax, dut_min=a.dmin, n_at_max=a.nmax, n_at_min=a.nmin, n_beyond_rail=a.nrail,
             ref_ac_sumsq=rac, ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2),
-            reference="dut" if ref_name == d else ref_name,
+            reference="dut" if ref_name == d else ref_name, shared=shared,
         )
         for d, a in accs.items()
     }  # fmt: skip

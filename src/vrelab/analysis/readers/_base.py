@@ -102,6 +102,16 @@ class Source:
     def open(cls, path: Path) -> "Source":
         return cls(path)
 
+    @classmethod
+    def channel_names(cls, path: Path) -> tuple[str, ...]:
+        """The file's channel names, as cheaply as the format allows (checking a campaign's
+        manifest needs them before any run is read); by default the file is opened."""
+        src = cls.open(path)
+        try:
+            return src.channels
+        finally:
+            src.close()
+
     def __init__(self, path: Path) -> None:
         self.path = path
         self.lengths: dict[str, int] = {}

@@ -33,7 +33,11 @@ class LvmSource(CsvSource):
     def can_open(cls, head: bytes) -> bool:
         return head.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement")
 
-    def __init__(self, path: Path) -> None:  # noqa: D107  (CsvSource's header sniffing does not apply)
+    @classmethod
+    def channel_names(cls, path: Path) -> tuple[str, ...]:
+        return tuple(cls(path, header_only=True).names)
+
+    def __init__(self, path: Path, header_only: bool = False) -> None:  # noqa: D107  (not CsvSource's sniffing)
         self.path = path
         self.lengths = {}
         self.fs_hz = None
@@ -85,6 +89,8 @@ class LvmSource(CsvSource):
         if not dx[0] > 0:
             raise ValueError(f"{path.name}: LVM Delta_X must be > 0, got {dx[0]}")
         self.fs_hz = 1.0 / dx[0]
+        if header_only:
+            return
         self._scan()
         self.lengths = {n: self.lengths[n] for n in self.names}
 

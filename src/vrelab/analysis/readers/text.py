@@ -27,21 +27,31 @@ class CsvSource(Source):
     has_magic = False  # text: chosen by extension
     random_access = False  # parsed from the start: read in passes, not by position
 
-    def __init__(self, path: Path) -> None:
-        super().__init__(path)
+    @classmethod
+    def channel_names(cls, path: Path) -> tuple[str, ...]:
+        """The header's column names (no pass over the rows)."""
+        return tuple(cls._sniff(path)[1])
+
+    @staticmethod
+    def _sniff(path: Path) -> tuple[str, list[str], bool, int]:
+        """(delimiter, names, has_header, lines to skip before the header) from the file's head."""
         with open(path, "rb") as fh:
             head = fh.read(65536).decode("utf-8-sig", errors="replace")
         lines = [ln for ln in head.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
         if not lines:
             raise ValueError(f"{path.name}: CSV file has no data lines")
         first = lines[0]
-        self.delim = next((d for d in (",", "\t", ";") if d in first), " ")
-        cells = [c.strip().strip('"') for c in (first.split() if self.delim == " " else first.split(self.delim))]
-        self.has_header = any(not _is_number(c) for c in cells)
-        self.names = cells if self.has_header else [str(i) for i in range(len(cells))]
+        delim = next((d for d in (",", "\t", ";") if d in first), " ")
+        cells = [c.strip().strip('"') for c in (first.split() if delim == " " else first.split(delim))]
+        has_header = any(not _is_number(c) for c in cells)
+        names = cells if has_header else [str(i) for i in range(len(cells))]
+        return delim, names, has_header, head.splitlines().index(first)
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path)
+        self.delim, self.names, self.has_header, self.skip_comments = self._sniff(path)
         if len(set(self.names)) != len(self.names):
             raise ValueError(f"{path.name}: duplicate column names in the header: {self.names}")
-        self.skip_comments = head.splitlines().index(first)
         self.columns = list(self.names)  # every column of a row, channels or not
         self.decimal_point = "."
         self._scan()

@@ -15,6 +15,7 @@ each channel read (float64). Reading the headers costs one pass over the file's 
 
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,16 @@ def rate_from_increment(inc: float) -> float:
     return 1.0 / inc
 
 
+@functools.lru_cache(maxsize=16)
+def _indexed(path: str, mtime_ns: int, size: int) -> Any:
+    """pyuff's index of a file (its records' byte ranges and types: small), kept for the file's
+    next opening in this process (a campaign checks the channels, then reduces the run); a
+    changed file (another mtime or size) is indexed again."""
+    import pyuff
+
+    return pyuff.UFF(path)
+
+
 @register
 class UffSource(Source):
     fmt = "uff"
@@ -66,11 +77,10 @@ class UffSource(Source):
         return bool(m and m.group(1) in (b"58", b"151", b"164", b"15", b"55", b"82", b"2411", b"2412"))
 
     def __init__(self, path: Path) -> None:
-        import pyuff
-
         super().__init__(path)
         try:
-            self.uff = pyuff.UFF(str(path))
+            st = path.stat()
+            self.uff = _indexed(str(path.resolve()), st.st_mtime_ns, st.st_size)
             types = np.asarray(self.uff.get_set_types()).astype(int)
         except Exception as exc:
             raise ValueError(f"{path.name}: cannot read as UFF: {type(exc).__name__}: {exc}") from None
@@ -114,9 +124,21 @@ class UffSource(Source):
         if self.fs_hz != float(vals[0]):
             self.notes.append(f"UFF58 abscissa increment {1.0 / vals[0]:.6g} s is the rounded inverse of "
                               f"{self.fs_hz:g} Hz: that rate used (1/increment = {vals[0]:.9g} Hz)")
-        self.notes.append("UFF58: each channel's record is parsed whole on its first read (pyuff)")
 
     def _header(self, i: int) -> dict[str, Any]:
+        # pyuff's read_sets(header_only=True) splits the whole record into lines to keep 13 of
+        # them (a second pass over the data); its header parser is given the record's first
+        # 2 KB instead (13 lines of at most 80 characters and their line ends)
+        try:
+            from pyuff.datasets.dataset_58 import _extract58
+
+            start = int(self.uff._block_ind[i][0])
+            with open(self.path, "rb") as fh:
+                fh.seek(start)
+                head = fh.read(2048)
+            return dict(_extract58(head, header_only=True))
+        except Exception:
+            pass
         try:
             return dict(self.uff.read_sets(i, header_only=True))
         except Exception as exc:
