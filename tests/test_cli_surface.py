@@ -116,6 +116,12 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("unknown-method", ["{d}/record.h5", "--dut", "dut", "--method", "chirp"], 'method'),
         ("not-a-record", ["{d}/a-file.txt", "--dut", "dut"], 'a-file.txt'),
     ],
+    "campaign": [
+        ("missing-manifest", ["{d}/no-such-campaign.toml"], 'no-such-campaign.toml'),
+        ("malformed-toml", ["{d}/malformed.toml"], 'malformed.toml'),
+        ("missing-run-file", ["{d}/campaign-missing-file.toml"], 'nope.h5'),
+        ("zero-workers", ["{d}/campaign.toml", "--workers", "0"], 'workers'),
+    ],
     "report": [
         ("missing-folder", ["{d}/no-such-folder"], 'no-such-folder'),
         ("no-results", ["{d}/empty"], 'results.json'),
@@ -144,6 +150,9 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     sweep = 'kind = "predict"\nseed = 1\n[fixed]\nsensor = "adxl355"\nprofile = "flat:50-2000"\n[grid]\nrms_g = "0.5:1:0.5"\n'
     (d / "sweep.toml").write_text(sweep)  # valid: the example of `vrelab sweep --help`, one axis
     (d / "sweep-bad-level.toml").write_text(sweep.replace('"0.5:1:0.5"', '"-1,1"'))
+    camp = 'name = "c"\n[[run]]\nfile = "record.h5"\ndut = ["dut"]\nreference = "reference"\nstatic_g = 1\n'
+    (d / "campaign.toml").write_text(camp)
+    (d / "campaign-missing-file.toml").write_text(camp.replace("record.h5", "nope.h5"))
     (d / "empty").mkdir()
     (d / "malformed").mkdir()
     (d / "malformed" / "results.json").write_text("{\"method\": ")
@@ -204,6 +213,7 @@ VALID: dict[str, list[str]] = {
     "predict": [*PRED, "--levels", "1", "--json"],
     "simulate": [*SIM, "--levels", "1", "--json"],
     "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],
+    "campaign": ["{d}/campaign.toml", "--json"],
     "report": ["{d}/valid-results", "--json"],
 }
 

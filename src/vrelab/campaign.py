@@ -341,12 +341,13 @@ class RunResult:
         return self.error is None
 
 
-def reduce_run(run: Run, out: Path | None = None, progress: bool = False) -> RunResult:
+def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_g: float | None = None) -> RunResult:
     """Reduce one run: its record opened with every DUT, each reduced against the reference
     (:func:`vrelab.analysis.reduction.analyze_channels`). With ``out`` the run's folder is
     written there (a ``results.json`` of its channels and a sub-folder per channel)."""
     from vrelab.analysis.readers import open_record
     from vrelab.analysis.reduction import DEFAULT_SETTLE_S, analyze_channels
+    from vrelab.gum import TypeB
     from vrelab.profiles import parse_profile
     from vrelab.record import Schedule
 
@@ -359,6 +360,7 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False) -> Run
             rec, None, run.method, schedule, static_g=dict(run.static_g), band_hz=run.band, rail_g=run.rail_g,
             progress=progress, profile=profile,
             settle_s=DEFAULT_SETTLE_S if run.settle_s is None else run.settle_s, provenance=prov,
+            typeb=TypeB.from_mapping(run.budget) if run.budget else None, limit_g=limit_g,
         )  # fmt: skip
     res = RunResult(run, [(name, result) for name, result, _ in reduced])
     if out is not None:
@@ -369,9 +371,9 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False) -> Run
     return res
 
 
-def _reduce_safely(run: Run, out: Path | None) -> RunResult:
+def _reduce_safely(run: Run, out: Path | None, limit_g: float | None = None) -> RunResult:
     try:
-        return reduce_run(run, out)
+        return reduce_run(run, out, limit_g=limit_g)
     except MemoryError:
         return RunResult(run, error="out of memory")
     except Exception as exc:  # a run's failure is reported with the others kept
@@ -382,9 +384,10 @@ def _reduce_safely(run: Run, out: Path | None) -> RunResult:
 
 
 def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
-                 on_done: Callable[[RunResult], None] | None = None) -> list[RunResult]:
+                 on_done: Callable[[RunResult], None] | None = None, limit_g: float | None = None) -> list[RunResult]:
     """Reduce every run (``workers`` processes; 1: here, in order). A failing run is kept with
-    its error. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``."""
+    its error. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``. Each run's budget
+    keys (SPEC 4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level."""
     workers = V.integer("workers", workers, 1)
     subs = run_folders(manifest)
     dests = [None if out is None else out / "runs" / subs[r.index] for r in manifest.runs]
@@ -392,12 +395,12 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
     if workers == 1 or len(manifest.runs) == 1:
         results = []
         for run, dest in zip(manifest.runs, dests):
-            results.append(_reduce_safely(run, dest))
+            results.append(_reduce_safely(run, dest, limit_g))
             if on_done:
                 on_done(results[-1])
     else:
         with ProcessPoolExecutor(max_workers=min(workers, len(manifest.runs))) as pool:
-            futures = [pool.submit(_reduce_safely, run, dest) for run, dest in zip(manifest.runs, dests)]
+            futures = [pool.submit(_reduce_safely, run, dest, limit_g) for run, dest in zip(manifest.runs, dests)]
             results = []
             for fut in futures:
                 results.append(fut.result())
@@ -469,7 +472,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             g0 = rr.run.static_g[name]
             for f in res.fits:
                 if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
-                    e = f.params["vrc_ug_per_g2"]
+                    e = _type_a(f, "vrc_ug_per_g2")
                     if f.n_points < 2 or not (math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0):
                         notes.append(f"{rr.run.where}: the VRC at {f.freq_hz:g} Hz rests on {f.n_points} level(s): "
                                      "not used for k2/k3")
@@ -477,7 +480,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                     vrcs.append({"freq_hz": f.freq_hz, "static_g": g0, "run": rr.run.index, "label": rr.run.label,
                                  "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points})
                 elif f.model.startswith("clip-") and "rail_g" in f.params:
-                    e = f.params["rail_g"]
+                    e = _type_a(f, "rail_g")
                     if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
                         rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
                                       "rail_g": {"value": e.value, "u": e.u}, "model": f.model})
@@ -520,6 +523,11 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                      "k2 and k3 = null")
     else:
         notes.append("no sine run with a VRC fit of two levels or more: k2 and k3 = null")
+    budgets = [rr.run.budget for rr in results if any(n == channel for n, _ in rr.results)]
+    if k2 is not None or k3 is not None:
+        k2, k3, note = _common_type_b(k2, k3, budgets)
+        if note:
+            notes.append(note)
     rail = None
     if rails:
         rail = _wmean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
@@ -528,6 +536,32 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
     else:
         notes.append("no random run with a rail fit: rail = null")
     return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes))
+
+
+def _type_a(fit: FitResult, name: str) -> Estimate:
+    """A fitted parameter with its fit's own (Type A) standard error: the covariance's diagonal,
+    before a budget's Type B terms (combined after the runs are, being common to all)."""
+    e = fit.params[name]
+    if fit.covariance is not None and name in fit.params:
+        i = list(fit.params).index(name)
+        return Estimate(e.value, math.sqrt(fit.covariance[i][i]), e.unit)
+    return e
+
+
+def _common_type_b(k2: Estimate | None, k3: Estimate | None,
+                   budgets: Sequence[Mapping[str, float]]) -> tuple[Estimate | None, Estimate | None, str | None]:
+    """k2 and k3 with the sensitivity terms that every run shares (one reference, one DUT:
+    a VRC scales by -2·r and by the DUT's p, so k2 and k3 do too): added once, after the
+    weighted combination that independent Type A errors allow. The largest declared values
+    of the runs are used."""
+    r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
+    p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
+    if not (r or p):
+        return k2, k3, None
+    rel = math.hypot(2 * r, p)
+    out = [None if e is None else Estimate(e.value, math.hypot(e.u, rel * abs(e.value)), e.unit) for e in (k2, k3)]
+    return out[0], out[1], (f"k2, k3: reference ({100 * r:g} %) and DUT ({100 * p:g} %) sensitivity terms, common to "
+                            "every run, added after the combination (the static-field and thermal terms are not)")
 
 
 def _wmean(es: Sequence[Estimate]) -> Estimate:

@@ -119,6 +119,13 @@ class LevelResult:
     n_samples: int | None = None
     n_saturated: int = 0
     flags: tuple[str, ...] = ()
+    # effective degrees of freedom of ``vre.u`` (the record's Type A: batch means), inf if unknown
+    dof: float | None = None
+    # the GUM budget (vrelab.gum): u_vre_g combined with the Type B terms, U = k·u, the terms
+    budget: tuple[Mapping[str, Any], ...] = ()
+    U_vre_g: float | None = None
+    k: float | None = None
+    decision: str | None = None  # pass | fail | indeterminate against a limit (vrelab.gum.decide)
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -126,6 +133,13 @@ class LevelResult:
             "vre_g": finite_or_none(self.vre.value),
             "u_vre_g": finite_or_none(self.vre.u),
         }
+        if self.budget:
+            d.update(U_vre_g=finite_or_none(self.U_vre_g), k=finite_or_none(self.k),
+                     budget=[dict(b) for b in self.budget])
+        if self.decision is not None:
+            d["decision"] = self.decision
+        if self.dof is not None:
+            d["dof"] = finite_or_none(self.dof)
         if self.freq_hz is not None:
             d["freq_hz"] = finite_or_none(self.freq_hz)
         d.update(
@@ -148,6 +162,11 @@ class LevelResult:
             n_samples=d.get("n_samples"),
             n_saturated=int(d.get("n_saturated") or 0),
             flags=tuple(d.get("flags") or ()),
+            dof=math.inf if "dof" in d and d["dof"] is None else d.get("dof"),
+            budget=tuple(d.get("budget") or ()),
+            U_vre_g=d.get("U_vre_g"),
+            k=d.get("k"),
+            decision=d.get("decision"),
         )
 
 

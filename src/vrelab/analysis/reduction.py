@@ -92,6 +92,7 @@ class Baseline:
     u_g: float
     segment: Segment
     n_saturated: int = 0  # DUT samples at a rail: the vibration-off reading is off-scale
+    dof: float = math.inf  # degrees of freedom of u_g (batch means: batches - 1)
 
 
 def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Baseline]:
@@ -427,7 +428,7 @@ def _baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warn
             continue
         est = dut_mean_estimate(stats, k0, k1)
         t_c = float(np.mean(stats.times_s[k0:k1]))
-        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum())))
+        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), max(est.n_batches - 1, 1)))
     return out
 
 
@@ -467,6 +468,7 @@ def _level(
         warnings.append(Notice("bracket", note))
     flags: tuple[str, ...] = ("saturated",) if n_sat > 0 else ()
     vre = Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g")
+    dof = _vre_dof(vre.u, dm, t_c, baselines)
     off = _off_scale_baselines(t_c, baselines)
     if off:
         # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
@@ -478,8 +480,26 @@ def _level(
             f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
         ))
     level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
-                        n_saturated=n_sat, flags=flags)
+                        n_saturated=n_sat, flags=flags, dof=dof)
     return level, t_c
+
+
+def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baseline]) -> float:
+    """Welch-Satterthwaite degrees of freedom of a VRE's u: the level's batch means and the
+    bracketing baselines' (their weights as in :func:`bracket`)."""
+    from vrelab.gum import welch_satterthwaite
+
+    parts = [(dm.u, max(dm.n_batches - 1, 1))]
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if before and after:
+        a, b = before[-1], after[0]
+        lam = (t_s - a.t_s) / (b.t_s - a.t_s)
+        parts += [((1 - lam) * a.u_g, a.dof), (lam * b.u_g, b.dof)]
+    else:
+        near = before[-1] if before else after[0]
+        parts.append((near.u_g, near.dof))
+    return welch_satterthwaite(u, parts) if u > 0 else math.inf
 
 
 # Checks of SPEC 4.2 a user may accept on purpose (``accept=``; CLI ``--accept-<name>``).
@@ -638,8 +658,14 @@ def analyze_full(
     rail_with_vrc: bool = False,
     accept: Collection[str] = (),
     stats: WindowStats | None = None,
+    typeb: Any = None,
+    limit_g: float | None = None,
 ) -> tuple[VreResult, Reduction]:
-    """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs)."""
+    """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs).
+
+    ``typeb`` (:class:`vrelab.gum.TypeB`) adds the Type B terms to every level's and fitted
+    parameter's uncertainty, with ``U_vre_g`` and ``k``; ``limit_g`` decides each level.
+    """
     V.one_of("clip_kind", clip_kind, KINDS)
     if static_g is not None:
         static_g = V.finite_scalar("static_g", static_g)
@@ -649,6 +675,10 @@ def analyze_full(
     g0 = static_g if static_g is not None else red.static_g
     nominal = [seg.freq_hz for seg in red.level_segments]
     fits, w = fit_levels(red.levels, method, g0, clip_kind, fit_k4, rail_with_vrc, nominal_freqs_hz=nominal)
+    levels = list(red.levels)
+    if typeb is not None or limit_g is not None:
+        levels, fits = _with_budget(levels, fits, method, g0, clip_kind, fit_k4, rail_with_vrc, nominal, typeb,
+                                    limit_g)
     meta = dict(getattr(record, "meta", None) or {})
     if conditions is None:
         given = meta.get("conditions")
@@ -657,6 +687,13 @@ def analyze_full(
     extra.setdefault("band_hz", list(default_band(record.fs_hz, band_hz, profile)) if method == "random" else None)
     extra.setdefault("settle_s", settle_s)
     extra.setdefault("static_g_from", "given" if static_g is not None else "mean DUT reading at the baselines")
+    if typeb is not None:
+        extra["type_b"] = typeb.to_dict()
+    if limit_g is not None:
+        from vrelab.gum import DECISION_RULE
+
+        extra["limit_g"] = limit_g
+        extra["decision_rule"] = DECISION_RULE
     desc = conditions.profile
     if desc is None and profile is not None and hasattr(profile, "describe"):
         desc = profile.describe()
@@ -677,13 +714,61 @@ def analyze_full(
     result = VreResult(
         method=method,
         conditions=conditions,
-        levels=tuple(red.levels),
+        levels=tuple(levels),
         fits=tuple(fits),
         warnings=tuple(list(meta.get("reader_notes") or []) + red.warnings + w),
         provenance=prov,
         kind="measurement",
     )
     return result, red
+
+
+def _with_budget(levels: list[LevelResult], fits: list[Any], method: Method, g0: float | None, clip_kind: ClipKind,
+                 fit_k4: bool, rail_with_vrc: bool, nominal: list[float | None], typeb: Any,
+                 limit_g: float | None) -> tuple[list[LevelResult], list[Any]]:
+    """Levels and fits with the GUM budget of :mod:`vrelab.gum` (Type B terms by their
+    sensitivity coefficients; fits refitted with each input perturbed)."""
+    from vrelab import gum
+
+    typeb = typeb if typeb is not None else gum.TypeB()
+    if limit_g is not None:
+        limit_g = V.positive_scalar("limit_g", limit_g)
+    coeff = _static_coefficients(levels, fits, g0)
+    out = [gum.level_budget(lv, typeb, c, limit_g) for lv, c in zip(levels, coeff)]
+    if not typeb.declared:
+        return out, fits
+
+    def refit_for(fit: Any):
+        def refit(delta: dict[str, float]):
+            lv = gum.perturb_levels(levels, delta.get("rms_rel", 0.0), delta.get("vre_rel", 0.0),
+                                    delta.get("offset_g", 0.0))
+            g = None if g0 is None else g0 + delta.get("static_g", 0.0)
+            again, _ = fit_levels(lv, method, g, clip_kind, fit_k4, rail_with_vrc, nominal_freqs_hz=nominal)
+            same = [f for f in again if f.model == fit.model and f.freq_hz == fit.freq_hz]
+            return same[0] if same else None
+        return refit
+
+    return out, [gum.fit_budget(f, refit_for(f), typeb) for f in fits]
+
+
+def _static_coefficients(levels: Sequence[LevelResult], fits: Sequence[Any], g0: float | None) -> list[float | None]:
+    """∂VRE/∂g0 per level from the fitted clipping model (central difference of its Gaussian
+    mean shift at the level's rms), None where no fitted model gives it."""
+    from vrelab.models.clipping import censored_mean_shift, truncated_mean_shift
+
+    clip = next((f for f in fits if f.model.startswith("clip-")), None)
+    if clip is None or g0 is None:
+        return [None] * len(levels)
+    if "rail_g" in clip.params:
+        lo, hi = -clip.params["rail_g"].value, clip.params["rail_g"].value
+    elif {"rail_low_g", "rail_high_g"} <= set(clip.params):
+        lo, hi = clip.params["rail_low_g"].value, clip.params["rail_high_g"].value
+    else:
+        return [None] * len(levels)
+    shift = censored_mean_shift if clip.model == "clip-censored" else truncated_mean_shift
+    h = 1e-4
+    return [float(shift(g0 + h, lv.rms_g, lo, hi) - shift(g0 - h, lv.rms_g, lo, hi)) / (2 * h)
+            if math.isfinite(lv.rms_g) and lv.rms_g > 0 else None for lv in levels]
 
 
 def analyze(record: Record, method: MethodRequest = "auto", schedule: Schedule | None = None, **options: Any) -> VreResult:

@@ -72,11 +72,19 @@ def positive_list(text: str, name: str) -> list[float]:
 def print_levels(result: Any) -> None:
     """The levels of a ``VreResult`` as a table, then its fits and warnings (simulate, analyze)."""
     sine = result.method == "sine"
-    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  saturated")
+    budget = any(lv.budget for lv in result.levels)
+    decided = any(lv.decision for lv in result.levels)
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}" + ("   U (mg)     k" if budget else "")
+          + ("  decision     " if decided else "") + "  saturated")
     for lv in result.levels:
         f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ("        " if sine else "")
         sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
-        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}  {sat}")
+        more = ""
+        if budget:
+            more += f"  {format_mg(lv.U_vre_g, signed=False):>8}  {lv.k:4.2f}" if lv.U_vre_g is not None and lv.k is not None else " " * 16
+        if decided:
+            more += f"  {lv.decision or 'undefined':<13}"
+        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
         print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))

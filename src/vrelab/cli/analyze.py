@@ -97,6 +97,17 @@ def register(subparsers: Any) -> None:
     p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
     p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
+    g = p.add_argument_group("uncertainty budget (SPEC 4.3) and decision")
+    g.add_argument("--u-reference-pct", type=float, default=0.0, metavar="P",
+                   help="standard uncertainty of the reference sensitivity [%%] (its calibration)")
+    g.add_argument("--u-dut-pct", type=float, default=0.0, metavar="P", help="standard uncertainty of the DUT sensitivity [%%]")
+    g.add_argument("--u-static-g", type=float, default=0.0, metavar="G",
+                   help="standard uncertainty of the static field [g] (fixture alignment)")
+    g.add_argument("--u-thermal-g", type=float, default=0.0, metavar="G",
+                   help="standard uncertainty of an offset change during vibration [g] (temperature)")
+    g.add_argument("--limit", type=float, metavar="G",
+                   help="VRE limit [g] (a datasheet spec): each level pass/fail/indeterminate under guarded "
+                   "acceptance (pass when |VRE| + U <= limit, fail when |VRE| - U > limit)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
@@ -141,7 +152,12 @@ def run(args: argparse.Namespace) -> int:
             "input_sha256": sha256_file(path),
             "command": _command_line(args),
         }
+        from vrelab.gum import TypeB
+
+        typeb = TypeB(args.u_reference_pct, args.u_dut_pct, args.u_static_g, args.u_thermal_g)
         options = dict(
+            typeb=typeb,
+            limit_g=args.limit,
             profile=profile,
             static_g=args.static,
             rail_g=args.rail,
@@ -199,7 +215,8 @@ def _command_line(args: argparse.Namespace) -> str:
             continue
         if key in ("dut_units", "reference_units") and value == "g":
             continue
-        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "auto"), ("kind", "censored")):
+        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "auto"), ("kind", "censored")) or (
+                key.startswith("u_") and value == 0.0):
             continue
         opt = "--" + key.replace("_", "-")
         if value is True:

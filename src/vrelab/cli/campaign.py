@@ -64,6 +64,8 @@ def register(subparsers: Any) -> None:
                    help="write results.json, levels.csv (every level of every run) and runs/NN-label/ per run; "
                    "then `vrelab report DIR`")
     p.add_argument("--workers", type=int, default=1, metavar="N", help="reduce N runs at once in processes (default 1)")
+    p.add_argument("--limit", type=float, metavar="G",
+                   help="VRE limit [g]: each level pass/fail/indeterminate under guarded acceptance (SPEC 4.3)")
     p.add_argument("--json", action="store_true", help="print the campaign as one JSON object")
     p.set_defaults(func=run)
 
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
+    if args.limit is not None and not args.limit > 0:
+        raise ValueError(f"--limit must be > 0 [g], got {args.limit}")
     manifest = read_manifest(args.manifest)
     command = shlex.join(["vrelab", "campaign", args.manifest]
                          + (["--out", args.out] if args.out else []) + ["--workers", str(args.workers)])
@@ -84,12 +88,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out:
         with _io.output_dir(args.out) as stage:
-            results = run_campaign(manifest, args.workers, Path(stage), done)
+            results = run_campaign(manifest, args.workers, Path(stage), done, args.limit)
             summaries = combine(results, manifest.channels)
             doc = campaign_doc(manifest, results, summaries, command)
             write_campaign(Path(stage), manifest, results, summaries, doc)
     else:
-        results = run_campaign(manifest, args.workers, None, done)
+        results = run_campaign(manifest, args.workers, None, done, args.limit)
         summaries = combine(results, manifest.channels)
         doc = campaign_doc(manifest, results, summaries, command)
     if args.json:

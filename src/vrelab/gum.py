@@ -1,0 +1,175 @@
+"""Uncertainty budget in the GUM's sense, and decisions against a limit (SPEC 4.3).
+
+Every VRE carries a Type A standard uncertainty from its record (batch means, with effective
+degrees of freedom ν_A). The user declares the Type B terms of the test (:class:`TypeB`):
+
+* ``u_reference_pct``: relative standard uncertainty of the reference sensitivity. The level
+  (an rms read from the reference) scales with it; the VRE does not (it is read from the DUT).
+  A VRC = VRE/rms² changes by −2·r (closed form).
+* ``u_dut_pct``: relative standard uncertainty of the DUT sensitivity: VRE and VRC scale by it.
+* ``u_static_g``: the static field's error (fixture alignment). A VRE depends on it through the
+  physics (the clipping model's rails at g0, the nonlinearity's 3·k3·g0 term): its sensitivity
+  coefficient is taken from the fitted model by numerical perturbation (the clipping model for a
+  random test; for a VRC fit it needs k3, which one orientation does not give: then not
+  evaluated, and said).
+* ``u_thermal_g``: an offset change during vibration (temperature): added to every VRE, one for
+  one.
+
+Combined: ``u_c² = u_A² + Σ (c_i·u_i)²``; effective degrees of freedom by Welch-Satterthwaite
+``ν_eff = u_c⁴ / (u_A⁴/ν_A)`` (Type B terms taken as exactly known, ν = ∞); coverage factor
+``k = t_{0.97725}(ν_eff)`` (the two-sided 95.45 % quantile of Student's t: k = 2 for large ν);
+``U = k·u_c`` (JCGM 100:2008, G.4 and G.6).
+
+A fitted parameter (VRC, rail) combines its fit's standard error with each Type B term's
+effect found by refitting with that input perturbed by its standard uncertainty (linear
+propagation by finite differences; the VRC's −2·r is checked against it in the tests, and the
+whole against a Monte Carlo propagation, JCGM 101:2008).
+
+Decision (guarded acceptance, ILAC-G8:09/2019 and ISO 14253-1): ``pass`` when
+``|VRE| + U ≤ limit``, ``fail`` when ``|VRE| − U > limit``, else ``indeterminate``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any, Callable, Mapping, Sequence
+
+from vrelab import _validate as V
+from vrelab.results import Estimate, FitResult, LevelResult
+
+COVERAGE_P = 0.9545  # two-sided: k = 2 for a normal distribution
+DECISION_RULE = ("guarded acceptance: pass when |VRE| + U <= limit; fail when |VRE| - U > limit; "
+                 "indeterminate otherwise (U = k·u, coverage about 95 %)")
+
+
+@dataclass(frozen=True)
+class TypeB:
+    """The Type B inputs of a test (SPEC 4.3); zero means not declared."""
+
+    u_reference_pct: float = 0.0
+    u_dut_pct: float = 0.0
+    u_static_g: float = 0.0
+    u_thermal_g: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"):
+            object.__setattr__(self, name, float(V.non_negative(name, getattr(self, name))))
+
+    @property
+    def declared(self) -> bool:
+        return any(getattr(self, n) > 0 for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"))
+
+    def to_dict(self) -> dict[str, float]:
+        return {n: getattr(self, n) for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")}
+
+    @classmethod
+    def from_mapping(cls, d: Mapping[str, Any]) -> "TypeB":
+        return cls(**{k: float(v) for k, v in d.items() if v is not None})
+
+
+def coverage_factor(dof: float | None) -> float:
+    """k for 95.45 % two-sided coverage from Student's t with ``dof`` degrees of freedom."""
+    from scipy import stats
+
+    if dof is None or not math.isfinite(dof) or dof > 1e6:
+        return float(stats.norm.ppf(0.5 + COVERAGE_P / 2))
+    return float(stats.t.ppf(0.5 + COVERAGE_P / 2, max(dof, 1.0)))
+
+
+def welch_satterthwaite(u_c: float, parts: Sequence[tuple[float, float | None]]) -> float:
+    """ν_eff = u_c⁴ / Σ u_i⁴/ν_i over (u_i, ν_i); ν None or inf: exactly known (no term)."""
+    den = sum(u**4 / nu for u, nu in parts if nu is not None and math.isfinite(nu) and nu > 0 and u > 0)
+    return math.inf if den == 0 else u_c**4 / den
+
+
+def decide(vre_g: float, U_g: float, limit_g: float) -> str | None:
+    """Guarded acceptance against ``limit_g`` (see the module docstring); None when VRE is undefined."""
+    if not (math.isfinite(vre_g) and math.isfinite(U_g)):
+        return None
+    if abs(vre_g) + U_g <= limit_g:
+        return "pass"
+    if abs(vre_g) - U_g > limit_g:
+        return "fail"
+    return "indeterminate"
+
+
+def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
+                 limit_g: float | None = None) -> LevelResult:
+    """``level`` with its budget, ``U_vre_g``, ``k`` (and ``decision`` against ``limit_g``).
+
+    ``static_coeff`` is ∂VRE/∂g0 at this level [g/g] (None: unknown, the term is listed as not
+    evaluated).
+    """
+    v, u_a = level.vre.value, level.vre.u
+    terms: list[dict[str, Any]] = [{"source": "record (batch means)", "type": "A", "u_g": u_a,
+                                    "dof": None if level.dof is None or not math.isfinite(level.dof) else level.dof}]
+    if typeb.u_dut_pct:
+        terms.append({"source": "DUT sensitivity", "type": "B", "u_g": abs(v) * typeb.u_dut_pct / 100,
+                      "note": f"{typeb.u_dut_pct:g} % of the VRE"})
+    if typeb.u_reference_pct:
+        terms.append({"source": "reference sensitivity", "type": "B", "u_g": 0.0,
+                      "note": f"{typeb.u_reference_pct:g} % of the level's rms, not of the VRE (read from the DUT)"})
+    if typeb.u_static_g:
+        if static_coeff is None:
+            terms.append({"source": "static field (alignment)", "type": "B", "u_g": None,
+                          "note": "not evaluated: the fitted model gives no static-field dependence "
+                                  "(k3 needs two orientations)"})
+        else:
+            terms.append({"source": "static field (alignment)", "type": "B",
+                          "u_g": abs(static_coeff) * typeb.u_static_g,
+                          "note": f"dVRE/dg0 = {static_coeff:.4g} g/g from the fitted model × {typeb.u_static_g:g} g"})
+    if typeb.u_thermal_g:
+        terms.append({"source": "thermal offset", "type": "B", "u_g": typeb.u_thermal_g})
+    u_c = math.sqrt(sum(t["u_g"] ** 2 for t in terms if t["u_g"] is not None and math.isfinite(t["u_g"])))
+    if not math.isfinite(v):
+        u_c = math.nan
+    nu = welch_satterthwaite(u_c, [(u_a, level.dof)]) if math.isfinite(u_c) else math.nan
+    k = coverage_factor(nu) if math.isfinite(u_c) else math.nan
+    U = k * u_c
+    decision = decide(v, U, limit_g) if limit_g is not None else None
+    return replace(level, vre=Estimate(v, u_c, level.vre.unit), budget=tuple(terms), U_vre_g=U, k=k,
+                   decision=decision)
+
+
+def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | None],
+               typeb: TypeB) -> FitResult:
+    """``fit`` with each parameter's ``u`` combined with the Type B terms, found by refitting
+    with one input perturbed by its standard uncertainty (``refit`` takes the perturbations
+    ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes."""
+    perturb = {
+        "reference sensitivity": {"rms_rel": typeb.u_reference_pct / 100},
+        "DUT sensitivity": {"vre_rel": typeb.u_dut_pct / 100},
+        "static field (alignment)": {"static_g": typeb.u_static_g},
+        "thermal offset": {"offset_g": typeb.u_thermal_g},
+    }
+    params = dict(fit.params)
+    notes = list(fit.notes)
+    extra: dict[str, float] = {name: 0.0 for name in params}
+    for source, delta in perturb.items():
+        if not any(delta.values()):
+            continue
+        other = refit(delta)
+        if other is None:
+            notes.append(f"budget: {source} not evaluated (the refit did not converge)")
+            continue
+        diffs = {name: other.params[name].value - est.value for name, est in params.items() if name in other.params}
+        if source.startswith("static") and all(d == 0 for d in diffs.values()):
+            notes.append("budget: static field not evaluated: this fit does not depend on g0 (its k3 term needs "
+                         "two orientations: see the campaign's k2/k3)")
+            continue
+        for name, d in diffs.items():
+            extra[name] += d * d
+        notes.append(f"budget: {source} ({', '.join(f'{k}={v:g}' for k, v in delta.items())}): "
+                     + ", ".join(f"{name} {d:+.3g}" for name, d in diffs.items()))
+    combined = {name: Estimate(e.value, math.sqrt(e.u**2 + extra[name]), e.unit) for name, e in params.items()}
+    return replace(fit, params=combined, notes=tuple(notes))
+
+
+def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel: float = 0.0,
+                   offset_g: float = 0.0) -> list[LevelResult]:
+    """Levels as they would read with the reference sensitivity off by ``rms_rel`` (every rms
+    scales by 1 + rms_rel), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
+    return [replace(lv, rms_g=lv.rms_g * (1 + rms_rel),
+                    vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit))
+            for lv in levels]
