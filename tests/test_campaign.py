@@ -316,3 +316,22 @@ def test_uff_by_hand_trailing_spaces_and_mixed_precision(tmp_path: Path) -> None
     q.write_text(_uff58_ascii("ref", 1, 3, 1e-3, a, True) + _uff58_ascii("dut", 101, 3, 5e-4, b, True))
     with pytest.raises(ValueError, match="rates.uff: records have different sample rates"):
         UffSource.open(q)
+
+
+def test_manifest_budget_keys_reach_levels_and_k2(example: Path, tmp_path: Path) -> None:
+    (tmp_path / "runs").symlink_to(example.parent / "runs")
+    m = tmp_path / "b.toml"
+    m.write_text(example.read_text().replace("[defaults]\n", "[defaults]\nu_reference_pct = 1.0\nu_dut_pct = 0.5\n"))
+    man = read_manifest(m)
+    assert man.runs[0].budget == {"u_reference_pct": 1.0, "u_dut_pct": 0.5}
+    plain = read_manifest(example)
+    with_b = run_campaign(man, 1, limit_g=0.001)
+    without = run_campaign(plain, 1)
+    lv_b, lv = with_b[0].results[0][1].levels[0], without[0].results[0][1].levels[0]
+    assert lv_b.vre.value == lv.vre.value and lv_b.vre.u > lv.vre.u and lv_b.decision in ("pass", "fail", "indeterminate")
+    a, b = combine(without, plain.channels)[0], combine(with_b, man.channels)[0]
+    assert a.k2 is not None and b.k2 is not None
+    assert b.k2.value == pytest.approx(a.k2.value)
+    # the common sensitivity terms (2r ⊕ p = 2.06 %) added once to the combined k2
+    assert b.k2.u == pytest.approx(math.hypot(a.k2.u, math.hypot(0.02, 0.005) * abs(a.k2.value)), rel=1e-9)
+    assert any("common to every run" in n for n in b.notes)

@@ -206,7 +206,7 @@ def test_write_report_is_self_contained_and_holds_every_section(tmp_path: Path) 
         assert s in text
     # levels table: VRE ± u in mg with the digits the uncertainty asks for
     assert "-83.10 ± 0.40" in text  # 1 g rms level: -0.0831 g ± 0.0004 g
-    assert "effective rail = 2 ± 0.02 g" in text
+    assert "effective rail = 2.000 ± 0.020 g" in text
 
 
 def test_warnings_cover_saturation_overrange_departure_and_psd() -> None:

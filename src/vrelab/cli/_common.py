@@ -87,6 +87,9 @@ def print_levels(result: Any) -> None:
         print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
+        if fit.model == "vrc" and fit.n_points < 2:
+            print(f"fit {fit.model}{at}: no fit (one level only: a VRC needs two levels or more)")
+            continue
         print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
         if fit.departure_rms_g is not None:
             print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")

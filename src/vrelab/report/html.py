@@ -26,7 +26,7 @@ from matplotlib.figure import Figure
 
 from vrelab import __version__
 from vrelab import folder as F
-from vrelab._format import format_mg
+from vrelab._format import format_mg, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
 from vrelab.results import FitResult, VreResult
@@ -191,7 +191,7 @@ def collect_warnings(
 
 # --------------------------------------------------------------------------- rendering
 def _cell(v: Any) -> str:
-    text = str(v)
+    text = ("yes" if v else "no") if isinstance(v, bool) else str(v)
     if len(text) <= 160:
         return _e(text)
     # Long values (a sensor description in provenance) fold away: <details> needs no script.
@@ -228,19 +228,44 @@ def _levels_table(result: VreResult) -> str:
         return '<p class="mute">No levels.</p>'
     has_f = any(x.freq_hz is not None for x in lv)
     has_dur = any(x.duration_s is not None for x in lv)
+    has_b = any(x.budget for x in lv)
+    has_d = any(x.decision is not None for x in lv)
     head = ["#"] + (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE ± u (mg)"]
+    head += (["U (mg)", "k"] if has_b else []) + (["decision"] if has_d else [])
     head += (["duration (s)"] if has_dur else []) + ["samples", "saturated", "flags"]
-    num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "duration (s)", "samples", "saturated"}
+    num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "U (mg)", "k", "duration (s)", "samples", "saturated"}
     rows = []
     for i, x in enumerate(lv, 1):
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
-        rms = _fmt(x.rms_g, ".4g") + (f" ± {x.u_rms_g:.2g}" if shown_u else "")
+        rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g, ".4g")
         cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
+        if has_b:
+            cells += [format_mg(x.U_vre_g, signed=False) if x.U_vre_g is not None else "–", _fmt(x.k, ".3g")]
+        if has_d:
+            cells += [x.decision or "undefined (no VRE)"]
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
     th = "".join(f'<th class="{"num" if h in num else ""}">{_e(h)}</th>' for h in head)
     return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
+
+
+def _budget_table(result: VreResult) -> str:
+    """Each level's uncertainty budget (SPEC 4.3): the terms, their type and size, U and k."""
+    rows = []
+    for i, x in enumerate(result.levels, 1):
+        for t in x.budget:
+            u = t.get("u_g")
+            rows.append((str(i), _fmt(x.rms_g, ".4g"), str(t.get("source", "")), str(t.get("type", "")),
+                         "not evaluated" if u is None else format_mg(u, signed=False), str(t.get("note", ""))))
+        if x.budget:
+            rows.append((str(i), _fmt(x.rms_g, ".4g"), "combined u; U = k·u", "",
+                         f"{format_mg(x.vre.u, signed=False)}; U = {format_mg(x.U_vre_g, signed=False)}",
+                         f"k = {_fmt(x.k, '.3g')} (Welch-Satterthwaite)"))
+    if not rows:
+        return ""
+    return _table_html(ReportTable("Uncertainty budget (GUM)", ["level", "g rms", "source", "type", "u (mg)", "note"],
+                                   rows, numeric=(0, 1, 4)))
 
 
 def _fits_table(fits: Sequence[FitResult]) -> str:
@@ -248,10 +273,13 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
         return '<p class="mute">No fits.</p>'
     rows = []
     for f in fits:
-        params = "; ".join(
-            f"{describe_fit_param(k)[0]} = {_fmt(v.value, '.5g')} ± {_fmt(v.u, '.2g')} {describe_fit_param(k)[1] or v.unit}"
-            for k, v in f.params.items()
-        )
+        if f.n_points < 2 and f.model == "vrc":
+            params = "no fit: one level only (a VRC needs two levels or more)"
+        else:
+            params = "; ".join(
+                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u)} {describe_fit_param(k)[1] or v.unit}"
+                for k, v in f.params.items()
+            )
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
         cells = [
             f.model,
@@ -263,8 +291,9 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             "; ".join(f.notes),
         ]
         rows.append("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in cells) + "</tr>")
-    head = ["model", "freq (Hz)", "parameters (± standard error)", "points", "χ²/dof", "departs above", "notes"]
-    return "<table><thead><tr>" + "".join(f"<th>{h}</th>" for h in head) + f"</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+    head = ["model", "freq (Hz)", "parameters (± standard uncertainty)", "points", "χ²/dof", "departs above", "notes"]
+    return ('<div class="scroll"><table><thead><tr>' + "".join(f"<th>{h}</th>" for h in head)
+            + f"</tr></thead><tbody>{''.join(rows)}</tbody></table></div>")
 
 
 def _prediction_html(pred: Mapping[str, Any]) -> str:
@@ -281,8 +310,9 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         return (k[:-2] if k.endswith("_g") else k).replace("_", " ")
 
     has_f = any(lv.get("freq_hz") is not None for lv in levels)
+    has_valid = any("valid" in lv for lv in levels)
     head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
-    head += [f"{share_name(k)} (mg)" for k in share_keys]
+    head += [f"{share_name(k)} (mg)" for k in share_keys] + (["model valid"] if has_valid else [])
     # Per-level notes are sentences: listed under the table, each once with its levels.
     by_note: dict[str, list[str]] = {}
     for lv in levels:
@@ -301,13 +331,16 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
             cells.append(format_mg(v) if isinstance(v, (int, float)) else _fmt(v))
+        if has_valid:
+            why = "; ".join(str(n) for n in lv.get("notes") or ())
+            cells.append("yes" if lv.get("valid") else (f"no: {why}" if why else "no (reason not given)"))
         rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
     th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
-        extra.append((k.replace("_", " "), v))
+        extra.append((k.replace("_", " "), ("yes" if v else "no") if isinstance(v, bool) else v))
     notes = ""
     if by_note:
         notes = '<ul class="notes">' + "".join(f"<li>{_e(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
@@ -354,6 +387,10 @@ def render_section(sec: ReportSection, anchor: str) -> str:
     if r is not None:
         parts.append("<h3>Conditions</h3>" + _kv_table(_conditions_rows(r)))
         parts.append("<h3>Levels</h3>" + _levels_table(r))
+        rule = dict(r.conditions.extra).get("decision_rule")
+        if rule:
+            parts.append(f'<p class="what">Decision rule: {_e(rule)}; limit {_e(dict(r.conditions.extra).get("limit_g"))} g.</p>')
+        parts.append(_budget_table(r))
         parts.append("<h3>Fits</h3>" + _fits_table(r.fits))
     if sec.prediction:
         parts.append("<h3>Prediction: mechanisms' shares</h3>" + _prediction_html(sec.prediction))
