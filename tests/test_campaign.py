@@ -112,6 +112,8 @@ def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
     assert "Channel sn1" in html and "Channel sn2" in html
     assert "VRC by frequency and orientation" in html
     assert html.count("<section") == 1 + 2 + 2 * 6  # summary, channels, each run's channels
+    # the runs table links each run to its first section (run 1's channels follow the 3 first sections)
+    assert '<a href="#s4">section 4</a>' in html and 'id="s4"' in html
 
 
 # ----------------------------------------------------------------------------- honest nulls
@@ -245,18 +247,20 @@ def test_the_same_record_in_every_format_gives_the_same_levels(tmp_path: Path) -
     got = {}
     for fmt, writer in C._WRITERS.items():
         fs, n, blocks = C.simulate_run(truth, run, 7, 2.0, sensor)
-        path = tmp_path / f"r.{fmt}"
+        path = tmp_path / f"r.{ {'uffb': 'uff'}.get(fmt, fmt) }"
+        path = path.with_name(f"r-{fmt}{path.suffix}")
         names = writer(path, fs, n, blocks, ["sn1", "sn2"])
         duts = {p: names[p] for p in ("sn1", "sn2")}
         with open_record(path, duts, names["reference"], None, Scale("lsb", 256000), Scale("mv", 10)) as rec:
             got[fmt] = {name: res for name, res, _ in analyze_channels(rec, static_g=1.0)}
+    assert set(got) == {"tdms", "csv", "h5", "uff", "uffb", "mf4", "lvm", "ide"}
     ref = got["h5"]
     for fmt, res in got.items():
         for name in ("sn1", "sn2"):
             a, b = ref[name].levels, res[name].levels
             assert len(a) == len(b) == 3, fmt
             for la, lb in zip(a, b):
-                # CSV keeps 7 digits of the reference and UFF single precision: far below u
+                # CSV keeps 7 digits of the reference, UFF and IDE single precision: far below u
                 assert abs(la.vre.value - lb.vre.value) < 0.02 * la.vre.u, (fmt, name)
                 assert lb.rms_g == pytest.approx(la.rms_g, rel=1e-6), (fmt, name)
 

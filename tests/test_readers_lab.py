@@ -214,3 +214,66 @@ def test_tdms_daqmx_raw_data_is_read_scaled(tmp_path: Path) -> None:
         blk = next(rec.blocks(400, ["dut", "reference"]))
     np.testing.assert_allclose(blk["dut"], counts[1] * slope, rtol=1e-12)
     np.testing.assert_allclose(blk["reference"], counts[0] * slope, rtol=1e-12)
+
+
+# ----------------------------------------------------------------------------- enDAQ IDE
+
+
+def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250, jitter: float = 0.0,
+              seed: int = 0, gap_after: int | None = None) -> None:
+    """An IDE file as enDAQ recorders write it, encoded with ebmlite (the EBML library idelib
+    reads with) against idelib's own schema (mide_ide.xml): recording properties declaring one
+    channel (ID 8, float32 sub-channels), then data blocks stamped with their start and end
+    time codes (1/32768 s); ``jitter`` moves each block's stamps by up to that many ticks;
+    ``gap_after`` blocks, the stamps jump one block ahead (samples lost)."""
+    import ebmlite
+
+    schema = ebmlite.loadSchema("mide_ide.xml")
+    names = list(cols)
+    subs = [{"SubChannelID": i, "SubChannelName": nm, "SubChannelAxisName": nm, "SubChannelUnitsName": "g"}
+            for i, nm in enumerate(names)]
+    props = {"RecordingProperties": {"ChannelList": {"Channel": [
+        {"ChannelID": 8, "ChannelName": "Accel", "ChannelFormat": "<" + "f" * len(names), "SubChannel": subs}]}}}
+    rng = np.random.default_rng(seed)
+    tick = 32768 / fs
+    data = np.column_stack([cols[n] for n in names]).astype("<f4")
+    blocks = []
+    for b, i in enumerate(range(0, len(data), per)):
+        j = min(i + per, len(data))
+        dj = rng.uniform(-jitter, jitter) + (per * tick if gap_after is not None and b >= gap_after else 0.0)
+        blocks.append({"ChannelDataBlock": {"ChannelIDRef": 8, "StartTimeCodeAbs": int(round(i * tick + dj)),
+                                            "EndTimeCodeAbs": int(round((j - 1) * tick + dj)),
+                                            "ChannelDataPayload": data[i:j].tobytes()}})
+    path.write_bytes(schema.encodes([props] + blocks, headers=True))
+
+
+def test_ide_values_names_and_rate(tmp_path: Path) -> None:
+    import idelib
+
+    ref, dut = _signals(6)
+    p = tmp_path / "rec.ide"
+    write_ide(p, {"ref": ref, "dut": dut}, 1024.0)
+    doc = idelib.importFile(str(p), quiet=True)  # what idelib itself reads: the independent check
+    own = doc.channels[8].subchannels[1].getSession().arraySlice(0, N)[1]
+    doc.close()
+    np.testing.assert_allclose(own, dut.astype(np.float32))
+    with open_record(p, "8.1", "8.0") as rec:
+        assert rec.fs_hz == pytest.approx(1024.0, rel=1e-6)
+        blk = next(rec.blocks(N, ["dut", "reference"]))
+    np.testing.assert_array_equal(blk["dut"], own)
+    np.testing.assert_allclose(blk["reference"], ref.astype(np.float32))
+    # block stamps jittered by ±10 ticks of the 32768 Hz clock (a third of a sample here), as
+    # recorders stamp them: still one rate; a missing block is a gap: refused
+    q = tmp_path / "jitter.ide"
+    write_ide(q, {"ref": ref, "dut": dut}, 1024.0, jitter=10.0)
+    with open_record(q, "8.1", "8.0") as rec:
+        assert rec.fs_hz == pytest.approx(1024.0, rel=1e-3)
+    g = tmp_path / "gap.ide"
+    write_ide(g, {"ref": ref, "dut": dut}, 1024.0, gap_after=4)
+    with pytest.raises(ValueError, match="gap.ide: IDE channel .* not evenly sampled"):
+        open_record(g, "8.1", "8.0")
+    bad = tmp_path / "bad.ide"
+    bad.write_bytes(p.read_bytes()[:40])
+    with pytest.raises(ValueError, match="bad.ide"):
+        with open_record(bad, "8.1", "8.0") as rec:
+            next(rec.blocks(N, ["dut"]))

@@ -99,7 +99,7 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
 
 
 def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, int]) -> ReportTable:
-    rows = []
+    rows: list[tuple[Any, ...]] = []
     for r in runs:
         fits = []
         for c in r.get("channels") or []:
@@ -109,7 +109,7 @@ def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, int]) -
             if "rail_g" in fit:
                 fits.append(f"{c['channel']}: rail {format_value_u(fit['rail_g']['value'], fit['rail_g']['u'])} g")
         status = "ok" if r["status"] == "ok" else f"FAILED: {r.get('error')}"
-        where = f"section {anchors[r['index']]}" if r["index"] in anchors else "—"
+        where = (f"section {anchors[r['index']]}", f"#s{anchors[r['index']]}") if r["index"] in anchors else "—"
         rows.append((str(r["index"]), r["label"], r["file"], r["method"], status, "; ".join(fits), where))
     return ReportTable("Runs", ["run", "label", "file", "method", "status", "fits (µg/g², g)", "details"], rows,
                        numeric=(0,))

@@ -191,6 +191,8 @@ def collect_warnings(
 
 # --------------------------------------------------------------------------- rendering
 def _cell(v: Any) -> str:
+    if isinstance(v, tuple) and len(v) == 2 and str(v[1]).startswith("#"):
+        return f'<a href="{_e(v[1])}">{_e(v[0])}</a>'  # (text, "#anchor"): a link within the report
     text = ("yes" if v else "no") if isinstance(v, bool) else str(v)
     if len(text) <= 160:
         return _e(text)

@@ -37,7 +37,7 @@ class Part:
 class ExampleRun:
     """One run: sine at one frequency (``freq_hz``) or random (``grms`` levels), one orientation."""
 
-    fmt: str  # tdms | csv | h5 | uff (ASCII 58) | uffb (binary 58b)
+    fmt: str  # tdms | csv | h5 | uff (ASCII 58) | uffb (binary 58b) | mf4 | lvm | ide
     static_g: float
     freq_hz: float | None = None
     levels_g: tuple[float, ...] = (0.5, 1.0, 1.5)
@@ -138,7 +138,7 @@ def write_campaign(folder: str | Path, truth: CampaignTruth | None = None, secon
         fs, n, blocks = simulate_run(truth, run, seed + i, seconds, sensor_file)
         kind = f"{run.freq_hz:g}hz" if run.freq_hz else "random"
         orient = "up" if run.static_g > 0 else "down"
-        ext = {"tdms": "tdms", "csv": "csv", "h5": "h5", "uff": "uff", "uffb": "uff"}[run.fmt]
+        ext = {"uffb": "uff"}.get(run.fmt, run.fmt)
         path = folder / "runs" / f"{i:02d}_z_{orient}_{kind}.{ext}"
         names = _WRITERS[run.fmt](path, fs, n, blocks, [p.name for p in truth.parts])
         entries.append((path.relative_to(folder), names, run))
@@ -261,12 +261,89 @@ def _write_uff(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": f"{nodes['reference']}:+Z", **{p: f"{nodes[p]}:+Z" for p in parts}}
 
 
+def _collect(blocks: Iterator[dict[str, Any]], names: Sequence[str]) -> dict[str, NDArray[np.float64]]:
+    chunks: dict[str, list[NDArray[np.float64]]] = {c: [] for c in names}
+    for b in blocks:
+        for c in names:
+            chunks[c].append(np.asarray(b[c], dtype=float))
+    return {c: np.concatenate(v) for c, v in chunks.items()}
+
+
+def _write_mdf(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+    """ASAM MDF 4.10 through asammdf (a data logger's file): the DUTs as int32 counts with a
+    linear conversion to LSB (identity here: the manifest scales LSB to g), the reference in mV.
+    asammdf appends whole signals: the run is held in memory here."""
+    from asammdf import MDF, Signal
+
+    data = _collect(blocks, ["reference", *parts])
+    t = np.arange(n) / fs
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(data["reference"], t, name="ref", unit="mV")]
+               + [Signal(data[p].astype(np.int32), t, name=f"{p}_z", unit="LSB") for p in parts])
+    mdf.save(str(path), overwrite=True)
+    mdf.close()
+    return {"reference": "ref", **{p: f"{p}_z" for p in parts}}
+
+
+def _write_lvm(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+    """LabVIEW measurement file (LVM), NI's layout: file header, segment header, X_Value column."""
+    names = ["reference", *parts]
+    cols = ["ref", *[f"{p}_z" for p in parts]]
+    k = len(cols)
+    head = ["LabVIEW Measurement\t", "Writer_Version\t2", "Reader_Version\t2", "Separator\tTab",
+            "Decimal_Separator\t.", "Multi_Headings\tNo", "X_Columns\tOne", "Time_Pref\tRelative",
+            "Operator\tvrelab", "Date\t2026/11/24", "Time\t10:00:00", "***End_of_Header***\t", "\t",
+            "Channels\t" + str(k) + "\t" * k, "Samples" + "".join(f"\t{n}" for _ in cols) + "\t",
+            "X_Dimension" + "\tTime" * k + "\t", "X0" + "\t0" * k + "\t",
+            "Delta_X" + "".join(f"\t{1 / fs:.12g}" for _ in cols) + "\t", "***End_of_Header***" + "\t" * k,
+            "X_Value\t" + "\t".join(cols) + "\tComment"]
+    with open(path, "w", newline="\n") as fh:
+        fh.write("\n".join(head) + "\n")
+        i = 0
+        for b in blocks:
+            m = len(b["reference"])
+            t = (i + np.arange(m)) / fs
+            arr = np.column_stack([t] + [b[c] for c in names])
+            np.savetxt(fh, arr, fmt=["%.9g"] + ["%.10g"] * k, delimiter="\t")
+            i += m
+    return {"reference": "ref", **{p: f"{p}_z" for p in parts}}
+
+
+def _write_ide(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+    """enDAQ IDE, encoded with ebmlite (the EBML library idelib reads with) against idelib's
+    schema: one channel (ID 8) of float32 sub-channels in blocks stamped in 1/32768 s ticks.
+    float32 holds LSB counts of a 20-bit part exactly, and the reference in mV to 7 digits."""
+    import ebmlite
+
+    names = ["reference", *parts]
+    subs = [{"SubChannelID": i, "SubChannelName": ("ref" if c == "reference" else f"{c}_z"),
+             "SubChannelAxisName": "Z", "SubChannelUnitsName": "mV" if c == "reference" else "LSB"}
+            for i, c in enumerate(names)]
+    props = {"RecordingProperties": {"ChannelList": {"Channel": [
+        {"ChannelID": 8, "ChannelName": "vrelab", "ChannelFormat": "<" + "f" * len(names), "SubChannel": subs}]}}}
+    schema = ebmlite.loadSchema("mide_ide.xml")
+    tick = 32768.0 / fs
+    with open(path, "wb") as fh:
+        fh.write(schema.encodes([props], headers=True))
+        i = 0
+        for b in blocks:
+            data = np.column_stack([b[c] for c in names]).astype("<f4")
+            for a in range(0, len(data), 1024):
+                z = min(a + 1024, len(data))
+                fh.write(schema.encodes([{"ChannelDataBlock": {
+                    "ChannelIDRef": 8, "StartTimeCodeAbs": int(round((i + a) * tick)),
+                    "EndTimeCodeAbs": int(round((i + z - 1) * tick)), "ChannelDataPayload": data[a:z].tobytes()}}]))
+            i += len(data)
+    return {"reference": "8.0", **{p: f"8.{k}" for k, p in enumerate(parts, 1)}}
+
+
 def _write_uffb(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
     """UFF58b: binary records (single precision, as the ASCII ones)."""
     return _write_uff(path, fs, n, blocks, parts, binary=1)
 
 
-_WRITERS = {"tdms": _write_tdms, "csv": _write_csv, "h5": _write_h5, "uff": _write_uff, "uffb": _write_uffb}
+_WRITERS = {"tdms": _write_tdms, "csv": _write_csv, "h5": _write_h5, "uff": _write_uff, "uffb": _write_uffb,
+            "mf4": _write_mdf, "lvm": _write_lvm, "ide": _write_ide}
 
 
 def vrc_truth(truth: CampaignTruth, part: Part, freq_hz: float, static_g: float) -> float:
