@@ -28,9 +28,9 @@ all); reading refuses a missing or malformed file with one line naming it.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
-import re
 from typing import Any, Literal, Mapping, Sequence
 
 from vrelab._io import write_json, write_levels_csv, write_levels_table

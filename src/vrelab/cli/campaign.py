@@ -72,7 +72,13 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _io
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign, write_campaign
+    from vrelab.campaign import (
+        campaign_doc,
+        combine,
+        read_manifest,
+        run_campaign,
+        write_campaign,
+    )
 
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")

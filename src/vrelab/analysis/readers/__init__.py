@@ -34,7 +34,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
-from vrelab.analysis.readers import hdf5, ide, lvm, matlab, mdf, numpy_, tdms, text, uff, wav  # noqa: F401  (they register)
+from vrelab.analysis.readers import (  # noqa: F401  (they register)
+    hdf5,
+    ide,
+    lvm,
+    matlab,
+    mdf,
+    numpy_,
+    tdms,
+    text,
+    uff,
+    wav,
+)
 from vrelab.analysis.readers._base import (
     _TIME_NAMES,
     G0,

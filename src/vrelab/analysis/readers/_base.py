@@ -140,6 +140,18 @@ class Source:
         pass
 
 
+def one_rate(path: Path, rates: Mapping[str, float], rtol: float) -> float | None:
+    """The one sample rate of the channels ``rates`` (name -> Hz), their mean; channels whose
+    rates differ by more than ``rtol`` cannot form one record: a one-line error naming two."""
+    if not rates:
+        return None
+    lo, hi = min(rates, key=rates.__getitem__), max(rates, key=rates.__getitem__)
+    if rates[hi] - rates[lo] > rtol * rates[hi]:
+        raise ValueError(f"{path.name}: channels {lo!r} ({rates[lo]:.9g} Hz) and {hi!r} ({rates[hi]:.9g} Hz) "
+                         "have different sample rates")
+    return float(sum(rates.values()) / len(rates))
+
+
 def _column_channels(prefix: str, arr: Any) -> dict[str, tuple[Any, Any]]:
     """Channels of an array-like: 1-D -> itself; (N, C) -> columns; structured -> fields."""
     out: dict[str, tuple[Any, Any]] = {}

@@ -19,7 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, register
+from vrelab.analysis.readers._base import Source, one_rate, register
 
 _EVEN_RTOL = 0.01
 
@@ -89,14 +89,10 @@ class IdeSource(Source):
         return self._rates[name]
 
     def select(self, names: Sequence[str]) -> None:
-        rates = {n: self.rate(n) for n in names}
-        if not rates:
+        fs = one_rate(self.path, {n: self.rate(n) for n in names}, _EVEN_RTOL)
+        if fs is None:
             return
-        lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
-        if rates[hi] - rates[lo] > _EVEN_RTOL * rates[hi]:
-            raise ValueError(f"{self.path.name}: channels {lo!r} ({rates[lo]:.6g} Hz) and {hi!r} ({rates[hi]:.6g} Hz) "
-                             "have different sample rates")
-        self.fs_hz = float(np.mean(list(rates.values())))
+        self.fs_hz = fs
         self.notes.append(f"IDE: sample rate {self.fs_hz:.6g} Hz from the samples' time span (recorders stamp blocks)")
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:

@@ -17,7 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, register
+from vrelab.analysis.readers._base import Source, one_rate, register
 
 _EVEN_RTOL = 1e-6
 
@@ -86,14 +86,9 @@ class MdfSource(Source):
         return float(self._rates[gi])  # type: ignore[arg-type]
 
     def select(self, names: Sequence[str]) -> None:
-        rates = {n: self.rate(n) for n in names if n in self.where}
-        if not rates:
-            return
-        lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
-        if rates[hi] - rates[lo] > 1e-9 * rates[hi]:
-            raise ValueError(f"{self.path.name}: channels {lo!r} ({rates[lo]:.9g} Hz) and {hi!r} ({rates[hi]:.9g} Hz) "
-                             "have different sample rates")
-        self.fs_hz = rates[lo]
+        fs = one_rate(self.path, {n: self.rate(n) for n in names if n in self.where}, 1e-9)
+        if fs is not None:
+            self.fs_hz = fs
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         gi, ci = self.where[name]
