@@ -339,3 +339,12 @@ def test_manifest_budget_keys_reach_levels_and_k2(example: Path, tmp_path: Path)
     # the common sensitivity terms (2r ⊕ p = 2.06 %) added once to the combined k2
     assert b.k2.u == pytest.approx(math.hypot(a.k2.u, math.hypot(0.02, 0.005) * abs(a.k2.value)), rel=1e-9)
     assert any("common to every run" in n for n in b.notes)
+
+
+def test_uff_magic_does_not_claim_a_column_of_numbers() -> None:
+    from vrelab.analysis.readers.uff import UffSource
+
+    assert UffSource.can_open(b"    -1\n    58\nid1\n")
+    assert UffSource.can_open(b"    -1\r\n    58b     1     2\r\n")
+    assert not UffSource.can_open(b"-1\n58\n3\n")  # a headerless CSV of counts
+    assert not UffSource.can_open(b"-1,58\n")

@@ -26,8 +26,9 @@ from numpy.typing import NDArray
 from vrelab.analysis.readers._base import Source, register
 
 _DIRS = {1: "X", 2: "Y", 3: "Z", 4: "RX", 5: "RY", 6: "RZ"}
-# a UFF file starts with the "    -1" delimiter line, then the dataset number (58, or 58b)
-_HEAD = re.compile(rb"\A\s*-1[ \t]*\r?\n\s*(\d+)(b?)\b")
+# a UFF file starts with the delimiter line "    -1" (I6: four spaces), then the dataset number
+# right-aligned in 6 columns (58, or 58b): a text column of numbers does not look like that
+_HEAD = re.compile(rb"\A {4}-1 *\r?\n {2,5}(\d{2,4})(b?)(?: |\r?\n)")
 
 
 def node_dir(node: Any, direction: Any) -> str:
