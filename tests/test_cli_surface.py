@@ -122,6 +122,16 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("missing-run-file", ["{d}/campaign-missing-file.toml"], 'nope.h5'),
         ("zero-workers", ["{d}/campaign.toml", "--workers", "0"], 'workers'),
     ],
+    "identify": [
+        ("missing-source", ["{d}/no-such-campaign.toml", "--out", "{d}/id-out"], 'no-such-campaign.toml'),
+        ("not-a-campaign-folder", ["{d}/empty", "--out", "{d}/id-out"], 'results.json'),
+        ("unknown-base-sensor", ["{d}/campaign-profile.toml", "--base-sensor", "no-such-sensor", "--out", "{d}/id-out"],
+         'no-such-sensor'),
+        ("zero-workers", ["{d}/campaign-profile.toml", "--workers", "0", "--out", "{d}/id-out"], 'workers'),
+        ("negative-budget", ["{d}/campaign-profile.toml", "--u-dut-pct", "-1", "--out", "{d}/id-out"], 'u_dut_pct'),
+        ("random-run-without-profile", ["{d}/campaign.toml", "--out", "{d}/id-out"], 'profile'),
+        ("out-is-a-file", ["{d}/campaign-profile.toml", "--out", "{d}/a-file.txt"], 'a-file.txt'),
+    ],
     "report": [
         ("missing-folder", ["{d}/no-such-folder"], 'no-such-folder'),
         ("no-results", ["{d}/empty"], 'results.json'),
@@ -153,6 +163,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     camp = 'name = "c"\n[[run]]\nfile = "record.h5"\ndut = ["dut"]\nreference = "reference"\nstatic_g = 1\n'
     (d / "campaign.toml").write_text(camp)
     (d / "campaign-missing-file.toml").write_text(camp.replace("record.h5", "nope.h5"))
+    (d / "campaign-profile.toml").write_text(camp + 'profile = "flat:20-1990"\n')
     (d / "empty").mkdir()
     (d / "malformed").mkdir()
     (d / "malformed" / "results.json").write_text("{\"method\": ")
@@ -214,6 +225,7 @@ VALID: dict[str, list[str]] = {
     "simulate": [*SIM, "--levels", "1", "--json"],
     "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],
     "campaign": ["{d}/campaign.toml", "--json"],
+    "identify": ["{d}/campaign-profile.toml", "--out", "{d}/id-valid", "--json"],
     "report": ["{d}/valid-results", "--json"],
 }
 

@@ -589,6 +589,9 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
             "index": r.index, "file": _rel(r.file, manifest.path.parent), "label": r.label,
             "status": "ok" if rr.ok else "failed", "error": rr.error, "folder": rr.folder,
             "method": rr.results[0][1].method if rr.results else r.method,
+            # what identification needs of the run beyond its levels (vrelab.identify): the drive's
+            # spectrum shape and the declared Type B budget
+            "profile": _profile_doc(r.profile), "budget": dict(r.budget),
             "channels": [],
         }  # fmt: skip
         for name, res in rr.results:
@@ -612,6 +615,16 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
             **({"command": command} if command else {}),
         },
     }
+
+
+def _profile_doc(spec: str | None) -> dict[str, Any] | None:
+    """A run's profile as the campaign document keeps it: the spec and the breakpoints (so a
+    campaign folder is self-contained: its profile files need not travel with it)."""
+    if spec is None:
+        return None
+    from vrelab.profiles import parse_profile
+
+    return {"spec": spec, **parse_profile(spec).to_dict()}
 
 
 def _rel(p: Path, base: Path) -> str:

@@ -132,28 +132,51 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
                    decision=decision)
 
 
+# The Type B inputs as perturbations of a reduction's inputs: a refit with one of them moved by
+# its standard uncertainty gives that term's share of every fitted parameter.
+def type_b_perturbations(typeb: TypeB) -> list[tuple[str, dict[str, float]]]:
+    """(source, perturbation) for each declared Type B input (``rms_rel``: every level's rms
+    scales by 1 + r; ``vre_rel``: every VRE by 1 + p; ``static_g``: the static field moves;
+    ``offset_g``: an offset on every VRE)."""
+    every = [
+        ("reference sensitivity", {"rms_rel": typeb.u_reference_pct / 100}),
+        ("DUT sensitivity", {"vre_rel": typeb.u_dut_pct / 100}),
+        ("static field (alignment)", {"static_g": typeb.u_static_g}),
+        ("thermal offset", {"offset_g": typeb.u_thermal_g}),
+    ]
+    return [(source, delta) for source, delta in every if any(delta.values())]
+
+
+def type_b_shifts(values: Mapping[str, float], refit: Callable[[dict[str, float]], Mapping[str, float] | None],
+                  typeb: TypeB) -> list[tuple[str, dict[str, float], dict[str, float] | None]]:
+    """For each declared Type B input: (source, perturbation, each parameter's shift), the shifts
+    from refitting with that input moved by its standard uncertainty (None: the refit failed).
+    ``refit`` takes the perturbation and returns the refitted parameter values."""
+    out: list[tuple[str, dict[str, float], dict[str, float] | None]] = []
+    for source, delta in type_b_perturbations(typeb):
+        other = refit(delta)
+        out.append((source, delta, None if other is None else
+                    {name: float(other[name]) - float(v) for name, v in values.items() if name in other}))
+    return out
+
+
 def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | None],
                typeb: TypeB) -> FitResult:
     """``fit`` with each parameter's ``u`` combined with the Type B terms, found by refitting
     with one input perturbed by its standard uncertainty (``refit`` takes the perturbations
     ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes."""
-    perturb = {
-        "reference sensitivity": {"rms_rel": typeb.u_reference_pct / 100},
-        "DUT sensitivity": {"vre_rel": typeb.u_dut_pct / 100},
-        "static field (alignment)": {"static_g": typeb.u_static_g},
-        "thermal offset": {"offset_g": typeb.u_thermal_g},
-    }
     params = dict(fit.params)
     notes = list(fit.notes)
     extra: dict[str, float] = {name: 0.0 for name in params}
-    for source, delta in perturb.items():
-        if not any(delta.values()):
-            continue
+
+    def values_of(delta: dict[str, float]) -> dict[str, float] | None:
         other = refit(delta)
-        if other is None:
+        return None if other is None else {k: e.value for k, e in other.params.items()}
+
+    for source, delta, diffs in type_b_shifts({k: e.value for k, e in params.items()}, values_of, typeb):
+        if diffs is None:
             notes.append(f"budget: {source} not evaluated (the refit did not converge)")
             continue
-        diffs = {name: other.params[name].value - est.value for name, est in params.items() if name in other.params}
         if source.startswith("static") and all(d == 0 for d in diffs.values()):
             notes.append("budget: static field not evaluated: this fit does not depend on g0 (its k3 term needs "
                          "two orientations: see the campaign's k2/k3)")

@@ -82,6 +82,9 @@ class LevelPrediction:
     valid: bool
     notes: tuple[str, ...] = ()
     freq_hz: float | None = None
+    # standard uncertainty [g] from an identified sensor's parameter covariance (None: the
+    # sensor carries none): linear propagation, see :func:`propagated_u`
+    u_vre_g: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -89,6 +92,8 @@ class LevelPrediction:
             "vre_g": finite_or_none(self.vre_g),
             "tilt_error_deg": finite_or_none(self.tilt_error_deg),
         }
+        if self.u_vre_g is not None:
+            d["u_vre_g"] = finite_or_none(self.u_vre_g)
         if self.freq_hz is not None:
             d["freq_hz"] = self.freq_hz
         d.update(
@@ -184,19 +189,23 @@ def _read_stages(stages: Sequence[Any]) -> _Reading:
     return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled))
 
 
-def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float]) -> tuple[float, float]:
+def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
+              rate: bool = True) -> tuple[float, float]:
     """(σ² [g²], ν0 [Hz]) of the profile seen through ``responses``.
 
     ``σ² = ∫S·|H|²df`` (:func:`vrelab.models.dynamics.effective_rms`) and Rice's zero
     up-crossing rate ``ν0 = sqrt(∫f²·S·|H|²df / σ²)``
     (:func:`vrelab.models.dynamics.zero_crossing_rate_hz`), over the profile's band, split at
-    its breakpoints and at the sensor's resonance.
+    its breakpoints and at the sensor's resonance. Without ``rate`` (a site that needs no
+    crossing rate) ν0 is NaN and its two integrals are not computed.
     """
     from vrelab.models import dynamics
 
     lo, hi = profile.band
     psd = (np.asarray(profile.freq_hz), np.asarray(profile.psd_g2_per_hz))
     sigma = dynamics.effective_rms(psd, list(responses), lo, hi, points_hz=list(points_hz))
+    if not rate:
+        return sigma**2, math.nan
     nu0 = dynamics.zero_crossing_rate_hz(psd, list(responses), lo, hi, points_hz=list(points_hz))
     return sigma**2, nu0
 
@@ -276,9 +285,11 @@ def predict(
         points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
         m0_drive = excitation.mean_square_g2
         # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
-        seen = [_spectral(excitation, site.responses, points) for site in reading.sites]
-        m0_m, _ = _spectral(excitation, reading.proof_mass, points)
-        m0_out, _ = _spectral(excitation, reading.output, points)
+        # only the over-range site uses Rice's crossing rate
+        seen = [_spectral(excitation, site.responses, points, rate=site.stage.analytic == "overrange")
+                for site in reading.sites]
+        m0_m, _ = _spectral(excitation, reading.proof_mass, points, rate=False)
+        m0_out, _ = _spectral(excitation, reading.output, points, rate=False)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
             sites = [(math.sqrt(m0 * scale), nu0) for m0, nu0 in seen]
@@ -303,7 +314,44 @@ def predict(
         notes.append(f"no closed form for stage(s) {', '.join(reading.unmodelled)}: simulate")
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
+    if getattr(sensor, "covariance", None):
+        u = propagated_u(sensor, excitation, levels_arr, g0, kind)
+        out = [dataclasses.replace(lv, u_vre_g=float(ui)) for lv, ui in zip(out, u)]
+        notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(sensor.covariance["params"])
+                     + ") carried by linear propagation; the model's own approximations are not in it")
     return Prediction(cond, tuple(out), tuple(notes))
+
+
+def propagated_u(sensor: "Sensor", excitation: RandomProfile | float | Sequence[float], levels: Sequence[float],
+                 static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
+    r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter covariance.
+
+    Linear propagation (GUM 5.1.2): ``u² = J·Σ·Jᵀ`` with ``J[i, j] = ∂VRE_i/∂θ_j`` by central
+    differences of :func:`predict` itself, each step a tenth of the parameter's standard
+    uncertainty (the scale on which the propagation is asked to be linear). ``Σ`` and the names
+    ``θ_j`` are ``sensor.covariance`` (:mod:`vrelab.sensor.parameters`: an identified sensor
+    file's ``[axes.<channel>.covariance]``). The tests hold it against a Monte Carlo over
+    ``Σ`` (GUM Supplement 1).
+    """
+    from vrelab.sensor.parameters import parameter, with_parameters
+
+    cov = sensor.covariance
+    if not cov:
+        raise ValueError(f"sensor {sensor.name} carries no parameter covariance (an identified sensor file does)")
+    names = list(cov["params"])
+    sigma = np.asarray(cov["matrix"], dtype=np.float64)
+    jac = np.zeros((len(levels), len(names)))
+    for j, name in enumerate(names):
+        x = parameter(sensor, name)
+        h = 0.1 * math.sqrt(sigma[j, j])
+        if x is None or not h > 0:
+            continue
+        vre = []
+        for step in (h, -h):
+            p = predict(with_parameters(sensor, {name: x + step}), excitation, levels, static_g, kind)
+            vre.append(np.array([lv.vre_g for lv in p.levels]))
+        jac[:, j] = (vre[0] - vre[1]) / (2 * h)
+    return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
 
 
 def _level(
@@ -334,6 +382,8 @@ def _level(
                 valid = False
                 notes.append(f"the static level {mean:g} g (field {g0:g} g + offset {site.offset_g:g} g) is at or "
                              f"beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
+            if shape == "sine" and low < mean - math.sqrt(2) * sigma and mean + math.sqrt(2) * sigma < high:
+                continue  # the sine's peaks stay inside both rails: the closed form is exactly 0
             clip_low += float(design.clip_vre(mean, sigma, low, math.inf, shape, kind))
             clip_high += float(design.clip_vre(mean, sigma, -math.inf, high, shape, kind))
             clip += float(design.clip_vre(mean, sigma, low, high, shape, kind))

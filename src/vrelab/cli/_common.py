@@ -35,8 +35,9 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sensor", required=True, metavar="S", help="preset (adxl355, adxl354, adxl357, ideal) or a sensor file")
     p.add_argument("--range", dest="range_g", type=float, metavar="G",
                    help="measurement range [g], e.g. 2, 4, 8 (default: the sensor's default_range_g: 2, or 10 for the ADXL357)")
-    p.add_argument("--axis", choices=("x", "y", "z"),
-                   help="sensing axis, sets fn and Q (default: the sensor's default_axis; x for the ADXL presets)")
+    p.add_argument("--axis", metavar="A",
+                   help="sensing axis x, y or z (or a channel of an identified sensor file), sets fn and Q "
+                   "(default: the sensor's default_axis; x for the ADXL presets)")
     p.add_argument("--odr", dest="odr_hz", type=float, metavar="HZ",
                    help="output data rate [Hz], sets the digital low-pass (default: the sensor's default_odr_hz; "
                    "4000 for the ADXL355 and ADXL357)")
@@ -95,3 +96,26 @@ def print_levels(result: Any) -> None:
             print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
     for w in result.warnings:
         print(f"warning: {w}")
+
+
+def add_budget_arguments(p: argparse.ArgumentParser, limit: bool = False) -> None:
+    """The Type B inputs of SPEC 4.3 (and, with ``limit``, the decision's limit)."""
+    g = p.add_argument_group("uncertainty budget (SPEC 4.3)" + (" and decision" if limit else ""))
+    g.add_argument("--u-reference-pct", type=float, default=0.0, metavar="P",
+                   help="standard uncertainty of the reference sensitivity [%%] (its calibration)")
+    g.add_argument("--u-dut-pct", type=float, default=0.0, metavar="P", help="standard uncertainty of the DUT sensitivity [%%]")
+    g.add_argument("--u-static-g", type=float, default=0.0, metavar="G",
+                   help="standard uncertainty of the static field [g] (fixture alignment)")
+    g.add_argument("--u-thermal-g", type=float, default=0.0, metavar="G",
+                   help="standard uncertainty of an offset change during vibration [g] (temperature)")
+    if limit:
+        g.add_argument("--limit", type=float, metavar="G",
+                       help="VRE limit [g] (a datasheet spec): each level pass/fail/indeterminate under guarded "
+                       "acceptance (pass when |VRE| + U <= limit, fail when |VRE| - U > limit)")
+
+
+def typeb_from_args(args: argparse.Namespace) -> Any:
+    """The :class:`vrelab.gum.TypeB` the budget options declare (it refuses a negative value)."""
+    from vrelab.gum import TypeB
+
+    return TypeB(args.u_reference_pct, args.u_dut_pct, args.u_static_g, args.u_thermal_g)

@@ -40,7 +40,7 @@ import numpy as np
 
 from vrelab import _io, folder
 from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
-from vrelab.cli._common import positive_list, print_json, print_levels
+from vrelab.cli._common import add_budget_arguments, positive_list, print_json, print_levels, typeb_from_args
 from vrelab.models.clipping import KINDS
 from vrelab.results import channels_to_dict
 
@@ -97,17 +97,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
     p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
-    g = p.add_argument_group("uncertainty budget (SPEC 4.3) and decision")
-    g.add_argument("--u-reference-pct", type=float, default=0.0, metavar="P",
-                   help="standard uncertainty of the reference sensitivity [%%] (its calibration)")
-    g.add_argument("--u-dut-pct", type=float, default=0.0, metavar="P", help="standard uncertainty of the DUT sensitivity [%%]")
-    g.add_argument("--u-static-g", type=float, default=0.0, metavar="G",
-                   help="standard uncertainty of the static field [g] (fixture alignment)")
-    g.add_argument("--u-thermal-g", type=float, default=0.0, metavar="G",
-                   help="standard uncertainty of an offset change during vibration [g] (temperature)")
-    g.add_argument("--limit", type=float, metavar="G",
-                   help="VRE limit [g] (a datasheet spec): each level pass/fail/indeterminate under guarded "
-                   "acceptance (pass when |VRE| + U <= limit, fail when |VRE| - U > limit)")
+    add_budget_arguments(p, limit=True)
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
@@ -152,9 +142,7 @@ def run(args: argparse.Namespace) -> int:
             "input_sha256": sha256_file(path),
             "command": _command_line(args),
         }
-        from vrelab.gum import TypeB
-
-        typeb = TypeB(args.u_reference_pct, args.u_dut_pct, args.u_static_g, args.u_thermal_g)
+        typeb = typeb_from_args(args)
         options = dict(
             typeb=typeb,
             limit_g=args.limit,

@@ -35,13 +35,16 @@ def print_prediction(pred: Any) -> None:
           f"static {c.get('static_g'):g} g")
     print(f"vibration: {c.get('profile')}")
     sine = any(lv.get("freq_hz") is not None for lv in d["levels"])
-    head = ("freq_hz " if sine else "") + f"{'rms_g':>8} {'VRE mg':>10} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} {'overrange mg':>12}  valid"
+    with_u = any("u_vre_g" in lv for lv in d["levels"])
+    vw = 18 if with_u else 10
+    head = ("freq_hz " if sine else "") + f"{'rms_g':>8} {'VRE mg':>{vw}} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} {'overrange mg':>12}  valid"
     print(head)
     for lv in d["levels"]:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
+        vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False)
         print(
-            f"{f}{lv['rms_g']:8.4g} {format_mg(lv['vre_g'], signed=False):>10} {lv['tilt_error_deg']:10.3g} "
+            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {lv['tilt_error_deg']:10.3g} "
             f"{format_mg(sh.get('clip_g'), signed=False):>9} {format_mg(sh.get('nonlinearity_g'), signed=False):>9} "
             f"{format_mg(sh.get('overrange_g'), signed=False):>12}  {'yes' if lv['valid'] else 'no'}"
         )

@@ -117,6 +117,9 @@ class Sensor:
     axes: tuple[str, ...] = ("x", "y", "z")
     odrs_hz: tuple[float, ...] = ()
     facts: Mapping[str, str] = field(default_factory=dict, hash=False)  # a dict: not hashable
+    # An identified sensor's parameter covariance (vrelab.identify, SPEC 6.1): {"params": names
+    # of vrelab.sensor.parameters.PARAMETERS, "matrix": rows}; predict carries it into u_vre_g.
+    covariance: Mapping[str, Any] | None = field(default=None, hash=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("range_g", "full_scale_g"):
@@ -138,6 +141,8 @@ class Sensor:
                 f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
             )
         object.__setattr__(self, "facts", dict(self.facts))
+        if self.covariance is not None:
+            object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
 
     # ------------------------------------------------------------------ rates and chain
 
@@ -345,9 +350,11 @@ def _choose_axis(data: Mapping[str, Any], axis: str | None, name: str, where: st
         raise ValueError(f"sensor {where}: axes must be a table of tables ([axes.x] ...), got {axes_table!r}")
     axes = tuple(axes_table) if axes_table else ("x", "y", "z")
     chosen_axis = axis if axis is not None else data.get("default_axis", axes[0])
-    if not isinstance(chosen_axis, str) or chosen_axis.lower() not in axes:
+    # axes match without regard to case (x and X; an identified file's channel names keep theirs)
+    match = [a for a in axes if isinstance(chosen_axis, str) and a.lower() == chosen_axis.lower()]
+    if not match:
         raise ValueError(f"axis must be one of {', '.join(axes)} for {name}; got {chosen_axis!r}")
-    chosen_axis = chosen_axis.lower()
+    chosen_axis = match[0]
     return axes_table, axes, chosen_axis
 
 
@@ -424,6 +431,30 @@ def _facts(data: Mapping[str, Any], where: str, origin: str) -> dict[str, str]:
     return facts
 
 
+def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
+    """An identified sensor's covariance table, checked: known parameter names, a square,
+    symmetric, finite matrix with a non-negative diagonal."""
+    from vrelab.sensor.parameters import PARAMETERS
+
+    where = f"sensor {name}: covariance"
+    if not isinstance(cov, Mapping) or set(cov) != {"params", "matrix"}:
+        raise ValueError(f"{where} must be a table with params (names) and matrix (rows), got {cov!r}")
+    params, matrix = cov["params"], cov["matrix"]
+    if not isinstance(params, (list, tuple)) or not params or any(p not in PARAMETERS for p in params) \
+            or len(set(params)) != len(params):
+        raise ValueError(f"{where}: params must be distinct names of {', '.join(PARAMETERS)}, got {params!r}")
+    try:
+        m = np.array(matrix, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: matrix must be rows of numbers, got {matrix!r}") from None
+    n = len(params)
+    if m.shape != (n, n) or not np.all(np.isfinite(m)):
+        raise ValueError(f"{where}: matrix must be {n}x{n} finite numbers (one row per parameter), got shape {m.shape}")
+    if np.any(np.diag(m) < 0) or not np.allclose(m, m.T, rtol=1e-9, atol=0.0):
+        raise ValueError(f"{where}: matrix must be symmetric with a non-negative diagonal")
+    return {"params": [str(p) for p in params], "matrix": [[float(x) for x in row] for row in m]}
+
+
 def _fmt(xs: Any) -> str:
     return ", ".join(f"{x:g}" for x in xs)
 
@@ -474,9 +505,12 @@ def load_sensor(
     # ---- values: top level < axis < range
     values: dict[str, Any] = {}
     _apply(values, {k: v for k, v in data.items() if k in BY_KEY}, where)
+    axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
+    axis_facts = axis_table.pop("facts", {})
+    covariance = axis_table.pop("covariance", None)
     if axes_table:
-        _check_keys(axes_table[chosen_axis], set(BY_KEY), f"{where} [axes.{chosen_axis}]")
-        _apply(values, axes_table[chosen_axis], f"{where} [axes.{chosen_axis}]")
+        _check_keys(axis_table, set(BY_KEY), f"{where} [axes.{chosen_axis}]")
+        _apply(values, axis_table, f"{where} [axes.{chosen_axis}]")
     if range_key is not None:
         _check_keys(ranges_table[range_key], set(BY_KEY), f"{where} [ranges.{range_key}]")
         _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
@@ -488,6 +522,8 @@ def load_sensor(
     rails = values.pop("rails_g", (-full_scale, full_scale))
 
     facts = _facts(data, where, origin)
+    if axis_facts:  # an axis's own sources (an identified file marks each number per channel)
+        facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]", "axis"))
     if k2_ug_per_g2 is not None:
         values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
         facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
@@ -511,4 +547,20 @@ def load_sensor(
         axes=axes,
         odrs_hz=odrs,
         facts=facts,
+        covariance=_without(covariance, {n for n, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3))
+                                         if v is not None}),
     )
+
+
+def _without(cov: Any, names: set[str]) -> Any:
+    """The covariance without the parameters the user set by hand (--k2, --k3: exact, no longer
+    estimates); None when nothing is left."""
+    if not isinstance(cov, Mapping) or not names or not isinstance(cov.get("params"), list):
+        return cov
+    keep = [i for i, p in enumerate(cov["params"]) if p not in names]
+    if not keep:
+        return None
+    try:
+        return {"params": [cov["params"][i] for i in keep], "matrix": [[cov["matrix"][i][j] for j in keep] for i in keep]}
+    except (IndexError, KeyError, TypeError):
+        return cov  # malformed: the Sensor's check names it

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 REFERENCE_MV_PER_G = 10.0  # an IEPE reference accelerometer
 DUT_LSB_PER_G = 256000.0  # ADXL355 on ±2 g
 BLOCK = 1 << 16
+RANDOM_BAND_HZ = (50.0, 500.0)  # the random runs' flat drive
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float) -> Any:
     # H(f) near fn (at 4 kHz, |H(1 kHz)|² comes out 7 % high)
     kw = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed)
     if run.freq_hz is None:
-        return TestPlan.random(sensor, RandomProfile.flat(50.0, 500.0), run.levels_g, **kw)
+        return TestPlan.random(sensor, RandomProfile.flat(*RANDOM_BAND_HZ), run.levels_g, **kw)
     return TestPlan.sine(sensor, [run.freq_hz], run.levels_g, **kw)
 
 
@@ -171,6 +172,7 @@ def _manifest_text(truth: CampaignTruth, entries: Sequence[tuple[Path, Mapping[s
             f'reference = "{names["reference"]}"',
             f"dut = {duts}",
             f"static_g = {run.static_g:g}",
+            *([f'profile = "flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}"   # what the controller ran'] if run.freq_hz is None else []),
             "",
         ]
     return "\n".join(lines)
