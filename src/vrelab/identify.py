@@ -156,6 +156,15 @@ def observations(doc: Mapping[str, Any]) -> tuple[dict[str, list[Observation]], 
     return obs, notes
 
 
+def _pooled(u: NDArray[np.float64], dof: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The levels of one sine frequency share the DUT's noise (the drive is removed exactly, so
+    the VRE's scatter is the sensor's and the baselines'), and each level's batch-means u rests
+    on few degrees of freedom: their variances are pooled, weighted by those dof (unknown dof:
+    the plain mean), so one level whose u came out low by chance does not steer the fit."""
+    w = np.where(np.isfinite(dof), dof, 1.0)
+    return np.full_like(u, math.sqrt(float(np.sum(w * u**2) / np.sum(w))))
+
+
 def _type_a(level: Mapping[str, Any]) -> float | None:
     """A level's Type A standard uncertainty (its budget's record term when a budget was declared)."""
     for term in level.get("budget") or ():
@@ -177,7 +186,9 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         h = lv.get("vre_2f")
         h2f = (float(h["value"]), float(h["u"])) if isinstance(h, Mapping) and h.get("value") is not None \
             and h.get("u") else None
-        rows.append((float(rms), float(v), float(u), lv.get("freq_hz"), h2f))
+        dof = lv.get("dof")
+        rows.append((float(rms), float(v), float(u), lv.get("freq_hz"), h2f,
+                     float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf))
     if not rows:
         notes.append(f"{where}: no level with a VRE and its uncertainty: not used")
         return []
@@ -185,9 +196,9 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
     index, label = int(run["index"]), str(run.get("label", ""))
 
     def make(sel: Sequence[tuple[Any, ...]], freq: float | None, profile: RandomProfile | None) -> Observation:
-        rms, vre, u, _, h2f = zip(*sel)
-        return Observation(index, label, str(method), g0, freq, profile, np.array(rms), np.array(vre), np.array(u),
-                           tuple(h2f))
+        rms, vre, u, _, h2f, dof = zip(*sel)
+        return Observation(index, label, str(method), g0, freq, profile, np.array(rms), np.array(vre),
+                           _pooled(np.array(u), np.array(dof)) if freq is not None else np.array(u), tuple(h2f))
 
     if method == "sine":
         if any(r[3] is None for r in rows):
@@ -248,12 +259,18 @@ def _sine_frequencies(obs: Sequence[Observation]) -> list[float]:
 
 def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, str]]:
     """Which parameters the data can determine before fitting, and why the others cannot."""
-    free: list[str] = ["k2_ug_per_g2"]
+    free: list[str] = []
     why: dict[str, str] = {}
-    orient = _orientations(obs)
-    if len(orient) >= 2:
-        free.append("k3_ug_per_g3")
+    sines = [ob for ob in obs if ob.method == "sine"]
+    orient = _orientations(sines)
+    if not sines:
+        # random levels carry k2·σ² under the clipping's share, which the rails also shape: the
+        # nonlinearity is read from sine runs, where nothing else rectifies below the rails
+        why["k2_ug_per_g2"] = why["k3_ug_per_g3"] = "no sine run: k2 and k3 are identified from sine runs"
+    elif len(orient) >= 2:
+        free += ["k2_ug_per_g2", "k3_ug_per_g3"]
     else:
+        free.append("k2_ug_per_g2")
         why["k3_ug_per_g3"] = (f"one orientation only (every run at g0 = {orient[0]:+g} g): k3 needs two static "
                                "fields (+g and -g)")
         if abs(orient[0]) >= SAME_ORIENTATION_G / 2:
@@ -264,6 +281,11 @@ def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, s
         why["fn_hz"] = why["q"] = "no sine run: VRC(f) not measured"
     elif len(freqs) < 2:
         why["fn_hz"] = why["q"] = f"sine runs at one frequency only ({freqs[0]:g} Hz): VRC(f) has no shape"
+    elif len(freqs) < 3:
+        # VRC(f) = k·|H(f)|² at two frequencies fixes k and one more number: a whole curve of
+        # (fn, Q) passes through both points, and any one of them would be a confident guess
+        why["fn_hz"] = why["q"] = (f"sine runs at two frequencies only ({freqs[0]:g}, {freqs[1]:g} Hz): VRC(f) "
+                                   "there fixes one combination of fn and Q, not both (needs three)")
     else:
         free += ["fn_hz", "q"]
     randoms = [ob for ob in obs if ob.method == "random"]
@@ -355,8 +377,12 @@ def _bounds(name: str, obs: Sequence[Observation]) -> tuple[float, float]:
 
 
 def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[str, float]:
-    """Starting values: the base sensor's, with k2, k3, fn and Q from a closed-form fit of each
-    sine run's apparent VRC (``VRC(f, g0) = (k2 + 3·k3·g0)·|H(f)|²``, several starts in fn)."""
+    """Starting values: the base sensor's, with k2, k3, fn and Q from the closed form of each
+    sine run's apparent VRC, ``VRC(f, g0) = (k2 + 3·k3·g0)·|H(f)|²``: k2 and k3 solved linearly
+    at every (fn, Q) of a log grid (fn from a third of the lowest to ten times the highest sine
+    frequency, Q from 0.5 to 50), the best grid point polished by least squares. A grid, not a
+    few starts: VRC(f) has valleys (a large Q fits three frequencies nearly as well) that a
+    local search from a poor start does not leave."""
     from scipy.optimize import least_squares
 
     from vrelab.models.dynamics import vrc_at_frequency
@@ -374,33 +400,38 @@ def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[s
         g0 = np.array([ob.static_g for ob in sines])
         k3_free = "k3_ug_per_g3" in free
         dyn_free = "fn_hz" in free
-        fn0, q0 = base.fn_hz, base.q
+        k3_fixed = start["k3_ug_per_g3"]
 
-        def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
-            k2, k3 = p[0], (p[1] if k3_free else start["k3_ug_per_g3"])
-            if dyn_free:
-                h = vrc_at_frequency(1.0, f, p[-2], p[-1])
-            else:
-                h = vrc_at_frequency(1.0, f, fn0, q0) if fn0 else np.ones_like(f)
-            return ((k2 + 3 * k3 * g0) * h - vrc) / u
+        def ks(h: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+            """k2 (and k3) by weighted linear least squares at the response |H|² = h; the cost."""
+            a = np.column_stack([h, 3 * g0 * h] if k3_free else [h]) / u[:, None]
+            y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
+            k, *_ = np.linalg.lstsq(a, y, rcond=None)
+            r = a @ k - y
+            return k, float(r @ r)
 
-        k20 = float(np.average(vrc, weights=1 / u**2))
-        starts = [[]] if not dyn_free else [[fn, q] for fn in np.max(f) * np.array([0.7, 1.2, 2.0, 4.0, 10.0])
-                                            for q in (1.0, 4.0)]
-        best = None
-        for s in starts:
-            p0 = np.array([k20] + ([0.0] if k3_free else []) + list(s))
-            lo = [-np.inf] * (1 + k3_free) + ([1e-3, 0.05] if dyn_free else [])
-            hi = [np.inf] * (1 + k3_free) + ([1e6, 1e4] if dyn_free else [])
-            r = least_squares(resid, p0, bounds=(lo, hi), x_scale="jac")
-            if best is None or r.cost < best.cost:
-                best = r
-        assert best is not None
-        start["k2_ug_per_g2"] = float(best.x[0])
-        if k3_free:
-            start["k3_ug_per_g3"] = float(best.x[1])
+        def h_of(fn: float | None, q: float | None) -> NDArray[np.float64]:
+            return np.asarray(vrc_at_frequency(1.0, f, fn, q)) if fn else np.ones_like(f)
+
         if dyn_free:
-            start["fn_hz"], start["q"] = float(best.x[-2]), float(best.x[-1])
+            grid = [(fn, q) for fn in np.geomspace(f.min() / 3, 10 * f.max(), 60) for q in np.geomspace(0.5, 50, 15)]
+            fn0, q0 = min(grid, key=lambda g: ks(h_of(*g))[1])
+
+            def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
+                k = p[:-2]
+                h = h_of(p[-2], p[-1])
+                k3 = k[1] if k3_free else k3_fixed
+                return ((k[0] + 3 * k3 * g0) * h - vrc) / u
+
+            k0, _ = ks(h_of(fn0, q0))
+            r = least_squares(resid, np.r_[k0, fn0, q0], x_scale="jac",
+                              bounds=([-np.inf] * len(k0) + [1e-3, 0.05], [np.inf] * len(k0) + [1e6, 1e4]))
+            k, (start["fn_hz"], start["q"]) = r.x[:-2], (float(r.x[-2]), float(r.x[-1]))
+        else:
+            k, _ = ks(h_of(base.fn_hz, base.q))
+        start["k2_ug_per_g2"] = float(k[0])
+        if k3_free:
+            start["k3_ug_per_g3"] = float(k[1])
     for n in ("rail_low_g", "rail_high_g", "overrange_threshold_g"):
         if n in free:
             lo, hi = _bounds(n, obs)
@@ -479,6 +510,10 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     start = _start(obs, base, free)
     for _ in range(4):
         fit = _fit(base, obs, free, start, kind)
+        kept = _modelled(obs, fit.preds, notes)
+        if kept is not None:  # levels the analytic model does not cover: left out, refitted
+            obs = kept
+            fit = _fit(base, obs, free, dict(zip(free, (float(v) for v in fit.x))), kind)
         dof = sum(ob.n for ob in obs) - len(free)
         scale = max(1.0, fit.chi2 / dof) if dof > 0 else 1.0
         values = dict(zip(free, fit.x))
@@ -537,6 +572,53 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     runs = _run_table(fit.preds, obs)
     return ChannelModel(channel, params, {n: why[n] for n in PARAMETERS if params[n] is None}, used, covariance,
                         fit.chi2, dof, tuple(runs), tuple(notes), tuple(budget), tuple(cross_check_2f(obs)))
+
+
+def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]) -> list[Observation] | None:
+    """The observations without the levels the analytic model does not cover well enough to fit
+    through; None when every level is covered. Each level left out is said in ``notes``.
+
+    Left out: a level whose prediction is not valid; a random level where clipping and the
+    nonlinearity interact (:func:`vrelab.predict.mechanisms_interact`); and a sine level whose
+    peak reaches a rail. The clip sees the polynomial's output, so the analytic sum of the two
+    shares errs by about the nonlinearity's share times the time spent beyond the rail: for a
+    random level that hides in the clipping noise of its u, for a sine level (deterministic, u
+    of a few µg) it is hundreds of u and would drag k2 and k3 (the rails come from the random
+    runs)."""
+    from dataclasses import replace
+
+    from vrelab.predict import mechanisms_interact
+
+    def covered(lv: Any, method: str) -> bool:
+        if not lv.valid:
+            return False
+        if method == "sine":
+            return lv.shares["clip_g"] == 0.0
+        return not mechanisms_interact(lv.shares["clip_g"], lv.shares["nonlinearity_g"])
+
+    out: list[Observation] = []
+    dropped = False
+    for ob, p in zip(obs, preds):
+        keep = np.array([covered(lv, ob.method) for lv in p.levels])
+        if keep.all():
+            out.append(ob)
+            continue
+        dropped = True
+        where = f"run {ob.run} ({ob.label!r}{f', {ob.freq_hz:.4g} Hz' if ob.freq_hz else ''})"
+        for lv, k in zip(p.levels, keep):
+            if not k:
+                why = "; ".join(lv.notes) or ("the sine's peak reaches a rail, where clipping and the nonlinearity "
+                                              "do not add" if ob.method == "sine" else "the prediction is not valid")
+                notes.append(f"{where}: level {lv.rms_g:.4g} g rms left out of the fit: {why}")
+        if keep.any():
+            out.append(replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep],
+                               harmonic_g=tuple(h for h, k in zip(ob.harmonic_g, keep) if k) if ob.harmonic_g else ()))
+    if not dropped:
+        return None
+    if not out:
+        raise ValueError("identify: no level of the channel is covered by the analytic model (every one clips "
+                         "with the nonlinearity, or its prediction is not valid): simulate instead")
+    return out
 
 
 def _run_table(preds: Sequence[Any], obs: Sequence[Observation]) -> list[dict[str, Any]]:

@@ -215,6 +215,14 @@ def _clip_where(sensor: Any) -> str:
     return "output" if pos == "output" else "proof-mass"
 
 
+def mechanisms_interact(clip_g: float, nonlinearity_g: float) -> bool:
+    """Whether clipping and the nonlinearity both carry a share of a level's VRE (each above
+    ``_MINOR`` of the larger): the clip then sees the polynomial's output, and their sum, which
+    :func:`predict` reports, is only an approximation (see the module notes)."""
+    big = max(abs(clip_g), abs(nonlinearity_g))
+    return big > 0 and abs(clip_g) > _MINOR * big and abs(nonlinearity_g) > _MINOR * big
+
+
 # --- prediction ---------------------------------------------------------------------------------
 
 
@@ -417,7 +425,7 @@ def _level(
         if abs(over) > _MINOR * big and shape == "gaussian":
             valid = False
             notes.append("over-range share is large: the Rice×hold estimate is rough — simulate")
-        if abs(clip) > _MINOR * big and abs(nonlin) > _MINOR * big:
+        if mechanisms_interact(clip, nonlin):
             notes.append("clipping and nonlinearity both matter: not separable, their sum is approximate")
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")

@@ -126,6 +126,9 @@ class LevelResult:
     U_vre_g: float | None = None
     k: float | None = None
     decision: str | None = None  # pass | fail | indeterminate against a limit (vrelab.gum.decide)
+    # sine: the rectified shift estimated from the DUT's 2f line less the reference's (immune to
+    # drift; the analysis's _sine_level says how), beside the DC estimate ``vre``
+    vre_2f: Estimate | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -142,6 +145,8 @@ class LevelResult:
             d["dof"] = finite_or_none(self.dof)
         if self.freq_hz is not None:
             d["freq_hz"] = finite_or_none(self.freq_hz)
+        if self.vre_2f is not None:
+            d["vre_2f"] = {"value": finite_or_none(self.vre_2f.value), "u": finite_or_none(self.vre_2f.u)}
         d.update(
             u_rms_g=finite_or_none(self.u_rms_g),
             duration_s=finite_or_none(self.duration_s),
@@ -167,6 +172,7 @@ class LevelResult:
             U_vre_g=d.get("U_vre_g"),
             k=d.get("k"),
             decision=d.get("decision"),
+            vre_2f=Estimate(_nan(d["vre_2f"]["value"]), _nan(d["vre_2f"]["u"]), "g") if d.get("vre_2f") else None,
         )
 
 

@@ -197,11 +197,19 @@ def whole_period_batch(freq_hz: float, fs_hz: float, target_s: float = WINDOW_S)
 def _sine_level(
     record: Record, i0: int, i1: int, ref: str, block_size: int, freq_hint: float | None,
     shared: dict[Any, Any] | None = None,
-) -> tuple[float, MeanEstimate, MeanEstimate, float, float, list[str]]:
-    """Second pass over one sine level: (freq, DUT mean, ref rms estimate, t_centre, n, warnings).
+) -> tuple[float, MeanEstimate, MeanEstimate, float, float, list[str], MeanEstimate | None]:
+    """Second pass over one sine level: (freq, DUT mean, ref rms estimate, t_centre, n, warnings,
+    the 2f estimate of the rectified shift or None).
 
     ``shared``: what the DUT channels of one record share (their window stats' ``shared``): the
-    drive frequency of a level is the reference's, found once for all of them."""
+    drive frequency of a level is the reference's, found once for all of them.
+
+    The 2f estimate (SPEC 6.1): a quadratic term k·m² on the DUT's motion m = Re[c1·e^{jθ}]
+    (c1 the DUT's fitted phasor at f) adds k·|c1|²/2 at DC and k·c1²/2 at 2f, the same
+    coefficient. So ``Re[(c2 - r2)·conj(c1)²]/|c1|²``, with c2 the DUT's fitted 2f phasor and r2
+    the reference's (the shaker's own distortion, which the DUT merely follows), estimates the
+    rectified shift k·|c1|²/2 without using the DC, hence immune to drift. None without a
+    reference, or when 2f is at or above Nyquist."""
     fs = record.fs_hz
     warnings: list[str] = []
     key = ("frequency", i0, i1)
@@ -227,8 +235,12 @@ def _sine_level(
     # frequency, least squares): its offset is the DUT mean with the drive removed exactly, its
     # amplitude the reference level with no leakage from the negative-frequency image (a
     # single-bin DFT over not-quite-whole periods would bias the rms by up to |Σe^{-2jωn}|²/L²).
-    basis_sums = np.zeros((nb, 3, 3))
-    rhs = {c: np.zeros((nb, 3)) for c in ("dut", ref)}
+    # offset, cos, sin at f, and at 2f when it is below Nyquist (and a reference gives r2): five
+    # orthogonal functions over whole periods, so the offset is the same as the three-term fit's
+    two_f = ref != "dut" and 2 * f < 0.5 * fs
+    nf = 5 if two_f else 3
+    basis_sums = np.zeros((nb, nf, nf))
+    rhs = {c: np.zeros((nb, nf)) for c in ("dut", ref)}
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
     labels = channel_labels(record)
@@ -239,7 +251,8 @@ def _sine_level(
         sl = slice((pos - i0) // L, (pos - i0) // L + k)
         # Phase from the segment start: batches of whole periods line up with it.
         ph = w * ((pos - i0) + np.arange(nn))
-        B = np.stack([np.ones(nn), np.cos(ph), np.sin(ph)]).reshape(3, k, L)  # (3, batch, L)
+        rows = [np.ones(nn), np.cos(ph), np.sin(ph)] + ([np.cos(2 * ph), np.sin(2 * ph)] if two_f else [])
+        B = np.stack(rows).reshape(nf, k, L)  # (functions, batch, L)
         basis_sums[sl] = np.einsum("ikl,jkl->kij", B, B)
         for c in chans:
             x = blk[c]
@@ -254,7 +267,14 @@ def _sine_level(
     rms = math.sqrt(max(rm.mean, 0.0))
     u_rms = rm.u / (2 * rms) if rms > 0 else math.nan
     t_c = (i0 + stop) / 2 / fs
-    return f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, float(stop - i0), warnings
+    h2 = None
+    if two_f:
+        c1 = coef["dut"][:, 1] - 1j * coef["dut"][:, 2]
+        c2 = (coef["dut"][:, 3] - coef[ref][:, 3]) - 1j * (coef["dut"][:, 4] - coef[ref][:, 4])
+        m2 = np.abs(c1) ** 2
+        if np.all(m2 > 0):
+            h2 = batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
+    return (f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, float(stop - i0), warnings, h2)
 
 
 def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
@@ -448,6 +468,7 @@ def _level(
     bracketing baselines; and its centre time."""
     fs = record.fs_hz
     freq = None
+    vre_2f = None
     if method == "random":
         dm = dut_mean_estimate(stats, k0, k1)
         power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
@@ -459,10 +480,12 @@ def _level(
     else:
         i0 = int(math.ceil(seg.start_s * fs - 1e-9))
         i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), stats.n_samples)
-        freq, dm, rm, t_c, n_f, w = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz,
-                                                stats.shared)
+        freq, dm, rm, t_c, n_f, w, h2 = _sine_level(record, i0, i1, stats.reference, block_size, seg.freq_hz,
+                                                    stats.shared)
         warnings += w
         rms, u_rms, n_used = rm.mean, rm.u, int(n_f)
+        if h2 is not None and math.isfinite(h2.mean) and math.isfinite(h2.u):
+            vre_2f = Estimate(h2.mean, h2.u, "g")
     base, u_base, note = bracket(t_c, baselines)
     if note:
         warnings.append(Notice("bracket", note))
@@ -480,7 +503,7 @@ def _level(
             f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
         ))
     level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
-                        n_saturated=n_sat, flags=flags, dof=dof)
+                        n_saturated=n_sat, flags=flags, dof=dof, vre_2f=vre_2f)
     return level, t_c
 
 

@@ -90,11 +90,11 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     typeb = typeb_from_args(args)
-    doc = _campaign_doc(args.source, args.workers)
-    ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, args.kind,
-                     typeb if typeb.declared else None, args.workers)
     command = shlex.join(["vrelab", "identify", args.source, "--base-sensor", args.base_sensor, "--out", args.out])
-    with _io.output_dir(args.out) as stage:
+    with _io.output_dir(args.out) as stage:  # a bad --out is refused before any work; DIR whole or not at all
+        doc = _campaign_doc(args.source, args.workers)
+        ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, args.kind,
+                         typeb if typeb.declared else None, args.workers)
         write_sensor_file(Path(stage) / SENSOR_FILE, ident)
         out = ident.to_dict(sensor_file=str(Path(args.out) / SENSOR_FILE))
         out["provenance"] = {"command": command, "campaign_provenance": doc.get("provenance")}

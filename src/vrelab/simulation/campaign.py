@@ -348,6 +348,43 @@ _WRITERS = {"tdms": _write_tdms, "csv": _write_csv, "h5": _write_h5, "uff": _wri
             "mf4": _write_mdf, "lvm": _write_lvm, "ide": _write_ide}
 
 
+def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, seconds: float = 2.0,
+                      settle_s: float | None = None, channel: str = "dut") -> dict[str, Any]:
+    """Simulate a campaign of one part in memory and return its campaign document, the shape
+    :func:`vrelab.campaign.campaign_doc` gives a reduced manifest (``runs`` with each channel's
+    levels, the random runs' profile): what :func:`vrelab.identify.identify` reads. Each run is
+    one :class:`TestPlan` (seed ``seed·1000 + index``) reduced as a lab file by
+    :func:`vrelab.shaker.run_test`; ``fmt`` of the runs is ignored. For planning a campaign
+    (would it determine Q?) and for the identification's recovery tests."""
+    from vrelab.shaker import run_test
+
+    doc: dict[str, Any] = {"kind": "campaign", "name": f"simulated {sensor.name}", "runs": []}
+    for i, run in enumerate(runs, 1):
+        kw: dict[str, Any] = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed * 1000 + i)
+        if settle_s is not None:
+            kw["settle_s"] = settle_s
+        if run.freq_hz is None:
+            from vrelab.profiles import RandomProfile
+            from vrelab.simulation.plan import TestPlan
+
+            profile = RandomProfile.flat(*RANDOM_BAND_HZ)
+            res = run_test(TestPlan.random(sensor, profile, run.levels_g, **kw))
+        else:
+            from vrelab.simulation.plan import TestPlan
+
+            profile = None
+            res = run_test(TestPlan.sine(sensor, [run.freq_hz], run.levels_g, **kw))
+        d = res.to_dict()
+        doc["runs"].append({
+            "index": i, "label": run.label or f"run {i}", "status": "ok", "method": res.method,
+            "profile": None if profile is None else {"spec": f"flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}",
+                                                     **profile.to_dict()},
+            "budget": {}, "channels": [{"channel": channel, "static_g": run.static_g, "levels": d["levels"],
+                                        "fits": d["fits"]}],
+        })  # fmt: skip
+    return doc
+
+
 def vrc_truth(truth: CampaignTruth, part: Part, freq_hz: float, static_g: float) -> float:
     """The apparent VRC [µg/g²] of ``part`` at a sine ``freq_hz`` and ``static_g``:
     ``(k2 + 3·k3·g0)·|H(f)|²``, H the proof mass's second-order response (SPEC 1.3)."""
@@ -361,4 +398,5 @@ def h2(truth: CampaignTruth, freq_hz: float) -> float:
     return 1.0 / ((1 - r * r) ** 2 + (r / truth.q) ** 2)
 
 
-__all__ = ["Part", "ExampleRun", "CampaignTruth", "example_truth", "write_campaign", "vrc_truth", "h2"]
+__all__ = ["Part", "ExampleRun", "CampaignTruth", "example_truth", "write_campaign", "campaign_document",
+           "vrc_truth", "h2"]

@@ -113,7 +113,7 @@ PARAMS: dict[str, dict[str, Param]] = {
     "predict": {
         **_COMMON,
         "sensor": Param(str),
-        "axis": Param(str, ("x", "y", "z")),
+        "axis": Param(str),  # x, y, z or an identified sensor file's channel: the sensor file checks it
         "odr_hz": _P,
         "profile": Param(str),
         "freq_hz": _P,
