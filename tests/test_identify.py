@@ -265,7 +265,7 @@ def test_2f_cross_check_on_the_example_campaign(tmp_path: Path) -> None:
             e = x["vrc_2f_ug_per_g2"]
             assert abs(e["value"] - want) <= 3 * e["u"], (ch["channel"], x)
             n += 1
-    assert n == 10  # five sine runs, two parts
+    assert n == 12  # six sine runs, two parts
 
 
 def test_cli_identify_contract(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -510,7 +510,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     start = _start(obs, base, free)
     for _ in range(4):
         fit = _fit(base, obs, free, start, kind)
-        kept = _modelled(obs, fit.preds, notes)
+        kept = _modelled(obs, fit.preds, notes, with_parameters(base, dict(zip(free, fit.x))))
         if kept is not None:  # levels the analytic model does not cover: left out, refitted
             obs = kept
             fit = _fit(base, obs, free, dict(zip(free, (float(v) for v in fit.x))), kind)
@@ -574,32 +574,42 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
                         fit.chi2, dof, tuple(runs), tuple(notes), tuple(budget), tuple(cross_check_2f(obs)))
 
 
-def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]) -> list[Observation] | None:
+def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str], sensor: Any) -> list[Observation] | None:
     """The observations without the levels the analytic model does not cover well enough to fit
     through; None when every level is covered. Each level left out is said in ``notes``.
 
-    Left out: a level whose prediction is not valid; a random level where clipping and the
-    nonlinearity interact (:func:`vrelab.predict.mechanisms_interact`); and a sine level whose
-    peak reaches a rail. The clip sees the polynomial's output, so the analytic sum of the two
-    shares errs by about the nonlinearity's share times the time spent beyond the rail: for a
-    random level that hides in the clipping noise of its u, for a sine level (deterministic, u
-    of a few µg) it is hundreds of u and would drag k2 and k3 (the rails come from the random
-    runs)."""
+    :func:`vrelab.predict.predict` adds the clipping and the nonlinearity shares, but the clip
+    sees the polynomial's output: near a rail R the polynomial displaces the signal by about
+    ``k·R²`` (k = k2 + 3·k3·g0), so the sum errs by about ``k·R²`` times the fraction of time
+    spent beyond the rail. Left out: a level whose prediction is not valid; a sine level whose
+    peak reaches a rail (deterministic, u of a few µg: the error is hundreds of u and would
+    drag k2 and k3; the rails come from the random runs); a random level where that error,
+    for Gaussian motion of the level's σ at the clip, exceeds half its u."""
     from dataclasses import replace
 
-    from vrelab.predict import mechanisms_interact
+    from scipy.stats import norm
 
-    def covered(lv: Any, method: str) -> bool:
+    k = sensor.k2_per_g
+    low, high = sensor.rails_g
+
+    def covered(lv: Any, ob: Observation) -> bool:
         if not lv.valid:
             return False
-        if method == "sine":
+        if ob.method == "sine":
             return lv.shares["clip_g"] == 0.0
-        return not mechanisms_interact(lv.shares["clip_g"], lv.shares["nonlinearity_g"])
+        sig = lv.sigma_at_clip_g
+        if not (sig > 0):
+            return True
+        keff = abs(k + 3 * sensor.k3_per_g2 * ob.static_g)
+        err = keff * (norm.sf((high - ob.static_g) / sig) * high**2 + norm.cdf((low - ob.static_g) / sig) * low**2)
+        return err <= 0.5 * u_of[id(lv)]
 
+    u_of: dict[int, float] = {}
     out: list[Observation] = []
     dropped = False
     for ob, p in zip(obs, preds):
-        keep = np.array([covered(lv, ob.method) for lv in p.levels])
+        u_of.update({id(lv): float(u) for lv, u in zip(p.levels, ob.u_g)})
+        keep = np.array([covered(lv, ob) for lv in p.levels])
         if keep.all():
             out.append(ob)
             continue
@@ -607,8 +617,9 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
         where = f"run {ob.run} ({ob.label!r}{f', {ob.freq_hz:.4g} Hz' if ob.freq_hz else ''})"
         for lv, k in zip(p.levels, keep):
             if not k:
-                why = "; ".join(lv.notes) or ("the sine's peak reaches a rail, where clipping and the nonlinearity "
-                                              "do not add" if ob.method == "sine" else "the prediction is not valid")
+                why = ("; ".join(lv.notes) if not lv.valid else "the sine's peak reaches a rail, where clipping and "
+                       "the nonlinearity do not add" if ob.method == "sine" else "clipping and the nonlinearity "
+                       "interact beyond half the level's u (the analytic sum does not hold)")
                 notes.append(f"{where}: level {lv.rms_g:.4g} g rms left out of the fit: {why}")
         if keep.any():
             out.append(replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep],

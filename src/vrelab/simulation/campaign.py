@@ -78,8 +78,9 @@ k3_ug_per_g3 = 0.0
 
 def example_truth() -> CampaignTruth:
     """The shipped example: two parts; sine at 80 Hz and 300 Hz at +1 g and -1 g, at 1000 Hz
-    near the resonance at +1 g, one random run 50-500 Hz at +1 g; in TDMS, CSV, UFF58 (ASCII
-    and binary) and HDF5. Sine levels stay clear of the rails (peak + 1 g < 2.048 g at the
+    near the resonance at +1 g, one random run 50-500 Hz at +1 g, and 1500 Hz above the
+    resonance at -1 g (so that the identification sees both flanks: fn and Q); in TDMS, CSV,
+    UFF58 (ASCII and binary) and HDF5. Sine levels stay clear of the rails (peak + 1 g < 2.048 g at the
     output, the resonance's gain included); the random run reaches them (the rail fit)."""
     runs = (
         ExampleRun("tdms", 1.0, 80.0, (0.2, 0.4, 0.6), label="Z up, 80 Hz"),
@@ -88,6 +89,7 @@ def example_truth() -> CampaignTruth:
         ExampleRun("uffb", -1.0, 300.0, (0.2, 0.4, 0.6), label="Z down, 300 Hz"),
         ExampleRun("uffb", 1.0, 1000.0, (0.1, 0.15, 0.2), label="Z up, 1000 Hz"),
         ExampleRun("h5", 1.0, None, (0.3, 0.5, 0.7, 0.9), label="Z up, random 50-500 Hz"),
+        ExampleRun("uffb", -1.0, 1500.0, (0.1, 0.17, 0.24), label="Z down, 1500 Hz"),
     )
     parts = (Part("sn1", 2000.0, 300.0), Part("sn2", -1500.0, 200.0))
     return CampaignTruth(EXAMPLE_SENSOR, parts, 1200.0, 4.0, 2.048, runs)
