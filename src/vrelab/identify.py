@@ -179,9 +179,13 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
     where = f"run {run['index']} ({run.get('label')!r})"
     method = run.get("method")
     rows = []
+    saturated = []
     for lv in ch.get("levels") or ():
         v, u, rms = lv.get("vre_g"), _type_a(lv), lv.get("rms_g")
         if v is None or u is None or rms is None or not (u > 0 and math.isfinite(v) and rms > 0):
+            continue
+        if method == "sine" and "saturated" in (lv.get("flags") or ()):
+            saturated.append(f"{rms:.4g}")  # the DUT reached a rail: see _modelled for why a sine level must not
             continue
         h = lv.get("vre_2f")
         h2f = (float(h["value"]), float(h["u"])) if isinstance(h, Mapping) and h.get("value") is not None \
@@ -189,6 +193,9 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         dof = lv.get("dof")
         rows.append((float(rms), float(v), float(u), lv.get("freq_hz"), h2f,
                      float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf))
+    if saturated:
+        notes.append(f"{where}: sine level(s) {', '.join(saturated)} g rms left out: the DUT reached a rail there, "
+                     "where clipping and the nonlinearity do not add")
     if not rows:
         notes.append(f"{where}: no level with a VRE and its uncertainty: not used")
         return []
@@ -466,7 +473,7 @@ def _fit(base: Any, obs: Sequence[Observation], free: Sequence[str], start: Mapp
     x0 = np.array([start[n] for n in free], dtype=np.float64)
     bounds = np.array([_bounds(n, obs) for n in free], dtype=np.float64).T if free else (-np.inf, np.inf)
     if free:
-        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=1e-5, max_nfev=200,
+        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=1e-5, max_nfev=60,
                             ftol=1e-6, xtol=1e-6)  # χ² to 1e-6 (relative) is far below its own scatter
         x = res.x
     else:
