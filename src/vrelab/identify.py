@@ -815,9 +815,16 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     keys = {"k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "rails_g", "overrange_threshold_g"}
     ranges = data.get("ranges")
     if isinstance(ranges, dict):
+        from vrelab.sensor import load_sensor
+
         tested = next((k for k in ranges if math.isclose(float(k), base.range_g, rel_tol=1e-6)), None)
-        out["ranges"] = {k: ({kk: vv for kk, vv in t.items() if kk not in keys} if k == tested else dict(t))
-                         for k, t in ranges.items()}
+        out["ranges"] = {}
+        for k, t in ranges.items():
+            if k == tested:
+                out["ranges"][k] = {kk: vv for kk, vv in t.items() if kk not in keys}
+            else:  # an untested range keeps the base's rails, never the tested range's identified ones
+                rails = load_sensor(ident.base_spec, range_g=float(k), axis=base.axis, odr_hz=base.odr_hz).rails_g
+                out["ranges"][k] = {**t, "rails_g": [float(rails[0]), float(rails[1])]}
     base_axis = (data.get("axes") or {}).get(base.axis, {})
     base_facts = dict(base.facts)
     facts_top = {k: v for k, v in (data.get("facts") or {}).items()}

@@ -514,6 +514,10 @@ def load_sensor(
     if range_key is not None:
         _check_keys(ranges_table[range_key], set(BY_KEY), f"{where} [ranges.{range_key}]")
         _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
+        # a value the range's table sets was not the one identified on the axis: not an estimate here
+        from vrelab.sensor.parameters import FILE_KEY
+
+        covariance = _without(covariance, {n for n, key in FILE_KEY.items() if key in ranges_table[range_key]})
     if chosen_odr is not None:
         per_odr = data.get("bandwidth_per_odr")
         if per_odr is not None:

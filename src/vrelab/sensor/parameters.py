@@ -33,6 +33,9 @@ PARAMETERS: tuple[str, ...] = (
 )  # fmt: skip
 UNITS = {"k2_ug_per_g2": "ug/g^2", "k3_ug_per_g3": "ug/g^3", "fn_hz": "Hz", "q": "1", "rail_low_g": "g",
          "rail_high_g": "g", "overrange_threshold_g": "g"}
+# The sensor file's key that holds each parameter.
+FILE_KEY = {"k2_ug_per_g2": "k2_ug_per_g2", "k3_ug_per_g3": "k3_ug_per_g3", "fn_hz": "fn_hz", "q": "q",
+            "rail_low_g": "rails_g", "rail_high_g": "rails_g", "overrange_threshold_g": "overrange_threshold_g"}
 # The sensor file's fact key (a Sensor attribute name) that says where each parameter comes from.
 FACT_KEY = {"k2_ug_per_g2": "k2_per_g", "k3_ug_per_g3": "k3_per_g2", "fn_hz": "fn_hz", "q": "q",
             "rail_low_g": "rails_g", "rail_high_g": "rails_g", "overrange_threshold_g": "overrange_threshold_g"}
