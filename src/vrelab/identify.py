@@ -542,7 +542,8 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
         notes.append(f"the levels scatter about the model more than their uncertainties (chi2/dof = {chi2_red:.3g}): "
                      "the covariance is scaled by it")
     if dof <= 0:
-        notes.append("as many parameters as levels: chi2 undefined, uncertainties from the levels' alone")
+        notes.append("as many parameters as levels (or more): chi2 undefined, the covariance from the levels' "
+                     "uncertainties alone")
     if fit.jac_rank < len(free):
         notes.append(f"the Jacobian has rank {fit.jac_rank} for {len(free)} parameters: some combination is not "
                      "determined (its direction dropped from the covariance)")
@@ -596,10 +597,9 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
 
     from scipy.stats import norm
 
-    k = sensor.k2_per_g
     low, high = sensor.rails_g
 
-    def covered(lv: Any, ob: Observation) -> bool:
+    def covered(lv: Any, ob: Observation, u: float) -> bool:
         if not lv.valid:
             return False
         if ob.method == "sine":
@@ -607,30 +607,28 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
         sig = lv.sigma_at_clip_g
         if not (sig > 0):
             return True
-        keff = abs(k + 3 * sensor.k3_per_g2 * ob.static_g)
-        err = keff * (norm.sf((high - ob.static_g) / sig) * high**2 + norm.cdf((low - ob.static_g) / sig) * low**2)
-        return err <= 0.5 * u_of[id(lv)]
+        k_eff = abs(sensor.k2_per_g + 3 * sensor.k3_per_g2 * ob.static_g)
+        err = k_eff * (norm.sf((high - ob.static_g) / sig) * high**2 + norm.cdf((low - ob.static_g) / sig) * low**2)
+        return err <= 0.5 * u
 
-    u_of: dict[int, float] = {}
     out: list[Observation] = []
     dropped = False
     for ob, p in zip(obs, preds):
-        u_of.update({id(lv): float(u) for lv, u in zip(p.levels, ob.u_g)})
-        keep = np.array([covered(lv, ob) for lv in p.levels])
+        keep = np.array([covered(lv, ob, float(u)) for lv, u in zip(p.levels, ob.u_g)])
         if keep.all():
             out.append(ob)
             continue
         dropped = True
         where = f"run {ob.run} ({ob.label!r}{f', {ob.freq_hz:.4g} Hz' if ob.freq_hz else ''})"
-        for lv, k in zip(p.levels, keep):
-            if not k:
+        for lv, kept in zip(p.levels, keep):
+            if not kept:
                 why = ("; ".join(lv.notes) if not lv.valid else "the sine's peak reaches a rail, where clipping and "
                        "the nonlinearity do not add" if ob.method == "sine" else "clipping and the nonlinearity "
                        "interact beyond half the level's u (the analytic sum does not hold)")
                 notes.append(f"{where}: level {lv.rms_g:.4g} g rms left out of the fit: {why}")
         if keep.any():
             out.append(replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep],
-                               harmonic_g=tuple(h for h, k in zip(ob.harmonic_g, keep) if k) if ob.harmonic_g else ()))
+                               harmonic_g=tuple(h for h, kept in zip(ob.harmonic_g, keep) if kept) if ob.harmonic_g else ()))
     if not dropped:
         return None
     if not out:
