@@ -141,3 +141,142 @@ def test_cli_bad_tones_exit_2_one_line(capsys, spec, words):
     assert main(["profile", spec]) == 2
     err = capsys.readouterr().err
     assert words in err and err.count("\n") == 1
+
+
+# --- the models, each held against an independent computation -------------------------------------
+#
+# x = G + Σ A_i cos θ_i: G ~ N(0, σ²), θ_i uniform and independent (the random-phase model of a sine
+# plus noise, Rice 1944-45 §4.10). The independent checks draw that x sample by sample with a seeded
+# Generator, or integrate with scipy (quad, dblquad, stats.truncnorm), never through vrelab.
+
+from scipy import integrate, signal, stats  # noqa: E402
+
+from vrelab.models import design, nonlinearity, tones  # noqa: E402
+from vrelab.models.clipping import sine_on_random_mean_shift  # noqa: E402
+
+
+def sor_samples(rng, sigma, peaks, n):
+    """n draws of G + Σ A_i cos θ_i."""
+    x = rng.normal(0.0, sigma, n)
+    for a in peaks:
+        x += a * np.cos(rng.uniform(0.0, 2.0 * np.pi, n))
+    return x
+
+
+def test_moments_closed_form_and_monte_carlo(rng):
+    """E[x²] = σ² + ΣA²/2 and E[x⁴] = 3σ⁴ + 6σ²·ΣA²/2 + (3/8)ΣA⁴ + (3/2)Σ_{i<j}A_i²A_j² (expanding
+    (G + S)⁴ with E[cos²] = 1/2, E[cos⁴] = 3/8 and independence), and against 10⁶ seeded samples."""
+    sigma, peaks = 0.7, [0.5, 0.3, 1.1]
+    m = nonlinearity.sine_on_random_moments(sigma, peaks, 4)
+    a2 = sum(a * a for a in peaks) / 2
+    cross = sum(peaks[i] ** 2 * peaks[j] ** 2 for i in range(3) for j in range(i + 1, 3))
+    assert m[2] == pytest.approx(sigma**2 + a2, rel=1e-14)
+    assert m[4] == pytest.approx(3 * sigma**4 + 6 * sigma**2 * a2 + 3 / 8 * sum(a**4 for a in peaks) + 1.5 * cross,
+                                 rel=1e-14)
+    assert m[1] == 0 and m[3] == 0
+    x = sor_samples(rng, sigma, peaks, 1_000_000)
+    for j in (2, 4):
+        xs = x**j
+        assert abs(xs.mean() - m[j]) < 4 * xs.std() / 1000, j
+
+
+def test_polynomial_vre_with_tones_against_monte_carlo(rng):
+    """SPEC 1.2 polynomial on the total input g0 + x, k2..k4, 1 g field: the model's VRE against the
+    sample mean of the polynomial over 10⁶ seeded samples (exact model: agreement within 4 standard errors)."""
+    k2, k3, k4, g0, sigma, peaks = 2e-3, -1e-3, 5e-4, 1.0, 0.8, [1.2, 0.4]
+    model = nonlinearity.vre_poly(sigma, k2, k3, k4, static_g=g0, tone_peaks_g=peaks)
+    a = g0 + sor_samples(rng, sigma, peaks, 1_000_000)
+    poly = k2 * (a**2 - g0**2) + k3 * (a**3 - g0**3) + k4 * (a**4 - g0**4)
+    assert abs(poly.mean() - model) < 4 * poly.std() / 1000
+    with pytest.raises(ValueError, match="gaussian"):
+        nonlinearity.vre_poly(sigma, k2, shape="sine", tone_peaks_g=peaks)
+
+
+@pytest.mark.parametrize("mu, sigma, peak", [(1.0, 1.0, 1.0), (1.0, 0.3, 1.5), (0.0, 0.5, 3.0), (1.5, 0.2, 0.4)])
+def test_censored_one_tone_against_nested_scipy_quad(mu, sigma, peak):
+    """E[clip(μ + A cos θ + σZ)] - μ by nested scipy quad over θ and z (the inner one split where the
+    rails fold the integrand), clip written out here: ±2 g rails."""
+    def inner(th):
+        m = mu + peak * np.cos(th)
+        edges = [-12.0, *sorted(np.clip([(-2.0 - m) / sigma, (2.0 - m) / sigma], -12.0, 12.0)), 12.0]
+        f = lambda z: (np.clip(m + sigma * z, -2.0, 2.0) - mu) * stats.norm.pdf(z)  # noqa: E731
+        return sum(integrate.quad(f, a, b, epsabs=1e-14)[0] for a, b in zip(edges, edges[1:]) if b > a)
+
+    want = integrate.quad(inner, 0.0, np.pi, epsabs=1e-13, limit=200)[0] / np.pi
+    assert sine_on_random_mean_shift(mu, sigma, [peak], -2.0, 2.0) == pytest.approx(want, rel=1e-8, abs=1e-12)
+
+
+def test_censored_two_tones_against_monte_carlo(rng):
+    """Two tones, ±2 g rails, 1 g field: against the mean of 2·10⁶ clipped seeded samples."""
+    mu, sigma, peaks = 1.0, 0.7, [0.8, 0.5]
+    x = mu + sor_samples(rng, sigma, peaks, 2_000_000)
+    c = np.clip(x, -2.0, 2.0) - x
+    got = sine_on_random_mean_shift(mu, sigma, peaks, -2.0, 2.0)
+    assert abs(got - c.mean()) < 4 * c.std() / math.sqrt(c.size)
+
+
+def test_truncated_one_tone_against_scipy_truncnorm():
+    """Truncated (the article's model) pools the kept samples over the phases: E_θ[P·mean_kept]/E_θ[P],
+    with P and the kept mean from scipy.stats.truncnorm/norm at each phase (quad over θ)."""
+    mu, sigma, peak, lo, hi = 1.0, 0.6, 1.2, -2.0, 2.0
+
+    def kept_mass(th):
+        m = mu + peak * np.cos(th)
+        return stats.norm.cdf(hi, m, sigma) - stats.norm.cdf(lo, m, sigma)
+
+    def kept_sum(th):
+        m = mu + peak * np.cos(th)
+        a, b = (lo - m) / sigma, (hi - m) / sigma
+        return kept_mass(th) * stats.truncnorm.mean(a, b, loc=m, scale=sigma)
+
+    want = integrate.quad(kept_sum, 0, np.pi, epsabs=1e-13)[0] / integrate.quad(kept_mass, 0, np.pi, epsabs=1e-13)[0] - mu
+    got = sine_on_random_mean_shift(mu, sigma, [peak], lo, hi, kind="truncated")
+    assert got == pytest.approx(want, rel=1e-8)
+    assert got < sine_on_random_mean_shift(mu, sigma, [peak], lo, hi) < 0  # truncation rectifies more (SPEC 1.1)
+
+
+def test_many_strong_tones_take_the_seeded_monte_carlo_branch(rng):
+    """Five tones of σ each need 22⁵ > 2²⁰ trapezoid points: the average is then over 2¹⁸ seeded phase
+    draws. Held against 2·10⁶ clipped samples within the two estimates' combined 4 standard errors."""
+    mu, sigma, peaks = 1.0, 0.5, [0.5] * 5
+    assert math.prod(tones.nodes_per_tone(peaks, sigma)) > tones.MAX_GRID
+    assert tones.phase_grid(peaks, sigma).monte_carlo
+    got = sine_on_random_mean_shift(mu, sigma, peaks, -2.0, 2.0)
+    assert got == sine_on_random_mean_shift(mu, sigma, peaks, -2.0, 2.0)  # seeded: the same every call
+    x = mu + sor_samples(rng, sigma, peaks, 2_000_000)
+    c = np.clip(x, -2.0, 2.0) - x
+    # the branch's own spread over phases is below the samples' (it averages the noise out exactly)
+    assert abs(got - c.mean()) < 4 * math.hypot(c.std() / math.sqrt(c.size), c.std() / math.sqrt(tones.MC_DRAWS))
+
+
+def test_clip_vre_with_tones_is_referred_to_the_vibration_off_reading():
+    """A 3 g field beyond a +2 g rail reads 2 g at rest (SPEC 4.2); small tones and noise barely move it."""
+    v = design.clip_vre(3.0, 0.05, -2.0, 2.0, tone_peaks_g=[0.1])
+    assert abs(v) < 1e-12
+    assert design.clip_vre(1.0, 0.7, -2.0, 2.0, tone_peaks_g=[0.8]) == sine_on_random_mean_shift(1.0, 0.7, [0.8], -2.0, 2.0)
+
+
+def test_overrange_trip_rate_against_crossings_counted_in_a_record(rng):
+    """Rice's rate with the tones as a moving mean, phase-averaged, against up-crossings of +T plus
+    down-crossings of -T counted in 100 s of Gaussian noise (white noise through a scipy Butterworth
+    low-pass: σ and σ̇ measured on the record) plus two tones with random phases. Counts are Poisson-like:
+    within 4/√N, plus 2 % for the sampling (20 kHz for content below ~300 Hz)."""
+    fs, seconds = 20000.0, 100.0
+    n = int(fs * seconds)
+    sos = signal.butter(4, 200.0, fs=fs, output="sos")
+    g = signal.sosfilt(sos, rng.normal(size=n + 20000))[20000:]
+    g /= g.std()
+    sigma = 1.0
+    sigma_dot = float(np.std(np.diff(g)) * fs)
+    nu0 = sigma_dot / (2 * np.pi * sigma)
+    freqs, peaks = [50.0, 130.0], [1.2, 0.5]
+    t = np.arange(n) / fs
+    x = 0.4 + g + sum(a * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for a, f in zip(peaks, freqs))
+    thr = 3.0
+    counted = np.count_nonzero((x[:-1] < thr) & (x[1:] >= thr)) + np.count_nonzero((x[:-1] > -thr) & (x[1:] <= -thr))
+    rate = design.overrange_trip_rate_hz(thr, 0.4, sigma, nu0, peaks, freqs)
+    assert counted > 500
+    assert abs(counted / seconds - rate) < 4 * math.sqrt(counted) / seconds + 0.02 * rate, (counted / seconds, rate)
+    # no tones: Rice's closed form
+    assert design.overrange_trip_rate_hz(thr, 0.4, sigma, nu0, [0.0], [50.0]) == pytest.approx(
+        design.overrange_trip_rate_hz(thr, 0.4, sigma, nu0), rel=1e-12)
