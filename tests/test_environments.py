@@ -121,8 +121,9 @@ def test_cli_show_json_has_the_profile(capsys):
 
 @pytest.mark.parametrize("argv, words", [
     (["environment", "show", "nope"], "unknown environment name 'nope'"),
-    (["environment", "show"], "give NAME"),
-    (["environment", "list", "extra"], "takes no NAME"),
+    (["environment", "show"], "NAME"),
+    (["environment", "list", "extra"], "extra"),
+    (["environment"], "ACTION"),
 ])
 def test_cli_bad_input_is_one_line_exit_2(capsys, argv, words):
     assert main(argv) == 2

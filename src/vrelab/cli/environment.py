@@ -14,7 +14,6 @@ Any environment is also a profile: ``--profile NAME`` in ``predict``, ``simulate
 
 from __future__ import annotations
 
-import argparse
 from typing import Any
 
 from vrelab.cli._common import print_json, profile_table
@@ -55,25 +54,26 @@ def _show(name: str, as_json: bool) -> int:
     return 0
 
 
-def run(args: argparse.Namespace) -> int:
-    if args.action == "list":
-        if args.name is not None:
-            raise ValueError(f"environment list takes no NAME, got {args.name!r}")
-        return _list(args.json)
-    if args.name is None:
-        raise ValueError("environment show: give NAME (see `vrelab environment list`)")
-    return _show(args.name, args.json)
-
-
 def register(subparsers: Any) -> None:
-    p = subparsers.add_parser(
+    from vrelab.cli._common import Parser
+
+    env = subparsers.add_parser(
         "environment",
         help="the named vibration environments (standards' profiles) with their sources",
         description="List the named vibration environments (MIL-STD-810H, NAVMAT P-9492, GEVS, ...) "
         "with their source, overall level and band, or show one with its breakpoints. Each name is "
         "also a PROFILE for `profile`, `predict`, `simulate` and `sweep`.",
     )
-    p.add_argument("action", choices=("list", "show"), help="list every environment, or show one")
-    p.add_argument("name", nargs="?", metavar="NAME", help="the environment to show")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
+    sub = env.add_subparsers(dest="environment_command", metavar="ACTION", parser_class=Parser)
+    sub.required = True
+    lst = sub.add_parser("list", help="every named environment: source, band, grms",
+                         description="Every named environment with its source, band, overall level (log-log area "
+                         "of the breakpoints) and the level the source states.")
+    lst.add_argument("--json", action="store_true", help="print one JSON object: {\"environments\": [...]}")
+    lst.set_defaults(func=lambda args: _list(args.json))
+    show = sub.add_parser("show", help="one environment: its source, note and breakpoints",
+                          description="One named environment: its source and where its breakpoints were "
+                          "reproduced, the stated and computed grms, any note, and the breakpoint table.")
+    show.add_argument("name", metavar="NAME", help="the environment (see `vrelab environment list`)")
+    show.add_argument("--json", action="store_true", help="print one JSON object (the profile under 'profile')")
+    show.set_defaults(func=lambda args: _show(args.name, args.json))
