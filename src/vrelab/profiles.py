@@ -525,14 +525,14 @@ class SineOnRandom:
         return f"{text} ({self.name})" if self.name else text
 
     def to_dict(self) -> dict[str, Any]:
+        """The random part's dict (breakpoints, slopes) with this profile's level, band and tones."""
         return {
+            **self.random.to_dict(),
             "kind": "sine-on-random",
             "name": self.name,
             "source": self.source,
             "grms": self.grms,
             "band_hz": list(self.band),
-            "breakpoints": self.breakpoints,
-            "slopes_db_per_oct": [float(s) for s in self.random.slopes_db_per_oct],
             "random_grms": self.random.grms,
             "tones": [t.to_dict() for t in self.tones],
         }
@@ -880,19 +880,25 @@ _FORMS = (
 )
 
 
-def _parse_inline(spec: str) -> RandomProfile:
-    freqs, psds = [], []
-    for i, token in enumerate(spec.split(",")):
+def _number_pairs(text: str, what: str, form: str, units: str) -> list[tuple[float, float]]:
+    """``A:B,A:B,...`` as number pairs; a bad item is named in the error, e.g.
+    ``profile '20:x': item 0 '20:x' is not F:P numbers`` (``what`` = "profile", ``form`` = "F:P")."""
+    pairs = []
+    for i, token in enumerate(text.split(",")):
         parts = token.strip().split(":")
         if len(parts) != 2:
-            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P (Hz:g²/Hz)")
+            raise ValueError(f"{what} {text!r}: item {i} {token.strip()!r} is not {form} ({units})")
         try:
-            freqs.append(float(parts[0]))
-            psds.append(float(parts[1]))
+            pairs.append((float(parts[0]), float(parts[1])))
         except ValueError:
-            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P numbers") from None
+            raise ValueError(f"{what} {text!r}: item {i} {token.strip()!r} is not {form} numbers") from None
+    return pairs
+
+
+def _parse_inline(spec: str) -> RandomProfile:
+    pairs = _number_pairs(spec, "profile", "F:P", "Hz:g²/Hz")
     try:
-        return RandomProfile(np.array(freqs), np.array(psds), source="inline")
+        return RandomProfile(np.array([f for f, _ in pairs]), np.array([p for _, p in pairs]), source="inline")
     except ValueError as exc:
         raise ValueError(f"profile {spec!r}: {exc}") from None
 
@@ -928,17 +934,7 @@ def parse_tones(text: str) -> tuple[Tone, ...]:
     """Tones from ``F:PEAK,F:PEAK,...`` (Hz : g peak), e.g. ``"120:0.5,240:0.2"``."""
     if not text.strip():
         raise ValueError("sine tones: give F:PEAK pairs after '+sine:' (Hz:g peak), e.g. +sine:120:0.5,240:0.2")
-    tones = []
-    for i, token in enumerate(text.split(",")):
-        parts = token.strip().split(":")
-        if len(parts) != 2:
-            raise ValueError(f"sine tones {text!r}: item {i} {token.strip()!r} is not F:PEAK (Hz:g peak)")
-        try:
-            f, peak = float(parts[0]), float(parts[1])
-        except ValueError:
-            raise ValueError(f"sine tones {text!r}: item {i} {token.strip()!r} is not F:PEAK numbers") from None
-        tones.append(Tone(f, peak))
-    return tuple(tones)
+    return tuple(Tone(f, peak) for f, peak in _number_pairs(text, "sine tones", "F:PEAK", "Hz:g peak"))
 
 
 def with_tones(profile: Profile, tones: Sequence[Tone]) -> SineOnRandom:
