@@ -1,7 +1,11 @@
-"""Sine-on-random (SPEC 6.2): the profile type, its syntax and files, its level and scaling rule.
+"""Sine-on-random (SPEC 6.2): the profile type, its syntax and files, its level and scaling rule;
+the models, the drive, the prediction against the simulated test, the CLI and the sweep.
 
 Reference values: a tone's mean square is peak²/2 (a sine's rms is peak/√2) and uncorrelated
-components add in mean square; NAVMAT P-9492's random part is 6.06 g rms (SPEC 3).
+components add in mean square; NAVMAT P-9492's random part is 6.06 g rms (SPEC 3). The models'
+independent checks draw x = G + Σ A_i cos θ_i sample by sample with a seeded Generator (the
+random-phase model of a sine plus noise, Rice 1944-45 §4.10), or integrate with scipy (quad,
+stats.truncnorm), never through vrelab.
 """
 
 from __future__ import annotations
@@ -11,8 +15,13 @@ import math
 
 import numpy as np
 import pytest
+from scipy import integrate, signal, stats
 
+from vrelab import shaker, synthesis
 from vrelab.cli import main
+from vrelab.models import design, nonlinearity, tones
+from vrelab.models.clipping import sine_on_random_mean_shift
+from vrelab.predict import predict
 from vrelab.profiles import (
     RandomProfile,
     SineOnRandom,
@@ -21,6 +30,7 @@ from vrelab.profiles import (
     read_profile,
     write_profile,
 )
+from vrelab.sensor import load_sensor
 
 NAVMAT_TONES = "navmat-p9492+sine:120:0.5,240:0.2"
 
@@ -144,15 +154,6 @@ def test_cli_bad_tones_exit_2_one_line(capsys, spec, words):
 
 
 # --- the models, each held against an independent computation -------------------------------------
-#
-# x = G + Σ A_i cos θ_i: G ~ N(0, σ²), θ_i uniform and independent (the random-phase model of a sine
-# plus noise, Rice 1944-45 §4.10). The independent checks draw that x sample by sample with a seeded
-# Generator, or integrate with scipy (quad, dblquad, stats.truncnorm), never through vrelab.
-
-from scipy import integrate, signal, stats  # noqa: E402
-
-from vrelab.models import design, nonlinearity, tones  # noqa: E402
-from vrelab.models.clipping import sine_on_random_mean_shift  # noqa: E402
 
 
 def sor_samples(rng, sigma, peaks, n):
@@ -284,9 +285,6 @@ def test_overrange_trip_rate_against_crossings_counted_in_a_record(rng):
 
 # --- synthesis, prediction, simulation, sweep ----------------------------------------------------
 
-from vrelab import shaker, synthesis  # noqa: E402
-from vrelab.predict import predict  # noqa: E402
-from vrelab.sensor import load_sensor  # noqa: E402
 
 # Incommensurate tones: no low-order harmonic relation, so a record's time average is the phase
 # average the prediction takes (see test_harmonic_tones_get_a_note).
