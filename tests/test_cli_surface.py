@@ -80,6 +80,16 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("missing-file", ["{d}/no-such-profile.csv"], 'no-such-profile.csv'),
         ("non-monotonic-file", ["{d}/backwards.csv"], 'backwards.csv'),
         ("unknown-named", ["no-such-profile-name"], 'no-such-profile-name'),
+        ("negative-tone", ["navmat-p9492+sine:120:-0.5"], 'amplitude'),
+        ("zero-tone-frequency", ["navmat-p9492+sine:0:0.5"], 'tone frequency'),
+        ("malformed-tones", ["navmat-p9492+sine:120:0.5,240"], '240'),
+    ],
+    "environment show": [
+        ("unknown-name", ["no-such-environment"], 'no-such-environment'),
+        ("no-name", [], 'NAME'),
+    ],
+    "environment list": [
+        ("extra-name", ["navmat-p9492"], 'navmat-p9492'),
     ],
     "predict": [
         ("negative-level", [*PRED, "--levels", "-1"], 'levels'),
@@ -94,6 +104,9 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("nan-static", [*PRED, "--levels", "1", "--static", "nan"], 'static'),
         ("unknown-range", [*PRED, "--levels", "1", "--range", "3"], 'range'),
         ("unknown-odr", [*PRED, "--levels", "1", "--odr", "1234"], 'odr'),
+        ("negative-tone", ["--sensor", "adxl355", "--profile", "flat:50-2000+sine:120:-1", "--levels", "1"], 'amplitude'),
+        ("malformed-tones", ["--sensor", "adxl355", "--profile", "flat:50-2000+sine:120", "--levels", "1"], '120'),
+        ("unknown-environment", ["--sensor", "adxl355", "--profile", "no-such-env+sine:120:1", "--levels", "1"], 'no-such-env'),
     ],
     "simulate": [
         ("negative-level", [*SIM, "--levels", "-1"], 'levels'),
@@ -106,6 +119,8 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("non-monotonic-profile", ["--sensor", "ideal", "--profile", "100:0.01,50:0.02", "--levels", "1"], 'monotonic'),
         ("nan-freq", ["--sensor", "ideal", "--freq", "nan", "--levels", "1", "--seconds", "2"], 'freq'),
         ("out-is-a-file", [*SIM, "--levels", "1", "--out", "{d}/a-file.txt"], 'a-file.txt'),
+        ("negative-tone", ["--sensor", "ideal", "--profile", "flat:50-2000+sine:120:-1", "--levels", "1"], 'amplitude'),
+        ("zero-tone-frequency", ["--sensor", "ideal", "--profile", "flat:50-2000+sine:0:1", "--levels", "1"], 'tone frequency'),
     ],
     "analyze": [
         ("missing-file", ["{d}/no-such-record.h5", "--dut", "dut"], 'no-such-record.h5'),
@@ -147,6 +162,7 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("malformed-toml", ["{d}/malformed.toml"], 'malformed.toml'),
         ("negative-workers", ["{d}/sweep.toml", "--workers", "-1", "--out", "{d}/sweep-out"], 'workers'),
         ("negative-level-in-file", ["{d}/sweep-bad-level.toml", "--out", "{d}/sweep-out"], 'rms_g'),
+        ("negative-tone-in-file", ["{d}/sweep-bad-tone.toml", "--out", "{d}/sweep-out"], 'amplitude'),
     ],
 }
 
@@ -160,6 +176,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     sweep = 'kind = "predict"\nseed = 1\n[fixed]\nsensor = "adxl355"\nprofile = "flat:50-2000"\n[grid]\nrms_g = "0.5:1:0.5"\n'
     (d / "sweep.toml").write_text(sweep)  # valid: the example of `vrelab sweep --help`, one axis
     (d / "sweep-bad-level.toml").write_text(sweep.replace('"0.5:1:0.5"', '"-1,1"'))
+    (d / "sweep-bad-tone.toml").write_text(sweep.replace('"flat:50-2000"', '"flat:50-2000+sine:120:-1"'))
     camp = 'name = "c"\n[[run]]\nfile = "record.h5"\ndut = ["dut"]\nreference = "reference"\nstatic_g = 1\n'
     (d / "campaign.toml").write_text(camp)
     (d / "campaign-missing-file.toml").write_text(camp.replace("record.h5", "nope.h5"))
@@ -221,6 +238,8 @@ VALID: dict[str, list[str]] = {
     "model clip": ["--mean", "1", "--rail", "2", "--rms", "0.5,1", "--json"],
     "model poly": ["--k2", "20", "--rms", "1", "--json"],
     "profile": ["20:0.01,80:0.04,2000:0.01", "--grms", "2", "--json"],
+    "environment list": ["--json"],
+    "environment show": ["navmat-p9492", "--json"],
     "predict": [*PRED, "--levels", "1", "--json"],
     "simulate": [*SIM, "--levels", "1", "--json"],
     "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],

@@ -46,7 +46,7 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.results import Conditions
 
 if TYPE_CHECKING:
@@ -145,6 +145,23 @@ _NEUTRAL_WHY = {
 
 
 @dataclass(frozen=True)
+class _Motion:
+    """The vibration reaching one site: Gaussian (``sigma_g``, Rice's ``nu0_hz``), a sine
+    (``sigma_g`` its rms, ``nu0_hz`` its frequency), or Gaussian plus tones (``tone_peaks_g``
+    [g peak] at ``tone_freqs_hz``, as seen there)."""
+
+    sigma_g: float
+    nu0_hz: float
+    tone_peaks_g: tuple[float, ...] = ()
+    tone_freqs_hz: tuple[float, ...] = ()
+
+    @property
+    def rms_g(self) -> float:
+        """Total rms [g]: the Gaussian (or sine) part with the tones' Σ A²/2."""
+        return math.sqrt(self.sigma_g**2 + sum(a * a for a in self.tone_peaks_g) / 2.0)
+
+
+@dataclass(frozen=True)
 class _Site:
     """A stage with a closed-form mean shift, and what reaches it."""
 
@@ -226,9 +243,30 @@ def mechanisms_interact(clip_g: float, nonlinearity_g: float) -> bool:
 # --- prediction ---------------------------------------------------------------------------------
 
 
+def _gain(f_hz: float, responses: Sequence[Response]) -> float:
+    """|H(f)| of the linear stages ``responses`` in series."""
+    from vrelab.models.dynamics import rms_through
+
+    return float(rms_through(f_hz, 1.0, list(responses)))
+
+
+def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[float, float, int, int]]:
+    """Pairs of tones whose frequencies stand in a ratio p:q with p, q <= ``largest`` (harmonics
+    of one shaft): their relative phase is fixed in a machine, which the prediction averages."""
+    out = []
+    for i, fa in enumerate(freqs_hz):
+        for fb in freqs_hz[i + 1:]:
+            for q in range(1, largest + 1):
+                p = round(fb / fa * q)
+                if 1 <= p <= largest and math.isclose(fb * q, fa * p, rel_tol=1e-9) and math.gcd(p, q) == 1:
+                    out.append((fa, fb, p, q))
+                    break
+    return out
+
+
 def predict(
     sensor: "Sensor",
-    excitation: RandomProfile | float | Sequence[float],
+    excitation: RandomProfile | SineOnRandom | float | Sequence[float],
     levels: Sequence[float],
     static_g: float = 1.0,
     kind: ClipKind = "censored",
@@ -239,8 +277,10 @@ def predict(
     ----------
     sensor : vrelab.sensor.Sensor
         Read through :meth:`~vrelab.sensor.Sensor.stages`, the same stages the simulation runs.
-    excitation : RandomProfile, float or sequence of float
-        A random profile (its shape is scaled to each level, Gaussian drive assumed) or sine
+    excitation : RandomProfile, SineOnRandom, float or sequence of float
+        A random profile (its shape is scaled to each level, Gaussian drive assumed), a
+        sine-on-random profile (random part and tones scaled together to each level, the
+        tones' rms included in it: :meth:`~vrelab.profiles.SineOnRandom.scaled_to`) or sine
         frequencies [Hz] (levels are then run at each frequency in turn).
     levels : sequence of float
         Vibration levels [g rms] of the drive (the reference accelerometer's rms), each > 0.
@@ -262,15 +302,23 @@ def predict(
     each stage with a closed form adds its mean shift, evaluated with the vibration ``H`` of the
     linear stages before it and the static level ``g0 + offsets`` before it. Random drive with
     PSD S(f): ``σ² = ∫S|H|²df`` (SPEC 1.3); sine at f, rms A/√2: ``σ = rms·|H(f)|``.
+    Sine-on-random: the random part as a random drive (σ_r at each site) and each tone through
+    its own gain, ``A_i·|H(f_i)|``; phases independent and uniform (random-phase ensemble).
 
     * rails: :func:`vrelab.models.design.clip_vre` ``(g0 + offset, σ, L, U)`` (censored or
-      truncated mean of a Gaussian, or the sine closed form), each rail alone and both,
-      referred to the vibration-off reading;
+      truncated mean of a Gaussian, or the sine closed form; with tones, the Gaussian mean
+      averaged over their phases), each rail alone and both, referred to the vibration-off
+      reading;
     * polynomial: :func:`vrelab.models.nonlinearity.vre_poly`:
-      ``(k2 + 3·k3·g0)·σ² + k4·(6·g0²·σ² + E[x⁴])`` (SPEC 1.2);
+      ``(k2 + 3·k3·g0)·E[x²] + k4·(6·g0²·E[x²] + E[x⁴])`` (SPEC 1.2), exact; with tones
+      ``E[x²] = σ_r² + Σ A_i²/2`` and ``E[x⁴] = 3E[x²]² - (3/8)Σ A_i⁴``
+      (:func:`vrelab.models.nonlinearity.sine_on_random_moments`);
     * over-range: :func:`vrelab.models.design.overrange_vre` ``(g0, σ, threshold, hold, ν0)``
-      with ``ν0`` Rice's zero-crossing rate of the motion there. A sine whose peak reaches the
-      threshold trips every period: not modelled (``valid`` False).
+      with ``ν0`` Rice's zero-crossing rate of the motion there (with tones, Rice's rate for a
+      Gaussian with the tones as a moving mean, averaged over their phases). A sine whose peak
+      reaches the threshold trips every period: not modelled (``valid`` False). Where the
+      over-range share is large against the others the Rice×hold estimate is rough and the
+      level is not valid, for random and sine-on-random alike.
     * noise, quantisation, decimation, drift: no mean shift. A stage with no closed form makes
       every level invalid, naming it.
 
@@ -300,11 +348,45 @@ def predict(
         m0_out, _ = _spectral(excitation, reading.output, points, rate=False)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
-            sites = [(math.sqrt(m0 * scale), nu0) for m0, nu0 in seen]
+            sites = [_Motion(math.sqrt(m0 * scale), nu0) for m0, nu0 in seen]
             out.append(_level(reading, float(rms), None, g0, kind, "gaussian", sites,
                               math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
         text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
         notes.append("random drive assumed Gaussian (a clipped or high-kurtosis drive needs `simulate`)")
+    elif isinstance(excitation, SineOnRandom):
+        points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
+        rand, tones = excitation.random, excitation.tones
+        freqs = tuple(t.freq_hz for t in tones)
+        # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
+        seen = [(_spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
+                for site in reading.sites]
+        m0_m, _ = _spectral(rand, reading.proof_mass, points)
+        m0_out, _ = _spectral(rand, reading.output, points)
+        gain_m = [_gain(f, reading.proof_mass) for f in freqs]
+        gain_out = [_gain(f, reading.output) for f in freqs]
+        motions: list[_Motion] = []
+        for rms in levels_arr:
+            r = float(rms) / excitation.grms  # the scaling rule: PSD × r², tones × r
+
+            def motion(m0: float, nu0: float, gains: Sequence[float]) -> _Motion:
+                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs)
+
+            sites = [motion(m0, nu0, gains) for (m0, nu0), gains in seen]
+            motions += sites
+            out.append(_level(reading, float(rms), None, g0, kind, "sine-on-random", sites,
+                              motion(m0_m, 0.0, gain_m).rms_g, motion(m0_out, 0.0, gain_out).rms_g))
+        text = excitation.describe().rsplit(",", 1)[0] + (f" ({excitation.name})" if excitation.name else "")
+        notes.append("random part assumed Gaussian; tones with independent uniform phases (a random-phase "
+                     "ensemble: the prediction is the average over the tones' phases)")
+        for fa, fb, p, q in _commensurate(freqs):
+            notes.append(f"tones at {fa:g} and {fb:g} Hz are harmonics of one frequency ({p}:{q}): a machine holds "
+                         "their relative phase, and a fixed phase can move the clipping and odd-order shares away "
+                         "from this phase average")
+        from vrelab.models.tones import MAX_GRID, MC_DRAWS, nodes_per_tone
+
+        if any(math.prod(nodes_per_tone(m.tone_peaks_g, m.sigma_g)) > MAX_GRID for m in motions):
+            notes.append(f"several strong tones: phase averages by Monte Carlo over {MC_DRAWS} seeded draws "
+                         "(standard error 0.2 % of their spread over the phases)")
     else:
         freqs = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
         from vrelab.models.dynamics import rms_through
@@ -312,7 +394,7 @@ def predict(
         for f in freqs:
             f = float(f)
             for rms in levels_arr:
-                sites = [(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
+                sites = [_Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
                 out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
                                   float(rms_through(f, float(rms), list(reading.proof_mass))),
                                   float(rms_through(f, float(rms), list(reading.output)))))
@@ -368,41 +450,45 @@ def _level(
     freq_hz: float | None,
     g0: float,
     kind: ClipKind,
-    shape: Literal["gaussian", "sine"],
-    sites: Sequence[tuple[float, float]],
+    shape: Literal["gaussian", "sine", "sine-on-random"],
+    sites: Sequence[_Motion],
     sigma_m: float,
     sigma_out: float,
 ) -> LevelPrediction:
-    """One level: each site's mean shift with ``(σ, ν0)`` at the site (ν0: the sine's frequency)."""
+    """One level: each site's mean shift with the vibration :class:`_Motion` reaching it."""
     from vrelab.models import design, nonlinearity
 
     notes: list[str] = []
     valid = not reading.unmodelled
     clip_low = clip_high = clip = nonlin = over = rate = 0.0
     sigma_clip = math.nan
-    for site, (sigma, nu0) in zip(reading.sites, sites):
+    # the closed forms take the Gaussian part's σ plus the tones; a sine keeps its own shape
+    base: Literal["gaussian", "sine"] = "sine" if shape == "sine" else "gaussian"
+    for site, mo in zip(reading.sites, sites):
         st, mean = site.stage, g0 + site.offset_g
+        sigma, nu0, peaks = mo.sigma_g, mo.nu0_hz, mo.tone_peaks_g
         if st.analytic == "clip":
             low, high = float(st.low_g), float(st.high_g)
             if math.isnan(sigma_clip):
-                sigma_clip = sigma
+                sigma_clip = mo.rms_g
             if not low < mean < high:
                 valid = False
                 notes.append(f"the static level {mean:g} g (field {g0:g} g + offset {site.offset_g:g} g) is at or "
                              f"beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
             if shape == "sine" and low < mean - math.sqrt(2) * sigma and mean + math.sqrt(2) * sigma < high:
                 continue  # the sine's peaks stay inside both rails: the closed form is exactly 0
-            clip_low += float(design.clip_vre(mean, sigma, low, math.inf, shape, kind))
-            clip_high += float(design.clip_vre(mean, sigma, -math.inf, high, shape, kind))
-            clip += float(design.clip_vre(mean, sigma, low, high, shape, kind))
+            clip_low += float(design.clip_vre(mean, sigma, low, math.inf, base, kind, peaks))
+            clip_high += float(design.clip_vre(mean, sigma, -math.inf, high, base, kind, peaks))
+            clip += float(design.clip_vre(mean, sigma, low, high, base, kind, peaks))
         elif st.analytic == "polynomial":
             nonlin += float(nonlinearity.vre_poly(sigma, st.k2_per_g, st.k3_per_g2, st.k4_per_g3,
-                                                  static_g=mean, shape=shape))
+                                                  static_g=mean, shape=base, tone_peaks_g=peaks))
         elif st.analytic == "overrange":
             thr, hold = float(st.threshold_g), float(st.hold_s)
-            if shape == "gaussian":
-                rate += float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0))
-                over += float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=float(st.value_g)))
+            if shape != "sine":
+                rate += float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0, peaks, mo.tone_freqs_hz))
+                over += float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=float(st.value_g),
+                                                   tone_peaks_g=peaks, tone_freqs_hz=mo.tone_freqs_hz))
                 duty = rate * hold
                 if duty > _MAX_HOLD_DUTY:
                     valid = False
@@ -422,9 +508,11 @@ def _level(
     total = clip + nonlin + over
     big = max(abs(clip), abs(nonlin), abs(over))
     if big > 0:
-        if abs(over) > _MINOR * big and shape == "gaussian":
+        if abs(over) > _MINOR * big and shape != "sine":
             valid = False
-            notes.append("over-range share is large: the Rice×hold estimate is rough — simulate")
+            notes.append("over-range share is large: the Rice×hold estimate is rough"
+                         + (" (Rice's rate for the Gaussian part with the tones as a moving mean)"
+                            if shape == "sine-on-random" else "") + " — simulate")
         if mechanisms_interact(clip, nonlin):
             notes.append("clipping and nonlinearity both matter: not separable, their sum is approximate")
     if reading.unmodelled:

@@ -55,6 +55,15 @@ __all__ = [
     "DB_PER_OCT_PER_N",
     "SineProfile",
     "RandomProfile",
+    "Tone",
+    "SineOnRandom",
+    "Profile",
+    "Environment",
+    "environments",
+    "load_environment",
+    "parse_tones",
+    "split_tones",
+    "with_tones",
     "read_profile",
     "write_profile",
     "named_profiles",
@@ -381,6 +390,158 @@ class RandomProfile:
         return f"RandomProfile(breakpoints={self.breakpoints!r}, name={self.name!r})"
 
 
+# --- sine on random ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Tone:
+    """A sine tone on top of random vibration, as rotating machinery and propellers make.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Frequency [Hz], > 0.
+    peak_g : float
+        Amplitude [g peak], >= 0; its rms is ``peak_g/√2``.
+    """
+
+    freq_hz: float
+    peak_g: float
+
+    def __post_init__(self) -> None:
+        f = self.freq_hz
+        try:
+            f = v.positive_scalar("tone freq_hz", f)
+        except ValueError:
+            raise ValueError(f"tone frequency must be a finite number > 0 Hz, got {self.freq_hz!r}") from None
+        peak = v.finite_scalar(f"tone at {f:g} Hz: peak_g", self.peak_g)
+        if peak < 0:
+            raise ValueError(f"tone at {f:g} Hz: amplitude must be >= 0 g peak, got {self.peak_g!r}")
+        object.__setattr__(self, "freq_hz", f)
+        object.__setattr__(self, "peak_g", peak)
+
+    @property
+    def rms_g(self) -> float:
+        """rms of the tone [g]: peak/√2."""
+        return self.peak_g / math.sqrt(2.0)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"freq_hz": self.freq_hz, "peak_g": self.peak_g, "rms_g": self.rms_g}
+
+
+@dataclass(frozen=True)
+class SineOnRandom:
+    """Random vibration plus sine tones (sine-on-random, SPEC 6.2).
+
+    Parameters
+    ----------
+    random : RandomProfile
+        The broadband part, a log-log breakpoint PSD (SPEC 3).
+    tones : sequence of Tone
+        At least one; distinct frequencies (stored sorted by frequency).
+    name, source : str, optional
+        Name and origin of the whole profile (default: those of ``random``).
+
+    Notes
+    -----
+    The mean square adds, random and tones being uncorrelated (distinct frequencies, and the
+    tones' phases independent of the noise): ``grms² = ∫S df + Σ peak_i²/2``.
+
+    **Scaling rule** (:meth:`scaled_to`): the profile keeps its shape, random part and tones
+    together: to reach a target grms every PSD value is multiplied by ``(target/grms)²`` and
+    every tone amplitude by ``target/grms``, so the ratio of tone power to random power, and
+    hence the crest of the motion, is the same at every level.
+    """
+
+    random: RandomProfile
+    tones: tuple[Tone, ...]
+    name: str | None = None
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.random, RandomProfile):
+            raise ValueError(f"random must be a RandomProfile, got {type(self.random).__name__}")
+        tones = tuple(self.tones)
+        if not tones:
+            raise ValueError("a sine-on-random profile needs at least one tone")
+        for t in tones:
+            if not isinstance(t, Tone):
+                raise ValueError(f"tones must be Tone(freq_hz, peak_g) values, got {t!r}")
+        freqs = [t.freq_hz for t in tones]
+        dup = sorted({f for f in freqs if freqs.count(f) > 1})
+        if dup:
+            raise ValueError(f"tone frequencies must be distinct, got {', '.join(f'{f:g}' for f in dup)} Hz twice")
+        object.__setattr__(self, "tones", tuple(sorted(tones, key=lambda t: t.freq_hz)))
+        if self.name is None:
+            object.__setattr__(self, "name", self.random.name)
+        if self.source is None:
+            object.__setattr__(self, "source", self.random.source)
+
+    @property
+    def tone_mean_square_g2(self) -> float:
+        """Mean square of the tones [g²]: Σ peak²/2."""
+        return float(sum(t.peak_g**2 for t in self.tones) / 2.0)
+
+    @property
+    def mean_square_g2(self) -> float:
+        """Total mean square [g²]: the random part's area plus the tones' Σ peak²/2."""
+        return self.random.mean_square_g2 + self.tone_mean_square_g2
+
+    @property
+    def grms(self) -> float:
+        """Overall level [g rms], tones included."""
+        return math.sqrt(self.mean_square_g2)
+
+    @property
+    def band(self) -> tuple[float, float]:
+        """(lowest, highest) frequency of any content [Hz]: the random band widened to the tones."""
+        lo, hi = self.random.band
+        return (min(lo, self.tones[0].freq_hz), max(hi, self.tones[-1].freq_hz))
+
+    @property
+    def breakpoints(self) -> list[list[float]]:
+        """The random part's breakpoint table (the tones are in :attr:`tones`)."""
+        return self.random.breakpoints
+
+    def psd(self, f_hz: ArrayLike) -> NDArray[np.float64] | float:
+        """The random part's PSD [g²/Hz]; a tone is a line, not a density, and is not in it."""
+        return self.random.psd(f_hz)
+
+    def scaled_to(self, grms: float) -> "SineOnRandom":
+        """The same profile at overall level ``grms`` [g rms], tones included: PSD ×
+        ``(grms/self.grms)²`` and every tone amplitude × ``grms/self.grms`` (see the class Notes)."""
+        target = float(v.vibration_level("grms", v.positive_scalar("grms", grms)))
+        ratio = target / self.grms
+        random = RandomProfile(self.random.freq_hz, self.random.psd_g2_per_hz * ratio**2, self.random.name,
+                               self.random.source)
+        return SineOnRandom(random, tuple(Tone(t.freq_hz, t.peak_g * ratio) for t in self.tones),
+                            self.name, self.source)
+
+    def describe(self) -> str:
+        """One line, e.g. ``"random 20–2000 Hz + sine 120 Hz 0.5 g pk, 6.08 g rms (navmat-p9492)"``."""
+        lo, hi = self.random.band
+        tones = ", ".join(f"{t.freq_hz:g} Hz {t.peak_g:.3g} g pk" for t in self.tones)
+        text = f"random {lo:g}–{hi:g} Hz + sine {tones}, {self.grms:.2f} g rms"
+        return f"{text} ({self.name})" if self.name else text
+
+    def to_dict(self) -> dict[str, Any]:
+        """The random part's dict (breakpoints, slopes) with this profile's level, band and tones."""
+        return {
+            **self.random.to_dict(),
+            "kind": "sine-on-random",
+            "name": self.name,
+            "source": self.source,
+            "grms": self.grms,
+            "band_hz": list(self.band),
+            "random_grms": self.random.grms,
+            "tones": [t.to_dict() for t in self.tones],
+        }
+
+
+#: What a vibration profile can be: random, or random plus sine tones.
+Profile = RandomProfile | SineOnRandom
+
+
 # --- files ------------------------------------------------------------------------------------
 
 
@@ -479,7 +640,29 @@ def _profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
     return prof
 
 
-def _read_toml(path: Path) -> RandomProfile:
+_TONE_KEYS = ("freq_hz", "peak_g")
+
+
+def _tones_from_tables(path: Path, rows: Any) -> tuple[Tone, ...]:
+    """The ``[[tone]]`` tables of a profile file (each ``freq_hz`` [Hz], ``peak_g`` [g peak])."""
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise ValueError(f"{path}: tone must be [[tone]] tables with freq_hz and peak_g")
+    tones = []
+    for i, row in enumerate(rows):
+        unknown = sorted(set(row) - set(_TONE_KEYS))
+        if unknown:
+            raise ValueError(f"{path}: tone[{i}]: unknown key {unknown[0]!r} (known: freq_hz, peak_g)")
+        missing = [k for k in _TONE_KEYS if k not in row]
+        if missing:
+            raise ValueError(f"{path}: tone[{i}]: {missing[0]} is missing (a tone needs freq_hz and peak_g)")
+        try:
+            tones.append(Tone(row["freq_hz"], row["peak_g"]))
+        except ValueError as exc:
+            raise ValueError(f"{path}: tone[{i}]: {exc}") from None
+    return tuple(tones)
+
+
+def _read_toml(path: Path) -> Profile:
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)
@@ -488,11 +671,22 @@ def _read_toml(path: Path) -> RandomProfile:
     table = doc.get("profile")
     if not isinstance(table, dict):
         raise ValueError(f"{path}: no [profile] table")
-    return _profile_from_table(path, table)
+    prof = _profile_from_table(path, table)
+    if "tone" not in doc:
+        return prof
+    try:
+        return SineOnRandom(prof, _tones_from_tables(path, doc["tone"]))
+    except ValueError as exc:
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
 
 
-def read_profile(path: str | os.PathLike[str]) -> RandomProfile:
-    """Read a random profile from a CSV (``f_hz, psd_g2_per_hz``) or TOML file.
+def read_profile(path: str | os.PathLike[str]) -> Profile:
+    """Read a profile from a CSV (``f_hz, psd_g2_per_hz``) or TOML file.
+
+    A TOML file with ``[[tone]]`` tables (``freq_hz``, ``peak_g``) beside its ``[profile]``
+    gives a :class:`SineOnRandom`; ``profile.grms`` there sets the random part's level, the
+    tones being given in g peak as they are.
 
     Raises
     ------
@@ -522,14 +716,16 @@ def _atomic_write(path: Path, data: bytes) -> None:
         raise
 
 
-def write_profile(profile: RandomProfile, path: str | os.PathLike[str]) -> Path:
+def write_profile(profile: Profile, path: str | os.PathLike[str]) -> Path:
     """Write ``profile`` to ``path`` (.csv or .toml), atomically (temporary file + rename).
 
     Values are written with ``repr`` precision so that ``read_profile`` gives back the same
-    breakpoints exactly.
+    breakpoints exactly. A sine-on-random profile needs .toml (its tones as ``[[tone]]``).
     """
     p = Path(path)
     suffix = p.suffix.lower()
+    if isinstance(profile, SineOnRandom) and suffix == ".csv":
+        raise ValueError(f"a profile with sine tones is written as .toml ([[tone]] tables), not .csv: {str(path)!r}")
     if suffix == ".toml":
         table: dict[str, Any] = {}
         if profile.name:
@@ -537,7 +733,10 @@ def write_profile(profile: RandomProfile, path: str | os.PathLike[str]) -> Path:
         if profile.source:
             table["source"] = profile.source
         table["breakpoints"] = profile.breakpoints
-        data = tomli_w.dumps({"profile": table}).encode()
+        doc: dict[str, Any] = {"profile": table}
+        if isinstance(profile, SineOnRandom):
+            doc["tone"] = [{"freq_hz": t.freq_hz, "peak_g": t.peak_g} for t in profile.tones]
+        data = tomli_w.dumps(doc).encode()
     elif suffix == ".csv":
         buf = io.StringIO()
         if profile.name:
@@ -568,34 +767,138 @@ def named_profiles() -> dict[str, str]:
     return out
 
 
-def load_named_profile(name: str) -> RandomProfile:
+# The [environment] table of a named profile's file: what the standard says about it.
+_ENV_TEXT_KEYS = ("title", "document", "table", "figure", "reproduced_from", "note")
+_ENV_KEYS = (*_ENV_TEXT_KEYS, "stated_grms")
+
+
+@dataclass(frozen=True)
+class Environment:
+    """A named vibration environment: a profile with where it comes from (SPEC 6.2).
+
+    ``source`` names the document and its table or figure; ``stated_grms`` is the overall level
+    the standard (or the public reproduction named in ``reproduced_from``) states, which may
+    differ from the log-log area of the breakpoints (:attr:`grms`); ``note`` says why when it does.
+    """
+
+    name: str
+    title: str
+    source: str
+    profile: Profile
+    stated_grms: float | None = None
+    reproduced_from: str | None = None
+    note: str | None = None
+
+    @property
+    def grms(self) -> float:
+        """Overall level of the breakpoints (and tones) by the log-log area formula [g rms]."""
+        return self.profile.grms
+
+    @property
+    def band_hz(self) -> tuple[float, float]:
+        return self.profile.band
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "title": self.title,
+            "source": self.source,
+            "grms": self.grms,
+            "band_hz": list(self.band_hz),
+            "stated_grms": self.stated_grms,
+            "reproduced_from": self.reproduced_from,
+            "note": self.note,
+        }
+
+
+def _environment_table(path: str) -> dict[str, Any]:
+    """The checked ``[environment]`` table of a named profile's file (empty when it has none)."""
+    with open(path, "rb") as fh:
+        table = tomllib.load(fh).get("environment", {})
+    if not isinstance(table, dict):
+        raise ValueError(f"{path}: environment must be a table")
+    unknown = sorted(set(table) - set(_ENV_KEYS))
+    if unknown:
+        raise ValueError(f"{path}: environment.{unknown[0]}: unknown key (known: {', '.join(_ENV_KEYS)})")
+    for key in _ENV_TEXT_KEYS:
+        if key in table and not isinstance(table[key], str):
+            raise ValueError(f"{path}: environment.{key} must be a string, got {table[key]!r}")
+    if "stated_grms" in table:
+        table["stated_grms"] = v.positive_scalar(f"{path}: environment.stated_grms", table["stated_grms"])
+    return table
+
+
+def _citation(table: dict[str, Any]) -> str | None:
+    """'document, table, figure' of an [environment] table (None without a document)."""
+    parts = [table[k] for k in ("document", "table", "figure") if table.get(k)]
+    return ", ".join(parts) if table.get("document") else None
+
+
+def load_named_profile(name: str) -> Profile:
     """The named profile ``name`` (see :func:`named_profiles`)."""
+    return load_environment(name, what="profile").profile
+
+
+def load_environment(name: str, what: str = "environment") -> Environment:
+    """The named environment ``name``: its profile, title, source and stated grms.
+
+    Every named profile is an environment; its file's ``[environment]`` table (``title``,
+    ``document``, ``table``, ``figure``, ``stated_grms``, ``reproduced_from``, ``note``) says
+    where it comes from. A profile without its own ``source`` takes the citation built from
+    ``document``, ``table`` and ``figure``.
+    """
     known = named_profiles()
     if name not in known:
-        raise ValueError(f"unknown profile name {name!r}; known: {', '.join(known)}")
-    prof = read_profile(known[name])
-    return prof if prof.name else RandomProfile(prof.freq_hz, prof.psd_g2_per_hz, name, prof.source)
+        raise ValueError(f"unknown {what} name {name!r}; known: {', '.join(known)}")
+    path = known[name]
+    table = _environment_table(path)
+    prof = read_profile(path)
+    cited = _citation(table)
+    rnd = prof.random if isinstance(prof, SineOnRandom) else prof
+    if rnd.name is None or rnd.source is None:
+        rnd = RandomProfile(rnd.freq_hz, rnd.psd_g2_per_hz, rnd.name or name, rnd.source or cited)
+        prof = SineOnRandom(rnd, prof.tones) if isinstance(prof, SineOnRandom) else rnd
+    return Environment(
+        name=name,
+        title=table.get("title", name),
+        source=cited or prof.source or "",
+        profile=prof,
+        stated_grms=table.get("stated_grms"),
+        reproduced_from=table.get("reproduced_from"),
+        note=table.get("note"),
+    )
+
+
+def environments() -> list[Environment]:
+    """Every named environment (:func:`load_environment`), by name."""
+    return [load_environment(name) for name in named_profiles()]
 
 
 _FORMS = (
     "a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz), flat:F1-F2, "
-    "or a named profile ({names})"
+    "or a named profile ({names}), optionally +sine:F:PEAK,... (Hz:g peak)"
 )
 
 
-def _parse_inline(spec: str) -> RandomProfile:
-    freqs, psds = [], []
-    for i, token in enumerate(spec.split(",")):
+def _number_pairs(text: str, what: str, form: str, units: str) -> list[tuple[float, float]]:
+    """``A:B,A:B,...`` as number pairs; a bad item is named in the error, e.g.
+    ``profile '20:x': item 0 '20:x' is not F:P numbers`` (``what`` = "profile", ``form`` = "F:P")."""
+    pairs = []
+    for i, token in enumerate(text.split(",")):
         parts = token.strip().split(":")
         if len(parts) != 2:
-            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P (Hz:g²/Hz)")
+            raise ValueError(f"{what} {text!r}: item {i} {token.strip()!r} is not {form} ({units})")
         try:
-            freqs.append(float(parts[0]))
-            psds.append(float(parts[1]))
+            pairs.append((float(parts[0]), float(parts[1])))
         except ValueError:
-            raise ValueError(f"profile {spec!r}: item {i} {token.strip()!r} is not F:P numbers") from None
+            raise ValueError(f"{what} {text!r}: item {i} {token.strip()!r} is not {form} numbers") from None
+    return pairs
+
+
+def _parse_inline(spec: str) -> RandomProfile:
+    pairs = _number_pairs(spec, "profile", "F:P", "Hz:g²/Hz")
     try:
-        return RandomProfile(np.array(freqs), np.array(psds), source="inline")
+        return RandomProfile(np.array([f for f, _ in pairs]), np.array([p for _, p in pairs]), source="inline")
     except ValueError as exc:
         raise ValueError(f"profile {spec!r}: {exc}") from None
 
@@ -615,16 +918,53 @@ def _parse_flat(spec: str) -> RandomProfile:
         raise ValueError(f"profile {spec!r}: {exc}") from None
 
 
-def parse_profile(spec: str) -> RandomProfile:
-    """A random profile from a command-line string (SPEC section 5).
+#: Joins a profile and its sine tones on the command line: ``navmat-p9492+sine:120:0.5,240:0.2``.
+TONES_MARK = "+sine:"
+
+
+def split_tones(spec: str) -> tuple[str, str | None]:
+    """(profile part, tone list or None) of a profile string: ``"A+sine:T"`` -> ``("A", "T")``."""
+    i = spec.lower().rfind(TONES_MARK)
+    if i < 0:
+        return spec, None
+    return spec[:i], spec[i + len(TONES_MARK):]
+
+
+def parse_tones(text: str) -> tuple[Tone, ...]:
+    """Tones from ``F:PEAK,F:PEAK,...`` (Hz : g peak), e.g. ``"120:0.5,240:0.2"``."""
+    if not text.strip():
+        raise ValueError("sine tones: give F:PEAK pairs after '+sine:' (Hz:g peak), e.g. +sine:120:0.5,240:0.2")
+    return tuple(Tone(f, peak) for f, peak in _number_pairs(text, "sine tones", "F:PEAK", "Hz:g peak"))
+
+
+def with_tones(profile: Profile, tones: Sequence[Tone]) -> SineOnRandom:
+    """``profile`` with ``tones`` added (to those it already has)."""
+    if isinstance(profile, SineOnRandom):
+        return SineOnRandom(profile.random, profile.tones + tuple(tones), profile.name, profile.source)
+    return SineOnRandom(profile, tuple(tones))
+
+
+def parse_profile(spec: str) -> Profile:
+    """A vibration profile from a command-line string (SPEC sections 5 and 6.2).
 
     Accepted forms, tried in this order: a named profile (``navmat-p9492``), a file path
-    (``.csv``/``.toml``), ``flat:F1-F2`` (a flat 1 g²/Hz shape, to be scaled to a grms),
-    and an inline breakpoint list ``F:P,F:P,...`` (Hz:g²/Hz).
+    (``.csv``/``.toml``; a TOML file with ``[[tone]]`` tables is sine-on-random),
+    ``flat:F1-F2`` (a flat 1 g²/Hz shape, to be scaled to a grms), and an inline breakpoint list
+    ``F:P,F:P,...`` (Hz:g²/Hz). Any of them followed by ``+sine:F:PEAK,F:PEAK,...`` (Hz : g
+    peak) adds sine tones: a :class:`SineOnRandom`.
     """
     if not isinstance(spec, str) or not spec.strip():
         raise ValueError(f"profile must be {_FORMS.format(names=', '.join(named_profiles()))}; got {spec!r}")
     text = spec.strip()
+    base, tones = split_tones(text)
+    if tones is not None:
+        if not base.strip():
+            raise ValueError(f"profile {spec!r}: give a random profile before '+sine:', e.g. navmat-p9492+sine:120:0.5")
+        try:
+            return with_tones(parse_profile(base), parse_tones(tones))
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(msg if spec in msg else f"profile {spec!r}: {msg}") from None
     names = named_profiles()
     if text in names:
         return load_named_profile(text)

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from vrelab import __version__
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, FitResult, LevelResult, Method, Notice, VreResult
 from vrelab.simulation.plan import TestPlan, min_segment_seconds
@@ -141,7 +141,7 @@ def _with_simulated_saturation(
 
 
 def plan_random_test(
-    sensor: "Sensor", profile: RandomProfile, levels_grms: Sequence[float], static_g: float = 1.0, *,
+    sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
@@ -150,7 +150,7 @@ def plan_random_test(
 
 def run_random_test(
     sensor: "Sensor",
-    profile: RandomProfile,
+    profile: RandomProfile | SineOnRandom,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
     *,
@@ -165,8 +165,9 @@ def run_random_test(
     ----------
     sensor : vrelab.sensor.Sensor
         The device under test.
-    profile : RandomProfile
-        PSD shape [g²/Hz]; scaled to each level (``profile.scaled_to(grms)``).
+    profile : RandomProfile or SineOnRandom
+        PSD shape [g²/Hz], with sine tones for sine-on-random; scaled to each level
+        (``profile.scaled_to(grms)``: the tones with the PSD, their rms counted in the level).
     levels_grms : sequence of float
         Vibration levels [g rms], each > 0, run in the order given.
     static_g : float
@@ -202,6 +203,8 @@ def run_random_test(
     analyze`` applies it to the same record: the effective rail of the clipping model (SPEC
     1.1, at the static reading of the baselines, with the level where the data depart from it),
     then ``VRE = VRC·rms²`` (SPEC 1.2) over levels whose 4σ peaks stay inside the fitted rails.
+    A sine-on-random test is reduced by the random method, stated explicitly (its reference is
+    neither one line nor broad): level = reference rms over that band, tones included.
 
     References
     ----------
@@ -224,6 +227,9 @@ def run_test(
     band = _measurement_band(plan.profile) if plan.method == "random" else _sine_band(record)  # type: ignore[arg-type]
     levels, fits, warnings = _reduce_and_fit(record, plan.method, band, plan.settle_s, record_path, progress,
                                              clip_kind)
+    if isinstance(plan.profile, SineOnRandom) and fits:
+        warnings.append(Notice("sine-on-random-fit", "the fits' clipping model (effective rail) assumes a Gaussian "
+                                "drive; this one carries sine tones, so a fitted rail is approximate"))
     return VreResult(
         method=plan.method,
         conditions=_conditions(plan.sensor, plan.profile_text, plan.static_g, record.meta["simulation"]),
@@ -235,9 +241,9 @@ def run_test(
     )
 
 
-def _measurement_band(profile: RandomProfile) -> tuple[float, float]:
-    """Band in which the reduction measures the reference rms: the profile's band widened by
-    an octave on each side. The drive has no power outside the profile's band (it is
+def _measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:
+    """Band in which the reduction measures the reference rms: the profile's band (its tones
+    included) widened by an octave on each side. The drive has no power outside the profile's band (it is
     synthesised that way), so the wider band measures the same rms, but the band-pass edges
     (a Butterworth is 3 dB down at its corners) no longer eat into the profile's edges."""
     f_lo, f_hi = profile.band

@@ -9,7 +9,9 @@ memory is bounded by internal frame sizes, never by ``n_samples``.
   :class:`~vrelab.profiles.RandomProfile` and whose rms is its grms, either a periodic
   random-phase multisine (exact PSD and rms on every period) or a true stationary Gaussian
   process (white Gaussian noise through an FIR filter designed from the profile). Options: drive
-  clipping at k·σ as a shaker controller does, and a non-Gaussian drive of target kurtosis.
+  clipping at k·σ as a shaker controller does, and a non-Gaussian drive of target kurtosis. A
+  :class:`~vrelab.profiles.SineOnRandom` adds its tones to that drive, each with a random phase
+  (:func:`tone_phases`).
 * :func:`psd_tolerance_check`: streaming Welch PSD of a drive (or of a recorded reference
   channel) against a profile, ±3 dB / ±10 % rms by default.
 
@@ -38,12 +40,13 @@ from numpy.typing import NDArray
 from scipy import optimize, stats
 
 from vrelab import _validate as v
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 
 __all__ = [
     "sine_blocks",
     "random_blocks",
     "random_signal",
+    "tone_phases",
     "design_fir",
     "multisine_period",
     "hermite_h4_for_kurtosis",
@@ -423,8 +426,20 @@ def _multisine_frames(period: NDArray[np.float64]) -> Iterator[NDArray[np.float6
         yield period
 
 
+# Tags the tone phases' stream apart from the noise frames' (SeedSequence(seed, spawn_key=(j,))):
+# the tones are drawn from SeedSequence([seed, _TONE_STREAM]), another entropy pool.
+_TONE_STREAM = 0x746F6E65  # "tone"
+
+
+def tone_phases(profile: SineOnRandom, seed: int) -> NDArray[np.float64]:
+    """The phases [rad] of a sine-on-random drive's tones: uniform on [0, 2π), independent,
+    from ``default_rng(SeedSequence([seed, TONE_STREAM]))`` (apart from the noise's streams)."""
+    rng = np.random.default_rng(np.random.SeedSequence([_seed(seed), _TONE_STREAM]))
+    return rng.uniform(0.0, 2.0 * np.pi, len(profile.tones))
+
+
 def random_blocks(
-    profile: RandomProfile,
+    profile: RandomProfile | SineOnRandom,
     fs_hz: float,
     n_samples: int,
     block_size: int,
@@ -437,8 +452,11 @@ def random_blocks(
 
     Parameters
     ----------
-    profile : RandomProfile
-        Target one-sided PSD [g²/Hz]; its band must lie at or below fs_hz/2.
+    profile : RandomProfile or SineOnRandom
+        Target one-sided PSD [g²/Hz]; its band must lie at or below fs_hz/2. A sine-on-random
+        profile's tones are added to the random part's drive: ``peak_i·sin(2π f_i k/fs + φ_i)``
+        with phases φ_i from :func:`tone_phases` (the drive's rms is then the profile's grms).
+        The options below shape the random part only, as a sine-on-random controller does.
     fs_hz : float
         Sample rate [Hz].
     n_samples, block_size : int
@@ -484,6 +502,10 @@ def random_blocks(
     outside the band; the in-band shape changes by a few tenths of a dB at most for kurtosis
     up to about 8 (Smallwood [3]). The rms is exact.
     """
+    if isinstance(profile, SineOnRandom):
+        return _with_tones(profile, fs_hz, n_samples, block_size, seed,
+                           random_blocks(profile.random, fs_hz, n_samples, block_size, seed, method, clip_sigma,
+                                         kurtosis))
     fs = v.positive_scalar("fs_hz", fs_hz)
     _check_band(profile, fs)
     n = v.integer("n_samples", n_samples, 0)
@@ -531,8 +553,23 @@ def random_blocks(
     return _rechunk(frames, n, bs)
 
 
+def _with_tones(
+    profile: SineOnRandom, fs_hz: float, n_samples: int, block_size: int, seed: int,
+    noise: Iterator[NDArray[np.float64]],
+) -> Iterator[NDArray[np.float64]]:
+    """The random part's blocks ``noise`` plus the profile's tones, block by block."""
+    fs = v.positive_scalar("fs_hz", fs_hz)
+    if profile.tones[-1].freq_hz >= fs / 2:
+        raise ValueError(f"tone at {profile.tones[-1].freq_hz:g} Hz is not below fs_hz/2 = {fs / 2:g} Hz; "
+                         "raise the sample rate")
+    tones = [sine_blocks(t.freq_hz, t.rms_g, fs, n_samples, block_size, phase_rad=float(ph))
+             for t, ph in zip(profile.tones, tone_phases(profile, seed))]
+    for blocks in zip(noise, *tones):
+        yield np.sum(blocks, axis=0)
+
+
 def random_signal(
-    profile: RandomProfile,
+    profile: RandomProfile | SineOnRandom,
     fs_hz: float,
     n_samples: int,
     seed: int,

@@ -70,6 +70,31 @@ def positive_list(text: str, name: str) -> list[float]:
     return values
 
 
+def profile_table(profile: Any) -> str:
+    """A profile as text: name, source, grms, its breakpoint table with slopes and, for
+    sine-on-random, its tones (``vrelab profile`` and ``vrelab environment show``)."""
+    lo, hi = profile.band
+    tones = getattr(profile, "tones", ())
+    head = (f"random {lo:g}–{hi:g} Hz" if not tones else f"sine-on-random {lo:g}–{hi:g} Hz") + f", {profile.grms:.3g} g rms"
+    lines = [f"{profile.name}: {head}" if profile.name else head]
+    if profile.source:
+        lines.append(f"source: {profile.source}")
+    lines.append(f"grms: {profile.grms:.6g} g" + (" (random and tones)" if tones else ""))
+    random = getattr(profile, "random", profile)
+    if tones:
+        lines.append(f"random part: {random.grms:.6g} g rms")
+    lines.append(f"{'f_hz':>10}  {'psd_g2_per_hz':>14}  {'slope to next':>14}")
+    slopes = list(random.slopes_db_per_oct) + [None]
+    for (f, p), s in zip(random.breakpoints, slopes):
+        slope = f"{s:+.2f} dB/oct" if s is not None else ""
+        lines.append(f"{f:>10.6g}  {p:>14.6g}  {slope:>14}")
+    if tones:
+        lines.append(f"{'tone_hz':>10}  {'peak_g':>14}  {'rms_g':>14}")
+        for t in tones:
+            lines.append(f"{t.freq_hz:>10.6g}  {t.peak_g:>14.6g}  {t.rms_g:>14.6g}")
+    return "\n".join(lines)
+
+
 def print_levels(result: Any) -> None:
     """The levels of a ``VreResult`` as a table, then its fits and warnings (simulate, analyze)."""
     sine = result.method == "sine"

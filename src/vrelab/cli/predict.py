@@ -92,9 +92,13 @@ def register(subparsers: Any) -> None:
     )
     add_sensor_arguments(p)
     ex = p.add_mutually_exclusive_group(required=True)
-    ex.add_argument("--profile", metavar="PROFILE", help="random profile: file, F:P,F:P,... or flat:F1-F2; scaled to each level")
+    ex.add_argument("--profile", metavar="PROFILE",
+                    help="random profile: a name (vrelab environment list), file, F:P,F:P,... or flat:F1-F2, "
+                    "optionally +sine:F:PEAK,... tones (Hz:g peak); scaled to each level, tones with the PSD")
     ex.add_argument("--freq", type=float, metavar="HZ", help="sine frequency [Hz]")
-    p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms], e.g. 0.5,1,2 or 0.5:3:0.5")
+    p.add_argument("--levels", required=True, metavar="LIST",
+                   help="vibration levels [g rms], e.g. 0.5,1,2 or 0.5:3:0.5; with tones, the overall rms "
+                   "(random and tones), reached by scaling the PSD by the ratio squared and each tone by the ratio")
     p.add_argument("--kind", choices=KINDS, default="censored",
                    help="clipping model: censored (a saturating sensor, default) or truncated (the article's)")
     p.add_argument("--out", metavar="DIR", help="write DIR/prediction.json")

@@ -6,9 +6,11 @@ SPEC section 5::
     vrelab profile --list          (or: vrelab profile list)
 
 ``PROFILE`` is a named profile, a .csv/.toml file, an inline ``F:P,F:P,...`` list or
-``flat:F1-F2`` (see :func:`vrelab.profiles.parse_profile`). ``--json`` prints
-:meth:`vrelab.profiles.RandomProfile.to_dict`: ``grms``, ``breakpoints`` ([f_hz,
-psd_g2_per_hz] pairs), ``band_hz``, ``slopes_db_per_oct``, ``name``, ``source``.
+``flat:F1-F2``, any of them with ``+sine:F:PEAK,...`` tones (see
+:func:`vrelab.profiles.parse_profile`). ``--json`` prints the profile's ``to_dict``: ``grms``
+(tones included: a tone's rms is peak/√2), ``breakpoints`` ([f_hz, psd_g2_per_hz] pairs of the
+random part), ``band_hz``, ``slopes_db_per_oct``, ``name``, ``source``; and for sine-on-random
+``random_grms`` and ``tones`` ({``freq_hz``, ``peak_g``, ``rms_g``}).
 """
 
 from __future__ import annotations
@@ -18,22 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab.cli._common import print_json
-
-
-def _table(profile: Any) -> str:
-    lo, hi = profile.band
-    head = f"random {lo:g}–{hi:g} Hz, {profile.grms:.3g} g rms"
-    lines = [f"{profile.name}: {head}" if profile.name else head]
-    if profile.source:
-        lines.append(f"source: {profile.source}")
-    lines.append(f"grms: {profile.grms:.6g} g")
-    lines.append(f"{'f_hz':>10}  {'psd_g2_per_hz':>14}  {'slope to next':>14}")
-    slopes = list(profile.slopes_db_per_oct) + [None]
-    for (f, p), s in zip(profile.breakpoints, slopes):
-        slope = f"{s:+.2f} dB/oct" if s is not None else ""
-        lines.append(f"{f:>10.6g}  {p:>14.6g}  {slope:>14}")
-    return "\n".join(lines)
+from vrelab.cli._common import print_json, profile_table
 
 
 def _list(as_json: bool) -> int:
@@ -48,9 +35,10 @@ def _list(as_json: bool) -> int:
     if as_json:
         print_json({"profiles": items})
     else:
+        width = max((len(it["name"]) for it in items), default=0)
         for it in items:
             lo, hi = it["band_hz"]
-            print(f"{it['name']:<20} {lo:g}-{hi:g} Hz, {it['grms']:.3g} g rms  [{it['source']}]")
+            print(f"{it['name']:<{width}} {lo:g}-{hi:g} Hz, {it['grms']:.3g} g rms  [{it['source']}]")
     return 0
 
 
@@ -73,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
             d["written"] = str(args.write)
         print_json(d)
     else:
-        print(_table(prof))
+        print(profile_table(prof))
         if args.write is not None:
             print(f"written: {args.write}")
     return 0
@@ -85,10 +73,13 @@ def register(subparsers: Any) -> None:
         help="show a random vibration profile: grms and breakpoints",
         description="Show a random vibration profile (breakpoints interpolated log-log): its "
         "grms, band, breakpoint table and slopes in dB/oct. PROFILE is a named profile "
-        "(see --list), a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz) or flat:F1-F2.",
+        "(see --list), a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz) or flat:F1-F2; "
+        "+sine:F:PEAK,... adds sine tones (Hz:g peak), e.g. navmat-p9492+sine:120:0.5,240:0.2.",
     )
     p.add_argument("profile", nargs="?", metavar="PROFILE", help="profile, or 'list'")
-    p.add_argument("--grms", type=str, metavar="G", help="scale the profile to this overall level [g rms]")
+    p.add_argument("--grms", type=str, metavar="G",
+                   help="scale the profile to this overall level [g rms]; with tones, the PSD by the ratio squared "
+                   "and every tone amplitude by the ratio (tones included in the level)")
     p.add_argument("--list", action="store_true", help="list the named profiles")
     p.add_argument("--write", metavar="FILE", help="write the (scaled) profile to FILE (.csv or .toml)")
     p.add_argument("--json", action="store_true", help="print one JSON object")

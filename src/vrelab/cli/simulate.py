@@ -109,9 +109,13 @@ def register(subparsers: Any) -> None:
     )
     add_sensor_arguments(p)
     ex = p.add_mutually_exclusive_group(required=True)
-    ex.add_argument("--profile", metavar="PROFILE", help="random method: file, F:P,F:P,... or flat:F1-F2; scaled to each level")
+    ex.add_argument("--profile", metavar="PROFILE",
+                    help="random method: a name (vrelab environment list), file, F:P,F:P,... or flat:F1-F2, "
+                    "optionally +sine:F:PEAK,... tones (Hz:g peak, random phases from --seed); scaled to each level")
     ex.add_argument("--freq", metavar="LIST", help="sine method: frequencies [Hz], e.g. 100,1000")
-    p.add_argument("--levels", required=True, metavar="LIST", help="vibration levels [g rms]")
+    p.add_argument("--levels", required=True, metavar="LIST",
+                   help="vibration levels [g rms]; with tones, the overall rms (random and tones), reached by "
+                   "scaling the PSD by the ratio squared and each tone by the ratio")
     p.add_argument("--seconds", type=float, default=4.0, metavar="S", help="duration of each level [s] (default 4)")
     p.add_argument("--baseline", type=float, default=2.0, metavar="S",
                    help="duration of each vibration-off baseline [s] (default 2)")
@@ -127,7 +131,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--drive", choices=("gaussian", "multisine"), default="gaussian",
                    help="random drive: a Gaussian process (default) or a random-phase multisine")
     p.add_argument("--clip-sigma", type=float, metavar="K",
-                   help="clip the random drive at ±K·σ, as shaker controllers do")
+                   help="clip the random drive at ±K·σ, as shaker controllers do (with tones: the random part)")
     p.add_argument("--kurtosis", type=float, metavar="K", help="non-Gaussian random drive with this kurtosis (> 3)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")

@@ -10,13 +10,14 @@
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
 from vrelab import _validate
-from vrelab.models.clipping import Kind, Shape, mean_shift
+from vrelab.models.clipping import Kind, Shape, mean_shift, sine_on_random_mean_shift
 from vrelab.models.dynamics import rice_upcrossing_rate
 from vrelab.models.nonlinearity import vre_poly
 
@@ -28,6 +29,7 @@ def clip_vre(
     rail_high_g: float,
     shape: Shape = "gaussian",
     kind: Kind = "censored",
+    tone_peaks_g: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
     """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading.
 
@@ -35,9 +37,17 @@ def clip_vre(
     SPEC 1.1). A VRE is measured against the reading with the vibration off, which a static
     field ``μ`` beyond a rail already clips: the second term removes that static part, so the
     result is 0 at σ = 0 wherever ``μ`` is. ``μ`` is the static level *at the rails*: the
-    static field plus any offset the sensor adds before them.
+    static field plus any offset the sensor adds before them. With ``tone_peaks_g`` [g peak]
+    the vibration is Gaussian (rms ``sigma_g``, a scalar) plus those sine tones
+    (:func:`vrelab.models.clipping.sine_on_random_mean_shift`).
     """
-    with_vibration = np.asarray(mean_shift(mean_g, sigma_g, rail_low_g, rail_high_g, shape=shape, kind=kind))
+    if len(tone_peaks_g):
+        if shape != "gaussian":
+            raise ValueError(f"tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian', got {shape!r}")
+        with_vibration = np.asarray(
+            sine_on_random_mean_shift(mean_g, float(sigma_g), tone_peaks_g, rail_low_g, rail_high_g, kind))
+    else:
+        with_vibration = np.asarray(mean_shift(mean_g, sigma_g, rail_low_g, rail_high_g, shape=shape, kind=kind))
     out = with_vibration - (float(np.clip(mean_g, rail_low_g, rail_high_g)) - float(mean_g))
     return out[()] if out.ndim == 0 else out
 
@@ -204,19 +214,65 @@ def grms_at_peak_threshold(threshold_g: float, static_g: float = 0.0, crest_fact
 
 
 def overrange_trip_rate_hz(
-    threshold_g: ArrayLike, mean_g: ArrayLike, sigma_g: ArrayLike, nu0_hz: ArrayLike
+    threshold_g: ArrayLike,
+    mean_g: ArrayLike,
+    sigma_g: ArrayLike,
+    nu0_hz: ArrayLike,
+    tone_peaks_g: Sequence[float] = (),
+    tone_freqs_hz: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
-    """Expected over-range trips per second of Gaussian motion N(mean, σ²) [Hz] (SPEC 1.3).
+    r"""Expected over-range trips per second of Gaussian motion N(mean, σ²) [Hz] (SPEC 1.3).
 
     ``ν = ν⁺(+T) + ν⁻(-T)``: up-crossings of +T plus down-crossings of -T (the latter are the
     up-crossings of +T by the mirrored motion), each Rice's
     ``ν0·exp(-(T ∓ μ)²/(2σ²))`` (:func:`~vrelab.models.dynamics.rice_upcrossing_rate`).
+
+    With sine tones (``tone_peaks_g`` [g peak] at ``tone_freqs_hz``, scalar inputs) the motion
+    is the Gaussian part plus the tones' sum s(t), a deterministic mean for given phases. Rice's
+    crossing formula [1] for a Gaussian process with a moving mean: x and ẋ are independent
+    Gaussians (a stationary G and its derivative are uncorrelated at one instant), x ~ N(μ + s,
+    σ²), ẋ ~ N(ṡ, σ̇²) with σ̇ = 2π·ν0·σ, so
+
+    .. math:: ν^+(T) = E_θ\left[rac{φ(z)}{σ}\,\left(ṡ\,Φ(ṡ/σ̇) + σ̇\,φ(ṡ/σ̇)ight)ight],
+              \quad z = rac{T - μ - s}{σ},
+
+    the time average taken as the average over the tones' independent uniform phases
+    (:mod:`vrelab.models.tones`); ν⁻(-T) is the same with μ, s, ṡ negated. Without tones it is
+    Rice's ν0·exp(-z²/2). Held against crossings counted on simulated records in the tests.
+
+    References
+    ----------
+    .. [1] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944),
+       §3.3: expected number of crossings ∫|ẋ| p(T, ẋ) dẋ.
     """
     t = _validate.positive("threshold_g", threshold_g)
     mu = _validate.finite("mean_g", mean_g)
-    out = np.asarray(rice_upcrossing_rate(t, mu, sigma_g, nu0_hz) + rice_upcrossing_rate(t, -mu, sigma_g, nu0_hz),
-                     dtype=np.float64)
-    return out[()] if out.ndim == 0 else out
+    if not len(tone_peaks_g):
+        out = np.asarray(rice_upcrossing_rate(t, mu, sigma_g, nu0_hz) + rice_upcrossing_rate(t, -mu, sigma_g, nu0_hz),
+                         dtype=np.float64)
+        return out[()] if out.ndim == 0 else out
+    from scipy import special
+
+    from vrelab.models.tones import phase_grid
+
+    if len(tone_freqs_hz) != len(tone_peaks_g):
+        raise ValueError(f"tone_freqs_hz must give one frequency per tone, got {len(tone_freqs_hz)} for "
+                         f"{len(tone_peaks_g)} tones")
+    thr, m0 = float(t), float(mu)
+    sigma = _validate.positive_scalar("sigma_g", sigma_g)
+    sigma_dot = 2.0 * math.pi * _validate.positive_scalar("nu0_hz", nu0_hz) * sigma
+    freqs = _validate.positive("tone_freqs_hz", np.asarray(tone_freqs_hz, dtype=np.float64))
+    peaks = _validate.non_negative("tone_peaks_g", np.asarray(tone_peaks_g, dtype=np.float64))
+    grid = phase_grid(list(peaks), sigma)
+    s, ds = grid.sum_of(peaks), grid.slope_of(peaks, freqs)
+
+    def upcrossings(level: NDArray[np.float64], slope: NDArray[np.float64]) -> float:
+        density = np.exp(-0.5 * (level / sigma) ** 2) / (sigma * math.sqrt(2.0 * math.pi))
+        r = slope / sigma_dot
+        mean_positive_slope = slope * special.ndtr(r) + sigma_dot * np.exp(-0.5 * r * r) / math.sqrt(2.0 * math.pi)
+        return float(np.mean(density * mean_positive_slope))
+
+    return upcrossings(thr - m0 - s, ds) + upcrossings(thr + m0 + s, -ds)
 
 
 def overrange_vre(
@@ -226,6 +282,8 @@ def overrange_vre(
     hold_s: ArrayLike,
     nu0_hz: ArrayLike,
     value_g: ArrayLike = 0.0,
+    tone_peaks_g: Sequence[float] = (),
+    tone_freqs_hz: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
     r"""Estimated extra VRE from over-range protection [g] (SPEC 1.3).
 
@@ -246,6 +304,9 @@ def overrange_vre(
     value_g : array_like
         What the output reads while held [g] (0: "floats toward zero"; the ADXL354 goes to
         mid-scale, also 0 g).
+    tone_peaks_g, tone_freqs_hz : sequence of float
+        Sine tones on the Gaussian motion (sine-on-random) [g peak, Hz]: the trip rate is then
+        the phase-averaged Rice rate of :func:`overrange_trip_rate_hz`.
 
     Returns
     -------
@@ -267,7 +328,7 @@ def overrange_vre(
     mu = _validate.finite("mean_g", mean_g)
     hold = _validate.non_negative("hold_s", hold_s)
     v = _validate.finite("value_g", value_g)
-    nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz)
+    nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz, tone_peaks_g, tone_freqs_hz)
     p = -np.expm1(-nu * hold)
     out = np.asarray(p * (v - mu), dtype=np.float64)
     return out[()] if out.ndim == 0 else out

@@ -92,6 +92,62 @@ def sine_moments(rms_g: ArrayLike, order: int) -> NDArray[np.float64]:
     return out
 
 
+def sum_moments(moments_a: ArrayLike, moments_b: ArrayLike) -> NDArray[np.float64]:
+    """Raw moments of a + b for independent a and b, from theirs (rows j = 0..order).
+
+    ``E[(a+b)^j] = Σ_k C(j,k)·E[a^k]·E[b^(j-k)]`` (binomial theorem; independence factors
+    each expectation). Both inputs need the same number of rows; the trailing dimensions broadcast.
+    """
+    a = np.asarray(moments_a, dtype=np.float64)
+    b = np.asarray(moments_b, dtype=np.float64)
+    if a.shape[0] != b.shape[0]:
+        raise ValueError(f"sum_moments: both need the same orders, got {a.shape[0]} and {b.shape[0]} rows")
+    out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
+    for j in range(a.shape[0]):
+        out[j] = sum(math.comb(j, k) * a[k] * b[j - k] for k in range(j + 1))
+    return out
+
+
+def sine_on_random_moments(sigma_g: ArrayLike, peaks_g: Sequence[float], order: int) -> NDArray[np.float64]:
+    """Raw moments E[x^j], j = 0..order, of Gaussian vibration plus sine tones.
+
+    Parameters
+    ----------
+    sigma_g : array_like
+        rms σ >= 0 of the Gaussian part [g].
+    peaks_g : sequence of float
+        Tone amplitudes A_i >= 0 [g peak], each tone A_i·cos θ_i with its own phase θ_i uniform
+        on [0, 2π), independent of the other tones and of the Gaussian part.
+    order : int
+        Highest moment.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(order + 1,) + shape(sigma_g)``.
+
+    Notes
+    -----
+    x = G + Σ A_i cos θ_i is a sum of independent terms, so its moments are the binomial
+    convolution (:func:`sum_moments`) of :func:`gaussian_moments` and each tone's
+    :func:`sine_moments` (E[cos^2m θ] = C(2m, m)/4^m). Odd moments vanish. The first two even ones:
+
+        E[x²] = σ² + Σ A_i²/2,
+        E[x⁴] = 3σ⁴ + 6σ²·Σ A_i²/2 + (3/8)·Σ A_i⁴ + (3/2)·Σ_{i<j} A_i²A_j²
+              = 3·(E[x²])² - (3/8)·Σ A_i⁴.
+
+    Random phases are an ensemble average. A machine's tones at harmonically related
+    frequencies (f and 2f) keep a fixed relative phase, and then the time average of odd powers
+    need not vanish (cos²(ωt)·cos(2ωt + φ) averages to cos(φ)/4): these moments are the
+    average over that phase.
+    """
+    n = _order(order)
+    out = gaussian_moments(sigma_g, n)
+    for a in _validate.non_negative("peaks_g", np.atleast_1d(np.asarray(peaks_g, dtype=np.float64))):
+        out = sum_moments(out, sine_moments(a / math.sqrt(2.0), n))
+    return out
+
+
 def sample_moments(x_g: ArrayLike, order: int, axis: int = -1) -> NDArray[np.float64]:
     """Central moments E[(x - x̄)^j], j = 0..order, of vibration samples along ``axis``.
 
@@ -199,28 +255,39 @@ def vre_poly(
     k4_per_g3: ArrayLike = 0.0,
     static_g: ArrayLike = 0.0,
     shape: Shape = "gaussian",
+    tone_peaks_g: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
     """VRE of the polynomial nonlinearity up to k4 for Gaussian or sine vibration of rms ``rms_g``.
 
     Parameters
     ----------
     rms_g : array_like
-        Vibration rms [g] (for a sine, amplitude = rms·√2).
+        Vibration rms [g] (for a sine, amplitude = rms·√2); with ``tone_peaks_g``, the rms of
+        the Gaussian part alone.
     k2_per_g, k3_per_g2, k4_per_g3 : array_like
         Normalised coefficients [1/g, 1/g², 1/g³]; k2 is the VRC (1 µg/g² = 1e-6 /g).
     static_g : array_like
         Static field along the axis g0 [g].
     shape : {"gaussian", "sine"}
+    tone_peaks_g : sequence of float
+        Sine tones on the Gaussian vibration (sine-on-random), amplitudes [g peak]; shape must
+        then be "gaussian". Their moments: :func:`sine_on_random_moments`.
 
     Returns
     -------
     numpy.ndarray or float
-        VRE [g] = (k2 + 3·k3·g0)·rms² + k4·(6·g0²·rms² + E[x⁴]) with E[x⁴] = 3·rms⁴ (Gaussian)
-        or 1.5·rms⁴ (sine); see :func:`polynomial_vre`.
+        VRE [g] = (k2 + 3·k3·g0)·E[x²] + k4·(6·g0²·E[x²] + E[x⁴]) with E[x⁴] = 3·rms⁴
+        (Gaussian), 1.5·rms⁴ (sine) or that of :func:`sine_on_random_moments`; see
+        :func:`polynomial_vre`. Exact for this polynomial: no other moment enters.
     """
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     rms = _validate.non_negative("rms_g", rms_g)
-    moments = (gaussian_moments if shape == "gaussian" else sine_moments)(rms, 4)
+    if len(tone_peaks_g):
+        if shape != "gaussian":
+            raise ValueError(f"tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian', got {shape!r}")
+        moments = sine_on_random_moments(rms, tone_peaks_g, 4)
+    else:
+        moments = (gaussian_moments if shape == "gaussian" else sine_moments)(rms, 4)
     return polynomial_vre((k2_per_g, k3_per_g2, k4_per_g3), static_g, moments)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from vrelab import _budget
 from vrelab import _validate as V
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import NYQUIST_MARGIN, simulation_rate_hz
 from vrelab.results import Method
 from vrelab.simulation.record import (
@@ -97,7 +97,7 @@ class TestPlan:
     baseline_s: float = 2.0
     settle_s: float | None = None  # None: the reduction's default (a float once constructed)
     seed: int = 0
-    profile: RandomProfile | None = None
+    profile: RandomProfile | SineOnRandom | None = None
     freqs_hz: tuple[float, ...] = ()
     drive_method: DriveMethod = "gaussian"
     clip_sigma: float | None = None
@@ -117,8 +117,8 @@ class TestPlan:
         put(self, "ramp_s", float(V.non_negative("ramp_s", self.ramp_s)))
         put(self, "seed", int(self.seed))
         if self.method == "random":
-            if not isinstance(self.profile, RandomProfile):
-                raise ValueError(f"profile must be a RandomProfile, got {type(self.profile).__name__}")
+            if not isinstance(self.profile, (RandomProfile, SineOnRandom)):
+                raise ValueError(f"profile must be a RandomProfile or SineOnRandom, got {type(self.profile).__name__}")
             V.one_of("drive_method", self.drive_method, ("gaussian", "multisine"))
         else:
             put(self, "freqs_hz", _freqs("freqs_hz", self.freqs_hz))
@@ -137,8 +137,10 @@ class TestPlan:
                 )
 
     @classmethod
-    def random(cls, sensor: "Sensor", profile: RandomProfile, levels_grms: Sequence[float], **kw: Any) -> "TestPlan":
-        """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms``."""
+    def random(cls, sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
+               **kw: Any) -> "TestPlan":
+        """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms`` (a
+        sine-on-random profile too: its tones scale with it and count in the level)."""
         return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
 
     @classmethod
@@ -156,6 +158,10 @@ class TestPlan:
         """The vibration, as the result's conditions state it."""
         if self.method == "random":
             p = self.profile
+            if isinstance(p, SineOnRandom):
+                lo, hi = p.random.band
+                tones = ", ".join(f"{t.freq_hz:g}" for t in p.tones)
+                return f"random {lo:g}-{hi:g} Hz + sine {tones} Hz" + (f" ({p.name})" if p.name else "")
             return f"random {p.band[0]:g}-{p.band[1]:g} Hz" + (f" ({p.name})" if p.name else "")  # type: ignore[union-attr]
         return "sine " + ", ".join(f"{f:g}" for f in dict.fromkeys(self.freqs_hz)) + " Hz"
 

@@ -49,7 +49,7 @@ from scipy import signal
 
 from vrelab import _validate as V
 from vrelab._ahead import Ahead
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import record_step
 from vrelab.record import Schedule, Segment
 from vrelab.synthesis import Method as DriveMethod
@@ -133,7 +133,7 @@ class SimulatedRecord:
         rates: Rates,
         static_g: float,
         *,
-        profile: RandomProfile | None,
+        profile: RandomProfile | SineOnRandom | None,
         drive_method: DriveMethod,
         clip_sigma: float | None,
         kurtosis: float | None,

@@ -13,7 +13,9 @@
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
 
 ``predict``: :func:`vrelab.predict.predict` on a :func:`vrelab.sensor.load_sensor` sensor at one
-  level of a ``profile`` (or a sine at ``freq_hz``).
+  level of a ``profile`` (or a sine at ``freq_hz``); a ``profile`` is any string of
+  :func:`vrelab.profiles.parse_profile`, a named environment or sine-on-random
+  (``"navmat-p9492+sine:120:0.5"``, or a TOML file with ``[[tone]]`` tables) included.
 
 ``simulate``: the simulated shaker test, :func:`vrelab.shaker.run_random_test` (or
   ``run_sine_test`` with ``freq_hz``), one level, seeded from the point's seed; ``seconds``

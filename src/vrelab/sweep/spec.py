@@ -215,12 +215,16 @@ class SweepSpec:
         profiles need none."""
         from vrelab._io import sha256_file
 
+        from vrelab.profiles import split_tones
+
         names: list[Any] = [self.fixed.get(k) for k in _FILE_KEYS]
         names += [v for k, values in self.grid if k in _FILE_KEYS for v in values]
         out: dict[str, str] = {}
         for name in names:
-            if isinstance(name, str) and Path(name).is_file():
-                out[name] = sha256_file(name)
+            # a profile file with "+sine:..." tones after it reads the file all the same
+            path = split_tones(name)[0].strip() if isinstance(name, str) else None
+            if path and Path(path).is_file():
+                out[name] = sha256_file(path)
         return out
 
     def fingerprint(self) -> str:
