@@ -19,6 +19,8 @@ file                    what                                                    
 ``result.nc``           the sweep's xarray Dataset                                   sweep
 ``report.html``         the report                                                   report, demo
 ``summary.json``        the demo's numbers against the article's                     demo
+``identification.json`` each channel's identified model (what ``--json`` prints)     identify
+``sensor.toml``         the identified sensor file (``--sensor`` with ``--axis CH``)  identify
 ======================  ===========================================================  =========
 
 Writing goes through :func:`vrelab._io.output_dir` (a folder is written completely or not at
@@ -46,8 +48,10 @@ PSD_LEVELS = "psd_levels.csv"
 SWEEP_RESULT = "result.nc"
 REPORT = "report.html"
 SUMMARY = "summary.json"
+IDENTIFICATION = "identification.json"
+IDENTIFIED_SENSOR = "sensor.toml"
 
-FolderKind = Literal["result", "sweep", "channels", "campaign"]
+FolderKind = Literal["result", "sweep", "channels", "campaign", "identification"]
 
 
 def channel_folder_names(names: Sequence[str]) -> dict[str, str]:
@@ -124,8 +128,14 @@ def read_folder(folder: str | Path) -> ResultsFolder:
     if not (path / RESULTS).exists():
         if (path / SWEEP_RESULT).exists():
             return ResultsFolder(path, "sweep")
+        if (path / IDENTIFICATION).is_file():
+            doc = _read_json(path / IDENTIFICATION)
+            if not isinstance(doc, dict) or not isinstance(doc.get("channels"), list):
+                raise ValueError(f"report: {path / IDENTIFICATION} is not a vrelab identification (no channels)")
+            return ResultsFolder(path, "identification", doc=doc)
         raise ValueError(
-            f"report: no {RESULTS} (simulate/analyze --out) and no {SWEEP_RESULT} (sweep --out) in {path}"
+            f"report: no {RESULTS} (simulate/analyze --out), no {SWEEP_RESULT} (sweep --out) and no {IDENTIFICATION} "
+            f"(identify --out) in {path}"
         )
     doc = _read_json(path / RESULTS) if (path / RESULTS).is_file() else None
     if isinstance(doc, dict) and isinstance(doc.get("runs"), list):

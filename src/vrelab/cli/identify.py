@@ -8,7 +8,8 @@
 
 A MANIFEST is reduced first (as ``vrelab campaign`` does); a CAMPAIGN_DIR is the folder
 ``vrelab campaign --out`` wrote. DIR receives ``sensor.toml`` (use it as ``--sensor`` with
-``--axis <channel>``) and ``identification.json`` (what ``--json`` prints).
+``--axis <channel>``) and ``identification.json`` (what ``--json`` prints); ``vrelab report DIR``
+makes its report.
 """
 
 from __future__ import annotations
@@ -20,10 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from vrelab.cli._common import add_budget_arguments, print_json, typeb_from_args
+from vrelab.folder import IDENTIFICATION as DOCUMENT
+from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.models.clipping import KINDS
-
-SENSOR_FILE = "sensor.toml"
-DOCUMENT = "identification.json"
 
 
 def register(subparsers: Any) -> None:
@@ -125,4 +125,5 @@ def _print(doc: dict[str, Any]) -> None:
                   f"2f {format_value_u(a['value'], a['u'])} vs DC {format_value_u(d['value'], d['u'])} µg/g²")
         for n in c["notes"]:
             print(f"  note: {n}")
-    print(f"wrote {doc['sensor_file']}: use it as --sensor {doc['sensor_file']} --axis <channel>")
+    print(f"wrote {doc['sensor_file']}: use it as --sensor {doc['sensor_file']} --axis <channel>; "
+          "`vrelab report` on the folder makes its report")

@@ -36,6 +36,10 @@ def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str
         from vrelab.report.campaign import report_campaign_dir
 
         return report_campaign_dir(rf, argv, title)
+    if rf.kind == "identification":
+        from vrelab.report.identify import report_identification_dir
+
+        return report_identification_dir(rf, argv, title)
     if rf.kind == "sweep":
         from vrelab.report.sweep import report_sweep_dir
 

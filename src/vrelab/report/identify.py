@@ -1,0 +1,158 @@
+"""The identification report (``vrelab report DIR`` on a ``vrelab identify --out DIR`` folder).
+
+First what was identified from what (campaign, base sensor, clip model, the sensor file); then
+per channel: the parameters (value ± u, or null with the reason and where the value used comes
+from), the apparent VRC of every sine run against frequency with the identified
+``(k2 + 3·k3·g0)·|H(f)|²`` per orientation, each level's pull (measured − model)/u by run, the
+2f cross-check and the notes. It reads ``identification.json`` only: nothing is refitted.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from vrelab import folder as F
+from vrelab._format import format_value_u
+from vrelab.folder import ResultsFolder
+from vrelab.report.html import ReportFigure, ReportSection, ReportTable, default_provenance, write_report
+
+_UNITS = {"ug/g^2": "µg/g²", "ug/g^3": "µg/g³", "1": "", "Hz": "Hz", "g": "g"}
+
+
+def _apparent_vrc(run: Mapping[str, Any]) -> tuple[float, float] | None:
+    """A sine run's apparent VRC [µg/g²] and its u: the weighted fit through the origin of
+    VRE = VRC·rms² over its levels (what the campaign's VRC(f) shows)."""
+    res = run.get("residuals") or []
+    if run.get("method") != "sine" or not res:
+        return None
+    x2 = np.array([r["rms_g"] ** 2 for r in res])
+    w = 1.0 / np.array([r["u_vre_g"] ** 2 for r in res])
+    v = np.array([r["vre_g"] for r in res])
+    s = float(np.sum(w * x2 * x2))
+    return float(np.sum(w * v * x2) / s * 1e6), 1e6 / math.sqrt(s)
+
+
+def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
+    """Apparent VRC of each sine run (markers, 1 u) and the identified model per orientation."""
+    from vrelab.models.dynamics import vrc_at_frequency
+    from vrelab.report.plots import _new_figure
+
+    pts = [(r["freq_hz"], r["static_g"], *vu) for r in ch.get("runs") or [] if (vu := _apparent_vrc(r)) is not None]
+    if not pts:
+        return None
+    used = ch.get("values_used") or {}
+    k2, k3 = used.get("k2_ug_per_g2") or 0.0, used.get("k3_ug_per_g3") or 0.0
+    fn, q = used.get("fn_hz"), used.get("q")
+    f = np.array([p[0] for p in pts])
+    fig, (ax,) = _new_figure()
+    grid = np.geomspace(f.min() / 1.5, f.max() * 1.5, 400)
+    markers = ["o", "s", "^", "D"]
+    for i, g0 in enumerate(sorted({round(p[1], 2) for p in pts}, reverse=True)):
+        sel = [p for p in pts if round(p[1], 2) == g0]
+        line = ax.plot(grid, (k2 + 3 * k3 * g0) * (vrc_at_frequency(1.0, grid, fn, q) if fn and q else 1.0),
+                       label=f"model at {g0:+g} g")[0]
+        ax.errorbar([p[0] for p in sel], [p[2] for p in sel], yerr=[p[3] for p in sel], fmt=markers[i % 4],
+                    color=line.get_color(), capsize=3, label=f"measured at {g0:+g} g")
+    ax.set_xscale("log")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("apparent VRC (µg/g²)")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.legend(loc="best")
+    ax.set_title(f"channel {ch['channel']}: VRC(f) measured and identified (error bars: 1 u)")
+    return ReportFigure.from_figure(fig, f"Channel {ch['channel']}: each sine run's apparent VRC (weighted fit of "
+                                    "VRE = VRC·rms² over its levels) and the identified (k2 + 3·k3·g0)·|H(f)|² "
+                                    "for each orientation (SPEC 1.2, 1.3).")
+
+
+def pulls_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
+    """Each level's (measured - model)/u, one column of points per run."""
+    from vrelab.report.plots import _new_figure
+
+    runs = ch.get("runs") or []
+    if not runs:
+        return None
+    fig, (ax,) = _new_figure()
+    labels = []
+    for i, r in enumerate(runs):
+        z = [x["pull"] for x in r["residuals"]]
+        ax.plot(np.full(len(z), i) + np.linspace(-0.15, 0.15, len(z)), z, "o")
+        freq = f" {r['freq_hz']:.4g} Hz" if r.get("freq_hz") else ""
+        labels.append(f"{r['run']}: {r['label']}" + (freq if freq.strip() not in r["label"] else ""))
+    for y in (-3, 3):
+        ax.axhline(y, color="0.6", ls="--", lw=0.8)
+    ax.axhline(0, color="0.4", lw=0.8)
+    ax.set_xticks(range(len(runs)))
+    ax.set_xticklabels(labels, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("(measured − model) / u")
+    ax.set_title(f"channel {ch['channel']}: residuals of every level (dashed: ±3)")
+    return ReportFigure.from_figure(fig, f"Channel {ch['channel']}: each level's pull against the identified model; "
+                                    "a run whose points sit beyond ±3 is one the model does not describe.")
+
+
+def _parameter_rows(ch: Mapping[str, Any]) -> list[list[str]]:
+    rows = []
+    for name, e in (ch.get("parameters") or {}).items():
+        used = (ch.get("values_used") or {}).get(name)
+        if e is None:
+            rows.append([name, "null", "" if used is None else f"{used:.6g} (base sensor)",
+                         (ch.get("null_reasons") or {}).get(name, "")])
+        else:
+            rows.append([name, f"{format_value_u(e['value'], e['u'])} {_UNITS.get(e.get('unit', ''), '')}".strip(),
+                         "identified", ""])
+    return rows
+
+
+def channel_section(ch: Mapping[str, Any]) -> ReportSection:
+    figs = [f for f in (vrc_model_figure(ch), pulls_figure(ch)) if f is not None]
+    tables = [ReportTable("Parameters", ["parameter", "value ± u", "value used", "why null"], _parameter_rows(ch))]
+    runs = ch.get("runs") or []
+    tables.append(ReportTable("Runs", ["run", "method", "static g", "frequency / profile", "levels", "χ²"],
+                              [[f"{r['run']} ({r['label']})", r["method"], f"{r['static_g']:+g}",
+                                f"{r['freq_hz']:.5g} Hz" if r.get("freq_hz") else str(r.get("profile") or ""),
+                                str(r["n"]), f"{r['chi2']:.3g}"] for r in runs], numeric=(4, 5)))
+    x2f = ch.get("cross_check_2f") or []
+    if x2f:
+        tables.append(ReportTable(
+            "2f cross-check: the VRC from the DUT's 2f line (less the reference's) beside the DC one",
+            ["run", "frequency (Hz)", "static g", "VRC from 2f (µg/g²)", "VRC from DC (µg/g²)", "difference (σ)"],
+            [[f"{x['run']} ({x['label']})", f"{x['freq_hz']:.5g}", f"{x['static_g']:+g}",
+              format_value_u(x["vrc_2f_ug_per_g2"]["value"], x["vrc_2f_ug_per_g2"]["u"]),
+              format_value_u(x["vrc_dc_ug_per_g2"]["value"], x["vrc_dc_ug_per_g2"]["u"]),
+              "" if x.get("difference_sigma") is None else f"{x['difference_sigma']:+.2g}"] for x in x2f],
+            numeric=(1, 2, 3, 4, 5)))
+    for term in ch.get("budget") or []:
+        if term.get("shifts"):
+            tables.append(ReportTable(f"Type B: {term['source']} (each parameter's shift, refitted)",
+                                      ["parameter", "shift"],
+                                      [[n, f"{d:+.3g}"] for n, d in term["shifts"].items()], numeric=(1,)))
+    chi2 = ch.get("chi2_reduced")
+    return ReportSection(
+        title=f"Channel {ch['channel']}",
+        what=f"One weighted fit to every level of every run (χ²/dof = {'–' if chi2 is None else f'{chi2:.3g}'}, "
+        f"{ch.get('dof')} dof); each level evaluated by the analytic model `vrelab predict` uses.",
+        figures=figs, tables=tables, notes=list(ch.get("notes") or []))
+
+
+def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = None,
+                              title: str | None = None) -> Path:
+    """Write ``report.html`` for an identification folder."""
+    doc = rf.doc or {}
+    base = doc.get("base_sensor") or {}
+    summary = ReportSection(
+        title=f"Identification: {doc.get('campaign', '')}",
+        what="Each channel's VRE model (SPEC 6.1) identified from the campaign's levels; what the campaign cannot "
+        "determine is null with its reason and taken from the base sensor.",
+        facts=[("base sensor", f"{base.get('spec')} (±{base.get('range_g')} g, axis {base.get('axis')}, ODR "
+                               f"{base.get('odr_hz') or 'none'})"),
+               ("clip model", str(doc.get("clip_model", ""))),
+               ("sensor file", f"{F.IDENTIFIED_SENSOR}: --sensor {rf.path / F.IDENTIFIED_SENSOR} --axis <channel>")],
+        provenance={"results_file": F.IDENTIFICATION},
+    )
+    sections = [summary] + [channel_section(c) for c in doc.get("channels") or []]
+    return write_report(rf.path / F.REPORT, sections, title=title or f"Identification report: {doc.get('campaign', '')}",
+                        intro=f"Report of {rf.path.name or rf.path.resolve().name}/{F.IDENTIFICATION} "
+                        "(vrelab identify).", provenance=default_provenance(argv))
