@@ -18,6 +18,7 @@ import xarray as xr
 from test_report_browser import (
     SCREENSHOT_DIR,
     assert_rendered_cleanly,
+    markup_only,
     render_in_chromium,
 )
 
@@ -67,9 +68,9 @@ def _open(folder: Path) -> xr.Dataset:
 def _report(folder: Path, capsys: pytest.CaptureFixture[str]) -> str:
     assert main(["report", str(folder)]) == 0
     assert "report written" in capsys.readouterr().out
-    text = (folder / "report.html").read_text(encoding="utf-8")
+    text = markup_only((folder / "report.html").read_text(encoding="utf-8"))
     assert not re.search(r"https?://", text), "the report must not reference the network"
-    srcs = re.findall(r'<img src="([^"]{0,30})', text)
+    srcs = re.findall(r'<img class="static" src="([^"]{0,30})', text)
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
     return text
 

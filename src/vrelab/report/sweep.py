@@ -39,8 +39,10 @@ from vrelab.report.html import (
     ReportSection,
     ReportTable,
     default_provenance,
+    report_title,
     write_report,
 )
+from vrelab.report.metadata import ReportMetadata
 from vrelab.report.plots import COLORS
 
 UNIT = "unit"
@@ -447,7 +449,8 @@ def sweep_section(ds: Any, title: str | None = None, provenance: dict[str, Any] 
     )
 
 
-def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None,
+                     metadata: ReportMetadata | None = None) -> Path:
     """Write ``folder/report.html`` from the sweep result ``folder/result.nc``."""
     folder = Path(folder)
     nc = folder / F.SWEEP_RESULT
@@ -457,7 +460,8 @@ def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, titl
     return write_report(
         folder / F.REPORT,
         [sec],
-        title=title or f"Sweep report: {_title(ds)}",
+        title=report_title(title, metadata, f"Sweep report: {_title(ds)}"),
         intro=f"Report of {folder.name or folder.resolve().name}/{F.SWEEP_RESULT}.",
         provenance=default_provenance(argv),
+        metadata=metadata,
     )
