@@ -495,3 +495,23 @@ def test_per_channel_items_must_name_a_channel_of_the_report(tmp_path: Path, cap
     assert main(["report", str(tmp_path), "--metadata", str(tmp_path / "m.toml")]) == 2
     assert "[items.sn9]: no channel 'sn9' in this report (channels: dut)" in capsys.readouterr().err
     assert not (tmp_path / "report.html").exists()
+
+
+def test_rms2_plot_pairs_each_measured_frequency_with_its_fit_and_keeps_nine_apart() -> None:
+    """A level's measured drive frequency scatters about the nominal one (99.9999995 Hz for a
+    100 Hz step): it still belongs to the 100 Hz fit, whose line is drawn and in the legend.
+    Nine frequencies (the demo's sweep) get nine different colour-and-marker pairs."""
+    freqs = [100.0, 300.0, 1000.0, 1600.0, 2000.0, 2200.0, 2400.0, 2600.0, 3000.0]
+    levels, fits = [], []
+    for k, f in enumerate(freqs):
+        for a in (0.5, 1.0):
+            levels.append(LevelResult(a, Estimate(10 * (k + 1) * 1e-6 * a * a, 1e-6), freq_hz=f * (1 - 4.5e-9)))
+        fits.append(FitResult("vrc", {"vrc_ug_per_g2": Estimate(10.0 * (k + 1), 1.0)}, 2, 1.0, freq_hz=f, levels_used=(0.5, 1.0)))
+    res = VreResult("sine", Conditions(sensor="adxl355", static_g=1.0), tuple(levels), tuple(fits))
+    ax = plots.plot_vre_vs_rms2(res).axes[0]
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == [f"{f:g} Hz: VRC {10 * (k + 1)}.0 ± 1.0 µg/g²" for k, f in enumerate(freqs)]
+    x, y = _line(ax, "100 Hz: VRC").get_data()
+    assert y[-1] / x[-1] == pytest.approx(10.0)
+    style = {(c.lines[0].get_color(), c.lines[0].get_marker()) for c in ax.containers}
+    assert len(ax.containers) == 9 and len(style) == 9
