@@ -49,6 +49,7 @@ _SYMBOL = {"o": "circle", "s": "square", "^": "triangle-up", "v": "triangle-down
            "p": "pentagon", "h": "hexagon", "H": "hexagon2", "8": "octagon"}
 _OPEN_LINE = {"x-thin", "cross-thin", "line-ns", "line-ew"}  # drawn by their outline only
 _NO_LINE = {"None", "none", " ", "", None}
+_STEPS = {"default": "linear", "steps-post": "hv", "steps-pre": "vh", "steps": "vh", "steps-mid": "hvh"}
 
 
 class Unsupported(Exception):
@@ -166,7 +167,10 @@ class _AxesTranslator:
         tr: dict[str, Any] = {"type": "scatter", "x": _arr(x), "y": _arr(y), "mode": mode,
                               "xaxis": self.xref, "yaxis": self.yref, **self._legend_entry(label)}
         if has_line:
-            tr["line"] = {"color": color, "width": self.px(ln.get_linewidth()), "dash": _DASH.get(ls, "solid")}
+            if ln.get_drawstyle() not in _STEPS:
+                raise Unsupported(f"draw style {ln.get_drawstyle()!r}")
+            tr["line"] = {"color": color, "width": self.px(ln.get_linewidth()), "dash": _DASH.get(ls, "solid"),
+                          "shape": _STEPS[ln.get_drawstyle()]}
         if has_marker:
             sym = _SYMBOL.get(str(marker))
             if sym is None:
@@ -377,7 +381,8 @@ class _AxesTranslator:
             raise Unsupported(f"{which} scale {scale!r}")
         ticks = ax.get_xticklabels() if which == "x" else ax.get_yticklabels()
         texts = [t.get_text() for t in ticks]
-        if texts and any(s and not _is_number(s) for s in texts):
+        # Log axes label their ticks in mathtext ("$10^{2}$"): plotly's own log ticks say the same.
+        if out["type"] == "linear" and texts and any(s and not _is_number(s) and not s.startswith("$") for s in texts):
             # Category ticks (a text grid axis): the same labels at the same places.
             out["tickvals"] = [float(v) for v in (ax.get_xticks() if which == "x" else ax.get_yticks())]
             out["ticktext"] = [_text(s) for s in texts]
@@ -406,7 +411,10 @@ def to_plotly(fig: Figure) -> dict[str, Any]:
     inv = fig.transFigure.inverted()
     renderer = fig.canvas.get_renderer()
     data: list[dict[str, Any]] = []
-    layout: dict[str, Any] = {"height": round(height_px), "autosize": True, "margin": {"l": 0, "r": 0, "t": 0, "b": 0},
+    # template "none": every style is set here, and plotly's default template would add kilobytes
+    # of unused defaults to every figure of the file.
+    layout: dict[str, Any] = {"template": "none", "height": round(height_px), "autosize": True,
+                              "margin": {"l": 0, "r": 0, "t": 0, "b": 0},
                               "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
                               "font": {"family": "DejaVu Sans, Arial, sans-serif", "size": px(9)},
                               "shapes": [], "annotations": []}

@@ -589,6 +589,54 @@ def plot_time_series(
     return fig
 
 
+@dataclass(frozen=True)
+class TimeWindow:
+    """A short stretch of a record, sample by sample: time [s], reference and DUT output [g]."""
+
+    label: str
+    t_s: FloatArray
+    reference_g: FloatArray
+    dut_g: FloatArray
+
+
+def plot_time_windows(
+    windows: Sequence[TimeWindow],
+    *,
+    static_g: float | None = None,
+    rails_g: tuple[float, float] | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Milliseconds of a record, one panel per window (shared axes): the input (``static_g`` plus
+    the reference's vibration: what the DUT would read without rails) and the sensor output as
+    held at its output data rate (steps), the rails dashed.
+
+    Where a VRE figure only implies a mechanism, this shows it: an output flat at a rail
+    (clipping), an output dropped to 0 g for the hold time (over-range protection), an output the
+    low-pass has smoothed below the rail (bandwidth).
+    """
+    if not windows:
+        raise ValueError("plot_time_windows needs at least one window")
+    fig, axes = _new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
+    off = static_g or 0.0
+    for ax, w in zip(axes, windows):
+        t_ms = 1e3 * np.asarray(w.t_s, dtype=np.float64)
+        ax.plot(t_ms, np.asarray(w.reference_g) + off, color="0.55", lw=0.9,
+                label=f"input: {off:+g} g static + reference vibration" if static_g else "reference")
+        ax.plot(t_ms, np.asarray(w.dut_g), color=COLORS[0], lw=1.3, drawstyle="steps-post", label="sensor output")
+        if rails_g is not None:
+            for r in rails_g:
+                ax.axhline(r, color=COLORS[1], ls="--", lw=1.1)
+            ax.plot([], [], "--", color=COLORS[1], lw=1.1, label=f"rails {rails_g[0]:+g} / {rails_g[1]:+g} g")
+        ax.axhline(0, color="0.5", lw=0.8)
+        ax.set_ylabel("acceleration (g)")
+        ax.set_title(w.label, fontsize=9)
+        ax.legend(fontsize=7.5, loc="lower left", ncol=3, framealpha=0.9)
+    axes[-1].set_xlabel("time (ms)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
 def read_envelope_csv(path: str | Path) -> dict[str, FloatArray | list[str]]:
     """Read ``envelope.csv`` (analyze's per-window table) into columns; text columns stay text."""
     path = Path(path)
