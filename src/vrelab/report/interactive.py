@@ -326,26 +326,23 @@ class _AxesTranslator:
         self.annotations.append(ann)
 
     # ------------------------------------------------------------------ the axes
+    # Which translation each kind of container or collection gets (a container before the
+    # artists it holds, which it marks done).
+    _KINDS = ((ErrorbarContainer, "errorbar"), (BarContainer, "bars"), (PolyCollection, "poly"),
+              (LineCollection, "segments"), (PathCollection, "scatter"))
+
+    def _any(self, artist: Any) -> None:
+        for kind, method in self._KINDS:
+            if isinstance(artist, kind):
+                getattr(self, method)(artist)
+                return
+        raise Unsupported(f"{type(artist).__name__} on the axes")
+
     def translate(self) -> None:
         ax = self.ax
-        for c in ax.containers:
-            if isinstance(c, ErrorbarContainer):
-                self.errorbar(c)
-            elif isinstance(c, BarContainer):
-                self.bars(c)
-            else:
-                raise Unsupported(f"container {type(c).__name__}")
-        for coll in ax.collections:
-            if id(coll) in self.done:
-                continue
-            if isinstance(coll, PolyCollection):
-                self.poly(coll)
-            elif isinstance(coll, LineCollection):
-                self.segments(coll)
-            elif isinstance(coll, PathCollection):
-                self.scatter(coll)
-            else:
-                raise Unsupported(f"collection {type(coll).__name__}")
+        for artist in [*ax.containers, *ax.collections]:
+            if id(artist) not in self.done:
+                self._any(artist)
         for ln in ax.lines:
             if id(ln) not in self.done:
                 self.line(ln)

@@ -242,7 +242,8 @@ def _conditions(doc: Document) -> str:
                      _levels_text(e.result), ", ".join(f"{f:g}" for f in freqs) or "–"])
     table = table_html(ReportTable("Test conditions (from the results)", ["section", "method", "profile", "static field g0",
                                                                           "measurement band", "levels", "sine frequencies (Hz)"],
-                                   rows), 3) if rows else '<p class="mute">No results.</p>'
+                                   rows), 3) if rows else ('<p class="mute">No test levels in this report: the '
+                                                            "conditions of its results are in their sections (5).</p>")
     return "<h3>Environment (metadata)</h3>" + ambient + table
 
 
