@@ -189,3 +189,5 @@ def test_demo_report_renders_in_chromium(demo: dict, tmp_path: Path) -> None:
     assert state["h"] > 8000  # six sections with their tables
     pages = assert_prints_cleanly(state, pdf, min_pages=12)
     assert "Report VRE-2025-014" in pages[0]["text"] and "7 Approval" in pages[-1]["text"]
+    # a value folded away on screen (the sensor's description) is printed whole
+    assert "overrange_retrigger" in "".join(p["text"] for p in pages)
