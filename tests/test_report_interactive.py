@@ -51,7 +51,7 @@ def test_vre_points_error_bars_and_hollow_overrange_levels_are_the_results() -> 
     assert hollow["marker"]["color"] == "white"
     np.testing.assert_allclose(_values(hollow["x"]), [3.0, 3.5])
     assert spec["layout"]["yaxis"]["title"]["text"] == "VRE (mg)"
-    assert "± %{customdata" in plain["hovertemplate"]  # hover shows the uncertainty
+    assert "%{customdata}" in plain["hovertemplate"] and plain["customdata"] == [" ± 0.4"] * len(ok)  # u = 0.4 mg
     # SPEC 1.1 at the fitted 2 g rail: censored -83 mg at 1 g rms
     cens = _trace(spec, "censored model")
     assert np.interp(1.0, _values(cens["x"]), _values(cens["y"])) == pytest.approx(-83.0, abs=0.6)
@@ -111,3 +111,17 @@ def test_a_figure_the_translation_does_not_know_stays_static() -> None:
     assert 'class="iplot"' not in text and "Plotly" not in text  # no twin, no plotly.js
     good = ReportFigure.from_figure(plots.plot_vrc_vs_freq(_sine_result()), "VRC")
     assert json.loads(good.plotly_json)["layout"]["xaxis"]["type"] == "log"
+
+
+def test_hover_never_shows_an_uncertainty_the_figure_does_not_have() -> None:
+    """Points drawn without error bars (a sweep without u_vre_g) and a point whose u is unknown
+    show no "± 0" when hovered."""
+    fig = Figure()
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.errorbar([1.0, 2.0], [3.0, 4.0], yerr=None, fmt="-o", label="no u")
+    ax.errorbar([1.0, 2.0], [5.0, 6.0], yerr=[0.1, np.nan], fmt="o", label="one u")
+    ax.legend()
+    no_u, one_u = _twin(fig)["data"]
+    assert "error_y" not in no_u and "customdata" not in no_u and "±" not in no_u["hovertemplate"]
+    assert one_u["customdata"] == [" ± 0.1", ""]

@@ -129,7 +129,7 @@ class _AxesTranslator:
 
     def _hover(self, label: str | None, err: bool = False) -> str:
         name = "" if not label or str(label).startswith("_") else f"{_text(label)}<br>"
-        pm = " ± %{customdata:.2g}" if err else ""
+        pm = "%{customdata}" if err else ""  # each point's own "± u" text, empty where it has no bar
         return f"{name}{_text(self.xlabel)}: %{{x:.4g}}<br>{_text(self.ylabel)}: %{{y:.4g}}{pm}<extra></extra>"
 
     def _ref(self, data: bool, axis: str) -> str:
@@ -200,8 +200,10 @@ class _AxesTranslator:
             if not sym_err:
                 tr["error_y"]["symmetric"] = False
                 tr["error_y"]["arrayminus"] = _arr(minus)
-            tr["customdata"] = _arr(plus)
-            tr["hovertemplate"] = self._hover(label, err=sym_err)
+            # A point without a bar (no uncertainty) shows none, never "± 0".
+            tr["customdata"] = ["" if not (math.isfinite(p) and math.isfinite(m)) else
+                                f" ± {p:.2g}" if sym_err else f" +{p:.2g} / −{m:.2g}" for p, m in zip(plus, minus)]
+            tr["hovertemplate"] = self._hover(label, err=True)
         else:
             tr["hovertemplate"] = self._hover(label)
         self.traces.append(tr)
@@ -215,10 +217,14 @@ class _AxesTranslator:
         self.done.add(id(data_line))
         if c.has_xerr:
             raise Unsupported("horizontal error bars")
+        if not (c.has_yerr and barcols):  # errorbar(yerr=None): points, no uncertainty to show
+            self.line(data_line, label=c.get_label())
+            return
         x = np.asarray(data_line.get_xdata(orig=False), dtype=float)
         y = np.asarray(data_line.get_ydata(orig=False), dtype=float)
-        minus, plus = np.zeros_like(y), np.zeros_like(y)
-        segs = [np.asarray(s) for s in barcols[0].get_segments()] if barcols else []
+        minus, plus = np.full_like(y, np.nan), np.full_like(y, np.nan)
+        # A point whose error is NaN has an empty segment: no bar to match.
+        segs = [a for a in (np.asarray(s, dtype=float) for s in barcols[0].get_segments()) if a.ndim == 2 and len(a) >= 2]
         used = np.zeros(len(segs), bool)
         for i, (xi, yi) in enumerate(zip(x, y)):
             for j, s in enumerate(segs):
