@@ -111,7 +111,7 @@ def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
     html = (out / "report.html").read_text()
     assert "Channel sn1" in html and "Channel sn2" in html
     assert "VRC by frequency and orientation" in html
-    assert html.count("<section") == 1 + 2 + 2 * 7  # summary, channels, each run's channels
+    assert html.count('<section class="result"') == 1 + 2 + 2 * 7  # summary, channels, each run's channels
     # the runs table links each run to its first section (run 1's channels follow the 3 first sections)
     assert '<a href="#s4">section 4</a>' in html and 'id="s4"' in html
 
@@ -226,7 +226,7 @@ def test_several_duts_equal_each_reduced_alone(example: Path, tmp_path: Path, ca
     # one segmentation: the same levels for both channels
     assert [lv["rms_g"] for lv in both["channels"][0]["levels"]] == [lv["rms_g"] for lv in both["channels"][1]["levels"]]
     assert main(["report", str(tmp_path / "o")]) == 0
-    assert (tmp_path / "o" / "report.html").read_text().count("<section") == 2
+    assert (tmp_path / "o" / "report.html").read_text().count('<section class="result"') == 2
 
 
 def test_several_duts_need_a_reference(example: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -151,6 +151,10 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("missing-folder", ["{d}/no-such-folder"], 'no-such-folder'),
         ("no-results", ["{d}/empty"], 'results.json'),
         ("malformed-results", ["{d}/malformed"], 'results.json'),
+        ("metadata-unknown-key", ["{d}/valid-results", "--metadata", "{d}/meta-unknown-key.toml"], "colour"),
+        ("metadata-wrong-type", ["{d}/valid-results", "--metadata", "{d}/meta-wrong-type.toml"], "serial"),
+        ("metadata-not-toml", ["{d}/valid-results", "--metadata", "{d}/malformed.toml"], "malformed.toml"),
+        ("metadata-missing", ["{d}/valid-results", "--metadata", "{d}/no-such-meta.toml"], "no-such-meta.toml"),
     ],
     "demo": [
         ("out-is-a-file", ["--quick", "--out", "{d}/a-file.txt"], 'a-file.txt'),
@@ -184,6 +188,13 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "empty").mkdir()
     (d / "malformed").mkdir()
     (d / "malformed" / "results.json").write_text("{\"method\": ")
+    from vrelab.results import Conditions, Estimate, LevelResult, VreResult
+
+    (d / "valid-results").mkdir()
+    res = VreResult("random", Conditions(static_g=1.0), (LevelResult(1.0, Estimate(-0.083, 0.001)),))
+    (d / "valid-results" / "results.json").write_text(json.dumps(res.to_dict()))
+    (d / "meta-unknown-key.toml").write_text('[item]\nmodel = "ADXL355"\ncolour = "blue"\n')
+    (d / "meta-wrong-type.toml").write_text('[item]\nserial = 1234\n')
     rng = np.random.default_rng(11)
     n = 4000
     ref = np.concatenate([np.zeros(n), rng.normal(0, 1, n), np.zeros(n)])
@@ -251,12 +262,6 @@ VALID: dict[str, list[str]] = {
 
 @pytest.mark.parametrize("cmd", [c for c in VALID if c in COMMANDS])
 def test_the_valid_base_of_the_cases_runs(cmd: str, files: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    if cmd == "report":
-        from vrelab.results import Conditions, Estimate, LevelResult, VreResult
-
-        (files / "valid-results").mkdir(exist_ok=True)
-        res = VreResult("random", Conditions(static_g=1.0), (LevelResult(1.0, Estimate(-0.083, 0.001)),))
-        (files / "valid-results" / "results.json").write_text(json.dumps(res.to_dict()))
     full = cmd.split() + [a.replace("{d}", str(files)) for a in VALID[cmd]]
     rc, out, err, _ = _run(full, capsys)
     assert rc == 0, f"{full}: {err}"

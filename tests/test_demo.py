@@ -16,10 +16,16 @@ import re
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from test_report_browser import METADATA, markup_only
 
 from vrelab.cli import main
 from vrelab.models.clipping import censored_mean_shift
+
+
+N_FIGURES = 11
 
 
 @pytest.fixture(scope="module")
@@ -29,9 +35,11 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> dict:
     import io
 
     err, std = io.StringIO(), io.StringIO()
+    meta = out.parent / "meta.toml"
+    meta.write_text(METADATA)
     t0 = time.monotonic()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(std):
-        rc = main(["demo", "--quick", "--out", str(out), "--json"])
+        rc = main(["demo", "--quick", "--out", str(out), "--json", "--metadata", str(meta)])
     return {"rc": rc, "out": out, "stderr": err.getvalue(), "stdout": std.getvalue(), "elapsed": time.monotonic() - t0}
 
 
@@ -48,10 +56,58 @@ def test_report_holds_every_study_with_decodable_figures(demo: dict) -> None:
     text = (demo["out"] / "report.html").read_text(encoding="utf-8")
     for title in ("At a glance", "Figure 1", "Figure 2", "Figure 3", "Figure 4", "Datasheet VRE limit", "Sine method"):
         assert f"{title}" in text
-    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', text)
-    assert len(imgs) == 7  # time series, rail fit, X vs Z, bandwidths, limit, VRC(f), rms²
+    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', markup_only(text))
+    # Figure 1's time series; Figure 2's rail fit, drive PSD and time history; Figure 3's and 4's
+    # comparison and time histories; the limit; VRC(f) and VRE against rms²
+    assert len(imgs) == N_FIGURES == 11
     assert all(base64.b64decode(i)[:8] == b"\x89PNG\r\n\x1a\n" for i in imgs)
-    assert "<script" not in text and "http://" not in text and "https://" not in text
+    assert "http://" not in markup_only(text) and "https://" not in markup_only(text)
+    assert "Drive check: reference PSD at 2.5 g rms" in text and "±3 dB tolerance" in text
+    assert text.count("Time history:") >= 3 and "over-range hold" in text
+    # the metadata reached the demo's test report
+    assert "VRE-2025-014" in text and "PCB 352C33" in text
+
+
+def _levels_table(text: str, heading: str) -> list[str]:
+    """The VRE column (mg, as shown: value ± u) of the levels table under ``heading``."""
+    table = text.split(f"<h4>{heading}</h4>", 1)[1].split("</table>", 1)[0]
+    head = re.findall(r"<th[^>]*>(.*?)</th>", table)
+    col = head.index("VRE ± u (mg)")
+    rows = [re.findall(r"<td[^>]*>(.*?)</td>", r) for r in re.findall(r"<tr>(.*?)</tr>", table.split("<tbody>", 1)[1])]
+    return [r[col].split(" ± ")[0] for r in rows]
+
+
+@pytest.mark.parametrize(
+    "heading, folder",
+    [("X axis (Q 7.4): Levels", "fig3-x-8g"), ("Z axis (Q 1.5): Levels", "fig3-z-8g"),
+     ("1 kHz bandwidth: Levels", "fig4-y-1khz"), ("125 Hz bandwidth: Levels", "fig4-y-125hz")],
+)
+def test_figures_3_and_4_tabulate_both_configurations(demo: dict, heading: str, folder: str) -> None:
+    text = (demo["out"] / "report.html").read_text(encoding="utf-8")
+    shown = _levels_table(text, heading)
+    saved = json.loads((demo["out"] / folder / "results.json").read_text())["levels"]
+    assert len(shown) == len(saved) > 1
+    for cell, lv in zip(shown, saved):  # the same VRE, rounded to the digits shown
+        decimals = len(cell.split(".")[1]) if "." in cell else 0
+        assert abs(float(cell) - 1e3 * lv["vre_g"]) <= 0.5 * 10**-decimals + 1e-9
+
+
+def test_demo_report_stays_under_8_mb(demo: dict) -> None:
+    """The file a user mails: plotly.js (about 4.8 MB) once, each figure's PNG and twin. The full
+    demo has the same figures with more levels in its tables (measured 6.5 MB against 6.4 MB)."""
+    assert (demo["out"] / "report.html").stat().st_size < 8_000_000
+
+
+def test_overrange_window_finder_wants_a_whole_hold_at_zero() -> None:
+    """What the demo centres its time histories on: a stretch of one hold time (0.5 ms, 4 samples
+    at 8 kHz) with the output within 10 mg of 0 g; a zero crossing of a few samples is not one."""
+    from vrelab.demo import _overrange_at
+
+    ref = np.full(100, 3.0)
+    dut = np.linspace(-1.0, 1.0, 100)  # crosses 0 g: two samples within 10 mg
+    assert _overrange_at({"reference": ref, "dut": dut}, 8000.0, 0.0005) is None
+    dut[60:66] = 0.002  # six samples held near 0 g
+    assert _overrange_at({"reference": ref, "dut": dut}, 8000.0, 0.0005) == 62
 
 
 def test_each_study_folder_reports_on_its_own(demo: dict, capsys: pytest.CaptureFixture[str]) -> None:
@@ -122,10 +178,16 @@ def test_bad_seconds_is_refused_before_running(tmp_path: Path, capsys: pytest.Ca
 def test_demo_report_renders_in_chromium(demo: dict, tmp_path: Path) -> None:
     from test_report_browser import (
         SCREENSHOT_DIR,
+        assert_prints_cleanly,
         assert_rendered_cleanly,
         render_in_chromium,
     )
 
-    state, events = render_in_chromium(demo["out"] / "report.html", tmp_path, SCREENSHOT_DIR / "demo-report.png")
-    assert_rendered_cleanly(state, events, 7)
+    pdf = SCREENSHOT_DIR / "demo-report.pdf"
+    state, events = render_in_chromium(demo["out"] / "report.html", tmp_path, SCREENSHOT_DIR / "demo-report.jpg", pdf=pdf)
+    assert_rendered_cleanly(state, events, N_FIGURES)
     assert state["h"] > 8000  # six sections with their tables
+    pages = assert_prints_cleanly(state, pdf, min_pages=12)
+    assert "Report VRE-2025-014" in pages[0]["text"] and "7 Approval" in pages[-1]["text"]
+    # a value folded away on screen (the sensor's description) is printed whole
+    assert "overrange_retrigger" in "".join(p["text"] for p in pages)

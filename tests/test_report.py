@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vrelab import __version__ as vrelab_version
 from vrelab.cli import main
 from vrelab.record import Schedule, Segment, write_record_hdf5
 from vrelab.report import plots, report_dir
@@ -198,10 +199,17 @@ def test_write_report_is_self_contained_and_holds_every_section(tmp_path: Path) 
     out = write_report(tmp_path / "r.html", secs, title="T", intro="Intro.")
     text = out.read_text(encoding="utf-8")
     assert not list(tmp_path.glob("*.partial"))
-    assert "<script" not in text.lower()
-    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:|#)""", text), "external reference in the report"
-    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', text)
+    markup = re.sub(r"<script[^>]*>.*?</script>", "", text, flags=re.S)  # plotly.js's source names URLs
+    assert not re.search(r"""(src|href)\s*=\s*["'](?!data:|#)""", markup), "external reference in the report"
+    assert not re.search(r"<script[^>]*\bsrc\s*=", text), "a script loaded from outside the file"
+    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', markup)
     assert len(imgs) == 2 and all(base64.b64decode(i)[:8] == b"\x89PNG\r\n\x1a\n" for i in imgs)
+    # Each figure's interactive twin is data (JSON, never run), plotly.js is in the file once.
+    from plotly.offline import get_plotlyjs
+
+    specs = re.findall(r'<script type="application/json" id="[^"]+">(.*?)</script>', text, flags=re.S)
+    assert len(specs) == 2 and all(json.loads(s)["data"] for s in specs)
+    assert text.count(get_plotlyjs()) == 1
     for s in ("Study A", "Study B", "What A shows.", "Intro.", 'href="#s2"', "VRE at 1 g rms", "vrelab version"):
         assert s in text
     # levels table: VRE ± u in mg with the digits the uncertainty asks for
@@ -348,3 +356,181 @@ def test_psd_table_is_shown_in_octave_bands_and_tolerance_comes_from_the_analysi
     flagged = dataclasses.replace(res, levels=(dataclasses.replace(res.levels[0], flags=("psd-out-of-tolerance",)),) + res.levels[1:])
     (tmp_path / "results.json").write_text(json.dumps(flagged.to_dict()))
     assert "PSD out of tolerance (analysis flag) at 0.25 g rms" in report_dir(tmp_path).read_text()
+
+
+# --------------------------------------------------------------------------- the test report
+METADATA = """
+report_number = "VRE-2025-014"
+[laboratory]
+name = "Vibration Lab, Example GmbH"
+address = "Example Street 1"
+[item]
+manufacturer = "Analog Devices"
+model = "ADXL355"
+[items.dut]
+serial = "SN 0001"
+[equipment]
+reference = "PCB 352C33"
+reference_calibration = "cert. 2024-118, 2024-11-02, due 2025-11-02"
+shaker = "LDS V406"
+[procedure]
+standard = "IEEE Std 1293-2018"
+[approval]
+prepared_by = "A. Tester"
+approved_by = "C. Manager"
+date = 2025-03-14
+"""
+
+
+def _judged_result() -> VreResult:
+    """Three levels judged against a 100 mg limit, U given: by the rule (|VRE| + U <= limit pass,
+    |VRE| - U > limit fail) 50 ± 10 mg passes, 150 ± 10 mg fails, 95 ± 10 mg is indeterminate."""
+    rule = "guarded acceptance: pass when |VRE| + U <= limit; fail when |VRE| - U > limit"
+    levels = tuple(
+        LevelResult(rms, Estimate(vre, 0.005), n_samples=1000, U_vre_g=0.010, k=2.0, decision=d,
+                    budget=({"source": "record (batch means)", "type": "A", "u_g": 0.005},))
+        for rms, vre, d in ((0.5, -0.050, "pass"), (1.0, -0.150, "fail"), (0.8, -0.095, "indeterminate"))
+    )
+    cond = Conditions(sensor="adxl355", profile="random flat 50-2000 Hz", static_g=1.0, range_g=2.048, odr_hz=4000.0,
+                      axis="z", extra={"limit_g": 0.1, "decision_rule": rule, "band_hz": [50.0, 2000.0],
+                                       "type_b": {"u_reference_pct": 1.0, "u_dut_pct": 0.0}})
+    return VreResult("random", cond, levels, (), (), {"input_file": "run.h5", "channels": {"dut": "dut", "reference": "ref"}})
+
+
+def _sections(text: str) -> dict[str, str]:
+    """The report's numbered major sections: heading -> its HTML."""
+    parts = re.split(r'<section class="major[^"]*" id="[a-z]+"><h2>', text)[1:]
+    return {p.split("</h2>", 1)[0]: p.split("</h2>", 1)[1] for p in parts}
+
+
+def test_test_report_parts_metadata_and_what_the_results_know(tmp_path: Path) -> None:
+    res = _judged_result()
+    (tmp_path / "results.json").write_text(json.dumps(res.to_dict()))
+    (tmp_path / "run.h5").write_bytes(b"the recorded file")
+    (tmp_path / "meta.toml").write_text(METADATA)
+    text = report_dir(tmp_path, metadata=tmp_path / "meta.toml").read_text(encoding="utf-8")
+    secs = _sections(text)
+    assert list(secs) == ["1 Test item", "2 Equipment", "3 Conditions", "4 Procedure", "5 Results", "6 Decisions",
+                          "7 Approval"]
+    head = text.split("<main>", 1)[0]
+    for s in ("VRE-2025-014", "Vibration Lab, Example GmbH, Example Street 1", "2025-03-14", "meta.toml"):
+        assert s in head
+    assert "<th>customer</th><td>not given</td>" in head  # absent: said, not invented
+    item = secs["1 Test item"]
+    assert "SN 0001" in item and "Analog Devices" in item and "ADXL355" in item
+    assert "±2.048 g" in item and "4000 Hz" in item and "adxl355" in item  # from the results
+    equip = secs["2 Equipment"]
+    assert "PCB 352C33" in equip and "due 2025-11-02" in equip and "LDS V406" in equip
+    assert "<th>data acquisition</th><td>not given</td>" in equip and "<th>reference channel in the record</th><td>ref</td>" in equip
+    assert f"vrelab {vrelab_version}" in equip
+    cond = secs["3 Conditions"]
+    assert "<th>relative humidity</th><td>not given</td>" in cond
+    assert "random flat 50-2000 Hz" in cond and "+1 g" in cond and "50–2000 Hz" in cond and "3: 0.5 to 1 g rms" in cond
+    proc = secs["4 Procedure"]
+    assert "IEEE Std 1293-2018" in proc and "<th>deviations</th><td>not given</td>" in proc
+    assert "reference sensitivity 1 %" in proc  # the declared Type B term
+    assert hashlib.sha256(b"the recorded file").hexdigest() in proc
+    assert hashlib.sha256((tmp_path / "results.json").read_bytes()).hexdigest() in proc
+    appr = secs["7 Approval"]
+    assert "A. Tester" in appr and "C. Manager" in appr
+    assert re.search(r"<th>Reviewed by</th><td>not given</td>", appr)
+    assert appr.count('<td class="sign"></td>') == 3  # three signature lines, never filled in
+
+
+def test_decisions_state_the_rule_and_show_each_level_as_the_results_judged_it(tmp_path: Path) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_judged_result().to_dict()))
+    dec = _sections(report_dir(tmp_path).read_text(encoding="utf-8"))["6 Decisions"]
+    assert "pass when |VRE| + U &lt;= limit; fail when |VRE| - U &gt; limit" in dec
+    assert "1 pass, 1 fail, 1 indeterminate (3 levels)" in dec
+    rows = re.findall(r"<tr>(.*?)</tr>", dec.split("<tbody>", 1)[1])
+    cells = [re.findall(r"<td[^>]*>(.*?)</td>", r) for r in rows]
+    # |VRE| - U ... |VRE| + U in mg, from VRE and U = 10 mg; the decision as the results hold it
+    assert [(c[6], c[7], c[8]) for c in cells] == [("40 … 60", "100", "pass"), ("140 … 160", "100", "fail"),
+                                                  ("85 … 105", "100", "indeterminate")]
+
+
+def test_without_a_limit_the_decisions_say_so_and_without_metadata_everything_is_not_given(tmp_path: Path) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
+    text = report_dir(tmp_path).read_text(encoding="utf-8")
+    secs = _sections(text)
+    assert "No limit was given, so no level was judged" in secs["6 Decisions"]
+    assert "<th>report number</th><td>not given</td>" in text
+    assert secs["7 Approval"].count("<td>not given</td>") == 6  # three names, three dates
+    assert "--metadata FILE.toml" in text  # how to fill them
+
+
+@pytest.mark.parametrize(
+    "doc, words",
+    [
+        ('[item]\ncolour = "blue"\n', "unknown key 'colour' in [item]"),
+        ("[item]\nserial = 1234\n", '[item] serial must be a string, got integer (quote it: serial = "1234")'),
+        ("[approval]\ndate = true\n", "[approval] date must be a string or a TOML date, got boolean"),
+        ('[lab]\nname = "x"\n', "unknown table [lab]"),
+        ("report_number = 17\n", "report_number must be a string, got integer"),
+        ('[items]\nsn1 = "x"\n', "[items] holds one table per channel ([items.sn1])"),
+        ('[procedure]\ntext = ""\n', "[procedure] text is empty"),
+        ("[item\n", "not valid TOML"),
+    ],
+)
+def test_bad_metadata_is_one_line_from_the_api_and_the_cli_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], doc: str, words: str
+) -> None:
+    from vrelab.report import load_metadata
+
+    (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
+    meta = tmp_path / "m.toml"
+    meta.write_text(doc)
+    with pytest.raises(ValueError) as exc:
+        load_metadata(meta)
+    assert words in str(exc.value) and str(meta) in str(exc.value) and "\n" not in str(exc.value)
+    assert main(["report", str(tmp_path), "--metadata", str(meta)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"vrelab: error: {exc.value}\n"
+    assert not (tmp_path / "report.html").exists()
+
+
+def test_per_channel_items_must_name_a_channel_of_the_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "results.json").write_text(json.dumps(_judged_result().to_dict()))
+    (tmp_path / "m.toml").write_text('[items.sn9]\nserial = "SN 9"\n')
+    assert main(["report", str(tmp_path), "--metadata", str(tmp_path / "m.toml")]) == 2
+    assert "[items.sn9]: no channel 'sn9' in this report (channels: dut)" in capsys.readouterr().err
+    assert not (tmp_path / "report.html").exists()
+
+
+def test_rms2_plot_pairs_each_measured_frequency_with_its_fit_and_keeps_nine_apart() -> None:
+    """A level's measured drive frequency scatters about the nominal one (99.9999995 Hz for a
+    100 Hz step): it still belongs to the 100 Hz fit, whose line is drawn and in the legend.
+    Nine frequencies (the demo's sweep) get nine different colour-and-marker pairs."""
+    freqs = [100.0, 300.0, 1000.0, 1600.0, 2000.0, 2200.0, 2400.0, 2600.0, 3000.0]
+    levels, fits = [], []
+    for k, f in enumerate(freqs):
+        for a in (0.5, 1.0):
+            levels.append(LevelResult(a, Estimate(10 * (k + 1) * 1e-6 * a * a, 1e-6), freq_hz=f * (1 - 4.5e-9)))
+        fits.append(FitResult("vrc", {"vrc_ug_per_g2": Estimate(10.0 * (k + 1), 1.0)}, 2, 1.0, freq_hz=f, levels_used=(0.5, 1.0)))
+    res = VreResult("sine", Conditions(sensor="adxl355", static_g=1.0), tuple(levels), tuple(fits))
+    ax = plots.plot_vre_vs_rms2(res).axes[0]
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == [f"{f:g} Hz: VRC {10 * (k + 1)}.0 ± 1.0 µg/g²" for k, f in enumerate(freqs)]
+    x, y = _line(ax, "100 Hz: VRC").get_data()
+    assert y[-1] / x[-1] == pytest.approx(10.0)
+    style = {(c.lines[0].get_color(), c.lines[0].get_marker()) for c in ax.containers}
+    assert len(ax.containers) == 9 and len(style) == 9
+
+
+def test_the_metadata_examples_of_the_readme_and_of_examples_are_valid() -> None:
+    """The README's TOML and examples/report-metadata.toml load; the example's [items.*] are the
+    example campaign's parts, so `vrelab report camp --metadata examples/report-metadata.toml`
+    runs as the README writes it."""
+    import tomllib
+
+    from vrelab.report import load_metadata
+    from vrelab.report.metadata import parse_metadata
+
+    root = Path(__file__).resolve().parent.parent
+    readme = (root / "README.md").read_text(encoding="utf-8")
+    block = readme.split("**The test report.**", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
+    assert parse_metadata(tomllib.loads(block)).get("", "report_number") == "VRE-2025-014"
+    example = load_metadata(root / "examples" / "report-metadata.toml")
+    manifest = tomllib.loads((root / "examples" / "campaign" / "campaign.toml").read_text())
+    parts = {name for run in manifest["run"] for name in (run["dut"] if isinstance(run["dut"], (list, dict)) else [run["dut"]])}
+    assert set(example.items) == {"sn1", "sn2"} <= parts

@@ -18,6 +18,7 @@ import xarray as xr
 from test_report_browser import (
     SCREENSHOT_DIR,
     assert_rendered_cleanly,
+    markup_only,
     render_in_chromium,
 )
 
@@ -67,9 +68,9 @@ def _open(folder: Path) -> xr.Dataset:
 def _report(folder: Path, capsys: pytest.CaptureFixture[str]) -> str:
     assert main(["report", str(folder)]) == 0
     assert "report written" in capsys.readouterr().out
-    text = (folder / "report.html").read_text(encoding="utf-8")
+    text = markup_only((folder / "report.html").read_text(encoding="utf-8"))
     assert not re.search(r"https?://", text), "the report must not reference the network"
-    srcs = re.findall(r'<img src="([^"]{0,30})', text)
+    srcs = re.findall(r'<img class="static" src="([^"]{0,30})', text)
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
     return text
 
@@ -110,7 +111,7 @@ def test_grid_plot_draws_vre_in_mg_for_each_static_field_and_matches_spec_83mg(t
 def test_lot_report_histograms_scatter_and_statistics_match_numpy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = _lot(tmp_path / "lot")
     text = _report(folder, capsys)
-    assert text.count("<img ") == 2  # histograms, scatter against the drawn parameters
+    assert text.count("<img ") == 3  # the spread against rms_g, histograms, scatter against the drawn parameters
     assert "24: 24 ok, 0 failed" in text and "Monte Carlo units</th><td>12<" in text
     ds = _open(folder)
     v_mg = ds["vre_g"].sel(rms_g=2.0).values * 1e3
@@ -145,14 +146,56 @@ def test_failed_points_are_counted_and_their_error_shown(tmp_path: Path, capsys:
     assert labels == ["shape = gaussian", "shape = sine (every point failed)"]
 
 
-def test_more_combinations_than_lines_are_truncated_and_the_caption_says_so(tmp_path: Path) -> None:
+def test_more_combinations_than_lines_go_to_more_figures_and_every_one_is_drawn(tmp_path: Path) -> None:
     doc = {"kind": "model", "name": "wide", "grid": {"rms_g": [0.5, 1.0], "static_g": [1.0, 0.0, -1.0], "range_g": [2.0, 4.0, 8.0, 16.0]}}
     run_sweep(parse_spec(doc), tmp_path / "wide")
     ds = _open(tmp_path / "wide")
     figs, _ = S.sweep_figures(ds)
-    assert "first 8 of 12 combinations" in figs[0].caption
-    ax = S.plot_sweep_grid(ds).axes[0]
-    assert len(ax.get_legend().get_texts()) == S.MAX_LINES == 8
+    assert len(figs) == 2
+    assert figs[0].caption.endswith("(combinations 1–8 of 12)") and figs[1].caption.endswith("(combinations 9–12 of 12)")
+    combos = S.line_combinations(ds, "rms_g")
+    labels = []
+    for first, piece in S.chunks(combos, S.MAX_LINES):
+        labels += [t.get_text() for t in S.plot_sweep_grid(ds, "rms_g", piece).axes[0].get_legend().get_texts()]
+    assert labels == [f"static_g = {g:g}, range_g = {r:g}" for g in (1.0, 0.0, -1.0) for r in (2.0, 4.0, 8.0, 16.0)]
+
+
+def _lot8(out: Path) -> Path:
+    """A lot over 8 grid points: more than a figure's histogram panels (6) and scatter rows (4)."""
+    doc = {"kind": "model", "name": "lot8", "seed": 7, "fixed": {**RESONANCE, "q": 5.0},
+           "grid": {"rms_g": [0.5, 1.5, 2.5, 3.0], "static_g": [1.0, -1.0]},
+           "montecarlo": {"units": 8, "k2_ug_per_g2": {"dist": "normal", "mean": 0.0, "sd": 3000.0}}}
+    run_sweep(parse_spec(doc), out)
+    return out
+
+
+def test_a_lot_of_more_grid_points_than_a_figure_holds_shows_them_all(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = _lot8(tmp_path / "lot8")
+    text = _report(folder, capsys)
+    full = (folder / "report.html").read_text(encoding="utf-8")
+    assert "first 6 of" not in text and "(grid points 7–8 of 8)" in text and "(grid points 5–8 of 8)" in text
+    assert text.count("<img ") == 1 + 2 + 2  # the spread, 8/6 histogram figures, 8/4 scatter figures
+    # every grid point has its histogram panel (its title, in the figures' interactive twins)
+    for rms in (0.5, 1.5, 2.5, 3.0):
+        for g0 in (1, -1):
+            assert f"rms_g = {rms:g}, static_g = {g0:g} (8 of 8 units)" in full
+    stats = text.split("VRE across the lot</h4>", 1)[1].split("</table>", 1)[0]
+    assert stats.count("<tr>") == 1 + 8  # the header and every grid point
+
+
+def test_lot_spread_is_the_units_mean_and_5_to_95_percentile_band_per_grid_point(tmp_path: Path) -> None:
+    ds = _open(_lot8(tmp_path / "lot8"))
+    ax = S.plot_lot_spread(ds).axes[0]
+    for g0 in (1.0, -1.0):
+        v_mg = ds["vre_g"].sel(static_g=g0).transpose("rms_g", "unit").values * 1e3
+        mean = [ln for ln in ax.get_lines() if ln.get_label() == f"static_g = {g0:g}: mean"][0]
+        np.testing.assert_allclose(mean.get_xdata(), [0.5, 1.5, 2.5, 3.0])
+        np.testing.assert_allclose(mean.get_ydata(), v_mg.mean(axis=1), rtol=1e-12)
+        band = [c for c in ax.collections if c.get_label() == f"static_g = {g0:g}: 5th–95th percentile"][0]
+        verts = band.get_paths()[0].vertices
+        np.testing.assert_allclose(sorted(verts[:, 1])[0], np.percentile(v_mg, 5, axis=1).min(), rtol=1e-12)
+        np.testing.assert_allclose(sorted(verts[:, 1])[-1], np.percentile(v_mg, 95, axis=1).max(), rtol=1e-12)
+    assert np.ptp(ds["vre_g"].sel(rms_g=3.0).values) > 1.0  # the drawn k2 spreads the lot: a band, not a line
 
 
 def test_folder_with_neither_result_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -181,7 +224,7 @@ def test_sweep_report_renders_in_chromium_with_all_images(tmp_path: Path) -> Non
     assert main(["report", str(folder)]) == 0
     png = SCREENSHOT_DIR / "report-sweep-lot.png"
     state, events = render_in_chromium(folder / "report.html", tmp_path, png)
-    assert_rendered_cleanly(state, events, 2)
+    assert_rendered_cleanly(state, events, 3)
     assert png.stat().st_size > 20_000
 
 

@@ -4,9 +4,10 @@ Each study runs the simulated shaker (:mod:`vrelab.shaker`) on a sensor preset, 
 record like a lab file, fits the models, and becomes one section of a combined report:
 
 1. Figure 1: asymmetric clipping of a ±2 g sensor in a 1 g field, 0.3 and 1 g rms (time series).
-2. Figure 2: ADXL355 ±2 g, Z axis, random 50 Hz–2 kHz sweep: effective-rail fit, departure.
-3. Figure 3: ADXL355 ±8 g, X axis (Q 7.4) against Z axis (Q 1.5).
-4. Figure 4: ADXL355 ±2 g, Y axis, 125 Hz against 1 kHz bandwidth.
+2. Figure 2: ADXL355 ±2 g, Z axis, random 50 Hz–2 kHz sweep: effective-rail fit, departure; the
+   drive's PSD against the profile (±3 dB) and a time history of the over-range hold.
+3. Figure 3: ADXL355 ±8 g, X axis (Q 7.4) against Z axis (Q 1.5), both tabulated; a time history.
+4. Figure 4: ADXL355 ±2 g, Y axis, 125 Hz against 1 kHz bandwidth, both tabulated; time histories.
 5. The datasheet's VRE limit: |VRE| < 0.4 g at 2.5 g rms (±2 g, 1 g orientation, ODR 4 kHz).
 6. The IEEE 1293 sine method: VRC against frequency shows the resonance.
 
@@ -32,6 +33,7 @@ from vrelab._format import finite_or_none, format_mg_text
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
+from vrelab.report.metadata import ReportMetadata, load_metadata
 from vrelab.results import VreResult
 
 # The article's numbers the demo holds itself against (seed article, SPEC 1.1 and 2).
@@ -116,6 +118,70 @@ def _fig(fig: Any, caption: str) -> ReportFigure:
     return ReportFigure.from_figure(fig, caption)
 
 
+def _random_run(sensor: Any, profile: Any, levels: Sequence[float], cfg: DemoConfig, seed: int) -> tuple[VreResult, Any]:
+    """The random-method test of a study and its record (the same plan: the record's blocks are
+    regenerated from the seed, sample for sample what the run reduced)."""
+    from vrelab import shaker
+    from vrelab.simulation.plan import TestPlan
+
+    plan = TestPlan.random(sensor, profile, levels, static_g=1.0, seconds=cfg.seconds, baseline_s=cfg.baseline_s, seed=seed)
+    return shaker.run_test(plan), plan.record()
+
+
+def _level_samples(record: Any, rms_g: float) -> tuple[float, dict[str, np.ndarray]]:
+    """The reference and DUT samples [g] of the vibration level nearest ``rms_g`` (nominal) of a
+    simulated record, and the level's nominal rms."""
+    seg = min((s for s in record.schedule.segments if not s.is_baseline), key=lambda s: abs(s.nominal_rms_g - rms_g))
+    a, b = int(round(seg.start_s * record.fs_hz)), int(round(seg.end_s * record.fs_hz))
+    parts: dict[str, list[np.ndarray]] = {"reference": [], "dut": []}
+    for blk in record.blocks(1 << 16, tuple(parts), a, b):
+        for c in parts:
+            parts[c].append(blk[c])
+    return seg.nominal_rms_g, {c: np.concatenate(v) for c, v in parts.items()}
+
+
+def _overrange_at(x: Mapping[str, np.ndarray], fs_hz: float, hold_s: float) -> int | None:
+    """Where to look for the over-range protection: the first stretch of at least one hold time
+    (the sensor's ``overrange_hold_s``) in which the output stays within 10 mg of 0 g, where the
+    output floats during a hold; a low-passed output crossing zero stays there for a sample or
+    two of its ODR, far less. Only where to centre a plot: None if there is no such stretch."""
+    near = np.abs(x["dut"]) < 0.010
+    n = max(2, int(np.ceil(hold_s * fs_hz)))
+    run = np.convolve(near.astype(np.int64), np.ones(n, dtype=np.int64), mode="valid")
+    hit = np.flatnonzero(run == n)
+    return int(hit[0] + n // 2) if hit.size else None
+
+
+def _window(label: str, fs_hz: float, x: Mapping[str, np.ndarray], centre: int | None, width_s: float) -> plots.TimeWindow:
+    """``width_s`` of a level's samples around ``centre`` (default the level's middle), time [s]
+    from the level's start."""
+    n = min(int(round(width_s * fs_hz)), x["dut"].size)
+    c = x["dut"].size // 2 if centre is None else centre
+    i0 = int(np.clip(c - n // 2, 0, x["dut"].size - n))
+    t = (i0 + np.arange(n)) / fs_hz
+    return plots.TimeWindow(label, t, x["reference"][i0 : i0 + n], x["dut"][i0 : i0 + n])
+
+
+def _drive_psd_figure(record: Any, profile: Any, rms_g: float, what: str) -> tuple[ReportFigure, str]:
+    """The reference (drive) PSD of one level against the profile scaled to it, with the ±3 dB
+    band (the tolerance check of SPEC 3, :func:`vrelab.spectra.psd_tolerance_check`), and one
+    line of its verdict."""
+    from vrelab.spectra import psd_tolerance_check
+
+    nominal, x = _level_samples(record, rms_g)
+    tol = psd_tolerance_check(x["reference"], record.fs_hz, profile.scaled_to(nominal))
+    verdict = (f"{'within' if tol.passed else 'OUTSIDE'} ±{tol.tol_db:g} dB: deviation {tol.min_dev_db:+.2f} to "
+               f"{tol.max_dev_db:+.2f} dB over {tol.band_hz[0]:g}–{tol.band_hz[1]:g} Hz, rms {tol.rms_g:.4g} g "
+               f"({100 * (tol.rms_ratio - 1):+.1f} % of {nominal:g} g rms; ±{100 * tol.rms_tol:g} % allowed)")
+    fig = plots.plot_psd(tol.freq_hz, tol.psd_measured, tol.psd_profile, tol_db=tol.tol_db, band_hz=tol.band_hz,
+                         label=f"reference PSD, Welch {tol.resolution_hz:.3g} Hz, {tol.n_segments} segments",
+                         title=f"Drive check: reference PSD at {nominal:g} g rms against the profile ({what})")
+    cap = (f"The shaker's drive as the reference measured it during the {nominal:g} g rms level, against the profile "
+           f"scaled to {nominal:g} g rms and its ±{tol.tol_db:g} dB tolerance band (SPEC 3): {verdict}. Bins within two "
+           "bin widths of the band's edges are not judged (the Hann window straddles the edge).")
+    return ReportFigure.from_figure(fig, cap), verdict
+
+
 # --------------------------------------------------------------------------- studies
 def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
     """Asymmetric clipping: a ±2 g sensor with exact rails (the ``ideal`` preset) in a 1 g field."""
@@ -175,14 +241,13 @@ def _predict(sensor: Any, profile: Any, levels: Sequence[float]) -> Mapping[str,
 
 def study_fig2(cfg: DemoConfig) -> _Study:
     """ADXL355 ±2 g Z axis, random 50 Hz–2 kHz, levels up to 4 g rms: rail fit and departure."""
-    from vrelab import shaker
     from vrelab.profiles import parse_profile
     from vrelab.sensor.loader import load_sensor
 
     sensor = load_sensor("adxl355", range_g=2, axis="z")
     profile = parse_profile(PROFILE)
     levels = _levels(cfg.quick, [round(0.25 * i, 2) for i in range(1, 17)], [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0])
-    res = shaker.run_random_test(sensor, profile, levels, static_g=1.0, seconds=cfg.seconds, baseline_s=cfg.baseline_s, seed=cfg.seed + 2)
+    res, record = _random_run(sensor, profile, levels, cfg, cfg.seed + 2)
     pred = _predict(sensor, profile, levels)
     rail = _rail(res)
     rail_txt = f"{rail.params['rail_g'].value:.3g} ± {rail.params['rail_g'].u:.2g} g" if rail else "no fit"
@@ -194,12 +259,29 @@ def study_fig2(cfg: DemoConfig) -> _Study:
             "Hollow points: the over-range protection tripped during the level. Lines: the censored and truncated models at the fitted effective rail.",
         )
     ]
+    psd_fig, psd_verdict = _drive_psd_figure(record, profile, DATASHEET_LIMIT[0], "the datasheet's level")
+    figs.append(psd_fig)
+    nominal, x = _level_samples(record, 3.5)
+    at = _overrange_at(x, record.fs_hz, float(sensor.overrange_hold_s))
+    figs.append(
+        _fig(
+            plots.plot_time_windows([_window(f"{nominal:g} g rms, 20 ms" + (" around an over-range event" if at is not None else ""),
+                                             record.fs_hz, x, at, 0.020)],
+                                    static_g=1.0, rails_g=tuple(sensor.rails_g),
+                                    title=f"Time history: ADXL355 Z, ±2 g, at {nominal:g} g rms"),
+            "The output (blue) is flat at +2.048 g where the input goes beyond it (clipping)"
+            + ("; in the middle, where the proof mass has passed the ±8 g over-range threshold, the output sits at 0 g for "
+               "the 0.5 ms hold (re-triggered while the peaks go on): the pull toward 0 g the clipping model leaves out."
+               if at is not None else "; no stretch of this level shows the over-range hold."),
+        )
+    )
     v1, u1 = _vre_at(res, 1.0)
     facts = [
         ("effective rail (censored fit)", rail_txt + f" (article: {ARTICLE_RAIL_G:g} g, truncated fit)"),
         ("VRE at 1 g rms", f"{format_mg_text(v1, u1)}, against −83 mg for a sensor with bare ±2 g rails (Figure 1): the output clip sits after the 1 kHz low-pass"),
         ("data leave the model above", f"{dep:.3g} g rms" if dep else "not within the levels run"),
         ("article", f"departs above ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms: ±8 g over-range protection with a Gaussian crest factor ≈ 3"),
+        (f"drive at {DATASHEET_LIMIT[0]:g} g rms", psd_verdict),
     ]
     sec = ReportSection(
         title="Figure 2 — ADXL355 ±2 g, Z axis: random 50 Hz–2 kHz sweep and the clipping model",
@@ -226,16 +308,17 @@ def study_fig2(cfg: DemoConfig) -> _Study:
 
 def study_fig3(cfg: DemoConfig) -> _Study:
     """ADXL355 ±8 g: X axis (Q 7.4) against Z axis (Q 1.5)."""
-    from vrelab import shaker
     from vrelab.profiles import parse_profile
     from vrelab.sensor.loader import load_sensor
 
     profile = parse_profile(PROFILE)
     levels = _levels(cfg.quick, [1, 2, 2.5, 3, 3.5, 4, 4.5, 5, 6, 7, 8], [2, 4, 5, 6, 8])
     out: dict[str, VreResult] = {}
+    samples: dict[str, tuple[float, float, float, dict[str, np.ndarray]]] = {}
     for axis in ("x", "z"):
         sensor = load_sensor("adxl355", range_g=8, axis=axis)
-        out[f"fig3-{axis}-8g"] = shaker.run_random_test(sensor, profile, levels, static_g=1.0, seconds=cfg.seconds, baseline_s=cfg.baseline_s, seed=cfg.seed + 3)
+        out[f"fig3-{axis}-8g"], record = _random_run(sensor, profile, levels, cfg, cfg.seed + 3)
+        samples[axis] = (record.fs_hz, float(sensor.overrange_hold_s), *_level_samples(record, 5.0))
     rx, rz = out["fig3-x-8g"], out["fig3-z-8g"]
     at = 5.0
     vx, vz = _interp_vre(rx, at), _interp_vre(rz, at)
@@ -246,32 +329,47 @@ def study_fig3(cfg: DemoConfig) -> _Study:
             "Same sensor, range, profile and seed; only the axis (its resonance Q) differs.",
         )
     ]
+    fs, hold, nominal, xs = samples["x"]
+    centre = _overrange_at(xs, fs, hold)
+    wins = [_window(f"{name}, {nominal:g} g rms", fs_a, x_a, centre, 0.020)
+            for name, (fs_a, _, _, x_a) in (("X axis, Q 7.4", samples["x"]), ("Z axis, Q 1.5", samples["z"]))]
+    figs.append(
+        _fig(
+            plots.plot_time_windows(wins, static_g=1.0, rails_g=(-8.192, 8.192),
+                                    title=f"Time history: ADXL355 ±8 g at {nominal:g} g rms, the same 20 ms of drive"),
+            "The same drive through both axes"
+            + (", centred on an over-range hold of the X axis: its resonance (Q 7.4) lifts the proof mass past the ±16 g "
+               "threshold and the output sits at 0 g for the 0.5 ms hold, where the Z axis (Q 1.5) goes on."
+               if centre is not None else ": no stretch of the X axis's level shows the over-range hold."),
+        )
+    )
     sec = ReportSection(
         title="Figure 3 — resonance Q: X/Y axis (Q 7.4) against Z axis (Q 1.5), ±8 g",
         what=(
             f"The high-Q X axis amplifies vibration near its 2.4 kHz resonance, so its over-range protection trips and its VRE grows sooner: "
             f"at {at:g} g rms it reads {format_mg_text(vx)} against {format_mg_text(vz)} for the Z axis."
         ),
-        result=rx,
+        results=[("X axis (Q 7.4)", rx), ("Z axis (Q 1.5)", rz)],
         figures=figs,
         facts=[(f"VRE at {at:g} g rms, X axis (Q 7.4)", format_mg_text(vx)), (f"VRE at {at:g} g rms, Z axis (Q 1.5)", format_mg_text(vz))],
-        notes=["The tables below are the X axis; the Z axis is in fig3-z-8g/results.json (run `vrelab report` on it)."],
     )
     return _Study("fig3", sec, out, numbers={"fig3_x_at_5": vx, "fig3_z_at_5": vz})
 
 
 def study_fig4(cfg: DemoConfig) -> _Study:
     """ADXL355 ±2 g Y axis: ODR 4 kHz (1 kHz bandwidth) against ODR 500 Hz (125 Hz bandwidth)."""
-    from vrelab import shaker
     from vrelab.profiles import parse_profile
     from vrelab.sensor.loader import load_sensor
 
     profile = parse_profile(PROFILE)
     levels = _levels(cfg.quick, [0.5, 0.75, 1, 1.25, 1.5, 1.75, 2, 2.25, 2.5, 2.75, 3], [1, 2, 3])
     out: dict[str, VreResult] = {}
-    for odr, key in ((4000.0, "fig4-y-1khz"), (500.0, "fig4-y-125hz")):
+    wins = []
+    for odr, key, name in ((4000.0, "fig4-y-1khz", "1 kHz bandwidth (ODR 4 kHz)"), (500.0, "fig4-y-125hz", "125 Hz bandwidth (ODR 500 Hz)")):
         sensor = load_sensor("adxl355", range_g=2, axis="y", odr_hz=odr)
-        out[key] = shaker.run_random_test(sensor, profile, levels, static_g=1.0, seconds=cfg.seconds, baseline_s=cfg.baseline_s, seed=cfg.seed + 4)
+        out[key], record = _random_run(sensor, profile, levels, cfg, cfg.seed + 4)
+        nominal, x = _level_samples(record, 2.0)
+        wins.append(_window(f"{name}, {nominal:g} g rms", record.fs_hz, x, None, 0.040))
     hi, lo = out["fig4-y-1khz"], out["fig4-y-125hz"]
     at = 2.0
     vh, vl = _interp_vre(hi, at), _interp_vre(lo, at)
@@ -280,7 +378,14 @@ def study_fig4(cfg: DemoConfig) -> _Study:
         _fig(
             plots.plot_vre_vs_rms(series, curves=[], show_fits=False, title="Figure 4: ADXL355 Y axis, ±2 g, 1 g field: 125 Hz against 1 kHz bandwidth"),
             "The output clip sits after the digital low-pass: a narrower bandwidth lets less of the 50 Hz–2 kHz vibration reach it.",
-        )
+        ),
+        _fig(
+            plots.plot_time_windows(wins, static_g=1.0, rails_g=(-2.048, 2.048),
+                                    title="Time history: ADXL355 Y, ±2 g, 40 ms in the middle of the 2 g rms level"),
+            "With a 1 kHz bandwidth the output follows the input to the +2.048 g rail and sits there; with 125 Hz the "
+            "low-pass has removed most of the 50 Hz–2 kHz vibration before the rail. (The two runs' records have their own "
+            "rates, so their drives are not the same samples.)",
+        ),
     ]
     sec = ReportSection(
         title="Figure 4 — bandwidth: 125 Hz against 1 kHz (ADXL355 Y axis, ±2 g)",
@@ -288,10 +393,9 @@ def study_fig4(cfg: DemoConfig) -> _Study:
             f"Filtering before the output rail shrinks what it clips: at {at:g} g rms the 125 Hz setting reads {format_mg_text(vl)} against {format_mg_text(vh)} at 1 kHz. "
             "Choose the narrowest bandwidth the application allows."
         ),
-        result=lo,
+        results=[("1 kHz bandwidth", hi), ("125 Hz bandwidth", lo)],
         figures=figs,
         facts=[(f"VRE at {at:g} g rms, 1 kHz bandwidth", format_mg_text(vh)), (f"VRE at {at:g} g rms, 125 Hz bandwidth", format_mg_text(vl))],
-        notes=["The tables below are the 125 Hz setting; the 1 kHz one is in fig4-y-1khz/results.json."],
     )
     return _Study("fig4", sec, out, numbers={"fig4_1khz_at_2": vh, "fig4_125hz_at_2": vl})
 
@@ -454,6 +558,7 @@ def run_demo(
     seconds: float | None = None,
     seed: int = 2017,
     log: Callable[[str], None] | None = None,
+    metadata: ReportMetadata | str | Path | None = None,
 ) -> DemoOutcome:
     """Run every study, write one sub-folder per result and the combined ``report.html``.
 
@@ -468,8 +573,12 @@ def run_demo(
         1/√seconds.
     log : callable, optional
         Receives one progress line per study (default: print on stderr).
+    metadata : ReportMetadata or path, optional
+        The test report's laboratory, item, equipment and approval
+        (:func:`vrelab.report.metadata.load_metadata`); read and validated before anything runs.
     """
     t0 = time.monotonic()
+    meta = load_metadata(metadata) if isinstance(metadata, (str, Path)) else metadata
     cfg = DemoConfig.make(quick, seconds, seed)
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     studies: list[_Study] = []
@@ -506,6 +615,7 @@ def run_demo(
             title="Vibration rectification in the ADXL355: the article's case study, simulated",
             intro=intro,
             provenance={"demo_seed": cfg.seed, "seconds_per_level": cfg.seconds, "sub_folders": ", ".join(folders)},
+            metadata=meta,
         )
         write_json(stage / F.SUMMARY, {k: finite_or_none(v) for k, v in numbers.items()})
     final = Path(out) / report.name

@@ -15,18 +15,26 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Build one self-contained HTML report (figures embedded, no network needed) from "
         "DIR/results.json and, when present, prediction.json, record.h5, envelope.csv and psd.csv; "
         "or, for a sweep folder (DIR/result.nc, no results.json), VRE against the grid, the spread "
-        "of a Monte Carlo lot and the failed points.",
+        "of a Monte Carlo lot and the failed points. The report is laid out as a test report (test item, "
+        "equipment, conditions, procedure, results, decisions, approval) and prints on A4 or letter; "
+        "--metadata fills in what no record holds (laboratory, item, equipment, who signs).",
     )
     p.add_argument("dir", metavar="DIR", help="output folder of simulate/analyze/sweep --out")
     p.add_argument("--title", help="report title")
+    p.add_argument("--metadata", metavar="FILE.toml",
+                   help="laboratory, item, equipment, procedure and approval for the test report (TOML; tables "
+                        "[laboratory] [customer] [item] [items.CHANNEL] [equipment] [conditions] [procedure] "
+                        "[approval], top-level report_number); missing fields say 'not given'")
     p.add_argument("--json", action="store_true", help="print {\"report\": PATH} on stdout")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab.report import report_dir
+    from vrelab.report import load_metadata, report_dir
 
-    path = report_dir(args.dir, argv=["vrelab", *sys.argv[1:]], title=args.title)
+    # Validated before the folder is read: a bad metadata file writes nothing.
+    meta = load_metadata(args.metadata) if args.metadata else None
+    path = report_dir(args.dir, argv=["vrelab", *sys.argv[1:]], title=args.title, metadata=meta)
     if args.json:
         print_json({"report": str(path)})
     else:

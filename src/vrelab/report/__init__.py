@@ -1,10 +1,15 @@
-"""Plots and the self-contained HTML report.
+"""Plots and the self-contained HTML report, laid out as a test report.
 
 :mod:`vrelab.report.plots` draws figures from results and records (matplotlib, Agg, no pyplot);
-:mod:`vrelab.report.html` renders them with tables into one HTML file
-(:func:`~vrelab.report.html.write_report`); :mod:`vrelab.report.sweep` builds a sweep's section
-from its Dataset. :func:`report_dir` reads a results folder (:func:`vrelab.folder.read_folder`)
-and writes its report. Imports go one way: ``plots`` <- ``html`` <- ``sweep`` <- this package.
+:mod:`vrelab.report.interactive` translates each drawn figure into its plotly twin (zoom, pan,
+hover; plotly.js embedded once per file); :mod:`vrelab.report.html` renders figures and tables
+into one HTML file (:func:`~vrelab.report.html.write_report`) inside the test-report frame of
+:mod:`vrelab.report.testreport` (item, equipment, conditions, procedure, results, decisions,
+approval), filled from an optional metadata TOML (:mod:`vrelab.report.metadata`);
+:mod:`vrelab.report.campaign` and :mod:`vrelab.report.sweep` build a campaign's and a sweep's
+sections. :func:`report_dir` reads a results folder (:func:`vrelab.folder.read_folder`) and
+writes its report. Imports go one way: ``plots`` <- ``interactive`` <- ``html`` <- ``testreport``
+(called from ``html`` at render time) and ``campaign``, ``sweep`` <- this package.
 """
 
 from __future__ import annotations
@@ -19,29 +24,42 @@ from vrelab.report.html import (
     report_result_dir,
     write_report,
 )
+from vrelab.report.metadata import ReportMetadata, load_metadata
 
-__all__ = ["ReportFigure", "ReportSection", "report_dir", "write_report"]
+__all__ = ["ReportFigure", "ReportMetadata", "ReportSection", "load_metadata", "report_dir", "write_report"]
 
 
-def report_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_dir(
+    folder: str | Path,
+    argv: Sequence[str] | None = None,
+    title: str | None = None,
+    metadata: ReportMetadata | str | Path | None = None,
+) -> Path:
     """Write ``folder/report.html`` for a results folder: a simulate/analyze/demo result
-    (:func:`vrelab.report.html.report_result_dir`) or a sweep
-    (:func:`vrelab.report.sweep.report_sweep_dir`, which needs the ``sweep`` extra)."""
+    (:func:`vrelab.report.html.report_result_dir`), several channels of one file, a campaign
+    (:func:`vrelab.report.campaign.report_campaign_dir`) or a sweep
+    (:func:`vrelab.report.sweep.report_sweep_dir`, which needs the ``sweep`` extra).
+
+    ``metadata`` is a :class:`~vrelab.report.metadata.ReportMetadata` or the path of its TOML
+    file (:func:`~vrelab.report.metadata.load_metadata`), read and validated before anything is
+    written; a bad file is a one-line ``ValueError``.
+    """
+    meta = load_metadata(metadata) if isinstance(metadata, (str, Path)) else metadata
     rf = read_folder(folder)
     if rf.kind == "channels":
         from vrelab.report.html import report_channels_dir
 
-        return report_channels_dir(rf, argv, title)
+        return report_channels_dir(rf, argv, title, meta)
     if rf.kind == "campaign":
         from vrelab.report.campaign import report_campaign_dir
 
-        return report_campaign_dir(rf, argv, title)
+        return report_campaign_dir(rf, argv, title, meta)
     if rf.kind == "identification":
         from vrelab.report.identify import report_identification_dir
 
-        return report_identification_dir(rf, argv, title)
+        return report_identification_dir(rf, argv, title, meta)
     if rf.kind == "sweep":
         from vrelab.report.sweep import report_sweep_dir
 
-        return report_sweep_dir(rf.path, argv, title)
-    return report_result_dir(rf, argv, title)
+        return report_sweep_dir(rf.path, argv, title, meta)
+    return report_result_dir(rf, argv, title, meta)

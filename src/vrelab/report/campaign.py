@@ -22,9 +22,11 @@ from vrelab.report.html import (
     ReportTable,
     default_provenance,
     describe,
+    report_title,
     result_section,
     write_report,
 )
+from vrelab.report.metadata import ReportMetadata
 
 
 def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
@@ -95,6 +97,7 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
                ("effective rail", _est(channel.get("rail_g"), "g"))],
         notes=list(channel.get("notes") or []),
         tables=tables,
+        channel=str(channel["channel"]),
     )
 
 
@@ -115,7 +118,8 @@ def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, int]) -
                        numeric=(0,))
 
 
-def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None,
+                        metadata: ReportMetadata | None = None) -> Path:
     """Write ``report.html`` for a campaign folder."""
     folder = rf.path
     doc = rf.doc or {}
@@ -130,7 +134,8 @@ def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
         secs = []
         for name, d in names.items():
             sf = F.read_folder(sub / d)
-            secs.append(result_section(sf, f"Run {r['index']} ({r['label']}), channel {name}: {describe(sf.result)}"))
+            secs.append(result_section(sf, f"Run {r['index']} ({r['label']}), channel {name}: {describe(sf.result)}",
+                                       channel=name))
         run_sections.append((r["index"], secs))
     first = 2 + len(channels)
     anchors: dict[int, int] = {}
@@ -149,13 +154,15 @@ def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
                ("description", str(doc.get("description") or "—"))],
         tables=[_runs_table(runs, anchors)],
         extra_warnings=[f"run {r['index']} ({r['label']}) failed: {r.get('error')}" for r in runs if r["status"] != "ok"],
-        provenance={"results_file": F.RESULTS},
+        provenance={"results_file": F.RESULTS, **{k: v for k, v in (doc.get("provenance") or {}).items()
+                                                  if k in ("manifest", "manifest_sha256")}},
     )
     sections = [summary] + [channel_section(c) for c in channels] + [s for _, secs in run_sections for s in secs]
     return write_report(
         folder / F.REPORT,
         sections,
-        title=title or f"Campaign report: {doc.get('name', folder.name)}",
+        title=report_title(title, metadata, f"Campaign report: {doc.get('name', folder.name)}"),
         intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS} (vrelab campaign).",
         provenance=default_provenance(argv),
+        metadata=metadata,
     )

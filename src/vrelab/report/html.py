@@ -1,4 +1,5 @@
-"""The self-contained HTML report: one file, figures embedded as base64 PNG, no JS, no network.
+"""The self-contained HTML report: one file, figures embedded as base64 PNG with an interactive
+plotly twin (plotly.js embedded once), no network.
 
 A report is a title, an introduction and a sequence of :class:`ReportSection`; each section is a
 result (a :class:`~vrelab.results.VreResult`), its figures and one sentence of what it shows,
@@ -12,7 +13,6 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
-import html
 import io
 import json
 import math
@@ -29,7 +29,12 @@ from vrelab import folder as F
 from vrelab._format import format_mg, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
+from vrelab.report._markup import ReportTable, esc, kv_table, table_html
+from vrelab.report.metadata import ReportMetadata
 from vrelab.results import FitResult, VreResult
+
+__all__ = ["ReportFigure", "ReportSection", "ReportTable", "render_report", "write_report", "report_result_dir",
+           "report_channels_dir", "result_section", "section_results"]
 
 _CSS = """
 :root { --ink:#1b1f24; --mute:#5b6570; --rule:#d5dbe1; --warn:#8a4b00; --warnbg:#fff4e0; --accent:#0072B2; }
@@ -37,51 +42,104 @@ _CSS = """
 body { font: 15px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "Liberation Sans", Arial, sans-serif;
        color: var(--ink); max-width: 980px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
 h1 { font-size: 1.7em; margin: 0 0 .2em; }
-h2 { font-size: 1.3em; margin: 2.2em 0 .3em; padding-top: .6em; border-top: 2px solid var(--rule); }
-h3 { font-size: 1.02em; margin: 1.4em 0 .4em; color: var(--mute); text-transform: uppercase; letter-spacing: .04em; }
+h2 { font-size: 1.35em; margin: 2.2em 0 .3em; padding-top: .6em; border-top: 3px solid var(--rule); }
+h3 { font-size: 1.18em; margin: 2em 0 .3em; padding-top: .5em; border-top: 1px solid var(--rule); }
+h4 { font-size: 1.0em; margin: 1.4em 0 .4em; color: var(--mute); text-transform: uppercase; letter-spacing: .04em; }
 p.lead { font-size: 1.06em; margin: .3em 0 1em; }
 p.what { font-size: 1.04em; border-left: 4px solid var(--accent); padding: .3em .8em; background: #f3f8fc; }
+p.rule { font-size: 1.04em; border: 1px solid var(--accent); padding: .4em .8em; }
 table { border-collapse: collapse; margin: .4em 0 1em; font-size: .92em; }
 th, td { border-bottom: 1px solid var(--rule); padding: 3px 10px; text-align: left; vertical-align: top; }
 th { background: #f4f6f8; font-weight: 600; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 table.kv th { background: none; color: var(--mute); font-weight: 500; white-space: nowrap; }
+td.given-not { color: var(--mute); font-style: italic; }
 div.scroll { overflow-x: auto; max-width: 100%; }
+table.ident { width: 100%; border: 2px solid var(--ink); }
+table.ident th { width: 24%; }
+table.approval { width: 100%; }
+table.approval td.sign { width: 34%; border-bottom: 1px solid var(--ink); height: 3.2em; }
 figure { margin: 1em 0 1.4em; }
 figure img { max-width: 100%; height: auto; border: 1px solid var(--rule); display: block; }
 figcaption { color: var(--mute); font-size: .92em; margin-top: .3em; }
+/* The interactive twin shows where the script drew it; the PNG where it did not, and in print. */
+.iplot { display: none; }
+html.js .iplot { display: block; width: 100%; border: 1px solid var(--rule); }
+figure.live img.static { display: none; }
 ul.warn { background: var(--warnbg); border: 1px solid #f0c27a; padding: .6em 1em .6em 2em; color: var(--warn); }
 ul.notes li, ul.warn li { margin: .2em 0; }
-nav ol { margin: .2em 0 1em; }
+nav ol { margin: .2em 0 1em; list-style: none; padding-left: 1.2em; }
+nav ol ol { margin: 0; }
 .mute { color: var(--mute); }
-footer { margin-top: 3em; font-size: .85em; color: var(--mute); border-top: 1px solid var(--rule); padding-top: .6em; }
+footer { margin-top: 3em; font-size: .85em; color: var(--mute); border-top: 1px solid var(--rule); padding-top: .6em;
+         overflow-wrap: anywhere; }
 code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
+
+@media print {
+  /* Paper: the browser's paper size (A4 or letter) with the margins of @page (page_css);
+     every table fits the narrower of the two, 180 mm. */
+  body { max-width: none; margin: 0; padding: 0; font-size: 9.5pt; line-height: 1.35; }
+  h1 { font-size: 17pt; }
+  h2 { font-size: 13pt; margin-top: 0; }
+  h3 { font-size: 11.5pt; }
+  h4 { font-size: 9.5pt; }
+  section.major, section.result { break-before: page; }
+  /* The front sections run on from the identification; the first result follows "5 Results". */
+  section.front, section.major > h2 + section.result, section.major > p.lead + section.result { break-before: auto; }
+  h2, h3, h4 { break-after: avoid; }
+  h2 + *, h3 + *, h4 + *, h4 + div.scroll > table, h4 + table > tbody > tr:first-child { break-before: avoid; }
+  figure, tr, table.ident, table.approval, p.what, p.rule, ul.warn { break-inside: avoid; }
+  thead { display: table-header-group; }
+  div.scroll { overflow: visible; }
+  table { width: 100%; font-size: 8pt; }
+  th, td { padding: 2px 4px; overflow-wrap: break-word; }
+  td.num, th.num, table.kv th { white-space: normal; }
+  .iplot { display: none !important; }
+  figure img.static { display: block !important; max-width: 100%; max-height: 200mm; width: auto; border: none; }
+  details::details-content { content-visibility: visible; display: block; }
+  details > summary { display: none; }
+  p.what { background: none; }
+  a { color: inherit; text-decoration: none; }
+  nav { break-after: auto; }
+  footer { font-size: 7pt; }
+}
+"""
+
+# Draws every interactive twin; a figure that fails keeps its PNG and says why on the console.
+_BOOT_JS = """
+(function () {
+  var config = {responsive: true, displaylogo: false, edits: {legendPosition: true}};
+  document.querySelectorAll("div.iplot").forEach(function (box) {
+    var fig = box.parentNode;
+    function fail(e) { box.remove(); console.error("vrelab: figure " + fig.id + " not drawn: " + e); }
+    try {
+      var spec = JSON.parse(document.getElementById(box.dataset.spec).textContent);
+      Plotly.newPlot(box, spec.data, spec.layout, config).then(function () { fig.classList.add("live"); }, fail);
+    } catch (e) { fail(e); }
+  });
+})();
 """
 
 
 @dataclass(frozen=True)
 class ReportFigure:
-    """A figure ready to embed: PNG bytes and a caption."""
+    """A figure ready to embed: PNG bytes (what prints), its interactive plotly twin as JSON
+    (None: static only) and a caption."""
 
     png: bytes
     caption: str = ""
+    plotly_json: str | None = None
 
     @classmethod
-    def from_figure(cls, fig: Figure, caption: str = "", dpi: int = 110) -> "ReportFigure":
+    def from_figure(cls, fig: Figure, caption: str = "", dpi: int = 110, interactive: bool = True) -> "ReportFigure":
+        from vrelab.report.interactive import to_plotly_json
+
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=dpi)
-        fig.clear()  # the PNG is all the report needs; free the artists now
-        return cls(buf.getvalue(), caption)
-
-
-@dataclass(frozen=True)
-class ReportTable:
-    """A table of text cells under a heading (cells are escaped; ``numeric`` columns align right)."""
-
-    title: str
-    header: Sequence[str]
-    rows: Sequence[Sequence[str]]
-    numeric: Sequence[int] = ()
+        # Translated after savefig: the layout engine has placed the axes the twin copies.
+        twin = to_plotly_json(fig) if interactive else None
+        fig.clear()  # the PNG and the twin are all the report needs; free the artists now
+        return cls(buf.getvalue(), caption, twin)
 
 
 @dataclass(frozen=True)
@@ -91,6 +149,9 @@ class ReportSection:
     ``facts`` are (label, value) rows shown first, e.g. ("VRE at 1 g rms", "-83 mg (article
     ≈ -100 mg)"); ``prediction`` is a ``Prediction.to_dict()``; ``notes`` are extra sentences;
     ``tables`` are shown after the figures (a sweep's statistics and failed points).
+    ``results`` are further results of the same study, each tabulated under its label (the two
+    configurations a figure compares); ``channel`` is the DUT channel the section is about, the
+    key of its ``[items.<channel>]`` metadata.
     """
 
     title: str
@@ -103,13 +164,11 @@ class ReportSection:
     extra_warnings: Sequence[str] = ()
     provenance: Mapping[str, Any] = field(default_factory=dict)
     tables: Sequence[ReportTable] = ()
+    results: Sequence[tuple[str, VreResult]] = ()
+    channel: str | None = None
 
 
 # --------------------------------------------------------------------------- helpers
-def _e(x: Any) -> str:
-    return html.escape(str(x), quote=True)
-
-
 def _fmt(x: Any, spec: str = ".4g") -> str:
     if x is None:
         return "–"
@@ -190,21 +249,6 @@ def collect_warnings(
 
 
 # --------------------------------------------------------------------------- rendering
-def _cell(v: Any) -> str:
-    if isinstance(v, tuple) and len(v) == 2 and str(v[1]).startswith("#"):
-        return f'<a href="{_e(v[1])}">{_e(v[0])}</a>'  # (text, "#anchor"): a link within the report
-    text = ("yes" if v else "no") if isinstance(v, bool) else str(v)
-    if len(text) <= 160:
-        return _e(text)
-    # Long values (a sensor description in provenance) fold away: <details> needs no script.
-    return f"<details><summary>{_e(text[:80])}…</summary><code>{_e(text)}</code></details>"
-
-
-def _kv_table(rows: Sequence[tuple[str, Any]]) -> str:
-    body = "".join(f"<tr><th>{_e(k)}</th><td>{_cell(v)}</td></tr>" for k, v in rows if v not in (None, "", {}))
-    return f'<table class="kv">{body}</table>' if body else ""
-
-
 def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
     c = result.conditions
     rows: list[tuple[str, Any]] = [
@@ -247,12 +291,12 @@ def _levels_table(result: VreResult) -> str:
         if has_d:
             cells += [x.decision or "undefined (no VRE)"]
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
-        rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{_e(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
-    th = "".join(f'<th class="{"num" if h in num else ""}">{_e(h)}</th>' for h in head)
+        rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{esc(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
+    th = "".join(f'<th class="{"num" if h in num else ""}">{esc(h)}</th>' for h in head)
     return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
 
 
-def _budget_table(result: VreResult) -> str:
+def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") -> str:
     """Each level's uncertainty budget (SPEC 4.3): the terms, their type and size, U and k."""
     rows = []
     for i, x in enumerate(result.levels, 1):
@@ -266,7 +310,7 @@ def _budget_table(result: VreResult) -> str:
                          f"k = {_fmt(x.k, '.3g')} (Welch-Satterthwaite)"))
     if not rows:
         return ""
-    return _table_html(ReportTable("Uncertainty budget (GUM)", ["level", "g rms", "source", "type", "u (mg)", "note"],
+    return table_html(ReportTable(title, ["level", "g rms", "source", "type", "u (mg)", "note"],
                                    rows, numeric=(0, 1, 4)))
 
 
@@ -292,7 +336,7 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             "" if f.departure_rms_g is None else f"{f.departure_rms_g:.3g} g rms",
             "; ".join(f.notes),
         ]
-        rows.append("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in cells) + "</tr>")
+        rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
     head = ["model", "freq (Hz)", "parameters (± standard uncertainty)", "points", "χ²/dof", "departs above", "notes"]
     return ('<div class="scroll"><table><thead><tr>' + "".join(f"<th>{h}</th>" for h in head)
             + f"</tr></thead><tbody>{''.join(rows)}</tbody></table></div>")
@@ -336,8 +380,8 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         if has_valid:
             why = "; ".join(str(n) for n in lv.get("notes") or ())
             cells.append("yes" if lv.get("valid") else (f"no: {why}" if why else "no (reason not given)"))
-        rows.append("<tr>" + "".join(f'<td class="num">{_e(c)}</td>' for c in cells) + "</tr>")
-    th = "".join(f'<th class="num">{_e(h)}</th>' for h in head)
+        rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in cells) + "</tr>")
+    th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
@@ -345,17 +389,8 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         extra.append((k.replace("_", " "), ("yes" if v else "no") if isinstance(v, bool) else v))
     notes = ""
     if by_note:
-        notes = '<ul class="notes">' + "".join(f"<li>{_e(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
-    return _kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
-
-
-def _table_html(t: ReportTable) -> str:
-    def cls(j: int) -> str:
-        return ' class="num"' if j in t.numeric else ""
-
-    th = "".join(f"<th{cls(j)}>{_e(h)}</th>" for j, h in enumerate(t.header))
-    body = "".join("<tr>" + "".join(f"<td{cls(j)}>{_cell(c)}</td>" for j, c in enumerate(row)) + "</tr>" for row in t.rows)
-    return f'<h3>{_e(t.title)}</h3><div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table></div>'
+        notes = '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
+    return kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
 def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
@@ -367,39 +402,72 @@ def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
     return rows
 
 
-def render_section(sec: ReportSection, anchor: str) -> str:
-    parts = [f'<section id="{_e(anchor)}"><h2>{_e(sec.title)}</h2>', f'<p class="what">{_e(sec.what)}</p>']
+def _figure_html(fig: ReportFigure, fid: str, alt: str) -> str:
+    """A figure: its interactive twin (drawn by the page's script, hidden in print) above the
+    PNG (shown in print, and on screen wherever the twin is missing or did not draw)."""
+    b64 = base64.b64encode(fig.png).decode("ascii")
+    live = ""
+    if fig.plotly_json is not None:
+        # type="application/json": data, never run; the JSON escapes "<", ">" and "/".
+        live = (f'<div class="iplot" data-spec="{esc(fid)}-data" role="img" aria-label="{esc(alt)}"></div>'
+                f'<script type="application/json" id="{esc(fid)}-data">{fig.plotly_json}</script>')
+    return (f'<figure id="{esc(fid)}">{live}<img class="static" src="data:image/png;base64,{b64}" alt="{esc(alt)}">'
+            + (f"<figcaption>{esc(fig.caption)}</figcaption>" if fig.caption else "") + "</figure>")
+
+
+def section_results(sec: ReportSection) -> list[tuple[str | None, VreResult]]:
+    """The results a section tabulates: its ``result`` (no label), then its labelled ``results``."""
+    return ([(None, sec.result)] if sec.result is not None else []) + [(label, r) for label, r in sec.results]
+
+
+def _result_tables(r: VreResult, label: str | None) -> list[str]:
+    pre = f"{label}: " if label else ""
+    parts = [f"<h4>{esc(pre)}Conditions</h4>" + kv_table(_conditions_rows(r)),
+             f"<h4>{esc(pre)}Levels</h4>" + _levels_table(r)]
+    rule = dict(r.conditions.extra).get("decision_rule")
+    if rule:
+        parts.append(f'<p class="what">Decision rule: {esc(rule)}; limit {esc(dict(r.conditions.extra).get("limit_g"))} g.</p>')
+    budget = _budget_table(r, f"{pre}Uncertainty budget (GUM)")
+    if budget:
+        parts.append(budget)
+    parts.append(f"<h4>{esc(pre)}Fits</h4>" + _fits_table(r.fits))
+    return parts
+
+
+def render_section(sec: ReportSection, anchor: str, number: str = "") -> str:
+    """One section of the results: ``<h3>`` with its number, then what it shows, facts, warnings,
+    figures, notes, tables, and for each of its results the conditions, levels, budget, fits;
+    the prediction; the provenance."""
+    head = f"{number} {sec.title}" if number else sec.title
+    parts = [f'<section class="result" id="{esc(anchor)}"><h3>{esc(head)}</h3>', f'<p class="what">{esc(sec.what)}</p>']
     if sec.facts:
-        parts.append(_kv_table(sec.facts))
-    warnings = list(sec.extra_warnings) + collect_warnings(sec.result, None, sec.prediction)
+        parts.append(kv_table(sec.facts))
+    results = section_results(sec)
+    warnings = list(sec.extra_warnings)
+    for k, (label, r) in enumerate(results):
+        pre = f"{label}: " if label else ""
+        warnings += [pre + w for w in collect_warnings(r, None, sec.prediction if k == 0 else None)]
+    if not results:
+        warnings += collect_warnings(None, None, sec.prediction)
     if warnings:
-        parts.append("<h3>Warnings</h3><ul class=\"warn\">" + "".join(f"<li>{_e(w)}</li>" for w in dict.fromkeys(warnings)) + "</ul>")
+        parts.append("<h4>Warnings</h4><ul class=\"warn\">" + "".join(f"<li>{esc(w)}</li>" for w in dict.fromkeys(warnings)) + "</ul>")
     for i, fig in enumerate(sec.figures, 1):
-        b64 = base64.b64encode(fig.png).decode("ascii")
-        alt = fig.caption or f"{sec.title}, figure {i}"
-        parts.append(
-            f'<figure><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
-            + (f"<figcaption>{_e(fig.caption)}</figcaption>" if fig.caption else "")
-            + "</figure>"
-        )
+        parts.append(_figure_html(fig, f"{anchor}-f{i}", fig.caption or f"{sec.title}, figure {i}"))
     if sec.notes:
-        parts.append('<ul class="notes">' + "".join(f"<li>{_e(n)}</li>" for n in sec.notes) + "</ul>")
-    parts += [_table_html(t) for t in sec.tables]
-    r = sec.result
-    if r is not None:
-        parts.append("<h3>Conditions</h3>" + _kv_table(_conditions_rows(r)))
-        parts.append("<h3>Levels</h3>" + _levels_table(r))
-        rule = dict(r.conditions.extra).get("decision_rule")
-        if rule:
-            parts.append(f'<p class="what">Decision rule: {_e(rule)}; limit {_e(dict(r.conditions.extra).get("limit_g"))} g.</p>')
-        parts.append(_budget_table(r))
-        parts.append("<h3>Fits</h3>" + _fits_table(r.fits))
+        parts.append('<ul class="notes">' + "".join(f"<li>{esc(n)}</li>" for n in sec.notes) + "</ul>")
+    parts += [table_html(t) for t in sec.tables]
+    for label, r in results:
+        parts += _result_tables(r, label)
     if sec.prediction:
-        parts.append("<h3>Prediction: mechanisms' shares</h3>" + _prediction_html(sec.prediction))
-    prov = dict(r.provenance) if r is not None else {}
-    prov.update(sec.provenance)
-    if prov:
-        parts.append("<h3>Provenance</h3>" + _kv_table(_provenance_rows(prov)))
+        parts.append("<h4>Prediction: mechanisms' shares</h4>" + _prediction_html(sec.prediction))
+    for k, (label, r) in enumerate(results):
+        prov = dict(r.provenance)
+        if k == 0:
+            prov.update(sec.provenance)
+        if prov:
+            parts.append(f"<h4>{esc(label + ': ' if label else '')}Provenance</h4>" + kv_table(_provenance_rows(prov)))
+    if not results and sec.provenance:
+        parts.append("<h4>Provenance</h4>" + kv_table(_provenance_rows(sec.provenance)))
     parts.append("</section>")
     return "\n".join(parts)
 
@@ -409,20 +477,36 @@ def render_report(
     title: str,
     intro: str = "",
     provenance: Mapping[str, Any] | None = None,
+    metadata: ReportMetadata | None = None,
 ) -> str:
-    """The whole report as one HTML string (UTF-8, self-contained)."""
+    """The whole report as one HTML string (UTF-8, self-contained), structured as a test report
+    (:mod:`vrelab.report.testreport`): identification, 1 test item, 2 equipment, 3 conditions,
+    4 procedure, 5 results (``sections``), 6 decisions, 7 approval. The plotly.js bundle is
+    embedded once when any figure has an interactive twin."""
+    from vrelab.report import testreport as T
+
+    meta = metadata or ReportMetadata()
     prov = default_provenance() | dict(provenance or {})
-    nav = ""
-    if len(sections) > 1:
-        nav = "<nav><ol>" + "".join(f'<li><a href="#s{i}">{_e(s.title)}</a></li>' for i, s in enumerate(sections, 1)) + "</ol></nav>"
-    body = "\n".join(render_section(s, f"s{i}") for i, s in enumerate(sections, 1))
-    foot = "; ".join(f"{_e(k.replace('_', ' '))}: {_e(v)}" for k, v in prov.items())
+    anchors = [f"s{i}" for i in range(1, len(sections) + 1)]
+    body = "\n".join(render_section(s, a, f"{T.RESULTS_NUMBER}.{i}") for i, (s, a) in enumerate(zip(sections, anchors), 1))
+    doc = T.Document(title=title, intro=intro, sections=sections, anchors=anchors, results_html=body,
+                     metadata=meta, provenance=prov)
+    foot = "; ".join(f"{esc(k.replace('_', ' '))}: {esc(v)}" for k, v in prov.items())
+    live = any(f.plotly_json is not None for s in sections for f in s.figures)
+    scripts = ""
+    if live:
+        from vrelab.report.interactive import plotly_js
+
+        # plotly.js once for the whole file, then one small script draws every figure.
+        scripts = f"<script>{plotly_js()}</script><script>{_BOOT_JS}</script>"
     return (
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>{_e(title)}</title><style>{_CSS}</style></head><body>"
-        f"<header><h1>{_e(title)}</h1>" + (f'<p class="lead">{_e(intro)}</p>' if intro else "") + f"{nav}</header>"
-        f"<main>{body}</main><footer>Report provenance — {foot}</footer></body></html>\n"
+        f"<title>{esc(title)}</title><style>{_CSS}{T.page_css(meta, title)}</style>"
+        + ("<script>document.documentElement.classList.add('js')</script>" if live else "")
+        + "</head><body>"
+        + T.render(doc)
+        + f"<footer>Report provenance — {foot}</footer>{scripts}</body></html>\n"
     )
 
 
@@ -440,10 +524,15 @@ def write_report(
     title: str = "Vibration rectification error report",
     intro: str = "",
     provenance: Mapping[str, Any] | None = None,
+    metadata: ReportMetadata | None = None,
 ) -> Path:
-    """Write the report atomically (temporary file, then rename) and return its path."""
+    """Write the report atomically (temporary file, then rename) and return its path.
+
+    ``metadata`` (:func:`vrelab.report.metadata.load_metadata`) fills the test report's
+    identification, item, equipment, conditions, procedure and approval; without it those
+    fields say "not given"."""
     path = Path(path)
-    text = render_report(sections, title, intro, provenance)
+    text = render_report(sections, title, intro, provenance, metadata)
     tmp = path.with_name(path.name + ".partial")
     try:
         tmp.write_text(text, encoding="utf-8")
@@ -540,7 +629,12 @@ def summary_sentence(result: VreResult) -> str:
     return s + ("; " + "; ".join(bits) if bits else "") + "."
 
 
-def result_section(rf: ResultsFolder, title: str | None = None) -> ReportSection:
+def report_title(title: str | None, metadata: ReportMetadata | None, default: str) -> str:
+    """The title: ``--title``, else the metadata's ``title``, else ``default``."""
+    return title or (metadata.get("", "title") if metadata else None) or default
+
+
+def result_section(rf: ResultsFolder, title: str | None = None, channel: str | None = None) -> ReportSection:
     """The report section of one simulate/analyze/demo results folder (one channel's folder)."""
     folder = rf.path
     result, prediction = rf.result, rf.prediction
@@ -567,10 +661,12 @@ def result_section(rf: ResultsFolder, title: str | None = None) -> ReportSection
         prediction=prediction,
         notes=notes,
         provenance=prov,
+        channel=channel,
     )
 
 
-def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None,
+                      metadata: ReportMetadata | None = None) -> Path:
     """Write ``report.html`` into a simulate/analyze/demo results folder (``vrelab report DIR``
     goes through :func:`vrelab.report.report_dir`, which reads the folder and picks this or the
     sweep report)."""
@@ -578,13 +674,15 @@ def report_result_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, titl
     return write_report(
         folder / F.REPORT,
         [result_section(rf, title)],
-        title=title or "Vibration rectification error report",
+        title=report_title(title, metadata, "Vibration rectification error report"),
         intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS}.",
         provenance=default_provenance(argv),
+        metadata=metadata,
     )
 
 
-def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None,
+                        metadata: ReportMetadata | None = None) -> Path:
     """``report.html`` of several DUT channels of one file (``analyze --dut a,b --out DIR``):
     one section per channel, each from its sub-folder."""
     folder = rf.path
@@ -593,15 +691,17 @@ def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
     sections = []
     for name, sub in subs.items():
         sf = F.read_folder(folder / sub)
-        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name))
+        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name, channel=name))
     src = (doc.get("provenance") or {}).get("input_file", "")
     return write_report(
         folder / F.REPORT,
         sections,
-        title=title or f"Vibration rectification error report: {len(sections)} channels" + (f" of {src}" if src else ""),
+        title=report_title(title, metadata, f"Vibration rectification error report: {len(sections)} channels"
+                           + (f" of {src}" if src else "")),
         intro=f"Report of {folder.name or folder.resolve().name}/{F.RESULTS}: each DUT channel reduced against "
         "the one reference, with the same segments.",
         provenance=default_provenance(argv),
+        metadata=metadata,
     )
 
 

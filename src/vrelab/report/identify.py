@@ -18,7 +18,15 @@ import numpy as np
 from vrelab import folder as F
 from vrelab._format import format_value_u
 from vrelab.folder import ResultsFolder
-from vrelab.report.html import ReportFigure, ReportSection, ReportTable, default_provenance, write_report
+from vrelab.report.html import (
+    ReportFigure,
+    ReportSection,
+    ReportTable,
+    default_provenance,
+    report_title,
+    write_report,
+)
+from vrelab.report.metadata import ReportMetadata
 
 _UNITS = {"ug/g^2": "µg/g²", "ug/g^3": "µg/g³", "1": "", "Hz": "Hz", "g": "g"}
 
@@ -138,8 +146,9 @@ def channel_section(ch: Mapping[str, Any]) -> ReportSection:
 
 
 def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = None,
-                              title: str | None = None) -> Path:
-    """Write ``report.html`` for an identification folder."""
+                              title: str | None = None, metadata: ReportMetadata | None = None) -> Path:
+    """Write ``report.html`` for an identification folder (``metadata``: the test report's
+    identification, item, equipment and approval, as for every report)."""
     doc = rf.doc or {}
     base = doc.get("base_sensor") or {}
     summary = ReportSection(
@@ -153,6 +162,7 @@ def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = No
         provenance={"results_file": F.IDENTIFICATION},
     )
     sections = [summary] + [channel_section(c) for c in doc.get("channels") or []]
-    return write_report(rf.path / F.REPORT, sections, title=title or f"Identification report: {doc.get('campaign', '')}",
+    return write_report(rf.path / F.REPORT, sections,
+                        title=report_title(title, metadata, f"Identification report: {doc.get('campaign', '')}"),
                         intro=f"Report of {rf.path.name or rf.path.resolve().name}/{F.IDENTIFICATION} "
-                        "(vrelab identify).", provenance=default_provenance(argv))
+                        "(vrelab identify).", provenance=default_provenance(argv), metadata=metadata)

@@ -24,9 +24,10 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
+from vrelab._format import format_value_u
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
-from vrelab.results import FitResult, VreResult
+from vrelab.results import FitResult, LevelResult, VreResult, same_frequency
 
 FloatArray = NDArray[np.float64]
 
@@ -274,47 +275,77 @@ def plot_vre_vs_rms(
     return fig
 
 
+# Paired with COLORS (7 colours, 9 markers: coprime), every one of up to 63 series gets its own
+# colour-and-marker pair, so neighbours stay apart in print and in grey.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "h", "*")
+
+
+def frequency_groups(result: VreResult) -> list[tuple[float | None, list[LevelResult], FitResult | None]]:
+    """The levels of a result grouped by drive frequency (:func:`vrelab.results.same_frequency`:
+    each level's measured frequency scatters a little about the nominal one), low to high, each
+    with its VRC fit; one group (frequency None) for a random test."""
+    lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
+    fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
+    groups: list[tuple[float | None, list[LevelResult]]] = []
+    for x in lv:
+        key = x.freq_hz
+        for g in groups:
+            if (g[0] is None) == (key is None) and same_frequency(g[0], key):
+                g[1].append(x)
+                break
+        else:
+            groups.append((key, [x]))
+    out = []
+    for fq, pts in sorted(groups, key=lambda g: -1.0 if g[0] is None else g[0]):
+        fit = next((f for f in fits if fq is not None and f.freq_hz is not None and same_frequency(f.freq_hz, fq)),
+                   next((f for f in fits if f.freq_hz is None), None) if fq is None else None)
+        out.append((fit.freq_hz if fit is not None and fit.freq_hz is not None else fq, pts, fit))
+    return out
+
+
 def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     """VRE (µg) against rms² (g²) with the fitted VRC line through the origin (IEEE 1293 style).
 
-    Points that entered the fit are filled; others are hollow.
+    One colour-and-marker pair per frequency; each legend entry shows a frequency's marker with
+    its fitted line and VRC ± u. Points that entered the fit are filled; others are hollow.
     """
-    fig, (ax,) = _new_figure()
-    lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
-    fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
-    freqs = sorted({x.freq_hz for x in lv if x.freq_hz is not None}) or [None]
-    if len(freqs) > len(COLORS):
-        from matplotlib import colormaps
+    from matplotlib.legend_handler import HandlerTuple
 
-        # More frequencies than distinct colours: an ordered colormap keeps them apart and
-        # reads low-to-high.
-        palette = [colormaps["viridis"](k / max(1, len(freqs) - 1) * 0.92) for k in range(len(freqs))]
-    else:
-        palette = list(COLORS)
-    for i, fq in enumerate(freqs):
-        color = palette[i % len(palette)]
-        pts = [x for x in lv if x.freq_hz == fq]
-        fit = next((f for f in fits if f.freq_hz == fq), fits[0] if fits and fq is None else None)
+    fig, (ax,) = _new_figure()
+    groups = frequency_groups(result)
+    handles: list = []
+    labels: list[str] = []
+    for i, (fq, pts, fit) in enumerate(groups):
+        color, marker = COLORS[i % len(COLORS)], MARKERS[i % len(MARKERS)]
         used = set(np.round(fit.levels_used, 12)) if fit and fit.levels_used else None
         r2 = np.array([x.rms_g**2 for x in pts])
         y = np.array([x.vre.value for x in pts]) * 1e6
         u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * 1e6
         mask = np.array([used is None or round(x.rms_g, 12) in used for x in pts], dtype=bool)
         name = f"{fq:g} Hz" if fq is not None else "measured"
-        # With a fit, its line carries the name (one legend entry per frequency, not two).
-        ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt="o", color=color, capsize=3, label=name if fit is None else "_nolegend_")
-        if (~mask).any():
-            ax.errorbar(r2[~mask], y[~mask], yerr=u[~mask], fmt="o", mfc="white", color=color, capsize=3, label=f"{name}: not in fit")
+        pts_h = ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt=marker, color=color, capsize=3, label="_nolegend_")
         if fit is not None and len(r2):
             est = fit.params["vrc_ug_per_g2"]
             xx = np.linspace(0, 1.05 * r2.max(), 50)
-            ax.plot(xx, est.value * xx, "-", color=color, lw=1.3, label=f"{name}: VRC {est.value:.3g} ± {est.u:.2g} µg/g²")
+            text = f"{name}: VRC {format_value_u(est.value, est.u)} µg/g²"
+            (line,) = ax.plot(xx, est.value * xx, "-", color=color, lw=1.3, label=text)
+            handles.append((pts_h, line) if mask.any() else line)
+            labels.append(text)
+        elif mask.any():
+            handles.append(pts_h)
+            labels.append(name)
+        if (~mask).any():
+            hollow = ax.errorbar(r2[~mask], y[~mask], yerr=u[~mask], fmt=marker, mfc="white", color=color, capsize=3,
+                                 label=f"{name}: not in fit")
+            handles.append(hollow)
+            labels.append(f"{name}: not in fit")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel("vibration level squared, rms² (g²)")
     ax.set_ylabel("VRE (µg)")
     ax.set_xlim(left=0)
     ax.set_title(title or f"VRE vs rms² (slope = VRC)\n{describe_conditions(result, short=True)}", fontsize=10)
-    ax.legend(fontsize=7.5, loc="best", ncol=2 if len(freqs) > 6 else 1)
+    ax.legend(handles, labels, handler_map={tuple: HandlerTuple(ndivide=1)}, fontsize=7.5, loc="best",
+              ncol=2 if len(labels) > 6 else 1)
     return fig
 
 
@@ -555,6 +586,54 @@ def plot_time_series(
         ax2.legend(fontsize=7.5, loc="lower left", framealpha=0.9)
     ax2.set_ylabel("offset shift (mg)")
     ax2.set_xlabel("time (s)")
+    return fig
+
+
+@dataclass(frozen=True)
+class TimeWindow:
+    """A short stretch of a record, sample by sample: time [s], reference and DUT output [g]."""
+
+    label: str
+    t_s: FloatArray
+    reference_g: FloatArray
+    dut_g: FloatArray
+
+
+def plot_time_windows(
+    windows: Sequence[TimeWindow],
+    *,
+    static_g: float | None = None,
+    rails_g: tuple[float, float] | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Milliseconds of a record, one panel per window (shared axes): the input (``static_g`` plus
+    the reference's vibration: what the DUT would read without rails) and the sensor output as
+    held at its output data rate (steps), the rails dashed.
+
+    Where a VRE figure only implies a mechanism, this shows it: an output flat at a rail
+    (clipping), an output dropped to 0 g for the hold time (over-range protection), an output the
+    low-pass has smoothed below the rail (bandwidth).
+    """
+    if not windows:
+        raise ValueError("plot_time_windows needs at least one window")
+    fig, axes = _new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
+    off = static_g or 0.0
+    for ax, w in zip(axes, windows):
+        t_ms = 1e3 * np.asarray(w.t_s, dtype=np.float64)
+        ax.plot(t_ms, np.asarray(w.reference_g) + off, color="0.55", lw=0.9,
+                label=f"input: {off:+g} g static + reference vibration" if static_g else "reference")
+        ax.plot(t_ms, np.asarray(w.dut_g), color=COLORS[0], lw=1.3, drawstyle="steps-post", label="sensor output")
+        if rails_g is not None:
+            for r in rails_g:
+                ax.axhline(r, color=COLORS[1], ls="--", lw=1.1)
+            ax.plot([], [], "--", color=COLORS[1], lw=1.1, label=f"rails {rails_g[0]:+g} / {rails_g[1]:+g} g")
+        ax.axhline(0, color="0.5", lw=0.8)
+        ax.set_ylabel("acceleration (g)")
+        ax.set_title(w.label, fontsize=9)
+        ax.legend(fontsize=7.5, loc="lower left", ncol=3, framealpha=0.9)
+    axes[-1].set_xlabel("time (ms)")
+    if title:
+        fig.suptitle(title, fontsize=10)
     return fig
 
 

@@ -8,10 +8,12 @@ whose dimensions are the grid axes in file order, preceded by ``unit`` for a Mon
 matplotlib ``Figure`` (no pyplot, VRE in mg), like :mod:`vrelab.report.plots`:
 
 - a grid: :func:`plot_sweep_grid`, VRE against the first numeric grid axis, one line for each
-  combination of the other axes (at most ``max_lines``);
-- a Monte Carlo lot: :func:`plot_lot_histograms`, the spread of VRE across the units at each
-  grid point (mean, standard deviation, 5th / 95th percentiles marked), and
-  :func:`plot_lot_scatter`, VRE against each drawn parameter.
+  combination of the other grid axes (``MAX_LINES`` to a figure, as many figures as it takes);
+- a Monte Carlo lot: :func:`plot_lot_spread`, the lot's mean VRE and its 5th-95th percentile
+  band against that axis; :func:`plot_lot_histograms`, the spread of VRE across the units at
+  each grid point (mean, standard deviation, 5th / 95th percentiles marked), and
+  :func:`plot_lot_scatter`, VRE against each drawn parameter. Every grid point is shown: the
+  panels and rows run over as many figures as it takes.
 
 :func:`sweep_section` turns the Dataset into a :class:`~vrelab.report.html.ReportSection`;
 :func:`report_sweep_dir` writes ``DIR/report.html`` (``vrelab report DIR`` calls it through
@@ -39,18 +41,19 @@ from vrelab.report.html import (
     ReportSection,
     ReportTable,
     default_provenance,
+    report_title,
     write_report,
 )
+from vrelab.report.metadata import ReportMetadata
 from vrelab.report.plots import COLORS
 
 UNIT = "unit"
 # More lines than this on one plot cannot be told apart, even in the colour-blind-safe cycle
-# with markers; the caption says how many combinations were left out.
+# with markers: further combinations go to the next figure. Panels and rows likewise.
 MAX_LINES = 8
 MAX_HIST_PANELS = 6
 MAX_SCATTER_ROWS = 4
 MAX_FAILED_ROWS = 50
-MAX_STATS_ROWS = 50
 
 _AXIS_LABELS = {
     "rms_g": "vibration level (g rms)",
@@ -135,12 +138,21 @@ def x_axis(ds: Any) -> str | None:
     return next((a for a in axes if _is_numeric(ds, a)), axes[0] if axes else None)
 
 
-def line_combinations(ds: Any, x: str, max_lines: int = MAX_LINES) -> tuple[list[dict[str, Any]], int]:
-    """The combinations of the grid axes other than ``x``, in file order: (the first
-    ``max_lines``, how many there are)."""
+def line_combinations(ds: Any, x: str) -> list[dict[str, Any]]:
+    """Every combination of the grid axes other than ``x``, in file order (one empty selection
+    when ``x`` is the only axis)."""
     others = [a for a in grid_axes(ds) if a != x]
-    combos = [dict(zip(others, vals)) for vals in itertools.product(*(ds[a].values.tolist() for a in others))]
-    return combos[:max_lines], len(combos)
+    return [dict(zip(others, vals)) for vals in itertools.product(*(ds[a].values.tolist() for a in others))]
+
+
+def chunks(items: Sequence[Any], size: int) -> list[tuple[int, list[Any]]]:
+    """``items`` in consecutive pieces of at most ``size``: (index of the first, the piece)."""
+    return [(i, list(items[i : i + size])) for i in range(0, len(items), size)] or [(0, [])]
+
+
+def _part(first: int, n: int, total: int, what: str) -> str:
+    """" (combinations 9-12 of 12)" when a figure shows part of them, else ""."""
+    return f" ({what} {first + 1}–{first + n} of {total})" if n < total else ""
 
 
 def grid_points(ds: Any) -> list[dict[str, Any]]:
@@ -168,18 +180,32 @@ def _title(ds: Any) -> str:
 
 
 # --------------------------------------------------------------------------- figures
-def plot_sweep_grid(ds: Any, x: str | None = None, max_lines: int = MAX_LINES) -> Figure:
+def _x_values(ds: Any, x: str) -> tuple[np.ndarray, bool]:
+    numeric = _is_numeric(ds, x)
+    return (ds[x].values.astype(float) if numeric else np.arange(ds.sizes[x], dtype=float)), numeric
+
+
+def _x_axis_style(ax: Any, ds: Any, x: str, xs: np.ndarray, numeric: bool) -> None:
+    if not numeric:
+        ax.set_xticks(xs, [str(v) for v in ds[x].values])
+    elif xs.size > 1 and xs.min() > 0 and xs.max() / xs.min() > 30:
+        ax.set_xscale("log")  # an axis over decades (frequency, ODR) reads on a log scale
+    ax.set_xlabel(axis_label(x))
+
+
+def plot_sweep_grid(ds: Any, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
+                    part: str = "") -> Figure:
     """VRE (mg) against grid axis ``x`` (default :func:`x_axis`), one line per combination of
-    the other grid axes (the first ``max_lines`` in file order), ±u error bars when the Dataset
-    has ``u_vre_g``. Failed points are NaN and leave a gap. A text axis is drawn as categories."""
+    the other grid axes (``combos``, default all of them), ±u error bars when the Dataset has
+    ``u_vre_g``. Failed points are NaN and leave a gap. A text axis is drawn as categories.
+    ``part`` is added to the title (which combinations of how many)."""
     if "vre_g" not in ds.data_vars:
         raise ValueError("report: the sweep result has no vre_g variable to plot")
     x = x or x_axis(ds)
     if x is None or UNIT in ds["vre_g"].dims:
         raise ValueError("report: the VRE-against-grid plot needs a grid without a Monte Carlo unit axis")
-    numeric = _is_numeric(ds, x)
-    xs = ds[x].values.astype(float) if numeric else np.arange(ds.sizes[x], dtype=float)
-    combos, total = line_combinations(ds, x, max_lines)
+    xs, numeric = _x_values(ds, x)
+    combos = line_combinations(ds, x) if combos is None else list(combos)
     has_u = "u_vre_g" in ds.data_vars
     fig, axes = _new_figure()
     ax = axes[0, 0]
@@ -199,16 +225,42 @@ def plot_sweep_grid(ds: Any, x: str | None = None, max_lines: int = MAX_LINES) -
             label=(describe_point(sel) if sel else "VRE") + ("" if np.isfinite(y_mg).any() else " (every point failed)"),
         )
     ax.axhline(0, color="0.5", lw=0.8)
-    if not numeric:
-        ax.set_xticks(xs, [str(v) for v in ds[x].values])
-    elif xs.size > 1 and xs.min() > 0 and xs.max() / xs.min() > 30:
-        ax.set_xscale("log")  # an axis over decades (frequency, ODR) reads on a log scale
-    ax.set_xlabel(axis_label(x))
+    _x_axis_style(ax, ds, x, xs, numeric)
     ax.set_ylabel("VRE (mg)" + (" ± u" if has_u else ""))
-    more = f" (first {len(combos)} of {total} combinations)" if total > len(combos) else ""
-    ax.set_title(f"{_title(ds)}: VRE against {x}{more}", fontsize=10)
+    ax.set_title(f"{_title(ds)}: VRE against {x}{part}", fontsize=10)
     if combos and combos[0]:
         ax.legend(fontsize=7.5, loc="best", framealpha=0.9)
+    return fig
+
+
+def plot_lot_spread(ds: Any, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
+                    part: str = "") -> Figure:
+    """A Monte Carlo lot's VRE (mg) against grid axis ``x`` (default :func:`x_axis`): for each
+    combination of the other grid axes (``combos``, default all) the mean over the units (line
+    and markers) and the 5th to 95th percentile band (shaded), both from :func:`lot_statistics`
+    of the units that finished ok. A grid point where none did is a gap."""
+    if "vre_g" not in ds.data_vars or UNIT not in ds["vre_g"].dims:
+        raise ValueError("report: the lot's spread needs vre_g along a Monte Carlo unit axis")
+    x = x or x_axis(ds)
+    if x is None:
+        raise ValueError("report: the lot's spread against a grid axis needs a grid")
+    xs, numeric = _x_values(ds, x)
+    combos = line_combinations(ds, x) if combos is None else list(combos)
+    fig, axes = _new_figure()
+    ax = axes[0, 0]
+    markers = "osD^vP*X"
+    for i, sel in enumerate(combos):
+        stats = [lot_statistics(ds["vre_g"].sel({**sel, x: v}).values) for v in ds[x].values]
+        mean, p5, p95 = (np.array([st[k] for st in stats]) * 1e3 for k in ("mean", "p5", "p95"))
+        color = COLORS[i % len(COLORS)]
+        name = describe_point(sel) if sel else "lot"
+        ax.fill_between(xs, p5, p95, color=color, alpha=0.18, lw=0, label=f"{name}: 5th–95th percentile")
+        ax.plot(xs, mean, "-" + markers[i % len(markers)], color=color, ms=4.5, lw=1.4, label=f"{name}: mean")
+    ax.axhline(0, color="0.5", lw=0.8)
+    _x_axis_style(ax, ds, x, xs, numeric)
+    ax.set_ylabel("VRE (mg)")
+    ax.set_title(f"{_title(ds)}: VRE of the {ds.sizes[UNIT]} units against {x}{part}", fontsize=10)
+    ax.legend(fontsize=7.5, loc="best", framealpha=0.9)
     return fig
 
 
@@ -227,13 +279,13 @@ def lot_statistics(vre_g: np.ndarray) -> dict[str, float]:
     }
 
 
-def plot_lot_histograms(ds: Any, max_panels: int = MAX_HIST_PANELS) -> Figure:
-    """The VRE of the units of a Monte Carlo lot, one histogram per grid point (the first
-    ``max_panels``), with the mean (solid), mean ± one standard deviation (dashed) and the
-    5th / 95th percentiles (dotted) marked and given in the legend in mg."""
+def plot_lot_histograms(ds: Any, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
+    """The VRE of the units of a Monte Carlo lot, one histogram per grid point (``points``,
+    default the first ``MAX_HIST_PANELS``), with the mean (solid), mean ± one standard deviation
+    (dashed) and the 5th / 95th percentiles (dotted) marked and given in the legend in mg."""
     if "vre_g" not in ds.data_vars or UNIT not in ds["vre_g"].dims:
         raise ValueError("report: the histogram needs vre_g along a Monte Carlo unit axis")
-    points = grid_points(ds)[:max_panels]
+    points = grid_points(ds)[:MAX_HIST_PANELS] if points is None else list(points)
     ncols = 1 if len(points) == 1 else 2
     nrows = math.ceil(len(points) / ncols)
     fig, axes = _new_figure(nrows, ncols, height_in=4.6 if nrows == 1 else 3.0 * nrows + 0.6)
@@ -260,18 +312,19 @@ def plot_lot_histograms(ds: Any, max_panels: int = MAX_HIST_PANELS) -> Figure:
         ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of units
     for ax in list(axes.flat)[len(points):]:
         ax.set_visible(False)
-    fig.suptitle(f"{_title(ds)}: VRE across the lot", fontsize=10)
+    fig.suptitle(f"{_title(ds)}: VRE across the lot{part}", fontsize=10)
     return fig
 
 
-def plot_lot_scatter(ds: Any, max_rows: int = MAX_SCATTER_ROWS) -> Figure:
+def plot_lot_scatter(ds: Any, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
     """VRE (mg) of each unit against each drawn parameter: one column per parameter, one row per
-    grid point (the first ``max_rows``). Rows do not share a VRE scale: the spread within a grid
-    point is what shows which parameter drives it, and the level's own VRE would flatten it."""
+    grid point (``points``, default the first ``MAX_SCATTER_ROWS``). Rows do not share a VRE
+    scale: the spread within a grid point is what shows which parameter drives it, and the
+    level's own VRE would flatten it."""
     params = drawn_parameters(ds)
     if "vre_g" not in ds.data_vars or not params:
         raise ValueError("report: the scatter plot needs vre_g and drawn Monte Carlo parameters")
-    points = grid_points(ds)[:max_rows]
+    points = grid_points(ds)[:MAX_SCATTER_ROWS] if points is None else list(points)
     nrows, ncols = len(points), len(params)
     fig = Figure(figsize=(7.6, 0.6 + 2.9 * nrows if nrows > 1 else 4.2), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
@@ -288,7 +341,7 @@ def plot_lot_scatter(ds: Any, max_rows: int = MAX_SCATTER_ROWS) -> Figure:
                 ax.set_xlabel(axis_label(p))
             if j == 0:
                 ax.set_ylabel("VRE (mg)")
-    fig.suptitle(f"{_title(ds)}: VRE of each unit against the drawn parameters", fontsize=10)
+    fig.suptitle(f"{_title(ds)}: VRE of each unit against the drawn parameters{part}", fontsize=10)
     return fig
 
 
@@ -319,41 +372,45 @@ def failed_points(ds: Any) -> list[tuple[dict[str, Any], str]]:
 
 
 def sweep_figures(ds: Any) -> tuple[list[ReportFigure], list[str]]:
-    """The figures of a sweep Dataset, captioned; and notes on what could not be drawn."""
+    """The figures of a sweep Dataset, captioned; and notes on what could not be drawn. Every
+    grid point and every combination is shown, over as many figures as it takes."""
     figs: list[ReportFigure] = []
     notes: list[str] = []
     if "vre_g" not in ds.data_vars:
         return figs, ["No figures: the result has no vre_g variable (output.variables left it out)."]
     n_bad = _status_counts(ds)["failed"] + _status_counts(ds)["missing"]
     gap = f" {n_bad} failed points are gaps." if n_bad else ""
+    x = x_axis(ds)
+    combos = line_combinations(ds, x) if x is not None else []
     if UNIT in ds.dims:
+        if x is not None:
+            for first, piece in chunks(combos, MAX_LINES):
+                part = _part(first, len(piece), len(combos), "combinations")
+                figs.append(ReportFigure.from_figure(
+                    plot_lot_spread(ds, x, piece, part),
+                    f"VRE of the lot's {ds.sizes[UNIT]} units against {x}: their mean (line) and the band from the 5th "
+                    f"to the 95th percentile (shaded), one colour per combination of the other grid axes.{part}"))
         points = grid_points(ds)
-        shown = min(len(points), MAX_HIST_PANELS)
-        more = f" First {shown} of {len(points)} grid points." if len(points) > shown else ""
-        figs.append(
-            ReportFigure.from_figure(
-                plot_lot_histograms(ds),
+        for first, piece in chunks(points, MAX_HIST_PANELS):
+            part = _part(first, len(piece), len(points), "grid points")
+            figs.append(ReportFigure.from_figure(
+                plot_lot_histograms(ds, piece, part),
                 f"VRE across the {ds.sizes[UNIT]} units of the lot at each grid point: mean (solid), "
-                f"±1 standard deviation (dashed), 5th and 95th percentiles (dotted).{more}",
-            )
-        )
+                f"±1 standard deviation (dashed), 5th and 95th percentiles (dotted).{part}"))
         if drawn_parameters(ds):
-            shown = min(len(points), MAX_SCATTER_ROWS)
-            more = f" First {shown} of {len(points)} grid points." if len(points) > shown else ""
-            figs.append(
-                ReportFigure.from_figure(
-                    plot_lot_scatter(ds),
+            for first, piece in chunks(points, MAX_SCATTER_ROWS):
+                part = _part(first, len(piece), len(points), "grid points")
+                figs.append(ReportFigure.from_figure(
+                    plot_lot_scatter(ds, piece, part),
                     "VRE of each unit against each parameter drawn for the lot: a trend shows which "
-                    f"parameter drives the spread.{more}",
-                )
-            )
-    elif grid_axes(ds):
-        x = x_axis(ds)
-        assert x is not None
-        combos, total = line_combinations(ds, x)
-        more = f" Showing the first {len(combos)} of {total} combinations of the other axes (file order)." if total > len(combos) else ""
+                    f"parameter drives the spread.{part}"))
+    elif x is not None:
         err = " Error bars: ±1 standard uncertainty." if "u_vre_g" in ds.data_vars else ""
-        figs.append(ReportFigure.from_figure(plot_sweep_grid(ds, x), f"VRE against {x}, one line per combination of the other grid axes.{err}{gap}{more}"))
+        for first, piece in chunks(combos, MAX_LINES):
+            part = _part(first, len(piece), len(combos), "combinations")
+            figs.append(ReportFigure.from_figure(
+                plot_sweep_grid(ds, x, piece, part),
+                f"VRE against {x}, one line per combination of the other grid axes.{err}{gap}{part}"))
     return figs, notes
 
 
@@ -362,12 +419,10 @@ def sweep_tables(ds: Any) -> list[ReportTable]:
     tables: list[ReportTable] = []
     if UNIT in ds.dims and "vre_g" in ds.data_vars:
         rows = []
-        for sel in grid_points(ds)[:MAX_STATS_ROWS]:
+        for sel in grid_points(ds):
             s = lot_statistics(ds["vre_g"].sel(sel).values)
             rows.append([describe_point(sel), str(s["n"])] + [format_mg(s[k], signed=k != "sd") for k in ("mean", "sd", "p5", "p95")])
-        n_pts = len(grid_points(ds))
-        title = "VRE across the lot" + (f" (first {MAX_STATS_ROWS} of {n_pts} grid points)" if n_pts > MAX_STATS_ROWS else "")
-        tables.append(ReportTable(title, ("grid point", "units ok", "mean (mg)", "sd (mg)", "5th pct (mg)", "95th pct (mg)"), rows, numeric=(1, 2, 3, 4, 5)))
+        tables.append(ReportTable("VRE across the lot", ("grid point", "units ok", "mean (mg)", "sd (mg)", "5th pct (mg)", "95th pct (mg)"), rows, numeric=(1, 2, 3, 4, 5)))
     bad = failed_points(ds)
     if bad:
         rows = [[describe_point(sel), err] for sel, err in bad[:MAX_FAILED_ROWS]]
@@ -447,7 +502,8 @@ def sweep_section(ds: Any, title: str | None = None, provenance: dict[str, Any] 
     )
 
 
-def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None) -> Path:
+def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, title: str | None = None,
+                     metadata: ReportMetadata | None = None) -> Path:
     """Write ``folder/report.html`` from the sweep result ``folder/result.nc``."""
     folder = Path(folder)
     nc = folder / F.SWEEP_RESULT
@@ -457,7 +513,8 @@ def report_sweep_dir(folder: str | Path, argv: Sequence[str] | None = None, titl
     return write_report(
         folder / F.REPORT,
         [sec],
-        title=title or f"Sweep report: {_title(ds)}",
+        title=report_title(title, metadata, f"Sweep report: {_title(ds)}"),
         intro=f"Report of {folder.name or folder.resolve().name}/{F.SWEEP_RESULT}.",
         provenance=default_provenance(argv),
+        metadata=metadata,
     )
