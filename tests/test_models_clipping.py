@@ -340,10 +340,14 @@ def test_truncated_sign_for_positive_mean_in_symmetric_rails(r, frac, s):
 def test_both_gaussian_models_match_mpmath_across_the_space(mu, log_s, r1, log_w):
     """Anywhere in σ 1e-6..1e6 g, rail width 1e-6..1e3 g: 1e-9 relative to 100-digit mpmath.
 
-    Results below 1e-290 g are compared absolutely (float64 cannot hold them relatively).
+    Results below 1e-290 g are compared absolutely (float64 cannot hold them relatively), and so
+    are results below the reference's own resolution: 100 digits of the problem's scale
+    (|μ| + σ + |L| + |U|), where its terms of that size cancel (μ = 7e-120 g between ±0.5 g
+    rails: mpmath returns 0, the shift is of order μ).
     """
     s, low = 10.0**log_s, r1
     high = low + 10.0**log_w
+    floor = max(1e-290, 1e-95 * (abs(mu) + s + abs(low) + abs(high)))
     for ours, ref in ((censored_mean_shift, _mp_censored), (truncated_mean_shift, _mp_truncated)):
         expect = ref(mu, s, low, high)
-        assert ours(mu, s, low, high) == pytest.approx(expect, rel=1e-9, abs=1e-290)
+        assert ours(mu, s, low, high) == pytest.approx(expect, rel=1e-9, abs=floor)

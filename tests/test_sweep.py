@@ -443,7 +443,8 @@ def test_each_bad_field_is_a_value_error_that_names_it(over, field):
         ({"kind": "model", "grid": {"shape": ["square"]}, "fixed": {"rms_g": 1.0}}, "grid.shape"),
         ({"kind": "model", "grid": {"static_g": [1.0]}}, "rms_g"),
         ({"kind": "model", "grid": {"rms_g": "0.5:1:0.5"}, "fixed": {"range_g": "2"}}, "fixed.range_g"),
-        ({"kind": "predict", "grid": {"rms_g": [1.0], "axis": ["w"]}}, "grid.axis"),
+        ({"kind": "predict", "fixed": {"profile": "flat:50-2000"}, "grid": {"rms_g": [1.0], "axis": ["w"]}},
+         "grid.axis"),  # an axis the (default) sensor does not have
         ({"kind": "simulate", "seconds": 0, "grid": {"rms_g": [1.0]}}, "seconds"),
     ],
 )

@@ -357,6 +357,13 @@ def _check_names(fixed: Mapping[str, Any], grid: list[tuple[str, tuple[Any, ...]
             load_sensor(v)
         except (ValueError, OSError) as exc:
             raise ValueError(f"{field_name}: {exc}") from None
+    # an axis is x, y, z or an identified file's channel: each sensor says which it has
+    for field_name, a in values.get("axis", []):
+        for _, v in values.get("sensor", []) or [("", "adxl355")]:  # the points' default sensor
+            try:
+                load_sensor(v, axis=a)
+            except (ValueError, OSError) as exc:
+                raise ValueError(f"{field_name}: {exc}") from None
 
 
 _RESERVED = frozenset({"unit", "units", "index", "status", "error"})
