@@ -11,8 +11,9 @@ set (:func:`vrelab.sensor.parameters.with_parameters`): the same analytic model,
 the same stages, that ``vrelab predict`` evaluates, so identification and prediction cannot
 drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 
-* ``k2_ug_per_g2``, ``k3_ug_per_g3`` — from the orientations: a sine at f in a field g0 gives
-  ``VRE = (k2 + 3·k3·g0)·|H(f)|²·rms²`` (SPEC 1.2, 1.3); two static fields separate them;
+* ``k2_ug_per_g2``, ``k3_ug_per_g3`` — from the sine runs' orientations: a sine at f in a field
+  g0 gives ``VRE = (k2 + 3·k3·g0)·|H(f)|²·rms²`` (SPEC 1.2, 1.3); two static fields separate
+  them (random levels carry k·σ² under the clipping's share, which the rails also shape);
 * ``fn_hz``, ``q`` — from VRC(f) across the sine frequencies, ``|H(f)|² = 1/((1-r²)² + (r/Q)²)``;
 * ``rail_low_g``, ``rail_high_g`` — from the random runs, through the identified dynamics and
   the base sensor's filters (the physical rail where the clip sits, not the effective rail that
@@ -21,12 +22,16 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
   must give the hold time).
 
 What the campaign cannot determine is null with its reason and taken from the base sensor,
-marked so: k3 with one orientation; k2 too when that orientation is not 0 g (then only
-``k2 + 3·k3·g0`` is known, and said); fn and Q without two sine frequencies or without a sine
-run near fn (``f/fn >= 0.5``); a rail or the over-range threshold whose share of the VRE stays
-within 3 standard uncertainties over the random levels. After the fit each such check is made
-with the fitted values; a parameter that fails it is fixed at the base sensor's value and the
-rest refitted.
+marked so: k2 and k3 without a sine run; k3 with one orientation; k2 too when that orientation
+is not 0 g (then only ``k2 + 3·k3·g0`` is known, and said); fn and Q with fewer than three sine
+frequencies (two fix k and one combination of fn and Q), without a sine run near fn
+(``f/fn >= 0.5``) or with a relative u above 50 %; a rail or the over-range threshold whose
+share of the VRE stays within 3 standard uncertainties over the levels. The last three checks
+are made with the fitted values: a rail or the threshold that fails is fixed at the base
+sensor's value and the rest refitted; fn and Q that fail stay free as nuisance parameters (a
+resonance the runs show but do not pin down must not be absorbed by k2 and k3) and are
+reported null. Levels the analytic sum does not cover (a sine peak at a rail; a random level
+where clipping and the nonlinearity interact beyond half its u) are left out with a note.
 
 Uncertainty: the covariance ``(JᵀJ)⁻¹`` of the whitened residuals at the solution (J by
 central differences), scaled by the reduced χ² when that exceeds 1 (the Birge ratio, as the
@@ -865,8 +870,10 @@ def _unit_text(name: str) -> str:
 
 
 def write_sensor_file(path: str | Path, ident: Identification) -> Path:
-    """Write :func:`sensor_file_document` as TOML to ``path``; it is read back and loaded for
-    each channel before this returns (a file that would not load is never left behind)."""
+    """Write :func:`sensor_file_document` as TOML to ``path``: written beside it, loaded for
+    each channel, then renamed into place (a file that would not load is never left behind)."""
+    import os
+
     import tomli_w
 
     from vrelab.sensor import load_sensor
@@ -877,9 +884,14 @@ def write_sensor_file(path: str | Path, ident: Identification) -> Path:
     header = (f"# Identified by vrelab from campaign {ident.campaign!r} (SPEC 6.1): one [axes.<channel>] per channel,\n"
               "# every number's source in its facts, the identified parameters' covariance beside them.\n"
               "# Use it as --sensor with --axis <channel> in predict, simulate and sweep.\n")
-    path.write_text(header + text, encoding="utf-8")
-    for cm in ident.channels:
-        load_sensor(str(path), axis=cm.channel)
+    tmp = path.with_name(path.name + ".partial.toml")
+    try:
+        tmp.write_text(header + text, encoding="utf-8")
+        for cm in ident.channels:
+            load_sensor(str(tmp), axis=cm.channel)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
     return path
 
 
