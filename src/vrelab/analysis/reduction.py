@@ -244,20 +244,26 @@ def _sine_level(
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
     labels = channel_labels(record)
+    # The basis of a batch starting at phase φ is the first batch's, rotated: each harmonic h's
+    # (cos, sin) pair turns by h·φ. So the functions are evaluated once, on L samples; each
+    # batch's sums are the first batch's sums rotated (Gram matrix R·G0·Rᵀ, right side R·(B0·x)),
+    # with no trigonometry per sample.
+    n0 = np.arange(L)
+    rows = [np.ones(L), np.cos(w * n0), np.sin(w * n0)] + ([np.cos(2 * w * n0), np.sin(2 * w * n0)] if two_f else [])
+    B0 = np.stack(rows)  # (functions, L)
+    G0 = B0 @ B0.T
     pos = i0
     for blk in exact_blocks(record, blk_len, chans, i0, stop):
         nn = len(blk["dut"])
         k = nn // L
         sl = slice((pos - i0) // L, (pos - i0) // L + k)
         # Phase from the segment start: batches of whole periods line up with it.
-        ph = w * ((pos - i0) + np.arange(nn))
-        rows = [np.ones(nn), np.cos(ph), np.sin(ph)] + ([np.cos(2 * ph), np.sin(2 * ph)] if two_f else [])
-        B = np.stack(rows).reshape(nf, k, L)  # (functions, batch, L)
-        basis_sums[sl] = np.einsum("ikl,jkl->kij", B, B)
+        R = _harmonic_rotations(w * ((pos - i0) + L * np.arange(k)), nf)  # (batch, nf, nf)
+        basis_sums[sl] = R @ G0 @ R.transpose(0, 2, 1)
         for c in chans:
             x = blk[c]
             check_finite(labels[c], x, pos)
-            rhs[c][sl] = np.einsum("ikl,kl->ki", B, x.reshape(k, L))
+            rhs[c][sl] = np.einsum("kij,kj->ki", R, x.reshape(k, L) @ B0.T)
         pos += nn
     coef = {c: np.linalg.solve(basis_sums, rhs[c][..., None])[..., 0] for c in chans}
     dut_means = coef["dut"][:, 0]
@@ -275,6 +281,19 @@ def _sine_level(
         if np.all(m2 > 0):
             h2 = batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
     return (f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, float(stop - i0), warnings, h2)
+
+
+def _harmonic_rotations(phi: NDArray[np.float64], nf: int) -> NDArray[np.float64]:
+    """Per phase φ, the matrix turning [1, cos θ, sin θ, cos 2θ, sin 2θ] (its first ``nf``)
+    into the same functions of θ + φ: block-diagonal, 1 then the rotation by h·φ of harmonic h."""
+    R = np.zeros((len(phi), nf, nf))
+    R[:, 0, 0] = 1.0
+    for h in range(1, (nf - 1) // 2 + 1):
+        c, s = np.cos(h * phi), np.sin(h * phi)
+        i = 2 * h - 1
+        R[:, i, i], R[:, i, i + 1] = c, -s
+        R[:, i + 1, i], R[:, i + 1, i + 1] = s, c
+    return R
 
 
 def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
