@@ -60,7 +60,7 @@ from vrelab.campaign import SAME_ORIENTATION_G  # static fields closer than this
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.results import Estimate, same_frequency
-from vrelab.sensor.parameters import FACT_KEY, PARAMETERS, UNITS, parameter, with_parameters
+from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
 # quadrature over the levels in units of their standard uncertainty, reaches this.
@@ -168,6 +168,15 @@ def _pooled(u: NDArray[np.float64], dof: NDArray[np.float64]) -> NDArray[np.floa
     the plain mean), so one level whose u came out low by chance does not steer the fit."""
     w = np.where(np.isfinite(dof), dof, 1.0)
     return np.full_like(u, math.sqrt(float(np.sum(w * u**2) / np.sum(w))))
+
+
+def apparent_vrc(ob: Observation) -> tuple[float, float]:
+    """A sine observation's apparent VRC [µg/g²] and its u: the weighted least-squares fit
+    through the origin of VRE = VRC·rms² over its levels (u from the levels' u, unscaled)."""
+    w = 1.0 / ob.u_g**2
+    x2 = ob.rms_g**2
+    s = float(np.sum(w * x2 * x2))
+    return float(np.sum(w * ob.vre_g * x2)) / s * 1e6, 1e6 / math.sqrt(s)
 
 
 def _type_a(level: Mapping[str, Any]) -> float | None:
@@ -404,10 +413,7 @@ def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[s
     start.setdefault("k3_ug_per_g3", parameter(base, "k3_ug_per_g3") or 0.0)
     sines = [ob for ob in obs if ob.method == "sine"]
     if sines:
-        w = [1.0 / ob.u_g**2 for ob in sines]
-        x2 = [ob.rms_g**2 for ob in sines]
-        vrc = np.array([np.sum(wi * ob.vre_g * xi) / np.sum(wi * xi * xi) * 1e6 for ob, wi, xi in zip(sines, w, x2)])
-        u = np.array([1.0 / math.sqrt(np.sum(wi * xi * xi)) * 1e6 for wi, xi in zip(w, x2)])
+        vrc, u = (np.array(a) for a in zip(*(apparent_vrc(ob) for ob in sines)))
         f = np.array([ob.freq_hz for ob in sines])
         g0 = np.array([ob.static_g for ob in sines])
         k3_free = "k3_ug_per_g3" in free
@@ -567,7 +573,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     for n in PARAMETERS:
         if n in values and n not in why:
             i = free.index(n)
-            params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), UNITS[n])
+            params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), TABLE[n].unit)
             used[n] = values[n]
         else:
             params[n] = None
@@ -651,6 +657,7 @@ def _run_table(preds: Sequence[Any], obs: Sequence[Observation]) -> list[dict[st
             "run": ob.run, "label": ob.label, "method": ob.method, "static_g": ob.static_g,
             "freq_hz": ob.freq_hz, "profile": None if ob.profile is None else ob.profile.describe().split(",")[0],
             "n": ob.n, "chi2": float(pulls @ pulls),
+            "vrc_ug_per_g2": None if ob.method != "sine" else dict(zip(("value", "u"), apparent_vrc(ob))),
             "residuals": [{"rms_g": float(r), "vre_g": float(v), "u_vre_g": float(u), "model_g": float(m),
                            "pull": float(z), "model_valid": bool(lv.valid)}
                           for r, v, u, m, z, lv in zip(ob.rms_g, ob.vre_g, ob.u_g, model, pulls, p.levels)],
@@ -769,11 +776,11 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
         runs = [r for r in doc["runs"] if isinstance(r.get("budget"), Mapping)]
         typeb = TypeB(**{k: max((float(r["budget"].get(k, 0.0)) for r in runs), default=0.0) for k in keys})
     name = str(doc.get("name", "campaign"))
-    jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, [])) for ch in obs]
     empty = [ch for ch, o in obs.items() if not o]
     if empty:
         raise ValueError(f"identify: channel {empty[0]!r} has no usable level in any run "
                          f"({'; '.join(notes.get(empty[0], [])) or 'no levels'})")
+    jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, [])) for ch in obs]
     if workers > 1 and len(jobs) > 1:
         from concurrent.futures import ProcessPoolExecutor
 
@@ -840,10 +847,10 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
         for n in PARAMETERS:
             v = cm.values[n]
             e = cm.parameters[n]
-            src = (f"identified from {ident.campaign}, {e.value:.6g} ± {e.u:.2g} {_unit_text(n)}" if e is not None
-                   else f"from base sensor {ident.base_spec} ({cm.reasons.get(n, 'not identified')}): "
-                        f"{base_facts.get(FACT_KEY[n], 'unmarked')}")
-            fk = FACT_KEY[n]
+            fk = TABLE[n].fact_key
+            src = (f"identified from {ident.campaign}, {e.value:.6g} ± {e.u:.2g} {TABLE[n].text_unit}".rstrip()
+                   if e is not None else f"from base sensor {ident.base_spec} ({cm.reasons.get(n, 'not identified')}): "
+                   f"{base_facts.get(fk, 'unmarked')}")
             f[fk] = f"{f[fk]}; {_side(n)}: {src}" if fk in f else (f"{_side(n)}: {src}" if n.startswith("rail") else src)
             if v is None:
                 continue
@@ -863,10 +870,6 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
 
 def _side(name: str) -> str:
     return {"rail_low_g": "lower", "rail_high_g": "upper"}.get(name, name)
-
-
-def _unit_text(name: str) -> str:
-    return {"ug/g^2": "µg/g²", "ug/g^3": "µg/g³", "1": ""}.get(UNITS[name], UNITS[name])
 
 
 def write_sensor_file(path: str | Path, ident: Identification) -> Path:
@@ -896,4 +899,4 @@ def write_sensor_file(path: str | Path, ident: Identification) -> Path:
 
 
 __all__ = ["Observation", "ChannelModel", "Identification", "observations", "identify", "identify_channel",
-           "model_levels", "cross_check_2f", "sensor_file_document", "write_sensor_file", "REACH_SIGMA", "NEAR_FN"]
+           "model_levels", "apparent_vrc", "cross_check_2f", "sensor_file_document", "write_sensor_file", "REACH_SIGMA", "NEAR_FN"]

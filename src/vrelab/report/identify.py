@@ -9,7 +9,6 @@ from), the apparent VRC of every sine run against frequency with the identified
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -27,29 +26,16 @@ from vrelab.report.html import (
     write_report,
 )
 from vrelab.report.metadata import ReportMetadata
-
-_UNITS = {"ug/g^2": "µg/g²", "ug/g^3": "µg/g³", "1": "", "Hz": "Hz", "g": "g"}
-
-
-def _apparent_vrc(run: Mapping[str, Any]) -> tuple[float, float] | None:
-    """A sine run's apparent VRC [µg/g²] and its u: the weighted fit through the origin of
-    VRE = VRC·rms² over its levels (what the campaign's VRC(f) shows)."""
-    res = run.get("residuals") or []
-    if run.get("method") != "sine" or not res:
-        return None
-    x2 = np.array([r["rms_g"] ** 2 for r in res])
-    w = 1.0 / np.array([r["u_vre_g"] ** 2 for r in res])
-    v = np.array([r["vre_g"] for r in res])
-    s = float(np.sum(w * x2 * x2))
-    return float(np.sum(w * v * x2) / s * 1e6), 1e6 / math.sqrt(s)
-
+from vrelab.sensor.parameters import TABLE
 
 def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
-    """Apparent VRC of each sine run (markers, 1 u) and the identified model per orientation."""
+    """Apparent VRC of each sine run (markers, 1 u: :func:`vrelab.identify.apparent_vrc`, read
+    from the document) and the identified model per orientation."""
     from vrelab.models.dynamics import vrc_at_frequency
     from vrelab.report.plots import _new_figure
 
-    pts = [(r["freq_hz"], r["static_g"], *vu) for r in ch.get("runs") or [] if (vu := _apparent_vrc(r)) is not None]
+    pts = [(r["freq_hz"], r["static_g"], r["vrc_ug_per_g2"]["value"], r["vrc_ug_per_g2"]["u"])
+           for r in ch.get("runs") or [] if r.get("vrc_ug_per_g2")]
     if not pts:
         return None
     used = ch.get("values_used") or {}
@@ -109,7 +95,7 @@ def _parameter_rows(ch: Mapping[str, Any]) -> list[list[str]]:
             rows.append([name, "null", "" if used is None else f"{used:.6g} (base sensor)",
                          (ch.get("null_reasons") or {}).get(name, "")])
         else:
-            rows.append([name, f"{format_value_u(e['value'], e['u'])} {_UNITS.get(e.get('unit', ''), '')}".strip(),
+            rows.append([name, f"{format_value_u(e['value'], e['u'])} {TABLE[name].text_unit}".strip(),
                          "identified", ""])
     return rows
 

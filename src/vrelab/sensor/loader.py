@@ -515,9 +515,9 @@ def load_sensor(
         _check_keys(ranges_table[range_key], set(BY_KEY), f"{where} [ranges.{range_key}]")
         _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
         # a value the range's table sets was not the one identified on the axis: not an estimate here
-        from vrelab.sensor.parameters import FILE_KEY
+        from vrelab.sensor.parameters import TABLE
 
-        covariance = _without(covariance, {n for n, key in FILE_KEY.items() if key in ranges_table[range_key]})
+        covariance = _without(covariance, {n for n, p in TABLE.items() if p.file_key in ranges_table[range_key]})
     if chosen_odr is not None:
         per_odr = data.get("bandwidth_per_odr")
         if per_odr is not None:
@@ -557,8 +557,9 @@ def load_sensor(
 
 
 def _without(cov: Any, names: set[str]) -> Any:
-    """The covariance without the parameters the user set by hand (--k2, --k3: exact, no longer
-    estimates); None when nothing is left."""
+    """The covariance without ``names``: parameters set otherwise than by the identification (by
+    hand with --k2/--k3, or by the chosen range's table), no longer estimates here; None when
+    nothing is left."""
     if not isinstance(cov, Mapping) or not names or not isinstance(cov.get("params"), list):
         return cov
     keep = [i for i, p in enumerate(cov["params"]) if p not in names]

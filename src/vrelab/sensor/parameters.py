@@ -1,59 +1,68 @@
 """The parameters of a sensor's VRE model that a campaign can identify (SPEC 6.1).
 
-One table: the name a parameter has in ``vrelab identify``'s JSON and in an identified sensor
-file's covariance (units in the name), and how it reads from and writes to a
-:class:`~vrelab.sensor.Sensor`. :mod:`vrelab.identify` fits these on a base sensor, and
+One table (:data:`TABLE`): the name a parameter has in ``vrelab identify``'s JSON and in an
+identified sensor file's covariance (units in the name), its unit, the sensor-file key that
+holds it, the ``facts`` key that says where it comes from, and how it reads from and writes to
+a :class:`~vrelab.sensor.Sensor`. :mod:`vrelab.identify` fits these on a base sensor, and
 :func:`vrelab.predict.predict` carries an identified sensor's covariance over the same names
 into ``u_vre_g``: both go through :func:`with_parameters`, so they cannot read a parameter two
 ways.
-
-========================  ======================  ===============================================
-name                      Sensor attribute        meaning
-========================  ======================  ===============================================
-``k2_ug_per_g2``          ``k2_per_g`` × 1e6      second-order nonlinearity (the VRC), SPEC 1.2
-``k3_ug_per_g3``          ``k3_per_g2`` × 1e6     third-order nonlinearity, SPEC 1.2
-``fn_hz``                 ``fn_hz``               proof-mass resonance, SPEC 1.3
-``q``                     ``q``                   its quality factor
-``rail_low_g``            ``rails_g[0]``          lower rail (physical, where the clip sits)
-``rail_high_g``           ``rails_g[1]``          upper rail
-``overrange_threshold_g`` ``overrange_threshold_g``  over-range trip level on the proof mass
-========================  ======================  ===============================================
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Mapping
 
 if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
-PARAMETERS: tuple[str, ...] = (
-    "k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "rail_low_g", "rail_high_g", "overrange_threshold_g",
-)  # fmt: skip
-UNITS = {"k2_ug_per_g2": "ug/g^2", "k3_ug_per_g3": "ug/g^3", "fn_hz": "Hz", "q": "1", "rail_low_g": "g",
-         "rail_high_g": "g", "overrange_threshold_g": "g"}
-# The sensor file's key that holds each parameter.
-FILE_KEY = {"k2_ug_per_g2": "k2_ug_per_g2", "k3_ug_per_g3": "k3_ug_per_g3", "fn_hz": "fn_hz", "q": "q",
-            "rail_low_g": "rails_g", "rail_high_g": "rails_g", "overrange_threshold_g": "overrange_threshold_g"}
-# The sensor file's fact key (a Sensor attribute name) that says where each parameter comes from.
-FACT_KEY = {"k2_ug_per_g2": "k2_per_g", "k3_ug_per_g3": "k3_per_g2", "fn_hz": "fn_hz", "q": "q",
-            "rail_low_g": "rails_g", "rail_high_g": "rails_g", "overrange_threshold_g": "overrange_threshold_g"}
+
+@dataclass(frozen=True)
+class Param:
+    """One identifiable parameter: ``Sensor.<attribute>`` (element ``rail`` of a rails pair)
+    holds ``value / scale``."""
+
+    name: str  # JSON and covariance name, units in it
+    unit: str  # ASCII, as in the JSON
+    text_unit: str  # for people
+    file_key: str  # the sensor file's key that holds it
+    attribute: str  # the Sensor attribute
+    scale: float = 1.0
+    rail: int | None = None  # 0 (low) or 1 (high) of rails_g
+
+    @property
+    def fact_key(self) -> str:
+        """The ``facts`` key (a Sensor attribute) saying where the number comes from."""
+        return self.attribute
+
+
+TABLE: dict[str, Param] = {p.name: p for p in (
+    Param("k2_ug_per_g2", "ug/g^2", "µg/g²", "k2_ug_per_g2", "k2_per_g", 1e6),
+    Param("k3_ug_per_g3", "ug/g^3", "µg/g³", "k3_ug_per_g3", "k3_per_g2", 1e6),
+    Param("fn_hz", "Hz", "Hz", "fn_hz", "fn_hz"),
+    Param("q", "1", "", "q", "q"),
+    Param("rail_low_g", "g", "g", "rails_g", "rails_g", rail=0),
+    Param("rail_high_g", "g", "g", "rails_g", "rails_g", rail=1),
+    Param("overrange_threshold_g", "g", "g", "overrange_threshold_g", "overrange_threshold_g"),
+)}  # fmt: skip
+PARAMETERS: tuple[str, ...] = tuple(TABLE)
+
+
+def _param(name: str) -> Param:
+    if name not in TABLE:
+        raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(PARAMETERS)}")
+    return TABLE[name]
 
 
 def parameter(sensor: "Sensor", name: str) -> float | None:
     """The value of ``name`` on ``sensor`` in the parameter's units (None: the element is absent)."""
-    if name == "k2_ug_per_g2":
-        return sensor.k2_per_g * 1e6
-    if name == "k3_ug_per_g3":
-        return sensor.k3_per_g2 * 1e6
-    if name == "rail_low_g":
-        return sensor.rails_g[0]
-    if name == "rail_high_g":
-        return sensor.rails_g[1]
-    if name in ("fn_hz", "q", "overrange_threshold_g"):
-        return getattr(sensor, name)
-    raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(PARAMETERS)}")
+    p = _param(name)
+    v = getattr(sensor, p.attribute)
+    if p.rail is not None:
+        v = v[p.rail]
+    return None if v is None else float(v) * p.scale
 
 
 def with_parameters(sensor: "Sensor", values: Mapping[str, float]) -> "Sensor":
@@ -65,20 +74,13 @@ def with_parameters(sensor: "Sensor", values: Mapping[str, float]) -> "Sensor":
     change: dict[str, object] = {}
     rails = list(sensor.rails_g)
     for name, v in values.items():
-        v = float(v)
-        if name == "k2_ug_per_g2":
-            change["k2_per_g"] = v / 1e6
-        elif name == "k3_ug_per_g3":
-            change["k3_per_g2"] = v / 1e6
-        elif name == "rail_low_g":
-            rails[0] = v
-        elif name == "rail_high_g":
-            rails[1] = v
-        elif name in ("fn_hz", "q", "overrange_threshold_g"):
-            change[name] = v
+        p = _param(name)
+        if p.rail is not None:
+            rails[p.rail] = float(v)
+            change["rails_g"] = None  # set below, once both sides are known
         else:
-            raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(PARAMETERS)}")
-    if "rail_low_g" in values or "rail_high_g" in values:
+            change[p.attribute] = float(v) / p.scale
+    if "rails_g" in change:
         if not rails[0] < rails[1]:
             raise ValueError(f"rails must satisfy low < high, got [{rails[0]:g}, {rails[1]:g}] g")
         change["rails_g"] = (rails[0], rails[1])
