@@ -591,7 +591,7 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
             "method": rr.results[0][1].method if rr.results else r.method,
             # what identification needs of the run beyond its levels (vrelab.identify): the drive's
             # spectrum shape and the declared Type B budget
-            "profile": _profile_doc(r.profile), "budget": dict(r.budget),
+            "profile": profile_document(r.profile), "budget": dict(r.budget),
             "channels": [],
         }  # fmt: skip
         for name, res in rr.results:
@@ -617,7 +617,7 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
     }
 
 
-def _profile_doc(spec: str | None) -> dict[str, Any] | None:
+def profile_document(spec: str | None) -> dict[str, Any] | None:
     """A run's profile as the campaign document keeps it: the spec and the breakpoints (so a
     campaign folder is self-contained: its profile files need not travel with it)."""
     if spec is None:

@@ -23,6 +23,7 @@ REFERENCE_MV_PER_G = 10.0  # an IEPE reference accelerometer
 DUT_LSB_PER_G = 256000.0  # ADXL355 on ±2 g
 BLOCK = 1 << 16
 RANDOM_BAND_HZ = (50.0, 500.0)  # the random runs' flat drive
+RANDOM_PROFILE = f"flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}"  # the same, as a manifest says it
 
 
 @dataclass(frozen=True)
@@ -95,13 +96,14 @@ def example_truth() -> CampaignTruth:
     return CampaignTruth(EXAMPLE_SENSOR, parts, 1200.0, 4.0, 2.048, runs)
 
 
-def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float) -> Any:
+def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: float | None = None) -> Any:
+    """The run's TestPlan: sine at its frequency, or random flat over RANDOM_BAND_HZ."""
     from vrelab.profiles import RandomProfile
     from vrelab.simulation.plan import TestPlan
 
     # the rate rule's rate (vrelab.rates): at a lower rate the discretised resonance departs from
     # H(f) near fn (at 4 kHz, |H(1 kHz)|² comes out 7 % high)
-    kw = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed)
+    kw = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed, settle_s=settle_s)
     if run.freq_hz is None:
         return TestPlan.random(sensor, RandomProfile.flat(*RANDOM_BAND_HZ), run.levels_g, **kw)
     return TestPlan.sine(sensor, [run.freq_hz], run.levels_g, **kw)
@@ -174,7 +176,7 @@ def _manifest_text(truth: CampaignTruth, entries: Sequence[tuple[Path, Mapping[s
             f'reference = "{names["reference"]}"',
             f"dut = {duts}",
             f"static_g = {run.static_g:g}",
-            *([f'profile = "flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}"   # what the controller ran'] if run.freq_hz is None else []),
+            *([f'profile = "{RANDOM_PROFILE}"   # what the controller ran'] if run.freq_hz is None else []),
             "",
         ]
     return "\n".join(lines)
@@ -358,29 +360,16 @@ def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, se
     one :class:`TestPlan` (seed ``seed·1000 + index``) reduced as a lab file by
     :func:`vrelab.shaker.run_test`; ``fmt`` of the runs is ignored. For planning a campaign
     (would it determine Q?) and for the identification's recovery tests."""
+    from vrelab.campaign import profile_document
     from vrelab.shaker import run_test
 
     doc: dict[str, Any] = {"kind": "campaign", "name": f"simulated {sensor.name}", "runs": []}
     for i, run in enumerate(runs, 1):
-        kw: dict[str, Any] = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed * 1000 + i)
-        if settle_s is not None:
-            kw["settle_s"] = settle_s
-        if run.freq_hz is None:
-            from vrelab.profiles import RandomProfile
-            from vrelab.simulation.plan import TestPlan
-
-            profile = RandomProfile.flat(*RANDOM_BAND_HZ)
-            res = run_test(TestPlan.random(sensor, profile, run.levels_g, **kw))
-        else:
-            from vrelab.simulation.plan import TestPlan
-
-            profile = None
-            res = run_test(TestPlan.sine(sensor, [run.freq_hz], run.levels_g, **kw))
+        res = run_test(_plan(sensor, run, seed * 1000 + i, seconds, settle_s))
         d = res.to_dict()
         doc["runs"].append({
             "index": i, "label": run.label or f"run {i}", "status": "ok", "method": res.method,
-            "profile": None if profile is None else {"spec": f"flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}",
-                                                     **profile.to_dict()},
+            "profile": profile_document(RANDOM_PROFILE) if run.freq_hz is None else None,
             "budget": {}, "channels": [{"channel": channel, "static_g": run.static_g, "levels": d["levels"],
                                         "fits": d["fits"]}],
         })  # fmt: skip
