@@ -1,6 +1,12 @@
 """The HTML pieces every part of the report is built from: escaping, cells, key-value tables and
 tables with a heading. One owner, so the results' sections and the test-report frame
-(:mod:`vrelab.report.testreport`) render a table the same way."""
+(:mod:`vrelab.report.testreport`) render a table the same way.
+
+Every string that reaches the page (a file's channel names, a manifest's name, ``--metadata``
+values) is text, in each of the page's three contexts, and has one escape for each: HTML
+(:func:`esc`), a CSS string (:func:`css_string`) and JSON inside a ``<script>`` element
+(:func:`script_json`). Control characters are shown, not passed on: a form feed is a line break
+to CSS (it ended the report number's string and let the rest be rules)."""
 
 from __future__ import annotations
 
@@ -21,8 +27,44 @@ class ReportTable:
     numeric: Sequence[int] = ()
 
 
+def _shown(ch: str) -> str:
+    o = ord(ch)
+    if o < 0x20 and ch not in "\t\n\r":
+        return chr(0x2400 + o)  # the control picture: \f shows as ␌
+    if o == 0x7F:
+        return "\u2421"
+    if 0x80 <= o <= 0x9F:
+        return "\ufffd"
+    return ch
+
+
+_CONTROLS = {c: _shown(chr(c)) for c in (*range(0x20), *range(0x7F, 0xA0)) if _shown(chr(c)) != chr(c)}
+
+
 def esc(x: Any) -> str:
-    return html.escape(str(x), quote=True)
+    """``x`` as HTML text or a quoted attribute value: ``& < > " '`` escaped, control characters
+    (but tab and line breaks) shown as their pictures (U+2400 block) or U+FFFD."""
+    return html.escape(str(x).translate(_CONTROLS), quote=True)
+
+
+def css_string(s: str) -> str:
+    """``s`` as a quoted CSS string: every character that could end the string or the style
+    element (quotes, backslash, ``< > &``, every control character, U+2028/9) as a CSS hex
+    escape (CSS Syntax 3, 4.3.7: ``\\hex`` ended by one space)."""
+    def safe(ch: str) -> bool:
+        o = ord(ch)
+        return 0x20 <= o < 0x7F and ch not in "\\\"'<>&" or o >= 0xA0 and ch not in "\u2028\u2029"
+
+    return '"' + "".join(ch if safe(ch) else f"\\{ord(ch):x} " for ch in s) + '"'
+
+
+def script_json(text: str) -> str:
+    """JSON text made safe inside a ``<script>`` element: ``<``, ``>``, ``&`` and U+2028/9 as
+    ``\\uXXXX`` (they occur only inside JSON strings, where the escape means the same), so
+    neither ``</script`` nor ``<!--`` can end or change the element."""
+    for ch in "<>&\u2028\u2029":
+        text = text.replace(ch, f"\\u{ord(ch):04x}")
+    return text
 
 
 def cell(v: Any) -> str:
