@@ -42,22 +42,28 @@ def _is_v4(conv: Any) -> bool:
     return isinstance(conv, v4_blocks.ChannelConversion)
 
 
-def conversion_refusal(conv: Any) -> str | None:
+def conversion_refusal(conv: Any, depth: int = 0) -> str | None:
     """What is wrong with applying conversion ``conv`` (an asammdf ``ChannelConversion`` or None),
-    or None: it is arithmetic on the block's numbers (or it makes text, see :func:`_makes_text`).
-    An algebraic/formula conversion is text from the file that asammdf would evaluate; a type
-    this reader does not know is refused as well rather than handed to asammdf."""
+    or None: it is arithmetic on the block's numbers, or makes text from tables whose referenced
+    conversions (a value-to-text table's entries and default may be conversions) are themselves
+    free of formulas. An algebraic/formula conversion is text from the file that asammdf would
+    evaluate; a type this reader does not know is refused as well rather than handed to asammdf."""
     if conv is None:
         return None
     v4 = _is_v4(conv)
     kind = int(conv.conversion_type)
-    if kind in (_ARITHMETIC_V4 if v4 else _ARITHMETIC_V3) or kind in (_TEXT_V4 if v4 else _TEXT_V3):
-        return None
     if kind == _FORMULA[v4]:
         text = str(getattr(conv, "formula", ""))
         shown = text if len(text) <= 80 else text[:80] + "..."
         return f"an algebraic conversion (formula {shown!r})"
-    return f"a conversion of unknown type {kind}"
+    if kind in (_ARITHMETIC_V4 if v4 else _ARITHMETIC_V3):
+        return None
+    if kind not in (_TEXT_V4 if v4 else _TEXT_V3):
+        return f"a conversion of unknown type {kind}"
+    refs = [b for b in (getattr(conv, "referenced_blocks", None) or {}).values() if hasattr(b, "conversion_type")]
+    if refs and depth >= 4:
+        return "value-to-text conversions nested more than 4 deep"
+    return next((why for why in (conversion_refusal(b, depth + 1) for b in refs) if why), None)
 
 
 def _makes_text(conv: Any) -> bool:
