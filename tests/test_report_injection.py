@@ -15,7 +15,7 @@ import re
 from pathlib import Path
 
 import pytest
-from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for
+from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for, open_page
 
 from vrelab.folder import ResultsFolder
 from vrelab.report import report_dir
@@ -90,12 +90,7 @@ new Promise(function (done) {
 def _load(report: Path, work: Path, figures: bool) -> tuple[dict, list[str], list[str]]:
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
-        target = cdp.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-        session = cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-        for domain in ("Page", "Runtime", "Log", "Network"):
-            cdp.send(f"{domain}.enable", session=session)
-        cdp.send("Page.navigate", {"url": report.resolve().as_uri()}, session=session)
-        cdp.wait_event("Page.loadEventFired")
+        session = open_page(cdp, report)
         if figures:
             _wait_for(cdp, session, "document.querySelectorAll('figure.live').length >= 1")
         state = json.loads(_eval(cdp, session, _PROBE))
