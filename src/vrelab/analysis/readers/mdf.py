@@ -6,8 +6,9 @@ read (``raw=True``) and the channel's conversion applied only when it is arithme
 from the file (identity, linear, rational, polynomial, exponential, logarithmic, tables): asammdf
 evaluates an algebraic (formula) conversion's text through numexpr, else sympy (an ``eval``), so
 a file with one, on any channel or time channel, is refused naming the channel and the formula
-(:func:`conversion_refusal`); value-to-text conversions make no numbers (the channel is not listed). The sample rate comes from the master channel of each used
-channel's group: checked evenly spaced (1e-6 relative), and one rate for every channel read.
+(:func:`conversion_refusal`); value-to-text conversions make no numbers (the channel is not
+listed). The sample rate comes from the master channel of each used channel's group: checked
+evenly spaced (1e-6 relative), and one rate for every channel read.
 
 Memory: reads are record ranges (``get(record_offset=, record_count=)``), so a stretch costs
 the records it spans, not the file; opening reads the file's metadata (asammdf's ``MDF``).
@@ -100,9 +101,13 @@ class MdfSource(Source):
             raise ValueError(f"{path.name}: cannot read as MDF: {type(exc).__name__}: {exc}") from None
         self.where: dict[str, tuple[int, int]] = {}
         self._rates: dict[int, float | None] = {}
-        for grp in self.mdf.groups:  # every channel, time channels too, before any value is read
-            for ch in grp.channels:
-                self._refuse_formula(str(ch.name), ch.conversion)
+        try:
+            for grp in self.mdf.groups:  # every channel, time channels too, before any value is read
+                for ch in grp.channels:
+                    self._refuse_formula(str(ch.name), ch.conversion)
+        except ValueError:
+            self.mdf.close()
+            raise
         masters = {i: g.channel_group for i, g in enumerate(self.mdf.groups)}
         for name, places in self.mdf.channels_db.items():
             for gi, ci in places:
