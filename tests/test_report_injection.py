@@ -42,13 +42,14 @@ def test_escapes_cover_each_context() -> None:
     """Each escape against its context's own rule (CSS Syntax 3 4.3.5: a string ends at its quote
     or a newline, \\n \\r \\f; HTML 13.2: < and & start markup; a script element ends at
     ``</script``): what comes out holds none of the characters that would end the context."""
-    s = "a\fb\"c'd\\e<f>g&h\ri\nj\x00k\u2028l\x7fm\x85n" + "é"
+    s = "a\fb\"c'd\\e<f>g&h\ri\nj\x00k\u2028l\x7fm\x85n\u202eo" + "é"
     c = css_string(s)
-    assert c[0] == c[-1] == '"' and not set(c[1:-1]) & set("\f\r\n\"'\\<>&\x00\u2028\x7f\x85") - {"\\"}
+    assert c[0] == c[-1] == '"' and not set(c[1:-1]) & set("\f\r\n\"'<>&\x00\u2028\x7f\x85\u202e")
     assert re.fullmatch(r'"(?:[^\\"]|\\[0-9a-f]+ )*"', c)  # only hex escapes, each ended by its space
-    assert "é" in c  # text beyond ASCII is kept as itself
+    assert "é" in c and "␌" in c and "␀" in c  # text beyond ASCII kept; controls shown as their pictures
     h = esc(s)
-    assert not set(h) & set("<>\"'\f\x00\x7f\x85") and "␌" in h and "␀" in h
+    assert not set(h) & set("<>\"'\f\x00\x7f\x85\u202e") and "␌" in h and "␀" in h
+    assert esc("\u202eSSAP") == "\ufffdSSAP"  # a right-to-left override cannot show "PASS"
     j = script_json(json.dumps({"name": "</script><!--\u2028"}, ensure_ascii=False))
     assert "</" not in j and "<!--" not in j and "\u2028" not in j
     assert json.loads(j) == {"name": "</script><!--\u2028"}

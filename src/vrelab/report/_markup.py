@@ -33,29 +33,36 @@ def _shown(ch: str) -> str:
         return chr(0x2400 + o)  # the control picture: \f shows as ␌
     if o == 0x7F:
         return "\u2421"
-    if 0x80 <= o <= 0x9F:
-        return "\ufffd"
-    return ch
+    return "\ufffd"  # C1 controls; bidi embeddings, overrides and isolates (they reorder the text shown)
 
 
-_CONTROLS = {c: _shown(chr(c)) for c in (*range(0x20), *range(0x7F, 0xA0)) if _shown(chr(c)) != chr(c)}
+_CONTROLS = {c: _shown(chr(c)) for c in (*(c for c in range(0x20) if chr(c) not in "\t\n\r"), *range(0x7F, 0xA0),
+                                         *range(0x202A, 0x202F), *range(0x2066, 0x206A))}
+
+
+def shown_text(x: Any) -> str:
+    """``str(x)`` with its control characters made visible and inert (the report's one rule):
+    C0 controls but tab and line breaks as their pictures (U+2400 block: a form feed is ␌),
+    DEL as ␡, C1 controls and bidirectional embeddings, overrides and isolates as U+FFFD (an
+    override would show "SSAP" for "PASS")."""
+    return str(x).translate(_CONTROLS)
 
 
 def esc(x: Any) -> str:
-    """``x`` as HTML text or a quoted attribute value: ``& < > " '`` escaped, control characters
-    (but tab and line breaks) shown as their pictures (U+2400 block) or U+FFFD."""
-    return html.escape(str(x).translate(_CONTROLS), quote=True)
+    """``x`` as HTML text or a quoted attribute value: :func:`shown_text`, then ``& < > " '``
+    escaped."""
+    return html.escape(shown_text(x), quote=True)
 
 
 def css_string(s: str) -> str:
-    """``s`` as a quoted CSS string: every character that could end the string or the style
-    element (quotes, backslash, ``< > &``, every control character, U+2028/9) as a CSS hex
-    escape (CSS Syntax 3, 4.3.7: ``\\hex`` ended by one space)."""
+    """``s`` as a quoted CSS string: :func:`shown_text`, then every character that could end the
+    string or the style element (quotes, backslash, ``< > &``, line breaks, U+2028/9) as a CSS
+    hex escape (CSS Syntax 3, 4.3.7: ``\\hex`` ended by one space)."""
     def safe(ch: str) -> bool:
         o = ord(ch)
         return 0x20 <= o < 0x7F and ch not in "\\\"'<>&" or o >= 0xA0 and ch not in "\u2028\u2029"
 
-    return '"' + "".join(ch if safe(ch) else f"\\{ord(ch):x} " for ch in s) + '"'
+    return '"' + "".join(ch if safe(ch) else f"\\{ord(ch):x} " for ch in shown_text(s)) + '"'
 
 
 def script_json(text: str) -> str:
