@@ -328,6 +328,19 @@ def pdf_pages(pdf: Path) -> list[dict]:
     return pages
 
 
+def open_page(cdp: CDP, report: Path) -> str:
+    """Open ``report`` in a new tab, 1280 px wide, with the page, console, log and network events
+    on; return the tab's DevTools session once the page has loaded."""
+    target = cdp.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+    session = cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
+    for domain in ("Page", "Runtime", "Log", "Network"):
+        cdp.send(f"{domain}.enable", session=session)
+    cdp.send("Emulation.setDeviceMetricsOverride", {"width": 1280, "height": 1000, "deviceScaleFactor": 1, "mobile": False}, session=session)
+    cdp.send("Page.navigate", {"url": report.resolve().as_uri()}, session=session)
+    cdp.wait_event("Page.loadEventFired")
+    return session
+
+
 def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | None = None) -> tuple[dict, list[dict]]:
     """Load ``report`` in headless Chromium; wait until its script has drawn the interactive
     figures; hover and zoom each with the mouse; save a full-page screenshot; with ``pdf``,
@@ -336,13 +349,7 @@ def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | N
     DevTools events seen."""
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
-        target = cdp.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-        session = cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-        for domain in ("Page", "Runtime", "Log", "Network"):
-            cdp.send(f"{domain}.enable", session=session)
-        cdp.send("Emulation.setDeviceMetricsOverride", {"width": 1280, "height": 1000, "deviceScaleFactor": 1, "mobile": False}, session=session)
-        cdp.send("Page.navigate", {"url": report.resolve().as_uri()}, session=session)
-        cdp.wait_event("Page.loadEventFired")
+        session = open_page(cdp, report)
         specs = _eval(cdp, session, "document.querySelectorAll('script[type=\"application/json\"]').length")
         # Drawn (class "live") or given up (its box removed, an error on the console).
         _wait_for(cdp, session, "document.querySelectorAll('figure.live').length + "

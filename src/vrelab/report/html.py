@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
+import hashlib
 import io
 import json
 import math
@@ -29,7 +30,7 @@ from vrelab import folder as F
 from vrelab._format import format_mg, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
-from vrelab.report._markup import ReportTable, esc, kv_table, table_html
+from vrelab.report._markup import ReportTable, esc, kv_table, script_json, table_html
 from vrelab.report.metadata import ReportMetadata
 from vrelab.results import FitResult, VreResult
 
@@ -119,6 +120,20 @@ _BOOT_JS = """
   });
 })();
 """
+
+
+_JS_CLASS = "document.documentElement.classList.add('js')"
+
+
+def content_security_policy(scripts: Sequence[str]) -> str:
+    """The report's Content-Security-Policy: no network request of any kind (``default-src
+    'none'``: no fetch, image, font, frame or form target outside the file), only the report's own
+    inline scripts (each by its SHA-256, so a script that got into the page some other way does
+    not run), inline styles (plotly sets them), images from ``data:``/``blob:`` (the figures'
+    PNGs, plotly's PNG download). CSP Level 3, https://www.w3.org/TR/CSP3/."""
+    hashes = " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(js.encode()).digest()).decode()}'" for js in scripts)
+    return ("default-src 'none'; " + (f"script-src {hashes}; " if hashes else "")
+            + "style-src 'unsafe-inline'; img-src data: blob:; base-uri 'none'; form-action 'none'")
 
 
 @dataclass(frozen=True)
@@ -408,9 +423,9 @@ def _figure_html(fig: ReportFigure, fid: str, alt: str) -> str:
     b64 = base64.b64encode(fig.png).decode("ascii")
     live = ""
     if fig.plotly_json is not None:
-        # type="application/json": data, never run; the JSON escapes "<", ">" and "/".
+        # type="application/json": data, never run (and not allowed to run by the page's CSP)
         live = (f'<div class="iplot" data-spec="{esc(fid)}-data" role="img" aria-label="{esc(alt)}"></div>'
-                f'<script type="application/json" id="{esc(fid)}-data">{fig.plotly_json}</script>')
+                f'<script type="application/json" id="{esc(fid)}-data">{script_json(fig.plotly_json)}</script>')
     return (f'<figure id="{esc(fid)}">{live}<img class="static" src="data:image/png;base64,{b64}" alt="{esc(alt)}">'
             + (f"<figcaption>{esc(fig.caption)}</figcaption>" if fig.caption else "") + "</figure>")
 
@@ -493,17 +508,19 @@ def render_report(
                      metadata=meta, provenance=prov)
     foot = "; ".join(f"{esc(k.replace('_', ' '))}: {esc(v)}" for k, v in prov.items())
     live = any(f.plotly_json is not None for s in sections for f in s.figures)
-    scripts = ""
+    run: list[str] = []
     if live:
         from vrelab.report.interactive import plotly_js
 
         # plotly.js once for the whole file, then one small script draws every figure.
-        scripts = f"<script>{plotly_js()}</script><script>{_BOOT_JS}</script>"
+        run = [_JS_CLASS, plotly_js(), _BOOT_JS]
+    scripts = "".join(f"<script>{js}</script>" for js in run[1:])
     return (
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        f'<meta http-equiv="Content-Security-Policy" content="{content_security_policy(run)}">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
         f"<title>{esc(title)}</title><style>{_CSS}{T.page_css(meta, title)}</style>"
-        + ("<script>document.documentElement.classList.add('js')</script>" if live else "")
+        + "".join(f"<script>{js}</script>" for js in run[:1])
         + "</head><body>"
         + T.render(doc)
         + f"<footer>Report provenance — {foot}</footer>{scripts}</body></html>\n"

@@ -35,6 +35,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.text import Annotation, Text
 
+from vrelab.report._markup import shown_text
+
 __all__ = ["Unsupported", "plotly_js", "to_plotly", "to_plotly_json"]
 
 # Arrays longer than this go to the browser as float32 (7 significant digits, hover shows 4):
@@ -64,8 +66,9 @@ def plotly_js() -> str:
 
 
 def _text(s: Any) -> str:
-    # plotly renders labels as a small HTML subset: escape, so a channel named "<b>" is text.
-    return html.escape(str(s), quote=False).replace("\n", "<br>")
+    # plotly renders labels as a small HTML subset: escape, so a channel named "<b>" is text
+    # (control characters shown by the report's one rule first).
+    return html.escape(shown_text(s), quote=False).replace("\n", "<br>")
 
 
 def _color(c: Any, alpha: float | None = None) -> str:

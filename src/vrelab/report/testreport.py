@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 from vrelab import __version__
 from vrelab._format import format_mg
-from vrelab.report._markup import ReportTable, esc, kv_table, table_html
+from vrelab.report._markup import ReportTable, css_string, esc, kv_table, table_html
 from vrelab.report.metadata import NOT_GIVEN, ReportMetadata
 from vrelab.results import VreResult
 
@@ -367,16 +367,11 @@ def render(doc: Document) -> str:
     return "\n".join(out)
 
 
-def _css_string(s: str) -> str:
-    # A CSS string: backslash, quote and line breaks escaped; "<" too, so "</style>" cannot end it.
-    return '"' + "".join(f"\\{ord(ch):x} " if ch in '\\"<>\n\r' else ch for ch in s) + '"'
-
-
 def page_css(meta: ReportMetadata, title: str) -> str:
     """@page rules: margins that fit A4 and letter, the report's number (or title) and "Page x of
     y" in the bottom margin of every printed page (ISO/IEC 17025 7.8.2.1 e)."""
     ident = meta.get("", "report_number")
     left = f"Report {ident}" if ident else title
     return ("\n@page { margin: 15mm 15mm 16mm 15mm;"
-            f" @bottom-left {{ content: {_css_string(left[:90])}; font: 7.5pt sans-serif; color: #5b6570; }}"
+            f" @bottom-left {{ content: {css_string(left[:90])}; font: 7.5pt sans-serif; color: #5b6570; }}"
             ' @bottom-right { content: "Page " counter(page) " of " counter(pages); font: 7.5pt sans-serif; color: #5b6570; } }\n')

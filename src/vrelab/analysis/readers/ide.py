@@ -7,12 +7,18 @@ is the count over the time span of a channel, checked even (every sample within 
 a constant rate: no gap, no drop); channels of different rates cannot form one record (IDE files hold several, e.g.
 a 20 kHz accelerometer and a 100 Hz one), so a record's channels must share one.
 
+No code from the file: idelib reads a channel's ``SampleRate`` and ``TimeCodeScale`` (strings)
+with Python's ``eval``; vrelab hands idelib its own channel parser, which lets through only what
+the schema says these fields are (an integer, decimal or ratio, ``16262/32768``) and refuses the
+file otherwise, naming the channel and the field (:func:`_parser_types`).
+
 Memory: idelib indexes the file's data blocks on opening (a few numbers per block); a stretch
 is read by ``arraySlice(start, stop)``, so memory follows the block read, not the file.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -22,6 +28,61 @@ from numpy.typing import NDArray
 from vrelab.analysis.readers._base import Source, one_rate, register
 
 _EVEN_RTOL = 0.01
+
+
+# The schema's "integer, decimal or ratio" (mide_ide.xml, SampleRate and TimeCodeScale), with
+# at most 30 digits a number: the only text idelib's eval is given.
+_NUMBER = r"\s*[0-9]{1,30}(?:\.[0-9]{0,30})?\s*"  # no exponent: valEval reads its e as math.e
+_RATIO = re.compile(rf"{_NUMBER}(?:/{_NUMBER})?")
+_EVALUATED = {"SampleRate": "sample-rate", "TimeCodeScale": "time-code-scale"}
+
+
+class _Refused(ValueError):
+    """A field idelib would evaluate holds an expression, not a number."""
+
+
+def evaluated_field_refusal(channel: dict[str, Any]) -> str | None:
+    """Why a ``Channel`` element (its dump: element name -> value) cannot be handed to idelib,
+    or None: a field idelib evaluates (``SampleRate``, ``TimeCodeScale``) that is not a number
+    or a ratio of two. idelib's ``valEval`` is Python's ``eval`` behind a character filter that
+    lets ``9**9**9**9`` through (it never returns) and, through the math-function names it
+    allows, more; the fields are checked before idelib sees them, not evaluated here."""
+    for key, what in _EVALUATED.items():
+        text = channel.get(key)
+        if text is None:
+            continue
+        if isinstance(text, (bytes, bytearray)):
+            text = bytes(text).decode("utf-8", "replace")
+        if not isinstance(text, str) or not _RATIO.fullmatch(text):
+            shown = text if isinstance(text, str) and len(text) <= 60 else f"{str(text)[:60]}..."
+            name = channel.get("ChannelName")
+            label = f"IDE channel {channel.get('ChannelID', '?')}" + (f" ({name})" if name else "")
+            return (f"{label}: its {what} field {shown!r} is not an integer, decimal or ratio; "
+                    "vrelab does not evaluate a file's expressions: refused")
+    return None
+
+
+def _parser_types() -> list[type]:
+    """idelib's element parsers with the channel parser replaced by one that checks the fields
+    idelib evaluates first (idelib's own hook: ``importFile(parserTypes=)``)."""
+    from idelib import importer, parsers
+
+    class Channel(parsers.ChannelParser):
+        def parse(self, element: Any, **kwargs: Any) -> Any:
+            why = evaluated_field_refusal(element.dump())
+            if why:
+                raise _Refused(why)
+            return super().parse(element, **kwargs)
+
+    class ChannelList(parsers.ChannelListParser):
+        children = (Channel,)
+
+    class RecordingProperties(parsers.RecordingPropertiesParser):
+        children = tuple(ChannelList if c is parsers.ChannelListParser else c
+                         for c in parsers.RecordingPropertiesParser.children)
+
+    return [RecordingProperties if t is parsers.RecordingPropertiesParser else t
+            for t in importer.ELEMENT_PARSER_TYPES]
 
 
 @register
@@ -38,7 +99,9 @@ class IdeSource(Source):
 
         super().__init__(path)
         try:
-            self.doc = idelib.importFile(str(path), quiet=True)
+            self.doc = idelib.importFile(str(path), quiet=True, parserTypes=_parser_types())
+        except _Refused as exc:
+            raise ValueError(f"{path.name}: {exc}") from None
         except Exception as exc:
             raise ValueError(f"{path.name}: cannot read as IDE: {type(exc).__name__}: {exc}") from None
         self.events: dict[str, Any] = {}

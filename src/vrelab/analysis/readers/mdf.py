@@ -1,9 +1,14 @@
 """ASAM MDF (version 4, and 3) through asammdf, as data loggers write it.
 
 Channels: every numeric channel that is not a group's master (time), by its name, or
-``<group>/<name>`` when the name occurs in several groups. Values are physical (the channel's
-conversion applied, ``raw=False``). The sample rate comes from the master channel of each used
-channel's group: checked evenly spaced (1e-6 relative), and one rate for every channel read.
+``<group>/<name>`` when the name occurs in several groups. Values are physical: the raw values
+read (``raw=True``) and the channel's conversion applied only when it is arithmetic with no text
+from the file (identity, linear, rational, polynomial, exponential, logarithmic, tables): asammdf
+evaluates an algebraic (formula) conversion's text through numexpr, else sympy (an ``eval``), so
+a file with one, on any channel or time channel, is refused naming the channel and the formula
+(:func:`conversion_refusal`); value-to-text conversions make no numbers (the channel is not
+listed). The sample rate comes from the master channel of each used channel's group: checked
+evenly spaced (1e-6 relative), and one rate for every channel read.
 
 Memory: reads are record ranges (``get(record_offset=, record_count=)``), so a stretch costs
 the records it spans, not the file; opening reads the file's metadata (asammdf's ``MDF``).
@@ -20,6 +25,61 @@ from numpy.typing import NDArray
 from vrelab.analysis.readers._base import Source, one_rate, register
 
 _EVEN_RTOL = 1e-6
+
+# Conversion types (ASAM MDF 4.1 cc_type; MDF 3.3 conversion_type) whose arithmetic asammdf does
+# with its own constant expressions and the block's numbers, never a text of the file.
+_ARITHMETIC_V4 = {0: "identity", 1: "linear", 2: "rational", 4: "table with interpolation", 5: "table",
+                  6: "value range table"}
+_TEXT_V4 = {7, 8, 9, 10, 11}  # value/range to text, text to value/text, bitfield text
+_ARITHMETIC_V3 = {65535: "identity", 0: "linear", 1: "table with interpolation", 2: "table", 6: "polynomial",
+                  7: "exponential", 8: "logarithmic", 9: "rational"}
+_TEXT_V3 = {11, 12}  # value and range to text
+_FORMULA = {True: 3, False: 10}  # algebraic (v4), formula (v3)
+
+
+def _is_v4(conv: Any) -> bool:
+    from asammdf.blocks import v4_blocks
+
+    return isinstance(conv, v4_blocks.ChannelConversion)
+
+
+def conversion_refusal(conv: Any, depth: int = 0) -> str | None:
+    """What is wrong with applying conversion ``conv`` (an asammdf ``ChannelConversion`` or None),
+    or None: it is arithmetic on the block's numbers, or makes text from tables whose referenced
+    conversions (a value-to-text table's entries and default may be conversions) are themselves
+    free of formulas. An algebraic/formula conversion is text from the file that asammdf would
+    evaluate; a type this reader does not know is refused as well rather than handed to asammdf."""
+    if conv is None:
+        return None
+    v4 = _is_v4(conv)
+    kind = int(conv.conversion_type)
+    if kind == _FORMULA[v4]:
+        text = str(getattr(conv, "formula", ""))
+        shown = text if len(text) <= 80 else text[:80] + "..."
+        return f"an algebraic conversion (formula {shown!r})"
+    if kind in (_ARITHMETIC_V4 if v4 else _ARITHMETIC_V3):
+        return None
+    if kind not in (_TEXT_V4 if v4 else _TEXT_V3):
+        return f"a conversion of unknown type {kind}"
+    refs = [b for b in (getattr(conv, "referenced_blocks", None) or {}).values() if hasattr(b, "conversion_type")]
+    if refs and depth >= 4:
+        return "value-to-text conversions nested more than 4 deep"
+    return next((why for why in (conversion_refusal(b, depth + 1) for b in refs) if why), None)
+
+
+def _makes_text(conv: Any) -> bool:
+    return conv is not None and int(conv.conversion_type) in (_TEXT_V4 if _is_v4(conv) else _TEXT_V3)
+
+
+def _physical(conv: Any, raw: NDArray[Any]) -> NDArray[Any]:
+    """``raw`` through ``conv`` when it is arithmetic (checked again here: this is the one place
+    values are converted)."""
+    if conv is None:
+        return raw
+    why = conversion_refusal(conv)
+    if why is not None or _makes_text(conv):
+        raise ValueError(f"not a numeric conversion: {why or 'value to text'}")
+    return np.asarray(conv.convert(raw))
 
 
 @register
@@ -41,6 +101,13 @@ class MdfSource(Source):
             raise ValueError(f"{path.name}: cannot read as MDF: {type(exc).__name__}: {exc}") from None
         self.where: dict[str, tuple[int, int]] = {}
         self._rates: dict[int, float | None] = {}
+        try:
+            for grp in self.mdf.groups:  # every channel, time channels too, before any value is read
+                for ch in grp.channels:
+                    self._refuse_formula(str(ch.name), ch.conversion)
+        except ValueError:
+            self.mdf.close()
+            raise
         masters = {i: g.channel_group for i, g in enumerate(self.mdf.groups)}
         for name, places in self.mdf.channels_db.items():
             for gi, ci in places:
@@ -48,13 +115,19 @@ class MdfSource(Source):
                 ch = grp.channels[ci]
                 if ci == self._master_index(gi) or getattr(ch, "channel_type", 0) in (2, 3):
                     continue
-                if not self._numeric(gi, ci):
+                if _makes_text(ch.conversion) or not self._numeric(gi, ci):
                     continue
                 key = name if len(places) == 1 else f"{gi}/{name}"
                 self.where[key] = (gi, ci)
                 self.lengths[key] = int(masters[gi].cycles_nr)
         if not self.where:
             raise ValueError(f"{path.name}: no numeric MDF channel")
+
+    def _refuse_formula(self, name: str, conv: Any) -> None:
+        why = conversion_refusal(conv)
+        if why is not None:
+            raise ValueError(f"{self.path.name}: channel {name!r} has {why}; vrelab does not evaluate a file's "
+                             "formulas (asammdf would run them as code): refused")
 
     def _master_index(self, gi: int) -> int | None:
         try:
@@ -64,7 +137,7 @@ class MdfSource(Source):
 
     def _numeric(self, gi: int, ci: int) -> bool:
         try:
-            s = self.mdf.get(group=gi, index=ci, record_offset=0, record_count=1)
+            s = self.mdf.get(group=gi, index=ci, record_offset=0, record_count=1, raw=True)
         except Exception:
             return False
         return np.asarray(s.samples).dtype.kind in "biuf"
@@ -93,10 +166,10 @@ class MdfSource(Source):
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         gi, ci = self.where[name]
         try:
-            s = self.mdf.get(group=gi, index=ci, record_offset=int(start), record_count=int(stop - start))
+            s = self.mdf.get(group=gi, index=ci, record_offset=int(start), record_count=int(stop - start), raw=True)
+            return _physical(self.mdf.groups[gi].channels[ci].conversion, np.asarray(s.samples))
         except Exception as exc:
             raise ValueError(f"{self.path.name}: cannot read {name!r} at records {start}-{stop}: {exc}") from None
-        return np.asarray(s.samples)
 
     def close(self) -> None:
         self.mdf.close()
