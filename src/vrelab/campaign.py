@@ -59,9 +59,9 @@ class Run:
     method: str = "auto"
     fs_hz: float | None = None
     time: str | None = None
-    dut_units: str = "g"
+    dut_units: str | None = None  # None: the unit the file states, else g
     dut_sensitivity: Mapping[str, float | None] = field(default_factory=dict)
-    reference_units: str = "g"
+    reference_units: str | None = None
     reference_sensitivity: float | None = None
     schedule: Path | None = None
     profile: str | None = None
@@ -157,9 +157,9 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
             method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
             fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
             time=_opt_str(where, "time", d.get("time")),
-            dut_units=str(d.get("dut_units", "g")),
+            dut_units=None if d.get("dut_units") is None else str(d["dut_units"]),
             dut_sensitivity=sens,
-            reference_units=str(d.get("reference_units", "g")),
+            reference_units=None if d.get("reference_units") is None else str(d["reference_units"]),
             reference_sensitivity=_number(where, "reference_sensitivity", d.get("reference_sensitivity"), positive=True),
             schedule=_path(manifest, where, "schedule", d["schedule"]) if "schedule" in d else None,
             profile=_profile(manifest, where, d.get("profile")),
@@ -284,8 +284,11 @@ def _band(where: str, value: Any) -> tuple[float, float] | None:
 def _scales(run: Run) -> tuple[dict[str, Any], Any]:
     from vrelab.analysis.readers import Scale
 
-    dut = {c: Scale.parse(run.dut_units, run.dut_sensitivity.get(c), f"dut {c}") for c in run.dut}
-    ref = Scale.parse(run.reference_units, run.reference_sensitivity, "reference")
+    # neither a unit nor a sensitivity: None, the unit the file states (else g) is used
+    dut = {c: Scale.parse(run.dut_units, run.dut_sensitivity.get(c), f"dut {c}")
+           if run.dut_units is not None or run.dut_sensitivity.get(c) is not None else None for c in run.dut}
+    ref = (Scale.parse(run.reference_units, run.reference_sensitivity, "reference")
+           if run.reference_units is not None or run.reference_sensitivity is not None else None)
     return dut, ref
 
 
