@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, register
+from vrelab.analysis.readers._base import Source, register, snap_rate
 
 _DIRS = {1: "X", 2: "Y", 3: "Z", 4: "RX", 5: "RY", 6: "RZ"}
 # a UFF file starts with the delimiter line "    -1" (I6: four spaces), then the dataset number
@@ -49,11 +49,17 @@ def rate_from_increment(inc: float) -> float:
     """
     if float(f"{inc:.5E}") != inc:
         return 1.0 / inc
-    for digits in range(1, 8):
-        fs = float(f"{1.0 / inc:.{digits}g}")
-        if float(f"{1.0 / fs:.5E}") == float(f"{inc:.5E}"):
-            return fs
-    return 1.0 / inc
+    return snap_rate(inc, 6)
+
+
+def _ordinate_unit(h: dict[str, Any]) -> str | None:
+    """The unit a record states for its values: its ordinate axis units label (record 8). The
+    data-type code and unit exponents are not used: what they mean depends on the file's unit
+    system (dataset 164), which a record does not carry."""
+    label = str(h.get("ordinate_axis_units_lab", "") or "").strip()
+    if label and label.upper() not in ("NONE", "-"):
+        return label
+    return None
 
 
 @functools.lru_cache(maxsize=16)
@@ -91,6 +97,7 @@ class UffSource(Source):
         self.alias: dict[str, str] = {}
         self.cache: dict[str, NDArray[np.float64]] = {}
         rates: dict[str, float] = {}
+        by_nd: dict[str, list[str]] = {}  # NODE:DIR -> the records there
         skipped = 0
         for i in np.flatnonzero(types == 58):
             h = self._header(int(i))
@@ -103,8 +110,10 @@ class UffSource(Source):
                 name = nd if nd not in self.sets else f"{name} #{i}"
             self.sets[name] = int(i)
             self.lengths[name] = int(h.get("num_pts", 0))
-            if nd not in self.alias and nd not in self.sets:
-                self.alias[nd] = name
+            by_nd.setdefault(nd, []).append(name)
+            unit = _ordinate_unit(h)
+            if unit:
+                self.units[name] = unit
             inc = float(h.get("abscissa_inc", 0.0))
             if not inc > 0:
                 raise ValueError(f"{path.name}: record {name!r} has abscissa increment {inc!r}: no sample rate")
@@ -113,9 +122,18 @@ class UffSource(Source):
             self.notes.append(f"{skipped} UFF58 record(s) that are not evenly sampled time responses were left out")
         if not self.sets:
             raise ValueError(f"{path.name}: no UFF58 time record (function type 1) in the file")
-        # NODE:DIR names are channels too (the campaign's and the CLI's lookups see them)
-        for nd, name in self.alias.items():
-            self.lengths[nd] = self.lengths[name]
+        # NODE:DIR names are channels too (the campaign's and the CLI's lookups see them); one
+        # that several records share (two records on node 1 +Z) names none of them: ambiguous
+        for nd, names in by_nd.items():
+            if nd in self.sets:
+                continue
+            if len(names) > 1:
+                self.ambiguous[nd] = names
+                continue
+            self.alias[nd] = names[0]
+            self.lengths[nd] = self.lengths[names[0]]
+            if names[0] in self.units:
+                self.units[nd] = self.units[names[0]]
         vals = np.array(list(rates.values()))
         if np.ptp(vals) > 1e-9 * vals.max():
             lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]

@@ -37,6 +37,28 @@ _NONE = {"", "-", "none", "n/a", "na", "null", "unitless", "(none)"}
 _ACCEL = ("g", "mg", "m/s2", "mm/s2")
 
 
+# units a column header may carry that are not accelerations (a header's bracket is read as a
+# unit only when it is a unit: "Accel (front)" is a name)
+_OTHER = {"s", "ms", "us", "µs", "ns", "min", "h", "hz", "khz", "pa", "kpa", "hpa", "mpa", "bar", "mbar", "psi",
+          "°c", "degc", "c", "k", "°f", "degf", "%", "m/s", "mm/s", "m", "mm", "cm", "µm", "um", "in", "rad", "deg",
+          "°", "rad/s", "deg/s", "°/s", "dps", "n", "kn", "nm", "µt", "ut", "t", "mt", "gauss", "lx", "lux", "a",
+          "ma", "ohm", "db", "rpm", "1"}
+_HEADER_UNIT = re.compile(r"^(.*?\S)\s*[\(\[]([^()\[\]]+)[\)\]]\s*$")
+
+
+def header_unit(header: str) -> str | None:
+    """The unit in a column header's trailing brackets (``Acceleration x (m/s^2)`` -> ``m/s^2``,
+    ``Pressure [hPa]`` -> ``hPa``), None when the brackets hold no unit (``Accel (front)``)."""
+    m = _HEADER_UNIT.match(header.strip())
+    if not m:
+        return None
+    unit = m.group(2).strip()
+    key = re.sub(r"\s+", "", unit.lower())
+    if normalize(unit) or key in _OTHER:
+        return unit
+    return None
+
+
 def normalize(unit: str | None) -> str | None:
     """vrelab's name for a unit text (``'m/s^2'`` -> ``'m/s2'``), ``''`` for none stated, or
     None for a text that is not a unit vrelab knows (not an acceleration, a voltage or counts)."""
@@ -89,4 +111,4 @@ def channel_scale(role: str, channel: str, given: Scale | None, stated: str | No
                      f"FILE lists them), or if it is one, give {units_option} and --accept-file-units")
 
 
-__all__ = ["normalize", "channel_scale"]
+__all__ = ["normalize", "channel_scale", "header_unit"]
