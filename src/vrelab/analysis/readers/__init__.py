@@ -389,6 +389,71 @@ def open_record(
         raise
 
 
+def list_channels(path: str | Path) -> dict[str, Any]:
+    """Every channel of a file as a plain dict (``vrelab channels``): ``{"file", "format",
+    "notes", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit", "notes"}]}``.
+
+    ``name`` is what ``--dut``/``--reference`` take; ``rate_hz`` the channel's own rate (null
+    with the reason in ``notes`` when the file gives none or its stamps are refused); ``unit``
+    what the file states (null: none); ``notes`` what a reader said of the channel (another
+    name it answers to, integer counts, the time column used, a rate snapped or fitted).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"input file not found: {path}")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path.name}: file is empty")
+    src = _open_source(path)
+    try:
+        aliases: dict[str, list[str]] = {}
+        for key, name in (getattr(src, "alias", {}) or {}).items():
+            if key != name:
+                aliases.setdefault(name, []).append(key)
+        names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
+        tcols = [c for c in names if c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None]
+        time_fs: float | None = None
+        time_note = None
+        if src.fs_hz is None and not src.rates and len(tcols) == 1:
+            try:
+                time_fs = _time_rate(src, tcols[0]) / (time_unit(tcols[0]) or 1.0)
+                time_note = f"rate from the time column {tcols[0]!r}"
+            except ValueError as exc:
+                time_note = str(exc)
+        file_notes_before = list(src.notes)
+        out = []
+        for name in names:
+            notes: list[str] = []
+            if name in aliases:
+                notes.append("also named " + ", ".join(repr(a) for a in aliases[name]))
+            before = len(src.notes)
+            try:
+                fs = src.rate_of(name)
+            except ValueError as exc:
+                fs, notes = None, notes + [str(exc)]
+            notes += [n for n in src.notes[before:] if n not in file_notes_before]
+            if name in tcols:
+                notes.append("a time column")
+            elif fs is None and time_fs is not None:
+                fs = time_fs
+                notes.append(time_note or "")
+            elif fs is None:
+                notes.append(time_note or "no sample rate in the file: give --fs HZ")
+            n = int(src.lengths[name])
+            if src.is_integer(name) and not src.unit_of(name):
+                notes.append("integer samples (ADC counts): give --dut-units lsb --dut-sensitivity S")
+            out.append({
+                "name": name, "rate_hz": fs, "n_samples": n,
+                "duration_s": (n / fs) if fs else None,
+                "unit": src.unit_of(name), "notes": notes,
+            })
+        for name, cands in src.ambiguous.items():
+            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None,
+                        "notes": [f"ambiguous: names {', '.join(repr(c) for c in cands)}; give one of these"]})
+        return {"file": str(path), "format": src.fmt, "notes": list(src.notes), "channels": out}
+    finally:
+        src.close()
+
+
 def _given_scale(scale: Any, key: str) -> Scale | None:
     """The scale the caller gives for record channel ``key`` (``dut``, ``dut:<name>`` or
     ``reference``): one for all, or a mapping name -> scale; None where none is given."""
@@ -400,4 +465,4 @@ def _given_scale(scale: Any, key: str) -> Scale | None:
     return None if scale is None else _as_scale(scale)
 
 
-__all__ = ["open_record", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
+__all__ = ["open_record", "list_channels", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]

@@ -222,11 +222,14 @@ def stamped_rate(what: str, index: NDArray[Any], times_s: NDArray[Any], gap_samp
     step = float(np.dot(ic, tc) / np.dot(ic, ic)) if len(t) > 2 else float((t[-1] - t[0]) / (i[-1] - i[0]))
     if not step > 0:
         raise ValueError(f"{what}: time stamps give no positive sample step")
-    jump = (d - np.diff(i) * step) / step  # samples more (or fewer) than the rate puts between them
+    # a gap is judged against the median step (the line's slope leans towards a large gap)
+    di = np.diff(i)
+    typical = float(np.median(d / di))
+    jump = (d - di * typical) / typical  # samples more (or fewer) than the rate puts between them
     k = int(np.argmax(np.abs(jump)))
     if abs(jump[k]) > gap_samples:
         raise ValueError(f"{what}: not evenly sampled: {jump[k]:+.3g} samples between {t[k]:.6g} s and "
-                         f"{t[k + 1]:.6g} s (sample {int(i[k + 1])}) at {1 / step:.6g} Hz: a gap in the recording?")
+                         f"{t[k + 1]:.6g} s (sample {int(i[k + 1])}) at {1 / typical:.6g} Hz: a gap in the recording?")
     res = (tc - ic * step) / step
     worst = float(np.max(np.abs(res)))
     if worst > drift_samples:

@@ -31,7 +31,7 @@ _DRIFT_SAMPLES = 25.0
 
 
 def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(first sample index, start time [s]) of each data block, and the last sample's.
+    """(first sample index, start time [s]) of each data block.
 
     idelib keeps each block's index range and start stamp (``EventArray._data``, not public
     API): reading them costs nothing, where every sample's time costs a pass over the file.
@@ -45,10 +45,10 @@ def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         k = min(n, 20000)
         times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
         return np.arange(k, dtype=np.float64), times * 1e-6  # idelib times are µs
-    t_end = float(ev.arraySlice(n - 1, n)[0][0])
-    if idx[-1] < n - 1:
-        idx.append(n - 1)
-        t.append(t_end)
+    if len(idx) < 3:  # too few blocks to fit: the samples' own times
+        k = min(n, 20000)
+        times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
+        return np.arange(k, dtype=np.float64), times * 1e-6
     return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6
 
 
@@ -111,6 +111,8 @@ class IdeSource(Source):
             self.events[name] = ev
             self.lengths[name] = len(ev)
             self.alias[key] = name
+            if full != name and full_counts[full] == 1:
+                self.alias[full] = name  # 'Acceleration/Y' too, whether or not 'Y' is unique
             unit = _unit(sc)
             if unit:
                 self.units[name] = unit
