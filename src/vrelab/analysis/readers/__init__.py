@@ -405,6 +405,8 @@ def list_channels(path: str | Path) -> dict[str, Any]:
         raise ValueError(f"{path.name}: file is empty")
     src = _open_source(path)
     try:
+        if not src.channels:
+            raise ValueError(f"{path.name}: no numeric channels found")
         aliases: dict[str, list[str]] = {}
         for key, name in (getattr(src, "alias", {}) or {}).items():
             if key != name:
