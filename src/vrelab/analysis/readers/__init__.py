@@ -369,8 +369,11 @@ def open_record(
             ref = key == "reference"
             given = _given_scale(reference_scale if ref else dut_scale, key)
             role = "reference" if ref else ("DUT" if key == "dut" else f"DUT {key[4:]!r}")
-            scales[key], note = channel_scale(role, ch, given, src.unit_of(ch), src.is_integer(ch),
-                                              accept_file_units, "--reference-units" if ref else "--dut-units")
+            try:
+                scales[key], note = channel_scale(role, ch, given, src.unit_of(ch), src.is_integer(ch),
+                                                  accept_file_units, "--reference-units" if ref else "--dut-units")
+            except ValueError as exc:
+                raise ValueError(f"{path.name}: {exc}") from None
             if note:
                 src.notes.append(note)
         meta = dict(src.meta)
