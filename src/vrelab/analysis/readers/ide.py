@@ -36,19 +36,16 @@ def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     idelib keeps each block's index range and start stamp (``EventArray._data``, not public
     API): reading them costs nothing, where every sample's time costs a pass over the file.
     Without them, the first 20000 samples' times."""
-    n = len(ev)
     try:
         blocks = list(ev._data)
         idx = [int(b.indexRange[0]) for b in blocks]
         t = [float(b.startTime) for b in blocks]
     except (AttributeError, TypeError):
-        k = min(n, 20000)
+        idx = []
+    if len(idx) < 3:  # no block index, or too few blocks to fit: the samples' own times
+        k = min(len(ev), 20000)
         times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
         return np.arange(k, dtype=np.float64), times * 1e-6  # idelib times are µs
-    if len(idx) < 3:  # too few blocks to fit: the samples' own times
-        k = min(n, 20000)
-        times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
-        return np.arange(k, dtype=np.float64), times * 1e-6
     return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6
 
 

@@ -128,6 +128,9 @@ class CsvSource(Source):
             if pos >= stop:
                 break
 
+    def is_integer(self, name: str) -> bool:
+        return False  # parsed as float64: a text file's numbers carry no ADC type
+
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return np.concatenate([b[name] for b in self.stream([name], start, stop, stop - start)] or [np.empty(0)])
 
