@@ -234,7 +234,8 @@ def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250
 
     schema = ebmlite.loadSchema("mide_ide.xml")
     names = list(cols)
-    subs = [{"SubChannelID": i, "SubChannelName": nm, "SubChannelAxisName": nm, "SubChannelUnitsName": "g"}
+    subs = [{"SubChannelID": i, "SubChannelName": nm, "SubChannelAxisName": nm,
+             "SubChannelLabel": "Acceleration", "SubChannelUnits": "g"}
             for i, nm in enumerate(names)]
     props = {"RecordingProperties": {"ChannelList": {"Channel": [
         {"ChannelID": 8, "ChannelName": "Accel", "ChannelFormat": "<" + "f" * len(names), "SubChannel": subs}]}}}

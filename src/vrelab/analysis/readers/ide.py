@@ -15,6 +15,7 @@ is read by ``arraySlice(start, stop)``, so memory follows the block read, not th
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -49,6 +50,17 @@ def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6
 
 
+class _Said(logging.Handler):
+    """idelib's log records, as one-line messages."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(str(record.getMessage()).splitlines()[0] if record.getMessage() else record.levelname)
+
+
 def _unit(sc: Any) -> str | None:
     """The unit idelib gives a sub-channel (``units`` is (quantity, unit): ('Acceleration', 'g'))."""
     u = getattr(sc, "units", None)
@@ -71,10 +83,19 @@ class IdeSource(Source):
         import idelib
 
         super().__init__(path)
+        # idelib logs what it cannot parse (with a traceback) on the root logger's stderr: kept
+        # here as notes, one line each, so a command's stderr stays one line
+        log, said = logging.getLogger("idelib"), _Said()
+        log.addHandler(said)
+        log.propagate = False
         try:
             self.doc = idelib.importFile(str(path), quiet=True)
         except Exception as exc:
             raise ValueError(f"{path.name}: cannot read as IDE: {type(exc).__name__}: {exc}") from None
+        finally:
+            log.removeHandler(said)
+            log.propagate = True
+        self.notes += [f"idelib: {m}" for m in dict.fromkeys(said.messages)]
         self.events: dict[str, Any] = {}
         self.alias: dict[str, str] = {}
         self._rates: dict[str, float] = {}
