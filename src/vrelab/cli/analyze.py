@@ -3,8 +3,8 @@
 ::
 
     vrelab analyze FILE --dut CH [--reference CH] [--fs HZ] [--time CH]
-                   [--dut-units g|lsb|mv|v|m/s2] [--dut-sensitivity S]
-                   [--reference-units ...] [--reference-sensitivity S]
+                   [--dut-units g|mg|m/s2|mm/s2|lsb|mv|v] [--dut-sensitivity S]
+                   [--reference-units ...] [--reference-sensitivity S] [--accept-file-units]
                    [--method auto|random|sine] [--schedule FILE|auto] [--profile P] [--static G]
                    [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4] [--rail-vrc]
                    [--accept-unit-ratio] [--accept-channels] [--accept-method]
@@ -15,7 +15,10 @@ beyond 3 at every level (a units or sensitivity slip), a reference reading a sta
 the DUT reads none (swapped channels), a method the spectra contradict. Each is refused with what
 was found; ``--accept-...`` passes it on purpose.
 
-Scaling: the file's raw values become g by dividing by the sensitivity in units per g, e.g.
+Scaling: the unit the file states for a channel is used when no ``--dut-units`` is given (a
+given one that contradicts it is refused unless ``--accept-file-units``; ``vrelab channels FILE``
+shows each channel's); integer samples with no unit are counts and need a sensitivity. The
+file's raw values become g by dividing by the sensitivity in units per g, e.g.
 ``--dut-units lsb --dut-sensitivity 256000`` (ADXL355 on ±2 g) and ``--reference-units mv
 --reference-sensitivity 10`` (a 10 mV/g IEPE reference).
 

@@ -1,21 +1,31 @@
 """Readers for recorded shaker tests: lab files as a streaming :class:`~vrelab.record.Record`.
 
-:func:`open_record` opens CSV, NPY, NPZ, HDF5, NI TDMS, WAV (PCM, float, RF64) and MATLAB
-(v7.3 through h5py, v5 through scipy) files read-only, picks the DUT and reference channels by
-name, scales them to g, and returns a record whose ``blocks`` read lazily: memory is bounded by
-the block size whatever the length of the file. Exceptions, said in ``meta["reader_notes"]``:
+:func:`open_record` opens CSV, NPY, NPZ, HDF5, NI TDMS, WAV (through soundfile: every chunk
+layout, 8/16/24/32-bit PCM, float, RIFX, RF64), MATLAB (v7.3 through h5py, v5 through scipy),
+UFF58, ASAM MDF, enDAQ IDE and LabVIEW LVM files read-only, picks the DUT and reference channels
+by name (a name several channels answer to is refused as ambiguous, with each one's full name),
+scales them to g, and returns a record whose ``blocks`` read lazily: memory is bounded by the
+block size whatever the length of the file. Exceptions, said in ``meta["reader_notes"]``:
 compressed NPZ members and MAT v5 files cannot be memory-mapped and are read whole (one member /
-the file), 24-bit WAV is read whole (scipy cannot memory-map it).
+the file). :func:`list_channels` lists a file's channels (``vrelab channels``).
 
 Sample rate, in this order: the file's own (HDF5/MAT attributes or variables ``fs_hz``, ``fs``,
 ``sample_rate``, ``sampling_rate``, ``wf_increment`` (its inverse), TDMS ``wf_increment``, the
-WAV header), else a time column (checked increasing and evenly spaced), else ``fs_hz``. A given
-``fs_hz`` that disagrees with the file's is an error.
+WAV header, LVM ``Delta_X``, UFF58's increment, MDF/IDE time stamps fitted), else a time column
+(``time``, ``t``, ``Time (s)``, ``t [ms]``...: checked increasing and evenly spaced), else
+``fs_hz``. An increment written rounded (``0.000977``) gives the rate it rounds (1024 Hz), with a
+note. Channels of one file may have different rates; the ones a record reads must share one. A
+given ``fs_hz`` that disagrees with the file's is an error (MDF: it overrides the stamps).
 
-Every problem is a one-line ``ValueError``: unknown format, empty or truncated file, missing
-channel (the message lists the channels that exist), mismatched channel lengths, a bad time
-column (the first bad index), non-finite values (channel and first index, found while
-streaming).
+Units (:mod:`vrelab.analysis.readers.units`): the unit the file states for a channel converts it
+to g; a voltage or counts need a sensitivity; a non-acceleration is refused; a given unit that
+contradicts the file's is refused unless ``accept_file_units``; integer samples with no unit are
+counts, refused without a sensitivity.
+
+Every problem is a one-line ``ValueError``: unknown format, a reader library not installed (its
+install hint), empty or truncated file, missing channel (the message lists the channels that
+exist), mismatched channel lengths, a bad time column (the first bad index), non-finite values
+(channel and first index, found while streaming).
 
 Formats are a registry (:mod:`vrelab.analysis.readers._base`): each is one
 :class:`~vrelab.analysis.readers._base.Source` subclass in its own module that declares its
