@@ -319,8 +319,11 @@ def test_uff_by_hand_trailing_spaces_and_mixed_precision(tmp_path: Path) -> None
     np.testing.assert_allclose(src.read("101:-Z", 0, 50), b, rtol=1e-5)
     q = tmp_path / "rates.uff"
     q.write_text(_uff58_ascii("ref", 1, 3, 1e-3, a, True) + _uff58_ascii("dut", 101, 3, 5e-4, b, True))
-    with pytest.raises(ValueError, match="rates.uff: records have different sample rates"):
-        UffSource.open(q)
+    # records at two rates share the file; a record's channels must share one (issue 19)
+    from vrelab.analysis.readers import open_record
+
+    with pytest.raises(ValueError, match=r"rates.uff: channels 'ref' \(1000 Hz\) and 'dut' \(2000 Hz\) have different"):
+        open_record(q, "dut", "ref")
 
 
 def test_manifest_budget_keys_reach_levels_and_k2(example: Path, tmp_path: Path) -> None:

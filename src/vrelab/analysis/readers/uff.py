@@ -4,7 +4,8 @@ export them.
 A channel is one record of function type 1 (time response) with even abscissa spacing, named by
 its ``id1`` (trailing spaces stripped) and by ``NODE:DIR`` (response node and direction, e.g.
 ``101:+Z``: UFF directions 1/2/3 = X/Y/Z, 4/5/6 = RX/RY/RZ, signed). The sample rate is
-``1/abscissa_inc``; every channel must share it. Records of other kinds (spectra, FRFs) are left
+``1/abscissa_inc`` (snapped when written rounded); records at several rates may share a file,
+the ones a record reads must share one. Records of other kinds (spectra, FRFs) are left
 out with a note.
 
 Memory: pyuff reads a record whole, and lists the file by reading it whole. Opening reads the
@@ -134,15 +135,20 @@ class UffSource(Source):
             self.lengths[nd] = self.lengths[names[0]]
             if names[0] in self.units:
                 self.units[nd] = self.units[names[0]]
-        vals = np.array(list(rates.values()))
-        if np.ptp(vals) > 1e-9 * vals.max():
-            lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
-            raise ValueError(f"{path.name}: records have different sample rates: {lo!r} {rates[lo]:.6g} Hz, "
-                             f"{hi!r} {rates[hi]:.6g} Hz")
-        self.fs_hz = rate_from_increment(float(1.0 / vals[0]))
-        if self.fs_hz != float(vals[0]):
-            self.notes.append(f"UFF58 abscissa increment {1.0 / vals[0]:.6g} s is the rounded inverse of "
-                              f"{self.fs_hz:g} Hz: that rate used (1/increment = {vals[0]:.9g} Hz)")
+        snapped: dict[str, float] = {}
+        for name, fs in rates.items():
+            snapped[name] = rate_from_increment(1.0 / fs)
+            if snapped[name] != fs:
+                note = (f"UFF58 abscissa increment {1.0 / fs:.6g} s is the rounded inverse of {snapped[name]:g} Hz: "
+                        f"that rate used (1/increment = {fs:.9g} Hz)")
+                if note not in self.notes:
+                    self.notes.append(note)
+        for nd, name in self.alias.items():
+            snapped[nd] = snapped[name]
+        if len(set(snapped.values())) == 1:  # one rate for the file; else a record's channels share one
+            self.fs_hz = next(iter(snapped.values()))
+        else:
+            self.rates = snapped
 
     def _header(self, i: int) -> dict[str, Any]:
         # pyuff's read_sets(header_only=True) splits the whole record into lines to keep 13 of
