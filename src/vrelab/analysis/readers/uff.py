@@ -169,6 +169,9 @@ class UffSource(Source):
         except Exception as exc:
             raise ValueError(f"{self.path.name}: UFF record {i} has a malformed header: {type(exc).__name__}: {exc}") from None
 
+    def is_integer(self, name: str) -> bool:
+        return False  # pyuff gives float64 (and asking would parse the record)
+
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         name = self.alias.get(name, name)
         if name not in self.cache:
