@@ -33,6 +33,7 @@ from vrelab import __version__
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
+from vrelab._load import toml_loads
 from vrelab.results import Estimate, FitResult, VreResult, same_frequency
 
 RUN_KEYS = (
@@ -104,7 +105,7 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     if not path.is_file():
         raise ValueError(f"campaign manifest not found: {path}")
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        doc = toml_loads(path.read_text(encoding="utf-8"), path.name)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path.name}: not valid TOML ({exc})") from None
     for key in doc:
