@@ -4,9 +4,11 @@ A lab's test is many files: one per run (frequency, orientation, level block), e
 several DUT channels (a 3-axis part, several parts on one fixture) and a reference. The
 manifest names them; :func:`read_manifest` validates it whole before anything is read (an
 unknown key, a missing file or channel, a channel without its static field, one file channel
-named twice: one line naming the run and the key); :func:`run_campaign` reduces every run
-(in parallel with ``workers``; a run that fails is kept as failed with its error, the others
-go on) and :func:`combine` gives per channel:
+named twice, one recording used twice for a DUT or at two static fields, a DUT that is the
+reference: one line naming the run(s) and the key); a static field the DUT's own vibration-off
+reading contradicts refuses the campaign when that run's record is read (:func:`check_static`);
+:func:`run_campaign` reduces every run (in parallel with ``workers``; a run that fails is kept
+as failed with its error, the others go on) and :func:`combine` gives per channel:
 
 * ``vrc_by_freq``: the VRC of every sine frequency at every orientation;
 * ``k2`` and ``k3`` per frequency measured at two orientations or more

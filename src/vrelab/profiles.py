@@ -39,8 +39,8 @@ import io
 import math
 import os
 import tempfile
-from collections import Counter
 import tomllib
+from collections import Counter
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -407,11 +407,11 @@ class RandomProfile:
 MIN_PSD_G2_PER_HZ = 1e-100
 MAX_PSD_G2_PER_HZ = 1e100
 
-# Sine tones a sine-on-random profile may hold. Rotating machinery and gunfire give a fundamental
-# and its harmonics (MIL-STD-810H Method 514.8 and 519.8 list up to four per source, a helicopter
-# a few sources): tens of tones. Each tone costs a sine per sample of every simulated level, so
-# 1000 tones already make synthesis ~100x slower; beyond that a table is a slip (a swept sine
-# written as tones, a spectrum pasted as lines), refused before any work is sized from it.
+# Sine tones a sine-on-random profile may hold. Rotating machinery, propellers and gunfire give
+# a fundamental and a few harmonics per source (the helicopter and propeller profiles of
+# MIL-STD-810H Method 514.8): tens of tones at most. Synthesis costs a sine per tone per sample
+# of every simulated level, and a table of many thousands (a spectrum pasted as lines, a swept
+# sine written as tones) is a slip; it is refused before any tone is built or any work sized.
 MAX_TONES = 1000
 
 
