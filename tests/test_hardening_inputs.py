@@ -145,6 +145,17 @@ def test_static_check_judges_only_a_clear_1g_reading(declared: float, baseline: 
         check_static(run, "sn1", baseline)
 
 
+def test_a_static_field_beyond_any_test_is_refused_at_validation(example: Path, tmp_path: Path) -> None:
+    # 1e300 g passed as "finite" and reached the k2/k3 fit (where the sign check caught it, late)
+    m = _campaign_copy(example, tmp_path, "big.toml", example.read_text().replace("static_g = -1\n", "static_g = -1e300\n", 1))
+    with pytest.raises(ValueError, match=r"run 2 .*static_g.sn1 must be within ±100000 g"):
+        read_manifest(m, check_files=False)
+    f = example.parent / "runs" / "01_z_up_80hz.tdms"
+    _refused(_vrelab("analyze", str(f), "--dut", "shaker/sn1_z", "--reference", "shaker/ref", "--reference-units", "mv",
+                     "--reference-sensitivity", "10", "--dut-units", "lsb", "--dut-sensitivity", "256000",
+                     "--static", "1e300"), "--static", "100000 g")
+
+
 def test_a_dut_that_is_the_reference_is_refused_at_validation(example: Path, tmp_path: Path) -> None:
     text = example.read_text().replace('dut = {sn1 = "shaker/sn1_z", sn2 = "shaker/sn2_z"}',
                                        'dut = {sn1 = "shaker/sn1_z", sn2 = "/shaker/REF"}', 1)

@@ -156,7 +156,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
     try:
         run = Run(
             index=index, file=file, dut=dut, label=label,
-            static_g={k: float(v) for k, v in static.items()},  # type: ignore[arg-type]
+            static_g={k: V.acceleration(f"static_g.{k}", v) for k, v in static.items()},
             reference=_opt_str(where, "reference", d.get("reference")),
             method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
             fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
