@@ -84,6 +84,16 @@ def one_of(name: str, value: str, choices: tuple[str, ...]) -> str:
 # shakers reach a few hundred g rms and pyroshock tests about 1e5 g peak; beyond this a level is
 # a slip (units, exponent), and squaring it (PSD values scale with level²) would overflow.
 MAX_LEVEL_G_RMS = 1e5
+# The largest acceleration [g] any input may give (a static field, a tone's peak): the same
+# bound, pyroshock's 1e5 g; a 1 g field or a centrifuge's few hundred g are far inside it, and
+# its fourth power (k4·a⁴ of the nonlinearity) stays far from float64's 1.8e308.
+MAX_ACCELERATION_G = MAX_LEVEL_G_RMS
+# Frequencies [Hz] any input may give (a sine, a tone, a profile breakpoint). Shock
+# accelerometers' resonances reach about 1 MHz and the slowest tests (tilt, drift) run at
+# millihertz; outside 1 µHz..10 MHz a frequency is a slip (units, exponent), and the ratio of two
+# of them (log-log profile slopes) must not overflow.
+MIN_FREQ_HZ = 1e-6
+MAX_FREQ_HZ = 1e7
 
 
 def vibration_level(name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -95,6 +105,41 @@ def vibration_level(name: str, value: ArrayLike) -> NDArray[np.float64]:
             f"got {_show(arr[arr > MAX_LEVEL_G_RMS])}"
         )
     return arr
+
+
+def acceleration(name: str, value: Any) -> float:
+    """An acceleration [g] (a static field): finite and at most ``MAX_ACCELERATION_G`` in size."""
+    x = finite_scalar(name, value)
+    if abs(x) > MAX_ACCELERATION_G:
+        raise ValueError(f"{name} must be within ±{MAX_ACCELERATION_G:g} g (beyond any shaker, centrifuge or "
+                         f"shock test), got {value!r}")
+    return x
+
+
+def frequency(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """Frequencies [Hz]: finite, within ``MIN_FREQ_HZ``..``MAX_FREQ_HZ``."""
+    arr = positive(name, value)
+    bad = (arr < MIN_FREQ_HZ) | (arr > MAX_FREQ_HZ)
+    if bad.any():
+        raise ValueError(f"{name} must be within {MIN_FREQ_HZ:g}..{MAX_FREQ_HZ:g} Hz (beyond any vibration test), "
+                         f"got {_show(arr[bad])}")
+    return arr
+
+
+# Sensitivities [units per g] a channel may declare: a 32-bit converter on ±1 g gives 2e9 LSB/g,
+# a shock accelerometer 0.001 mV/g; outside 1e-9..1e12 a sensitivity is a slip (units, exponent),
+# and dividing a raw record by it would overflow float64 in the window sums of squares.
+MIN_SENSITIVITY = 1e-9
+MAX_SENSITIVITY = 1e12
+
+
+def sensitivity(name: str, value: Any) -> float:
+    """A sensitivity [units per g]: finite, within ``MIN_SENSITIVITY``..``MAX_SENSITIVITY``."""
+    x = positive_scalar(name, value)
+    if not MIN_SENSITIVITY <= x <= MAX_SENSITIVITY:
+        raise ValueError(f"{name} must be within {MIN_SENSITIVITY:g}..{MAX_SENSITIVITY:g} units per g "
+                         f"(beyond any accelerometer or converter), got {value!r}")
+    return x
 
 
 def integer(name: str, value: Any, minimum: int) -> int:

@@ -4,9 +4,11 @@ A lab's test is many files: one per run (frequency, orientation, level block), e
 several DUT channels (a 3-axis part, several parts on one fixture) and a reference. The
 manifest names them; :func:`read_manifest` validates it whole before anything is read (an
 unknown key, a missing file or channel, a channel without its static field, one file channel
-named twice: one line naming the run and the key); :func:`run_campaign` reduces every run
-(in parallel with ``workers``; a run that fails is kept as failed with its error, the others
-go on) and :func:`combine` gives per channel:
+named twice, one recording used twice for a DUT or at two static fields, a DUT that is the
+reference: one line naming the run(s) and the key); a static field the DUT's own vibration-off
+reading contradicts refuses the campaign when that run's record is read (:func:`check_static`);
+:func:`run_campaign` reduces every run (in parallel with ``workers``; a run that fails is kept
+as failed with its error, the others go on) and :func:`combine` gives per channel:
 
 * ``vrc_by_freq``: the VRC of every sine frequency at every orientation;
 * ``k2`` and ``k3`` per frequency measured at two orientations or more
@@ -34,6 +36,7 @@ from vrelab import __version__
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
+from vrelab._load import toml_loads
 from vrelab.results import Estimate, FitResult, VreResult, same_frequency
 
 RUN_KEYS = (
@@ -105,7 +108,7 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     if not path.is_file():
         raise ValueError(f"campaign manifest not found: {path}")
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        doc = toml_loads(path.read_text(encoding="utf-8"), path.name)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path.name}: not valid TOML ({exc})") from None
     for key in doc:
@@ -128,6 +131,7 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     if check_files:
         for run in runs:
             _check_channels(run)
+        check_records(runs)
     return m
 
 
@@ -153,7 +157,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
     try:
         run = Run(
             index=index, file=file, dut=dut, label=label,
-            static_g={k: float(v) for k, v in static.items()},  # type: ignore[arg-type]
+            static_g={k: V.acceleration(f"static_g.{k}", v) for k, v in static.items()},
             reference=_opt_str(where, "reference", d.get("reference")),
             method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
             fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
@@ -173,6 +177,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
     except ValueError as exc:
         msg = str(exc)
         raise ValueError(msg if msg.startswith(manifest.name) else f"{where}: {msg}") from None
+    _check_reference(run)
     return run
 
 
@@ -277,8 +282,8 @@ def _band(where: str, value: Any) -> tuple[float, float] | None:
         return None
     if (not isinstance(value, list) or len(value) != 2
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-            or not 0 < value[0] < value[1]):
-        raise ValueError(f"{where}: band must be [F1, F2] in Hz with 0 < F1 < F2, got {value!r}")
+            or not all(math.isfinite(v) for v in value) or not 0 < value[0] < value[1]):
+        raise ValueError(f"{where}: band must be [F1, F2] in Hz, finite, with 0 < F1 < F2, got {value!r}")
     return float(value[0]), float(value[1])
 
 
@@ -308,16 +313,131 @@ def _check_channels(run: Run) -> None:
         raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
                          f"{type(exc).__name__}: {exc}") from None
     listing = _Names(run.file, names)
+    found = {}
     for name, ch in run.dut.items():
         try:
-            _resolve(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
+            found[name] = _resolve(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: dut: {exc}") from None
     if run.reference is not None:
         try:
-            _resolve(run.reference, listing, "reference")  # type: ignore[arg-type]
+            ref = _resolve(run.reference, listing, "reference")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: reference: {exc}") from None
+        _check_reference(run, found, ref)
+
+
+def _check_reference(run: Run, found: Mapping[str, str] | None = None, ref: str | None = None) -> None:
+    """No DUT channel is the run's reference (as written, or as the file's names resolve them):
+    a DUT reduced against itself reads no VRE at all, and the run would fail only when executed."""
+    ref = run.reference if ref is None else ref
+    if ref is None:
+        return
+    for name, ch in (found or run.dut).items():
+        if ch == ref:
+            raise ValueError(f"{run.where}: dut {name!r} is the reference channel {ref!r}: a DUT is measured "
+                             "against another sensor, never against itself")
+
+
+# Reading as much of each end of a file identifies its content among a campaign's records (the
+# header, the first and last samples); files that agree there are hashed whole before being
+# called the same (a real check, and a rare one: different recordings differ in their first MiB).
+_FINGERPRINT_BYTES = 1 << 20
+
+
+def _fingerprint(path: Path) -> tuple[int, bytes]:
+    """(size, SHA-256 of the first and last MiB): equal for identical files, cheap for large ones."""
+    import hashlib
+
+    size = path.stat().st_size
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        h.update(fh.read(_FINGERPRINT_BYTES))
+        if size > _FINGERPRINT_BYTES:
+            fh.seek(max(_FINGERPRINT_BYTES, size - _FINGERPRINT_BYTES))
+            h.update(fh.read(_FINGERPRINT_BYTES))
+    return size, h.digest()
+
+
+def _same_records(runs: Sequence[Run]) -> list[tuple[Run, Run, str]]:
+    """Pairs of runs whose files are one recording: the same path once resolved, or copies with
+    identical content (size, first and last MiB, then the whole file's SHA-256)."""
+    pairs: list[tuple[Run, Run, str]] = []
+    by_size: dict[int, list[Run]] = {}
+    for r in runs:
+        by_size.setdefault(r.file.stat().st_size, []).append(r)
+    for group in by_size.values():
+        prints: dict[Path, Any] = {}
+        whole: dict[Path, str] = {}
+        for i, a in enumerate(group):
+            for b in group[i + 1:]:
+                if a.file == b.file:
+                    pairs.append((a, b, f"the same file {a.file.name}"))
+                    continue
+                for r in (a, b):
+                    if r.file not in prints:
+                        prints[r.file] = _fingerprint(r.file)
+                if prints[a.file] != prints[b.file]:
+                    continue
+                for r in (a, b):
+                    if r.file not in whole:
+                        whole[r.file] = sha256_file(r.file)
+                if whole[a.file] == whole[b.file]:
+                    pairs.append((a, b, f"identical files {a.file.name} and {b.file.name}"))
+    return pairs
+
+
+def check_records(runs: Sequence[Run]) -> None:
+    """Refuse a campaign that uses one recording twice for a channel.
+
+    Two runs whose files are one recording (:func:`_same_records`) and that share a DUT (by its
+    campaign name or by the file's channel) either count that recording's VRC twice, or, declared
+    at two static fields, make k2 and k3 from one orientation as if it were two. Runs on one file
+    for different DUTs (parts split into runs), or with different schedules (each its own part of
+    a long record), are not refused.
+    """
+    for a, b, how in _same_records(runs):
+        if a.schedule is not None and b.schedule is not None and a.schedule != b.schedule:
+            continue
+        shared = [c for c in a.dut if c in b.dut]
+        same_ch = [ch for ch in a.dut.values() if ch in b.dut.values()]
+        if not shared and not same_ch:
+            continue
+        both = f"{a.where} and {b.where} are {how}"
+        for c in shared:
+            ga, gb = a.static_g[c], b.static_g[c]
+            if abs(ga - gb) >= SAME_ORIENTATION_G:
+                raise ValueError(f"{both}, declared at {ga:+g} g and {gb:+g} g for {c!r}: one recording is one "
+                                 "orientation (k2 and k3 need two records)")
+        what = f"DUT {shared[0]!r}" if shared else f"the file's channel {same_ch[0]!r}"
+        raise ValueError(f"{both}, both for {what}: its VRC would be counted twice (list each recording once)")
+
+
+# A DUT with a DC response reads its static field at the vibration-off baselines, plus an offset
+# of tens of mg at most for a MEMS part. A reading within 0.25 g of ±1 g says the run sat in
+# Earth's field along the axis; a declared static_g more than 0.5 g from it (the other sign, or
+# 0) is a slip of the manifest that turns k3 = ΔVRC/(3·Δg0) around. A DUT without a DC response
+# (piezoelectric, IEPE) reads about 0 and is not judged; nor is a tilted one (|reading| < 0.75 g).
+_EARTH_FIELD_WITHIN_G = 0.25
+_STATIC_CONTRADICTED_G = 0.5
+
+
+class ManifestContradiction(ValueError):
+    """A run's declared conditions contradicted by its own record: the manifest is wrong, so the
+    campaign is refused (not the run kept as failed)."""
+
+
+def check_static(run: Run, channel: str, baseline_g: float | None) -> None:
+    """Refuse a declared ``static_g`` the DUT's own vibration-off reading (``baseline_g`` [g],
+    the mean of its baselines) contradicts (see the constants above); called after the record is
+    read and before any of its numbers is kept."""
+    if baseline_g is None or not math.isfinite(baseline_g):
+        return
+    g0 = run.static_g[channel]
+    if abs(abs(baseline_g) - 1.0) <= _EARTH_FIELD_WITHIN_G and abs(g0 - baseline_g) > _STATIC_CONTRADICTED_G:
+        raise ManifestContradiction(
+            f"{run.where}: static_g of {channel!r} is declared {g0:+g} g, but the DUT's own vibration-off reading "
+            f"is {baseline_g:+.3f} g: fix static_g (or the DUT's units/sensitivity)")
 
 
 @dataclass(frozen=True)
@@ -371,6 +491,8 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
             # sweep's run at the DUT's resonance has DUT/reference = Q, and is not a slip
             accept=("unit-ratio",),
         )  # fmt: skip
+    for name, _, red in reduced:
+        check_static(run, name, red.static_g)
     res = RunResult(run, [(name, result) for name, result, _ in reduced],
                     unit_probes={name: list(red.unit_probes) for name, _, red in reduced})
     if out is not None:
@@ -384,6 +506,8 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
 def _reduce_safely(run: Run, out: Path | None, limit_g: float | None = None) -> RunResult:
     try:
         return reduce_run(run, out, limit_g=limit_g)
+    except ManifestContradiction:
+        raise  # the manifest is wrong: the whole campaign is refused
     except MemoryError:
         return RunResult(run, error="out of memory")
     except Exception as exc:  # a run's failure is reported with the others kept
@@ -396,7 +520,8 @@ def _reduce_safely(run: Run, out: Path | None, limit_g: float | None = None) -> 
 def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
                  on_done: Callable[[RunResult], None] | None = None, limit_g: float | None = None) -> list[RunResult]:
     """Reduce every run (``workers`` processes; 1: here, in order). A failing run is kept with
-    its error. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``. Each run's budget
+    its error; a run whose record contradicts the manifest (:class:`ManifestContradiction`)
+    refuses the campaign. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``. Each run's budget
     keys (SPEC 4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level."""
     workers = V.integer("workers", workers, 1)
     subs = run_folders(manifest)

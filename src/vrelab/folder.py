@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any, Literal, Mapping, Sequence
 
 from vrelab._io import write_json, write_levels_csv, write_levels_table
+from vrelab._load import json_loads
 from vrelab.results import VreResult
 
 RESULTS = "results.json"
@@ -147,7 +148,7 @@ def read_folder(folder: str | Path) -> ResultsFolder:
 
 def _read_json(f: Path) -> Any:
     try:
-        return json.loads(f.read_text(encoding="utf-8"))
+        return json_loads(f.read_text(encoding="utf-8"), f"report: {f}")
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"report: {f} is not valid JSON ({str(exc).splitlines()[0]})") from None
 

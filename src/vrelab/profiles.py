@@ -40,6 +40,7 @@ import math
 import os
 import tempfile
 import tomllib
+from collections import Counter
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -50,6 +51,7 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as v
+from vrelab._load import toml_load
 
 __all__ = [
     "DB_PER_OCT_PER_N",
@@ -144,8 +146,10 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     f = np.asarray(freq_hz, dtype=np.float64)
     p = np.asarray(psd_g2_per_hz, dtype=np.float64)
     f1, f2, p1, p2 = f[:-1], f[1:], p[:-1], p[1:]
-    log_r = np.log(f2 / f1)
-    n = np.log(p2 / p1) / log_r
+    # differences of logs, not logs of ratios: a ratio of two valid values can overflow
+    # (1e200/1e-200) where the difference of their logs cannot
+    log_r = np.log(f2) - np.log(f1)
+    n = (np.log(p2) - np.log(p1)) / log_r
     return p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r)
 
 
@@ -185,8 +189,12 @@ class RandomProfile:
             )
         if f.size < 2:
             raise ValueError(f"a random profile needs at least 2 breakpoints, got {f.size}")
-        v.positive("freq_hz", f)
+        v.frequency("freq_hz", f)
         v.positive("psd_g2_per_hz", p)
+        out = (p < MIN_PSD_G2_PER_HZ) | (p > MAX_PSD_G2_PER_HZ)
+        if out.any():
+            raise ValueError(f"psd_g2_per_hz must be within {MIN_PSD_G2_PER_HZ:g}..{MAX_PSD_G2_PER_HZ:g} g²/Hz, "
+                             f"got {float(p[out][0])!r}")
         step = np.diff(f)
         if (step <= 0).any():
             i = int(np.argmax(step <= 0)) + 1
@@ -288,9 +296,8 @@ class RandomProfile:
     @property
     def exponents(self) -> NDArray[np.float64]:
         """Log-log exponent n of each segment: ``ln(P2/P1)/ln(f2/f1)``."""
-        return np.log(self.psd_g2_per_hz[1:] / self.psd_g2_per_hz[:-1]) / np.log(
-            self.freq_hz[1:] / self.freq_hz[:-1]
-        )
+        lf, lp = np.log(self.freq_hz), np.log(self.psd_g2_per_hz)  # differences of logs, as segment_areas
+        return np.diff(lp) / np.diff(lf)
 
     @property
     def slopes_db_per_oct(self) -> NDArray[np.float64]:
@@ -393,6 +400,28 @@ class RandomProfile:
 # --- sine on random ---------------------------------------------------------------------------
 
 
+# Breakpoint PSDs [g²/Hz] a profile may hold. A vibration of 1e5 g rms (the largest level, see
+# vrelab._validate.MAX_LEVEL_G_RMS) over 1 Hz is 1e10 g²/Hz and a 1 µg rms floor over 10 MHz is
+# 1e-19 g²/Hz; the bounds leave decades around both and keep every area and level ratio
+# (PSD × level², scaled to a level) far from float64's overflow and underflow.
+MIN_PSD_G2_PER_HZ = 1e-100
+MAX_PSD_G2_PER_HZ = 1e100
+
+# Sine tones a sine-on-random profile may hold. Rotating machinery, propellers and gunfire give
+# a fundamental and a few harmonics per source (the helicopter and propeller profiles of
+# MIL-STD-810H Method 514.8): tens of tones at most. Synthesis costs a sine per tone per sample
+# of every simulated level, and a table of many thousands (a spectrum pasted as lines, a swept
+# sine written as tones) is a slip; it is refused before any tone is built or any work sized.
+MAX_TONES = 1000
+
+
+def check_tone_count(n: int) -> None:
+    """Refuse more than :data:`MAX_TONES` tones (checked before the tones are built)."""
+    if n > MAX_TONES:
+        raise ValueError(f"{n} sine tones: at most {MAX_TONES} (a machine's harmonics are tens; "
+                         "a spectrum is a random profile, not tones)")
+
+
 @dataclass(frozen=True)
 class Tone:
     """A sine tone on top of random vibration, as rotating machinery and propellers make.
@@ -411,12 +440,16 @@ class Tone:
     def __post_init__(self) -> None:
         f = self.freq_hz
         try:
-            f = v.positive_scalar("tone freq_hz", f)
+            f = float(v.frequency("tone freq_hz", v.positive_scalar("tone freq_hz", f)))
         except ValueError:
-            raise ValueError(f"tone frequency must be a finite number > 0 Hz, got {self.freq_hz!r}") from None
+            raise ValueError(f"tone frequency must be a finite number > 0 Hz, within {v.MIN_FREQ_HZ:g}.."
+                             f"{v.MAX_FREQ_HZ:g} Hz, got {self.freq_hz!r}") from None
         peak = v.finite_scalar(f"tone at {f:g} Hz: peak_g", self.peak_g)
         if peak < 0:
             raise ValueError(f"tone at {f:g} Hz: amplitude must be >= 0 g peak, got {self.peak_g!r}")
+        if peak > v.MAX_ACCELERATION_G:
+            raise ValueError(f"tone at {f:g} Hz: amplitude must be at most {v.MAX_ACCELERATION_G:g} g peak "
+                             f"(beyond any shaker or shock test), got {self.peak_g!r}")
         object.__setattr__(self, "freq_hz", f)
         object.__setattr__(self, "peak_g", peak)
 
@@ -464,11 +497,11 @@ class SineOnRandom:
         tones = tuple(self.tones)
         if not tones:
             raise ValueError("a sine-on-random profile needs at least one tone")
+        check_tone_count(len(tones))
         for t in tones:
             if not isinstance(t, Tone):
                 raise ValueError(f"tones must be Tone(freq_hz, peak_g) values, got {t!r}")
-        freqs = [t.freq_hz for t in tones]
-        dup = sorted({f for f in freqs if freqs.count(f) > 1})
+        dup = sorted(f for f, n in Counter(t.freq_hz for t in tones).items() if n > 1)
         if dup:
             raise ValueError(f"tone frequencies must be distinct, got {', '.join(f'{f:g}' for f in dup)} Hz twice")
         object.__setattr__(self, "tones", tuple(sorted(tones, key=lambda t: t.freq_hz)))
@@ -647,6 +680,10 @@ def _tones_from_tables(path: Path, rows: Any) -> tuple[Tone, ...]:
     """The ``[[tone]]`` tables of a profile file (each ``freq_hz`` [Hz], ``peak_g`` [g peak])."""
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise ValueError(f"{path}: tone must be [[tone]] tables with freq_hz and peak_g")
+    try:
+        check_tone_count(len(rows))
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     tones = []
     for i, row in enumerate(rows):
         unknown = sorted(set(row) - set(_TONE_KEYS))
@@ -665,7 +702,7 @@ def _tones_from_tables(path: Path, rows: Any) -> tuple[Tone, ...]:
 def _read_toml(path: Path) -> Profile:
     try:
         with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
+            doc = toml_load(fh, str(path))
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: not valid TOML: {exc}") from None
     table = doc.get("profile")
@@ -934,6 +971,7 @@ def parse_tones(text: str) -> tuple[Tone, ...]:
     """Tones from ``F:PEAK,F:PEAK,...`` (Hz : g peak), e.g. ``"120:0.5,240:0.2"``."""
     if not text.strip():
         raise ValueError("sine tones: give F:PEAK pairs after '+sine:' (Hz:g peak), e.g. +sine:120:0.5,240:0.2")
+    check_tone_count(text.count(",") + 1)
     return tuple(Tone(f, peak) for f, peak in _number_pairs(text, "sine tones", "F:PEAK", "Hz:g peak"))
 
 

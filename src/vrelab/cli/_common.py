@@ -50,7 +50,7 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
 def sensor_from_args(args: argparse.Namespace) -> Any:
     from vrelab.sensor import load_sensor
 
-    V.finite_scalar("--static", args.static_g)
+    V.acceleration("--static", args.static_g)
     return load_sensor(
         args.sensor,
         range_g=args.range_g,

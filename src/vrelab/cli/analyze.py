@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from vrelab import _io, folder
+from vrelab import _validate as V
 from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
 from vrelab.cli._common import add_budget_arguments, positive_list, print_json, print_levels, typeb_from_args
 from vrelab.models.clipping import KINDS
@@ -157,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
             typeb=typeb,
             limit_g=args.limit,
             profile=profile,
-            static_g=args.static,
+            static_g=None if args.static is None else V.acceleration("--static", args.static),
             rail_g=args.rail,
             clip_kind=args.kind,
             band_hz=args.band,

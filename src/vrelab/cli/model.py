@@ -11,6 +11,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
@@ -51,6 +52,8 @@ def _levels(text: str) -> list[float]:
     bad = [v for v in values if v < 0]
     if bad:
         raise ValueError(f"--rms: levels must be >= 0 g rms, got {bad[0]:g}")
+    if any(v > 0 for v in values):
+        V.vibration_level("--rms", [v for v in values if v > 0])
     return values
 
 
@@ -63,7 +66,7 @@ def _table(title: str, rms: Sequence[float], vre_g: Sequence[float]) -> str:
 
 
 def _run_clip(args: argparse.Namespace) -> int:
-    mean = number(args.mean, "--mean")
+    mean = V.acceleration("--mean", number(args.mean, "--mean"))
     rail = number(args.rail, "--rail")
     rail_low = -rail if args.rail_low is None else number(args.rail_low, "--rail-low")
     if rail_low >= rail:
@@ -98,9 +101,15 @@ def _run_poly(args: argparse.Namespace) -> int:
     k2 = number(args.k2, "--k2")
     k3 = number(args.k3, "--k3")
     k4 = number(args.k4, "--k4")
-    static = number(args.static, "--static")
+    static = V.acceleration("--static", number(args.static, "--static"))
     rms = _levels(args.rms)
-    vre = np.atleast_1d(vre_poly(np.array(rms), k2 * UG, k3 * UG, k4 * UG, static_g=static, shape=args.shape))
+    # the levels and field are bounded; a coefficient is not (any value is a model), so the
+    # product is checked: a VRE beyond float64 is refused, not printed as inf after a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        vre = np.atleast_1d(vre_poly(np.array(rms), k2 * UG, k3 * UG, k4 * UG, static_g=static, shape=args.shape))
+    if not np.isfinite(vre).all():
+        raise ValueError(f"model poly: the VRE overflows float64 (k2 = {k2:g}, k3 = {k3:g}, k4 = {k4:g} at "
+                         f"{max(rms):g} g rms, static {static:g} g): coefficients or levels out of any real range")
     if args.json:
         print_json(
             {

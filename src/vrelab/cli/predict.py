@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if args.profile is not None:
         excitation: Any = parse_profile(args.profile)
     else:
-        excitation = V.positive_scalar("--freq", args.freq)
+        excitation = float(V.frequency("--freq", V.positive_scalar("--freq", args.freq)))
     pred = predict(sensor, excitation, levels, static_g=args.static_g, kind=args.kind)
     if args.out:
         from vrelab._io import output_dir, write_json

@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         facts = {**dict(sensor.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"}
         sensor = dataclasses.replace(sensor, drift_g_per_s=drift, facts=facts)
     profile = parse_profile(args.profile) if args.profile is not None else None
-    freqs = positive_list(args.freq, "--freq") if args.freq is not None else None
+    freqs = V.frequency("--freq", positive_list(args.freq, "--freq")).tolist() if args.freq is not None else None
     progress = bool(args.progress or sys.stderr.isatty())
 
     def simulate(record_path: Path | None) -> Any:

@@ -45,6 +45,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from vrelab._load import toml_load
+
 __all__ = ["SCHEMA", "ReportMetadata", "load_metadata", "parse_metadata", "NOT_GIVEN"]
 
 NOT_GIVEN = "not given"
@@ -180,7 +182,7 @@ def load_metadata(path: str | Path) -> ReportMetadata:
     path = Path(path)
     try:
         with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
+            doc = toml_load(fh, f"report metadata {path}")
     except OSError as exc:
         raise ValueError(f"report metadata {path}: cannot read it ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
 from vrelab._format import format_value_u
+from vrelab._load import json_loads
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
 from vrelab.results import FitResult, LevelResult, VreResult, same_frequency
@@ -414,8 +415,6 @@ def record_envelope(
     reads), so memory stays ``O(block_samples + n_bins)`` whatever the record's length: a
     10⁹-sample record is never loaded whole. Channels absent from the file are skipped.
     """
-    import json
-
     import h5py
 
     path = Path(path)
@@ -451,7 +450,7 @@ def record_envelope(
         out = {c: (mn, mx, sm / bin_size) for c, (mn, mx, sm) in acc.items()}
         sched = Schedule.from_array(f["schedule"][()]) if "schedule" in f and len(f["schedule"]) else None
         try:
-            meta = json.loads(f.attrs.get("meta", "{}"))
+            meta = json_loads(f.attrs.get("meta", "{}"), "attribute 'meta'")
         except (TypeError, ValueError):
             meta = {}
     t = (np.arange(nb) + 0.5) * bin_size / fs

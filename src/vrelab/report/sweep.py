@@ -23,7 +23,6 @@ matplotlib ``Figure`` (no pyplot, VRE in mg), like :mod:`vrelab.report.plots`:
 from __future__ import annotations
 
 import itertools
-import json
 import math
 from pathlib import Path
 from typing import Any, Sequence
@@ -36,6 +35,7 @@ from matplotlib.ticker import MaxNLocator
 from vrelab import folder as F
 from vrelab._format import format_mg
 from vrelab._io import sha256_file
+from vrelab._load import json_loads
 from vrelab.report.html import (
     ReportFigure,
     ReportSection,
@@ -348,8 +348,8 @@ def plot_lot_scatter(ds: Any, points: Sequence[dict[str, Any]] | None = None, pa
 # --------------------------------------------------------------------------- the section
 def _spec(ds: Any) -> dict[str, Any]:
     try:
-        doc = json.loads(str(ds.attrs.get("spec_json", "{}")))
-    except json.JSONDecodeError:
+        doc = json_loads(str(ds.attrs.get("spec_json", "{}")), "attribute 'spec_json'")
+    except ValueError:  # not JSON, or nested beyond the budget: no spec shown
         return {}
     return doc if isinstance(doc, dict) else {}
 

@@ -34,6 +34,7 @@ from typing import Any, Callable, Literal, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab._load import toml_loads
 from vrelab.results import Conditions
 from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.fields import BY_KEY, FIELDS, is_number
@@ -318,7 +319,7 @@ def _read(spec: str) -> tuple[dict[str, Any], str]:
         text = path.read_text(encoding="utf-8")
         origin = f"file {path}"
     try:
-        data = tomllib.loads(text)
+        data = toml_loads(text, f"sensor {origin}")
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"sensor {origin} is not valid TOML: {e}") from None
     return data, origin

@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from vrelab._load import json_loads
+
 CHECKPOINT_NAME = "checkpoint.jsonl"
 QUARANTINE_NAME = "checkpoint.quarantine.jsonl"
 _STATUSES = ("ok", "failed")
@@ -142,8 +144,8 @@ class Checkpoint:
         for lineno, line in enumerate(data[:good].splitlines(), 1):
             why = None
             try:
-                obj = json.loads(line)
-            except (json.JSONDecodeError, UnicodeDecodeError):
+                obj = json_loads(line, "checkpoint line")
+            except ValueError:  # not JSON (UnicodeDecodeError is one too), or nested beyond the budget
                 obj, why = None, "not JSON"
             if why is None and not isinstance(obj, dict):
                 why = f"not a JSON object ({type(obj).__name__})"

@@ -49,6 +49,7 @@ from typing import Any, Iterator, Literal, Mapping
 import numpy as np
 
 from vrelab._lists import parse_list
+from vrelab._load import toml_load
 
 Kind = Literal["model", "predict", "simulate", "python"]
 KINDS: tuple[str, ...] = ("model", "predict", "simulate", "python")
@@ -260,7 +261,7 @@ def load_spec(path: str | Path) -> SweepSpec:
     path = Path(path)
     try:
         with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
+            doc = toml_load(fh, f"sweep file {path}")
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"sweep file {path}: not valid TOML ({exc})") from None
     doc.setdefault("name", path.stem)

@@ -50,7 +50,7 @@ class Scale:
         if u in ("lsb", "mv", "v"):
             if sensitivity is None:
                 raise ValueError(f"{name} units {u!r} need a sensitivity ({u} per g)")
-            return cls(u, V.positive_scalar(f"{name} sensitivity", sensitivity))  # type: ignore[arg-type]
+            return cls(u, V.sensitivity(f"{name} sensitivity", sensitivity))  # type: ignore[arg-type]
         if sensitivity is not None:
             raise ValueError(f"{name} sensitivity given, but units are {u!r} (use lsb, mv or v)")
         return cls(u)  # type: ignore[arg-type]

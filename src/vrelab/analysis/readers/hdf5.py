@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +16,7 @@ from vrelab.analysis.readers._base import (
     _column_channels,
     register,
 )
+from vrelab._load import json_loads
 from vrelab.record import Schedule
 
 
@@ -82,7 +82,7 @@ class Hdf5Source(_ArraySource):
             self.fs_hz = rates.pop()
         if "meta" in self.f.attrs:
             try:
-                self.meta = dict(json.loads(self.f.attrs["meta"]))
+                self.meta = dict(json_loads(self.f.attrs["meta"], "attribute 'meta'"))
             except (TypeError, ValueError):
                 self.notes.append("attribute 'meta' is not JSON: ignored")
 
