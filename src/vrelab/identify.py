@@ -70,6 +70,8 @@ REACH_SIGMA = 3.0
 NEAR_FN = 0.5
 # fn or Q with a relative standard uncertainty beyond this is not determined.
 MAX_REL_U = 0.5
+# fn or Q whose profile-likelihood u exceeds the fit's local one by this factor take the profile's.
+_WIDER = 1.3
 # Parameters that stay free when not determined (see _post_checks).
 NUISANCE = ("fn_hz", "q")
 
@@ -418,7 +420,8 @@ def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> floa
 
 def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Any],
                  obs: Sequence[Observation], base: Any = None, prefer_base: bool = False,
-                 bounds: dict[str, tuple[float, str]] | None = None) -> dict[str, str]:
+                 bounds: dict[str, tuple[float, str]] | None = None,
+                 widen: dict[str, float] | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
 
     fn and Q stay in the fit as nuisance parameters when every sine frequency lies on one side
@@ -428,7 +431,10 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
     (:func:`_resonance_profile`, Δχ² <= 4), and ``bounds`` receives, per parameter, a standard
     uncertainty from the profile (Δχ² <= 1, half its width) for the sensor file. fn and Q seen
     on both flanks but with a relative u above ``MAX_REL_U`` are kept, value and u (a poorly
-    known Q is still a resonance near fn), unless ``prefer_base``. A rail or the threshold
+    known Q is still a resonance near fn), unless ``prefer_base``; where the profile's Δχ² <= 1
+    half-width exceeds the local u by ``_WIDER`` (a non-quadratic likelihood: Q 2.0 ± 0.6 for a
+    true 6 on three frequencies far from fn), ``widen`` receives the factor the covariance's row
+    and column are to be scaled by; where the profile does not close, fn and Q are bounded. A rail or the threshold
     that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
     shapes nothing the data see)."""
     why: dict[str, str] = {}
@@ -437,24 +443,37 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
         fmin, fmax = min(freqs), max(freqs)
         fn = values["fn_hz"]
         side = "below" if fmax < fn else "above" if fmin > fn else None
-        if side is not None or fmax / fn < NEAR_FN:
-            prof = _resonance_profile(obs, base, free)
-            text = ", ".join(f"{f:g}" for f in freqs)
+        text = ", ".join(f"{f:g}" for f in freqs)
+        prof = _resonance_profile(obs, base, free, values)
+        one_sided = side is not None or fmax / fn < NEAR_FN
+        if one_sided or prof["fn_hz"].open or prof["q"].open:
             if side is not None:
                 head = f"every sine frequency ({text} Hz) is {side} the fitted fn ({fn:.4g} Hz): VRC(f) shows one flank"
-            else:
+            elif fmax / fn < NEAR_FN:
                 head = (f"no sine run near fn (the highest, {fmax:g} Hz, is {fmax / fn:.2f}·fn of the fitted {fn:.4g} Hz; "
                         f"Q needs f >= {NEAR_FN:g}·fn)")
-            why["fn_hz"] = f"{head}; the data bound fn to {prof['fn_hz'][0]} (Δχ² <= 4), not its value"
-            why["q"] = f"{head}; the data bound Q to {prof['q'][0]} (Δχ² <= 4), not its value"
-            if bounds is not None:
-                bounds.update({n: (prof[n][1], why[n]) for n in ("fn_hz", "q")})
-        elif prefer_base:
-            for n in ("fn_hz", "q"):
-                rel = math.sqrt(cov.get(n, math.inf)) / abs(values[n])
-                if not rel <= MAX_REL_U:
-                    why["fn_hz"] = why["q"] = (f"poorly determined by the sine runs ({n} has a relative standard "
-                                               f"uncertainty of {100 * rel:.0f} %): the base sensor's taken, as asked")
+            else:
+                head = f"the sine runs ({text} Hz) do not close the likelihood of"
+            # one flank: neither is a value (issue: Q 2.69 ± 0.15 for 4 from three frequencies below fn); both
+            # flanks but an open profile: the open one only (a well-bounded fn stays identified)
+            for n, label in (("fn_hz", "fn"), ("q", "Q")):
+                if one_sided or prof[n].open:
+                    lead = head if one_sided or not head.endswith(" of") else f"{head} {label}"
+                    why[n] = f"{lead}; the data bound {label} to {prof[n].text} (Δχ² <= 4), not its value"
+                    if bounds is not None:
+                        bounds[n] = (prof[n].u, why[n])
+        else:
+            if widen is not None:
+                for n in ("fn_hz", "q"):
+                    local = math.sqrt(cov.get(n, 0.0))
+                    if prof[n].u > _WIDER * local:
+                        widen[n] = prof[n].u / local if local > 0 else math.inf
+            if prefer_base:
+                for n in ("fn_hz", "q"):
+                    rel = max(math.sqrt(cov.get(n, math.inf)), prof[n].u) / abs(values[n])
+                    if not rel <= MAX_REL_U:
+                        why["fn_hz"] = why["q"] = (f"poorly determined by the sine runs ({n} has a relative standard "
+                                                   f"uncertainty of {100 * rel:.0f} %): the base sensor's taken, as asked")
     for n, share, side in (("rail_low_g", "clip_low_g", "lower"), ("rail_high_g", "clip_high_g", "upper")):
         if n in free:
             z = _reach(preds, obs, share)
@@ -496,33 +515,85 @@ def _resonance_grid(sines: Sequence[Observation], n_fn: int = 60, n_q: int = 15)
     return np.geomspace(min(f) / 3, 10 * max(f), n_fn), np.geomspace(0.5, 50, n_q)
 
 
-def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[str, tuple[str, float]]:
-    """Per fn and Q: the interval the sine runs' apparent VRCs allow (profile likelihood over a
-    fine grid, the other of the two and k2, k3 profiled out; Δχ² <= 4, about 95 %) as text, and
-    half the width of its Δχ² <= 1 interval as a standard uncertainty. An interval that reaches
-    the grid's edge is open on that side ("fn > 950 Hz"); its u is then limited by the grid and
-    said to be a lower bound on the true spread."""
+@dataclass(frozen=True)
+class _Profile:
+    """What the sine runs' apparent VRCs say of fn or Q, the other and k2, k3 profiled out."""
+
+    text: str  # the Δχ² <= 4 interval (about 95 %): "900-960 Hz", "Q > 3.1"
+    open: bool  # the interval reaches the grid's edge: a bound, not a value
+    u: float  # half the width of the Δχ² <= 1 interval (a standard uncertainty where the profile is closed)
+
+
+def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str],
+                       values: Mapping[str, float] | None = None) -> dict[str, _Profile]:
+    """Per fn and Q, the profile likelihood of the sine runs' apparent VRCs (:func:`_vrc_chi2`),
+    Δχ² scaled by the reduced χ² at its minimum when that exceeds 1 (as the fit's covariance is).
+
+    Global: a log grid (fn from a third of the lowest to ten times the highest frequency, Q 0.5
+    to 50) says whether the Δχ² <= 4 interval is closed or reaches an edge (then the data give
+    a bound: "fn > 950 Hz"). Local (``values`` given: the fit's): a fine 1-D scan of each
+    parameter around its value, the other one minimised at each point (scipy's bounded
+    minimize_scalar), gives the Δχ² <= 1 half-width — the u that a non-quadratic likelihood
+    (a valley of large Q) really supports, where the fit's local curvature says less."""
+    from scipy.optimize import minimize_scalar
+
     sines = [ob for ob in obs if ob.method == "sine"]
     k3_free = "k3_ug_per_g3" in free
     k3_fixed = (parameter(base, "k3_ug_per_g3") or 0.0) if base is not None else 0.0
-    fns, qs = _resonance_grid(sines, 160, 60)
     data = _vrc_data(sines)
+    fns, qs = _resonance_grid(sines, 100, 40)
     chi = np.array([[_vrc_chi2(data, k3_free, k3_fixed, fn, q)[1] for q in qs] for fn in fns])
-    chi -= chi.min()
-    out = {}
-    for name, axis, prof, unit in (("fn_hz", fns, chi.min(axis=1), " Hz"), ("q", qs, chi.min(axis=0), "")):
-        inside = np.flatnonzero(prof <= 4.0)
-        lo, hi = inside[0], inside[-1]
+    n_k = 2 if k3_free else 1
+    dof = len(sines) - n_k - 2
+    best = float(chi.min())
+    birge = max(1.0, best / dof) if dof > 0 else 1.0
+    out: dict[str, _Profile] = {}
+    for name, axis, prof, label, unit in (("fn_hz", fns, chi.min(axis=1), "fn", " Hz"), ("q", qs, chi.min(axis=0), "Q", "")):
+        d = (prof - best) / birge
+        inside = np.flatnonzero(d <= 4.0)
+        lo, hi = int(inside[0]), int(inside[-1])
+        is_open = lo == 0 or hi == axis.size - 1
         if lo == 0 and hi == axis.size - 1:
-            text = "nothing within the grid"
+            text = f"{label} anywhere in {axis[0]:.3g}-{axis[-1]:.3g}{unit}"
         elif hi == axis.size - 1:
-            text = f"{'fn' if name == 'fn_hz' else 'Q'} > {axis[lo]:.3g}{unit}"
+            text = f"{label} > {axis[lo]:.3g}{unit}"
         elif lo == 0:
-            text = f"{'fn' if name == 'fn_hz' else 'Q'} < {axis[hi]:.3g}{unit}"
+            text = f"{label} < {axis[hi]:.3g}{unit}"
         else:
             text = f"{axis[lo]:.3g}-{axis[hi]:.3g}{unit}"
-        one = np.flatnonzero(prof <= 1.0)
-        out[name] = (text, float(axis[one[-1]] - axis[one[0]]) / 2 or float(axis[1] - axis[0]))
+        # open: no value, only a bound; the u written for it spans the whole Δχ² <= 4 interval from the
+        # value (so that predict sees it leave the parameter's domain and says the VRE is not known)
+        x0 = float(values[name]) if values is not None else float(axis[int(np.argmin(d))])
+        u = max(abs(float(axis[hi]) - x0), abs(x0 - float(axis[lo])))
+        if not is_open:
+            scan = np.geomspace(min(x0, float(axis[max(lo - 1, 0)])) / 1.5,
+                                max(x0, float(axis[min(hi + 1, axis.size - 1)])) * 1.5, 241)
+
+            def other(x: float) -> float:
+                if name == "fn_hz":
+                    f = lambda lq: _vrc_chi2(data, k3_free, k3_fixed, x, math.exp(lq))[1]  # noqa: E731
+                    r = minimize_scalar(f, bounds=(math.log(0.05), math.log(1e4)), method="bounded",
+                                        options={"xatol": 1e-4})
+                else:
+                    f = lambda lf: _vrc_chi2(data, k3_free, k3_fixed, math.exp(lf), x)[1]  # noqa: E731
+                    c = math.log(x0 if values is None else float(values["fn_hz"]))
+                    r = minimize_scalar(f, bounds=(c - 0.7, c + 0.7), method="bounded", options={"xatol": 1e-5})
+                return float(r.fun)
+
+            fine = np.array([other(float(x)) for x in scan])
+            dd = (fine - min(best, float(fine.min()))) / birge
+            one, four = np.flatnonzero(dd <= 1.0), np.flatnonzero(dd <= 4.0)
+            if four.size and 0 < four[0] and four[-1] < scan.size - 1:
+                step = float(scan[1] / scan[0] - 1) * x0
+                u = max(float(scan[one[-1]] - scan[one[0]]) / 2, step) if one.size else step
+                text = f"{scan[four[0]]:.4g}-{scan[four[-1]]:.4g}{unit}"
+            else:  # the fine Δχ² <= 4 interval reaches beyond the scan: a bound
+                is_open = True
+                if four.size and four[0] > 0:
+                    text = f"{label} > {scan[four[0]]:.4g}{unit}"
+                elif four.size and four[-1] < scan.size - 1:
+                    text = f"{label} < {scan[four[-1]]:.4g}{unit}"
+        out[name] = _Profile(text, is_open, u)
     return out
 
 
@@ -702,6 +773,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     fit: _Fit | None = None
     start = _start(obs, base, free)
     bounds: dict[str, tuple[float, str]] = {}
+    widen: dict[str, float] = {}
     level_notes: list[str] = []
     for attempt in range(8):
         fit = _fit(base, obs, free, start, kind)
@@ -720,7 +792,8 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
         scale = max(1.0, fit.chi2 / dof) if dof > 0 else 1.0
         values = dict(zip(free, fit.x))
         var = {n: fit.cov[i, i] * scale for i, n in enumerate(free)}
-        later = _post_checks(values, var, free, fit.preds, obs, base, prefer_base, bounds)
+        widen.clear()
+        later = _post_checks(values, var, free, fit.preds, obs, base, prefer_base, bounds, widen)
         why.update(later)
         fixed = [n for n in later if n not in NUISANCE]
         if not fixed:
@@ -747,6 +820,14 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     if fit.jac_rank < len(free):
         notes.append(f"the Jacobian has rank {fit.jac_rank} for {len(free)} parameters: some combination is not "
                      "determined (its direction dropped from the covariance)")
+    for n, factor in widen.items():
+        if n in free and n not in why and math.isfinite(factor):
+            i = free.index(n)
+            before = math.sqrt(max(cov[i, i], 0.0))
+            cov[i, :] *= factor
+            cov[:, i] *= factor
+            notes.append(f"{n}: the likelihood is not quadratic over its u (profile Δχ² <= 1 half-width {factor:.2g}× the "
+                         f"fit's local {before:.2g}): its u widened to the profile's, correlations kept")
     values = dict(zip(free, (float(v) for v in fit.x)))
     budget: list[dict[str, Any]] = []
     if typeb is not None and typeb.declared and free:

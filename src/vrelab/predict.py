@@ -452,9 +452,11 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
     Linearity is checked, not assumed: the VRE is also evaluated at ``θ_j ± u_j``; where it
     departs from the tangent by more than ``_LINEAR`` of the tangent's step, or where ``θ ± u``
     leaves the parameter's domain (a Q whose u exceeds it), an assumed parameter's share is
-    taken as the larger move (``max |VRE(θ ± u) − VRE(θ)|``, GUM 5.1.3's note), and an
-    identified one makes the level's u no claim: ``valid`` False with a note (a Monte Carlo over
-    the parameters is what it needs).
+    taken as the larger move (``max |VRE(θ ± u) − VRE(θ)|``, GUM 5.1.3's note), and the
+    identified block is propagated by a Monte Carlo over ``Σ`` instead (GUM Supplement 1,
+    :func:`_monte_carlo`); where more than ``_MC_OUTSIDE`` of its draws leave the parameters'
+    domain (a Q whose u exceeds it: the campaign does not bound it) the level's u is no claim:
+    ``valid`` False with a note.
 
     ``sources_g``: ``"identified (covariance)"`` (the covariance block, correlations in it) and
     one entry per assumed parameter; their quadrature sum is ``u_g``.
@@ -483,6 +485,8 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
     jac = np.zeros((lv.size, len(names)))
     sources: dict[str, NDArray[np.float64]] = {}
     level_notes: list[list[str]] = [[] for _ in lv]
+    nonlinear = np.zeros(lv.size, dtype=bool)
+    bent_why: list[str] = []
     for j, (name, u, identified) in enumerate(everything):
         x = parameter(sensor, name)
         if x is None or not u > 0:
@@ -500,6 +504,9 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
             bent = np.ones(lv.size, dtype=bool)
             move = step
             why = f"{name} ± u ({x:.4g} ± {u:.2g}) leaves the parameter's domain"
+            if not identified:  # an assumption that wide says the element is barely known: no u to claim
+                for i in range(lv.size):
+                    level_notes[i].append(f"{why}: the VRE over that range is not known — u_vre_g is not a claim")
         else:
             curve = np.abs(wide[0] + wide[1] - 2 * f0) / 2
             bent = curve > _LINEAR * np.maximum(step, 1e-15)
@@ -507,15 +514,30 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
             why = f"the VRE is not linear in {name} over its u ({x:.4g} ± {u:.2g})"
         if identified:
             jac[:, j] = d
-            for i in np.flatnonzero(bent & (move > 0)):
-                level_notes[i].append(f"{why}: the linear propagation of the covariance is not a claim here — "
-                                      "a Monte Carlo over the parameters is needed")
+            nonlinear |= bent & (move > 0)
+            if (bent & (move > 0)).any():
+                bent_why.append(why)
         else:
             sources[name] = np.where(bent, move, step)
-    if names:
-        sources = {IDENTIFIED: np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0)), **sources}
-    u2 = sum((v**2 for v in sources.values()), np.zeros(lv.size))
     notes = []
+    if names:
+        u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
+        if nonlinear.any():
+            u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma)
+            for i in np.flatnonzero(nonlinear):
+                if outside > _MC_OUTSIDE:
+                    level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
+                                          f"parameters' domain in {100 * outside:.0f} % of draws: u_vre_g is not a claim "
+                                          "(the campaign does not bound these parameters)")
+                else:
+                    u_cov[i] = u_mc[i]
+            if outside <= _MC_OUTSIDE:
+                notes.append(f"u_vre_g of the identified parameters by Monte Carlo over their covariance (GUM S1, "
+                             f"{_MC_DRAWS} seeded draws; {100 * outside:.0f} % outside the parameters' domain dropped) "
+                             f"where the VRE is not linear in them ({'; '.join(bent_why)}); 95 % intervals "
+                             + ", ".join(f"[{1e3 * a:.4g}, {1e3 * b:.4g}] mg" for a, b in zip(lo95, hi95)))
+        sources = {IDENTIFIED: u_cov, **sources}
+    u2 = sum((v**2 for v in sources.values()), np.zeros(lv.size))
     if names:
         notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(names) + ") carried by linear "
                      "propagation; the model's own approximations are not in it")
@@ -529,6 +551,40 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
                                                           f"(up to {100 * share[k]:.0f} % of u²)" for k in top)
                      + "; per source in u_sources_g")
     return Propagation(np.sqrt(u2), sources, tuple(tuple(n) for n in level_notes), tuple(notes))
+
+
+# Monte Carlo propagation where the linear one fails: draws, and the fraction of draws outside the
+# parameters' domain (Q <= 0, rails crossing the static field) beyond which u is no claim.
+_MC_DRAWS = 200
+_MC_OUTSIDE = 0.15
+
+
+def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+                 names: Sequence[str], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], float,
+                                                                           NDArray[np.float64], NDArray[np.float64]]:
+    """GUM Supplement 1 over the identified parameters: ``_MC_DRAWS`` seeded draws from the
+    normal distribution of mean the identified values and covariance ``Σ`` (numpy's
+    multivariate_normal), :func:`predict` at each. Returns the standard deviation of the VRE
+    per level, the fraction of draws outside the parameters' domain (dropped), and the 2.5 %
+    and 97.5 % quantiles per level."""
+    from vrelab.sensor.parameters import parameter, with_parameters
+
+    mean = np.array([parameter(sensor, n) for n in names], dtype=np.float64)
+    draws = np.random.default_rng(20240518).multivariate_normal(mean, sigma, size=_MC_DRAWS, method="eigh")
+    vre = []
+    for x in draws:
+        try:
+            p = predict(with_parameters(sensor, dict(zip(names, (float(v) for v in x)))), excitation, levels,
+                        static_g, kind)
+        except ValueError:
+            continue
+        vre.append([lv.vre_g for lv in p.levels])
+    outside = 1.0 - len(vre) / _MC_DRAWS
+    if len(vre) < 2:
+        nan = np.full(levels.size, math.nan)
+        return nan, outside, nan, nan
+    v = np.array(vre)
+    return v.std(axis=0, ddof=1), outside, np.quantile(v, 0.025, axis=0), np.quantile(v, 0.975, axis=0)
 
 
 def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
