@@ -420,7 +420,7 @@ def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> floa
 
 def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Any],
                  obs: Sequence[Observation], base: Any = None, prefer_base: bool = False,
-                 bounds: dict[str, tuple[float, str]] | None = None,
+                 bounds: dict[str, tuple[float, str, float | None]] | None = None,
                  widen: dict[str, float] | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
 
@@ -444,7 +444,7 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
         fn = values["fn_hz"]
         side = "below" if fmax < fn else "above" if fmin > fn else None
         text = ", ".join(f"{f:g}" for f in freqs)
-        prof = _resonance_profile(obs, base, free, values)
+        prof = _resonance_profile(obs, base, free, values, {n: math.sqrt(cov.get(n, 0.0)) for n in ("fn_hz", "q")})
         one_sided = side is not None or fmax / fn < NEAR_FN
         if one_sided or prof["fn_hz"].open or prof["q"].open:
             if side is not None:
@@ -460,8 +460,8 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
                 if one_sided or prof[n].open:
                     lead = head if one_sided or not head.endswith(" of") else f"{head} {label}"
                     why[n] = f"{lead}; the data bound {label} to {prof[n].text} (Δχ² <= 4), not its value"
-                    if bounds is not None:
-                        bounds[n] = (prof[n].u, why[n])
+                    if bounds is not None:  # open: the interval's middle; closed (one flank): the fit's value
+                        bounds[n] = (prof[n].u, why[n], prof[n].value)
         else:
             if widen is not None:
                 for n in ("fn_hz", "q"):
@@ -522,34 +522,66 @@ class _Profile:
     text: str  # the Δχ² <= 4 interval (about 95 %): "900-960 Hz", "Q > 3.1"
     open: bool  # the interval reaches the grid's edge: a bound, not a value
     u: float  # half the width of the Δχ² <= 1 interval (a standard uncertainty where the profile is closed)
+    value: float | None = None  # open: the geometric middle of the Δχ² <= 4 interval (the value to assume)
+
+
+def _vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
+                   fn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`_vrc_chi2`'s χ² at every (fn, Q) of two broadcastable arrays at once: the weighted
+    linear least squares for k2 (and k3) in closed form (normal equations of one or two
+    unknowns), so a fine grid costs a few array operations instead of one lstsq per point."""
+    vrc, u, f, g0 = data
+    r = f / fn[..., None]
+    h = 1.0 / ((1 - r * r) ** 2 + (r / q[..., None]) ** 2)
+    a1 = h / u
+    y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
+    yy = np.sum(y * y, axis=-1)
+    s11, b1 = np.sum(a1 * a1, axis=-1), np.sum(a1 * y, axis=-1)
+    if not k3_free:
+        return yy - b1 * b1 / s11
+    a2 = 3 * g0 * a1
+    s12, s22, b2 = np.sum(a1 * a2, axis=-1), np.sum(a2 * a2, axis=-1), np.sum(a2 * y, axis=-1)
+    det = s11 * s22 - s12 * s12
+    ok = det > 1e-12 * s11 * s22
+    two = yy - (s22 * b1 * b1 - 2 * s12 * b1 * b2 + s11 * b2 * b2) / np.where(ok, det, 1.0)
+    return np.where(ok, two, yy - b1 * b1 / s11)
 
 
 def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str],
-                       values: Mapping[str, float] | None = None) -> dict[str, _Profile]:
-    """Per fn and Q, the profile likelihood of the sine runs' apparent VRCs (:func:`_vrc_chi2`),
-    Δχ² scaled by the reduced χ² at its minimum when that exceeds 1 (as the fit's covariance is).
+                       values: Mapping[str, float] | None = None,
+                       local_u: Mapping[str, float] | None = None) -> dict[str, _Profile]:
+    """Per fn and Q, the profile likelihood of the sine runs' apparent VRCs (:func:`_vrc_chi2_grid`,
+    k2 and k3 profiled out in closed form), Δχ² scaled by the reduced χ² at its minimum when that
+    exceeds 1 (as the fit's covariance is).
 
-    Global: a log grid (fn from a third of the lowest to ten times the highest frequency, Q 0.5
-    to 50) says whether the Δχ² <= 4 interval is closed or reaches an edge (then the data give
-    a bound: "fn > 950 Hz"). Local (``values`` given: the fit's): a fine 1-D scan of each
-    parameter around its value, the other one minimised at each point (scipy's bounded
-    minimize_scalar), gives the Δχ² <= 1 half-width — the u that a non-quadratic likelihood
-    (a valley of large Q) really supports, where the fit's local curvature says less."""
-    from scipy.optimize import minimize_scalar
-
+    Global: a fine log grid (fn from a third of the lowest to ten times the highest frequency, Q
+    0.05 to 1000) says whether the Δχ² <= 4 interval (about 95 %) closes or reaches an edge (then
+    the data give a bound: "Q > 3.1"). Local (``values`` and the fit's ``local_u`` given): a grid
+    of ±8 local u about the fit, widened until the Δχ² <= 1 region is inside it, gives the
+    half-width that a non-quadratic likelihood (a valley of large Q) really supports."""
     sines = [ob for ob in obs if ob.method == "sine"]
     k3_free = "k3_ug_per_g3" in free
     k3_fixed = (parameter(base, "k3_ug_per_g3") or 0.0) if base is not None else 0.0
     data = _vrc_data(sines)
-    fns, qs = _resonance_grid(sines, 100, 40)
-    chi = np.array([[_vrc_chi2(data, k3_free, k3_fixed, fn, q)[1] for q in qs] for fn in fns])
-    n_k = 2 if k3_free else 1
-    dof = len(sines) - n_k - 2
-    best = float(chi.min())
+    f = data[2]
+    fns, qs = np.geomspace(f.min() / 3, 10 * f.max(), 700), np.geomspace(0.05, 1000, 300)
+    chi = _vrc_chi2_grid(data, k3_free, k3_fixed, fns[:, None], qs[None, :])
+    # the valley is narrower than the grid's step where the data determine a parameter well: each
+    # column's (row's) best point refined over its two neighbouring steps, 41 points
+    t = np.linspace(-1.0, 1.0, 41)[:, None]
+    i = np.clip(np.argmin(chi, axis=0), 1, fns.size - 2)
+    fine_fn = fns[i] * (fns[1] / fns[0]) ** t  # (41, n_q)
+    prof_q = _vrc_chi2_grid(data, k3_free, k3_fixed, fine_fn, qs[None, :]).min(axis=0)
+    j = np.clip(np.argmin(chi, axis=1), 1, qs.size - 2)
+    fine_q = qs[j] * (qs[1] / qs[0]) ** t  # (41, n_fn)
+    prof_fn = _vrc_chi2_grid(data, k3_free, k3_fixed, fns[None, :], fine_q).min(axis=0)
+    prof_q, prof_fn = np.minimum(prof_q, chi.min(axis=0)), np.minimum(prof_fn, chi.min(axis=1))
+    dof = len(sines) - (2 if k3_free else 1) - 2
+    best = float(min(prof_q.min(), prof_fn.min()))
     birge = max(1.0, best / dof) if dof > 0 else 1.0
     out: dict[str, _Profile] = {}
-    for name, axis, prof, label, unit in (("fn_hz", fns, chi.min(axis=1), "fn", " Hz"), ("q", qs, chi.min(axis=0), "Q", "")):
-        d = (prof - best) / birge
+    for name, axis, prof, label, unit in (("fn_hz", fns, prof_fn, "fn", " Hz"), ("q", qs, prof_q, "Q", "")):
+        d = (prof - prof.min()) / birge  # each against its own minimum (the two grids resolve it differently)
         inside = np.flatnonzero(d <= 4.0)
         lo, hi = int(inside[0]), int(inside[-1])
         is_open = lo == 0 or hi == axis.size - 1
@@ -560,41 +592,31 @@ def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str
         elif lo == 0:
             text = f"{label} < {axis[hi]:.3g}{unit}"
         else:
-            text = f"{axis[lo]:.3g}-{axis[hi]:.3g}{unit}"
-        # open: no value, only a bound; the u written for it spans the whole Δχ² <= 4 interval from the
-        # value (so that predict sees it leave the parameter's domain and says the VRE is not known)
-        x0 = float(values[name]) if values is not None else float(axis[int(np.argmin(d))])
-        u = max(abs(float(axis[hi]) - x0), abs(x0 - float(axis[lo])))
-        if not is_open:
-            scan = np.geomspace(min(x0, float(axis[max(lo - 1, 0)])) / 1.5,
-                                max(x0, float(axis[min(hi + 1, axis.size - 1)])) * 1.5, 241)
-
-            def other(x: float) -> float:
-                if name == "fn_hz":
-                    f = lambda lq: _vrc_chi2(data, k3_free, k3_fixed, x, math.exp(lq))[1]  # noqa: E731
-                    r = minimize_scalar(f, bounds=(math.log(0.05), math.log(1e4)), method="bounded",
-                                        options={"xatol": 1e-4})
-                else:
-                    f = lambda lf: _vrc_chi2(data, k3_free, k3_fixed, math.exp(lf), x)[1]  # noqa: E731
-                    c = math.log(x0 if values is None else float(values["fn_hz"]))
-                    r = minimize_scalar(f, bounds=(c - 0.7, c + 0.7), method="bounded", options={"xatol": 1e-5})
-                return float(r.fun)
-
-            fine = np.array([other(float(x)) for x in scan])
-            dd = (fine - min(best, float(fine.min()))) / birge
-            one, four = np.flatnonzero(dd <= 1.0), np.flatnonzero(dd <= 4.0)
-            if four.size and 0 < four[0] and four[-1] < scan.size - 1:
-                step = float(scan[1] / scan[0] - 1) * x0
-                u = max(float(scan[one[-1]] - scan[one[0]]) / 2, step) if one.size else step
-                text = f"{scan[four[0]]:.4g}-{scan[four[-1]]:.4g}{unit}"
-            else:  # the fine Δχ² <= 4 interval reaches beyond the scan: a bound
-                is_open = True
-                if four.size and four[0] > 0:
-                    text = f"{label} > {scan[four[0]]:.4g}{unit}"
-                elif four.size and four[-1] < scan.size - 1:
-                    text = f"{label} < {scan[four[-1]]:.4g}{unit}"
-        out[name] = _Profile(text, is_open, u)
+            text = f"{axis[lo]:.4g}-{axis[hi]:.4g}{unit}"
+        if is_open or values is None or local_u is None:
+            out[name] = _Profile(text, True, (axis[hi] - axis[lo]) / 2, math.sqrt(axis[lo] * axis[hi])) if is_open \
+                else _Profile(text, False, (axis[hi] - axis[lo]) / 4)
+            continue
+        out[name] = _Profile(text, False, _local_half_width(data, k3_free, k3_fixed, values, local_u, name, best, birge))
     return out
+
+
+def _local_half_width(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
+                      values: Mapping[str, float], local_u: Mapping[str, float], name: str, best: float,
+                      birge: float) -> float:
+    """Half the width of the Δχ² <= 1 profile interval of ``name`` about the fit: a 2-D grid of
+    ±w local u in fn and Q (w = 8, then 24, 72 until the region is inside it)."""
+    x = {n: float(values[n]) for n in ("fn_hz", "q")}
+    su = {n: max(float(local_u.get(n, 0.0)), 1e-6 * x[n]) for n in ("fn_hz", "q")}
+    for w in (8.0, 24.0, 72.0):
+        grid = {n: np.linspace(max(x[n] - w * su[n], 1e-3 * x[n]), x[n] + w * su[n], 241) for n in ("fn_hz", "q")}
+        chi = _vrc_chi2_grid(data, k3_free, k3_fixed, grid["fn_hz"][:, None], grid["q"][None, :])
+        prof = chi.min(axis=1 if name == "fn_hz" else 0)
+        axis = grid[name]
+        one = np.flatnonzero((prof - min(best, float(chi.min()))) / birge <= 1.0)
+        if one.size and one[0] > 0 and one[-1] < axis.size - 1:
+            return max(float(axis[one[-1]] - axis[one[0]]) / 2, float(axis[1] - axis[0]))
+    return float(w * su[name])
 
 
 # --------------------------------------------------------------------------- fitting
@@ -772,7 +794,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     base_values = {n: parameter(base, n) for n in PARAMETERS}
     fit: _Fit | None = None
     start = _start(obs, base, free)
-    bounds: dict[str, tuple[float, str]] = {}
+    bounds: dict[str, tuple[float, str, float | None]] = {}
     widen: dict[str, float] = {}
     level_notes: list[str] = []
     for attempt in range(8):
@@ -854,8 +876,10 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
             # a resonance the runs show on one flank: kept at the fitted value as an assumption with the u its
             # profile allows (never the base's "no resonance", never the fit's local, overconfident u)
             params[n] = None
-            used[n] = values[n]
-            assumed[n] = (bounds[n][0], f"fitted as a nuisance parameter, only bounded: {bounds[n][1]}")
+            u, text, middle = bounds[n]
+            used[n] = values[n] if middle is None else middle
+            assumed[n] = (u, f"fitted as a nuisance parameter, only bounded: {text}"
+                          + ("" if middle is None else f"; written at the bound's middle {middle:.4g} ± {u:.3g}"))
         else:
             params[n] = None
             used[n] = base_values[n]
