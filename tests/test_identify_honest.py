@@ -292,3 +292,33 @@ def test_assumed_uncertainty_is_propagated_and_named(tmp_path: Path) -> None:
     assert p.u_vre_g > 0.1 * abs(p.shares["overrange_g"])  # the ±25 % shows: tens of mg on -110 mg
     notes = " ".join(predict(s, profile, [1.5], static_g=1.0).notes)
     assert "dominated by assumed overrange_threshold_g" in notes
+
+
+def test_2f_cross_check_is_corrected_for_the_base_sensors_output_filters() -> None:
+    """Issue 18: the 2f cross-check ignored the base sensor's output filters (the DC shift passes
+    them, the 2f line does not). The correction is their gain at 2f against DC: for the ADXL355
+    at 4 kHz ODR, a 4th-order Butterworth low-pass at ODR/4 = 1000 Hz and a 2nd-order anti-alias
+    at 1500 Hz (the preset's facts), here from scipy's analog Butterworth responses; and the
+    identification divides the 2f VRC by it."""
+    from scipy import signal
+
+    from vrelab.identify import Observation, _post_filter_gain, cross_check_2f
+
+    base = load_sensor("adxl355", axis="z")
+    f2 = 1200.0
+    gain = 1.0
+    for order, fc in ((4, 1000.0), (2, 1500.0)):
+        b, a = signal.butter(order, 2 * math.pi * fc, analog=True)
+        gain *= abs(signal.freqs(b, a, [2 * math.pi * f2])[1][0])
+    assert _post_filter_gain(base, f2) == pytest.approx(gain, rel=1e-6)
+    assert _post_filter_gain(None, f2) == 1.0
+    # a sine observation at 600 Hz whose 2f line is attenuated exactly by that gain: corrected, it agrees with DC
+    rms = np.array([0.2, 0.4, 0.6])
+    vre = 2000e-6 * rms**2
+    ob = Observation(1, "600 Hz", "sine", 0.0, 600.0, None, rms, vre, np.full(3, 2e-6),
+                     tuple((float(v) * gain, 2e-6) for v in vre))
+    (x,) = cross_check_2f([ob], base)
+    assert x["filter_gain_2f"] == pytest.approx(gain)
+    assert x["vrc_2f_ug_per_g2"]["value"] == pytest.approx(x["vrc_dc_ug_per_g2"]["value"], rel=1e-9)
+    (raw,) = cross_check_2f([ob])
+    assert raw["vrc_2f_ug_per_g2"]["value"] == pytest.approx(gain * x["vrc_2f_ug_per_g2"]["value"], rel=1e-9)

@@ -421,7 +421,7 @@ def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> floa
 def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Any],
                  obs: Sequence[Observation], base: Any = None, prefer_base: bool = False,
                  bounds: dict[str, tuple[float, str, float | None]] | None = None,
-                 widen: dict[str, float] | None = None) -> dict[str, str]:
+                 widen: dict[str, float] | None = None, loose: dict[str, str] | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
 
     fn and Q stay in the fit as nuisance parameters when every sine frequency lies on one side
@@ -432,9 +432,10 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
     uncertainty from the profile (Δχ² <= 1, half its width) for the sensor file. fn and Q seen
     on both flanks but with a relative u above ``MAX_REL_U`` are kept, value and u (a poorly
     known Q is still a resonance near fn), unless ``prefer_base``; where the profile's Δχ² <= 1
-    half-width exceeds the local u by ``_WIDER`` (a non-quadratic likelihood: Q 2.0 ± 0.6 for a
-    true 6 on three frequencies far from fn), ``widen`` receives the factor the covariance's row
-    and column are to be scaled by; where the profile does not close, fn and Q are bounded. A rail or the threshold
+    half-width exceeds what the same profile's curvature at its bottom says by ``_WIDER`` (a
+    non-quadratic likelihood), ``widen`` receives that ratio, by which the covariance's row and
+    column are to be scaled; where the profile does not close, fn and Q are bounded (Q 2.0 ± 0.6
+    for a true 6 on three frequencies far from fn was such a case). A rail or the threshold
     that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
     shapes nothing the data see)."""
     why: dict[str, str] = {}
@@ -463,11 +464,14 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
                     if bounds is not None:  # open: the interval's middle; closed (one flank): the fit's value
                         bounds[n] = (prof[n].u, why[n], prof[n].value)
         else:
-            if widen is not None:
+            if widen is not None:  # the fit's u read off a curvature where the likelihood is not quadratic
                 for n in ("fn_hz", "q"):
-                    local = math.sqrt(cov.get(n, 0.0))
-                    if prof[n].u > _WIDER * local:
-                        widen[n] = prof[n].u / local if local > 0 else math.inf
+                    if prof[n].ratio > _WIDER:
+                        widen[n] = prof[n].ratio
+            for n, label in (("fn_hz", "fn"), ("q", "Q")):
+                if prof[n].open95 and loose is not None:
+                    loose[n] = (f"{n}: its ±1σ interval closes but its 95 % one does not ({prof[n].text}, Δχ² <= 4 on the "
+                                f"sine runs): u holds at 1σ only, the tail toward large {label} stays open")
             if prefer_base:
                 for n in ("fn_hz", "q"):
                     rel = max(math.sqrt(cov.get(n, math.inf)), prof[n].u) / abs(values[n])
@@ -523,6 +527,8 @@ class _Profile:
     open: bool  # the interval reaches the grid's edge: a bound, not a value
     u: float  # half the width of the Δχ² <= 1 interval (a standard uncertainty where the profile is closed)
     value: float | None = None  # open: the geometric middle of the Δχ² <= 4 interval (the value to assume)
+    ratio: float = 1.0  # closed: the Δχ² <= 1 half-width over the profile's own quadratic u (1: quadratic)
+    open95: bool = False  # closed at ±1σ but the Δχ² <= 4 interval (``text``) reaches the grid's edge
 
 
 def _vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
@@ -555,8 +561,8 @@ def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str
     exceeds 1 (as the fit's covariance is).
 
     Global: a fine log grid (fn from a third of the lowest to ten times the highest frequency, Q
-    0.05 to 1000) says whether the Δχ² <= 4 interval (about 95 %) closes or reaches an edge (then
-    the data give a bound: "Q > 3.1"). Local (``values`` and the fit's ``local_u`` given): a grid
+    0.05 to 1000) says whether the Δχ² <= 1 interval closes or reaches an edge (then the data
+    give a bound, said by the Δχ² <= 4 interval, about 95 %: "Q > 3.1"). Local (``values`` and the fit's ``local_u`` given): a grid
     of ±8 local u about the fit, widened until the Δχ² <= 1 region is inside it, gives the
     half-width that a non-quadratic likelihood (a valley of large Q) really supports."""
     sines = [ob for ob in obs if ob.method == "sine"]
@@ -584,7 +590,10 @@ def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str
         d = (prof - prof.min()) / birge  # each against its own minimum (the two grids resolve it differently)
         inside = np.flatnonzero(d <= 4.0)
         lo, hi = int(inside[0]), int(inside[-1])
-        is_open = lo == 0 or hi == axis.size - 1
+        open95 = lo == 0 or hi == axis.size - 1
+        one = np.flatnonzero(d <= 1.0)
+        # a value needs its ±1σ interval closed; a 95 % interval that stays open is said, not hidden
+        is_open = one[0] == 0 or one[-1] == axis.size - 1
         if lo == 0 and hi == axis.size - 1:
             text = f"{label} anywhere in {axis[0]:.3g}-{axis[-1]:.3g}{unit}"
         elif hi == axis.size - 1:
@@ -597,15 +606,18 @@ def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str
             out[name] = _Profile(text, True, (axis[hi] - axis[lo]) / 2, math.sqrt(axis[lo] * axis[hi])) if is_open \
                 else _Profile(text, False, (axis[hi] - axis[lo]) / 4)
             continue
-        out[name] = _Profile(text, False, _local_half_width(data, k3_free, k3_fixed, values, local_u, name, best, birge))
+        half, quad = _local_half_width(data, k3_free, k3_fixed, values, local_u, name, best, birge)
+        out[name] = _Profile(text, False, half, ratio=half / quad if quad > 0 else 1.0, open95=open95)
     return out
 
 
 def _local_half_width(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
                       values: Mapping[str, float], local_u: Mapping[str, float], name: str, best: float,
-                      birge: float) -> float:
-    """Half the width of the Δχ² <= 1 profile interval of ``name`` about the fit: a 2-D grid of
-    ±w local u in fn and Q (w = 8, then 24, 72 until the region is inside it)."""
+                      birge: float) -> tuple[float, float]:
+    """Half the width of the Δχ² <= 1 profile interval of ``name`` about the fit (a 2-D grid of
+    ±w local u in fn and Q, w = 8, then 24, 72 until the region is inside it), and the u the same
+    profile's curvature at its bottom gives: their ratio says how far the likelihood is from
+    quadratic over ±1 u (1 for a quadratic one)."""
     x = {n: float(values[n]) for n in ("fn_hz", "q")}
     su = {n: max(float(local_u.get(n, 0.0)), 1e-6 * x[n]) for n in ("fn_hz", "q")}
     for w in (8.0, 24.0, 72.0):
@@ -613,10 +625,18 @@ def _local_half_width(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_f
         chi = _vrc_chi2_grid(data, k3_free, k3_fixed, grid["fn_hz"][:, None], grid["q"][None, :])
         prof = chi.min(axis=1 if name == "fn_hz" else 0)
         axis = grid[name]
-        one = np.flatnonzero((prof - min(best, float(chi.min()))) / birge <= 1.0)
+        d = (prof - min(best, float(chi.min()))) / birge
+        one = np.flatnonzero(d <= 1.0)
         if one.size and one[0] > 0 and one[-1] < axis.size - 1:
-            return max(float(axis[one[-1]] - axis[one[0]]) / 2, float(axis[1] - axis[0]))
-    return float(w * su[name])
+            half = max(float(axis[one[-1]] - axis[one[0]]) / 2, float(axis[1] - axis[0]))
+            # the same profile's own quadratic reading: a parabola through its bottom (Δχ² <= 0.3)
+            near = np.flatnonzero(d <= 0.3)
+            if near.size >= 5:
+                a = np.polyfit(axis[near], d[near], 2)[0]
+                if a > 0:
+                    return half, 1.0 / math.sqrt(a)
+            return half, half
+    return float(w * su[name]), float(w * su[name])
 
 
 # --------------------------------------------------------------------------- fitting
@@ -796,6 +816,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     start = _start(obs, base, free)
     bounds: dict[str, tuple[float, str, float | None]] = {}
     widen: dict[str, float] = {}
+    loose: dict[str, str] = {}
     level_notes: list[str] = []
     for attempt in range(8):
         fit = _fit(base, obs, free, start, kind)
@@ -815,7 +836,8 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
         values = dict(zip(free, fit.x))
         var = {n: fit.cov[i, i] * scale for i, n in enumerate(free)}
         widen.clear()
-        later = _post_checks(values, var, free, fit.preds, obs, base, prefer_base, bounds, widen)
+        loose.clear()
+        later = _post_checks(values, var, free, fit.preds, obs, base, prefer_base, bounds, widen, loose)
         why.update(later)
         fixed = [n for n in later if n not in NUISANCE]
         if not fixed:
@@ -824,6 +846,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
         start = {n: v for n, v in start.items() if n in free}
     assert fit is not None
     notes += level_notes
+    notes += [t for n, t in loose.items() if n not in why]
     readmitted = [f"{ob.freq_hz:.4g} Hz {r:.4g} g rms" for ob in obs for r, sat in zip(ob.rms_g, ob.saturated or ()) if sat]
     if readmitted:
         notes.append("sine level(s) flagged saturated by the analysis kept: their peaks stay inside the identified rails ("
@@ -848,8 +871,8 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
             before = math.sqrt(max(cov[i, i], 0.0))
             cov[i, :] *= factor
             cov[:, i] *= factor
-            notes.append(f"{n}: the likelihood is not quadratic over its u (profile Δχ² <= 1 half-width {factor:.2g}× the "
-                         f"fit's local {before:.2g}): its u widened to the profile's, correlations kept")
+            notes.append(f"{n}: the likelihood is not quadratic over its u (the sine runs' profile Δχ² <= 1 half-width is "
+                         f"{factor:.2g}× what its curvature says): its u {before:.2g} widened by that, correlations kept")
     values = dict(zip(free, (float(v) for v in fit.x)))
     budget: list[dict[str, Any]] = []
     if typeb is not None and typeb.declared and free:
@@ -888,6 +911,10 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
                 u = base.uncertainty.get(n)
                 assumed[n] = (u, f"from base sensor ({why[n]}); "
                               + (f"its stated u {u:.3g}" if u is not None else "the base states no u for it"))
+    no_u = [n for n, (u, _w) in assumed.items() if u is None]
+    if no_u:
+        notes.append("taken from the base sensor without a stated u (its file has no [uncertainty] for them): "
+                     + ", ".join(f"{n} = {used[n]:.6g}" for n in no_u) + "; predict's u does not include them")
     nuisance = [n for n in free if n in NUISANCE and params[n] is None]
     if nuisance:
         notes.append("fitted as nuisance parameters, only bounded (null): "
