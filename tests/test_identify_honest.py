@@ -19,6 +19,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -202,7 +203,7 @@ def test_malformed_campaign_json_is_refused_naming_the_field(small_doc: dict, tm
         del target[path[-1]]
     else:
         target[path[-1]] = value
-    with pytest.raises(ValueError, match=rf"campaign document {__import__('re').escape(field)} must be"):
+    with pytest.raises(ValueError, match=rf"campaign document {re.escape(field)} must be"):
         identify(doc, "ideal")
     camp = _campaign_folder(tmp_path, doc)
     code = main(["identify", str(camp), "--out", str(tmp_path / "out")])

@@ -21,17 +21,26 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 * ``overrange_threshold_g`` — from the random runs, where the data reach it (the base sensor
   must give the hold time).
 
-What the campaign cannot determine is null with its reason and taken from the base sensor,
-marked so: k2 and k3 without a sine run; k3 with one orientation; k2 too when that orientation
-is not 0 g (then only ``k2 + 3·k3·g0`` is known, and said); fn and Q with fewer than three sine
-frequencies (two fix k and one combination of fn and Q), without a sine run near fn
-(``f/fn >= 0.5``) or with a relative u above 50 %; a rail or the over-range threshold whose
-share of the VRE stays within 3 standard uncertainties over the levels. The last three checks
-are made with the fitted values: a rail or the threshold that fails is fixed at the base
-sensor's value and the rest refitted; fn and Q that fail stay free as nuisance parameters (a
-resonance the runs show but do not pin down must not be absorbed by k2 and k3) and are
-reported null. Levels the analytic sum does not cover (a sine peak at a rail; a random level
-where clipping and the nonlinearity interact beyond half its u) are left out with a note.
+What the campaign cannot determine is null with its reason: k2 and k3 without a sine run; k3
+with one orientation; k2 too when that orientation is not 0 g (then only ``k2 + 3·k3·g0`` is
+known, and said); fn and Q with fewer than three sine frequencies (two fix k and one combination
+of fn and Q); a rail or the over-range threshold whose share of the VRE stays within 3 standard
+uncertainties over the levels (fixed at the base sensor's value, the rest refitted). The sensor
+file takes those from the base sensor as assumptions, with the u the base states for them (its
+``[uncertainty]`` table: a datasheet tolerance, a filter corner) or said to have none.
+
+fn and Q are judged by their profile likelihood on the sine runs' apparent VRCs
+(:func:`_resonance_profile`), not by the fit's local curvature alone: where every sine frequency
+lies on one flank of the fitted fn (or below ``NEAR_FN``·fn), or a parameter's ±1σ profile
+interval does not close (a Q the runs bound from below only), the parameter is null with the
+bound the data give in its reason ("Q > 4.2"), stays free in the fit as a nuisance parameter
+(k2 and k3 must not absorb a resonance the runs show), and goes into the sensor file as an
+assumption whose u spans that bound, so ``predict`` says where its u is no claim. Where the
+interval closes, fn and Q are kept with their value, u and correlations however large the u
+(``prefer_base`` takes the base's instead), the u widened where the profile is wider than its
+own curvature says. Levels the analytic sum does not cover (a sine peak at a rail, judged with
+the identified rails; a random level where clipping and the nonlinearity interact beyond half
+its u) are left out with a note; the choice is iterated with the fit.
 
 Uncertainty: the covariance ``(JᵀJ)⁻¹`` of the whitened residuals at the solution (J by
 central differences), scaled by the reduced χ² when that exceeds 1 (the Birge ratio, as the
@@ -942,8 +951,6 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     peak reaches a rail (deterministic, u of a few µg: the error is hundreds of u and would
     drag k2 and k3; the rails come from the random runs); a random level where that error,
     for Gaussian motion of the level's σ at the clip, exceeds half its u."""
-    from dataclasses import replace
-
     from scipy.stats import norm
 
     low, high = sensor.rails_g
