@@ -323,3 +323,41 @@ def test_2f_cross_check_is_corrected_for_the_base_sensors_output_filters() -> No
     assert x["vrc_2f_ug_per_g2"]["value"] == pytest.approx(x["vrc_dc_ug_per_g2"]["value"], rel=1e-9)
     (raw,) = cross_check_2f([ob])
     assert raw["vrc_2f_ug_per_g2"]["value"] == pytest.approx(gain * x["vrc_2f_ug_per_g2"]["value"], rel=1e-9)
+
+
+def test_sine_levels_flagged_saturated_are_judged_against_the_identified_rails() -> None:
+    """Issue 18: a sine level was left out against the starting ±2 g rails rather than the
+    identified 2.09 g. A part with rails ±2.09 g (no resonance, k2 1500, k3 -250 µg/g²): its
+    80 Hz level of 0.75 g rms at +1 g peaks at 2.06 g, flagged "saturated" by an analysis that
+    took ±2 g for the rail. With random runs that identify the rails, the level comes back (its
+    peak is inside them) and the note says so; without them (rails only assumed) it stays out.
+    Levels: the closed form of the model (predict on the true part) plus seeded noise of the
+    stated u — this checks which levels the fit uses, not the physics."""
+    from vrelab.campaign import profile_document
+
+    truth = load_sensor("ideal", range_g=2.09, k2_ug_per_g2=1500.0, k3_ug_per_g3=-250.0)
+    rng = np.random.default_rng(7)
+    u = 3e-6
+
+    def run(i: int, g0: float, freq: float | None, levels: list[float]) -> dict:
+        exc = RandomProfile.flat(50.0, 500.0) if freq is None else [freq]
+        lv = []
+        for r, p in zip(levels, predict(truth, exc, levels, static_g=g0).levels):
+            flags = ["saturated"] if freq is not None and abs(g0) + math.sqrt(2) * r > 2.0 else []
+            ur = u if freq else 100 * u  # a random level's VRE scatters far more than a sine's
+            lv.append({"rms_g": r, "vre_g": p.vre_g + rng.normal(0, ur), "u_vre_g": ur, "freq_hz": freq, "flags": flags})
+        return {"index": i, "label": f"run {i}", "status": "ok", "method": "sine" if freq else "random",
+                "profile": None if freq else profile_document("flat:50-500"),
+                "channels": [{"channel": "dut", "static_g": g0, "levels": lv}]}
+
+    sines = [run(1, 1.0, 80.0, [0.3, 0.6, 0.75]), run(2, -1.0, 80.0, [0.3, 0.6, 0.75])]
+    randoms = [run(3, 1.0, None, [0.4, 0.5, 0.6]), run(4, -1.0, None, [0.4, 0.5, 0.6])]
+    with_rails = identify({"name": "sat", "runs": sines + randoms}, "ideal").channels[0]
+    for side in ("rail_low_g", "rail_high_g"):
+        e = with_rails.parameters[side]
+        assert e is not None and abs(abs(e.value) - 2.09) <= 3 * e.u
+    n_sine = {r["run"]: r["n"] for r in with_rails.runs if r["method"] == "sine"}
+    assert n_sine == {1: 3, 2: 3}
+    assert any("flagged saturated by the analysis kept" in n for n in with_rails.notes)
+    without = identify({"name": "sat", "runs": sines}, "ideal").channels[0]
+    assert {r["run"]: r["n"] for r in without.runs} == {1: 2, 2: 2}
