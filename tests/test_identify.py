@@ -83,8 +83,25 @@ def _recover(seed: int) -> dict[str, float | None]:
         doc = campaign_document(sensor, _design(t), seed=seed, seconds=2.0, settle_s=0.2)
     ch = identify(doc, "ideal").channels[0]
     truth = {NAMES[k]: t[k] for k in NAMES} | {"rail_low_g": -t["rail"], "rail_high_g": t["rail"]}
+    for n in ("fn_hz", "q"):  # a resonance parameter left null carries a bound, and the bound holds the truth
+        if ch.parameters[n] is None:
+            assert _bound_holds(ch.reasons[n], truth[n]), (seed, n, truth[n], ch.reasons[n])
     return {n: None if ch.parameters[n] is None else (ch.parameters[n].value - v) / ch.parameters[n].u
             for n, v in truth.items()}
+
+
+def _bound_holds(reason: str, truth: float) -> bool:
+    """Whether the bound a null fn or Q's reason gives ("... bound Q to Q > 4.99 (...", "... bound
+    fn to 934.6-1329 Hz (...") holds ``truth``."""
+    text = reason.split(" bound ")[1].split(" to ", 1)[1].split(" (")[0].replace(" Hz", "")
+    if " > " in text:
+        return truth > float(text.split(" > ")[1])
+    if " < " in text:
+        return truth < float(text.split(" < ")[1])
+    if " anywhere in " in text:
+        return True
+    lo, hi = (float(x) for x in text.split("-"))
+    return lo <= truth <= hi
 
 
 @pytest.mark.slow
@@ -93,13 +110,14 @@ def test_recovery_pulls_over_simulated_campaigns() -> None:
     parameter the pulls (estimate - truth)/u have a standard deviation between 0.7 and 1.4 (the
     uncertainties are neither optimistic nor inflated) and a mean within 0.6 of 0 (no bias).
     The design reaches fn and the rails, so each parameter is determined in at least 22 of the
-    24 campaigns (a noisy campaign may leave Q in its valley of large values: null, not a
-    number)."""
+    24 campaigns, Q in at least 18: a campaign whose sine runs do not bound Q from above (its
+    profile likelihood flat toward large Q: issue 18) leaves it null with a lower bound, and that
+    bound holds the truth (checked in _recover), a bound rather than a confident number."""
     with ProcessPoolExecutor(max_workers=2) as pool:
         pulls = list(pool.map(_recover, range(24)))
     for name in pulls[0]:
         values = [p[name] for p in pulls if p[name] is not None]
-        assert len(values) >= 22, f"{name} determined in {len(values)} of 24 campaigns only"
+        assert len(values) >= (18 if name == "q" else 22), f"{name} determined in {len(values)} of 24 campaigns only"
         sd = statistics.pstdev(values)
         mean = statistics.fmean(values)
         assert 0.7 <= sd <= 1.4, f"{name}: pulls sd {sd:.2f} (mean {mean:+.2f}): {np.round(values, 2)}"

@@ -21,17 +21,26 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 * ``overrange_threshold_g`` — from the random runs, where the data reach it (the base sensor
   must give the hold time).
 
-What the campaign cannot determine is null with its reason and taken from the base sensor,
-marked so: k2 and k3 without a sine run; k3 with one orientation; k2 too when that orientation
-is not 0 g (then only ``k2 + 3·k3·g0`` is known, and said); fn and Q with fewer than three sine
-frequencies (two fix k and one combination of fn and Q), without a sine run near fn
-(``f/fn >= 0.5``) or with a relative u above 50 %; a rail or the over-range threshold whose
-share of the VRE stays within 3 standard uncertainties over the levels. The last three checks
-are made with the fitted values: a rail or the threshold that fails is fixed at the base
-sensor's value and the rest refitted; fn and Q that fail stay free as nuisance parameters (a
-resonance the runs show but do not pin down must not be absorbed by k2 and k3) and are
-reported null. Levels the analytic sum does not cover (a sine peak at a rail; a random level
-where clipping and the nonlinearity interact beyond half its u) are left out with a note.
+What the campaign cannot determine is null with its reason: k2 and k3 without a sine run; k3
+with one orientation; k2 too when that orientation is not 0 g (then only ``k2 + 3·k3·g0`` is
+known, and said); fn and Q with fewer than three sine frequencies (two fix k and one combination
+of fn and Q); a rail or the over-range threshold whose share of the VRE stays within 3 standard
+uncertainties over the levels (fixed at the base sensor's value, the rest refitted). The sensor
+file takes those from the base sensor as assumptions, with the u the base states for them (its
+``[uncertainty]`` table: a datasheet tolerance, a filter corner) or said to have none.
+
+fn and Q are judged by their profile likelihood on the sine runs' apparent VRCs
+(:func:`_resonance_profile`), not by the fit's local curvature alone: where every sine frequency
+lies on one flank of the fitted fn (or below ``NEAR_FN``·fn), or a parameter's ±1σ profile
+interval does not close (a Q the runs bound from below only), the parameter is null with the
+bound the data give in its reason ("Q > 4.2"), stays free in the fit as a nuisance parameter
+(k2 and k3 must not absorb a resonance the runs show), and goes into the sensor file as an
+assumption whose u spans that bound, so ``predict`` says where its u is no claim. Where the
+interval closes, fn and Q are kept with their value, u and correlations however large the u
+(``prefer_base`` takes the base's instead), the u widened where the profile is wider than its
+own curvature says. Levels the analytic sum does not cover (a sine peak at a rail, judged with
+the identified rails; a random level where clipping and the nonlinearity interact beyond half
+its u) are left out with a note; the choice is iterated with the fit.
 
 Uncertainty: the covariance ``(JᵀJ)⁻¹`` of the whitened residuals at the solution (J by
 central differences), scaled by the reduced χ² when that exceeds 1 (the Birge ratio, as the
@@ -70,6 +79,8 @@ REACH_SIGMA = 3.0
 NEAR_FN = 0.5
 # fn or Q with a relative standard uncertainty beyond this is not determined.
 MAX_REL_U = 0.5
+# fn or Q whose profile-likelihood u exceeds the fit's local one by this factor take the profile's.
+_WIDER = 1.3
 # Parameters that stay free when not determined (see _post_checks).
 NUISANCE = ("fn_hz", "q")
 
@@ -88,6 +99,8 @@ class Observation:
     vre_g: NDArray[np.float64]
     u_g: NDArray[np.float64]  # Type A standard uncertainty of each VRE
     harmonic_g: tuple[tuple[float, float] | None, ...] = ()  # per level: the 2f estimate (value, u)
+    # per sine level: the analysis flagged DUT samples at a rail (its own rail, not the identified one)
+    saturated: tuple[bool, ...] = ()
 
     @property
     def n(self) -> int:
@@ -109,6 +122,9 @@ class ChannelModel:
     notes: tuple[str, ...]
     budget: tuple[dict[str, Any], ...] = ()
     cross_check_2f: tuple[dict[str, Any], ...] = ()
+    # parameters written to the sensor file as assumptions (not identified): their standard u
+    # (from the base sensor's [uncertainty], or the profile of a resonance only bounded) and why
+    assumed: Mapping[str, tuple[float | None, str]] = field(default_factory=dict)
 
     @property
     def chi2_reduced(self) -> float | None:
@@ -131,6 +147,8 @@ class ChannelModel:
             "runs": list(self.runs),
             "budget": list(self.budget),
             "cross_check_2f": list(self.cross_check_2f),
+            "assumed": {n: {"value": finite_or_none(self.values.get(n)), "u": finite_or_none(u), "source": why}
+                        for n, (u, why) in self.assumed.items()},
             "notes": list(self.notes),
         }  # fmt: skip
 
@@ -138,26 +156,101 @@ class ChannelModel:
 # --------------------------------------------------------------------------- observations
 
 
+def _is_num(v: Any, finite: bool = True) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and (not finite or math.isfinite(v))
+
+
+def check_document(doc: Any) -> None:
+    """The campaign document's schema, as identification reads it (``vrelab campaign``'s
+    results.json, :func:`vrelab.campaign.campaign_doc`): a ValueError naming the first field
+    that is missing or of the wrong type (``runs[2].channels[0].static_g``), never a KeyError or
+    a TypeError deep in the fit."""
+
+    def need(where: str, ok: bool, what: str, value: Any) -> None:
+        if not ok:
+            shown = repr(value)
+            raise ValueError(f"identify: campaign document {where} must be {what}, got "
+                             f"{shown if len(shown) <= 60 else shown[:57] + '...'}")
+
+    missing = object()
+    need("(the whole)", isinstance(doc, Mapping), "an object", type(doc).__name__)
+    need("runs", isinstance(doc.get("runs"), list), "a list of runs (give a manifest or a `vrelab campaign --out` "
+         "folder)", doc.get("runs"))
+    for i, run in enumerate(doc["runs"]):
+        w = f"runs[{i}]"
+        need(w, isinstance(run, Mapping), "an object", run)
+        need(f"{w}.index", _is_num(run.get("index")) and float(run["index"]).is_integer(), "an integer",
+             run.get("index", "missing"))
+        need(f"{w}.status", isinstance(run.get("status"), str), "a string (ok or failed)", run.get("status", "missing"))
+        if run["status"] != "ok":
+            continue
+        need(f"{w}.method", isinstance(run.get("method"), str), "a string (sine or random)", run.get("method", "missing"))
+        need(f"{w}.channels", isinstance(run.get("channels"), list), "a list", run.get("channels", "missing"))
+        if run.get("budget") is not None:
+            need(f"{w}.budget", isinstance(run["budget"], Mapping) and all(_is_num(v) for v in run["budget"].values()),
+                 "an object of numbers", run["budget"])
+        prof = run.get("profile")
+        if prof is not None:
+            need(f"{w}.profile", isinstance(prof, Mapping), "an object", prof)
+            bp = prof.get("breakpoints")
+            need(f"{w}.profile.breakpoints", bp is None or (isinstance(bp, list) and all(
+                isinstance(r, list) and len(r) == 2 and all(_is_num(x) for x in r) for r in bp)),
+                "a list of [frequency, psd] pairs", bp)
+        for j, ch in enumerate(run["channels"]):
+            wc = f"{w}.channels[{j}]"
+            need(wc, isinstance(ch, Mapping), "an object", ch)
+            need(f"{wc}.channel", isinstance(ch.get("channel"), str) and bool(ch.get("channel")), "a channel name",
+                 ch.get("channel", "missing"))
+            need(f"{wc}.static_g", _is_num(ch.get("static_g", missing)), "a finite number [g]",
+                 ch.get("static_g", "missing"))
+            need(f"{wc}.levels", isinstance(ch.get("levels"), list), "a list", ch.get("levels", "missing"))
+            for k, lv in enumerate(ch["levels"]):
+                wl = f"{wc}.levels[{k}]"
+                need(wl, isinstance(lv, Mapping), "an object", lv)
+                for key in ("rms_g", "vre_g", "u_vre_g", "freq_hz", "dof"):
+                    v = lv.get(key)
+                    need(f"{wl}.{key}", v is None or _is_num(v, finite=False), "a number or null", v)
+                need(f"{wl}.flags", isinstance(lv.get("flags", []), list), "a list", lv.get("flags"))
+                b = lv.get("budget")
+                need(f"{wl}.budget", b is None or (isinstance(b, list) and all(isinstance(t, Mapping) for t in b)),
+                     "a list of terms", b)
+                for t in b or ():
+                    need(f"{wl}.budget[].u_g", t.get("u_g") is None or _is_num(t.get("u_g"), finite=False),
+                         "a number or null", t.get("u_g"))
+                h = lv.get("vre_2f")
+                need(f"{wl}.vre_2f", h is None or (isinstance(h, Mapping) and all(
+                    h.get(x) is None or _is_num(h.get(x), finite=False) for x in ("value", "u"))),
+                    "an object with value and u", h)
+
+
+def failed_runs(doc: Mapping[str, Any]) -> list[str]:
+    """One line per run of the campaign that failed: it is not in the identification."""
+    return [f"run {r['index']} ({r.get('label')!r}) failed ({r.get('error') or 'no error given'}): not used"
+            for r in doc["runs"] if r.get("status") != "ok"]
+
+
 def observations(doc: Mapping[str, Any]) -> tuple[dict[str, list[Observation]], dict[str, list[str]]]:
     """Per channel, its runs' levels from a campaign document (:func:`vrelab.campaign.campaign_doc`).
 
-    Levels without a finite VRE and a positive uncertainty are left out; a random run without
-    its profile (the manifest's ``profile``) cannot be modelled and is left out with a note.
+    The document is checked first (:func:`check_document`). Levels without a finite VRE and a
+    positive uncertainty are left out; a random run without its profile (the manifest's
+    ``profile``) cannot be modelled and is left out with a note. A failed run is named in every
+    channel's notes (:func:`failed_runs`).
     """
-    if not isinstance(doc, Mapping) or not isinstance(doc.get("runs"), list):
-        raise ValueError("identify: not a campaign document (no runs): give a manifest or a `vrelab campaign --out` folder")
+    check_document(doc)
     obs: dict[str, list[Observation]] = {}
     notes: dict[str, list[str]] = {}
     for run in doc["runs"]:
         if run.get("status") != "ok":
-            for ch in run.get("channels") or ():
-                notes.setdefault(ch["channel"], []).append(f"run {run['index']} failed ({run.get('error')}): not used")
             continue
         for ch in run.get("channels") or ():
             name = ch["channel"]
             obs.setdefault(name, [])
             notes.setdefault(name, [])
             obs[name] += _observation(run, ch, notes[name])
+    failed = failed_runs(doc)
+    for name in notes:
+        notes[name] = failed + notes[name]
     return obs, notes
 
 
@@ -198,18 +291,18 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         v, u, rms = lv.get("vre_g"), _type_a(lv), lv.get("rms_g")
         if v is None or u is None or rms is None or not (u > 0 and math.isfinite(v) and rms > 0):
             continue
-        if method == "sine" and "saturated" in (lv.get("flags") or ()):
+        sat = method == "sine" and "saturated" in (lv.get("flags") or ())
+        if sat:
             saturated.append(f"{rms:.4g}")  # the DUT reached a rail: see _modelled for why a sine level must not
-            continue
         h = lv.get("vre_2f")
         h2f = (float(h["value"]), float(h["u"])) if isinstance(h, Mapping) and h.get("value") is not None \
             and h.get("u") else None
         dof = lv.get("dof")
         rows.append((float(rms), float(v), float(u), lv.get("freq_hz"), h2f,
-                     float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf))
+                     float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf, sat))
     if saturated:
-        notes.append(f"{where}: sine level(s) {', '.join(saturated)} g rms left out: the DUT reached a rail there, "
-                     "where clipping and the nonlinearity do not add")
+        notes.append(f"{where}: sine level(s) {', '.join(saturated)} g rms flagged saturated by the analysis (DUT "
+                     "samples at its rail): left out, unless the identified rails clear their peaks")
     if not rows:
         notes.append(f"{where}: no level with a VRE and its uncertainty: not used")
         return []
@@ -217,9 +310,10 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
     index, label = int(run["index"]), str(run.get("label", ""))
 
     def make(sel: Sequence[tuple[Any, ...]], freq: float | None, profile: RandomProfile | None) -> Observation:
-        rms, vre, u, _, h2f, dof = zip(*sel)
+        rms, vre, u, _, h2f, dof, sat = zip(*sel)
         return Observation(index, label, str(method), g0, freq, profile, np.array(rms), np.array(vre),
-                           _pooled(np.array(u), np.array(dof)) if freq is not None else np.array(u), tuple(h2f))
+                           _pooled(np.array(u), np.array(dof)) if freq is not None else np.array(u), tuple(h2f),
+                           tuple(sat))
 
     if method == "sine":
         if any(r[3] is None for r in rows):
@@ -334,26 +428,65 @@ def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> floa
 
 
 def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Any],
-                 obs: Sequence[Observation]) -> dict[str, str]:
+                 obs: Sequence[Observation], base: Any = None, prefer_base: bool = False,
+                 bounds: dict[str, tuple[float, str, float | None]] | None = None,
+                 widen: dict[str, float] | None = None, loose: dict[str, str] | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
 
-    fn and Q so found stay in the fit as nuisance parameters (a resonance the sine runs show
-    but do not pin down still shapes VRC(f), and k2, k3 must not absorb it); a rail or the
-    threshold that the levels do not reach is fixed at the base sensor's value and the rest
-    refitted (it shapes nothing the data see)."""
+    fn and Q stay in the fit as nuisance parameters when every sine frequency lies on one side
+    of the fitted fn (or below ``NEAR_FN``·fn): VRC(f) then shows a flank, not the peak, and
+    the local covariance of fn and Q is a confident wrong number (three frequencies below a
+    1200 Hz fn gave Q 2.69 ± 0.15 for 4). Their reason gives the bound the data do support
+    (:func:`_resonance_profile`, Δχ² <= 4), and ``bounds`` receives, per parameter, a standard
+    uncertainty from the profile (Δχ² <= 1, half its width) for the sensor file. fn and Q seen
+    on both flanks but with a relative u above ``MAX_REL_U`` are kept, value and u (a poorly
+    known Q is still a resonance near fn), unless ``prefer_base``; where the profile's Δχ² <= 1
+    half-width exceeds what the same profile's curvature at its bottom says by ``_WIDER`` (a
+    non-quadratic likelihood), ``widen`` receives that ratio, by which the covariance's row and
+    column are to be scaled; where the profile does not close, fn and Q are bounded (Q 2.0 ± 0.6
+    for a true 6 on three frequencies far from fn was such a case). A rail or the threshold
+    that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
+    shapes nothing the data see)."""
     why: dict[str, str] = {}
     if "fn_hz" in free:
-        fmax = max(_sine_frequencies(obs))
+        freqs = _sine_frequencies(obs)
+        fmin, fmax = min(freqs), max(freqs)
         fn = values["fn_hz"]
-        if fmax / fn < NEAR_FN:
-            why["fn_hz"] = why["q"] = (f"no sine run near fn (the highest, {fmax:g} Hz, is {fmax / fn:.2f}·fn of the "
-                                       f"fitted {fn:.4g} Hz; Q needs f >= {NEAR_FN:g}·fn)")
+        side = "below" if fmax < fn else "above" if fmin > fn else None
+        text = ", ".join(f"{f:g}" for f in freqs)
+        prof = _resonance_profile(obs, base, free, values, {n: math.sqrt(cov.get(n, 0.0)) for n in ("fn_hz", "q")})
+        one_sided = side is not None or fmax / fn < NEAR_FN
+        if one_sided or prof["fn_hz"].open or prof["q"].open:
+            if side is not None:
+                head = f"every sine frequency ({text} Hz) is {side} the fitted fn ({fn:.4g} Hz): VRC(f) shows one flank"
+            elif fmax / fn < NEAR_FN:
+                head = (f"no sine run near fn (the highest, {fmax:g} Hz, is {fmax / fn:.2f}·fn of the fitted {fn:.4g} Hz; "
+                        f"Q needs f >= {NEAR_FN:g}·fn)")
+            else:
+                head = f"the sine runs ({text} Hz) do not close the likelihood of"
+            # one flank: neither is a value (issue: Q 2.69 ± 0.15 for 4 from three frequencies below fn); both
+            # flanks but an open profile: the open one only (a well-bounded fn stays identified)
+            for n, label in (("fn_hz", "fn"), ("q", "Q")):
+                if one_sided or prof[n].open:
+                    lead = head if one_sided or not head.endswith(" of") else f"{head} {label}"
+                    why[n] = f"{lead}; the data bound {label} to {prof[n].text} (Δχ² <= 4), not its value"
+                    if bounds is not None:  # open: the interval's middle; closed (one flank): the fit's value
+                        bounds[n] = (prof[n].u, why[n], prof[n].value)
         else:
-            for n in ("fn_hz", "q"):
-                rel = math.sqrt(cov.get(n, math.inf)) / abs(values[n])
-                if not rel <= MAX_REL_U:
-                    why["fn_hz"] = why["q"] = (f"not determined by the sine runs ({n} has a relative standard "
-                                               f"uncertainty of {100 * rel:.0f} %)")
+            if widen is not None:  # the fit's u read off a curvature where the likelihood is not quadratic
+                for n in ("fn_hz", "q"):
+                    if prof[n].ratio > _WIDER:
+                        widen[n] = prof[n].ratio
+            for n, label in (("fn_hz", "fn"), ("q", "Q")):
+                if prof[n].open95 and loose is not None:
+                    loose[n] = (f"{n}: its ±1σ interval closes but its 95 % one does not ({prof[n].text}, Δχ² <= 4 on the "
+                                f"sine runs): u holds at 1σ only, the tail toward large {label} stays open")
+            if prefer_base:
+                for n in ("fn_hz", "q"):
+                    rel = max(math.sqrt(cov.get(n, math.inf)), prof[n].u) / abs(values[n])
+                    if not rel <= MAX_REL_U:
+                        why["fn_hz"] = why["q"] = (f"poorly determined by the sine runs ({n} has a relative standard "
+                                                   f"uncertainty of {100 * rel:.0f} %): the base sensor's taken, as asked")
     for n, share, side in (("rail_low_g", "clip_low_g", "lower"), ("rail_high_g", "clip_high_g", "upper")):
         if n in free:
             z = _reach(preds, obs, share)
@@ -366,6 +499,153 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
             why["overrange_threshold_g"] = (f"the data do not reach the over-range threshold: its share of the VRE is "
                                             f"{z:.2g} standard uncertainties in all (needs {REACH_SIGMA:g})")
     return why
+
+
+def _vrc_data(sines: Sequence[Observation]) -> tuple[NDArray[np.float64], ...]:
+    """The sine runs' apparent VRCs, their u, frequencies and static fields, as arrays."""
+    vrc, u = (np.array(a) for a in zip(*(apparent_vrc(ob) for ob in sines)))
+    return vrc, u, np.array([ob.freq_hz for ob in sines]), np.array([ob.static_g for ob in sines])
+
+
+def _vrc_chi2(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
+              fn: float | None, q: float | None) -> tuple[NDArray[np.float64], float]:
+    """k2 (and k3) by weighted linear least squares of the apparent VRCs (:func:`_vrc_data`)
+    at the response ``|H|²`` of (fn, Q) (flat without fn); and the χ² there."""
+    from vrelab.models.dynamics import vrc_at_frequency
+
+    vrc, u, f, g0 = data
+    h = np.asarray(vrc_at_frequency(1.0, f, fn, q)) if fn else np.ones_like(f)
+    a = np.column_stack([h, 3 * g0 * h] if k3_free else [h]) / u[:, None]
+    y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
+    k, *_ = np.linalg.lstsq(a, y, rcond=None)
+    r = a @ k - y
+    return k, float(r @ r)
+
+
+def _resonance_grid(sines: Sequence[Observation], n_fn: int = 60, n_q: int = 15) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """fn from a third of the lowest to ten times the highest sine frequency, Q from 0.5 to 50 (log)."""
+    f = [ob.freq_hz for ob in sines]
+    return np.geomspace(min(f) / 3, 10 * max(f), n_fn), np.geomspace(0.5, 50, n_q)
+
+
+@dataclass(frozen=True)
+class _Profile:
+    """What the sine runs' apparent VRCs say of fn or Q, the other and k2, k3 profiled out."""
+
+    text: str  # the Δχ² <= 4 interval (about 95 %): "900-960 Hz", "Q > 3.1"
+    open: bool  # the interval reaches the grid's edge: a bound, not a value
+    u: float  # half the width of the Δχ² <= 1 interval (a standard uncertainty where the profile is closed)
+    value: float | None = None  # open: the geometric middle of the Δχ² <= 4 interval (the value to assume)
+    ratio: float = 1.0  # closed: the Δχ² <= 1 half-width over the profile's own quadratic u (1: quadratic)
+    open95: bool = False  # closed at ±1σ but the Δχ² <= 4 interval (``text``) reaches the grid's edge
+
+
+def _vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
+                   fn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`_vrc_chi2`'s χ² at every (fn, Q) of two broadcastable arrays at once: the weighted
+    linear least squares for k2 (and k3) in closed form (normal equations of one or two
+    unknowns), so a fine grid costs a few array operations instead of one lstsq per point."""
+    vrc, u, f, g0 = data
+    r = f / fn[..., None]
+    h = 1.0 / ((1 - r * r) ** 2 + (r / q[..., None]) ** 2)
+    a1 = h / u
+    y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
+    yy = np.sum(y * y, axis=-1)
+    s11, b1 = np.sum(a1 * a1, axis=-1), np.sum(a1 * y, axis=-1)
+    if not k3_free:
+        return yy - b1 * b1 / s11
+    a2 = 3 * g0 * a1
+    s12, s22, b2 = np.sum(a1 * a2, axis=-1), np.sum(a2 * a2, axis=-1), np.sum(a2 * y, axis=-1)
+    det = s11 * s22 - s12 * s12
+    ok = det > 1e-12 * s11 * s22
+    two = yy - (s22 * b1 * b1 - 2 * s12 * b1 * b2 + s11 * b2 * b2) / np.where(ok, det, 1.0)
+    return np.where(ok, two, yy - b1 * b1 / s11)
+
+
+def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str],
+                       values: Mapping[str, float] | None = None,
+                       local_u: Mapping[str, float] | None = None) -> dict[str, _Profile]:
+    """Per fn and Q, the profile likelihood of the sine runs' apparent VRCs (:func:`_vrc_chi2_grid`,
+    k2 and k3 profiled out in closed form), Δχ² scaled by the reduced χ² at its minimum when that
+    exceeds 1 (as the fit's covariance is).
+
+    Global: a fine log grid (fn from a third of the lowest to ten times the highest frequency, Q
+    0.05 to 1000) says whether the Δχ² <= 1 interval closes or reaches an edge (then the data
+    give a bound, said by the Δχ² <= 4 interval, about 95 %: "Q > 3.1"). Local (``values`` and the fit's ``local_u`` given): a grid
+    of ±8 local u about the fit, widened until the Δχ² <= 1 region is inside it, gives the
+    half-width that a non-quadratic likelihood (a valley of large Q) really supports."""
+    sines = [ob for ob in obs if ob.method == "sine"]
+    k3_free = "k3_ug_per_g3" in free
+    k3_fixed = (parameter(base, "k3_ug_per_g3") or 0.0) if base is not None else 0.0
+    data = _vrc_data(sines)
+    f = data[2]
+    fns, qs = np.geomspace(f.min() / 3, 10 * f.max(), 700), np.geomspace(0.05, 1000, 300)
+    chi = _vrc_chi2_grid(data, k3_free, k3_fixed, fns[:, None], qs[None, :])
+    # the valley is narrower than the grid's step where the data determine a parameter well: each
+    # column's (row's) best point refined over its two neighbouring steps, 41 points
+    t = np.linspace(-1.0, 1.0, 41)[:, None]
+    i = np.clip(np.argmin(chi, axis=0), 1, fns.size - 2)
+    fine_fn = fns[i] * (fns[1] / fns[0]) ** t  # (41, n_q)
+    prof_q = _vrc_chi2_grid(data, k3_free, k3_fixed, fine_fn, qs[None, :]).min(axis=0)
+    j = np.clip(np.argmin(chi, axis=1), 1, qs.size - 2)
+    fine_q = qs[j] * (qs[1] / qs[0]) ** t  # (41, n_fn)
+    prof_fn = _vrc_chi2_grid(data, k3_free, k3_fixed, fns[None, :], fine_q).min(axis=0)
+    prof_q, prof_fn = np.minimum(prof_q, chi.min(axis=0)), np.minimum(prof_fn, chi.min(axis=1))
+    dof = len(sines) - (2 if k3_free else 1) - 2
+    best = float(min(prof_q.min(), prof_fn.min()))
+    birge = max(1.0, best / dof) if dof > 0 else 1.0
+    out: dict[str, _Profile] = {}
+    for name, axis, prof, label, unit in (("fn_hz", fns, prof_fn, "fn", " Hz"), ("q", qs, prof_q, "Q", "")):
+        d = (prof - prof.min()) / birge  # each against its own minimum (the two grids resolve it differently)
+        inside = np.flatnonzero(d <= 4.0)
+        lo, hi = int(inside[0]), int(inside[-1])
+        open95 = lo == 0 or hi == axis.size - 1
+        one = np.flatnonzero(d <= 1.0)
+        # a value needs its ±1σ interval closed; a 95 % interval that stays open is said, not hidden
+        is_open = one[0] == 0 or one[-1] == axis.size - 1
+        if lo == 0 and hi == axis.size - 1:
+            text = f"{label} anywhere in {axis[0]:.3g}-{axis[-1]:.3g}{unit}"
+        elif hi == axis.size - 1:
+            text = f"{label} > {axis[lo]:.3g}{unit}"
+        elif lo == 0:
+            text = f"{label} < {axis[hi]:.3g}{unit}"
+        else:
+            text = f"{axis[lo]:.4g}-{axis[hi]:.4g}{unit}"
+        if is_open or values is None or local_u is None:
+            out[name] = _Profile(text, True, (axis[hi] - axis[lo]) / 2, math.sqrt(axis[lo] * axis[hi])) if is_open \
+                else _Profile(text, False, (axis[hi] - axis[lo]) / 4)
+            continue
+        half, quad = _local_half_width(data, k3_free, k3_fixed, values, local_u, name, best, birge)
+        out[name] = _Profile(text, False, half, ratio=half / quad if quad > 0 else 1.0, open95=open95)
+    return out
+
+
+def _local_half_width(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
+                      values: Mapping[str, float], local_u: Mapping[str, float], name: str, best: float,
+                      birge: float) -> tuple[float, float]:
+    """Half the width of the Δχ² <= 1 profile interval of ``name`` about the fit (a 2-D grid of
+    ±w local u in fn and Q, w = 8, then 24, 72 until the region is inside it), and the u the same
+    profile's curvature at its bottom gives: their ratio says how far the likelihood is from
+    quadratic over ±1 u (1 for a quadratic one)."""
+    x = {n: float(values[n]) for n in ("fn_hz", "q")}
+    su = {n: max(float(local_u.get(n, 0.0)), 1e-6 * x[n]) for n in ("fn_hz", "q")}
+    for w in (8.0, 24.0, 72.0):
+        grid = {n: np.linspace(max(x[n] - w * su[n], 1e-3 * x[n]), x[n] + w * su[n], 241) for n in ("fn_hz", "q")}
+        chi = _vrc_chi2_grid(data, k3_free, k3_fixed, grid["fn_hz"][:, None], grid["q"][None, :])
+        prof = chi.min(axis=1 if name == "fn_hz" else 0)
+        axis = grid[name]
+        d = (prof - min(best, float(chi.min()))) / birge
+        one = np.flatnonzero(d <= 1.0)
+        if one.size and one[0] > 0 and one[-1] < axis.size - 1:
+            half = max(float(axis[one[-1]] - axis[one[0]]) / 2, float(axis[1] - axis[0]))
+            # the same profile's own quadratic reading: a parabola through its bottom (Δχ² <= 0.3)
+            near = np.flatnonzero(d <= 0.3)
+            if near.size >= 5:
+                a = np.polyfit(axis[near], d[near], 2)[0]
+                if a > 0:
+                    return half, 1.0 / math.sqrt(a)
+            return half, half
+    return float(w * su[name]), float(w * su[name])
 
 
 # --------------------------------------------------------------------------- fitting
@@ -413,40 +693,26 @@ def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[s
     start.setdefault("k3_ug_per_g3", parameter(base, "k3_ug_per_g3") or 0.0)
     sines = [ob for ob in obs if ob.method == "sine"]
     if sines:
-        vrc, u = (np.array(a) for a in zip(*(apparent_vrc(ob) for ob in sines)))
-        f = np.array([ob.freq_hz for ob in sines])
-        g0 = np.array([ob.static_g for ob in sines])
+        data = _vrc_data(sines)
+        vrc, u, f, g0 = data
         k3_free = "k3_ug_per_g3" in free
-        dyn_free = "fn_hz" in free
         k3_fixed = start["k3_ug_per_g3"]
-
-        def ks(h: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
-            """k2 (and k3) by weighted linear least squares at the response |H|² = h; the cost."""
-            a = np.column_stack([h, 3 * g0 * h] if k3_free else [h]) / u[:, None]
-            y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
-            k, *_ = np.linalg.lstsq(a, y, rcond=None)
-            r = a @ k - y
-            return k, float(r @ r)
-
-        def h_of(fn: float | None, q: float | None) -> NDArray[np.float64]:
-            return np.asarray(vrc_at_frequency(1.0, f, fn, q)) if fn else np.ones_like(f)
-
-        if dyn_free:
-            grid = [(fn, q) for fn in np.geomspace(f.min() / 3, 10 * f.max(), 60) for q in np.geomspace(0.5, 50, 15)]
-            fn0, q0 = min(grid, key=lambda g: ks(h_of(*g))[1])
+        if "fn_hz" in free:
+            fns, qs = _resonance_grid(sines)
+            fn0, q0 = min(((fn, q) for fn in fns for q in qs), key=lambda g: _vrc_chi2(data, k3_free, k3_fixed, *g)[1])
 
             def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
                 k = p[:-2]
-                h = h_of(p[-2], p[-1])
+                h = np.asarray(vrc_at_frequency(1.0, f, p[-2], p[-1]))
                 k3 = k[1] if k3_free else k3_fixed
                 return ((k[0] + 3 * k3 * g0) * h - vrc) / u
 
-            k0, _ = ks(h_of(fn0, q0))
+            k0, _ = _vrc_chi2(data, k3_free, k3_fixed, fn0, q0)
             r = least_squares(resid, np.r_[k0, fn0, q0], x_scale="jac",
                               bounds=([-np.inf] * len(k0) + [1e-3, 0.05], [np.inf] * len(k0) + [1e6, 1e4]))
             k, (start["fn_hz"], start["q"]) = r.x[:-2], (float(r.x[-2]), float(r.x[-1]))
         else:
-            k, _ = ks(h_of(base.fn_hz, base.q))
+            k, _ = _vrc_chi2(data, k3_free, k3_fixed, base.fn_hz, base.q)
         start["k2_ug_per_g2"] = float(k[0])
         if k3_free:
             start["k3_ug_per_g3"] = float(k[1])
@@ -515,35 +781,85 @@ def _covariance(jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
     return (vt.T / s**2) @ vt, int(keep.sum())
 
 
+def _subset(ob: Observation, keep: NDArray[np.bool_]) -> Observation:
+    """``ob`` with only the levels ``keep`` marks."""
+    from dataclasses import replace
+
+    def pick(t: tuple[Any, ...]) -> tuple[Any, ...]:
+        return tuple(x for x, k in zip(t, keep) if k) if t else ()
+
+    return replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep], harmonic_g=pick(ob.harmonic_g),
+                   saturated=pick(ob.saturated))
+
+
+def _unsaturated(obs: Sequence[Observation]) -> list[Observation]:
+    """The observations without the sine levels the analysis flagged saturated."""
+    out = []
+    for ob in obs:
+        keep = ~np.array(ob.saturated, dtype=bool) if ob.saturated else np.ones(ob.n, dtype=bool)
+        if keep.any():
+            out.append(_subset(ob, keep))
+    return out
+
+
+def _key(obs: Sequence[Observation]) -> list[tuple[int, float | None, tuple[float, ...]]]:
+    return [(ob.run, ob.freq_hz, tuple(ob.rms_g)) for ob in obs]
+
+
 def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = "censored",
-                     campaign: str = "the campaign", typeb: Any = None, notes: Sequence[str] = ()) -> ChannelModel:
-    """Identify one channel's model from its observations (see the module docstring)."""
+                     campaign: str = "the campaign", typeb: Any = None, notes: Sequence[str] = (),
+                     prefer_base: bool = False) -> ChannelModel:
+    """Identify one channel's model from its observations (see the module docstring).
+
+    Which levels the fit uses is decided with the fitted model and iterated: a sine level the
+    analysis flagged saturated (against its own rail) comes back when the identified rails clear
+    its peak, and a level the fitted model does not cover goes (:func:`_modelled`)."""
     notes = list(notes)
-    obs = list(obs)
-    if not obs:
+    full = list(obs)
+    if not full:
         raise ValueError(f"identify: channel {channel!r} has no usable level in any run")
+    obs = _unsaturated(full) or full
     free, why = _plan(obs, base)
     base_values = {n: parameter(base, n) for n in PARAMETERS}
     fit: _Fit | None = None
     start = _start(obs, base, free)
-    for _ in range(4):
+    bounds: dict[str, tuple[float, str, float | None]] = {}
+    widen: dict[str, float] = {}
+    loose: dict[str, str] = {}
+    level_notes: list[str] = []
+    for attempt in range(8):
         fit = _fit(base, obs, free, start, kind)
-        kept = _modelled(obs, fit.preds, notes, with_parameters(base, dict(zip(free, fit.x))))
-        if kept is not None:  # levels the analytic model does not cover: left out, refitted
+        fitted = with_parameters(base, dict(zip(free, fit.x)))
+        # the candidates: every level, the flagged sine ones only where the rails were identified
+        rails_known = "rail_low_g" in free and "rail_high_g" in free
+        cand = full if rails_known else (_unsaturated(full) or full)
+        level_notes = []
+        kept = _modelled(cand, _model(fitted, cand, kind), level_notes, fitted)
+        kept = cand if kept is None else kept
+        start = {n: float(v) for n, v in zip(free, fit.x)}  # go on from here
+        if _key(kept) != _key(obs) and attempt < 7:  # the fitted model covers other levels: refit on them
             obs = kept
-            fit = _fit(base, obs, free, dict(zip(free, (float(v) for v in fit.x))), kind)
+            continue
         dof = sum(ob.n for ob in obs) - len(free)
         scale = max(1.0, fit.chi2 / dof) if dof > 0 else 1.0
         values = dict(zip(free, fit.x))
         var = {n: fit.cov[i, i] * scale for i, n in enumerate(free)}
-        later = _post_checks(values, var, free, fit.preds, obs)
+        widen.clear()
+        loose.clear()
+        later = _post_checks(values, var, free, fit.preds, obs, base, prefer_base, bounds, widen, loose)
         why.update(later)
         fixed = [n for n in later if n not in NUISANCE]
         if not fixed:
             break
         free = [n for n in free if n not in fixed]
-        start = {n: float(v) for n, v in zip(list(values), fit.x) if n in free}  # go on from here
+        start = {n: v for n, v in start.items() if n in free}
     assert fit is not None
+    notes += level_notes
+    notes += [t for n, t in loose.items() if n not in why]
+    readmitted = [f"{ob.freq_hz:.4g} Hz {r:.4g} g rms" for ob in obs for r, sat in zip(ob.rms_g, ob.saturated or ()) if sat]
+    if readmitted:
+        notes.append("sine level(s) flagged saturated by the analysis kept: their peaks stay inside the identified rails ("
+                     + ", ".join(readmitted) + ")")
     n_levels = sum(ob.n for ob in obs)
     dof = n_levels - len(free)
     chi2_red = fit.chi2 / dof if dof > 0 else math.nan
@@ -558,6 +874,14 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     if fit.jac_rank < len(free):
         notes.append(f"the Jacobian has rank {fit.jac_rank} for {len(free)} parameters: some combination is not "
                      "determined (its direction dropped from the covariance)")
+    for n, factor in widen.items():
+        if n in free and n not in why and math.isfinite(factor):
+            i = free.index(n)
+            before = math.sqrt(max(cov[i, i], 0.0))
+            cov[i, :] *= factor
+            cov[:, i] *= factor
+            notes.append(f"{n}: the likelihood is not quadratic over its u (the sine runs' profile Δχ² <= 1 half-width is "
+                         f"{factor:.2g}× what its curvature says): its u {before:.2g} widened by that, correlations kept")
     values = dict(zip(free, (float(v) for v in fit.x)))
     budget: list[dict[str, Any]] = []
     if typeb is not None and typeb.declared and free:
@@ -570,27 +894,50 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
                      f"{math.sqrt(cov[i, i]):.2g} µg/g² at g0 = {g0:+g} g (valid at that orientation only)")
     params: dict[str, Estimate | None] = {}
     used: dict[str, float | None] = {}
+    assumed: dict[str, tuple[float | None, str]] = {}
     for n in PARAMETERS:
         if n in values and n not in why:
             i = free.index(n)
             params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), TABLE[n].unit)
             used[n] = values[n]
+            rel = params[n].u / abs(params[n].value) if params[n].value else math.inf
+            if n in NUISANCE and not rel <= MAX_REL_U:
+                notes.append(f"{n} poorly determined ({100 * rel:.0f} % relative u): kept with its value, u and "
+                             "correlations (predict carries them; --prefer-base takes the base sensor's instead)")
+        elif n in bounds and n in values and not prefer_base:
+            # a resonance the runs show on one flank: kept at the fitted value as an assumption with the u its
+            # profile allows (never the base's "no resonance", never the fit's local, overconfident u)
+            params[n] = None
+            u, text, middle = bounds[n]
+            used[n] = values[n] if middle is None else middle
+            assumed[n] = (u, f"fitted as a nuisance parameter, only bounded: {text}"
+                          + ("" if middle is None else f"; written at the bound's middle {middle:.4g} ± {u:.3g}"))
         else:
             params[n] = None
             used[n] = base_values[n]
             why.setdefault(n, "not fitted")
+            if used[n] is not None:
+                u = base.uncertainty.get(n)
+                assumed[n] = (u, f"from base sensor ({why[n]}); "
+                              + (f"its stated u {u:.3g}" if u is not None else "the base states no u for it"))
+    no_u = [n for n, (u, _w) in assumed.items() if u is None]
+    if no_u:
+        notes.append("taken from the base sensor without a stated u (its file has no [uncertainty] for them): "
+                     + ", ".join(f"{n} = {used[n]:.6g}" for n in no_u) + "; predict's u does not include them")
     nuisance = [n for n in free if n in NUISANCE and params[n] is None]
     if nuisance:
-        notes.append("fitted as nuisance parameters, not determined (null; the sensor file takes the base sensor's): "
-                     + ", ".join(f"{n} = {values[n]:.4g} ± {math.sqrt(max(cov[free.index(n), free.index(n)], 0)):.2g}"
-                                 for n in nuisance)
-                     + "; the other parameters are estimated with them free")
+        notes.append("fitted as nuisance parameters, only bounded (null): "
+                     + ", ".join(f"{n} = {values[n]:.4g} (local ± {math.sqrt(max(cov[free.index(n), free.index(n)], 0)):.2g}"
+                                 f" not a claim)" for n in nuisance)
+                     + "; the other parameters are estimated with them free; the sensor file carries them as "
+                     "assumptions with the profile's u" + (" (--prefer-base: the base's instead)" if prefer_base else ""))
     ident = [n for n in free if params[n] is not None]
     idx = [free.index(n) for n in ident]
     covariance = (tuple(ident), cov[np.ix_(idx, idx)]) if ident else None
     runs = _run_table(fit.preds, obs)
     return ChannelModel(channel, params, {n: why[n] for n in PARAMETERS if params[n] is None}, used, covariance,
-                        fit.chi2, dof, tuple(runs), tuple(notes), tuple(budget), tuple(cross_check_2f(obs)))
+                        fit.chi2, dof, tuple(runs), tuple(notes), tuple(budget), tuple(cross_check_2f(obs, base)),
+                        assumed)
 
 
 def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str], sensor: Any) -> list[Observation] | None:
@@ -604,8 +951,6 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     peak reaches a rail (deterministic, u of a few µg: the error is hundreds of u and would
     drag k2 and k3; the rails come from the random runs); a random level where that error,
     for Gaussian motion of the level's σ at the clip, exceeds half its u."""
-    from dataclasses import replace
-
     from scipy.stats import norm
 
     low, high = sensor.rails_g
@@ -638,8 +983,7 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
                        "interact beyond half the level's u (the analytic sum does not hold)")
                 notes.append(f"{where}: level {lv.rms_g:.4g} g rms left out of the fit: {why}")
         if keep.any():
-            out.append(replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep],
-                               harmonic_g=tuple(h for h, kept in zip(ob.harmonic_g, keep) if kept) if ob.harmonic_g else ()))
+            out.append(_subset(ob, keep))
     if not dropped:
         return None
     if not out:
@@ -699,13 +1043,28 @@ def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Any, ob
 # --------------------------------------------------------------------------- 2f cross-check
 
 
-def cross_check_2f(obs: Sequence[Observation]) -> list[dict[str, Any]]:
+def _post_filter_gain(base: Any, f_hz: float) -> float:
+    """|H(f)| of the linear stages after the proof mass (anti-alias, low-pass, high-pass: every
+    output response but the resonance) relative to DC: what they do to the 2f line that they
+    do not do to the mean shift. 1 without a base sensor or without filters; NaN where the
+    chain blocks DC (a high-pass: no DC reference)."""
+    if base is None:
+        return 1.0
+    f = np.array([0.0, float(f_hz)])
+    post = np.abs(base.response(f, "output") / base.response(f, "proof-mass"))
+    return float(post[1] / post[0]) if post[0] > 0 else math.nan
+
+
+def cross_check_2f(obs: Sequence[Observation], base: Any = None) -> list[dict[str, Any]]:
     """Per sine run whose levels carry a 2f estimate: the apparent VRC from the DUT's 2f line
     (less the reference's own) beside the one from the DC shift, both ``(k2 + 3·k3·g0)·|H|²``
     for a cubic polynomial on the proof mass (SPEC 6.1): x = A·cos θ gives
     ``k·x² = k·A²/2 + k·A²/2·cos 2θ``, the same coefficient at DC and at 2f. Immune to drift,
     so a disagreement beyond the uncertainties points at a drifting baseline or at filters
-    after the nonlinearity that attenuate 2f (the DC is untouched by them)."""
+    after the nonlinearity that attenuate 2f (the DC is untouched by them). The base sensor's
+    own output filters are known: the 2f VRC is divided by their gain at 2f relative to DC
+    (:func:`_post_filter_gain`; 0.30 at 600 Hz on an ADXL355 at 4 kHz ODR), and the gain is
+    reported beside it."""
     from vrelab.fits import fit_vrc
     from vrelab.results import LevelResult
 
@@ -717,9 +1076,14 @@ def cross_check_2f(obs: Sequence[Observation]) -> list[dict[str, Any]]:
         two_f = fit_vrc([LevelResult(float(r), Estimate(h[0], h[1])) for r, h in pairs])
         dc = fit_vrc([LevelResult(float(r), Estimate(float(v), float(u))) for r, v, u in zip(ob.rms_g, ob.vre_g, ob.u_g)])
         a, b = two_f.params["vrc_ug_per_g2"], dc.params["vrc_ug_per_g2"]
+        gain = _post_filter_gain(base, 2 * float(ob.freq_hz))
+        if not gain > 0:
+            continue  # a chain that blocks DC or 2f: nothing to compare
+        a = Estimate(a.value / gain, a.u / gain)
         z = (a.value - b.value) / math.hypot(a.u, b.u) if math.hypot(a.u, b.u) > 0 else math.nan
         out.append({"run": ob.run, "label": ob.label, "freq_hz": ob.freq_hz, "static_g": ob.static_g,
                     "vrc_2f_ug_per_g2": {"value": a.value, "u": a.u}, "vrc_dc_ug_per_g2": {"value": b.value, "u": b.u},
+                    "filter_gain_2f": gain,
                     "difference_sigma": finite_or_none(z), "agree": bool(abs(z) <= 3) if math.isfinite(z) else None})
     return out
 
@@ -737,6 +1101,7 @@ class Identification:
     channels: tuple[ChannelModel, ...]
     kind: ClipKind
     provenance: Mapping[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()  # the campaign's: runs that failed
 
     def to_dict(self, sensor_file: str | None = None) -> dict[str, Any]:
         return {
@@ -747,18 +1112,22 @@ class Identification:
             "clip_model": self.kind,
             "sensor_file": sensor_file,
             "channels": [c.to_dict() for c in self.channels],
+            "notes": list(self.notes),
             "provenance": dict(self.provenance),
         }
 
 
 def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | None = None,
              odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = "censored",
-             typeb: Any = None, workers: int = 1) -> Identification:
+             typeb: Any = None, workers: int = 1, prefer_base: bool = False) -> Identification:
     """Identify every channel of a campaign document on the base sensor ``base_spec``.
 
     ``typeb`` (a :class:`vrelab.gum.TypeB`) overrides the budget the runs declared; without it
     the largest value each run declared is used (one reference, one DUT: their terms are common
-    to every run). ``workers`` > 1 identifies channels in parallel processes.
+    to every run). ``workers`` > 1 identifies channels in parallel processes. ``prefer_base``:
+    fn and Q that the runs see but determine poorly (relative u above ``MAX_REL_U``) are
+    replaced by the base sensor's (by default they are kept with their u). Failed runs are
+    listed in ``notes`` and in every channel's notes.
     """
     from vrelab import _validate as V
     from vrelab.gum import TypeB
@@ -769,8 +1138,10 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     workers = V.integer("workers", workers, 1)
     base = load_sensor(base_spec, range_g=range_g, axis=base_axis, odr_hz=odr_hz)
     obs, notes = observations(doc)
+    failed = failed_runs(doc)
     if not obs:
-        raise ValueError("identify: the campaign has no DUT channel with results")
+        raise ValueError("identify: the campaign has no DUT channel with results"
+                         + (f" ({len(failed)} run(s) failed: {'; '.join(failed)})" if failed else ""))
     if typeb is None:
         keys = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
         runs = [r for r in doc["runs"] if isinstance(r.get("budget"), Mapping)]
@@ -780,7 +1151,7 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     if empty:
         raise ValueError(f"identify: channel {empty[0]!r} has no usable level in any run "
                          f"({'; '.join(notes.get(empty[0], [])) or 'no levels'})")
-    jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, [])) for ch in obs]
+    jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, []), prefer_base) for ch in obs]
     if workers > 1 and len(jobs) > 1:
         from concurrent.futures import ProcessPoolExecutor
 
@@ -788,12 +1159,12 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
             models = list(pool.map(_identify_job, jobs))
     else:
         models = [_identify_job(j) for j in jobs]
-    return Identification(name, base_spec, base, tuple(models), kind)
+    return Identification(name, base_spec, base, tuple(models), kind, notes=tuple(failed))
 
 
 def _identify_job(job: tuple[Any, ...]) -> ChannelModel:
-    ch, ob, base, kind, name, typeb, notes = job
-    return identify_channel(ch, ob, base, kind, name, typeb, notes)
+    ch, ob, base, kind, name, typeb, notes, prefer_base = job
+    return identify_channel(ch, ob, base, kind, name, typeb, notes, prefer_base)
 
 
 # --------------------------------------------------------------------------- the sensor file
@@ -823,6 +1194,7 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     out["default_range_g"] = base.range_g
     out["default_axis"] = ident.channels[0].channel
     keys = {"k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "rails_g", "overrange_threshold_g"}
+    out.pop("uncertainty", None)  # resolved per axis below (an identified parameter carries its covariance instead)
     ranges = data.get("ranges")
     if isinstance(ranges, dict):
         from vrelab.sensor import load_sensor
@@ -831,7 +1203,7 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
         out["ranges"] = {}
         for k, t in ranges.items():
             if k == tested:
-                out["ranges"][k] = {kk: vv for kk, vv in t.items() if kk not in keys}
+                out["ranges"][k] = {kk: vv for kk, vv in t.items() if kk not in keys and kk != "uncertainty"}
             else:  # an untested range keeps the base's rails, never the tested range's identified ones
                 rails = load_sensor(ident.base_spec, range_g=float(k), axis=base.axis, odr_hz=base.odr_hz).rails_g
                 out["ranges"][k] = {**t, "rails_g": [float(rails[0]), float(rails[1])]}
@@ -842,15 +1214,26 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
         out["facts"] = facts_top
     axes: dict[str, Any] = {}
     for cm in ident.channels:
-        t: dict[str, Any] = {k: v for k, v in base_axis.items() if k not in keys}
+        t: dict[str, Any] = {k: v for k, v in base_axis.items() if k not in keys and k != "uncertainty"}
         f: dict[str, str] = {}
+        # the base's assumed u of what the campaign did not identify (its filters, its threshold), and the
+        # profile u of a resonance the runs only bound
+        unc = {n: u for n, u in base.uncertainty.items() if n not in PARAMETERS or cm.parameters.get(n) is None}
+        for n, (u, _why) in cm.assumed.items():
+            if u is not None:
+                unc[n] = float(u)
         for n in PARAMETERS:
             v = cm.values[n]
             e = cm.parameters[n]
             fk = TABLE[n].fact_key
-            src = (f"identified from {ident.campaign}, {e.value:.6g} ± {e.u:.2g} {TABLE[n].text_unit}".rstrip()
-                   if e is not None else f"from base sensor {ident.base_spec} ({cm.reasons.get(n, 'not identified')}): "
-                   f"{base_facts.get(fk, 'unmarked')}")
+            if e is not None:
+                src = f"identified from {ident.campaign}, {e.value:.6g} ± {e.u:.2g} {TABLE[n].text_unit}".rstrip()
+            elif n in cm.assumed and cm.assumed[n][1].startswith("fitted"):
+                src = f"assumption: {cm.assumed[n][1]}; {v:.6g} ± {unc[n]:.2g} {TABLE[n].text_unit} (profile)".rstrip()
+            else:
+                src = (f"assumption, from base sensor {ident.base_spec} ({cm.reasons.get(n, 'not identified')})"
+                       + (f", u {unc[n]:.3g} {TABLE[n].text_unit}".rstrip() if n in unc else ", no stated u")
+                       + f": {base_facts.get(fk, 'unmarked')}")
             f[fk] = f"{f[fk]}; {_side(n)}: {src}" if fk in f else (f"{_side(n)}: {src}" if n.startswith("rail") else src)
             if v is None:
                 continue
@@ -863,6 +1246,8 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
         if cm.covariance is not None:
             t["covariance"] = {"params": list(cm.covariance[0]), "matrix": [[float(c) for c in row]
                                                                            for row in cm.covariance[1]]}
+        if unc:
+            t["uncertainty"] = unc
         axes[cm.channel] = t
     out["axes"] = axes
     return out

@@ -85,6 +85,8 @@ class LevelPrediction:
     # standard uncertainty [g] from an identified sensor's parameter covariance (None: the
     # sensor carries none): linear propagation, see :func:`propagated_u`
     u_vre_g: float | None = None
+    # its sources (:func:`propagation`): the identified covariance and each assumed parameter [g]
+    u_sources_g: Mapping[str, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -94,6 +96,8 @@ class LevelPrediction:
         }
         if self.u_vre_g is not None:
             d["u_vre_g"] = finite_or_none(self.u_vre_g)
+            if self.u_sources_g is not None:
+                d["u_sources_g"] = {k: finite_or_none(v) for k, v in self.u_sources_g.items()}
         if self.freq_hz is not None:
             d["freq_hz"] = self.freq_hz
         d.update(
@@ -404,44 +408,189 @@ def predict(
         notes.append(f"no closed form for stage(s) {', '.join(reading.unmodelled)}: simulate")
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
-    if getattr(sensor, "covariance", None):
-        u = propagated_u(sensor, excitation, levels_arr, g0, kind)
-        out = [dataclasses.replace(lv, u_vre_g=float(ui)) for lv, ui in zip(out, u)]
-        notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(sensor.covariance["params"])
-                     + ") carried by linear propagation; the model's own approximations are not in it")
+    if getattr(sensor, "covariance", None) or getattr(sensor, "uncertainty", None):
+        prop = propagation(sensor, excitation, levels_arr, g0, kind)
+        out = [dataclasses.replace(lv, u_vre_g=float(prop.u_g[i]),
+                                   u_sources_g={k: float(v[i]) for k, v in prop.sources_g.items()},
+                                   valid=lv.valid and not prop.level_notes[i],
+                                   notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
+        notes += prop.notes
     return Prediction(cond, tuple(out), tuple(notes))
 
 
-def propagated_u(sensor: "Sensor", excitation: RandomProfile | float | Sequence[float], levels: Sequence[float],
-                 static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
-    r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter covariance.
+@dataclass(frozen=True)
+class Propagation:
+    """The standard uncertainty of each predicted VRE from the sensor's parameter uncertainties,
+    by source (see :func:`propagation`)."""
 
-    Linear propagation (GUM 5.1.2): ``u² = J·Σ·Jᵀ`` with ``J[i, j] = ∂VRE_i/∂θ_j`` by central
-    differences of :func:`predict` itself, each step a tenth of the parameter's standard
-    uncertainty (the scale on which the propagation is asked to be linear). ``Σ`` and the names
-    ``θ_j`` are ``sensor.covariance`` (:mod:`vrelab.sensor.parameters`: an identified sensor
-    file's ``[axes.<channel>.covariance]``). The tests hold it against a Monte Carlo over
+    u_g: NDArray[np.float64]  # per level, every source combined
+    sources_g: Mapping[str, NDArray[np.float64]]  # per source, its u per level (in quadrature: u_g)
+    level_notes: tuple[tuple[str, ...], ...]  # per level: why the u is not a claim (empty: it is)
+    notes: tuple[str, ...]  # which sources dominate
+
+
+# The propagation is linear where the VRE moved by ±u of a parameter departs from the tangent by
+# less than this fraction of the tangent's step; beyond, u_vre_g is not a claim (valid False).
+_LINEAR = 0.3
+# A source is named as dominant in the notes above this share of u².
+_DOMINANT = 0.25
+IDENTIFIED = "identified (covariance)"
+
+
+def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+                levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> Propagation:
+    r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
+
+    Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
+    and the assumed standard uncertainties of parameters no campaign measured
+    (``sensor.uncertainty``: a datasheet tolerance, a base sensor's filter corner), independent
+    of each other and of ``Σ``. Linear propagation (GUM 5.1.2): ``u² = J·Σ·Jᵀ + Σ_a (J_a·u_a)²``
+    with ``J[i, j] = ∂VRE_i/∂θ_j`` by central differences of :func:`predict` itself, each step a
+    tenth of the parameter's standard uncertainty. The tests hold it against a Monte Carlo over
     ``Σ`` (GUM Supplement 1).
+
+    Linearity is checked, not assumed: the VRE is also evaluated at ``θ_j ± u_j``; where it
+    departs from the tangent by more than ``_LINEAR`` of the tangent's step, or where ``θ ± u``
+    leaves the parameter's domain (a Q whose u exceeds it), an assumed parameter's share is
+    taken as the larger move (``max |VRE(θ ± u) − VRE(θ)|``, GUM 5.1.3's note), and the
+    identified block is propagated by a Monte Carlo over ``Σ`` instead (GUM Supplement 1,
+    :func:`_monte_carlo`); where more than ``_MC_OUTSIDE`` of its draws leave the parameters'
+    domain (a Q whose u exceeds it: the campaign does not bound it) the level's u is no claim:
+    ``valid`` False with a note.
+
+    ``sources_g``: ``"identified (covariance)"`` (the covariance block, correlations in it) and
+    one entry per assumed parameter; their quadrature sum is ``u_g``.
     """
     from vrelab.sensor.parameters import parameter, with_parameters
 
-    cov = sensor.covariance
-    if not cov:
-        raise ValueError(f"sensor {sensor.name} carries no parameter covariance (an identified sensor file does)")
-    names = list(cov["params"])
-    sigma = np.asarray(cov["matrix"], dtype=np.float64)
-    jac = np.zeros((len(levels), len(names)))
-    for j, name in enumerate(names):
+    cov = getattr(sensor, "covariance", None)
+    assumed = dict(getattr(sensor, "uncertainty", None) or {})
+    if not cov and not assumed:
+        raise ValueError(f"sensor {sensor.name} carries no parameter uncertainty (an identified sensor file's "
+                         "covariance, or a file's [uncertainty] table)")
+    lv = np.atleast_1d(np.asarray(levels, dtype=np.float64))
+
+    def vre_at(values: Mapping[str, float]) -> NDArray[np.float64] | None:
+        try:
+            p = predict(with_parameters(sensor, values), excitation, lv, static_g, kind)
+        except ValueError:  # outside the parameter's domain (rails crossing the static level, Q <= 0)
+            return None
+        return np.array([x.vre_g for x in p.levels])
+
+    f0 = vre_at({})
+    assert f0 is not None
+    names = list(cov["params"]) if cov else []
+    sigma = np.asarray(cov["matrix"], dtype=np.float64) if cov else np.zeros((0, 0))
+    everything = [(n, math.sqrt(sigma[j, j]), True) for j, n in enumerate(names)] + [(n, u, False) for n, u in assumed.items()]
+    jac = np.zeros((lv.size, len(names)))
+    sources: dict[str, NDArray[np.float64]] = {}
+    level_notes: list[list[str]] = [[] for _ in lv]
+    nonlinear = np.zeros(lv.size, dtype=bool)
+    bent_why: list[str] = []
+    for j, (name, u, identified) in enumerate(everything):
         x = parameter(sensor, name)
-        h = 0.1 * math.sqrt(sigma[j, j])
-        if x is None or not h > 0:
+        if x is None or not u > 0:
             continue
-        vre = []
-        for step in (h, -h):
-            p = predict(with_parameters(sensor, {name: x + step}), excitation, levels, static_g, kind)
-            vre.append(np.array([lv.vre_g for lv in p.levels]))
-        jac[:, j] = (vre[0] - vre[1]) / (2 * h)
-    return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
+        ends = [vre_at({name: x + s}) for s in (0.1 * u, -0.1 * u)]
+        if ends[0] is None or ends[1] is None:
+            d = np.zeros(lv.size)
+            for i in range(lv.size):
+                level_notes[i].append(f"the VRE cannot be evaluated at {name} ± 0.1·u: u_vre_g is not a claim")
+        else:
+            d = (ends[0] - ends[1]) / (0.2 * u)
+        wide = [vre_at({name: x + s}) for s in (u, -u)]
+        step = np.abs(d) * u
+        if wide[0] is None or wide[1] is None:
+            bent = np.ones(lv.size, dtype=bool)
+            move = step
+            why = f"{name} ± u ({x:.4g} ± {u:.2g}) leaves the parameter's domain"
+            if not identified:  # an assumption that wide says the element is barely known: no u to claim
+                for i in range(lv.size):
+                    level_notes[i].append(f"{why}: the VRE over that range is not known — u_vre_g is not a claim")
+        else:
+            curve = np.abs(wide[0] + wide[1] - 2 * f0) / 2
+            bent = curve > _LINEAR * np.maximum(step, 1e-15)
+            move = np.maximum(step, np.maximum(np.abs(wide[0] - f0), np.abs(wide[1] - f0)))
+            why = f"the VRE is not linear in {name} over its u ({x:.4g} ± {u:.2g})"
+        if identified:
+            jac[:, j] = d
+            nonlinear |= bent & (move > 0)
+            if (bent & (move > 0)).any():
+                bent_why.append(why)
+        else:
+            sources[name] = np.where(bent, move, step)
+    notes = []
+    if names:
+        u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
+        if nonlinear.any():
+            u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma)
+            for i in np.flatnonzero(nonlinear):
+                if outside > _MC_OUTSIDE:
+                    level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
+                                          f"parameters' domain in {100 * outside:.0f} % of draws: u_vre_g is not a claim "
+                                          "(the campaign does not bound these parameters)")
+                else:
+                    u_cov[i] = u_mc[i]
+            if outside <= _MC_OUTSIDE:
+                notes.append(f"u_vre_g of the identified parameters by Monte Carlo over their covariance (GUM S1, "
+                             f"{_MC_DRAWS} seeded draws; {100 * outside:.0f} % outside the parameters' domain dropped) "
+                             f"where the VRE is not linear in them ({'; '.join(bent_why)}); 95 % intervals "
+                             + ", ".join(f"[{1e3 * a:.4g}, {1e3 * b:.4g}] mg" for a, b in zip(lo95, hi95)))
+        sources = {IDENTIFIED: u_cov, **sources}
+    u2 = sum((v**2 for v in sources.values()), np.zeros(lv.size))
+    if names:
+        notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(names) + ") carried by linear "
+                     "propagation; the model's own approximations are not in it")
+    if assumed:
+        notes.append("u_vre_g carries the assumed uncertainties of parameters no measurement fixed ("
+                     + ", ".join(f"{n} ± {u:.3g}" for n, u in assumed.items()) + ", the sensor file's [uncertainty])")
+    share = {k: float(np.max(np.where(u2 > 0, v**2 / np.where(u2 > 0, u2, 1.0), 0.0))) for k, v in sources.items()}
+    top = sorted((k for k in share if share[k] >= _DOMINANT), key=lambda k: -share[k])
+    if top:
+        notes.append("u_vre_g dominated by " + ", ".join(f"{'assumed ' if k != IDENTIFIED else ''}{k} "
+                                                          f"(up to {100 * share[k]:.0f} % of u²)" for k in top)
+                     + "; per source in u_sources_g")
+    return Propagation(np.sqrt(u2), sources, tuple(tuple(n) for n in level_notes), tuple(notes))
+
+
+# Monte Carlo propagation where the linear one fails: draws, and the fraction of draws outside the
+# parameters' domain (Q <= 0, rails crossing the static field) beyond which u is no claim.
+_MC_DRAWS = 200
+_MC_OUTSIDE = 0.15
+
+
+def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+                 names: Sequence[str], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], float,
+                                                                           NDArray[np.float64], NDArray[np.float64]]:
+    """GUM Supplement 1 over the identified parameters: ``_MC_DRAWS`` seeded draws from the
+    normal distribution of mean the identified values and covariance ``Σ`` (numpy's
+    multivariate_normal), :func:`predict` at each. Returns the standard deviation of the VRE
+    per level, the fraction of draws outside the parameters' domain (dropped), and the 2.5 %
+    and 97.5 % quantiles per level."""
+    from vrelab.sensor.parameters import parameter, with_parameters
+
+    mean = np.array([parameter(sensor, n) for n in names], dtype=np.float64)
+    draws = np.random.default_rng(20240518).multivariate_normal(mean, sigma, size=_MC_DRAWS, method="eigh")
+    vre = []
+    for x in draws:
+        try:
+            p = predict(with_parameters(sensor, dict(zip(names, (float(v) for v in x)))), excitation, levels,
+                        static_g, kind)
+        except ValueError:
+            continue
+        vre.append([lv.vre_g for lv in p.levels])
+    outside = 1.0 - len(vre) / _MC_DRAWS
+    if len(vre) < 2:
+        nan = np.full(levels.size, math.nan)
+        return nan, outside, nan, nan
+    v = np.array(vre)
+    return v.std(axis=0, ddof=1), outside, np.quantile(v, 0.025, axis=0), np.quantile(v, 0.975, axis=0)
+
+
+def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+                 levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
+    """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
+    return propagation(sensor, excitation, levels, static_g, kind).u_g
 
 
 def _level(

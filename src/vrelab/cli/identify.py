@@ -59,6 +59,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model (default censored)")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="reduce runs (a manifest) and identify channels N at a time in processes (default 1)")
+    p.add_argument("--prefer-base", action="store_true",
+                   help="replace fn and Q that the runs determine poorly (relative u above 50 %%) by the base sensor's "
+                   "(default: kept with their value, u and correlations)")
     add_budget_arguments(p)
     p.add_argument("--out", required=True, metavar="DIR", help=f"write {SENSOR_FILE} and {DOCUMENT} there")
     p.add_argument("--json", action="store_true", help="print the identification as one JSON object")
@@ -94,11 +97,15 @@ def run(args: argparse.Namespace) -> int:
     with _io.output_dir(args.out) as stage:  # a bad --out is refused before any work; DIR whole or not at all
         doc = _campaign_doc(args.source, args.workers)
         ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, args.kind,
-                         typeb if typeb.declared else None, args.workers)
+                         typeb if typeb.declared else None, args.workers, args.prefer_base)
         write_sensor_file(Path(stage) / SENSOR_FILE, ident)
         out = ident.to_dict(sensor_file=str(Path(args.out) / SENSOR_FILE))
         out["provenance"] = {"command": command, "campaign_provenance": doc.get("provenance")}
         _io.write_json(Path(stage) / DOCUMENT, out)
+    import sys
+
+    for line in ident.notes:  # a failed run is never silent, whatever the output format
+        sys.stderr.write(f"vrelab identify: {line}\n")
     if args.json:
         print_json(out)
     else:

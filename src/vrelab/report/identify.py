@@ -91,9 +91,17 @@ def _parameter_rows(ch: Mapping[str, Any]) -> list[list[str]]:
     rows = []
     for name, e in (ch.get("parameters") or {}).items():
         used = (ch.get("values_used") or {}).get(name)
+        a = (ch.get("assumed") or {}).get(name)
         if e is None:
-            rows.append([name, "null", "" if used is None else f"{used:.6g} (base sensor)",
-                         (ch.get("null_reasons") or {}).get(name, "")])
+            if used is None:
+                shown = ""
+            elif a is None:
+                shown = f"{used:.6g} (base sensor)"
+            else:  # an assumption: the base's value or a bounded fit, with the u the sensor file carries
+                where = "bounded fit" if str(a.get("source", "")).startswith("fitted") else "base sensor"
+                shown = (f"{used:.6g} ± {a['u']:.2g} (assumed, {where})" if a.get("u") is not None
+                         else f"{used:.6g} (assumed, {where}; no stated u)")
+            rows.append([name, "null", shown, (ch.get("null_reasons") or {}).get(name, "")])
         else:
             rows.append([name, f"{format_value_u(e['value'], e['u'])} {TABLE[name].text_unit}".strip(),
                          "identified", ""])
@@ -111,13 +119,16 @@ def channel_section(ch: Mapping[str, Any]) -> ReportSection:
     x2f = ch.get("cross_check_2f") or []
     if x2f:
         tables.append(ReportTable(
-            "2f cross-check: the VRC from the DUT's 2f line (less the reference's) beside the DC one",
-            ["run", "frequency (Hz)", "static g", "VRC from 2f (µg/g²)", "VRC from DC (µg/g²)", "difference (σ)"],
+            "2f cross-check: the VRC from the DUT's 2f line (less the reference's, divided by the base sensor's "
+            "output-filter gain at 2f against DC) beside the DC one",
+            ["run", "frequency (Hz)", "static g", "filter gain at 2f", "VRC from 2f (µg/g²)", "VRC from DC (µg/g²)",
+             "difference (σ)"],
             [[f"{x['run']} ({x['label']})", f"{x['freq_hz']:.5g}", f"{x['static_g']:+g}",
+              f"{x.get('filter_gain_2f', 1.0):.3g}",
               format_value_u(x["vrc_2f_ug_per_g2"]["value"], x["vrc_2f_ug_per_g2"]["u"]),
               format_value_u(x["vrc_dc_ug_per_g2"]["value"], x["vrc_dc_ug_per_g2"]["u"]),
               "" if x.get("difference_sigma") is None else f"{x['difference_sigma']:+.2g}"] for x in x2f],
-            numeric=(1, 2, 3, 4, 5)))
+            numeric=(1, 2, 3, 4, 5, 6)))
     for term in ch.get("budget") or []:
         if term.get("shifts"):
             tables.append(ReportTable(f"Type B: {term['source']} (each parameter's shift, refitted)",
@@ -146,6 +157,7 @@ def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = No
                ("clip model", str(doc.get("clip_model", ""))),
                ("sensor file", f"{F.IDENTIFIED_SENSOR}: --sensor {rf.path / F.IDENTIFIED_SENSOR} --axis <channel>")],
         provenance={"results_file": F.IDENTIFICATION},
+        notes=list(doc.get("notes") or []),  # the campaign's failed runs
     )
     sections = [summary] + [channel_section(c) for c in doc.get("channels") or []]
     return write_report(rf.path / F.REPORT, sections,

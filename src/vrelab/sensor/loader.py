@@ -121,6 +121,11 @@ class Sensor:
     # An identified sensor's parameter covariance (vrelab.identify, SPEC 6.1): {"params": names
     # of vrelab.sensor.parameters.PARAMETERS, "matrix": rows}; predict carries it into u_vre_g.
     covariance: Mapping[str, Any] | None = field(default=None, hash=False, compare=False)
+    # Assumed standard uncertainties [the parameter's unit] of parameters no campaign measured
+    # (a datasheet tolerance, a base sensor's filter corner): names of
+    # vrelab.sensor.parameters.ASSUMABLE, independent of each other and of the covariance;
+    # predict propagates them beside it (the file's [uncertainty] tables).
+    uncertainty: Mapping[str, float] = field(default_factory=dict, hash=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("range_g", "full_scale_g"):
@@ -144,6 +149,7 @@ class Sensor:
         object.__setattr__(self, "facts", dict(self.facts))
         if self.covariance is not None:
             object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
+        object.__setattr__(self, "uncertainty", _check_uncertainty(self))
 
     # ------------------------------------------------------------------ rates and chain
 
@@ -291,8 +297,10 @@ class Sensor:
 # (vrelab.sensor.fields), written in the field's units (µg/g² for the nonlinearity, SPEC 1.2).
 _TOP_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
-    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts",
+    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty",
 } | set(BY_KEY)
+# The table of assumed standard uncertainties (top level < [axes.*] < [ranges.*]).
+UNCERTAINTY = "uncertainty"
 _FACT_ALIASES = {f.key: f.name for f in FIELDS}
 
 
@@ -453,7 +461,49 @@ def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
         raise ValueError(f"{where}: matrix must be {n}x{n} finite numbers (one row per parameter), got shape {m.shape}")
     if np.any(np.diag(m) < 0) or not np.allclose(m, m.T, rtol=1e-9, atol=0.0):
         raise ValueError(f"{where}: matrix must be symmetric with a non-negative diagonal")
+    # a covariance is positive semi-definite: a negative eigenvalue (beyond rounding) would give
+    # some combination of the parameters a negative variance, and a propagated u of 0 or NaN
+    d = np.sqrt(np.diag(m))
+    scale = np.where(d > 0, d, 1.0)
+    lowest = float(np.linalg.eigvalsh(m / np.outer(scale, scale)).min()) if n else 0.0
+    if lowest < -1e-9:
+        raise ValueError(f"{where}: matrix is not positive semi-definite (its correlation matrix has the eigenvalue "
+                         f"{lowest:.3g} < 0): not a covariance")
     return {"params": [str(p) for p in params], "matrix": [[float(x) for x in row] for row in m]}
+
+
+def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
+    """A file's ``[uncertainty]`` table: parameter name -> assumed standard uncertainty (> 0)."""
+    from vrelab.sensor.parameters import ASSUMABLE
+
+    if table is None:
+        return {}
+    if not isinstance(table, dict):
+        raise ValueError(f"sensor {where}: uncertainty must be a table of parameter = standard uncertainty, got {table!r}")
+    out = {}
+    for key, u in table.items():
+        if key not in ASSUMABLE:
+            raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(ASSUMABLE)}")
+        if not is_number(u) or not math.isfinite(u) or u <= 0:
+            raise ValueError(f"sensor {where}: uncertainty.{key} must be a standard uncertainty > 0, got {u!r}")
+        out[key] = float(u)
+    return out
+
+
+def _check_uncertainty(sensor: Sensor) -> dict[str, float]:
+    """The Sensor's assumed uncertainties, checked: each of a parameter the sensor has, none of
+    one its covariance already carries (one source of u per parameter)."""
+    from vrelab.sensor.parameters import parameter
+
+    out = _uncertainty_table(dict(sensor.uncertainty), sensor.name)
+    cov = set(sensor.covariance["params"]) if sensor.covariance else set()
+    for key in out:
+        if key in cov:
+            raise ValueError(f"sensor {sensor.name}: uncertainty.{key}: the parameter is in the covariance already "
+                             "(identified): give it one uncertainty")
+        if parameter(sensor, key) is None:
+            raise ValueError(f"sensor {sensor.name}: uncertainty.{key}: the sensor has no {key} (absent element)")
+    return out
 
 
 def _fmt(xs: Any) -> str:
@@ -506,15 +556,19 @@ def load_sensor(
     # ---- values: top level < axis < range
     values: dict[str, Any] = {}
     _apply(values, {k: v for k, v in data.items() if k in BY_KEY}, where)
+    uncertainty = _uncertainty_table(data.get(UNCERTAINTY), where)
     axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
     axis_facts = axis_table.pop("facts", {})
     covariance = axis_table.pop("covariance", None)
+    uncertainty.update(_uncertainty_table(axis_table.pop(UNCERTAINTY, None), f"{where} [axes.{chosen_axis}]"))
     if axes_table:
         _check_keys(axis_table, set(BY_KEY), f"{where} [axes.{chosen_axis}]")
         _apply(values, axis_table, f"{where} [axes.{chosen_axis}]")
     if range_key is not None:
-        _check_keys(ranges_table[range_key], set(BY_KEY), f"{where} [ranges.{range_key}]")
-        _apply(values, ranges_table[range_key], f"{where} [ranges.{range_key}]")
+        range_table = {k: v for k, v in ranges_table[range_key].items() if k != UNCERTAINTY}
+        _check_keys(range_table, set(BY_KEY), f"{where} [ranges.{range_key}]")
+        _apply(values, range_table, f"{where} [ranges.{range_key}]")
+        uncertainty.update(_uncertainty_table(ranges_table[range_key].get(UNCERTAINTY), f"{where} [ranges.{range_key}]"))
         # a value the range's table sets was not the one identified on the axis: not an estimate here
         from vrelab.sensor.parameters import TABLE
 
@@ -529,6 +583,9 @@ def load_sensor(
     facts = _facts(data, where, origin)
     if axis_facts:  # an axis's own sources (an identified file marks each number per channel)
         facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]", "axis"))
+    for key, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)):
+        if v is not None:
+            uncertainty.pop(key, None)  # set by the user: the file's assumed u is not about that value
     if k2_ug_per_g2 is not None:
         values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
         facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
@@ -554,6 +611,7 @@ def load_sensor(
         facts=facts,
         covariance=_without(covariance, {n for n, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3))
                                          if v is not None}),
+        uncertainty=uncertainty,
     )
 
 

@@ -48,12 +48,19 @@ TABLE: dict[str, Param] = {p.name: p for p in (
     Param("overrange_threshold_g", "g", "g", "overrange_threshold_g", "overrange_threshold_g"),
 )}  # fmt: skip
 PARAMETERS: tuple[str, ...] = tuple(TABLE)
+# Parameters a sensor file may give an assumed standard uncertainty (``[uncertainty]``, SPEC 6.1)
+# without a campaign identifying them: the identifiable ones and the base sensor's filters (a
+# datasheet gives their corners as "about"; predict propagates these u like the covariance).
+ASSUMABLE: dict[str, Param] = {**TABLE, **{p.name: p for p in (
+    Param("bandwidth_hz", "Hz", "Hz", "bandwidth_hz", "bandwidth_hz"),
+    Param("anti_alias_hz", "Hz", "Hz", "anti_alias_hz", "anti_alias_hz"),
+)}}  # fmt: skip
 
 
 def _param(name: str) -> Param:
-    if name not in TABLE:
-        raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(PARAMETERS)}")
-    return TABLE[name]
+    if name not in ASSUMABLE:
+        raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(ASSUMABLE)}")
+    return ASSUMABLE[name]
 
 
 def parameter(sensor: "Sensor", name: str) -> float | None:
@@ -69,7 +76,8 @@ def with_parameters(sensor: "Sensor", values: Mapping[str, float]) -> "Sensor":
     """``sensor`` with the parameters in ``values`` set (the Sensor validates the result).
 
     A resonance needs both ``fn_hz`` and ``q``: setting one on a sensor that has none raises.
-    The copy carries no covariance (it is one point of the parameter space, not an estimate).
+    The copy carries no covariance and no assumed uncertainties (it is one point of the
+    parameter space, not an estimate).
     """
     change: dict[str, object] = {}
     rails = list(sensor.rails_g)
@@ -84,4 +92,4 @@ def with_parameters(sensor: "Sensor", values: Mapping[str, float]) -> "Sensor":
         if not rails[0] < rails[1]:
             raise ValueError(f"rails must satisfy low < high, got [{rails[0]:g}, {rails[1]:g}] g")
         change["rails_g"] = (rails[0], rails[1])
-    return dataclasses.replace(sensor, covariance=None, **change)  # type: ignore[arg-type]
+    return dataclasses.replace(sensor, covariance=None, uncertainty={}, **change)  # type: ignore[arg-type]
