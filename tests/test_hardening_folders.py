@@ -217,10 +217,15 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def _start_campaign(manifest: Path, out: Path) -> tuple[subprocess.Popen, list[int]]:
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _start_campaign(manifest: Path, out: Path, sigint_ignored: bool = False) -> tuple[subprocess.Popen, list[int]]:
     """Start `campaign --workers 2` and return once its two workers are busy."""
     proc = subprocess.Popen([*PY, "campaign", str(manifest), "--workers", "2", "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, text=True,
+                            preexec_fn=_ignore_sigint if sigint_ignored else None)
     deadline = time.monotonic() + 20
     kids: list[int] = []
     while time.monotonic() < deadline and proc.poll() is None:
@@ -273,18 +278,20 @@ def test_sigkill_of_the_campaign_takes_its_workers(slow_campaign, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.timeout(60)
-@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT to the parent", "Ctrl-C (SIGINT to the process group)"])
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT to the parent", "Ctrl-C (SIGINT to the process group)",
+                                 "SIGINT, started with SIGINT ignored (a script's `vrelab ... &`)"])
 def test_sigterm_and_ctrl_c_end_the_workers_and_the_staging(slow_campaign, tmp_path, how):
-    """Row 'orphans': SIGTERM left the workers running; Ctrl-C exited 0 with the workers busy."""
+    """Row 'orphans': SIGTERM left the workers running; Ctrl-C exited 0 with the workers busy
+    (started in the background of a script, the process inherits SIGINT ignored)."""
     out = tmp_path / "out"
-    proc, kids = _start_campaign(slow_campaign, out)
+    proc, kids = _start_campaign(slow_campaign, out, sigint_ignored="ignored" in how)
     try:
         if how == "SIGTERM":
             os.kill(proc.pid, signal.SIGTERM)
-        elif how == "SIGINT to the parent":
-            os.kill(proc.pid, signal.SIGINT)
-        else:
+        elif how.startswith("Ctrl-C"):
             os.killpg(proc.pid, signal.SIGINT)
+        else:
+            os.kill(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=20)
         left = _gone(kids, 5.0)
     finally:
@@ -335,6 +342,7 @@ def test_a_live_runs_staging_is_safe_from_a_run_in_another_pid_namespace(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_two_runs_into_one_folder_each_land_whole(tmp_path):
     """Two runs at once into the same --out: each stages under its own lock; the folder ends

@@ -73,12 +73,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     on_main = threading.current_thread() is threading.main_thread()
-    before = signal.signal(signal.SIGTERM, _on_sigterm) if on_main else None
+    if on_main:
+        # SIGINT raises KeyboardInterrupt even when the process started with it ignored (a
+        # script's `vrelab ... &`): a `kill -INT` then finished the run and exited 0 with the
+        # workers busy (issue 23); now it stops the run, its workers and its staging, exit 130
+        before = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return _run(argv, debug)
     finally:
         if on_main:
-            signal.signal(signal.SIGTERM, before)
+            signal.signal(signal.SIGTERM, before[0])
+            signal.signal(signal.SIGINT, before[1])
 
 
 def _run(argv: list[str], debug: bool) -> int:

@@ -147,6 +147,9 @@ def run_sweep(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out exists and is not a folder: {out}")
+    own = backend is None
+    if own:
+        check_backend_args(workers, scheduler)
     from vrelab.profiles import split_tones
     from vrelab.sweep.checkpoint import QUARANTINE_NAME
 
@@ -154,9 +157,6 @@ def run_sweep(
     # the folder must be new, empty or a vrelab one holding none of the inputs; it is marked
     # vrelab's before the checkpoint is written into it, so an interrupted sweep can resume
     _io.claim(out, reads, entries=[CHECKPOINT_NAME, QUARANTINE_NAME])
-    own = backend is None
-    if own:
-        check_backend_args(workers, scheduler)
     with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh, inputs=spec.inputs()) as ck:
         quarantined = [{"line": n, "why": why} for n, _, why in ck.quarantined]
         keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
