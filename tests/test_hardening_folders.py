@@ -304,6 +304,41 @@ def test_sigterm_and_ctrl_c_end_the_workers_and_the_staging(slow_campaign, tmp_p
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == []  # staging removed
 
 
+@pytest.mark.slow
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_sweeps_pool_ends_with_it_and_keeps_its_checkpoint(tmp_path, sig):
+    """The sweep's process pool (its own backend) on SIGTERM/SIGINT: exit 143/130 at once (not
+    after the running points), no worker left, the checkpoint kept for the resume."""
+    (tmp_path / "hf_points.py").write_text("import time\ndef slow(params, seed):\n    time.sleep(0.4)\n"
+                                           "    return {'a': float(params['x'])}\n")
+    spec = tmp_path / "slow.toml"
+    spec.write_text('kind = "python"\nfunction = "hf_points:slow"\nseed = 1\n[grid]\nx = "0:199:1"\n')
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.Popen([*PY, "sweep", str(spec), "--workers", "2", "--out", str(out), "--no-progress"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    ck = out / "checkpoint.jsonl"
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (ck.exists() and ck.read_text().count('"point"') >= 4):
+        time.sleep(0.05)
+    kids = _children(proc.pid)
+    try:
+        assert len(kids) >= 2, "the sweep never had its two workers"
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=20)
+        left = _gone(kids, 5.0)
+    finally:
+        for p in kids:
+            if _alive(p):
+                os.kill(p, signal.SIGKILL)
+    assert (proc.returncode, err.strip()) == ((143, "vrelab: terminated") if sig == signal.SIGTERM
+                                              else (130, "vrelab: interrupted"))
+    assert left == []
+    assert ck.read_text().count('"point"') >= 4 and not (out / "result.nc").exists()
+    assert _io.stranger(out) is None  # the folder stays the sweep's: the rerun resumes there
+
+
 # ----------------------------------------------------------------------------- races
 
 

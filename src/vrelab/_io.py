@@ -27,7 +27,6 @@ The rules (issue 23), owned here and nowhere else:
 from __future__ import annotations
 
 import errno
-import fcntl
 import hashlib
 import io
 import json
@@ -38,6 +37,11 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Sequence
+
+try:
+    import fcntl
+except ImportError:  # not POSIX (Windows): no locks, so staging folders are never taken for dead
+    fcntl = None  # type: ignore[assignment]
 
 MARKER = ".vrelab-output"
 _STAGE_PREFIX = ".vrelab-stage-"
@@ -164,8 +168,12 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> None:
     if dest.is_dir():
         who = stranger(dest)
         if who is not None:
-            why = (f"holds {who}, which vrelab did not write" if (_marker(dest) or {}).get("entries") is not None
-                   else f"is not a vrelab output folder (no {MARKER} listing its files; it holds {who})")
+            if (_marker(dest) or {}).get("entries") is not None:
+                why = f"holds {who}, which vrelab did not write"
+            elif who.startswith("("):
+                why = f"is not a vrelab output folder (no {MARKER} listing its files, no results file)"
+            else:
+                why = f"is not a vrelab output folder (no {MARKER} listing its files; it holds {who})"
             raise ValueError(f"output folder {dest} {why}: choose a new or empty folder, so nothing of yours "
                              "is overwritten (nothing was changed)")
 
@@ -181,7 +189,7 @@ def _write_marker(folder: Path, extra: Iterable[str] = (), keep: Iterable[str] =
     entries = {rel for rel, _ in _entries(folder)} | set(extra) | set(keep)
     doc = {
         "written_by": f"vrelab {__version__}",
-        "command": shlex.join(["vrelab", *sys.argv[1:]]),
+        "command": shlex.join(["vrelab", *sys.argv[1:]]) if Path(sys.argv[0]).name in ("vrelab", "__main__.py") else None,
         "pid": os.getpid(),
         "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "note": "vrelab replaces this folder only while it holds nothing but these entries",
@@ -245,7 +253,8 @@ def _new_stage(where: Path) -> tuple[Path, int]:
         except FileExistsError:
             continue
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if fcntl is not None:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:  # a cleaner caught the file between create and lock: it removes it
             os.close(fd)
             continue
@@ -276,7 +285,7 @@ def remove_orphan_stages(folder: str | Path) -> list[Path]:
     file) are removed after :data:`LEGACY_STAGE_AGE_S` untouched. Returns what it removed."""
     folder = Path(folder)
     removed: list[Path] = []
-    if not folder.is_dir():
+    if not folder.is_dir() or fcntl is None:
         return removed
     for lock in sorted(folder.glob(_STAGE_PREFIX + "*" + _LOCK_SUFFIX)):
         try:
