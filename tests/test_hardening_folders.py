@@ -250,20 +250,30 @@ def _gone(pids: list[int], within_s: float) -> list[int]:
     return [p for p in pids if _alive(p)]
 
 
+def _signal(proc: subprocess.Popen, kids: list[int], send) -> tuple[str, list[int]]:
+    """``send()`` a signal, wait for ``proc``; its stderr and the workers still alive 5 s later
+    (any left are killed here, after being counted)."""
+    try:
+        send()
+        _, err = proc.communicate(timeout=20)
+        left = _gone(kids, 5.0)
+    finally:
+        for p in kids:
+            if _alive(p):
+                os.kill(p, signal.SIGKILL)
+    return err, left
+
+
+WANT = {signal.SIGTERM: (143, "vrelab: terminated"), signal.SIGINT: (130, "vrelab: interrupted")}
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_sigkill_of_the_campaign_takes_its_workers(slow_campaign, tmp_path):
     """Row 'orphans': SIGKILL to `campaign --workers 2` left the workers running."""
     out = tmp_path / "out"
     proc, kids = _start_campaign(slow_campaign, out)
-    try:
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=10)
-        left = _gone(kids, 5.0)
-    finally:
-        for p in _children(proc.pid) + kids:
-            if _alive(p):
-                os.kill(p, signal.SIGKILL)
+    _, left = _signal(proc, kids, lambda: os.kill(proc.pid, signal.SIGKILL))
     assert left == [], f"workers {left} outlived their parent"
     assert not out.exists()
     # the staging it left is the next run's to remove: its lock died with it
@@ -285,21 +295,10 @@ def test_sigterm_and_ctrl_c_end_the_workers_and_the_staging(slow_campaign, tmp_p
     (started in the background of a script, the process inherits SIGINT ignored)."""
     out = tmp_path / "out"
     proc, kids = _start_campaign(slow_campaign, out, sigint_ignored="ignored" in how)
-    try:
-        if how == "SIGTERM":
-            os.kill(proc.pid, signal.SIGTERM)
-        elif how.startswith("Ctrl-C"):
-            os.killpg(proc.pid, signal.SIGINT)
-        else:
-            os.kill(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=20)
-        left = _gone(kids, 5.0)
-    finally:
-        for p in kids:
-            if _alive(p):
-                os.kill(p, signal.SIGKILL)
-    want = (143, "vrelab: terminated") if how == "SIGTERM" else (130, "vrelab: interrupted")
-    assert (proc.returncode, err.strip()) == want, err
+    sig = signal.SIGTERM if how == "SIGTERM" else signal.SIGINT
+    send = os.killpg if how.startswith("Ctrl-C") else os.kill
+    err, left = _signal(proc, kids, lambda: send(proc.pid, sig))
+    assert (proc.returncode, err.strip()) == WANT[sig], err
     assert left == [], f"workers {left} outlived their parent"
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == []  # staging removed
 
@@ -323,17 +322,11 @@ def test_a_sweeps_pool_ends_with_it_and_keeps_its_checkpoint(tmp_path, sig):
     while time.monotonic() < deadline and not (ck.exists() and ck.read_text().count('"point"') >= 4):
         time.sleep(0.05)
     kids = _children(proc.pid)
-    try:
-        assert len(kids) >= 2, "the sweep never had its two workers"
-        proc.send_signal(sig)
-        _, err = proc.communicate(timeout=20)
-        left = _gone(kids, 5.0)
-    finally:
-        for p in kids:
-            if _alive(p):
-                os.kill(p, signal.SIGKILL)
-    assert (proc.returncode, err.strip()) == ((143, "vrelab: terminated") if sig == signal.SIGTERM
-                                              else (130, "vrelab: interrupted"))
+    if len(kids) < 2:
+        proc.kill()
+        pytest.fail("the sweep never had its two workers")
+    err, left = _signal(proc, kids, lambda: proc.send_signal(sig))
+    assert (proc.returncode, err.strip()) == WANT[sig], err
     assert left == []
     assert ck.read_text().count('"point"') >= 4 and not (out / "result.nc").exists()
     assert _io.stranger(out) is None  # the folder stays the sweep's: the rerun resumes there

@@ -159,7 +159,10 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> None:
     where = dest.resolve()
     for p in existing_paths(inputs):
         rp = p.resolve()
-        if rp == where or where in rp.parents:
+        if rp == where:
+            raise ValueError(f"output folder {dest} is an input of this run: writing there would replace it; "
+                             "choose another folder")
+        if where in rp.parents:
             raise ValueError(
                 f"output folder {dest} holds {p}, an input of this run: writing there would replace it; "
                 "choose another folder"
