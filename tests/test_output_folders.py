@@ -45,9 +45,8 @@ def test_a_read_only_parent_stages_inside_the_folder(tmp_path, monkeypatch):
     """Issue 9: --out an existing writable folder in a read-only parent was refused. (Root ignores
     permission bits, so the parent's refusal is simulated at os.access, where _io asks.)"""
     out = tmp_path / "run"
-    out.mkdir()
-    (out / _io.MARKER).write_text("")
-    (out / "old.txt").write_text("from an earlier run")
+    with _io.output_dir(out) as stage:  # an earlier run's folder
+        (stage / "levels.csv").write_text("from an earlier run")
     real = os.access
     monkeypatch.setattr(_io.os, "access", lambda p, mode: False if Path(p) == tmp_path else real(p, mode))
     with _io.output_dir(out) as stage:
@@ -58,8 +57,8 @@ def test_a_read_only_parent_stages_inside_the_folder(tmp_path, monkeypatch):
 
 def test_a_killed_runs_staging_is_removed_by_the_next_run(tmp_path):
     """Issue 9: a run killed by SIGKILL left a hidden .vrelab-*/record.h5.partial (~700 MB)
-    forever. The staging folder names its process; the next run in that folder removes the
-    staging of processes that are gone, and leaves a live one's alone."""
+    forever. The staging folder's lock is held by its process; the next run in that folder
+    removes the staging whose lock it can take (the owner is gone), and leaves a live one's alone."""
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "vrelab", *SIM, "--seconds", "400", "--record", "--out", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import shutil
 import tomllib
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
@@ -511,6 +510,10 @@ def _reduce_safely(run: Run, out: Path | None, limit_g: float | None = None) -> 
     except MemoryError:
         return RunResult(run, error="out of memory")
     except Exception as exc:  # a run's failure is reported with the others kept
+        from vrelab._io import is_disk_full
+
+        if is_disk_full(exc):  # not the run's failure: the whole campaign stops, nothing written
+            raise OSError(28, "No space left on device") from None
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         if not isinstance(exc, (ValueError, OSError)):
             msg = f"internal error: {type(exc).__name__}: {msg}"
@@ -534,7 +537,9 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
             if on_done:
                 on_done(results[-1])
     else:
-        with ProcessPoolExecutor(max_workers=min(workers, len(manifest.runs))) as pool:
+        from vrelab._pool import worker_pool  # workers die with this process (Ctrl-C, SIGTERM, SIGKILL)
+
+        with worker_pool(min(workers, len(manifest.runs))) as pool:
             futures = [pool.submit(_reduce_safely, run, dest, limit_g) for run, dest in zip(manifest.runs, dests)]
             results = []
             for fut in futures:

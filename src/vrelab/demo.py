@@ -592,7 +592,7 @@ def run_demo(
     ]
     numbers: dict[str, float] = {}
     folders: list[str] = []
-    with output_dir(out) as stage:
+    with output_dir(out, inputs=[metadata] if isinstance(metadata, (str, Path)) else ()) as stage:
         for i, (label, fn) in enumerate(steps, 1):
             t = time.monotonic()
             st = fn(stage)

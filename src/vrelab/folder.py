@@ -24,7 +24,9 @@ file                    what                                                    
 ======================  ===========================================================  =========
 
 Writing goes through :func:`vrelab._io.output_dir` (a folder is written completely or not at
-all); reading refuses a missing or malformed file with one line naming it.
+all, and only a folder that is empty, new or vrelab's own: its ``.vrelab-output`` lists every
+entry vrelab wrote; never one holding an input of the run); reading refuses a missing or
+malformed file with one line naming it.
 """
 
 from __future__ import annotations
@@ -51,6 +53,17 @@ REPORT = "report.html"
 SUMMARY = "summary.json"
 IDENTIFICATION = "identification.json"
 IDENTIFIED_SENSOR = "sensor.toml"
+
+# The sweep's files (their writer, vrelab.sweep, owns the names; listed here for the rule below).
+SWEEP_FILES = ("result.csv", "result.zarr", "sweep.json", "checkpoint.jsonl", "checkpoint.quarantine.jsonl")
+# Every file name vrelab writes into an output folder, at any depth. A folder written before
+# the marker listed its entries is taken as vrelab's only when it holds nothing but these
+# (vrelab._io.check_output): a user's folder that merely holds a report.html is refused.
+KNOWN_NAMES = frozenset({RESULTS, LEVELS, PREDICTION, RECORD, ENVELOPE, PSD, PSD_LEVELS, SWEEP_RESULT, REPORT,
+                         SUMMARY, IDENTIFICATION, IDENTIFIED_SENSOR, ".vrelab-output", *SWEEP_FILES})
+# ... of which one at the top says "a vrelab folder"; a sub-folder of these names is taken whole.
+RESULT_FILES = (RESULTS, SWEEP_RESULT, IDENTIFICATION, SUMMARY, PREDICTION, "sweep.json", "checkpoint.jsonl")
+OPAQUE_DIRS = ("result.zarr",)
 
 FolderKind = Literal["result", "sweep", "channels", "campaign", "identification"]
 

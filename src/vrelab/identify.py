@@ -1153,9 +1153,9 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
                          f"({'; '.join(notes.get(empty[0], [])) or 'no levels'})")
     jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, []), prefer_base) for ch in obs]
     if workers > 1 and len(jobs) > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from vrelab._pool import worker_pool  # workers die with this process (Ctrl-C, SIGTERM, SIGKILL)
 
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+        with worker_pool(min(workers, len(jobs))) as pool:
             models = list(pool.map(_identify_job, jobs))
     else:
         models = [_identify_job(j) for j in jobs]

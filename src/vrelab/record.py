@@ -167,14 +167,20 @@ def write_record_hdf5(
     ``fs_hz`` and ``meta`` (JSON), and a ``schedule`` dataset (start_s, end_s, nominal_rms_g,
     freq_hz) when given. Written to a temporary name and renamed at the end, so a crash never
     leaves a half file under the final name. Returns the number of samples written.
+
+    A full disk is :class:`vrelab._io.DiskFull` with nothing left behind: HDF5 writes through
+    :class:`vrelab._io.GuardedFile` (HDF5 itself crashes the process after a failed write).
     """
     import h5py
+
+    from vrelab._io import GuardedFile, disk_full_error
 
     path = Path(path)
     tmp = path.with_name(path.name + ".partial")
     n = 0
     try:
-        with h5py.File(tmp, "w") as f:
+        raw = GuardedFile(tmp)
+        with raw, h5py.File(raw, "w") as f:
             f.attrs["fs_hz"] = float(fs_hz)
             f.attrs["meta"] = json.dumps(dict(meta or {}))
             dsets: dict[str, Any] = {}
@@ -193,6 +199,8 @@ def write_record_hdf5(
             if schedule is not None:
                 f.create_dataset("schedule", data=schedule.to_array())
                 f["schedule"].attrs["columns"] = "start_s,end_s,nominal_rms_g,freq_hz"
+        if raw.failed is not None:
+            raise disk_full_error(path)
         tmp.replace(path)
     except BaseException:
         tmp.unlink(missing_ok=True)

@@ -47,32 +47,82 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Exit status of a full disk (or quota) while writing: EX_IOERR of sysexits.h. Not 2: the input
+# was fine, and the same command succeeds once there is space.
+EXIT_DISK_FULL = 74
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a batch scheduler, ``kill``, a container stop): unwinds like Ctrl-C, so worker
+    processes are ended and staging folders removed, then exit 143 (128 + 15)."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command. Exit status: 0 done, 2 bad input (one line on stderr: a ``ValueError``
     or ``OSError`` names the problem), 1 an unexpected error (one line; ``--debug`` prints the
-    traceback), 130 interrupted."""
+    traceback), 74 no space left on the device (one line; nothing of the run written), 130
+    interrupted (Ctrl-C), 143 terminated (SIGTERM); on both, worker processes are ended and the
+    run's staging removed."""
+    import signal
+    import threading
+
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
+    on_main = threading.current_thread() is threading.main_thread()
+    if on_main:
+        # SIGINT raises KeyboardInterrupt even when the process started with it ignored (a
+        # script's `vrelab ... &`): a `kill -INT` then finished the run and exited 0 with the
+        # workers busy (issue 23); now it stops the run, its workers and its staging, exit 130
+        before = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return _run(argv, debug)
+    finally:
+        if on_main:
+            signal.signal(signal.SIGTERM, before[0])
+            signal.signal(signal.SIGINT, before[1])
+
+
+def _run(argv: list[str], debug: bool) -> int:
+    from vrelab._io import DiskFull, is_disk_full
+
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         return int(args.func(args) or 0)
+    except DiskFull as exc:
+        sys.stderr.write(f"vrelab: error: {exc.strerror}\n")
+        return EXIT_DISK_FULL
     except BrokenPipeError:
         # The reader went away (`vrelab ... | head`): not an error of ours. Point stdout at
         # devnull so the interpreter's final flush does not complain again.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except (ValueError, OSError) as exc:
+        if is_disk_full(exc):
+            name = f" writing {exc.filename}" if isinstance(exc, OSError) and exc.filename else ""
+            sys.stderr.write(f"vrelab: error: no space left on device{name} (nothing was written; free space and "
+                             "run again)\n")
+            return EXIT_DISK_FULL
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         if isinstance(exc, OSError) and exc.filename and str(exc.filename) not in msg:
             msg = f"{msg}: {exc.filename}"
         prefix = "" if isinstance(exc, UsageError) else "vrelab: error: "
         sys.stderr.write(f"{prefix}{msg}\n")
         return 2
+    except Terminated:
+        sys.stderr.write("vrelab: terminated\n")
+        return 143
     except KeyboardInterrupt:
         sys.stderr.write("vrelab: interrupted\n")
         return 130
     except Exception as exc:  # a bug of ours: one line, the traceback on request
+        if is_disk_full(exc):  # a C library's full disk (HDF5, netCDF) outside an output folder
+            sys.stderr.write("vrelab: error: no space left on device (nothing was written; free space and run again)\n")
+            return EXIT_DISK_FULL
         if debug:
             import traceback
 

@@ -47,6 +47,24 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--k3", dest="k3_ug_per_g3", type=float, metavar="UG_PER_G3", help="third-order nonlinearity [µg/g³]")
 
 
+def input_paths(*values: Any) -> list[Any]:
+    """The files and folders a run reads, among option values (a record, a manifest, a sensor
+    or profile given as a path; ``adxl355`` or ``flat:20-2000`` name none): its output folder
+    must not hold them (:func:`vrelab._io.check_output`). A manifest contributes its runs' files."""
+    from vrelab._io import existing_paths
+    from vrelab.profiles import split_tones
+
+    found: list[Any] = []
+    for v in values:
+        if hasattr(v, "runs") and hasattr(v, "path"):  # a campaign.Manifest
+            found += [v.path] + [x for r in v.runs for x in (r.file, r.schedule, r.profile)]
+        elif isinstance(v, str):
+            found += [v, split_tones(v)[0].strip()]
+        else:
+            found.append(v)
+    return existing_paths(found)
+
+
 def sensor_from_args(args: argparse.Namespace) -> Any:
     from vrelab.sensor import load_sensor
 

@@ -116,6 +116,11 @@ def run(args: argparse.Namespace) -> int:
     from vrelab.analysis.readers import Scale, open_record
     from vrelab.record import Schedule
 
+    from vrelab.cli._common import input_paths
+
+    inputs = input_paths(args.file, args.schedule, args.profile)
+    if args.out:  # refused before the record is read, not after
+        _io.check_output(args.out, inputs)
     duts = [d.strip() for d in args.dut.split(",")]
     if any(not d for d in duts):
         raise ValueError(f"--dut {args.dut!r}: an empty channel name")
@@ -180,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
             reduced = [(duts[0], *analyze_full(record, args.method, schedule, **options))]
     doc = channels_to_dict([(n, r) for n, r, _ in reduced], provenance) if several else reduced[0][1].to_dict()
     if args.out:
-        _write_out(Path(args.out), reduced, doc, profile, several)
+        _write_out(Path(args.out), reduced, doc, profile, several, inputs)
     if args.json:
         print_json(doc)
     else:
@@ -192,8 +197,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool) -> None:
-    with _io.output_dir(out) as stage:
+def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool, inputs: Any = ()) -> None:
+    with _io.output_dir(out, inputs=inputs) as stage:
         if several:
             subs = folder.write_channels(stage, [(n, r) for n, r, _ in reduced], doc)
             targets = [(subs[n], red) for n, _, red in reduced]

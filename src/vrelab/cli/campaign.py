@@ -93,7 +93,9 @@ def run(args: argparse.Namespace) -> int:
             sys.stderr.write(f"run {rr.run.index}/{len(manifest.runs)} {'ok' if rr.ok else 'FAILED'}\n")
 
     if args.out:
-        with _io.output_dir(args.out) as stage:
+        from vrelab.cli._common import input_paths
+
+        with _io.output_dir(args.out, inputs=input_paths(manifest)) as stage:
             results = run_campaign(manifest, args.workers, Path(stage), done, args.limit)
             summaries = combine(results, manifest.channels)
             doc = campaign_doc(manifest, results, summaries, command)

@@ -94,7 +94,17 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
     typeb = typeb_from_args(args)
     command = shlex.join(["vrelab", "identify", args.source, "--base-sensor", args.base_sensor, "--out", args.out])
-    with _io.output_dir(args.out) as stage:  # a bad --out is refused before any work; DIR whole or not at all
+    from vrelab.cli._common import input_paths
+
+    source = Path(args.source)
+    if source.is_file():  # a manifest: its records are inputs too
+        from vrelab.campaign import read_manifest
+
+        inputs = input_paths(read_manifest(source), args.base_sensor)
+    else:  # a campaign folder
+        inputs = input_paths(args.source, args.base_sensor)
+    # a bad --out (the campaign folder itself, or one holding it) is refused before any work
+    with _io.output_dir(args.out, inputs=inputs) as stage:
         doc = _campaign_doc(args.source, args.workers)
         ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, args.kind,
                          typeb if typeb.declared else None, args.workers, args.prefer_base)

@@ -73,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
     pred = predict(sensor, excitation, levels, static_g=args.static_g, kind=args.kind)
     if args.out:
         from vrelab._io import output_dir, write_json
+        from vrelab.cli._common import input_paths
 
-        with output_dir(args.out) as stage:
+        with output_dir(args.out, inputs=input_paths(args.sensor, args.profile)) as stage:
             write_json(stage / "prediction.json", pred.to_dict())
     if args.json:
         print_json(pred.to_dict())

@@ -85,8 +85,9 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         from vrelab import folder
         from vrelab._io import output_dir
+        from vrelab.cli._common import input_paths
 
-        with output_dir(args.out) as stage:
+        with output_dir(args.out, inputs=input_paths(args.sensor, args.profile)) as stage:
             result = simulate(stage / folder.RECORD if args.record else None)
             pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g,
                            kind=args.kind)

@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
             retries=args.retries,
             chunk=args.chunk,
             retry_failed=args.retry_failed,
+            inputs=[args.file],
         )
     except SweepAborted as exc:
         sys.stderr.write(f"vrelab: sweep stopped: {exc}\n")

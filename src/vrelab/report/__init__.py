@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
-from vrelab.folder import read_folder
+from vrelab.folder import ResultsFolder, read_folder
 from vrelab.report.html import (
     ReportFigure,
     ReportSection,
@@ -44,8 +44,18 @@ def report_dir(
     file (:func:`~vrelab.report.metadata.load_metadata`), read and validated before anything is
     written; a bad file is a one-line ``ValueError``.
     """
+    from vrelab import _io
+    from vrelab.folder import REPORT
+
     meta = load_metadata(metadata) if isinstance(metadata, (str, Path)) else metadata
     rf = read_folder(folder)
+    _io.claim_file(rf.path, REPORT)  # a report.html vrelab did not write is refused, not overwritten
+    path = _write(rf, argv, title, meta)
+    _io.note_written(rf.path, [REPORT])  # the folder stays vrelab's: a later run may replace it
+    return path
+
+
+def _write(rf: "ResultsFolder", argv: Sequence[str] | None, title: str | None, meta: ReportMetadata | None) -> Path:
     if rf.kind == "channels":
         from vrelab.report.html import report_channels_dir
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from vrelab import _io
 from vrelab.folder import SWEEP_RESULT
@@ -106,6 +106,7 @@ def run_sweep(
     retries: int | None = None,
     chunk: int | None = None,
     retry_failed: bool = False,
+    inputs: Sequence[str | Path] = (),
 ) -> SweepResult:
     """Run (or resume) ``spec`` with its checkpoint and outputs in ``out_dir``.
 
@@ -127,6 +128,10 @@ def run_sweep(
     retry_failed : bool
         On resume, compute again the points the checkpoint holds as failed (after fixing what
         made them fail); finished ``ok`` points are still never recomputed.
+    inputs : paths, optional
+        Files the sweep reads besides those its points name (the sweep file): ``out_dir`` must
+        not hold them (:func:`vrelab._io.check_output`; the points' sensor and profile files
+        are added here).
     """
     func = point_function(spec)
     if "zarr" in spec.formats:  # fail now, not after the last point
@@ -145,6 +150,13 @@ def run_sweep(
     own = backend is None
     if own:
         check_backend_args(workers, scheduler)
+    from vrelab.profiles import split_tones
+    from vrelab.sweep.checkpoint import QUARANTINE_NAME
+
+    reads = [*inputs, *(split_tones(n)[0].strip() for n in spec.inputs())]
+    # the folder must be new, empty or a vrelab one holding none of the inputs; it is marked
+    # vrelab's before the checkpoint is written into it, so an interrupted sweep can resume
+    _io.claim(out, reads, entries=[CHECKPOINT_NAME, QUARANTINE_NAME])
     with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh, inputs=spec.inputs()) as ck:
         quarantined = [{"line": n, "why": why} for n, _, why in ck.quarantined]
         keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
@@ -169,6 +181,10 @@ def run_sweep(
             )
             # nothing to compute (every point from the checkpoint): say so, claim no backend
             described = backend.describe() if items else {"backend": "none: nothing computed", "n_workers": 0}
+        except BaseException:
+            if own:
+                backend.abort()  # Ctrl-C, SIGTERM: the workers are ended, the checkpoint kept
+            raise
         finally:
             if own:
                 backend.close()
@@ -204,7 +220,7 @@ def run_sweep(
     names = {"netcdf": RESULT_NC, "csv": RESULT_CSV, "zarr": RESULT_ZARR}
     files = {f: out / names[f] for f in spec.formats}
     summary["files"] = {f: str(p) for f, p in files.items()}
-    with _io.output_dir(out, replace=False) as stage:
+    with _io.output_dir(out, replace=False, inputs=reads) as stage:
         if "netcdf" in spec.formats:
             D.write_netcdf(ds, stage / RESULT_NC)
         if "csv" in spec.formats:

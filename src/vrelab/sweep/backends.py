@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import threading
-import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable
 
@@ -60,6 +58,10 @@ class Backend:
     def close(self) -> None:
         pass
 
+    def abort(self) -> None:
+        """End now, on an interruption; by default as :meth:`close`."""
+        self.close()
+
     def describe(self) -> dict[str, Any]:
         return {"backend": self.name, "n_workers": self.n_workers}
 
@@ -75,23 +77,6 @@ class SerialBackend(Backend):
 
     def __init__(self) -> None:
         super().__init__(SerialExecutor(), 1)
-
-
-def _exit_with_parent(parent_pid: int, period_s: float = 0.5) -> None:
-    """Pool-worker initializer: exit when the parent process is gone.
-
-    A parent killed with SIGKILL cannot shut its pool down, and a spawned worker holds both ends
-    of the task queue, so it would wait for work forever; a daemon thread polls the parent id
-    instead (portable, unlike prctl(PR_SET_PDEATHSIG), which also fires when the *thread* that
-    spawned the worker ends).
-    """
-
-    def watch() -> None:
-        while os.getppid() == parent_pid:
-            time.sleep(period_s)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="vrelab-parent-watch", daemon=True).start()
 
 
 class ProcessBackend(Backend):
@@ -110,12 +95,10 @@ class ProcessBackend(Backend):
         self._executor = self._new()
 
     def _new(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(
-            max_workers=self.n_workers,
-            mp_context=multiprocessing.get_context(self.context),
-            initializer=_exit_with_parent,
-            initargs=(os.getpid(),),
-        )
+        from vrelab._pool import process_pool
+
+        # a worker dies with the sweep (vrelab._pool); a point that must outlive it cannot exist
+        return process_pool(self.n_workers, multiprocessing.get_context(self.context))
 
     @property
     def can_reset(self) -> bool:
@@ -131,6 +114,14 @@ class ProcessBackend(Backend):
     def close(self) -> None:
         if self._executor is not None:
             self._executor.shutdown(wait=True, cancel_futures=True)
+            self._executor = None
+
+    def abort(self) -> None:
+        """Interrupted (Ctrl-C, SIGTERM): end the workers now instead of waiting for their points."""
+        if self._executor is not None:
+            from vrelab._pool import stop
+
+            stop(self._executor)
             self._executor = None
 
     def describe(self) -> dict[str, Any]:
