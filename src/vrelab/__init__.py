@@ -14,7 +14,7 @@ The front door (``import vrelab`` is enough)::
     vrelab.simulate(sensor, profile, [1.0, 2.5], seconds=4, seed=1)  # a simulated shaker test
     vrelab.analyze("run.h5", dut="dut", reference="ref")            # a recorded one
     doc = vrelab.campaign("campaign.toml")                          # every run of a manifest
-    vrelab.identify(doc, base_spec="adxl355")                       # each channel's model
+    vrelab.identify(doc, base_spec="ideal", range_g=2.048)          # each channel's model
 
 Every name is imported on first use, so ``import vrelab`` stays as fast as it was (``python
 -X importtime -c "import vrelab"``: about 35 ms; the modules behind ``predict``, ``identify`` and
