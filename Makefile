@@ -1,6 +1,7 @@
 # Two commands do everything on a fresh machine with Python 3.11 and pip:
 #   make demo   create .venv, install vrelab, run the article's ADXL355 case study with its report
 #   make test   create .venv, install vrelab with its test extras, run the whole test suite
+#   make docs   build the documentation into docs/_build/html
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -8,7 +9,7 @@ STAMP_BASE := $(VENV)/.installed-base
 STAMP_TEST := $(VENV)/.installed-test
 STAMP_BENCH := $(VENV)/.installed-bench
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench docs clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -19,11 +20,11 @@ $(STAMP_BASE): pyproject.toml | $(BIN)/python
 	touch $@
 
 $(STAMP_TEST): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats]"
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats,docs]"
 	touch $@ $(STAMP_BASE)
 
 $(STAMP_BENCH): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats,bench]"
+	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats,docs,bench]"
 	touch $@ $(STAMP_TEST) $(STAMP_BASE)
 
 demo: $(STAMP_BASE)
@@ -33,8 +34,11 @@ test: $(STAMP_TEST)
 	$(BIN)/python tests/setup_browser.py
 	$(BIN)/python -m pytest
 
+docs: $(STAMP_TEST)
+	$(BIN)/python -m sphinx -b html -W --keep-going docs docs/_build/html
+
 bench: $(STAMP_BENCH)
 	$(BIN)/python bench/run_all.py
 
 clean:
-	rm -rf $(VENV) demo-out .pytest_cache
+	rm -rf $(VENV) demo-out .pytest_cache docs/_build docs/auto_examples docs/api/generated

@@ -120,10 +120,10 @@ def fit_vrc(
 
     Notes
     -----
-    IEEE 1293 [1]_ and SPEC 1.2: ``VRE = VRC·rms²`` with ``VRC = k2 + 3·k3·g0 + 6·k4·g0²``
+    IEEE Std 1293-1998 and SPEC 1.2: ``VRE = VRC·rms²`` with ``VRC = k2 + 3·k3·g0 + 6·k4·g0²``
     at static field g0. Minimise :math:`\sum_i (y_i - X_i β)^2/u_i^2` with
     :math:`X_i = [r_i^2]` (or :math:`[r_i^2, r_i^4]`): :math:`β = (X^TWX)^{-1}X^TWy`,
-    :math:`\mathrm{cov}\,β = (X^TWX)^{-1}`, scaled by χ²_red when it exceeds 1 [3]_.
+    :math:`\mathrm{cov}\,β = (X^TWX)^{-1}`, scaled by χ²_red when it exceeds 1 (Birge 1932, module references).
     ``c4 = k4·E[x⁴]/rms⁴``: 3·k4 for Gaussian vibration, 1.5·k4 for a sine.
     """
     notes: list[str] = []
@@ -274,7 +274,7 @@ def fit_rail(
 
     Notes
     -----
-    Model (SPEC 1.1, [2]_): VRE(σ) = E[clip(g0 + x)] − g0 (+ VRC·σ² when ``with_vrc``) for
+    Model (SPEC 1.1, the Analog Devices article): VRE(σ) = E[clip(g0 + x)] − g0 (+ VRC·σ² when ``with_vrc``) for
     x ~ N(0, σ²), from
     :func:`vrelab.models.clipping.censored_mean_shift` (or ``truncated_mean_shift``). Weighted
     least squares (``scipy.optimize.least_squares`` on residuals (model − y)/u), covariance

@@ -233,8 +233,8 @@ def overrange_trip_rate_hz(
     Gaussians (a stationary G and its derivative are uncorrelated at one instant), x ~ N(μ + s,
     σ²), ẋ ~ N(ṡ, σ̇²) with σ̇ = 2π·ν0·σ, so
 
-    .. math:: ν^+(T) = E_θ\left[rac{φ(z)}{σ}\,\left(ṡ\,Φ(ṡ/σ̇) + σ̇\,φ(ṡ/σ̇)ight)ight],
-              \quad z = rac{T - μ - s}{σ},
+    .. math:: ν^+(T) = E_θ\left[\frac{φ(z)}{σ}\,\left(ṡ\,Φ(ṡ/σ̇) + σ̇\,φ(ṡ/σ̇)\right)\right],
+              \quad z = \frac{T - μ - s}{σ},
 
     the time average taken as the average over the tones' independent uniform phases
     (:mod:`vrelab.models.tones`); ν⁻(-T) is the same with μ, s, ṡ negated. Without tones it is

@@ -130,7 +130,7 @@ def sine_on_random_moments(sigma_g: ArrayLike, peaks_g: Sequence[float], order: 
     -----
     x = G + Σ A_i cos θ_i is a sum of independent terms, so its moments are the binomial
     convolution (:func:`sum_moments`) of :func:`gaussian_moments` and each tone's
-    :func:`sine_moments` (E[cos^2m θ] = C(2m, m)/4^m). Odd moments vanish. The first two even ones:
+    :func:`sine_moments` (E[cos^2m θ] = C(2m, m)/4^m). Odd moments vanish. The first two even ones::
 
         E[x²] = σ² + Σ A_i²/2,
         E[x⁴] = 3σ⁴ + 6σ²·Σ A_i²/2 + (3/8)·Σ A_i⁴ + (3/2)·Σ_{i<j} A_i²A_j²

@@ -1,0 +1,89 @@
+"""Sphinx configuration of vrelab's documentation (``make docs``; tests/test_docs.py builds it
+with warnings as errors)."""
+
+import os
+import re
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+if (HERE.parent / "src" / "vrelab").is_dir():  # the source tree beside these docs, not an installed copy
+    sys.path.insert(0, str(HERE.parent / "src"))
+sys.path.insert(0, str(HERE))  # _cli: the parser as the CLI reference reads it
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import vrelab  # noqa: E402
+
+project = "vrelab"
+author = "the vrelab developers"
+copyright = "the vrelab developers, BSD-3-Clause"
+release = vrelab.__version__
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "numpydoc",  # numpy-style sections; renames each docstring's [1] references so pages do not clash
+    "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",
+    "myst_parser",
+    "sphinxarg.ext",
+    "sphinx_gallery.gen_gallery",
+]
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+myst_enable_extensions = ["dollarmath", "amsmath", "deflist"]
+myst_heading_anchors = 3
+exclude_patterns = ["_build", "examples/README.txt"]
+templates_path: list[str] = []
+
+autodoc_member_order = "bysource"
+autodoc_typehints = "signature"
+autodoc_default_options = {"members": True, "show-inheritance": False}
+numpydoc_show_class_members = False  # autodoc's :members: lists them once
+numpydoc_class_members_toctree = False
+numpydoc_validation_checks: set[str] = set()  # the build checks the reST, not the docstring style
+
+sphinx_gallery_conf = {
+    "examples_dirs": "examples",
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r"/plot_",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "abort_on_example_error": True,
+    "within_subsection_order": "FileNameSortKey",
+}
+
+html_theme = "alabaster"
+html_static_path: list[str] = []
+html_theme_options = {"description": "VRE of accelerometers, end to end", "fixed_sidebar": True}
+
+# A docstring's References list is a bibliography: an entry its text does not cite is not an
+# error (numpydoc turns each ``.. [1]`` into a citation unique to its docstring).
+suppress_warnings = ["ref.citation"]
+
+# The docstrings write absolute values as |x| (|VRE|, |H(f)|²), which reST reads as a
+# substitution reference. Rather than asking every docstring to escape them, escape each |x|
+# outside inline literals, roles and ``.. math::`` blocks (where | is math) before parsing.
+_SPANS = re.compile(r"(``.+?``|:[\w:.-]+:`[^`]*`|`[^`]*`_{0,2})")
+_BARS = re.compile(r"(?<!\\)\|([^\s|`](?:[^|`\n]*?[^\s|`\\])?)\|")
+
+
+def _escape_absolute_bars(app, what, name, obj, options, lines):
+    math_indent = None
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if math_indent is not None:
+            if not stripped or indent > math_indent:
+                continue
+            math_indent = None
+        if stripped.startswith(".. math::"):
+            math_indent = indent
+            continue
+        if re.match(r"\|(\s|$)|\+[-=]", stripped):  # a table row or a line block
+            continue
+        parts = _SPANS.split(line)
+        lines[i] = "".join(p if k % 2 else _BARS.sub(r"\\|\1\\|", p) for k, p in enumerate(parts))
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _escape_absolute_bars, priority=600)  # after numpydoc
