@@ -21,7 +21,9 @@ def test_random_levels_recovered_within_uncertainty():
     assert len(levels) == 3, warnings
     for lv, rms, vre in zip(levels, tr.rms_g, tr.vre_g):
         assert abs(lv.vre.value - vre) <= 3.5 * lv.vre.u
-        assert lv.vre.u < 0.3e-3  # small compared with the 1-3 mg steps: the test can fail
+        # small compared with the 1-3 mg steps: the test can fail (0.3 mg before the low-frequency
+        # term of issue 18 joined u; this record's baselines show a chance excess of ~0.2 mg)
+        assert lv.vre.u < 0.4e-3
         # reference band-limited to 80-200 Hz, analysis band 50-250 Hz: rms within 3 %
         assert lv.rms_g == pytest.approx(rms, rel=0.03)
         assert lv.n_saturated == 0 and lv.flags == ()
