@@ -172,7 +172,9 @@ class TestPlan:
         if self.method == "sine" and self.f_max_hz >= fs_int / (2 * NYQUIST_MARGIN):
             raise ValueError(f"freqs_hz: {self.f_max_hz:g} Hz is too high for the internal rate {fs_int:g} Hz")
         if self.method == "sine" and self.fs_internal_hz is None:
-            fs_int = _lattice_rate(self.sensor, fs_int, self.freqs_hz)
+            needed = [f for f in self.freqs_hz if self._needs_lattice(f, fs_int)]
+            if needed:
+                fs_int = _lattice_rate(self.sensor, fs_int, needed)
         rates = choose_rates(self.sensor.chain(fs_int), fs_int, self.f_max_hz)
         segs, chain_seed = (self._random_stretches if self.method == "random" else self._sine_stretches)(rates)
         self._check_budget(segs, rates)
@@ -238,7 +240,7 @@ class TestPlan:
             # many phases) or the drive meets fewer than 5 phases of the output, each batch
             # of m periods samples L phases (sine_drive) and the window holds whole batches.
             fs_out = fs_int / rates.decimation
-            if _few_phases(f, fs_out) or any(_may_saturate(self.sensor, self.static_g, g, f) for g in self.levels_g):
+            if self._needs_lattice(f, fs_out):
                 drive_hz, m, n_out = sine_drive(f, fs_out)
                 batches = max(3, round((self.seconds - 2 * self.settle_s) * drive_hz / m))
                 window, lattice = batches * n_out * rates.decimation, n_out
@@ -256,6 +258,12 @@ class TestPlan:
                 segs += [Stretch(n_level + 2 * n_ramp, g, f, None, n_ramp, drive_hz, phase0, lattice),
                          Stretch(n_base, 0.0)]
         return segs, chain_seed
+
+    def _needs_lattice(self, freq_hz: float, fs_out_hz: float) -> bool:
+        """Whether a sine at ``freq_hz`` needs every phase sampled (:func:`sine_drive`): the
+        output may reach a rail or the over-range threshold, or meets fewer than 5 phases."""
+        return _few_phases(freq_hz, fs_out_hz) or any(
+            _may_saturate(self.sensor, self.static_g, g, freq_hz) for g in self.levels_g)
 
     def _check_budget(self, segs: Sequence[Stretch], rates: Rates) -> None:
         """Refuse, before anything runs, a test beyond the time or memory budget (vrelab._budget):
