@@ -172,6 +172,7 @@ def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[
         dof = lv.dof
         if dof is not None and math.isfinite(dof) and lv.vre.u > 0:
             dof = dof * (u / lv.vre.u) ** 4
+            dof = math.inf if dof > 1e6 else dof  # the bound (exact: no dof) dominates
         out.append(dataclasses.replace(lv, vre=Estimate(lv.vre.value, u, lv.vre.unit), dof=dof))
     return out
 
