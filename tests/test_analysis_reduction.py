@@ -21,7 +21,9 @@ def test_random_levels_recovered_within_uncertainty():
     assert len(levels) == 3, warnings
     for lv, rms, vre in zip(levels, tr.rms_g, tr.vre_g):
         assert abs(lv.vre.value - vre) <= 3.5 * lv.vre.u
-        assert lv.vre.u < 0.3e-3  # small compared with the 1-3 mg steps: the test can fail
+        # small compared with the 1-3 mg steps: the test can fail (0.3 mg before the low-frequency
+        # term of issue 18 joined u; this record's baselines show a chance excess of ~0.2 mg)
+        assert lv.vre.u < 0.4e-3
         # reference band-limited to 80-200 Hz, analysis band 50-250 Hz: rms within 3 %
         assert lv.rms_g == pytest.approx(rms, rel=0.03)
         assert lv.n_saturated == 0 and lv.flags == ()
@@ -103,6 +105,22 @@ def test_rail_given_counts_samples_beyond_it():
     i0, i1 = int(np.ceil(seg.start_s * 500 / 50)) * 50, int(np.floor(seg.end_s * 500 / 50)) * 50
     assert red.levels[-1].n_saturated == int(np.sum(np.abs(d[i0:i1]) >= 3.5 * (1 - 1e-6)))
     assert red.levels[-1].n_saturated > 0 and red.levels[0].n_saturated == 0
+
+
+def test_rail_given_at_the_clip_level_counts_each_saturated_sample_once():
+    """A DUT clipped at ±3 g, analysed with rail_g = 3: the samples on the rail are both "beyond
+    the given rail" and "on the rail found in the data"; they were counted twice (issue 18:
+    747 -> 1494 with ``analyze --rail 2``). The truth is counted here with numpy."""
+    tr = make_record(6, levels_g=(0.2, 1.0), vre_g=(0.0, 0.0), rail_g=3.0)
+    d = tr.record.data["dut"]
+    given = reduce(tr.record, schedule=tr.schedule, rail_g=3.0)
+    found = reduce(tr.record, schedule=tr.schedule)
+    seg = [s for s in given.schedule.segments if not s.is_baseline][-1]
+    i0, i1 = int(np.ceil(seg.start_s * 500 / 50)) * 50, int(np.floor(seg.end_s * 500 / 50)) * 50
+    truth = int(np.sum(np.abs(d[i0:i1]) >= 3.0))
+    assert truth > 10
+    assert given.levels[-1].n_saturated == truth
+    assert found.levels[-1].n_saturated == truth
 
 
 def test_frequency_estimate_and_whole_period_batches():

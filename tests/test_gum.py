@@ -124,7 +124,7 @@ def test_vre_budget_agrees_with_monte_carlo() -> None:
     assert b.U_vre_g == pytest.approx(b.k * b.vre.u)
     assert b.decision == gum.decide(b.vre.value, b.U_vre_g, 0.2)
     sources = {t["source"] for t in b.budget}
-    assert sources == {"record (batch means)", "DUT sensitivity", "reference sensitivity",
+    assert sources == {"record (batch means, low-frequency noise)", "DUT sensitivity", "reference sensitivity",
                        "static field (alignment)", "thermal offset"}
 
 
@@ -149,7 +149,7 @@ def test_analyze_budget_and_limit(tmp_path: Path, capsys: pytest.CaptureFixture[
         assert b["u_vre_g"] > a["u_vre_g"]
         assert b["U_vre_g"] == pytest.approx(b["k"] * b["u_vre_g"])
         assert b["decision"] == gum.decide(b["vre_g"], b["U_vre_g"], 0.0008)
-        assert [t["source"] for t in b["budget"]][0] == "record (batch means)"
+        assert [t["source"] for t in b["budget"]][0] == "record (batch means, low-frequency noise)"
     assert {lv["decision"] for lv in doc["levels"]} == {"pass", "fail"}  # 0.1 and 0.47 mg pass, 1.0 mg fails
     assert doc["fit"]["vrc_ug_per_g2"]["u"] > plain["fit"]["vrc_ug_per_g2"]["u"]
     assert doc["conditions"]["extra"]["decision_rule"].startswith("guarded acceptance")

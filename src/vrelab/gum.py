@@ -102,7 +102,7 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
     evaluated).
     """
     v, u_a = level.vre.value, level.vre.u
-    terms: list[dict[str, Any]] = [{"source": "record (batch means)", "type": "A", "u_g": u_a,
+    terms: list[dict[str, Any]] = [{"source": "record (batch means, low-frequency noise)", "type": "A", "u_g": u_a,
                                     "dof": None if level.dof is None or not math.isfinite(level.dof) else level.dof}]
     if typeb.u_dut_pct:
         terms.append({"source": "DUT sensitivity", "type": "B", "u_g": abs(v) * typeb.u_dut_pct / 100,

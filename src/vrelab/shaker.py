@@ -19,6 +19,7 @@ the next level, ..., each level bracketed by baselines. Three rooms:
 from __future__ import annotations
 
 import dataclasses
+import math
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
@@ -27,7 +28,7 @@ from vrelab import __version__
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
-from vrelab.results import Conditions, FitResult, LevelResult, Method, Notice, VreResult
+from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Method, Notice, VreResult
 from vrelab.simulation.plan import TestPlan, min_segment_seconds
 from vrelab.simulation.record import SimulatedRecord
 
@@ -108,6 +109,7 @@ def _reduce_and_fit(
         progress=progress and record_path is not None, accept=ACCEPTABLE,
     )
     levels, warnings = _with_simulated_saturation(record, list(red.levels), list(red.warnings))
+    levels = _with_lattice_u(record, levels)
     nominal = [seg.freq_hz for seg in red.level_segments]
     fits, notes = fit_levels(levels, method, red.static_g, clip_kind, nominal_freqs_hz=nominal)
     return levels, fits, warnings + notes
@@ -138,6 +140,41 @@ def _with_simulated_saturation(
     if n_flagged:
         warnings.append(Notice("saturated-levels", f"{n_flagged} level(s) reached a rail of the sensor (flagged 'saturated')"))
     return levels, warnings
+
+
+def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[LevelResult]:
+    """Sine levels with the error of their phase lattice in u.
+
+    Every batch of a sine level samples the output on the same L equally spaced phases of the
+    cycle (:func:`vrelab.simulation.plan.sine_drive`), so each batch mean is the same lattice
+    rule and its error, the same in every batch, is in no scatter. For an output y(θ) whose
+    derivative has total variation V over a cycle, the rule's error is at most
+    ``Σ_j 2·|c_{jL}|`` with ``|c_h| <= V/(2π·h²)``, i.e. ``V/(12·L²)``; V is taken as 24·span
+    (span the output's peak-to-peak over the level: a clipped sine's V is a few spans), so the
+    bound is ``2·span/L²``; with over-range events (a held output jumps: |c_h| ~ 1/h) ``span/L``. A rectangular bound, so u = bound/√3; added with
+    infinite degrees of freedom (the dof scale by (u_new/u_old)⁴, Welch-Satterthwaite).
+    """
+    if record.dut_span is None:
+        return levels
+    on = [i for i, s in enumerate(record.schedule.segments) if not s.is_baseline]
+    if len(on) != len(levels):
+        return levels
+    out = []
+    for lv, i in zip(levels, on):
+        stretch = record._segments[i]
+        if not stretch.lattice or not math.isfinite(lv.vre.u):
+            out.append(lv)
+            continue
+        span, n = record.dut_span[i], stretch.lattice
+        jumps = bool(record.overrange_events and record.overrange_events[i])
+        u_l = (span / n if jumps else 2.0 * span / n**2) / math.sqrt(3.0)
+        u = math.hypot(lv.vre.u, u_l)
+        dof = lv.dof
+        if dof is not None and math.isfinite(dof) and lv.vre.u > 0:
+            dof = dof * (u / lv.vre.u) ** 4
+            dof = math.inf if dof > 1e6 else dof  # the bound (exact: no dof) dominates
+        out.append(dataclasses.replace(lv, vre=Estimate(lv.vre.value, u, lv.vre.unit), dof=dof))
+    return out
 
 
 def plan_random_test(
@@ -227,6 +264,8 @@ def run_test(
     band = _measurement_band(plan.profile) if plan.method == "random" else _sine_band(record)  # type: ignore[arg-type]
     levels, fits, warnings = _reduce_and_fit(record, plan.method, band, plan.settle_s, record_path, progress,
                                              clip_kind)
+    if plan.method == "sine":
+        warnings += _sine_drive_notes(plan, record)
     if isinstance(plan.profile, SineOnRandom) and fits:
         warnings.append(Notice("sine-on-random-fit", "the fits' clipping model (effective rail) assumes a Gaussian "
                                 "drive; this one carries sine tones, so a fitted rail is approximate"))
@@ -239,6 +278,23 @@ def run_test(
         provenance=_provenance(f"vrelab.shaker.run_{plan.method}_test", plan.sensor),
         kind="simulation",
     )
+
+
+def _sine_drive_notes(plan: TestPlan, record: SimulatedRecord) -> list[Notice]:
+    """Say where a sine ran off its nominal frequency so that the sensor's samples cover the
+    cycle (:func:`vrelab.simulation.plan.sine_drive`)."""
+    from vrelab.simulation.plan import DRIVE_TOLERANCE
+
+    out = []
+    fs_out = record.rates.fs_internal_hz / record.rates.decimation
+    for f, fd in zip(plan.freqs_hz, record.meta["simulation"].get("sine_drive_hz", [])):
+        if abs(fd - f) > DRIVE_TOLERANCE * f:
+            out.append(Notice("sine-drive", (
+                f"sine {f:g} Hz driven at {fd:.6g} Hz: whole periods then take a whole number of the "
+                f"sensor's {fs_out:g} Hz output samples that fall on every phase of the cycle, as a shaker "
+                f"and a sensor on independent clocks do (a drive that divides the output rate samples a few "
+                f"phases only); the levels give the frequency measured, and a VRE that depends on frequency is that frequency's")))
+    return out
 
 
 def _measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:

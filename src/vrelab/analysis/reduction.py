@@ -93,6 +93,126 @@ class Baseline:
     segment: Segment
     n_saturated: int = 0  # DUT samples at a rail: the vibration-off reading is off-scale
     dof: float = math.inf  # degrees of freedom of u_g (batch means: batches - 1)
+    # second difference of the baseline's thirds, m2 - (m1 + m3)/2 (None: too short to split),
+    # and its variance were the noise white at the batch scale (4.5·u_g²)
+    thirds_g: float | None = None
+    thirds_white_var: float = 0.0
+
+
+@dataclass(frozen=True)
+class LowFrequency:
+    """Offset wander the bracketing cannot remove and the segments' batch means cannot see.
+
+    Batch means measure a segment's scatter about a straight line over a fraction of the
+    segment, and the bracketing removes a linear drift; 1/f (flicker) noise, a random walk or
+    thermal wander still move the offset between a level and its baselines. That movement is a
+    second difference of the offset at the segment time scale. It is measured on the
+    vibration-off readings (no vibration in them) as the excess of squared second differences
+    over what the white scatter (the batch means) predicts, in two geometries:
+
+    * ``between``: each inner baseline against the linear interpolation of its neighbours (the
+      level's own geometry at twice the spacing), ``n_between`` of them;
+    * ``within`` (a Hadamard-type term at a third of the segment): each baseline's middle third
+      against the mean of its outer thirds, ``n_within`` of them.
+
+    Each is carried to a level's geometry (its mean against the interpolated baselines) by the
+    ratio of the two geometries' variances for power-law noise ``S(f) ∝ f^α``
+    (:func:`second_difference_var`). α is where the two measured excesses agree, within
+    [-2, -1] (random walk to flicker), and the larger of the two carried values is taken. With
+    one excess only: when the other geometry was not measured (fewer than 3 baselines, or
+    baselines too short to split), the α that gives the larger u; when it was and showed no
+    excess, the α that gives the smaller. The term's degrees of freedom are the number of
+    second differences behind it. The excesses are not truncated at a significance level, so
+    white noise alone adds a little (measured: ±1u covers 0.79 instead of 0.68 on white noise,
+    tests/test_coverage.py).
+    """
+
+    between: float  # mean excess [g²] (nan: none)
+    within: float
+    n_between: int
+    n_within: int
+    third_s: float  # length of a third in the within term (mean over baselines)
+
+    def at(self, level: tuple[float, float], before: tuple[float, float], after: tuple[float, float]
+           ) -> tuple[float, float, float]:
+        """(variance [g²], degrees of freedom, α) of the term for a level (centre, length)
+        bracketed by baselines ``before`` and ``after`` (centre, length)."""
+        have_b = self.n_between > 0 and self.between > 0
+        have_w = self.n_within > 0 and self.within > 0
+        if not (have_b or have_w):
+            return 0.0, math.inf, math.nan
+        lam = (level[0] - before[0]) / (after[0] - before[0])
+        lvl = ((level[0], level[1], 1.0), (before[0], before[1], -(1 - lam)), (after[0], after[1], -lam))
+        # the between geometry: a baseline between neighbours at twice the bracket's spacing
+        sp = after[0] - before[0]
+        bl = ((before[0], before[1], 1.0), (before[0] - sp, before[1], -0.5), (before[0] + sp, before[1], -0.5))
+        t = self.third_s
+        th = ((0.0, t, 1.0), (-t, t, -0.5), (t, t, -0.5))
+        v_l = second_difference_var(lvl, ALPHAS)
+        v_b = second_difference_var(bl, ALPHAS)
+        v_w = second_difference_var(th, ALPHAS)
+        alphas = ALPHAS
+        if have_b and have_w:
+            i = int(np.argmin(np.abs(np.log(v_b / v_w) - math.log(self.between / self.within))))
+            var = max(self.between * v_l[i] / v_b[i], self.within * v_l[i] / v_w[i])
+            return float(var), float(self.n_between + self.n_within), float(alphas[i])
+        # One estimate only: with the other absent, the α that gives the larger u; with the
+        # other measured and showing no excess, the α that gives the smaller (the noise is not
+        # red across both scales).
+        if have_b:
+            var_b = self.between * v_l / v_b
+            i = int(np.argmin(var_b) if self.n_within else np.argmax(var_b))
+            return float(var_b[i]), float(self.n_between), float(alphas[i])
+        var_w = self.within * v_l / v_w
+        i = int(np.argmin(var_w) if self.n_between else np.argmax(var_w))
+        return float(var_w[i]), float(self.n_within), float(alphas[i])
+
+
+# The noise types the low-frequency term spans, S(f) ∝ f^α: random walk (-2) to flicker (-1).
+ALPHAS = np.linspace(-2.0, -1.0, 11)
+
+
+def second_difference_var(boxes: Sequence[tuple[float, float, float]], alpha: NDArray[np.float64]
+                          ) -> NDArray[np.float64]:
+    """Variance of ``Σ c·(mean of the offset over [t - T/2, t + T/2])`` over boxes (t, T, c)
+    whose coefficients sum to 0, for noise of one-sided PSD ``f^α`` (unit level), per α:
+    ``∫ f^α·|Σ c·e^{-2πift}·sinc(fT)|² df``. Numerical, on a logarithmic grid (no closed form
+    for general boxes); the integrand is O(f^(α+4)) at 0 for a second difference, which removes
+    a line, and O(f^(α-2)) above 1/T, so the grid's ends (10⁻⁴/span, 10³/T) lose nothing."""
+    t = np.array([b[0] for b in boxes])
+    T = np.array([b[1] for b in boxes])
+    c = np.array([b[2] for b in boxes])
+    span = float(np.max(t + T / 2) - np.min(t - T / 2))
+    f = np.logspace(math.log10(1e-4 / span), math.log10(1e3 / float(np.min(T))), 1500)
+    W = (c[None, :] * np.exp(-2j * np.pi * f[:, None] * (t - t.mean())[None, :])
+         * np.sinc(f[:, None] * T[None, :])).sum(axis=1)
+    y = f[None, :] ** (np.asarray(alpha)[:, None] + 1.0) * (np.abs(W) ** 2)[None, :]  # × f: over ln f
+    return np.trapezoid(y, np.log(f), axis=1)
+
+
+def _mean_excess(excess: Sequence[float]) -> float:
+    """Mean excess of the squared second differences over the white prediction (nan: none).
+    Not truncated at a significance level: white noise then adds its own positive fluctuations
+    to some records' u (about +10 % coverage of ±1u on white noise), which is the price of not
+    dropping real low-frequency noise from records that show it only weakly."""
+    return float(np.mean(excess)) if excess else math.nan
+
+
+def low_frequency(baselines: Sequence[Baseline]) -> LowFrequency:
+    """The measured second differences of the baselines (see :class:`LowFrequency`)."""
+    between = []
+    for a, b, c in zip(baselines, baselines[1:], baselines[2:]):
+        lam = (b.t_s - a.t_s) / (c.t_s - a.t_s)
+        r = b.mean_g - ((1 - lam) * a.mean_g + lam * c.mean_g)
+        white = b.u_g**2 + ((1 - lam) * a.u_g) ** 2 + (lam * c.u_g) ** 2
+        if math.isfinite(r) and math.isfinite(white):
+            between.append(r * r - white)
+    used = [b for b in baselines if b.thirds_g is not None and math.isfinite(b.thirds_g)
+            and math.isfinite(b.thirds_white_var)]
+    within = [b.thirds_g**2 - b.thirds_white_var for b in used]  # type: ignore[operator]
+    third = float(np.mean([(b.segment.end_s - b.segment.start_s) / 3 for b in used])) if used else math.nan
+    return LowFrequency(_mean_excess(between), _mean_excess(within),
+                        len(between), len(within), third)
 
 
 def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Baseline]:
@@ -243,6 +363,7 @@ def _sine_level(
     two_f = ref != "dut" and 2 * f < 0.5 * fs
     nf = 5 if two_f else 3
     basis_sums = np.zeros((nb, nf, nf))
+    dut_ss = np.zeros(nb)  # Σ dut² per batch: the fit's residual, for the leakage term below
     rhs = {c: np.zeros((nb, nf)) for c in ("dut", ref)}
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
@@ -267,11 +388,23 @@ def _sine_level(
             x = blk[c]
             check_finite(labels[c], x, pos)
             rhs[c][sl] = np.einsum("kij,kj->ki", R, x.reshape(k, L) @ B0.T)
+            if c == "dut":
+                dut_ss[sl] = np.einsum("ij,ij->i", x.reshape(k, L), x.reshape(k, L))
         pos += nn
     coef = {c: np.linalg.solve(basis_sums, rhs[c][..., None])[..., 0] for c in chans}
     dut_means = coef["dut"][:, 0]
     ref_ms = (coef[ref][:, 1] ** 2 + coef[ref][:, 2] ** 2) / 2.0  # mean square at the drive frequency
     dm = batch_mean(dut_means)
+    # A batch is L samples, ε = |m·fs/f - L| samples off m whole periods: the fit removes the
+    # drive's f (and 2f) exactly, but what the DUT holds beyond them (harmonics of a clipped or
+    # nonlinear output, rms r from the fit's residual) is averaged over ε samples too many or
+    # too few, the same in every batch (they start at the same phase), so their scatter cannot
+    # show it: up to ε·√2·r/L in the offset, taken as a rectangular bound (÷√3).
+    eps = abs(m * fs / f - L)
+    resid = np.maximum(dut_ss - np.einsum("ki,ki->k", coef["dut"], rhs["dut"]), 0.0) / L
+    u_leak = eps * math.sqrt(2.0 * float(np.mean(resid))) / L / math.sqrt(3.0)
+    if u_leak > 0:
+        dm = MeanEstimate(dm.mean, math.hypot(dm.u, u_leak), dm.tau, dm.batch, dm.n_batches)
     rm = batch_mean(ref_ms, detrend=False)
     rms = math.sqrt(max(rm.mean, 0.0))
     u_rms = rm.u / (2 * rms) if rms > 0 else math.nan
@@ -425,6 +558,7 @@ def reduce(
     baselines = _baselines(stats, sched, sat, warnings)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
+    lf = low_frequency(baselines)
     kind, probes = _plausible_method(record, sched, stats, band, method, baselines, accept)
 
     levels: list[LevelResult] = []
@@ -437,7 +571,7 @@ def reduce(
             warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         level, t_c = _level(record, stats, seg, kind, k0, k1, int(sat[k0:k1].sum()), baselines, block_size,
-                            warnings)
+                            warnings, lf)
         levels.append(level)
         level_segs.append(seg)
         times.append(t_c)
@@ -471,7 +605,17 @@ def _baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warn
             continue
         est = dut_mean_estimate(stats, k0, k1)
         t_c = float(np.mean(stats.times_s[k0:k1]))
-        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), max(est.n_batches - 1, 1)))
+        h = SMOOTH_WINDOWS // 2
+        y = stats.dut_smooth[k0 + h : k1 - h]
+        thirds, white = None, 0.0
+        if len(y) >= 15:  # thirds of 0.5 s or more: longer than the smoothing kernel
+            m = len(y) // 3
+            m1, m2, m3 = (float(y[i * m : (i + 1) * m].mean()) for i in range(3))
+            # each third holds a third of the samples: variance 3·u² if white; m2 - (m1+m3)/2
+            # then has 3·u²·(1 + 1/4 + 1/4)
+            thirds, white = m2 - (m1 + m3) / 2, 4.5 * est.u**2
+        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), max(est.n_batches - 1, 1),
+                            thirds, white))
     return out
 
 
@@ -486,9 +630,11 @@ def _level(
     baselines: Sequence[Baseline],
     block_size: int,
     warnings: list[str],
+    lf: LowFrequency | None = None,
 ) -> tuple[LevelResult, float]:
     """One level (windows ``k0:k1``): its rms and DUT mean by ``method``, its VRE against the
-    bracketing baselines; and its centre time."""
+    bracketing baselines; and its centre time. Its u: the level's and the baselines' batch
+    means and the low-frequency term ``lf`` (:class:`LowFrequency`)."""
     fs = record.fs_hz
     freq = None
     vre_2f = None
@@ -513,8 +659,9 @@ def _level(
     if note:
         warnings.append(Notice("bracket", note))
     flags: tuple[str, ...] = ("saturated",) if n_sat > 0 else ()
-    vre = Estimate(dm.mean - base, math.hypot(dm.u, u_base), "g")
-    dof = _vre_dof(vre.u, dm, t_c, baselines)
+    var_lf, dof_lf = _low_frequency_at(lf, t_c, n_used / fs, baselines)
+    vre = Estimate(dm.mean - base, math.sqrt(dm.u**2 + u_base**2 + var_lf), "g")
+    dof = _vre_dof(vre.u, dm, t_c, baselines, (math.sqrt(var_lf), dof_lf))
     off = _off_scale_baselines(t_c, baselines)
     if off:
         # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
@@ -530,9 +677,24 @@ def _level(
     return level, t_c
 
 
-def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baseline]) -> float:
-    """Welch-Satterthwaite degrees of freedom of a VRE's u: the level's batch means and the
-    bracketing baselines' (their weights as in :func:`bracket`)."""
+def _low_frequency_at(lf: LowFrequency | None, t_s: float, length_s: float,
+                      baselines: Sequence[Baseline]) -> tuple[float, float]:
+    """(variance [g²], dof) of the low-frequency term for the level at ``t_s`` (0, inf when
+    it is not bracketed: the nearest baseline alone is already flagged as not removing drift)."""
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if lf is None or not (before and after):
+        return 0.0, math.inf
+    a, b = before[-1], after[0]
+    var, dof, _ = lf.at((t_s, length_s), (a.t_s, a.segment.end_s - a.segment.start_s),
+                        (b.t_s, b.segment.end_s - b.segment.start_s))
+    return var, dof
+
+
+def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baseline],
+             lf: tuple[float, float] | None = None) -> float:
+    """Welch-Satterthwaite degrees of freedom of a VRE's u: the level's batch means, the
+    bracketing baselines' (their weights as in :func:`bracket`) and the low-frequency term's."""
     from vrelab.gum import welch_satterthwaite
 
     parts = [(dm.u, max(dm.n_batches - 1, 1))]
@@ -545,6 +707,8 @@ def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baselin
     else:
         near = before[-1] if before else after[0]
         parts.append((near.u_g, near.dof))
+    if lf is not None and lf[0] > 0:
+        parts.append(lf)
     return welch_satterthwaite(u, parts) if u > 0 else math.inf
 
 

@@ -58,6 +58,7 @@ class WindowStats:
     ref_band_sumsq: NDArray[np.float64]  # window length x mean square of the reference in the band
     band_hz: tuple[float, float]
     reference: str  # channel used as reference ("dut" when the record has no reference)
+    rail_g: float | None = None  # the given rail n_beyond_rail counts against (None: none given)
     # what the DUT channels of one pass share beyond these arrays (a sine level's drive frequency)
     shared: dict = field(default_factory=dict, compare=False, repr=False)
 
@@ -94,6 +95,10 @@ class WindowStats:
             ("upper", hi, self.dut_max, self.n_at_max),
             ("lower", lo, self.dut_min, self.n_at_min),
         ):
+            if self.rail_g is not None and abs(ext) >= self.rail_g * (1 - RAIL_EPS_REL):
+                # the samples on this extreme are at or beyond the given rail: n_beyond_rail
+                # holds them already (adding them again counted each twice)
+                continue
             on = valid & (np.abs(wext - ext) <= _eps(ext))
             n = int(nat[on].sum())
             if n >= RAIL_MIN_SAMPLES:
@@ -378,7 +383,7 @@ def window_pass_many(
             fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
             dut_max=a.dmax, dut_min=a.dmin, n_at_max=a.nmax, n_at_min=a.nmin, n_beyond_rail=a.nrail,
             ref_ac_sumsq=rac, ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2),
-            reference="dut" if ref_name == d else ref_name, shared=shared,
+            reference="dut" if ref_name == d else ref_name, shared=shared, rail_g=rail_g,
         )
         for d, a in accs.items()
     }  # fmt: skip

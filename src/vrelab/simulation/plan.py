@@ -8,6 +8,7 @@ is handed on by position.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -170,6 +171,10 @@ class TestPlan:
         fs_int = self.fs_internal_hz if self.fs_internal_hz is not None else simulation_rate_hz(self.sensor, self.f_max_hz)
         if self.method == "sine" and self.f_max_hz >= fs_int / (2 * NYQUIST_MARGIN):
             raise ValueError(f"freqs_hz: {self.f_max_hz:g} Hz is too high for the internal rate {fs_int:g} Hz")
+        if self.method == "sine" and self.fs_internal_hz is None:
+            needed = [f for f in self.freqs_hz if self._needs_lattice(f, fs_int)]
+            if needed:
+                fs_int = _lattice_rate(self.sensor, fs_int, needed)
         rates = choose_rates(self.sensor.chain(fs_int), fs_int, self.f_max_hz)
         segs, chain_seed = (self._random_stretches if self.method == "random" else self._sine_stretches)(rates)
         self._check_budget(segs, rates)
@@ -188,6 +193,7 @@ class TestPlan:
             meta_more: dict[str, Any] = {"profile": self.profile.to_dict()}  # type: ignore[union-attr]
         else:
             extra["drive_method"] = "sine"
+            extra["sine_drive_hz"] = list(dict.fromkeys(s.drive_hz for s in segs if s.drive_hz is not None))
             meta_more = {"freqs_hz": list(self.freqs_hz)}
         if n_ramp:
             extra["ramp_s"] = n_ramp / fs_int
@@ -220,18 +226,44 @@ class TestPlan:
 
     def _sine_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
         fs_int = rates.fs_internal_hz
-        chain_seed = np.random.SeedSequence(self.seed).spawn(1)[0]
+        # the chain's seed is the first child, as before the sine phases were drawn (a plan's
+        # sensor noise does not change with them); each level's phase from the second
+        chain_seed, phase_seed = np.random.SeedSequence(self.seed).spawn(2)
+        rng = np.random.default_rng(phase_seed)
         n_base = round_up(self.baseline_s * fs_int, rates.decimation)
         n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
         segs = [Stretch(n_base, 0.0)]
         for f in self.freqs_hz:
             # IEEE 1293: average over whole periods; the window left after trimming settle_s at
-            # each edge holds a whole number of periods (to within one record sample).
-            periods = max(1, round((self.seconds - 2 * self.settle_s) * f))
-            n_level = round_up((periods / f + 2 * self.settle_s) * fs_int, rates.decimation)
+            # each edge holds a whole number of periods. Where the output may reach a rail or
+            # the over-range threshold (not a polynomial of the input: its cycle mean needs
+            # many phases) or the drive meets fewer than 5 phases of the output, each batch
+            # of m periods samples L phases (sine_drive) and the window holds whole batches.
+            fs_out = fs_int / rates.decimation
+            if self._needs_lattice(f, fs_out):
+                drive_hz, m, n_out = sine_drive(f, fs_out)
+                batches = max(3, round((self.seconds - 2 * self.settle_s) * drive_hz / m))
+                window, lattice = batches * n_out * rates.decimation, n_out
+            else:
+                periods = max(1, round((self.seconds - 2 * self.settle_s) * f))
+                drive_hz, window, lattice = f, periods / f * fs_int, 0
+            n_level = round_up(window + 2 * self.settle_s * fs_int, rates.decimation)
             for g in self.levels_g:
-                segs += [Stretch(n_level + 2 * n_ramp, g, f, None, n_ramp), Stretch(n_base, 0.0)]
+                # a random phase per level (a lab's drive starts where it starts); with a
+                # lattice, every batch of L samples falls on the same L phases, whose error
+                # the shaker adds to u (vrelab.shaker._with_lattice_u). Phase
+                # steps between batches would shift the lattice at random instead, but a step
+                # rings a resonance and moves the mean by more than the lattice's error.
+                phase0 = float(rng.uniform(0.0, 2 * np.pi))
+                segs += [Stretch(n_level + 2 * n_ramp, g, f, None, n_ramp, drive_hz, phase0, lattice),
+                         Stretch(n_base, 0.0)]
         return segs, chain_seed
+
+    def _needs_lattice(self, freq_hz: float, fs_out_hz: float) -> bool:
+        """Whether a sine at ``freq_hz`` needs every phase sampled (:func:`sine_drive`): the
+        output may reach a rail or the over-range threshold, or meets fewer than 5 phases."""
+        return _few_phases(freq_hz, fs_out_hz) or any(
+            _may_saturate(self.sensor, self.static_g, g, freq_hz) for g in self.levels_g)
 
     def _check_budget(self, segs: Sequence[Stretch], rates: Rates) -> None:
         """Refuse, before anything runs, a test beyond the time or memory budget (vrelab._budget):
@@ -244,6 +276,90 @@ class TestPlan:
         what = (f"simulate: {len(self.levels_g) * max(1, len(self.freqs_hz))} level(s) of {self.seconds:g} s "
                 f"({duration_s:.4g} s of record at {rates.fs_internal_hz:g} Hz)")
         _budget.check_simulation(what, n_internal, window_bytes)
+
+
+def sine_drive(freq_hz: float, fs_out_hz: float) -> tuple[float, int, int]:
+    """(drive frequency [Hz], periods m, output samples L) of a sine level that samples every
+    phase of the cycle in every batch the reduction averages.
+
+    A drive whose frequency divides the sensor's output rate (1000 Hz at 8 kHz) is sampled at
+    the same few phases in every period, and the mean of a clipped or nonlinear output over
+    those phases is not its mean over the cycle (issue 18: -51.8 mg against the closed form's
+    -68.3 mg at 1 kHz, 1 g rms, +1 g, ±2 g). A lab's shaker and sensor run on independent
+    clocks, so the phase at which the sensor samples slides. Here the drive is
+    ``f = m·fs_out/L`` with ``gcd(m, L) = 1``: m whole periods take exactly L output samples,
+    which fall on all L phases ``j/L`` of the cycle, each once (a rank-1 lattice rule: the
+    sampled mean is the cycle mean of any output whose harmonics stay below order L). L is
+    near the reduction's batch (``WINDOW_S`` of whole periods,
+    :func:`vrelab.analysis.reduction.whole_period_batch`, which then finds m periods in L
+    samples exactly), chosen among ``[1, 1.5]×`` that length for the fraction ``m/L`` nearest
+    ``freq_hz/fs_out``: a few parts in 10⁵ off for most frequencies, up to ``fs_out/(q·L)`` for
+    one that divides the rate in small numbers (q = fs_out/f: 1.0 Hz at 1 kHz on an 8 kHz
+    output, 1.6 Hz on a 4 kHz one). The level is reported at the frequency measured from
+    the reference, and fitted at the nominal one.
+    """
+    from vrelab.analysis.reduction import WINDOW_S
+
+    ratio = freq_hz / fs_out_hz
+    l0 = max(2, round(max(WINDOW_S, 1.0 / freq_hz) * fs_out_hz))
+    best: tuple[float, int, int] | None = None
+    for n in range(l0, int(1.5 * l0) + 1):
+        c = max(1, round(n * ratio))
+        for m in (c, c - 1, c + 1):
+            if m < 1 or math.gcd(m, n) != 1:
+                continue
+            err = abs(m / n - ratio)
+            if best is None or err < best[0]:
+                best = (err, m, n)
+    if best is None:  # no coprime pair below Nyquist (cannot happen for freq_hz < fs_out/2)
+        raise ValueError(f"freqs_hz: no sine drive near {freq_hz:g} Hz at the output rate {fs_out_hz:g} Hz")
+    _, m, n = best
+    return m * fs_out_hz / n, m, n
+
+
+def _few_phases(freq_hz: float, fs_out_hz: float) -> bool:
+    """Whether the output samples meet fewer than 5 distinct phases of the drive: a polynomial
+    output of degree 4 (k2..k4) then does not average to its cycle mean."""
+    from fractions import Fraction
+
+    return Fraction(freq_hz / fs_out_hz).limit_denominator(1 << 20).denominator < 5
+
+
+def _may_saturate(sensor: Any, static_g: float, rms_g: float, freq_hz: float) -> bool:
+    """Whether a sine of ``rms_g`` at ``freq_hz`` may bring the output within 5 % of a rail or
+    of the over-range threshold: its peak through the resonance's gain (SPEC 1.3; the filters'
+    gain is at most 1), on the static field."""
+    gain = 1.0
+    fn, q = getattr(sensor, "fn_hz", None), getattr(sensor, "q", None)
+    if fn and q:
+        r = freq_hz / fn
+        gain = max(1.0, 1.0 / math.sqrt((1 - r * r) ** 2 + (r / q) ** 2))
+    amp = math.sqrt(2.0) * rms_g * gain
+    lo, hi = (float(x) for x in sensor.rails_g)
+    if static_g + amp >= 0.95 * hi or static_g - amp <= 0.95 * lo:
+        return True
+    thr = getattr(sensor, "overrange_threshold_g", None)
+    return bool(thr) and abs(static_g) + amp >= 0.95 * float(thr)
+
+
+# A sine drive this close to its nominal frequency (relative) is taken as at it: the rate
+# search below accepts it, and no notice is given (a shaker controller's own accuracy is coarser).
+DRIVE_TOLERANCE = 1e-5
+
+
+def _lattice_rate(sensor: Any, fs_hz: float, freqs_hz: Sequence[float]) -> float:
+    """A rate at or a little above ``fs_hz`` at which every sine of ``freqs_hz`` runs at its own
+    frequency (within ``DRIVE_TOLERANCE``) in :func:`sine_drive` (m periods in L samples,
+    gcd(m, L) = 1), for a chain whose
+    output rate is the internal rate (no ODR of its own: the rate is the simulation's choice, not
+    the sensor's); else ``fs_hz`` (the drives then move a little, see :func:`sine_drive`)."""
+    if abs(float(sensor.chain(fs_hz).fs_out_hz(fs_hz)) - fs_hz) > 1e-9 * fs_hz:
+        return fs_hz
+    start = math.ceil(fs_hz)
+    for fs in range(start, start + 500):
+        if all(abs(sine_drive(f, float(fs))[0] - f) <= DRIVE_TOLERANCE * f for f in freqs_hz):
+            return float(fs)
+    return fs_hz
 
 
 def _ramp_samples(ramp_s: float, fs_internal_hz: float, rates: Rates) -> int:

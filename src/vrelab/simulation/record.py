@@ -77,6 +77,11 @@ class Stretch:
     freq_hz: float | None = None  # sine method
     seed: int | None = None  # random drive
     ramp: int = 0  # internal samples of the amplitude ramp at each end (inside n_internal)
+    # sine: the drive's frequency against the simulation's clock (None: freq_hz) and its phase
+    # at the stretch's first sample (see vrelab.simulation.plan.sine_drive)
+    drive_hz: float | None = None
+    phase_rad: float = 0.0
+    lattice: int = 0  # sine: output samples per batch of whole periods, all on distinct phases
 
 
 @dataclass(frozen=True)
@@ -158,6 +163,7 @@ class SimulatedRecord:
         self.saturated: list[int] | None = None
         self.overrange_events: list[int] | None = None
         self.clipped: list[int] | None = None
+        self.dut_span: list[float] | None = None  # per segment, max - min of the DUT output
         self.chain_stats: dict[str, Any] | None = None
         # A drive that is not band-limited (clipped at k·σ, or given a kurtosis) needs an
         # anti-alias filter on the reference when the record rate is below the internal rate.
@@ -215,7 +221,8 @@ class SimulatedRecord:
                 yield np.zeros(n)
                 left -= n
         elif seg.freq_hz is not None:
-            yield from synthesis.sine_blocks(seg.freq_hz, seg.rms_g, fs, seg.n_internal, block)
+            drive_hz = seg.freq_hz if seg.drive_hz is None else seg.drive_hz
+            yield from synthesis.sine_blocks(drive_hz, seg.rms_g, fs, seg.n_internal, block, phase_rad=seg.phase_rad)
         else:
             assert self._profile is not None
             yield from synthesis.random_blocks(
@@ -257,6 +264,7 @@ class SimulatedRecord:
         saturated = [0] * len(self._segments)
         events = [0] * len(self._segments)
         clipped = [0] * len(self._segments)
+        span = [(math.inf, -math.inf)] * len(self._segments)
         # The drive does not depend on the sensor: it is synthesised in a second thread, one
         # block ahead, while this one runs the chain (numpy's Gaussian draws,
         # pocketfft and sosfilt release the GIL, so on two cores the two overlap).
@@ -273,6 +281,8 @@ class SimulatedRecord:
                     left -= drive.size
                     out = runner.process(drive + self.static_g)
                     saturated[k] += int(np.count_nonzero((out <= low) | (out >= high)))
+                    if out.size:
+                        span[k] = (min(span[k][0], float(out.min())), max(span[k][1], float(out.max())))
                     if self._ref_sos is not None:
                         # A clipped or non-Gaussian drive spreads power above the profile's band:
                         # low-pass it at the record's Nyquist frequency before keeping every
@@ -292,6 +302,7 @@ class SimulatedRecord:
             drives.close()
         if full:
             self.saturated, self.overrange_events, self.clipped = saturated, events, clipped
+            self.dut_span = [hi - lo if hi >= lo else 0.0 for lo, hi in span]
             self.chain_stats = runner.stats.to_dict()
 
     def blocks(
