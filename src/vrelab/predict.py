@@ -85,6 +85,8 @@ class LevelPrediction:
     # standard uncertainty [g] from an identified sensor's parameter covariance (None: the
     # sensor carries none): linear propagation, see :func:`propagated_u`
     u_vre_g: float | None = None
+    # bound [g] on what the remaining approximation may add (0: exact; see _level)
+    model_error_g: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -102,6 +104,7 @@ class LevelPrediction:
             sigma_output_g=finite_or_none(self.sigma_output_g),
             sigma_at_clip_g=finite_or_none(self.sigma_at_clip_g),
             overrange_rate_hz=finite_or_none(self.overrange_rate_hz),
+            model_error_g=finite_or_none(self.model_error_g),
             valid=self.valid,
             notes=list(self.notes),
         )
@@ -154,6 +157,10 @@ class _Motion:
     nu0_hz: float
     tone_peaks_g: tuple[float, ...] = ()
     tone_freqs_hz: tuple[float, ...] = ()
+    # at an over-range site (random part): ρ̄ over the hold and 1 - ρ(hold), ρ the motion's
+    # correlation (:func:`vrelab.models.design.overrange_held_mean_g`); NaN elsewhere
+    rho_mean: float = math.nan
+    one_minus_rho_hold: float = math.nan
 
     @property
     def rms_g(self) -> float:
@@ -227,17 +234,28 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: 
     return sigma**2, nu0
 
 
+def _hold_correlation(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
+                      hold_s: float, m0: float) -> tuple[float, float]:
+    """(ρ̄, 1 - ρ(hold)) of the profile seen through ``responses``: the motion's correlation
+    averaged over the hold, ``ρ̄ = ∫S·|H|²·sinc(2f·hold)df/σ²``, and ``1 - ρ(hold) =
+    ∫S·|H|²·(1 - cos 2πf·hold)df/σ²``, both as ∫S·|H·W|² with a non-negative weight |W|²
+    (1 - sinc and 2·sin²) so the one spectral integral (:func:`_spectral`) computes them."""
+    def w_mean(f: NDArray[np.float64]) -> NDArray[np.complex128]:
+        return np.sqrt(np.maximum(1.0 - np.sinc(2.0 * np.asarray(f) * hold_s), 0.0)).astype(complex)
+
+    def w_end(f: NDArray[np.float64]) -> NDArray[np.complex128]:
+        return (math.sqrt(2.0) * np.abs(np.sin(np.pi * np.asarray(f) * hold_s))).astype(complex)
+
+    if not m0 > 0:
+        return math.nan, math.nan
+    one_minus_mean, _ = _spectral(profile, [*responses, w_mean], points_hz, rate=False)
+    one_minus_end, _ = _spectral(profile, [*responses, w_end], points_hz, rate=False)
+    return 1.0 - one_minus_mean / m0, one_minus_end / m0
+
+
 def _clip_where(sensor: Any) -> str:
     pos = str(getattr(sensor, "clip_position", "output") or "output")
     return "output" if pos == "output" else "proof-mass"
-
-
-def mechanisms_interact(clip_g: float, nonlinearity_g: float) -> bool:
-    """Whether clipping and the nonlinearity both carry a share of a level's VRE (each above
-    ``_MINOR`` of the larger): the clip then sees the polynomial's output, and their sum, which
-    :func:`predict` reports, is only an approximation (see the module notes)."""
-    big = max(abs(clip_g), abs(nonlinearity_g))
-    return big > 0 and abs(clip_g) > _MINOR * big and abs(nonlinearity_g) > _MINOR * big
 
 
 # --- prediction ---------------------------------------------------------------------------------
@@ -344,11 +362,15 @@ def predict(
         # only the over-range site uses Rice's crossing rate
         seen = [_spectral(excitation, site.responses, points, rate=site.stage.analytic == "overrange")
                 for site in reading.sites]
+        rho = [_hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
+               if site.stage.analytic == "overrange" else (math.nan, math.nan)
+               for site, (m0, _) in zip(reading.sites, seen)]
         m0_m, _ = _spectral(excitation, reading.proof_mass, points, rate=False)
         m0_out, _ = _spectral(excitation, reading.output, points, rate=False)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
-            sites = [_Motion(math.sqrt(m0 * scale), nu0) for m0, nu0 in seen]
+            sites = [_Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
+                     for (m0, nu0), r in zip(seen, rho)]
             out.append(_level(reading, float(rms), None, g0, kind, "gaussian", sites,
                               math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
         text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
@@ -360,6 +382,10 @@ def predict(
         # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
         seen = [(_spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
                 for site in reading.sites]
+        # the held stretches' mean from the random part's correlation (the tones left out of it)
+        rho = [_hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
+               if site.stage.analytic == "overrange" else (math.nan, math.nan)
+               for site, ((m0, _), _) in zip(reading.sites, seen)]
         m0_m, _ = _spectral(rand, reading.proof_mass, points)
         m0_out, _ = _spectral(rand, reading.output, points)
         gain_m = [_gain(f, reading.proof_mass) for f in freqs]
@@ -368,10 +394,12 @@ def predict(
         for rms in levels_arr:
             r = float(rms) / excitation.grms  # the scaling rule: PSD × r², tones × r
 
-            def motion(m0: float, nu0: float, gains: Sequence[float]) -> _Motion:
-                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs)
+            def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
+                       ) -> _Motion:
+                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,
+                               *rh)
 
-            sites = [motion(m0, nu0, gains) for (m0, nu0), gains in seen]
+            sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen, rho)]
             motions += sites
             out.append(_level(reading, float(rms), None, g0, kind, "sine-on-random", sites,
                               motion(m0_m, 0.0, gain_m).rms_g, motion(m0_out, 0.0, gain_out).rms_g))
@@ -399,7 +427,10 @@ def predict(
                                   float(rms_through(f, float(rms), list(reading.proof_mass))),
                                   float(rms_through(f, float(rms), list(reading.output)))))
         text = "sine " + ", ".join(f"{f:g}" for f in freqs) + " Hz"
-    notes.append(f"clip modelled at the {clip_where} ({kind}); mechanisms added as independent")
+    notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
+                 "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "
+                 "linear part through the filters, its remainder bounded in model_error_g); shares: the change "
+                 "of the mean each stage makes, in signal order, summing to vre_g")
     if reading.unmodelled:
         notes.append(f"no closed form for stage(s) {', '.join(reading.unmodelled)}: simulate")
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
@@ -409,7 +440,30 @@ def predict(
         out = [dataclasses.replace(lv, u_vre_g=float(ui)) for lv, ui in zip(out, u)]
         notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(sensor.covariance["params"])
                      + ") carried by linear propagation; the model's own approximations are not in it")
+    out = [_judged(lv) for lv in out]
+    why = _tilt(0.0, g0)[1]
+    if why:
+        notes.append(why.replace("the static field", "the static field of every level"))
     return Prediction(cond, tuple(out), tuple(notes))
+
+
+# Where a level states no u, the approximation's error is judged against this share of |VRE|
+# (or 1 µg): a prediction is not meant to be read to better than that.
+_TOLERANCE_REL = 0.01
+_TOLERANCE_ABS_G = 1e-6
+
+
+def _judged(lv: LevelPrediction) -> LevelPrediction:
+    """``valid`` False where ``model_error_g`` may exceed the stated u (``u_vre_g``, or without
+    one 1 % of |VRE| or 1 µg), with the reason."""
+    stated = lv.u_vre_g if lv.u_vre_g is not None else max(_TOLERANCE_REL * abs(lv.vre_g), _TOLERANCE_ABS_G)
+    if lv.model_error_g <= stated:
+        return lv
+    what = "u_vre_g" if lv.u_vre_g is not None else "1 % of |VRE|"
+    return dataclasses.replace(lv, valid=False, notes=(*lv.notes, (
+        f"the rails sit after filters that follow the nonlinearity: they see its non-Gaussian output, here "
+        f"modelled as Gaussian with an error up to {lv.model_error_g * 1e3:.3g} mg, more than {what} "
+        f"({stated * 1e3:.3g} mg) — simulate")))
 
 
 def propagated_u(sensor: "Sensor", excitation: RandomProfile | float | Sequence[float], levels: Sequence[float],
@@ -444,6 +498,29 @@ def propagated_u(sensor: "Sensor", excitation: RandomProfile | float | Sequence[
     return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
 
 
+def _tilt(vre_g: float, g0: float) -> tuple[float, str | None]:
+    """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
+    NaN with the reason where it is undefined."""
+    from vrelab.models import design
+
+    try:
+        return float(design.tilt_error_from_static_deg(vre_g, g0)), None
+    except ValueError as err:
+        return math.nan, f"tilt error undefined: {err}"
+
+
+def _linear_gain_max(responses: Sequence[Response]) -> float:
+    """sup_f |H(f)| of the linear stages ``responses`` in series (1 for none), on a log grid
+    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band)."""
+    if not responses:
+        return 1.0
+    f = np.geomspace(1e-2, 1e7, 4001)
+    h = np.ones(f.size)
+    for r in responses:
+        h = h * np.abs(np.asarray(r(f)))
+    return float(max(1.0, h.max()))
+
+
 def _level(
     reading: _Reading,
     rms_g: float,
@@ -455,40 +532,99 @@ def _level(
     sigma_m: float,
     sigma_out: float,
 ) -> LevelPrediction:
-    """One level: each site's mean shift with the vibration :class:`_Motion` reaching it."""
-    from vrelab.models import design, nonlinearity
+    """One level: the stages walked in order, each share the change of the mean it makes.
+
+    Breakdown (it telescopes to ``vre_g`` exactly): ``nonlinearity_g = E[P(g0 + x)] - P(g0)``
+    (the polynomial alone, exact); ``clip_g`` = what the rails add to the mean of what reaches
+    them (``E[clip(P(...))] - E[P(...)]`` less the same with no vibration), so where no filter
+    sits between the polynomial and the rails ``nonlinearity_g + clip_g`` is the exact mean of
+    the memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`; ``overrange_g`` the
+    change the holds make. ``clip_low_g``/``clip_high_g``: each rail alone on the same input.
+    ``model_error_g`` bounds what the remaining approximation (a filter between the
+    polynomial and the rails: the rails see a Gaussian with the polynomial's linear part, the
+    non-Gaussian rest bounded) may add; the over-range estimate is judged by its share.
+    """
+    from vrelab.models import design, memoryless
 
     notes: list[str] = []
     valid = not reading.unmodelled
     clip_low = clip_high = clip = nonlin = over = rate = 0.0
+    bound = 0.0
     sigma_clip = math.nan
     # the closed forms take the Gaussian part's σ plus the tones; a sine keeps its own shape
     base: Literal["gaussian", "sine"] = "sine" if shape == "sine" else "gaussian"
+    poly: tuple[_Site, _Motion, float] | None = None  # the polynomial's site, motion there, its own share
+    clipped = False
     for site, mo in zip(reading.sites, sites):
         st, mean = site.stage, g0 + site.offset_g
         sigma, nu0, peaks = mo.sigma_g, mo.nu0_hz, mo.tone_peaks_g
-        if st.analytic == "clip":
-            low, high = float(st.low_g), float(st.high_g)
-            if math.isnan(sigma_clip):
-                sigma_clip = mo.rms_g
-            if not low < mean < high:
+        if st.analytic == "polynomial":
+            if clipped:
                 valid = False
-                notes.append(f"the static level {mean:g} g (field {g0:g} g + offset {site.offset_g:g} g) is at or "
-                             f"beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
-            if shape == "sine" and low < mean - math.sqrt(2) * sigma and mean + math.sqrt(2) * sigma < high:
-                continue  # the sine's peaks stay inside both rails: the closed form is exactly 0
-            clip_low += float(design.clip_vre(mean, sigma, low, math.inf, base, kind, peaks))
-            clip_high += float(design.clip_vre(mean, sigma, -math.inf, high, base, kind, peaks))
-            clip += float(design.clip_vre(mean, sigma, low, high, base, kind, peaks))
-        elif st.analytic == "polynomial":
-            nonlin += float(nonlinearity.vre_poly(sigma, st.k2_per_g, st.k3_per_g2, st.k4_per_g3,
-                                                  static_g=mean, shape=base, tone_peaks_g=peaks))
+                notes.append("a polynomial after the rails: its input is clipped, not Gaussian — simulate")
+            share = float(memoryless.poly_clip_vre(mean, sigma, st.k2_per_g, st.k3_per_g2, st.k4_per_g3,
+                                                   shape=base, tone_peaks_g=peaks))
+            nonlin += share
+            poly = (site, mo, share)
+        elif st.analytic == "clip":
+            low, high = float(st.low_g), float(st.high_g)
+            if clipped:
+                valid = False
+                notes.append("a second set of rails: evaluated as if alone — simulate")
+            clipped = True
+            k = (0.0, 0.0, 0.0)
+            if poly is not None:
+                p_site, p_mo, p_share = poly
+                k = (p_site.stage.k2_per_g, p_site.stage.k3_per_g2, p_site.stage.k4_per_g3)
+            c0 = float(memoryless.polynomial(*k)(g0 + (poly[0].offset_g if poly else 0.0))) + (
+                site.offset_g - (poly[0].offset_g if poly else 0.0))
+            if not low < c0 < high:
+                valid = False
+                notes.append(f"the static level {c0:g} g at the rails (field {g0:g} g, offsets, nonlinearity) is at "
+                             f"or beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
+            if poly is None or len(site.responses) == len(poly[0].responses):
+                # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
+                src_site, src_mo, own = (poly[0], poly[1], poly[2]) if poly else (site, mo, 0.0)
+                args = (g0 + src_site.offset_g, src_mo.sigma_g, *k, site.offset_g - src_site.offset_g)
+                rails = dict(shape=base, kind=kind, tone_peaks_g=src_mo.tone_peaks_g)
+                clip += float(memoryless.poly_clip_vre(*args, low, high, **rails)) - own
+                clip_low += float(memoryless.poly_clip_vre(*args, low, math.inf, **rails)) - own
+                clip_high += float(memoryless.poly_clip_vre(*args, -math.inf, high, **rails)) - own
+                sigma_clip = mo.rms_g
+            else:
+                # filters between: the rails see the polynomial's mean and its linear part through
+                # them (Gaussian), the rest (harmonics, higher Hermite terms) bounded below
+                p_site, p_mo, p_share = poly
+                gain, rest = memoryless.linear_part(g0 + p_site.offset_g, p_mo.sigma_g, *k, shape=base,
+                                                    tone_peaks_g=p_mo.tone_peaks_g)
+                m = c0 + p_share
+                sz, pz = abs(gain) * sigma, tuple(abs(gain) * a for a in peaks)
+                sigma_clip = mo.rms_g
+                parts = []
+                for lo_, hi_ in ((low, high), (low, math.inf), (-math.inf, high)):
+                    moved = float(memoryless.poly_clip_vre(m, sz, rail_low_g=lo_, rail_high_g=hi_, shape=base,
+                                                           kind=kind, tone_peaks_g=pz))
+                    # referred to the vibration-off reading at the rails, clip(c0), not clip(m)
+                    parts.append(moved + (float(np.clip(m, lo_, hi_)) - m) - (float(np.clip(c0, lo_, hi_)) - c0))
+                clip, clip_low, clip_high = clip + parts[0], clip_low + parts[1], clip_high + parts[2]
+                r = rest * _linear_gain_max(site.responses[len(p_site.responses):])
+                if r > 0 and sz > 0:
+                    from scipy import special
+
+                    a, b = (low - m) / sz, (high - m) / sz
+                    p_out = float(special.ndtr(a) + special.ndtr(-b))
+                    dens = (math.exp(-0.5 * a * a) + math.exp(-0.5 * b * b)) / (math.sqrt(2 * math.pi) * sz)
+                    bound += r * math.sqrt(p_out * (1.0 - p_out)) + r * r * dens
         elif st.analytic == "overrange":
             thr, hold = float(st.threshold_g), float(st.hold_s)
             if shape != "sine":
                 rate += float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0, peaks, mo.tone_freqs_hz))
+                held = None
+                if math.isfinite(mo.rho_mean) and sigma > 0:
+                    held = design.overrange_held_mean_g(mean, sigma, thr, hold, nu0, mo.rho_mean, mo.one_minus_rho_hold)
                 over += float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=float(st.value_g),
-                                                   tone_peaks_g=peaks, tone_freqs_hz=mo.tone_freqs_hz))
+                                                   tone_peaks_g=peaks, tone_freqs_hz=mo.tone_freqs_hz,
+                                                   held_mean_g=held))
                 duty = rate * hold
                 if duty > _MAX_HOLD_DUTY:
                     valid = False
@@ -507,17 +643,17 @@ def _level(
                     )
     total = clip + nonlin + over
     big = max(abs(clip), abs(nonlin), abs(over))
-    if big > 0:
-        if abs(over) > _MINOR * big and shape != "sine":
-            valid = False
-            notes.append("over-range share is large: the Rice×hold estimate is rough"
-                         + (" (Rice's rate for the Gaussian part with the tones as a moving mean)"
-                            if shape == "sine-on-random" else "") + " — simulate")
-        if mechanisms_interact(clip, nonlin):
-            notes.append("clipping and nonlinearity both matter: not separable, their sum is approximate")
+    if big > 0 and abs(over) > _MINOR * big and shape != "sine":
+        valid = False
+        notes.append("over-range share is large: the Rice×hold estimate (mean of the held stretches from Rice's "
+                     "conditioning on the crossing, holds taken as not overlapping) is rough"
+                     + (" (Rice's rate for the Gaussian part with the tones as a moving mean)"
+                        if shape == "sine-on-random" else "") + " — simulate")
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
-    tilt = float(design.tilt_error_deg(total))
+    tilt, why = _tilt(total, g0)
+    if why and _tilt(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
+        notes.append(why)
     return LevelPrediction(
         rms_g=rms_g,
         vre_g=total,
@@ -536,4 +672,5 @@ def _level(
         valid=valid,
         notes=tuple(notes),
         freq_hz=freq_hz,
+        model_error_g=bound,
     )
