@@ -63,16 +63,23 @@ def ideal_vre_shares(
     kind: Kind = "censored",
     offset_g: float = 0.0,
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
-    """(clipping, polynomial) VRE of an ideal sensor [g], the terms :func:`total_vre` adds.
+    """(clipping, polynomial) VRE of an ideal sensor [g]: shares of one exact mean.
 
     The ideal sensor's chain (``vrelab.sensor`` preset ``ideal``): polynomial on the total input
-    ``g0 + x``, then the offset, then the rails. So the nonlinearity rectifies around
-    ``mean_g`` (:func:`vrelab.models.nonlinearity.vre_poly`) and the rails clip around
-    ``mean_g + offset_g`` (:func:`clip_vre`): the convention :func:`vrelab.predict.predict`
-    follows for any sensor by walking its stages, and the sweep's ``model`` points use.
+    ``g0 + x``, then the offset, then the rails, with nothing between them, so its mean is the
+    one memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`. The polynomial share is
+    :func:`vrelab.models.nonlinearity.vre_poly` (exact), the clipping share what the rails add
+    to it: the convention :func:`vrelab.predict.predict` follows for any sensor by walking its
+    stages, and the sweep's ``model`` points use.
     """
-    clip = clip_vre(mean_g + offset_g, rms_g, rail_low_g, rail_high_g, shape, kind)
-    return clip, vre_poly(rms_g, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape)
+    from vrelab.models.memoryless import poly_clip_vre
+
+    rms = np.asarray(_validate.non_negative("rms_g", rms_g), dtype=np.float64)
+    poly = np.asarray(vre_poly(rms, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape), dtype=np.float64)
+    total = np.vectorize(lambda r: poly_clip_vre(mean_g, float(r), k2_per_g, k3_per_g2, 0.0, offset_g,
+                                                 rail_low_g, rail_high_g, shape, kind), otypes=[float])(rms)
+    clip = total - poly
+    return (clip[()] if clip.ndim == 0 else clip), (poly[()] if poly.ndim == 0 else poly)
 
 
 def total_vre(
@@ -86,11 +93,8 @@ def total_vre(
     kind: Kind = "censored",
     offset_g: float = 0.0,
 ) -> NDArray[np.float64] | float:
-    """Clipping plus polynomial VRE of an ideal sensor [g] (:func:`ideal_vre_shares`, added).
-
-    Adding the two neglects the clipping of the nonlinearity's own distortion, a second-order
-    effect for k2·rms << 1.
-    """
+    """Clipping plus polynomial VRE of an ideal sensor [g]: the exact mean of the polynomial
+    followed by the rails (:func:`ideal_vre_shares`, whose shares add up to it)."""
     clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind, offset_g)
     return clip + poly
 
