@@ -96,6 +96,9 @@ class LevelPrediction:
     u_vre_g: float | None = None
     # bound [g] on what the remaining approximation may add (0: exact; see _level)
     model_error_g: float = 0.0
+    # valid apart from the judgement of model_error_g against a u (:func:`_judged`): a caller
+    # with its own u (identify, each level's measured u) judges the bound itself
+    valid_otherwise: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -619,7 +622,12 @@ def _level(
                     parts.append(moved + (float(np.clip(m, lo_, hi_)) - m) - (float(np.clip(c0, lo_, hi_)) - c0))
                 clip, clip_low, clip_high = clip + parts[0], clip_low + parts[1], clip_high + parts[2]
                 r = rest * _linear_gain_max(site.responses[len(p_site.responses):])
-                if r > 0 and sz > 0:
+                if base == "sine":
+                    # deterministic: the harmonics (rms r, peak at most 2r for the 2nd and 3rd)
+                    # matter only where the sine, so widened, reaches a rail
+                    if r > 0 and not (low < m - math.sqrt(2) * sz - 2 * r and m + math.sqrt(2) * sz + 2 * r < high):
+                        bound += 2 * r
+                elif r > 0 and sz > 0:
                     from scipy import special
 
                     a, b = (low - m) / sz, (high - m) / sz
@@ -684,4 +692,5 @@ def _level(
         notes=tuple(notes),
         freq_hz=freq_hz,
         model_error_g=bound,
+        valid_otherwise=valid,
     )

@@ -140,6 +140,18 @@ def _gaussian(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: fl
 def _sine(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
           m: float, amp: float, ref: float) -> tuple[float, float]:
     """(E[clip(p(m + A cos θ)) - ref; kept], P(kept)) over θ uniform on [0, π]."""
+    touched = [w for a, b, w in pieces if a < m + amp and b > m - amp]
+    if touched == ["poly"]:
+        # the sine stays on one polynomial piece: its moments, E[(A cos θ)^n] = A^n·C(n, n/2)/2^n
+        # for even n (0 for odd), exactly, so a sine clear of the rails adds exactly 0
+        q, total, n = p - ref, 0.0, 0
+        while True:
+            if n % 2 == 0:
+                total += float(q(m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
+            if q.degree() == 0:
+                break
+            q, n = q.deriv(), n + 1
+        return total, 1.0
     total = inside = 0.0
     for a, b, what in pieces:
         # y = m + A cos θ decreases in θ: the piece (a, b) is θ in (θ(b), θ(a))
