@@ -627,6 +627,20 @@ def _level(
                     # matter only where the sine, so widened, reaches a rail
                     if r > 0 and not (low < m - math.sqrt(2) * sz - 2 * r and m + math.sqrt(2) * sz + 2 * r < high):
                         bound += 2 * r
+                elif r > 0 and sz > 0 and not peaks:
+                    # the rest's n-th Hermite component (n >= 2, in the n-th Wiener chaos, through
+                    # the filters at most gmax times its rms) correlates only with the n-th chaos
+                    # part of 1{L < Z < U}, of norm |He_{n-1}(α)φ(α) - He_{n-1}(β)φ(β)|/sqrt(n!)
+                    # (Cauchy-Schwarz within each chaos); plus the rest's second-order effect
+                    # across the rails, r²·(pdf at the rails)
+                    gmax = _linear_gain_max(site.responses[len(p_site.responses):])
+                    comps = memoryless.hermite_rms(g0 + p_site.offset_g, p_mo.sigma_g, *k)[1:]
+                    a, b = (low - m) / sz, (high - m) / sz
+                    pa, pb = math.exp(-0.5 * a * a) / math.sqrt(2 * math.pi), math.exp(-0.5 * b * b) / math.sqrt(2 * math.pi)
+                    for n, cn in enumerate(comps, start=2):
+                        he = np.polynomial.hermite_e.hermeval([a, b], [0.0] * (n - 1) + [1.0])
+                        bound += gmax * cn * abs(he[0] * pa - he[1] * pb) / math.sqrt(math.factorial(n))
+                    bound += r * r * (pa + pb) / sz
                 elif r > 0 and sz > 0:
                     from scipy import special
 

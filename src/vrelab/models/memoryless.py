@@ -312,3 +312,23 @@ def linear_part(
     gain = float(w @ ((y - ey) * x)) / var_x
     rest = float(w @ (y - ey - gain * x) ** 2)
     return gain, math.sqrt(max(rest, 0.0))
+
+
+def hermite_rms(static_g: float, rms_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.0,
+                k4_per_g3: float = 0.0) -> list[float]:
+    """rms of the Hermite components n = 1..4 of ``P(g0 + x)``, x ~ N(0, σ²) [g].
+
+    ``P(g0 + σz) = E[P] + Σ_n c_n·He_n(z)``, ``c_n = E[P·He_n(z)]/n!``, component rms
+    ``|c_n|·sqrt(n!)`` (He_n orthogonal, ``E[He_n²] = n!``). The n-th component of a Gaussian
+    process's image lies in the n-th Wiener chaos, orthogonal to the others, through any
+    linear filter: what a clip after a filter can correlate with. Gauss-Hermite, exact here.
+    """
+    z, w = _GH_X, _GH_W
+    p = polynomial(k2_per_g, k3_per_g2, k4_per_g3)
+    y = p(static_g + rms_g * z)
+    out = []
+    for n in range(1, 5):
+        he = np.polynomial.hermite_e.hermeval(z, [0.0] * n + [1.0])
+        c = float(w @ (y * he)) / math.factorial(n)
+        out.append(abs(c) * math.sqrt(math.factorial(n)))
+    return out
