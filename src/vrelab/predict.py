@@ -77,7 +77,10 @@ class LevelPrediction:
     rails), ``nonlinearity_g``, ``overrange_g``. ``vre_g`` is ``clip_g + nonlinearity_g +
     overrange_g``. ``sigma_*`` are rms values [g] of the vibration at the proof mass, at the
     output (after all filters) and at the clip; ``overrange_rate_hz`` the expected trips per
-    second.
+    second. The shares are each stage's change of the mean in signal order (see
+    :func:`_level`). ``model_error_g`` [g] bounds what the remaining approximation (rails after
+    filters that follow the nonlinearity) may add: 0 where polynomial and rails are evaluated
+    exactly; ``valid`` is False where it may exceed ``u_vre_g`` (or, without one, 1 % of |VRE|).
     """
 
     rms_g: float
