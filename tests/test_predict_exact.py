@@ -183,7 +183,7 @@ def test_overrange_uses_the_held_stretches_mean_adxl355_x_8g():
     simulation gives -106 ± 6 mg (issue 18; -110.5 ± 5 mg with seed 3 and 20 s here); the
     over-range share taken with the static field (p·(0 - 1 g)) gave -48.7 mg (total -55 mg,
     11u away), the held stretches' mean (≈ 1.9 g: they start beyond the threshold) about twice
-    that (total -97 mg). Flagged (over-range share large), but within 3u + 5 %."""
+    that (total -96 mg). Flagged (over-range share large), but within 3u + 5 %."""
     from vrelab import shaker
 
     sensor = load_sensor("adxl355", range_g=8, axis="x")
