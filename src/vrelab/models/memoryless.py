@@ -270,8 +270,9 @@ def _rail_part(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: f
 
 
 def _nodes(rms: float, shape: Shape, peaks: Sequence[float]) -> NDArray[np.float64]:
-    """Equal-weight-free quadrature: (x, w) nodes of the vibration's distribution, exact for
-    polynomials of degree <= 15 in x (Gauss-Hermite; trapezoid in θ for the sine and tones)."""
+    """Quadrature nodes (x, w) of the vibration's distribution: Gauss-Hermite (exact for
+    polynomials of degree <= 47 in x), 32 equally spaced phases for a sine (exact for degree
+    <= 31), their product with the tones' phase grid for sine-on-random."""
     if shape == "sine":
         th = 2.0 * np.pi * np.arange(32) / 32
         return np.stack([rms * math.sqrt(2.0) * np.cos(th), np.full(32, 1.0 / 32)])
