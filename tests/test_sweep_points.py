@@ -135,7 +135,8 @@ def test_predict_point_passes_sensor_profile_and_draws_through(tmp_path):
             for lv in p.levels:
                 got = ds.sel(unit=u, odr_hz=odr, rms_g=lv.rms_g)
                 assert float(got["vre_g"]) == lv.vre_g
-                assert float(got["tilt_error_deg"]) == lv.tilt_error_deg
+                # at +1 g the axis is vertical: the tilt is undefined (NaN) on both sides
+                np.testing.assert_equal(float(got["tilt_error_deg"]), lv.tilt_error_deg)
     # the drawn Q reached the sensor: a different Q gives a different proof-mass rms
     assert float(ds["rms_mass_g"][0, 0, 0]) != float(ds["rms_mass_g"][1, 0, 0])
 

@@ -944,28 +944,21 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     """The observations without the levels the analytic model does not cover well enough to fit
     through; None when every level is covered. Each level left out is said in ``notes``.
 
-    :func:`vrelab.predict.predict` adds the clipping and the nonlinearity shares, but the clip
-    sees the polynomial's output: near a rail R the polynomial displaces the signal by about
-    ``k·R²`` (k = k2 + 3·k3·g0), so the sum errs by about ``k·R²`` times the fraction of time
-    spent beyond the rail. Left out: a level whose prediction is not valid; a sine level whose
-    peak reaches a rail (deterministic, u of a few µg: the error is hundreds of u and would
-    drag k2 and k3; the rails come from the random runs); a random level where that error,
-    for Gaussian motion of the level's σ at the clip, exceeds half its u."""
-    from scipy.stats import norm
-
-    low, high = sensor.rails_g
+    :func:`vrelab.predict.predict` evaluates the nonlinearity and the rails as one map: exactly
+    where nothing sits between them; where filters do (an output clip), the rails see the
+    polynomial's output as a Gaussian and ``model_error_g`` bounds the rest. Left out: a level
+    whose prediction is not valid for another reason; a sine level whose peak reaches a rail
+    (deterministic, u of a few µg: the rails come from the random runs); a random level whose
+    ``model_error_g`` exceeds half its u."""
+    from dataclasses import replace
 
     def covered(lv: Any, ob: Observation, u: float) -> bool:
-        if not lv.valid:
+        if not lv.valid_otherwise:
             return False
         if ob.method == "sine":
             return lv.shares["clip_g"] == 0.0
-        sig = lv.sigma_at_clip_g
-        if not (sig > 0):
-            return True
-        k_eff = abs(sensor.k2_per_g + 3 * sensor.k3_per_g2 * ob.static_g)
-        err = k_eff * (norm.sf((high - ob.static_g) / sig) * high**2 + norm.cdf((low - ob.static_g) / sig) * low**2)
-        return err <= 0.5 * u
+        # predict's bound on the rails seeing the nonlinearity's non-Gaussian output through the filters
+        return lv.model_error_g <= 0.5 * u
 
     out: list[Observation] = []
     dropped = False
@@ -978,9 +971,9 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
         where = f"run {ob.run} ({ob.label!r}{f', {ob.freq_hz:.4g} Hz' if ob.freq_hz else ''})"
         for lv, kept in zip(p.levels, keep):
             if not kept:
-                why = ("; ".join(lv.notes) if not lv.valid else "the sine's peak reaches a rail, where clipping and "
-                       "the nonlinearity do not add" if ob.method == "sine" else "clipping and the nonlinearity "
-                       "interact beyond half the level's u (the analytic sum does not hold)")
+                why = ("; ".join(lv.notes) if not lv.valid_otherwise else "the sine's peak reaches a rail, where clipping and "
+                       "the nonlinearity do not add" if ob.method == "sine" else "the rails see the nonlinearity's "
+                       "output through the filters: predict's error bound (model_error_g) exceeds half the level's u")
                 notes.append(f"{where}: level {lv.rms_g:.4g} g rms left out of the fit: {why}")
         if keep.any():
             out.append(_subset(ob, keep))

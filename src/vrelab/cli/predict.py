@@ -44,7 +44,7 @@ def print_prediction(pred: Any) -> None:
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
         vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False)
         print(
-            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {lv['tilt_error_deg']:10.3g} "
+            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {'n/a' if lv['tilt_error_deg'] is None else format(lv['tilt_error_deg'], '.3g'):>10} "
             f"{format_mg(sh.get('clip_g'), signed=False):>9} {format_mg(sh.get('nonlinearity_g'), signed=False):>9} "
             f"{format_mg(sh.get('overrange_g'), signed=False):>12}  {'yes' if lv['valid'] else 'no'}"
         )

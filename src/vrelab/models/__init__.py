@@ -20,6 +20,7 @@ from vrelab.models.design import (
     max_sine_level_clear_of_rails,
     overrange_vre,
     tilt_error_deg,
+    tilt_error_from_static_deg,
     total_vre,
 )
 from vrelab.models.dynamics import (
@@ -68,6 +69,7 @@ __all__ = [
     "sine_clip_mean_shift",
     "sine_moments",
     "tilt_error_deg",
+    "tilt_error_from_static_deg",
     "total_vre",
     "truncated_mean_shift",
     "ug_per_g2_from_ppm_fs",

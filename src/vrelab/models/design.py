@@ -63,16 +63,23 @@ def ideal_vre_shares(
     kind: Kind = "censored",
     offset_g: float = 0.0,
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
-    """(clipping, polynomial) VRE of an ideal sensor [g], the terms :func:`total_vre` adds.
+    """(clipping, polynomial) VRE of an ideal sensor [g]: shares of one exact mean.
 
     The ideal sensor's chain (``vrelab.sensor`` preset ``ideal``): polynomial on the total input
-    ``g0 + x``, then the offset, then the rails. So the nonlinearity rectifies around
-    ``mean_g`` (:func:`vrelab.models.nonlinearity.vre_poly`) and the rails clip around
-    ``mean_g + offset_g`` (:func:`clip_vre`): the convention :func:`vrelab.predict.predict`
-    follows for any sensor by walking its stages, and the sweep's ``model`` points use.
+    ``g0 + x``, then the offset, then the rails, with nothing between them, so its mean is the
+    one memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`. The polynomial share is
+    :func:`vrelab.models.nonlinearity.vre_poly` (exact), the clipping share what the rails add
+    to it: the convention :func:`vrelab.predict.predict` follows for any sensor by walking its
+    stages, and the sweep's ``model`` points use.
     """
-    clip = clip_vre(mean_g + offset_g, rms_g, rail_low_g, rail_high_g, shape, kind)
-    return clip, vre_poly(rms_g, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape)
+    from vrelab.models.memoryless import poly_clip_vre
+
+    rms = np.asarray(_validate.non_negative("rms_g", rms_g), dtype=np.float64)
+    poly = np.asarray(vre_poly(rms, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape), dtype=np.float64)
+    total = np.vectorize(lambda r: poly_clip_vre(mean_g, float(r), k2_per_g, k3_per_g2, 0.0, offset_g,
+                                                 rail_low_g, rail_high_g, shape, kind), otypes=[float])(rms)
+    clip = total - poly
+    return (clip[()] if clip.ndim == 0 else clip), (poly[()] if poly.ndim == 0 else poly)
 
 
 def total_vre(
@@ -86,11 +93,8 @@ def total_vre(
     kind: Kind = "censored",
     offset_g: float = 0.0,
 ) -> NDArray[np.float64] | float:
-    """Clipping plus polynomial VRE of an ideal sensor [g] (:func:`ideal_vre_shares`, added).
-
-    Adding the two neglects the clipping of the nonlinearity's own distortion, a second-order
-    effect for k2·rms << 1.
-    """
+    """Clipping plus polynomial VRE of an ideal sensor [g]: the exact mean of the polynomial
+    followed by the rails (:func:`ideal_vre_shares`, whose shares add up to it)."""
     clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind, offset_g)
     return clip + poly
 
@@ -284,6 +288,7 @@ def overrange_vre(
     value_g: ArrayLike = 0.0,
     tone_peaks_g: Sequence[float] = (),
     tone_freqs_hz: Sequence[float] = (),
+    held_mean_g: ArrayLike | None = None,
 ) -> NDArray[np.float64] | float:
     r"""Estimated extra VRE from over-range protection [g] (SPEC 1.3).
 
@@ -307,11 +312,15 @@ def overrange_vre(
     tone_peaks_g, tone_freqs_hz : sequence of float
         Sine tones on the Gaussian motion (sine-on-random) [g peak, Hz]: the trip rate is then
         the phase-averaged Rice rate of :func:`overrange_trip_rate_hz`.
+    held_mean_g : array_like, optional
+        Mean of the motion over the stretches the holds replace [g]
+        (:func:`overrange_held_mean_g`); default ``mean_g`` (the static field: too small where
+        the holds start beyond the threshold, by half on the ADXL355 X at ±8 g, 4 g rms).
 
     Returns
     -------
     numpy.ndarray or float
-        VRE_or ≈ p·(value_g - mean_g) [g].
+        VRE_or ≈ p·(value_g - held_mean_g) [g].
 
     Notes
     -----
@@ -319,7 +328,7 @@ def overrange_vre(
     -T, :func:`~vrelab.models.dynamics.rice_upcrossing_rate`). Treating them as a Poisson
     stream and the hold as re-triggered by every trip, the output is held when a trip fell in
     the last ``hold_s``: p = 1 - exp(-ν·hold). During the hold the output reads ``value_g``
-    instead of ≈ g0.
+    instead of the motion, whose mean over those stretches is ``held_mean_g``.
 
     This is an **estimate**: it assumes Gaussian proof-mass motion, takes crossings as
     independent (ignores the clustering of crossings within one excursion and the correlation of
@@ -328,10 +337,71 @@ def overrange_vre(
     mu = _validate.finite("mean_g", mean_g)
     hold = _validate.non_negative("hold_s", hold_s)
     v = _validate.finite("value_g", value_g)
+    held = mu if held_mean_g is None else _validate.finite("held_mean_g", held_mean_g)
     nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz, tone_peaks_g, tone_freqs_hz)
     p = -np.expm1(-nu * hold)
-    out = np.asarray(p * (v - mu), dtype=np.float64)
+    out = np.asarray(p * (v - held), dtype=np.float64)
     return out[()] if out.ndim == 0 else out
+
+
+def overrange_held_mean_g(
+    mean_g: float,
+    sigma_g: float,
+    threshold_g: float,
+    hold_s: float,
+    nu0_hz: float,
+    rho_mean: float,
+    one_minus_rho_hold: float,
+) -> float:
+    r"""Mean of the Gaussian proof-mass motion over the stretches an over-range hold replaces [g].
+
+    A retriggered hold covers an excursion beyond ±T and ``hold_s`` after it. That stretch is
+    not a typical one: it starts beyond the threshold, and the motion after the crossing is
+    correlated with it. Its mean, for one trip at +T (Gaussian motion N(μ, σ²), correlation
+    ρ(τ), Rice's conditioning on a crossing [1]: x and ẋ independent, the slope at a down-crossing
+    distributed as ``|v|·φ(v/σ̇)``, mean ``-σ̇·sqrt(π/2)``, ``σ̇ = 2π·ν0·σ``):
+
+    * during the excursion (mean duration ``d = P(x > T)/ν⁺``): ``E[x | x > T] = μ + σ·φ(z)/Q(z)``;
+    * during ``[b, b + hold]`` after the down-crossing at b:
+      ``E[x(b + τ)] = μ + (T - μ)·ρ(τ) + E[v]·σ²·(-ρ'(τ))/σ̇²``, averaged over τ:
+      ``μ + (T - μ)·ρ̄ - sqrt(π/2)·(σ²/σ̇)·(1 - ρ(hold))/hold``, ``ρ̄ = (1/hold)∫ρ dτ``;
+
+    weighted by duration, and the trips at -T (mirror image) weighted by their Rice rates.
+    ``rho_mean`` is ρ̄ and ``one_minus_rho_hold`` is ``1 - ρ(hold)``, both from the motion's
+    spectrum (``ρ̄ = ∫S·|H|²·sinc(2f·hold)df/σ²``, ``1 - ρ(h) = ∫S·|H|²·(1 - cos 2πfh)df/σ²``).
+
+    Assumes non-overlapping holds (a trip during a hold extends it: clustered crossings of a
+    narrow-band motion are not modelled), and Gaussian motion. ADXL355 X, ±8 g range (T = 16 g),
+    4 g rms 50-2000 Hz at +1 g: 1.87 g rather than the static 1 g.
+
+    References
+    ----------
+    .. [1] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944), §3.3;
+       M. R. Leadbetter, G. Lindgren, H. Rootzén, *Extremes and related properties of random
+       sequences and processes* (1983), ch. 10 (the Palm distribution of the slope at a crossing).
+    """
+    mu = _validate.finite_scalar("mean_g", mean_g)
+    sigma = _validate.positive_scalar("sigma_g", sigma_g)
+    t = _validate.positive_scalar("threshold_g", threshold_g)
+    hold = _validate.positive_scalar("hold_s", hold_s)
+    sigma_dot = 2.0 * math.pi * _validate.positive_scalar("nu0_hz", nu0_hz) * sigma
+    from scipy import special
+
+    weight = total = 0.0
+    for sign in (1.0, -1.0):  # +T, then -T as +T of the mirrored motion
+        m = sign * mu
+        z = (t - m) / sigma
+        rate = math.exp(-0.5 * z * z)  # ∝ Rice's ν⁺ (ν0 cancels in the weights)
+        if rate == 0.0:
+            continue
+        tail = float(special.ndtr(-z))
+        d = tail / (rate * float(nu0_hz))  # mean excursion duration [s]
+        above = m + sigma * math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi) / tail if tail > 0 else t
+        after = m + (t - m) * rho_mean - math.sqrt(math.pi / 2.0) * sigma**2 / sigma_dot * one_minus_rho_hold / hold
+        stretch = (d * above + hold * after) / (d + hold)
+        weight += rate
+        total += rate * sign * stretch
+    return total / weight if weight > 0 else mu
 
 
 def tilt_error_deg(vre_g: ArrayLike, tilt_deg: ArrayLike = 0.0) -> NDArray[np.float64] | float:
@@ -346,6 +416,34 @@ def tilt_error_deg(vre_g: ArrayLike, tilt_deg: ArrayLike = 0.0) -> NDArray[np.fl
         raise ValueError(f"tilt_deg must be away from ±90 deg (the tilt is unobservable there), got {tilt_deg!r}")
     out = np.degrees(d / np.cos(th))
     return out[()] if np.ndim(out) == 0 else out
+
+
+# Within this of ±1 g the axis is near vertical: a tilt barely changes its reading
+# (d(asin g)/dg = 1/sqrt(1 - g²) → ∞), so a VRE has no meaningful tilt there.
+NEAR_VERTICAL_G = 1e-3
+
+
+def tilt_error_from_static_deg(vre_g: float, static_g: float) -> float:
+    """A VRE as the tilt error of an inclinometer axis at tilt ``asin(g0)`` [deg] (SPEC 1.5).
+
+    The axis reads ``g0 = sin θ`` with no vibration and ``g0 + δ`` with it, which it takes for
+    the tilt ``asin(g0 + δ)``: the error is ``asin(g0 + δ) - asin(g0)`` (≈ δ/cos θ). 1 mg is
+    0.0573° on a horizontal axis (g0 = 0) and 0.1318° at g0 = 0.9 g.
+
+    Raises
+    ------
+    ValueError
+        Where it is undefined: ``g0`` or ``g0 + δ`` beyond ±1 g, or within ``NEAR_VERTICAL_G``
+        (1 mg) of ±1 g, where the axis is vertical and a tilt barely moves its reading.
+    """
+    d = _validate.finite_scalar("vre_g", vre_g)
+    g0 = _validate.finite_scalar("static_g", static_g)
+    for name, g in (("the static field", g0), ("the reading with vibration", g0 + d)):
+        if abs(g) > 1.0 - NEAR_VERTICAL_G:
+            where = "beyond ±1 g" if abs(g) > 1.0 else (
+                "within 1 mg of ±1 g (the axis is vertical: a tilt barely moves its reading)")
+            raise ValueError(f"{name} ({g:.6g} g) is {where}: no tilt corresponds to it")
+    return math.degrees(math.asin(g0 + d) - math.asin(g0))
 
 
 def fixture_resonance_ok(fixture_fn_hz: float, f_max_hz: float, factor: float = 1.5) -> bool:

@@ -1,0 +1,335 @@
+"""Exact mean of a polynomial followed by rails: the memoryless part of a sensor chain (SPEC 1.1-1.3).
+
+A sensor's nonlinearity and its rails are memoryless maps: the output is
+``clip(P(y) + offset, L, U)`` with ``P(y) = y + k2·y² + k3·y³ + k4·y⁴`` of the total input
+``y = g0 + x`` (SPEC 1.2), when no filter sits between them. Its mean over the distribution of
+``x`` is therefore one expectation, not a sum of a clipping share and a nonlinearity share:
+the rails see the polynomial's output, whose mean and spread the nonlinearity has moved.
+
+Closed form (no quadrature error): ``clip(P(y) + offset)`` is piecewise polynomial in ``y``
+with kinks at the real roots of ``P(y) + offset = L`` and ``= U``. On each piece it is a
+constant (a rail) or the polynomial, and the Gaussian expectation of a polynomial over an
+interval is a sum of truncated normal moments
+``M_n(α, β) = ∫_α^β z^n φ(z) dz``, ``M_n = (n-1)·M_{n-2} + α^{n-1}φ(α) - β^{n-1}φ(β)``
+(Johnson, Kotz & Balakrishnan, *Continuous Univariate Distributions* vol. 1, 13.10). The
+polynomial is expanded about the mean (Taylor coefficients), so the constant part cancels
+before anything is added and a µg mean on a 1 g static level keeps its digits.
+
+* sine ``x = A·cos θ``: the same pieces in θ (kinks at ``arccos((y_k - m)/A)``), each
+  polynomial piece by Gauss-Legendre in θ (24 nodes: a polynomial of degree ≤ 4 in cos θ is
+  entire, the rule's error is below 1e-15 relative on any piece of [0, π]);
+* sine-on-random: given the tones' phases the motion is Gaussian with a moving mean; the
+  Gaussian closed form is averaged over the phases (:mod:`vrelab.models.tones`).
+
+This is python-control's describing-function idea (``control/descfcn.py``: closed form for
+saturation, integration otherwise) taken at the zeroth harmonic, for the composite map.
+
+:func:`linear_part` gives what a linear filter after the polynomial passes on: the best linear
+gain ``Cov(P(y), x)/Var(x)`` (for Gaussian x, Stein's lemma: ``E[P'(y)]``; for a sine, the
+describing function's fundamental) and the rms of the rest (the harmonics / higher Hermite
+terms), which a clip after a filter sees as a non-Gaussian remainder.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, Sequence
+
+import numpy as np
+from numpy.polynomial import Polynomial
+from numpy.typing import NDArray
+from scipy import special
+
+from vrelab import _validate
+
+Shape = Literal["gaussian", "sine"]
+Kind = Literal["censored", "truncated"]
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
+# Gauss-Hermite (probabilists'): exact for polynomials of degree <= 2·24 - 1 = 47
+_GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(24)
+_GH_W = _GH_W / _GH_W.sum()
+_SQRT2PI = math.sqrt(2.0 * math.pi)
+
+
+def polynomial(k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
+               offset_g: float = 0.0) -> Polynomial:
+    """``P(y) = offset + y + k2·y² + k3·y³ + k4·y⁴`` (SPEC 1.2, normalised to g)."""
+    return Polynomial([offset_g, 1.0, k2_per_g, k3_per_g2, k4_per_g3])
+
+
+def _pieces(p: Polynomial, low: float, high: float) -> list[tuple[float, float, str]]:
+    """``clip(p(y), low, high)`` as pieces ``(a, b, what)`` covering the real line, ``what`` one of
+    ``"low"``, ``"high"``, ``"poly"``."""
+    kinks: set[float] = set()
+    for rail in (low, high):
+        if math.isfinite(rail):
+            q = p - rail
+            for r in q.roots() if q.degree() > 0 else ():
+                if abs(r.imag) <= 1e-12 * max(1.0, abs(r.real)):
+                    kinks.add(float(r.real))
+    edges = [-math.inf, *sorted(kinks), math.inf]
+    out: list[tuple[float, float, str]] = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        if math.isinf(a) and math.isinf(b):
+            mid = 0.0
+        elif math.isinf(a):
+            mid = b - 1.0 - abs(b)
+        elif math.isinf(b):
+            mid = a + 1.0 + abs(a)
+        else:
+            mid = 0.5 * (a + b)
+        v = float(p(mid))
+        what = "low" if v < low else "high" if v > high else "poly"
+        if out and out[-1][2] == what:
+            out[-1] = (out[-1][0], b, what)
+        else:
+            out.append((a, b, what))
+    return out
+
+
+def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.where(np.isfinite(z), np.exp(-0.5 * z * z) / _SQRT2PI, 0.0)
+
+
+def _prob(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Φ(b) - Φ(a), from the tail nearer the interval (no 1 - 1 cancellation)."""
+    upper = a > 0
+    return np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
+
+
+def _truncated_moments(a: NDArray[np.float64], b: NDArray[np.float64], n_max: int) -> list[NDArray[np.float64]]:
+    """``M_n = ∫_a^b z^n φ(z) dz`` for n = 0..n_max (a, b may be ±inf)."""
+    pa, pb = _phi(a), _phi(b)
+    m = [_prob(a, b), pa - pb]
+
+    def edge(z: NDArray[np.float64], pz: NDArray[np.float64], k: int) -> NDArray[np.float64]:
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isfinite(z), np.where(np.isfinite(z), z, 0.0) ** k * pz, 0.0)
+
+    for n in range(2, n_max + 1):
+        m.append((n - 1) * m[n - 2] + edge(a, pa, n - 1) - edge(b, pb, n - 1))
+    return m
+
+
+def _gaussian(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
+              m: NDArray[np.float64], sigma: float, ref: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(E[clip(p(Y)) - ref; kept], P(kept)) for Y ~ N(m, σ²), elementwise in m; kept = the
+    polynomial pieces (the rail pieces are in the first term, as the rail)."""
+    total = np.zeros_like(m)
+    inside = np.zeros_like(m)
+    q = p - ref
+    derivs = [q]
+    for _ in range(q.degree()):
+        derivs.append(derivs[-1].deriv())
+    for a, b, what in pieces:
+        za, zb = (a - m) / sigma, (b - m) / sigma
+        if what != "poly":
+            total += ((low if what == "low" else high) - ref) * _prob(za, zb)
+            continue
+        moments = _truncated_moments(za, zb, len(derivs) - 1)
+        part = np.zeros_like(m)
+        for n, d in enumerate(derivs):
+            part += d(m) / math.factorial(n) * sigma**n * moments[n]
+        total += part
+        inside += moments[0]
+    return total, inside
+
+
+def _sine(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
+          m: float, amp: float, ref: float) -> tuple[float, float]:
+    """(E[clip(p(m + A cos θ)) - ref; kept], P(kept)) over θ uniform on [0, π]."""
+    touched = [w for a, b, w in pieces if a < m + amp and b > m - amp]
+    if touched == ["poly"]:
+        # the sine stays on one polynomial piece: its moments, E[(A cos θ)^n] = A^n·C(n, n/2)/2^n
+        # for even n (0 for odd), exactly, so a sine clear of the rails adds exactly 0
+        q, total, n = p - ref, 0.0, 0
+        while True:
+            if n % 2 == 0:
+                total += float(q(m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
+            if q.degree() == 0:
+                break
+            q, n = q.deriv(), n + 1
+        return total, 1.0
+    total = inside = 0.0
+    for a, b, what in pieces:
+        # y = m + A cos θ decreases in θ: the piece (a, b) is θ in (θ(b), θ(a))
+        t_hi = math.pi if a <= m - amp else (0.0 if a >= m + amp else math.acos((a - m) / amp))
+        t_lo = 0.0 if b >= m + amp else (math.pi if b <= m - amp else math.acos((b - m) / amp))
+        if t_hi <= t_lo:
+            continue
+        frac = (t_hi - t_lo) / math.pi
+        if what != "poly":
+            total += ((low if what == "low" else high) - ref) * frac
+            continue
+        th = 0.5 * (t_hi + t_lo) + 0.5 * (t_hi - t_lo) * _GL_X
+        total += 0.5 * frac * float(_GL_W @ (p(m + amp * np.cos(th)) - ref))
+        inside += frac
+    return total, inside
+
+
+def poly_clip_vre(
+    static_g: float,
+    rms_g: float,
+    k2_per_g: float = 0.0,
+    k3_per_g2: float = 0.0,
+    k4_per_g3: float = 0.0,
+    offset_g: float = 0.0,
+    rail_low_g: float = -math.inf,
+    rail_high_g: float = math.inf,
+    shape: Shape = "gaussian",
+    kind: Kind = "censored",
+    tone_peaks_g: Sequence[float] = (),
+) -> float:
+    r"""VRE [g] of ``clip(P(g0 + x) + offset, L, U)``: polynomial and rails as one memoryless map.
+
+    Parameters
+    ----------
+    static_g : float
+        Static level g0 at the polynomial's input [g].
+    rms_g : float
+        rms of the vibration x there [g]: Gaussian σ, or a sine's rms (A = rms·√2); with
+        ``tone_peaks_g``, the Gaussian part's σ.
+    k2_per_g, k3_per_g2, k4_per_g3 : float
+        Nonlinearity (SPEC 1.2).
+    offset_g : float
+        Offset added between the polynomial and the rails [g].
+    rail_low_g, rail_high_g : float
+        Rails L < U [g] (±inf: none).
+    shape : {"gaussian", "sine"}
+    kind : {"censored", "truncated"}
+        Censored: beyond a rail reads the rail. Truncated: samples beyond are discarded (the
+        article's model), the mean is over the kept ones.
+    tone_peaks_g : sequence of float
+        Sine tones [g peak] on the Gaussian part (sine-on-random), independent uniform phases.
+
+    Returns
+    -------
+    float
+        ``E[out] - out(x = 0)``: the mean output with vibration less the vibration-off reading
+        ``clip(P(g0) + offset)``. With no rails this is SPEC 1.2's polynomial VRE exactly; with
+        k = 0, SPEC 1.1's clipped mean.
+
+    Notes
+    -----
+    Closed form: see the module notes (truncated normal moments on the pieces between the
+    kinks; Gauss-Legendre in θ for a sine; the tones' phase average for sine-on-random).
+    """
+    g0 = _validate.finite_scalar("static_g", static_g)
+    rms = float(_validate.non_negative("rms_g", rms_g))
+    low, high = float(rail_low_g), float(rail_high_g)
+    if not low < high:
+        raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
+    _validate.one_of("shape", shape, ("gaussian", "sine"))
+    _validate.one_of("kind", kind, ("censored", "truncated"))
+    p = polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
+    ref = float(np.clip(p(g0), low, high))
+    peaks = [float(a) for a in tone_peaks_g if a > 0]
+    if rms == 0 and not peaks:
+        return 0.0
+    pieces = _pieces(p, low, high)
+    if shape == "sine":
+        if peaks:
+            raise ValueError("tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian'")
+        total, inside = _sine(p, pieces, low, high, g0, rms * math.sqrt(2.0), ref)
+    elif peaks:
+        from vrelab.models.tones import phase_grid
+
+        if rms == 0:
+            raise ValueError("tones alone (no random part) are not a Gaussian motion: give rms_g > 0")
+        grid = phase_grid(peaks, rms)
+        t, i = _gaussian(p, pieces, low, high, g0 + grid.sum_of(peaks), rms, ref)
+        total, inside = float(np.mean(t)), float(np.mean(i))
+    else:
+        t, i = _gaussian(p, pieces, low, high, np.array([g0]), rms, ref)
+        total, inside = float(t[0]), float(i[0])
+    if kind == "censored":
+        return total
+    if not inside > 0:
+        return math.nan
+    # kept samples only: subtract the rail pieces' share, divide by the kept probability
+    kept = total - _rail_part(p, pieces, low, high, g0, rms, ref, shape, peaks)
+    return kept / inside
+
+
+def _rail_part(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float, g0: float,
+               rms: float, ref: float, shape: Shape, peaks: Sequence[float]) -> float:
+    """The rail pieces' part of the censored sum (what truncation discards)."""
+    only_rails = [(a, b, w) for a, b, w in pieces if w != "poly"]
+    if not only_rails:
+        return 0.0
+    if shape == "sine":
+        return _sine(p, only_rails, low, high, g0, rms * math.sqrt(2.0), ref)[0]
+    if peaks:
+        from vrelab.models.tones import phase_grid
+
+        grid = phase_grid(list(peaks), rms)
+        return float(np.mean(_gaussian(p, only_rails, low, high, g0 + grid.sum_of(peaks), rms, ref)[0]))
+    return float(_gaussian(p, only_rails, low, high, np.array([g0]), rms, ref)[0][0])
+
+
+def _nodes(rms: float, shape: Shape, peaks: Sequence[float]) -> NDArray[np.float64]:
+    """Quadrature nodes (x, w) of the vibration's distribution: Gauss-Hermite (exact for
+    polynomials of degree <= 47 in x), 32 equally spaced phases for a sine (exact for degree
+    <= 31), their product with the tones' phase grid for sine-on-random."""
+    if shape == "sine":
+        th = 2.0 * np.pi * np.arange(32) / 32
+        return np.stack([rms * math.sqrt(2.0) * np.cos(th), np.full(32, 1.0 / 32)])
+    x, w = rms * _GH_X, _GH_W
+    if peaks:
+        from vrelab.models.tones import phase_grid
+
+        s = phase_grid(list(peaks), max(rms, 1e-300)).sum_of(list(peaks))
+        x = (x[:, None] + s[None, :]).ravel()
+        w = (w[:, None] * np.full(s.size, 1.0 / s.size)[None, :]).ravel()
+    return np.stack([x, w])
+
+
+def linear_part(
+    static_g: float,
+    rms_g: float,
+    k2_per_g: float = 0.0,
+    k3_per_g2: float = 0.0,
+    k4_per_g3: float = 0.0,
+    shape: Shape = "gaussian",
+    tone_peaks_g: Sequence[float] = (),
+) -> tuple[float, float]:
+    """(gain, rest_rms_g) of ``P(g0 + x)`` as ``E[P] + gain·x + rest``: what a filter after the
+    polynomial passes on.
+
+    ``gain = Cov(P(g0 + x), x)/Var(x)`` (Gaussian: ``E[P'(g0 + x)]`` by Stein's lemma; a sine:
+    the describing function's fundamental), ``rest`` uncorrelated with x, its rms
+    ``sqrt(Var(P) - gain²·Var(x))`` (the higher Hermite terms, or the harmonics). By
+    quadrature exact for these polynomials (:func:`_nodes`).
+    """
+    x, w = _nodes(float(rms_g), shape, [float(a) for a in tone_peaks_g if a > 0])
+    if not (w @ (x * x)) > 0:
+        return 1.0, 0.0
+    p = polynomial(k2_per_g, k3_per_g2, k4_per_g3)
+    y = p(static_g + x) - p(static_g)
+    ey = float(w @ y)
+    var_x = float(w @ (x * x))
+    gain = float(w @ ((y - ey) * x)) / var_x
+    rest = float(w @ (y - ey - gain * x) ** 2)
+    return gain, math.sqrt(max(rest, 0.0))
+
+
+def hermite_rms(static_g: float, rms_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.0,
+                k4_per_g3: float = 0.0) -> list[float]:
+    """rms of the Hermite components n = 1..4 of ``P(g0 + x)``, x ~ N(0, σ²) [g].
+
+    ``P(g0 + σz) = E[P] + Σ_n c_n·He_n(z)``, ``c_n = E[P·He_n(z)]/n!``, component rms
+    ``|c_n|·sqrt(n!)`` (He_n orthogonal, ``E[He_n²] = n!``). The n-th component of a Gaussian
+    process's image lies in the n-th Wiener chaos, orthogonal to the others, through any
+    linear filter: what a clip after a filter can correlate with. Gauss-Hermite, exact here.
+    """
+    z, w = _GH_X, _GH_W
+    p = polynomial(k2_per_g, k3_per_g2, k4_per_g3)
+    y = p(static_g + rms_g * z)
+    out = []
+    for n in range(1, 5):
+        he = np.polynomial.hermite_e.hermeval(z, [0.0] * n + [1.0])
+        c = float(w @ (y * he)) / math.factorial(n)
+        out.append(abs(c) * math.sqrt(math.factorial(n)))
+    return out
