@@ -1,0 +1,42 @@
+"""The one number formatter (vrelab._format): GUM 7.2.6 rounding, units, tiny and huge numbers.
+
+Expected strings are written by hand from the rule (JCGM 100:2008, 7.2.6: u quoted with at most
+two significant digits, the value rounded at the same decimal place), not from the code.
+"""
+
+from vrelab._format import format_mg_text, format_u, format_value, format_value_u
+
+
+def test_gum_726_u_two_digits_value_at_its_last_digit():
+    # The issue's own examples: 20908 ± 538 and 2849.57 ± 72 (campaign VRCs), 2.64 ± 0.015 g.
+    assert format_value_u(20908, 538, unit="µg/g²") == "20910 ± 540 µg/g²"
+    assert format_value_u(2849.57, 72) == "2850 ± 72"
+    assert format_value_u(2.6431, 0.0149, unit="g") == "2.643 ± 0.015 g"
+    assert format_value_u(1062.3, 23) == "1062 ± 23"
+
+
+def test_rounding_that_carries_into_a_new_digit_keeps_two_digits():
+    # 0.0996 rounds to 0.10 (two digits), not 0.100.
+    assert format_value_u(1.0, 0.0996) == "1.00 ± 0.10"
+    assert format_u(0.0996) == "0.10"
+
+
+def test_u_alone_and_mg():
+    assert [format_u(x) for x in (0.08156, 1.6, 3.299, 538)] == ["0.082", "1.6", "3.3", "540"]
+    assert format_mg_text(-0.08350, 0.00041) == "-83.50 ± 0.41 mg"
+    assert format_mg_text(None) == "–"
+
+
+def test_tiny_and_huge_numbers_never_print_long_exponents():
+    # Below the resolution a value is 0 (the prediction table's -8.943e-112 mg).
+    assert format_value(-8.943e-112, resolution=0.001, unit="mg") == "0 mg"
+    assert format_value(1.4e-62, signed=True, resolution=0.001) == "0"
+    assert format_value(-1.2345e-3, resolution=0.001) == "-0.001"
+    assert format_value_u(3e-5, 1e-6, unit="g") == "(3.00 ± 0.10)·10⁻⁵ g"
+
+
+def test_value_without_u_four_digits_no_false_zeros():
+    assert format_value(4000.0, unit="Hz") == "4000 Hz"
+    assert format_value(0.30012) == "0.3001"
+    assert format_value(0.3, signed=True) == "+0.3"
+    assert format_value(float("nan")) == "–"
