@@ -29,6 +29,11 @@ MISSING = "–"
 U_DIGITS = 2
 # A value without an uncertainty or a resolution: four significant digits.
 VALUE_DIGITS = 4
+# A model's prediction has no uncertainty to round at: its VRE and shares are shown to 1 µg
+# (0.001 mg), well below any measured u; a smaller share shows as 0.
+PREDICTION_RESOLUTION_MG = 0.001
+# The tilt error a VRE means [°], shown to this resolution.
+TILT_RESOLUTION_DEG = 1e-4
 # Outside [SMALL, LARGE) a number is shown with a power of ten.
 _SMALL, _LARGE = 1e-4, 1e6
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -125,7 +130,7 @@ def format_value(value: float | None, scale: float = 1.0, signed: bool = False, 
             return _with_unit("0", unit)
         return _with_unit(_fixed(v, math.floor(math.log10(resolution)), signed), unit)
     if v != 0 and (abs(v) >= _LARGE or abs(v) < _SMALL):
-        return _with_unit(f"{v:{sign}.{digits - 1}e}", unit)
+        return _with_unit(f"{v:{sign}.{digits}g}", unit)
     # `digits` significant digits in fixed point (never rounding the integer part), trailing zeros
     # dropped as %g does: a value without u claims no more digits than it has.
     last = min(_power(v) - (digits - 1), 0)
@@ -144,3 +149,43 @@ def format_mg(value_g: float | None, u_g: float | None = None, signed: bool = Tr
 def format_mg_text(value_g: float | None, u_g: float | None = None, signed: bool = True) -> str:
     """:func:`format_mg` with its unit: ``"-83.1 ± 0.4 mg"`` (``"–"`` when unknown)."""
     return _with_unit(format_mg(value_g, u_g, signed=signed), "mg")
+
+
+# A field's unit from its name's suffix (STYLE: units in names), longest suffix first.
+_UNIT_SUFFIXES = (
+    ("_ug_per_rthz", "µg/√Hz"), ("_ug_per_g2", "µg/g²"), ("_ug_per_g3", "µg/g³"), ("_ug_per_g4", "µg/g⁴"),
+    ("_g_per_s", "g/s"), ("_per_g2", "1/g²"), ("_per_g3", "1/g³"), ("_per_g", "1/g"), ("_g2_per_hz", "g²/Hz"),
+    ("_hz", "Hz"), ("_db", "dB"), ("_deg", "°"), ("_s", "s"), ("_g", "g"), ("_mg", "mg"),
+)
+# Short names a person reads for the keys whose name alone says too little.
+_FIELD_NAMES = {"odr": "output data rate", "fs": "sampling rate", "fn": "resonance fn", "q": "quality factor Q",
+                "lsb": "resolution (1 LSB)", "k2": "k2", "k3": "k3", "k4": "k4"}
+
+
+def field_label(key: str) -> tuple[str, str | None]:
+    """A JSON key as a person reads it, and its unit: ``"odr_hz"`` → ``("output data rate", "Hz")``,
+    ``"k2_ug_per_g2"`` → ``("k2", "µg/g²")``, ``"rails_g"`` → ``("rails", "g")``."""
+    for suffix, unit in _UNIT_SUFFIXES:
+        if key.endswith(suffix) and len(key) > len(suffix):
+            stem = key[: -len(suffix)]
+            return _FIELD_NAMES.get(stem, stem.replace("_", " ")), unit
+    return _FIELD_NAMES.get(key, key.replace("_", " ")), None
+
+
+def format_field(value: Any, unit: str | None = None) -> str:
+    """A JSON field's value as text: numbers by :func:`format_value` with the unit, lists as
+    ``"-2.048, 2.048 g"``, ``None`` as ``"not set"``, booleans as yes/no (never ``null``,
+    ``[...]`` or ``4000.0``)."""
+    if value is None:
+        return "not set"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, (int, float)):
+        return format_value(value, unit=unit)
+    if isinstance(value, (list, tuple)):
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value) and value:
+            return _with_unit(", ".join(format_value(x) for x in value), unit)
+        return "; ".join(format_field(x) for x in value) or "none"
+    if isinstance(value, dict):
+        return "; ".join(f"{field_label(k)[0]}: {format_field(v, field_label(k)[1])}" for k, v in value.items()) or "none"
+    return str(value)

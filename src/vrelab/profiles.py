@@ -362,6 +362,12 @@ class RandomProfile:
         text = f"random {lo:g}–{hi:g} Hz, {self.grms:.2f} g rms"
         return f"{text} ({self.name})" if self.name else text
 
+    def describe_shape(self) -> str:
+        """The shape without a level, e.g. ``"random 50–500 Hz (flat-50-500)"``: what a test that
+        steps this shape through several levels states (the levels are its results')."""
+        lo, hi = self.band
+        return f"random {lo:g}–{hi:g} Hz" + (f" ({self.name})" if self.name else "")
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "kind": "random",
@@ -522,6 +528,13 @@ class SineOnRandom:
         lo, hi = self.random.band
         tones = ", ".join(f"{t.freq_hz:g} Hz {t.peak_g:.3g} g pk" for t in self.tones)
         text = f"random {lo:g}–{hi:g} Hz + sine {tones}, {self.grms:.2f} g rms"
+        return f"{text} ({self.name})" if self.name else text
+
+    def describe_shape(self) -> str:
+        """The shape without a level (see :meth:`RandomProfile.describe_shape`); the tones by
+        frequency, their amplitudes scaling with the level."""
+        lo, hi = self.random.band
+        text = f"random {lo:g}–{hi:g} Hz + sine " + ", ".join(f"{t.freq_hz:g}" for t in self.tones) + " Hz"
         return f"{text} ({self.name})" if self.name else text
 
     def to_dict(self) -> dict[str, Any]:

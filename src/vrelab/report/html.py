@@ -14,7 +14,6 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import io
-import json
 import math
 import os
 import sys
@@ -26,7 +25,7 @@ from matplotlib.figure import Figure
 
 from vrelab import __version__
 from vrelab import folder as F
-from vrelab._format import format_mg, format_value_u
+from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, field_label, format_field, format_mg, format_u, format_value, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
 from vrelab.report._markup import ReportTable, esc, kv_table, table_html
@@ -250,6 +249,8 @@ def collect_warnings(
 
 # --------------------------------------------------------------------------- rendering
 def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
+    from vrelab.report.plots import levels_reached
+
     c = result.conditions
     rows: list[tuple[str, Any]] = [
         ("kind", result.kind),
@@ -261,10 +262,12 @@ def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
         ("output data rate", None if c.odr_hz is None else f"{c.odr_hz:g} Hz"),
         ("static field g0", None if c.static_g is None else f"{c.static_g:+g} g"),
         ("profile", c.profile),
+        ("levels reached", levels_reached(result)),
         ("model", c.model),
     ]
     for k, v in dict(c.extra).items():
-        rows.append((k.replace("_", " "), json.dumps(v) if isinstance(v, (dict, list)) else v))
+        name, unit = field_label(k)
+        rows.append((name, format_field(v, unit)))
     return rows
 
 
@@ -287,7 +290,7 @@ def _levels_table(result: VreResult) -> str:
         rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g, ".4g")
         cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
         if has_b:
-            cells += [format_mg(x.U_vre_g, signed=False) if x.U_vre_g is not None else "–", _fmt(x.k, ".3g")]
+            cells += [format_u(x.U_vre_g, scale=1e3), format_value(x.k, resolution=0.01)]
         if has_d:
             cells += [x.decision or "undefined (no VRE)"]
         cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
@@ -303,11 +306,11 @@ def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") ->
         for t in x.budget:
             u = t.get("u_g")
             rows.append((str(i), _fmt(x.rms_g, ".4g"), str(t.get("source", "")), str(t.get("type", "")),
-                         "not evaluated" if u is None else format_mg(u, signed=False), str(t.get("note", ""))))
+                         "not evaluated" if u is None else format_u(u, scale=1e3), str(t.get("note", ""))))
         if x.budget:
             rows.append((str(i), _fmt(x.rms_g, ".4g"), "combined u; U = k·u", "",
-                         f"{format_mg(x.vre.u, signed=False)}; U = {format_mg(x.U_vre_g, signed=False)}",
-                         f"k = {_fmt(x.k, '.3g')} (Welch-Satterthwaite)"))
+                         f"{format_u(x.vre.u, scale=1e3)}; U = {format_u(x.U_vre_g, scale=1e3)}",
+                         f"k = {format_value(x.k, resolution=0.01)} (Welch-Satterthwaite)"))
     if not rows:
         return ""
     return table_html(ReportTable(title, ["level", "g rms", "source", "type", "u (mg)", "note"],
@@ -323,7 +326,7 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             params = "no fit: one level only (a VRC needs two levels or more)"
         else:
             params = "; ".join(
-                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u)} {describe_fit_param(k)[1] or v.unit}"
+                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u, unit=describe_fit_param(k)[1] or v.unit)}"
                 for k, v in f.params.items()
             )
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
@@ -357,6 +360,8 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
 
     has_f = any(lv.get("freq_hz") is not None for lv in levels)
     has_valid = any("valid" in lv for lv in levels)
+    # Shown to PREDICTION_RESOLUTION_MG: a clipping share of -8.9e-112 mg is 0, not a number.
+    res = PREDICTION_RESOLUTION_MG
     head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
     head += [f"{share_name(k)} (mg)" for k in share_keys] + (["model valid"] if has_valid else [])
     # Per-level notes are sentences: listed under the table, each once with its levels.
@@ -369,37 +374,47 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
         cells = ([_fmt(lv.get("freq_hz"), "g")] if has_f else []) + [
             _fmt(lv.get("rms_g"), ".4g"),
-            format_mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–",
-            _fmt(lv.get("tilt_error_deg"), ".3g"),
+            format_mg(lv.get("vre_g"), resolution_mg=res),
+            format_value(lv.get("tilt_error_deg"), resolution=TILT_RESOLUTION_DEG),
         ]
         for k in share_keys:
             v = sh.get(k)
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
-            cells.append(format_mg(v) if isinstance(v, (int, float)) else _fmt(v))
+            cells.append(format_mg(v, resolution_mg=res) if isinstance(v, (int, float)) else _fmt(v))
         if has_valid:
             why = "; ".join(str(n) for n in lv.get("notes") or ())
-            cells.append("yes" if lv.get("valid") else (f"no: {why}" if why else "no (reason not given)"))
+            # The reason is listed once under the table (by_note): a sentence per cell made the
+            # table 2000 px wide and hid this column.
+            cells.append("yes" if lv.get("valid") else ("no (see the notes below)" if why else "no (reason not given)"))
         rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in cells) + "</tr>")
     th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
-        extra.append((k.replace("_", " "), ("yes" if v else "no") if isinstance(v, bool) else v))
-    notes = ""
+        name, unit = field_label(k)
+        extra.append((name, format_field(v, unit)))
+    notes = f'<p class="mute">Predicted values to {res:g} mg; a smaller share is shown as 0.</p>'
     if by_note:
-        notes = '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
+        notes += '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
     return kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
-def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
-    rows = []
+def _provenance_html(prov: Mapping[str, Any]) -> str:
+    """Provenance as a table a person reads (field names, units, nested descriptions as nested
+    tables folded on screen and open in print); the raw JSON is the results file it names."""
+    body = []
     for k, v in prov.items():
-        if isinstance(v, (dict, list)):
-            v = json.dumps(v)
-        rows.append((k.replace("_", " "), v))
-    return rows
+        if v in (None, "", {}) and k not in ("covariance",):
+            continue
+        name, unit = field_label(str(k))
+        if isinstance(v, Mapping) and v:
+            val = f"<details><summary>{esc(len(v))} fields</summary>{_provenance_html(v)}</details>"
+        else:
+            val = esc(format_field(v, unit))
+        body.append(f"<tr><th>{esc(name)}</th><td>{val}</td></tr>")
+    return f'<table class="kv">{"".join(body)}</table>' if body else ""
 
 
 def _figure_html(fig: ReportFigure, fid: str, alt: str) -> str:
@@ -465,9 +480,9 @@ def render_section(sec: ReportSection, anchor: str, number: str = "") -> str:
         if k == 0:
             prov.update(sec.provenance)
         if prov:
-            parts.append(f"<h4>{esc(label + ': ' if label else '')}Provenance</h4>" + kv_table(_provenance_rows(prov)))
+            parts.append(f"<h4>{esc(label + ': ' if label else '')}Provenance</h4>" + _provenance_html(prov))
     if not results and sec.provenance:
-        parts.append("<h4>Provenance</h4>" + kv_table(_provenance_rows(sec.provenance)))
+        parts.append("<h4>Provenance</h4>" + _provenance_html(sec.provenance))
     parts.append("</section>")
     return "\n".join(parts)
 
@@ -623,9 +638,9 @@ def summary_sentence(result: VreResult) -> str:
     bits = []
     for f in result.fits:
         if "rail_g" in f.params:
-            bits.append(f"the {f.model} model fits with an effective rail of {f.params['rail_g'].value:.3g} ± {f.params['rail_g'].u:.2g} g")
+            bits.append(f"the {f.model} model fits with an effective rail of {format_value_u(f.params['rail_g'].value, f.params['rail_g'].u, unit='g')}")
         elif "vrc_ug_per_g2" in f.params and f.freq_hz is None:
-            bits.append(f"VRC = {f.params['vrc_ug_per_g2'].value:.3g} ± {f.params['vrc_ug_per_g2'].u:.2g} µg/g²")
+            bits.append(f"VRC = {format_value_u(f.params['vrc_ug_per_g2'].value, f.params['vrc_ug_per_g2'].u, unit='µg/g²')}")
     return s + ("; " + "; ".join(bits) if bits else "") + "."
 
 
