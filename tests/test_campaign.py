@@ -113,7 +113,8 @@ def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
     assert "VRC by frequency and orientation" in html
     assert html.count('<section class="result"') == 1 + 2 + 2 * 7  # summary, channels, each run's channels
     # the runs table links each run to its first section (run 1's channels follow the 3 first sections)
-    assert '<a href="#s4">section 4</a>' in html and 'id="s4"' in html
+    # The runs table's link names the sections it points to as their headings number them.
+    assert '<a href="#s4">5.4–5.5 (run 1)</a>' in html and '<section class="result" id="s4"><h3>5.4 Run 1' in html
 
 
 # ----------------------------------------------------------------------------- honest nulls

@@ -73,8 +73,8 @@ def test_clip_curves_reproduce_spec_reference_values_censored_83mg_truncated_283
     assert np.interp(1.0, *trunc.get_data()) == pytest.approx(-283.0, abs=1.0)
     assert ax.get_ylabel() == "VRE (mg)" and "g rms" in ax.get_xlabel()
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert any("rail ±2 ± 0.02 g" in t for t in labels), labels  # the fitted rail in the legend
-    assert any("VRC 50 ± 2 µg/g²" in t for t in labels), labels
+    assert any("rail ±2.000 ± 0.020 g" in t for t in labels), labels  # the fitted rail in the legend (GUM 7.2.6 digits)
+    assert any("VRC 50.0 ± 2.0 µg/g²" in t for t in labels), labels
     assert any("above 3 g rms" in t for t in labels), labels  # where the data leave the model
 
 

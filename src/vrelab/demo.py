@@ -29,7 +29,7 @@ import numpy as np
 
 from vrelab import _validate as V
 from vrelab import folder as F
-from vrelab._format import finite_or_none, format_mg_text
+from vrelab._format import finite_or_none, format_mg_text, format_value, format_value_u
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
@@ -250,7 +250,7 @@ def study_fig2(cfg: DemoConfig) -> _Study:
     res, record = _random_run(sensor, profile, levels, cfg, cfg.seed + 2)
     pred = _predict(sensor, profile, levels)
     rail = _rail(res)
-    rail_txt = f"{rail.params['rail_g'].value:.3g} ± {rail.params['rail_g'].u:.2g} g" if rail else "no fit"
+    rail_txt = format_value_u(rail.params['rail_g'].value, rail.params['rail_g'].u, unit="g") if rail else "no fit"
     dep = rail.departure_rms_g if rail else None
     curves = plots.model_curves(res, rms_max_g=4.2)
     figs = [
@@ -477,7 +477,7 @@ def study_sine(cfg: DemoConfig) -> _Study:
         title="Sine method (IEEE 1293): VRC against frequency",
         what=(
             f"The nonlinearity acts on the proof mass, so vibration near the 2.4 kHz resonance is rectified about Q² ≈ 55 times more: "
-            f"VRC {pk.value:.3g} ± {pk.u:.2g} µg/g² at 2.4 kHz against {lo.value:.3g} ± {lo.u:.2g} µg/g² at 1 kHz "
+            f"VRC {format_value_u(pk.value, pk.u, unit='µg/g²')} at 2.4 kHz against {format_value_u(lo.value, lo.u, unit='µg/g²')} at 1 kHz "
             f"(the preset's k2 = {k2_ug:g} µg/g² is an assumption, not a datasheet value)."
             if lo and pk
             else "VRC against frequency."
@@ -485,8 +485,8 @@ def study_sine(cfg: DemoConfig) -> _Study:
         result=res,
         figures=figs,
         facts=[
-            ("VRC at 2.4 kHz (fn)", f"{pk.value:.4g} ± {pk.u:.2g} µg/g²; model k2·|H|² = {k2_ug * h2[2400.0]:.4g} µg/g²") if pk else ("VRC at 2.4 kHz", "–"),
-            ("VRC at 1 kHz", f"{lo.value:.3g} ± {lo.u:.2g} µg/g²; model k2·|H|² = {k2_ug * h2[1000.0]:.3g} µg/g²") if lo else ("VRC at 1 kHz", "–"),
+            ("VRC at 2.4 kHz (fn)", f"{format_value_u(pk.value, pk.u, unit='µg/g²')}; model k2·|H|² = {format_value(k2_ug * h2[2400.0], unit='µg/g²')}") if pk else ("VRC at 2.4 kHz", "–"),
+            ("VRC at 1 kHz", f"{format_value_u(lo.value, lo.u, unit='µg/g²')}; model k2·|H|² = {format_value(k2_ug * h2[1000.0], unit='µg/g²')}") if lo else ("VRC at 1 kHz", "–"),
             ("levels", "1, 2, 3 g rms up to 1 kHz; 0.3, 0.6, 0.9 g rms from 1.6 kHz (Q·peak under the 16 g over-range threshold)"),
         ],
     )
@@ -531,7 +531,7 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
             "Figure 1: VRE at 1 g rms, ±2 g, 1 g field",
             f"article ≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg · censored model {format_mg_text(g('fig1_censored_model'))} · simulated {format_mg_text(g('fig1_vre_1g'), g('fig1_u_1g'))}",
         ),
-        ("Figure 2: effective rail, ±2 g Z", f"article {ARTICLE_RAIL_G:g} g (truncated fit) · simulated {g('fig2_rail_g'):.3g} ± {g('fig2_u_rail_g'):.2g} g (censored fit)"),
+        ("Figure 2: effective rail, ±2 g Z", f"article {ARTICLE_RAIL_G:g} g (truncated fit) · simulated {format_value_u(g('fig2_rail_g'), g('fig2_u_rail_g'), unit='g')} (censored fit)"),
         (
             "Figure 2: data leave the model above",
             f"article ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms · simulated " + (f"{dep:.3g} g rms" if math.isfinite(dep) else "no departure within the levels run"),
@@ -541,7 +541,7 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
         ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated {format_mg_text(g('limit_vre_at_2p5'))}"),
         (
             "Sine method: VRC at fn = 2.4 kHz",
-            f"model k2·Q² = {g('sine_model_vrc_2400'):.4g} µg/g² · simulated {g('sine_vrc_2400'):.4g} ± {g('sine_u_vrc_2400'):.2g} µg/g²",
+            f"model k2·Q² = {format_value(g('sine_model_vrc_2400'), unit='µg/g²')} · simulated {format_value_u(g('sine_vrc_2400'), g('sine_u_vrc_2400'), unit='µg/g²')}",
         ),
     ]
     return ReportSection(
