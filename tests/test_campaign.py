@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -104,11 +105,33 @@ def test_workers_give_the_same_campaign(example: Path) -> None:
     assert [c.to_dict() for c in one] == [c.to_dict() for c in two]
 
 
-def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
+def test_report_of_a_campaign(example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from test_format import gum_violations, visible_text
+
     out = tmp_path / "c"
     assert main(["campaign", str(example), "--out", str(out)]) == 0
+    cli = capsys.readouterr().out
     assert main(["report", str(out)]) == 0
     html = (out / "report.html").read_text()
+    text = visible_text(html)
+    # One formatter: every "value ± u" in the report and the CLI table by GUM 7.2.6, with units.
+    assert gum_violations(text) == [] and gum_violations(cli) == []
+    assert re.search(r"VRC at +1000 Hz, \+1 g: -?\d+0 ± \d\d0 µg/g²", cli)  # u of ~540 shown as two digits
+    # The random run stated as its shape and the levels it reached, never the unit shape's grms
+    # (21.21 g rms for flat 50-500 Hz at 1 g²/Hz): the example steps 0.3, 0.5, 0.7, 0.9 g rms
+    # (vrelab.simulation.campaign.example_truth, its random run).
+    assert "21.21" not in text and "g rms (flat" not in text
+    head = re.search(r"5\.14 Run 6 \(Z up, random 50-500 Hz\), channel sn1: \+1 g field, "
+                     r"random 50–500 Hz \(flat-50-500\), ([\d.]+)–([\d.]+) g rms", text)
+    assert head and 0.27 < float(head[1]) < 0.33 and 0.85 < float(head[2]) < 0.95, head
+    assert re.search(r"levels reached\s+0\.\d+–0\.9\d* g rms", text)
+    # Human names and units, no raw JSON values.
+    assert "null" not in text and "\\u00" not in text and "rails g" not in text
+    # The combined k2 is called apparent, with the per-frequency consistency check (80 and 300 Hz
+    # disagree by ~3 sigma in this example: the 300 Hz point carries the resonance's gain).
+    assert "k2 (apparent: combined over frequencies" in text
+    assert re.search(r"k2 per frequency DISAGREE \(80 Hz [-\d]+ ± \d+ µg/g², 300 Hz [-\d]+ ± \d+ µg/g²; "
+                     r"χ²/dof = [\d.]+, Birge ratio [\d.]+, p = [\d.]+\): the combined k2 is apparent", text)
     assert "Channel sn1" in html and "Channel sn2" in html
     assert "VRC by frequency and orientation" in html
     assert html.count('<section class="result"') == 1 + 2 + 2 * 7  # summary, channels, each run's channels

@@ -4,6 +4,9 @@ Expected strings are written by hand from the rule (JCGM 100:2008, 7.2.6: u quot
 two significant digits, the value rounded at the same decimal place), not from the code.
 """
 
+import html
+import re
+
 from vrelab._format import format_mg_text, format_u, format_value, format_value_u
 
 
@@ -40,3 +43,37 @@ def test_value_without_u_four_digits_no_false_zeros():
     assert format_value(0.30012) == "0.3001"
     assert format_value(0.3, signed=True) == "+0.3"
     assert format_value(float("nan")) == "–"
+
+
+# ----------------------------------------------------------------------------- rendered text
+# Readers of rendered output (the report's HTML, the CLI's stdout) used by the report tests.
+_PAIR = re.compile(r"(?<![\w.·])([-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?) ± (\d+(?:\.\d+)?(?:e[-+]?\d+)?)(?![\d.]|·10)")
+
+
+def visible_text(html_text: str) -> str:
+    """What a reader sees of a report: no scripts, styles or tags, entities decoded."""
+    t = re.sub(r"<(script|style)\b.*?</\1>", " ", html_text, flags=re.S)
+    return html.unescape(re.sub(r"<[^>]+>", " ", t))
+
+
+def gum_violations(text: str) -> list[str]:
+    """Every ``value ± u`` in ``text`` that breaks GUM 7.2.6 as the issue states it: u with two
+    significant digits (an integer u may end in a rounding zero: 540), the value to u's last
+    decimal, no exponent notation."""
+    bad = []
+    for m in _PAIR.finditer(text):
+        v, u = m.groups()
+        dec = [len(x.split(".")[1]) if "." in x else 0 for x in (v, u)]
+        digits = u.replace(".", "").lstrip("0")
+        two = len(digits) == 2 or ("." not in u and len(digits) > 2 and set(digits[2:]) == {"0"})
+        if "e" in v + u or dec[0] != dec[1] or not two:
+            bad.append(text[max(0, m.start() - 40):m.end()].replace("\n", " "))
+    return bad
+
+
+def test_the_rendered_text_checker_finds_the_issues_examples():
+    # The issue's "today" column: every one of these breaks the rule; the fixed forms do not.
+    today = "2.64 ± 0.015 g, 20908 ± 538, 2849.57 ± 72, prose 1.06e+03 ± 23, 2.66 ± 0.037 g"
+    assert len(gum_violations(today)) == 5
+    assert gum_violations("2.640 ± 0.015 g, 20910 ± 540, 2850 ± 72, 1062 ± 23, ±2 g, ±3 dB") == []
+    assert visible_text("<p>a <b>1</b> &lt; 2<script>x ± y</script></p>").split() == ["a", "1", "<", "2"]

@@ -130,7 +130,9 @@ def format_value(value: float | None, scale: float = 1.0, signed: bool = False, 
             return _with_unit("0", unit)
         return _with_unit(_fixed(v, math.floor(math.log10(resolution)), signed), unit)
     if v != 0 and (abs(v) >= _LARGE or abs(v) < _SMALL):
-        return _with_unit(f"{v:{sign}.{digits}g}", unit)
+        p = _power(v)
+        mant = format_value(v / 10.0**p, signed=signed, digits=digits)
+        return _with_unit(f"{mant}·10{str(p).translate(_SUPERSCRIPT)}", unit)
     # `digits` significant digits in fixed point (never rounding the integer part), trailing zeros
     # dropped as %g does: a value without u claims no more digits than it has.
     last = min(_power(v) - (digits - 1), 0)
@@ -151,25 +153,43 @@ def format_mg_text(value_g: float | None, u_g: float | None = None, signed: bool
     return _with_unit(format_mg(value_g, u_g, signed=signed), "mg")
 
 
-# A field's unit from its name's suffix (STYLE: units in names), longest suffix first.
-_UNIT_SUFFIXES = (
-    ("_ug_per_rthz", "µg/√Hz"), ("_ug_per_g2", "µg/g²"), ("_ug_per_g3", "µg/g³"), ("_ug_per_g4", "µg/g⁴"),
-    ("_g_per_s", "g/s"), ("_per_g2", "1/g²"), ("_per_g3", "1/g³"), ("_per_g", "1/g"), ("_g2_per_hz", "g²/Hz"),
-    ("_hz", "Hz"), ("_db", "dB"), ("_deg", "°"), ("_s", "s"), ("_g", "g"), ("_mg", "mg"),
+# A field's unit from its name's suffix (STYLE: units in names), longest suffix first, with the
+# factor to the unit a person reads (a sensor's k2 of 2e-05 1/g is 20 µg/g²).
+_UNIT_SUFFIXES: tuple[tuple[str, str, float], ...] = (
+    ("_ug_per_rthz", "µg/√Hz", 1.0), ("_ug_per_g2", "µg/g²", 1.0), ("_ug_per_g3", "µg/g³", 1.0),
+    ("_ug_per_g4", "µg/g⁴", 1.0), ("_g_per_s", "g/s", 1.0), ("_per_g3", "µg/g⁴", 1e6), ("_per_g2", "µg/g³", 1e6),
+    ("_per_g", "µg/g²", 1e6), ("_g2_per_hz", "g²/Hz", 1.0), ("_hz", "Hz", 1.0), ("_db", "dB", 1.0),
+    ("_deg", "°", 1.0), ("_s", "s", 1.0), ("_mg", "mg", 1.0), ("_g", "g", 1.0),
 )
 # Short names a person reads for the keys whose name alone says too little.
 _FIELD_NAMES = {"odr": "output data rate", "fs": "sampling rate", "fn": "resonance fn", "q": "quality factor Q",
-                "lsb": "resolution (1 LSB)", "k2": "k2", "k3": "k3", "k4": "k4"}
+                "lsb": "resolution (1 LSB)"}
+
+
+def _field(key: str) -> tuple[str, str | None, float]:
+    for suffix, unit, scale in _UNIT_SUFFIXES:
+        if key.endswith(suffix) and len(key) > len(suffix):
+            stem = key[: -len(suffix)]
+            return _FIELD_NAMES.get(stem, stem.replace("_", " ")), unit, scale
+    return _FIELD_NAMES.get(key, key.replace("_", " ")), None, 1.0
 
 
 def field_label(key: str) -> tuple[str, str | None]:
     """A JSON key as a person reads it, and its unit: ``"odr_hz"`` → ``("output data rate", "Hz")``,
     ``"k2_ug_per_g2"`` → ``("k2", "µg/g²")``, ``"rails_g"`` → ``("rails", "g")``."""
-    for suffix, unit in _UNIT_SUFFIXES:
-        if key.endswith(suffix) and len(key) > len(suffix):
-            stem = key[: -len(suffix)]
-            return _FIELD_NAMES.get(stem, stem.replace("_", " ")), unit
-    return _FIELD_NAMES.get(key, key.replace("_", " ")), None
+    name, unit, _ = _field(key)
+    return name, unit
+
+
+def field_text(key: str, value: Any) -> tuple[str, str]:
+    """A JSON field as a person reads it: its name and its value with the unit, e.g.
+    ``("k2", "20 µg/g²")`` for ``"k2_per_g": 2e-05``; ``("rails", "-2.048, 2.048 g")``."""
+    name, unit, scale = _field(key)
+    if scale != 1.0 and isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = value * scale
+    elif scale != 1.0 and isinstance(value, (list, tuple)):
+        value = [x * scale if isinstance(x, (int, float)) and not isinstance(x, bool) else x for x in value]
+    return name, format_field(value, unit)
 
 
 def format_field(value: Any, unit: str | None = None) -> str:
@@ -187,5 +207,5 @@ def format_field(value: Any, unit: str | None = None) -> str:
             return _with_unit(", ".join(format_value(x) for x in value), unit)
         return "; ".join(format_field(x) for x in value) or "none"
     if isinstance(value, dict):
-        return "; ".join(f"{field_label(k)[0]}: {format_field(v, field_label(k)[1])}" for k, v in value.items()) or "none"
+        return "; ".join(": ".join(field_text(str(k), v)) for k, v in value.items()) or "none"
     return str(value)

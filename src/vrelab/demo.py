@@ -423,7 +423,8 @@ def study_limit(fig2: _Study) -> _Study:
         title="Datasheet VRE limit: |VRE| < 0.4 g at 2.5 g rms",
         what=(
             f"Under the datasheet's conditions (±2 g, 1 g orientation, random 50 Hz–2 kHz, ODR 4 kHz) the simulated ADXL355 reads {format_mg_text(v)} at {rms:g} g rms "
-            f"({'inside' if ok else 'OUTSIDE'} the ±{lim * 1e3:.0f} mg limit). The article's 2.5 g rail gives {format_mg_text(art_cens)} with the censored model "
+            f"({'below' if ok else 'ABOVE'} the {lim * 1e3:.0f} mg limit in magnitude: a comparison of a simulation, not a decision on a "
+            f"part; see 6 Decisions). The article's 2.5 g rail gives {format_mg_text(art_cens)} with the censored model "
             f"but {format_mg_text(art_trunc)} with its truncated one: only the censored model is consistent with the data sheet."
         ),
         figures=figs,
@@ -432,7 +433,7 @@ def study_limit(fig2: _Study) -> _Study:
             (f"nearest level: {near.rms_g:.3g} g rms", format_mg_text(near.vre.value, near.vre.u)),
             ("datasheet limit", f"|VRE| < {lim * 1e3:.0f} mg"),
             ("article's 2.5 g rail, censored / truncated", f"{format_mg_text(art_cens)} / {format_mg_text(art_trunc)}"),
-            ("verdict", "inside the limit" if ok else "outside the limit"),
+            ("comparison (not a decision: no limit was given to the result)", "|VRE| below the limit" if ok else "|VRE| above the limit"),
         ],
     )
     return _Study("limit", sec, numbers={"limit_vre_at_2p5": v, "limit_article_truncated": art_trunc, "limit_article_censored": art_cens})

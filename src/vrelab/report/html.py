@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from vrelab import __version__
 from vrelab import folder as F
-from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, field_label, format_field, format_mg, format_u, format_value, format_value_u
+from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, field_label, field_text, format_mg, format_u, format_value, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
 from vrelab.report._markup import ReportTable, esc, kv_table, table_html
@@ -266,8 +266,7 @@ def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
         ("model", c.model),
     ]
     for k, v in dict(c.extra).items():
-        name, unit = field_label(k)
-        rows.append((name, format_field(v, unit)))
+        rows.append(field_text(k, v))
     return rows
 
 
@@ -393,8 +392,7 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
-        name, unit = field_label(k)
-        extra.append((name, format_field(v, unit)))
+        extra.append(field_text(k, v))
     notes = f'<p class="mute">Predicted values to {res:g} mg; a smaller share is shown as 0.</p>'
     if by_note:
         notes += '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
@@ -408,11 +406,12 @@ def _provenance_html(prov: Mapping[str, Any]) -> str:
     for k, v in prov.items():
         if v in (None, "", {}) and k not in ("covariance",):
             continue
-        name, unit = field_label(str(k))
         if isinstance(v, Mapping) and v:
+            name = field_label(str(k))[0]
             val = f"<details><summary>{esc(len(v))} fields</summary>{_provenance_html(v)}</details>"
         else:
-            val = esc(format_field(v, unit))
+            name, text = field_text(str(k), v)
+            val = esc(text)
         body.append(f"<tr><th>{esc(name)}</th><td>{val}</td></tr>")
     return f'<table class="kv">{"".join(body)}</table>' if body else ""
 

@@ -161,10 +161,11 @@ def _item(doc: Document) -> str:
     entries = list(_entries(doc))
     known = []
     for c in chans or [None]:
-        mine = [e.result for e in entries if e.channel == c or not chans]
+        mine_e = [e for e in entries if e.channel == c or not chans]
+        mine = [e.result for e in mine_e]
         known.append([
             c or "DUT",
-            _join(_sensor_text(r) for r in mine),
+            _sensors_where(mine_e),
             _join(f"±{r.conditions.range_g:g} g" if r.conditions.range_g is not None else None for r in mine),
             _join(str(r.conditions.axis).upper() if r.conditions.axis else None for r in mine),
             _join(_g(r.conditions.odr_hz, "g", "Hz") for r in mine),
@@ -173,6 +174,21 @@ def _item(doc: Document) -> str:
     parts.append(table_html(ReportTable("Recorded in the results", ["channel", "sensor", "range", "axis", "output data rate",
                                                                     "bandwidth"], known), 3))
     return "".join(parts)
+
+
+def _sensors_where(entries: Sequence[_Entry]) -> str:
+    """Each distinct sensor with the result sections that used it ("... [adxl355] (5.3–5.7)"): a
+    report of several sensors (the demo's ideal reference and its ADXL355) says which is which."""
+    where: dict[str, list[str]] = {}
+    for e in entries:
+        text = _sensor_text(e.result)
+        if text:
+            num = f"{RESULTS_NUMBER}.{e.anchor[1:]}" if e.anchor[1:].isdigit() else e.anchor
+            if num not in where.setdefault(text, []):
+                where[text].append(num)
+    if len(where) <= 1:
+        return next(iter(where), NOT_GIVEN)
+    return "; ".join(f"{text} (section{'s' if len(n) > 1 else ''} {', '.join(n)})" for text, n in where.items())
 
 
 def _sensor_text(r: VreResult) -> str | None:
@@ -305,7 +321,8 @@ def _type_b_text(r: VreResult) -> str:
 def _decisions(doc: Document) -> str:
     entries = [e for e in _entries(doc) if dict(e.result.conditions.extra).get("limit_g") is not None]
     if not entries:
-        return ('<p class="rule">No limit was given, so no level was judged. A limit (<code>vrelab analyze ... '
+        return ('<p class="rule">No limit was given to any result, so no level was judged (a section that compares '
+                "a value with a published limit states a comparison, not a decision). A limit (<code>vrelab analyze ... "
                 "--limit G</code>, <code>vrelab campaign ... --limit G</code>) judges every level under the rule "
                 "of guarded acceptance: pass only when |VRE| + U &lt;= limit, fail when |VRE| − U &gt; limit, "
                 "indeterminate otherwise.</p>")
