@@ -100,6 +100,14 @@ def format_value_u(value: float | None, u: float | None = None, scale: float = 1
     return _with_unit(f"{_fixed(v, last, signed)} ± {_fixed(uu, last)}", unit)
 
 
+def u_resolution(u: float | None) -> float | None:
+    """The place of ``u``'s last shown digit (0.0149 → 0.001, 538 → 10): the resolution at which
+    numbers that go with ``u`` (an interval v ± U, a limit) are shown. None without a usable u."""
+    if not _usable(u) or float(u) <= 0:  # type: ignore[arg-type]
+        return None
+    return 10.0 ** _last_digit(float(u))  # type: ignore[arg-type]
+
+
 def format_u(u: float | None, scale: float = 1.0, unit: str | None = None) -> str:
     """An uncertainty alone (a standard u or an expanded U): two significant digits (GUM 7.2.6)."""
     if not _usable(u) or float(u) < 0:  # type: ignore[arg-type]
@@ -128,7 +136,7 @@ def format_value(value: float | None, scale: float = 1.0, signed: bool = False, 
     if resolution is not None and resolution > 0:
         if abs(v) < resolution / 2:
             return _with_unit("0", unit)
-        return _with_unit(_fixed(v, math.floor(math.log10(resolution)), signed), unit)
+        return _with_unit(_fixed(v, math.floor(math.log10(resolution) + 1e-9), signed), unit)
     if v != 0 and (abs(v) >= _LARGE or abs(v) < _SMALL):
         p = _power(v)
         mant = format_value(v / 10.0**p, signed=signed, digits=digits)

@@ -52,6 +52,12 @@ th, td { border-bottom: 1px solid var(--rule); padding: 3px 10px; text-align: le
 th { background: #f4f6f8; font-weight: 600; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 table.kv th { background: none; color: var(--mute); font-weight: 500; white-space: nowrap; }
+/* Headers of numeric columns wrap (their numbers do not): a wide table fits its box. Nested
+   field tables (a sensor's description in provenance) wrap inside their cell. */
+th.num { white-space: normal; }
+table.kv td { overflow-wrap: anywhere; }
+table.kv table.kv { margin: 0; }
+table.kv table.kv th { white-space: normal; }
 td.given-not { color: var(--mute); font-style: italic; }
 div.scroll { overflow-x: auto; max-width: 100%; }
 table.ident { width: 100%; border: 2px solid var(--ink); }

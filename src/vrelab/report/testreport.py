@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 from vrelab import __version__
-from vrelab._format import format_mg
+from vrelab._format import format_mg, format_u, u_resolution
 from vrelab.report._markup import ReportTable, esc, kv_table, table_html
 from vrelab.report.metadata import NOT_GIVEN, ReportMetadata
 from vrelab.results import VreResult
@@ -338,10 +338,11 @@ def _decisions(doc: Document) -> str:
             d = lv.decision or "undefined (no VRE)"
             counts[d] = counts.get(d, 0) + 1
             v, U = lv.vre.value, lv.U_vre_g
-            interval = "–" if U is None or v != v else f"{format_mg(abs(v) - U, signed=False)} … {format_mg(abs(v) + U, signed=False)}"
+            res = u_resolution(None if U is None else 1e3 * U)  # the numbers of a level at U's last digit
+            interval = "–" if U is None or v != v else f"{format_mg(abs(v) - U, signed=False, resolution_mg=res)} … {format_mg(abs(v) + U, signed=False, resolution_mg=res)}"
             rows.append([e.link, str(i), "–" if lv.freq_hz is None else f"{lv.freq_hz:.5g}", f"{lv.rms_g:.4g}",
-                         format_mg(v, signed=True) if v == v else "–",
-                         format_mg(U, signed=False) if U is not None else "not evaluated", interval,
+                         format_mg(v, signed=True, resolution_mg=res) if v == v else "–",
+                         format_u(U, scale=1e3) if U is not None else "not evaluated", interval,
                          format_mg(limit, signed=False), d])
     summary = ", ".join(f"{n} {k}" for k, n in counts.items())
     parts.append(f"<p>{esc(summary)} ({sum(counts.values())} levels).</p>")
