@@ -43,6 +43,9 @@ def test_value_without_u_four_digits_no_false_zeros():
     assert format_value(0.30012) == "0.3001"
     assert format_value(0.3, signed=True) == "+0.3"
     assert format_value(float("nan")) == "–"
+    assert format_value(123456789) == "123456789"  # a count keeps all its digits
+    assert format_value_u(-0.00001, 0.0149) == "0.000 ± 0.015"  # never "-0.000"
+    assert format_value(2.1, resolution=0.01) == "2.10"  # a coverage factor k to 0.01
 
 
 # ----------------------------------------------------------------------------- rendered text

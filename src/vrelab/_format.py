@@ -66,7 +66,8 @@ def _fixed(x: float, last: int, signed: bool = False) -> str:
     if last >= 0:
         r = round(x / 10.0**last) * 10**last
         return f"{r:{sign}d}" if r != 0 or not signed else "0"
-    return f"{round(x, -last):{sign}.{-last}f}"
+    r = round(x, -last)
+    return f"{r if r != 0 else 0.0:{sign}.{-last}f}"  # never "-0.000"
 
 
 def _power(x: float) -> int:
@@ -131,8 +132,10 @@ def format_value(value: float | None, scale: float = 1.0, signed: bool = False, 
     """
     if not _usable(value):
         return MISSING
-    v = float(value) * scale  # type: ignore[arg-type]
     sign = "+" if signed else ""
+    if isinstance(value, int) and not isinstance(value, bool) and scale == 1.0 and resolution is None:
+        return _with_unit(f"{value:{sign}d}", unit)  # a count is exact: all its digits
+    v = float(value) * scale  # type: ignore[arg-type]
     if resolution is not None and resolution > 0:
         if abs(v) < resolution / 2:
             return _with_unit("0", unit)

@@ -174,11 +174,12 @@ class ReportSection:
 
 
 # --------------------------------------------------------------------------- helpers
-def _fmt(x: Any, spec: str = ".4g") -> str:
+def _fmt(x: Any, digits: int = 4) -> str:
+    """A table cell without an uncertainty: numbers by :func:`vrelab._format.format_value`."""
     if x is None:
         return "–"
-    if isinstance(x, float):
-        return "–" if not math.isfinite(x) else format(x, spec)
+    if isinstance(x, (int, float)) and not isinstance(x, bool):
+        return format_value(x, digits=digits)
     return str(x)
 
 
@@ -292,13 +293,13 @@ def _levels_table(result: VreResult) -> str:
     for i, x in enumerate(lv, 1):
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
-        rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g, ".4g")
-        cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
+        rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g)
+        cells = [str(i)] + ([_fmt(x.freq_hz, 6)] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
         if has_b:
             cells += [format_u(x.U_vre_g, scale=1e3), format_value(x.k, resolution=0.01)]
         if has_d:
             cells += [x.decision or "undefined (no VRE)"]
-        cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
+        cells += ([_fmt(x.duration_s, 3)] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{esc(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
     th = "".join(f'<th class="{"num" if h in num else ""}">{esc(h)}</th>' for h in head)
     return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
@@ -310,10 +311,10 @@ def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") ->
     for i, x in enumerate(result.levels, 1):
         for t in x.budget:
             u = t.get("u_g")
-            rows.append((str(i), _fmt(x.rms_g, ".4g"), str(t.get("source", "")), str(t.get("type", "")),
+            rows.append((str(i), _fmt(x.rms_g), str(t.get("source", "")), str(t.get("type", "")),
                          "not evaluated" if u is None else format_u(u, scale=1e3), str(t.get("note", ""))))
         if x.budget:
-            rows.append((str(i), _fmt(x.rms_g, ".4g"), "combined u; U = k·u", "",
+            rows.append((str(i), _fmt(x.rms_g), "combined u; U = k·u", "",
                          f"{format_u(x.vre.u, scale=1e3)}; U = {format_u(x.U_vre_g, scale=1e3)}",
                          f"k = {format_value(x.k, resolution=0.01)} (Welch-Satterthwaite)"))
     if not rows:
@@ -337,10 +338,10 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
         cells = [
             f.model,
-            _fmt(f.freq_hz, "g") if f.freq_hz is not None else "",
+            _fmt(f.freq_hz, 6) if f.freq_hz is not None else "",
             params,
             used,
-            _fmt(f.chi2_reduced, ".3g"),
+            _fmt(f.chi2_reduced, 3),
             "" if f.departure_rms_g is None else f"{f.departure_rms_g:.3g} g rms",
             "; ".join(f.notes),
         ]
@@ -373,12 +374,12 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     by_note: dict[str, list[str]] = {}
     for lv in levels:
         for n in lv.get("notes") or ():
-            by_note.setdefault(str(n), []).append(_fmt(lv.get("rms_g"), ".3g"))
+            by_note.setdefault(str(n), []).append(_fmt(lv.get("rms_g"), 3))
     rows = []
     for lv in levels:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
-        cells = ([_fmt(lv.get("freq_hz"), "g")] if has_f else []) + [
-            _fmt(lv.get("rms_g"), ".4g"),
+        cells = ([_fmt(lv.get("freq_hz"), 6)] if has_f else []) + [
+            _fmt(lv.get("rms_g")),
             format_mg(lv.get("vre_g"), resolution_mg=res),
             format_value(lv.get("tilt_error_deg"), resolution=TILT_RESOLUTION_DEG),
         ]
