@@ -125,6 +125,9 @@ def test_report_of_a_campaign(example: Path, tmp_path: Path, capsys: pytest.Capt
                      r"random 50–500 Hz \(flat-50-500\), ([\d.]+)–([\d.]+) g rms", text)
     assert head and 0.27 < float(head[1]) < 0.33 and 0.85 < float(head[2]) < 0.95, head
     assert re.search(r"levels reached\s+0\.\d+–0\.9\d* g rms", text)
+    # The raw JSON is an attachment: each run channel's provenance links its results file.
+    links = re.findall(r'<a href="(runs/[^"]+/results\.json)">', html)
+    assert len(links) == 2 * 7 and all((out / ln).is_file() for ln in links)
     # Human names and units, no raw JSON values.
     assert "null" not in text and "\\u00" not in text and "rails g" not in text
     # The combined k2 is called apparent, with the per-frequency consistency check (80 and 300 Hz

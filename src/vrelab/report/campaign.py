@@ -142,7 +142,7 @@ def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
         for name, d in names.items():
             sf = F.read_folder(sub / d)
             secs.append(result_section(sf, f"Run {r['index']} ({r['label']}), channel {name}: {describe(sf.result)}",
-                                       channel=name))
+                                       channel=name, base=folder))
         run_sections.append((r["index"], secs))
     first = 2 + len(channels)
     anchors: dict[int, tuple[int, int]] = {}  # run → (its first section's number, how many)

@@ -406,6 +406,10 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     return kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
+# Provenance keys that name a file beside the report: shown as a link to it.
+_ATTACHED = ("results_file", "record_file")
+
+
 def _provenance_html(prov: Mapping[str, Any]) -> str:
     """Provenance as a table a person reads (field names, units, nested descriptions as nested
     tables folded on screen and open in print); the raw JSON is the results file it names."""
@@ -416,6 +420,9 @@ def _provenance_html(prov: Mapping[str, Any]) -> str:
         if isinstance(v, Mapping) and v:
             name = field_label(str(k))[0]
             val = f"<details><summary>{esc(len(v))} fields</summary>{_provenance_html(v)}</details>"
+        elif k in _ATTACHED and isinstance(v, str) and not Path(v).is_absolute():
+            # The raw JSON (and the record) are attachments: linked, relative to the report.
+            name, val = field_label(str(k))[0], f'<a href="{esc(v)}">{esc(v)}</a>'
         else:
             name, text = field_text(str(k), v)
             val = esc(text)
@@ -655,14 +662,17 @@ def report_title(title: str | None, metadata: ReportMetadata | None, default: st
     return title or (metadata.get("", "title") if metadata else None) or default
 
 
-def result_section(rf: ResultsFolder, title: str | None = None, channel: str | None = None) -> ReportSection:
-    """The report section of one simulate/analyze/demo results folder (one channel's folder)."""
+def result_section(rf: ResultsFolder, title: str | None = None, channel: str | None = None,
+                   base: Path | None = None) -> ReportSection:
+    """The report section of one simulate/analyze/demo results folder (one channel's folder);
+    ``base``: the report's folder, when it is not this one (its files are linked from there)."""
     folder = rf.path
     result, prediction = rf.result, rf.prediction
     assert result is not None
     figs, notes = result_figures(result, folder)
     res_file = folder / F.RESULTS
-    prov: dict[str, Any] = {"results_file": res_file.name, "results_sha256": sha256_file(res_file)}
+    rel = Path(os.path.relpath(folder, base)) if base is not None else Path()
+    prov: dict[str, Any] = {"results_file": (rel / res_file.name).as_posix(), "results_sha256": sha256_file(res_file)}
     src = next((result.provenance.get(k) for k in ("input", "input_file", "file", "path") if result.provenance.get(k)), None)
     if src and not any(k.endswith("sha256") for k in result.provenance):
         p = Path(str(src))
@@ -672,7 +682,7 @@ def result_section(rf: ResultsFolder, title: str | None = None, channel: str | N
             prov["input_sha256"] = sha256_file(p)
     rec = folder / F.RECORD
     if rec.is_file():
-        prov["record_file"] = rec.name
+        prov["record_file"] = (rel / rec.name).as_posix()
         prov["record_sha256"] = sha256_file(rec)
     return ReportSection(
         title=title or f"{describe(result)}",
@@ -712,7 +722,8 @@ def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
     sections = []
     for name, sub in subs.items():
         sf = F.read_folder(folder / sub)
-        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name, channel=name))
+        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name, channel=name,
+                                       base=folder))
     src = (doc.get("provenance") or {}).get("input_file", "")
     return write_report(
         folder / F.REPORT,
