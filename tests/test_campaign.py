@@ -105,13 +105,25 @@ def test_workers_give_the_same_campaign(example: Path) -> None:
     assert [c.to_dict() for c in one] == [c.to_dict() for c in two]
 
 
-def test_report_of_a_campaign(example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.fixture(scope="module")
+def campaign_report(example: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """``vrelab campaign`` of the example then ``vrelab report`` on it: the folder and the CLI's stdout."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("campaign-report") / "c"
+    std = io.StringIO()
+    with contextlib.redirect_stdout(std):
+        assert main(["campaign", str(example), "--out", str(out)]) == 0
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["report", str(out)]) == 0
+    return out, std.getvalue()
+
+
+def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
     from test_format import gum_violations, visible_text
 
-    out = tmp_path / "c"
-    assert main(["campaign", str(example), "--out", str(out)]) == 0
-    cli = capsys.readouterr().out
-    assert main(["report", str(out)]) == 0
+    out, cli = campaign_report
     html = (out / "report.html").read_text()
     text = visible_text(html)
     # One formatter: every "value ± u" in the report and the CLI table by GUM 7.2.6, with units.
@@ -141,6 +153,21 @@ def test_report_of_a_campaign(example: Path, tmp_path: Path, capsys: pytest.Capt
     # the runs table links each run to its first section (run 1's channels follow the 3 first sections)
     # The runs table's link names the sections it points to as their headings number them.
     assert '<a href="#s4">5.4–5.5 (run 1)</a>' in html and '<section class="result" id="s4"><h3>5.4 Run 1' in html
+
+
+@pytest.mark.browser
+def test_campaign_report_prints_on_a4_without_raw_values(campaign_report: tuple[Path, str], tmp_path: Path) -> None:
+    """The campaign report in headless Chromium and printed to A4: every table inside the page
+    (the provenance's file paths and hashes break to fit), and the paper reads no JSON escapes,
+    no null and no unit-shape level."""
+    from test_report_browser import SCREENSHOT_DIR, assert_prints_cleanly, render_in_chromium
+
+    out, _ = campaign_report
+    pdf = SCREENSHOT_DIR / "campaign-report.pdf"
+    state, _events = render_in_chromium(out / "report.html", tmp_path, SCREENSHOT_DIR / "campaign-report.jpg", pdf=pdf)
+    printed = "".join(p["text"] for p in assert_prints_cleanly(state, pdf, min_pages=10))
+    assert "\\u00" not in printed and "null" not in printed and "21.21" not in printed
+    assert "20910 ± 540 µg/g²" in printed or re.search(r"VRC -?\d+0 ± \d\d0 µg/g²", printed)
 
 
 # ----------------------------------------------------------------------------- honest nulls

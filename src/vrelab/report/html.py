@@ -97,8 +97,10 @@ code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
   thead { display: table-header-group; }
   div.scroll { overflow: visible; }
   table { width: 100%; font-size: 8pt; }
-  th, td { padding: 2px 4px; overflow-wrap: break-word; }
-  td.num, th.num, table.kv th { white-space: normal; }
+  th, td { padding: 2px 4px; overflow-wrap: anywhere; }  /* a hash or a path breaks to fit 180 mm */
+  /* Headers wrap; a number never breaks inside itself (a "-1.145e-" / "07" on paper). */
+  th.num, table.kv th { white-space: normal; }
+  td.num { white-space: nowrap; overflow-wrap: normal; }
   .iplot { display: none !important; }
   figure img.static { display: block !important; max-width: 100%; max-height: 200mm; width: auto; border: none; }
   details::details-content { content-visibility: visible; display: block; }
