@@ -425,7 +425,7 @@ def test_test_report_parts_metadata_and_what_the_results_know(tmp_path: Path) ->
     assert f"vrelab {vrelab_version}" in equip
     cond = secs["3 Conditions"]
     assert "<th>relative humidity</th><td>not given</td>" in cond
-    assert "random flat 50-2000 Hz" in cond and "+1 g" in cond and "50–2000 Hz" in cond and "3: 0.5 to 1 g rms" in cond
+    assert "random flat 50-2000 Hz" in cond and "+1 g" in cond and "50–2000 Hz" in cond and "3: 0.5–1 g rms" in cond
     proc = secs["4 Procedure"]
     assert "IEEE Std 1293-2018" in proc and "<th>deviations</th><td>not given</td>" in proc
     assert "reference sensitivity 1 %" in proc  # the declared Type B term

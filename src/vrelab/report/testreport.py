@@ -236,10 +236,11 @@ def _equipment(doc: Document) -> str:
 
 # --------------------------------------------------------------------------- 3 conditions
 def _levels_text(r: VreResult) -> str:
-    rms = [lv.rms_g for lv in r.levels if lv.rms_g == lv.rms_g]
-    if not rms:
-        return "none"
-    return f"{len(rms)}: {min(rms):.3g} to {max(rms):.3g} g rms"
+    from vrelab.report.plots import levels_reached
+
+    reached = levels_reached(r)
+    n = sum(1 for lv in r.levels if lv.rms_g == lv.rms_g)
+    return "none" if reached is None else f"{n}: {reached}"
 
 
 def _conditions(doc: Document) -> str:
