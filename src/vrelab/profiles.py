@@ -119,6 +119,10 @@ class SineProfile:
     def describe(self) -> str:
         return f"sine {self.freq_hz:g} Hz, {self.rms_g:.3g} g rms ({self.peak_g:.3g} g pk)"
 
+    def describe_shape(self) -> str:
+        """The tone without its level (see :meth:`RandomProfile.describe_shape`): ``"sine 80 Hz"``."""
+        return f"sine {self.freq_hz:g} Hz"
+
     def to_dict(self) -> dict[str, Any]:
         return {"kind": "sine", "freq_hz": self.freq_hz, "rms_g": self.rms_g, "peak_g": self.peak_g}
 
