@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -104,16 +105,69 @@ def test_workers_give_the_same_campaign(example: Path) -> None:
     assert [c.to_dict() for c in one] == [c.to_dict() for c in two]
 
 
-def test_report_of_a_campaign(example: Path, tmp_path: Path) -> None:
-    out = tmp_path / "c"
-    assert main(["campaign", str(example), "--out", str(out)]) == 0
-    assert main(["report", str(out)]) == 0
+@pytest.fixture(scope="module")
+def campaign_report(example: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """``vrelab campaign`` of the example then ``vrelab report`` on it: the folder and the CLI's stdout."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("campaign-report") / "c"
+    std = io.StringIO()
+    with contextlib.redirect_stdout(std):
+        assert main(["campaign", str(example), "--out", str(out)]) == 0
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["report", str(out)]) == 0
+    return out, std.getvalue()
+
+
+def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
+    from test_format import gum_violations, visible_text
+
+    out, cli = campaign_report
     html = (out / "report.html").read_text()
+    text = visible_text(html)
+    # One formatter: every "value ± u" in the report and the CLI table by GUM 7.2.6, with units.
+    assert gum_violations(text) == [] and gum_violations(cli) == []
+    assert re.search(r"VRC at +1000 Hz, \+1 g: -?\d+0 ± \d\d0 µg/g²", cli)  # u of ~540 shown as two digits
+    # The random run stated as its shape and the levels it reached, never the unit shape's grms
+    # (21.21 g rms for flat 50-500 Hz at 1 g²/Hz): the example steps 0.3, 0.5, 0.7, 0.9 g rms
+    # (vrelab.simulation.campaign.example_truth, its random run).
+    assert "21.21" not in text and "g rms (flat" not in text
+    head = re.search(r"5\.14 Run 6 \(Z up, random 50-500 Hz\), channel sn1: \+1 g field, "
+                     r"random 50–500 Hz \(flat-50-500\), ([\d.]+)–([\d.]+) g rms", text)
+    assert head and 0.27 < float(head[1]) < 0.33 and 0.85 < float(head[2]) < 0.95, head
+    assert re.search(r"levels reached\s+0\.\d+–0\.9\d* g rms", text)
+    # The raw JSON is an attachment: each run channel's provenance links its results file.
+    links = re.findall(r'<a href="(runs/[^"]+/results\.json)">', html)
+    assert len(links) == 2 * 7 and all((out / ln).is_file() for ln in links)
+    # Human names and units, no raw JSON values.
+    assert "null" not in text and "\\u00" not in text and "rails g" not in text
+    # The combined k2 is called apparent, with the per-frequency consistency check (80 and 300 Hz
+    # disagree by ~3 sigma in this example: the 300 Hz point carries the resonance's gain).
+    assert "k2 (apparent: combined over frequencies" in text
+    assert re.search(r"k2 per frequency DISAGREE \(80 Hz [-\d]+ ± \d+ µg/g², 300 Hz [-\d]+ ± \d+ µg/g²; "
+                     r"χ²/dof = [\d.]+, Birge ratio [\d.]+, p = [\d.]+\): the combined k2 is apparent", text)
     assert "Channel sn1" in html and "Channel sn2" in html
     assert "VRC by frequency and orientation" in html
     assert html.count('<section class="result"') == 1 + 2 + 2 * 7  # summary, channels, each run's channels
     # the runs table links each run to its first section (run 1's channels follow the 3 first sections)
-    assert '<a href="#s4">section 4</a>' in html and 'id="s4"' in html
+    # The runs table's link names the sections it points to as their headings number them.
+    assert '<a href="#s4">5.4–5.5 (run 1)</a>' in html and '<section class="result" id="s4"><h3>5.4 Run 1' in html
+
+
+@pytest.mark.browser
+def test_campaign_report_prints_on_a4_without_raw_values(campaign_report: tuple[Path, str], tmp_path: Path) -> None:
+    """The campaign report in headless Chromium and printed to A4: every table inside the page
+    (the provenance's file paths and hashes break to fit), and the paper reads no JSON escapes,
+    no null and no unit-shape level."""
+    from test_report_browser import SCREENSHOT_DIR, assert_prints_cleanly, render_in_chromium
+
+    out, _ = campaign_report
+    pdf = SCREENSHOT_DIR / "campaign-report.pdf"
+    state, _events = render_in_chromium(out / "report.html", tmp_path, SCREENSHOT_DIR / "campaign-report.jpg", pdf=pdf)
+    printed = "".join(p["text"] for p in assert_prints_cleanly(state, pdf, min_pages=10))
+    assert "\\u00" not in printed and "null" not in printed and "21.21" not in printed
+    assert "20910 ± 540 µg/g²" in printed or re.search(r"VRC -?\d+0 ± \d\d0 µg/g²", printed)
 
 
 # ----------------------------------------------------------------------------- honest nulls

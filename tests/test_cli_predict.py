@@ -82,3 +82,23 @@ def test_bad_input_exits_2_with_one_line(capsys, argv, word):
     assert rc == 2
     assert out == ""
     assert len(err.strip().splitlines()) == 1 and word in err, err
+
+
+def test_table_shows_shares_below_resolution_as_zero_never_as_exponents(capsys):
+    """The ADXL355 Z at 0.2 g rms: its over-range share is ~1e-176 mg (the 8 g threshold is 40
+    sigma away) and its clipping share ~1e-12 mg. The table shows them as 0 at 0.001 mg; the JSON
+    keeps the numbers (scripts read them)."""
+    argv = ["predict", "--sensor", "adxl355", "--axis", "z", "--range", "2", "--static", "1",
+            "--profile", "flat:50-2000", "--levels", "0.2,1"]
+    rc, out, err = _run(capsys, *argv)
+    assert rc == 0, err
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["0.2"], ["1"])]
+    assert len(rows) == 2 and not any("e-" in c or "e+" in c for r in rows for c in r), out
+    low = rows[0]
+    assert low[-4] == "0" and low[-2] == "0"  # clip mg, overrange mg (counted from the right: VRE may carry "± u")
+    # the preset's assumed over-range threshold gives a u far below the 0.001 mg shown: said as "< 0.001"
+    assert low[2:4] == ["±", "<0.001"], low
+    assert all(len(c.split(".")[1]) == 3 for c in (low[1], rows[1][1]) if "." in c)  # VRE to 0.001 mg
+    rc, out, err = _run(capsys, *argv, "--json")
+    d = json.loads(out)
+    assert 0 < abs(d["levels"][0]["shares"]["overrange_g"]) < 1e-9  # the number itself is kept

@@ -37,7 +37,7 @@ def test_result_dict_has_the_cli_contract_keys_and_round_trips():
 
 
 def test_estimate_prints_value_and_uncertainty_in_mg():
-    assert str(Estimate(-0.0831, 0.0004)) == "-83.1 ± 0.4 mg"
+    assert str(Estimate(-0.0831, 0.0004)) == "-83.10 ± 0.40 mg"  # GUM 7.2.6: u to two significant digits
 
 
 def test_schedule_rejects_overlap_and_bad_segments(tmp_path):

@@ -168,6 +168,26 @@ def test_sine_vrc_is_amplified_q_squared_at_resonance(demo: dict) -> None:
     assert n["sine_vrc_2400"] > 10 * abs(n["sine_vrc_1000"])  # far below fn: tens of µg/g²
 
 
+def test_demo_report_reads_in_one_voice_with_gum_digits(demo: dict) -> None:
+    """The rendered text: every value ± u by GUM 7.2.6, the prediction table without exponents
+    (shares below 0.001 mg are 0), the limit compared in 5.6 and no decision claimed without a
+    limit given to a result (6), the test item naming which sections used which sensor, and the
+    sensor's fields with names and units (its k2 of 2e-05 1/g is the preset's 20 µg/g²)."""
+    from test_format import gum_violations, visible_text
+
+    text = visible_text((demo["out"] / "report.html").read_text(encoding="utf-8"))
+    assert gum_violations(text) == []
+    pred = text[text.index("Prediction: mechanisms' shares"):]
+    pred = pred[:pred.index("Provenance")]
+    assert not re.search(r"\de[-+]?\d", pred) and "Predicted values to 0.001 mg" in pred
+    limit = text[text.index("5.6 Datasheet VRE limit", text.index("5.6 Datasheet VRE limit") + 1):]
+    limit = limit[:limit.index("5.7 ")]
+    assert "a comparison of a simulation, not a decision" in limit and "verdict" not in limit
+    assert "No limit was given to any result, so no level was judged" in text
+    assert re.search(r"\[ideal\] \(section 5\.2\); simulated: ADXL355 .*\[adxl355\] \(sections 5\.3, ", text)
+    assert re.search(r"k2\s+20 µg/g²", text) and "rails g" not in text and "null" not in text
+
+
 def test_bad_seconds_is_refused_before_running(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "--seconds", "0.1", "--out", str(tmp_path / "d")]) == 2
     assert "--seconds must be >= " in capsys.readouterr().err
@@ -189,5 +209,8 @@ def test_demo_report_renders_in_chromium(demo: dict, tmp_path: Path) -> None:
     assert state["h"] > 8000  # six sections with their tables
     pages = assert_prints_cleanly(state, pdf, min_pages=12)
     assert "Report VRE-2025-014" in pages[0]["text"] and "7 Approval" in pages[-1]["text"]
-    # a value folded away on screen (the sensor's description) is printed whole
-    assert "overrange_retrigger" in "".join(p["text"] for p in pages)
+    # a value folded away on screen (the sensor's description) is printed whole, as a table a
+    # person reads: field names, units, no JSON escapes ("\u00b12 g") and no "null"
+    printed = "".join(p["text"] for p in pages)
+    assert "overrange retrigger" in printed and "22.5 µg/√Hz" in printed
+    assert "\\u00" not in printed and "null" not in printed and '{"name"' not in printed

@@ -123,6 +123,8 @@ def test_flat_constructor():
 def test_describe_and_to_dict():
     prof = RandomProfile.flat(50, 2000, grms=2.5)
     assert prof.describe() == "random 50–2000 Hz, 2.50 g rms"
+    # What a test stepping this shape through levels states: the shape, never the level.
+    assert prof.describe_shape() == "random 50–2000 Hz"
     d = prof.to_dict()
     assert d["band_hz"] == [50.0, 2000.0] and d["breakpoints"][1][0] == 2000.0
     assert d["slopes_db_per_oct"] == [0.0]

@@ -73,8 +73,8 @@ def test_clip_curves_reproduce_spec_reference_values_censored_83mg_truncated_283
     assert np.interp(1.0, *trunc.get_data()) == pytest.approx(-283.0, abs=1.0)
     assert ax.get_ylabel() == "VRE (mg)" and "g rms" in ax.get_xlabel()
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert any("rail ±2 ± 0.02 g" in t for t in labels), labels  # the fitted rail in the legend
-    assert any("VRC 50 ± 2 µg/g²" in t for t in labels), labels
+    assert any("rail ±2.000 ± 0.020 g" in t for t in labels), labels  # the fitted rail in the legend (GUM 7.2.6 digits)
+    assert any("VRC 50.0 ± 2.0 µg/g²" in t for t in labels), labels
     assert any("above 3 g rms" in t for t in labels), labels  # where the data leave the model
 
 
@@ -425,7 +425,7 @@ def test_test_report_parts_metadata_and_what_the_results_know(tmp_path: Path) ->
     assert f"vrelab {vrelab_version}" in equip
     cond = secs["3 Conditions"]
     assert "<th>relative humidity</th><td>not given</td>" in cond
-    assert "random flat 50-2000 Hz" in cond and "+1 g" in cond and "50–2000 Hz" in cond and "3: 0.5 to 1 g rms" in cond
+    assert "random flat 50-2000 Hz" in cond and "+1 g" in cond and "50–2000 Hz" in cond and "3: 0.5–1 g rms" in cond
     proc = secs["4 Procedure"]
     assert "IEEE Std 1293-2018" in proc and "<th>deviations</th><td>not given</td>" in proc
     assert "reference sensitivity 1 %" in proc  # the declared Type B term
@@ -453,7 +453,7 @@ def test_without_a_limit_the_decisions_say_so_and_without_metadata_everything_is
     (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
     text = report_dir(tmp_path).read_text(encoding="utf-8")
     secs = _sections(text)
-    assert "No limit was given, so no level was judged" in secs["6 Decisions"]
+    assert "No limit was given to any result, so no level was judged" in secs["6 Decisions"]
     assert "<th>report number</th><td>not given</td>" in text
     assert secs["7 Approval"].count("<td>not given</td>") == 6  # three names, three dates
     assert "--metadata FILE.toml" in text  # how to fill them
@@ -534,3 +534,29 @@ def test_the_metadata_examples_of_the_readme_and_of_examples_are_valid() -> None
     manifest = tomllib.loads((root / "examples" / "campaign" / "campaign.toml").read_text())
     parts = {name for run in manifest["run"] for name in (run["dut"] if isinstance(run["dut"], (list, dict)) else [run["dut"]])}
     assert set(example.items) == {"sn1", "sn2"} <= parts
+
+
+def test_prediction_table_rounds_at_its_resolution_and_lists_reasons_below(tmp_path: Path) -> None:
+    """Shares far below 1 µg (the ADXL355's over-range share at low levels: -8.943e-112 mg in the
+    demo) are 0 in the rendered table; the 'model valid' cell stays short, its reason is listed once
+    under the table; the provenance reads as fields with units, not JSON."""
+    from test_format import visible_text
+
+    res = _random_result()
+    (tmp_path / "results.json").write_text(json.dumps(res.to_dict()))
+    why = "over-range holds fill 36 % of the time: holds overlap, the rare-event model fails — simulate"
+    (tmp_path / "prediction.json").write_text(json.dumps({"levels": [
+        {"rms_g": 0.5, "vre_g": -0.00019782, "tilt_error_deg": -0.011334, "valid": True, "notes": [],
+         "shares": {"clip_g": -0.0002052, "overrange_g": -8.943e-115}},
+        {"rms_g": 4.0, "vre_g": -0.78949, "tilt_error_deg": -45.2345, "valid": False, "notes": [why],
+         "shares": {"clip_g": -0.489144, "overrange_g": 1.4e-65}}]}))
+    html_text = report_dir(tmp_path, argv=["vrelab", "report", str(tmp_path)]).read_text(encoding="utf-8")
+    text = visible_text(html_text)
+    table = text[text.index("Prediction: mechanisms' shares"):text.index("Provenance")]
+    assert not re.search(r"\de[-+]?\d", table), table  # no exponent anywhere in the table
+    cells = table.split()
+    assert "-0.198" in cells and "-789.490" in cells and "-0.205" in cells and "0" in cells
+    assert "no (see the notes below)" in table and why not in table.split("no (see the notes below)")[0]
+    assert f"{why} (at 4 g rms)" in table
+    prov = text[text.index("Provenance"):]
+    assert "null" not in prov and "{" not in prov and "\\u00" not in prov

@@ -51,7 +51,9 @@ def test_vre_points_error_bars_and_hollow_overrange_levels_are_the_results() -> 
     assert hollow["marker"]["color"] == "white"
     np.testing.assert_allclose(_values(hollow["x"]), [3.0, 3.5])
     assert spec["layout"]["yaxis"]["title"]["text"] == "VRE (mg)"
-    assert "%{customdata}" in plain["hovertemplate"] and plain["customdata"] == [" ± 0.4"] * len(ok)  # u = 0.4 mg
+    # u = 0.4 mg: GUM 7.2.6 quotes it 0.40 and the value to the same hundredth of a mg.
+    assert "%{customdata}" in plain["hovertemplate"]
+    assert plain["customdata"] == [f"{1e3 * lv.vre.value:+.2f} ± 0.40".lstrip("+") for lv in ok]
     # SPEC 1.1 at the fitted 2 g rail: censored -83 mg at 1 g rms
     cens = _trace(spec, "censored model")
     assert np.interp(1.0, _values(cens["x"]), _values(cens["y"])) == pytest.approx(-83.0, abs=0.6)
@@ -124,4 +126,4 @@ def test_hover_never_shows_an_uncertainty_the_figure_does_not_have() -> None:
     ax.legend()
     no_u, one_u = _twin(fig)["data"]
     assert "error_y" not in no_u and "customdata" not in no_u and "±" not in no_u["hovertemplate"]
-    assert one_u["customdata"] == [" ± 0.1", ""]
+    assert one_u["customdata"] == ["5.00 ± 0.10", "6"]  # the value at u's last digit; no u, no "±"

@@ -677,6 +677,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         both = combine_fits(by_freq, names, "k2-k3")
         k2, k3 = both.params[names[0]], both.params[names[1]]
         notes += [n for n in both.notes if "scatter" in n]
+        notes += _k2_across_frequencies(by_freq)
         if k2_only:
             notes.append("k2 from the orientations' fits; frequencies measured at 0 g only are not combined with them")
     elif k2_only:
@@ -685,6 +686,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         notes.append("k2 from VRC at 0 g (VRC = k2 there); k3 needs two orientations (+g and -g): "
                      "one orientation only, k3 = null")
         notes += [n for n in c.notes if "scatter" in n]
+        notes += _k2_across_frequencies(k2_only)
     elif vrcs:
         notes.append("one orientation only (no sine frequency measured at two static fields, nor at 0 g): "
                      "k2 and k3 = null")
@@ -703,6 +705,39 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
     else:
         notes.append("no random run with a rail fit: rail = null")
     return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes))
+
+
+# Below this p-value of the χ² of the per-frequency k2 about their mean, they are said to disagree.
+K2_CONSISTENCY_P = 0.05
+
+
+def _k2_across_frequencies(fits: Sequence[FitResult]) -> list[str]:
+    """What the combined k2 is, when it comes from more than one frequency: each frequency measures
+    the apparent VRC(f) = k2·|H(f)|² (SPEC 1.3), and |H|² > 1 grows toward the resonance, so the
+    combination is an apparent k2, biased upward by the highest frequencies. Their consistency is
+    the χ² of the per-frequency k2 (Type A u) about their weighted mean, with its Birge ratio
+    √(χ²/dof) and p-value (scipy.stats.chi2)."""
+    from scipy.stats import chi2 as chi2_dist
+
+    from vrelab._format import format_value, format_value_u
+
+    ks = [(f.freq_hz, _type_a(f, "k2_ug_per_g2")) for f in fits if "k2_ug_per_g2" in f.params]
+    ks = [(fq, e) for fq, e in ks if fq is not None and math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0]
+    if len(ks) < 2:
+        return []
+    w = [1.0 / e.u**2 for _, e in ks]
+    m = sum(wi * e.value for wi, (_, e) in zip(w, ks)) / sum(w)
+    chi2 = sum(wi * (e.value - m) ** 2 for wi, (_, e) in zip(w, ks))
+    dof = len(ks) - 1
+    p = float(chi2_dist.sf(chi2, dof))
+    each = ", ".join(f"{fq:g} Hz {format_value_u(e.value, e.u, unit='µg/g²')}" for fq, e in ks)
+    stats = f"χ²/dof = {format_value(chi2 / dof, digits=2)}, Birge ratio {format_value(math.sqrt(chi2 / dof), digits=2)}, p = {format_value(p, digits=2)}"
+    apparent = ("the combined k2 is apparent: each frequency measures k2·|H(f)|², which rises toward the "
+                "resonance, so the combination is biased (too large in magnitude) by the higher frequencies; `vrelab identify` "
+                "fits fn and Q and gives k2 corrected by |H(f)|²")
+    if p < K2_CONSISTENCY_P:
+        return [f"k2 per frequency DISAGREE ({each}; {stats}): {apparent}"]
+    return [f"k2 per frequency agree within their uncertainties ({each}; {stats}); {apparent}"]
 
 
 def _type_a(fit: FitResult, name: str) -> Estimate:

@@ -29,7 +29,7 @@ import numpy as np
 
 from vrelab import _validate as V
 from vrelab import folder as F
-from vrelab._format import finite_or_none, format_mg_text
+from vrelab._format import finite_or_none, format_mg_text, format_value, format_value_u
 from vrelab._io import output_dir, write_json
 from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
@@ -250,7 +250,7 @@ def study_fig2(cfg: DemoConfig) -> _Study:
     res, record = _random_run(sensor, profile, levels, cfg, cfg.seed + 2)
     pred = _predict(sensor, profile, levels)
     rail = _rail(res)
-    rail_txt = f"{rail.params['rail_g'].value:.3g} ± {rail.params['rail_g'].u:.2g} g" if rail else "no fit"
+    rail_txt = format_value_u(rail.params['rail_g'].value, rail.params['rail_g'].u, unit="g") if rail else "no fit"
     dep = rail.departure_rms_g if rail else None
     # the article's 2.5 g is a truncated-model fit: compare like with like, on the levels the
     # censored fit keeps (below the departure)
@@ -442,7 +442,8 @@ def study_limit(fig2: _Study) -> _Study:
         title="Datasheet VRE limit: |VRE| < 0.4 g at 2.5 g rms",
         what=(
             f"Under the datasheet's conditions (±2 g, 1 g orientation, random 50 Hz–2 kHz, ODR 4 kHz) the simulated ADXL355 reads {format_mg_text(v)} at {rms:g} g rms "
-            f"({'inside' if ok else 'OUTSIDE'} the ±{lim * 1e3:.0f} mg limit). The article's 2.5 g rail gives {format_mg_text(art_cens)} with the censored model "
+            f"({'below' if ok else 'ABOVE'} the {lim * 1e3:.0f} mg limit in magnitude: a comparison of a simulation, not a decision on a "
+            f"part; see 6 Decisions). The article's 2.5 g rail gives {format_mg_text(art_cens)} with the censored model "
             f"but {format_mg_text(art_trunc)} with its truncated one: only the censored model is consistent with the data sheet. "
             "This is the Z axis (Q 1.5). The preset's X/Y axes (Q 7.4) at the nominal ±8 g over-range threshold give about "
             "−0.45 g here, beyond the limit; with the threshold at the upper end of its ±25 % data-sheet tolerance (10 g) "
@@ -454,7 +455,7 @@ def study_limit(fig2: _Study) -> _Study:
             (f"nearest level: {near.rms_g:.3g} g rms", format_mg_text(near.vre.value, near.vre.u)),
             ("datasheet limit", f"|VRE| < {lim * 1e3:.0f} mg"),
             ("article's 2.5 g rail, censored / truncated", f"{format_mg_text(art_cens)} / {format_mg_text(art_trunc)}"),
-            ("verdict", "inside the limit" if ok else "outside the limit"),
+            ("comparison (not a decision: no limit was given to the result)", "|VRE| below the limit" if ok else "|VRE| above the limit"),
         ],
     )
     return _Study("limit", sec, numbers={"limit_vre_at_2p5": v, "limit_article_truncated": art_trunc, "limit_article_censored": art_cens})
@@ -499,7 +500,7 @@ def study_sine(cfg: DemoConfig) -> _Study:
         title="Sine method (IEEE 1293): VRC against frequency",
         what=(
             f"The nonlinearity acts on the proof mass, so vibration near the 2.4 kHz resonance is rectified about Q² ≈ 55 times more: "
-            f"VRC {pk.value:.3g} ± {pk.u:.2g} µg/g² at 2.4 kHz against {lo.value:.3g} ± {lo.u:.2g} µg/g² at 1 kHz "
+            f"VRC {format_value_u(pk.value, pk.u, unit='µg/g²')} at 2.4 kHz against {format_value_u(lo.value, lo.u, unit='µg/g²')} at 1 kHz "
             f"(the preset's k2 = {k2_ug:g} µg/g² is an assumption, not a datasheet value)."
             if lo and pk
             else "VRC against frequency."
@@ -507,8 +508,8 @@ def study_sine(cfg: DemoConfig) -> _Study:
         result=res,
         figures=figs,
         facts=[
-            ("VRC at 2.4 kHz (fn)", f"{pk.value:.4g} ± {pk.u:.2g} µg/g²; model k2·|H|² = {k2_ug * h2[2400.0]:.4g} µg/g²") if pk else ("VRC at 2.4 kHz", "–"),
-            ("VRC at 1 kHz", f"{lo.value:.3g} ± {lo.u:.2g} µg/g²; model k2·|H|² = {k2_ug * h2[1000.0]:.3g} µg/g²") if lo else ("VRC at 1 kHz", "–"),
+            ("VRC at 2.4 kHz (fn)", f"{format_value_u(pk.value, pk.u, unit='µg/g²')}; model k2·|H|² = {format_value(k2_ug * h2[2400.0], unit='µg/g²')}") if pk else ("VRC at 2.4 kHz", "–"),
+            ("VRC at 1 kHz", f"{format_value_u(lo.value, lo.u, unit='µg/g²')}; model k2·|H|² = {format_value(k2_ug * h2[1000.0], unit='µg/g²')}") if lo else ("VRC at 1 kHz", "–"),
             ("levels", "1, 2, 3 g rms up to 1 kHz; 0.3, 0.6, 0.9 g rms from 1.6 kHz (Q·peak under the 16 g over-range threshold)"),
         ],
     )
@@ -554,7 +555,8 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
             f"article ≈ {ARTICLE_FIG1_VRE_G * 1e3:+.0f} mg · censored model {format_mg_text(g('fig1_censored_model'))} · simulated {format_mg_text(g('fig1_vre_1g'), g('fig1_u_1g'))}",
         ),
         ("Figure 2: effective rail, ±2 g Z", f"article {ARTICLE_RAIL_G:g} g (truncated fit) · simulated, same truncated model, "
-         f"{g('fig2_rail_truncated_g'):.3g} g: not reproduced (the censored fit, a different model, gives {g('fig2_rail_g'):.3g} ± {g('fig2_u_rail_g'):.2g} g)"),
+         f"{g('fig2_rail_truncated_g'):.3g} g: not reproduced (the censored fit, a different model, gives "
+         f"{format_value_u(g('fig2_rail_g'), g('fig2_u_rail_g'), unit='g')})"),
         (
             "Figure 2: data leave the model above",
             f"article ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms · simulated " + (f"{dep:.3g} g rms" if math.isfinite(dep) else "no departure within the levels run"),
@@ -565,7 +567,7 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
         ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated {format_mg_text(g('limit_vre_at_2p5'))}"),
         (
             "Sine method: VRC at fn = 2.4 kHz",
-            f"model k2·Q² = {g('sine_model_vrc_2400'):.4g} µg/g² · simulated {g('sine_vrc_2400'):.4g} ± {g('sine_u_vrc_2400'):.2g} µg/g²",
+            f"model k2·Q² = {format_value(g('sine_model_vrc_2400'), unit='µg/g²')} · simulated {format_value_u(g('sine_vrc_2400'), g('sine_u_vrc_2400'), unit='µg/g²')}",
         ),
     ]
     return ReportSection(

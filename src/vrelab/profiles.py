@@ -121,6 +121,10 @@ class SineProfile:
     def describe(self) -> str:
         return f"sine {self.freq_hz:g} Hz, {self.rms_g:.3g} g rms ({self.peak_g:.3g} g pk)"
 
+    def describe_shape(self) -> str:
+        """The tone without its level (see :meth:`RandomProfile.describe_shape`): ``"sine 80 Hz"``."""
+        return f"sine {self.freq_hz:g} Hz"
+
     def to_dict(self) -> dict[str, Any]:
         return {"kind": "sine", "freq_hz": self.freq_hz, "rms_g": self.rms_g, "peak_g": self.peak_g}
 
@@ -369,6 +373,12 @@ class RandomProfile:
         text = f"random {lo:g}–{hi:g} Hz, {self.grms:.2f} g rms"
         return f"{text} ({self.name})" if self.name else text
 
+    def describe_shape(self) -> str:
+        """The shape without a level, e.g. ``"random 50–500 Hz (flat-50-500)"``: what a test that
+        steps this shape through several levels states (the levels are its results')."""
+        lo, hi = self.band
+        return f"random {lo:g}–{hi:g} Hz" + (f" ({self.name})" if self.name else "")
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "kind": "random",
@@ -555,6 +565,13 @@ class SineOnRandom:
         lo, hi = self.random.band
         tones = ", ".join(f"{t.freq_hz:g} Hz {t.peak_g:.3g} g pk" for t in self.tones)
         text = f"random {lo:g}–{hi:g} Hz + sine {tones}, {self.grms:.2f} g rms"
+        return f"{text} ({self.name})" if self.name else text
+
+    def describe_shape(self) -> str:
+        """The shape without a level (see :meth:`RandomProfile.describe_shape`); the tones by
+        frequency, their amplitudes scaling with the level."""
+        lo, hi = self.random.band
+        text = f"random {lo:g}–{hi:g} Hz + sine " + ", ".join(f"{t.freq_hz:g}" for t in self.tones) + " Hz"
         return f"{text} ({self.name})" if self.name else text
 
     def to_dict(self) -> dict[str, Any]:

@@ -11,7 +11,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal, Mapping, Sequence
 
-from vrelab._format import finite_or_none
+from vrelab._format import finite_or_none, format_mg_text, format_value_u
 
 # Two sine levels belong to the same frequency when they differ by at most this fraction: a
 # controller steps its drive by much more than 1 % between frequencies, and the frequency an
@@ -66,9 +66,9 @@ class Estimate:
 
     def __str__(self) -> str:
         if self.unit == "g" and abs(self.value) < 1:
-            return f"{self.value * 1e3:.4g} ± {self.u * 1e3:.2g} mg"
+            return format_mg_text(self.value, self.u, signed=False)
         rel = f" ({100 * self.u / abs(self.value):.2g} %)" if self.value else ""
-        return f"{self.value:.6g} ± {self.u:.2g} {self.unit}{rel}"
+        return format_value_u(self.value, self.u, unit=self.unit) + rel
 
     def to_dict(self) -> dict[str, Any]:
         return {"value": finite_or_none(self.value), "u": finite_or_none(self.u), "unit": self.unit}

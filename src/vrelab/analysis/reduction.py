@@ -906,8 +906,9 @@ def analyze_full(
         extra["limit_g"] = limit_g
         extra["decision_rule"] = DECISION_RULE
     desc = conditions.profile
-    if desc is None and profile is not None and hasattr(profile, "describe"):
-        desc = profile.describe()
+    if desc is None and profile is not None and hasattr(profile, "describe_shape"):
+        # The shape, never its unit level: the levels are the ones the run reached (its levels).
+        desc = profile.describe_shape()
     conditions = Conditions(
         **{
             **{k: getattr(conditions, k) for k in conditions.__dataclass_fields__ if k != "extra"},

@@ -10,7 +10,7 @@ import sys
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab._format import format_mg
+from vrelab._format import format_mg, format_u, format_value
 from vrelab._lists import parse_list
 
 
@@ -125,7 +125,7 @@ def print_levels(result: Any) -> None:
         sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
         more = ""
         if budget:
-            more += f"  {format_mg(lv.U_vre_g, signed=False):>8}  {lv.k:4.2f}" if lv.U_vre_g is not None and lv.k is not None else " " * 16
+            more += f"  {format_u(lv.U_vre_g, scale=1e3):>8}  {format_value(lv.k, resolution=0.01):>4}" if lv.U_vre_g is not None and lv.k is not None else " " * 16
         if decided:
             more += f"  {lv.decision or 'undefined':<13}"
         print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")

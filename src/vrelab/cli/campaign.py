@@ -128,10 +128,10 @@ def _print(doc: dict[str, Any]) -> None:
         print(f"channel {c['channel']}:")
         for v in c["vrc_by_freq"]:
             e = v["vrc_ug_per_g2"]
-            print(f"  VRC at {v['freq_hz']:8.4g} Hz, {v['static_g']:+.3g} g: {format_value_u(e['value'], e['u'])} µg/g²")
+            print(f"  VRC at {v['freq_hz']:8.4g} Hz, {v['static_g']:+.3g} g: {format_value_u(e['value'], e['u'], unit='µg/g²')}")
         for key, unit in (("k2_ug_per_g2", "µg/g²"), ("k3_ug_per_g3", "µg/g³"), ("rail_g", "g")):
             e = c[key]
-            text = "null" if e is None else f"{format_value_u(e['value'], e['u'])} {unit}"
+            text = "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)
             print(f"  {key.split('_')[0]}: {text}")
         for n in c["notes"]:
             print(f"  note: {n}")

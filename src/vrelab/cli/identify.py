@@ -135,11 +135,11 @@ def _print(doc: dict[str, Any]) -> None:
             if e is None:
                 print(f"  {name:<22} null: {c['null_reasons'].get(name, '')}")
             else:
-                print(f"  {name:<22} {format_value_u(e['value'], e['u'])} {e['unit']}")
+                print(f"  {name:<22} {format_value_u(e['value'], e['u'], unit=e['unit'])}")
         for x in c["cross_check_2f"]:
             a, d = x["vrc_2f_ug_per_g2"], x["vrc_dc_ug_per_g2"]
             print(f"  2f check, run {x['run']} ({x['freq_hz']:.4g} Hz, {x['static_g']:+g} g): "
-                  f"2f {format_value_u(a['value'], a['u'])} vs DC {format_value_u(d['value'], d['u'])} µg/g²")
+                  f"2f {format_value_u(a['value'], a['u'], unit='µg/g²')} vs DC {format_value_u(d['value'], d['u'], unit='µg/g²')}")
         for n in c["notes"]:
             print(f"  note: {n}")
     print(f"wrote {doc['sensor_file']}: use it as --sensor {doc['sensor_file']} --axis <channel>; "

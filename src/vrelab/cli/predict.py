@@ -17,7 +17,7 @@ import argparse
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab._format import format_mg
+from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
@@ -42,11 +42,16 @@ def print_prediction(pred: Any) -> None:
     for lv in d["levels"]:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
-        vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False)
+        res = PREDICTION_RESOLUTION_MG
+
+        def mg(x: Any) -> str:
+            return format_mg(x, signed=False, resolution_mg=res)
+
+        vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False, resolution_mg=res)
         print(
-            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {'n/a' if lv['tilt_error_deg'] is None else format(lv['tilt_error_deg'], '.3g'):>10} "
-            f"{format_mg(sh.get('clip_g'), signed=False):>9} {format_mg(sh.get('nonlinearity_g'), signed=False):>9} "
-            f"{format_mg(sh.get('overrange_g'), signed=False):>12}  {'yes' if lv['valid'] else 'no'}"
+            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {format_value(lv['tilt_error_deg'], resolution=TILT_RESOLUTION_DEG):>10} "
+            f"{mg(sh.get('clip_g')):>9} {mg(sh.get('nonlinearity_g')):>9} "
+            f"{mg(sh.get('overrange_g')):>12}  {'yes' if lv['valid'] else 'no'}"
         )
     # why a level is not valid: each distinct reason once, with the levels it concerns
     reasons: dict[str, list[str]] = {}

@@ -27,6 +27,7 @@ from vrelab.report.html import (
     write_report,
 )
 from vrelab.report.metadata import ReportMetadata
+from vrelab.report.testreport import RESULTS_NUMBER
 
 
 def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
@@ -69,7 +70,7 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
 
 
 def _est(e: Mapping[str, Any] | None, unit: str) -> str:
-    return "null" if e is None else f"{format_value_u(e['value'], e['u'])} {unit}"
+    return "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)
 
 
 def channel_section(channel: Mapping[str, Any]) -> ReportSection:
@@ -89,11 +90,11 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
                                   numeric=(0, 1, 2, 3)))
     return ReportSection(
         title=f"Channel {channel['channel']}",
-        what=f"k2 = {_est(channel.get('k2_ug_per_g2'), 'µg/g²')}, k3 = {_est(channel.get('k3_ug_per_g3'), 'µg/g³')}, "
+        what=f"apparent k2 = {_est(channel.get('k2_ug_per_g2'), 'µg/g²')}, k3 = {_est(channel.get('k3_ug_per_g3'), 'µg/g³')}, "
         f"effective rail = {_est(channel.get('rail_g'), 'g')} (standard uncertainties).",
         figures=[fig] if fig else [],
-        facts=[("k2 (combined)", _est(channel.get("k2_ug_per_g2"), "µg/g²")),
-               ("k3 (combined)", _est(channel.get("k3_ug_per_g3"), "µg/g³")),
+        facts=[("k2 (apparent: combined over frequencies, see the notes)", _est(channel.get("k2_ug_per_g2"), "µg/g²")),
+               ("k3 (combined over frequencies)", _est(channel.get("k3_ug_per_g3"), "µg/g³")),
                ("effective rail", _est(channel.get("rail_g"), "g"))],
         notes=list(channel.get("notes") or []),
         tables=tables,
@@ -101,20 +102,26 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
     )
 
 
-def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, int]) -> ReportTable:
+def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, tuple[int, int]]) -> ReportTable:
+    """One row per run; its link names the numbered sections it points to (5.4–5.5, as the
+    headings read) and the anchor is the first of them."""
     rows: list[tuple[Any, ...]] = []
     for r in runs:
         fits = []
         for c in r.get("channels") or []:
             fit = c.get("fit") or {}
             if "vrc_ug_per_g2" in fit:
-                fits.append(f"{c['channel']}: VRC {format_value_u(fit['vrc_ug_per_g2']['value'], fit['vrc_ug_per_g2']['u'])}")
+                fits.append(f"{c['channel']}: VRC {format_value_u(fit['vrc_ug_per_g2']['value'], fit['vrc_ug_per_g2']['u'], unit='µg/g²')}")
             if "rail_g" in fit:
-                fits.append(f"{c['channel']}: rail {format_value_u(fit['rail_g']['value'], fit['rail_g']['u'])} g")
+                fits.append(f"{c['channel']}: rail {format_value_u(fit['rail_g']['value'], fit['rail_g']['u'], unit='g')}")
         status = "ok" if r["status"] == "ok" else f"FAILED: {r.get('error')}"
-        where = (f"section {anchors[r['index']]}", f"#s{anchors[r['index']]}") if r["index"] in anchors else "—"
+        where: Any = "—"
+        if r["index"] in anchors:
+            first, n = anchors[r["index"]]
+            span = f"{RESULTS_NUMBER}.{first}" + (f"–{RESULTS_NUMBER}.{first + n - 1}" if n > 1 else "")
+            where = (f"{span} (run {r['index']})", f"#s{first}")
         rows.append((str(r["index"]), r["label"], r["file"], r["method"], status, "; ".join(fits), where))
-    return ReportTable("Runs", ["run", "label", "file", "method", "status", "fits (µg/g², g)", "details"], rows,
+    return ReportTable("Runs", ["run", "label", "file", "method", "status", "fits (± standard uncertainty)", "sections"], rows,
                        numeric=(0,))
 
 
@@ -135,13 +142,13 @@ def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
         for name, d in names.items():
             sf = F.read_folder(sub / d)
             secs.append(result_section(sf, f"Run {r['index']} ({r['label']}), channel {name}: {describe(sf.result)}",
-                                       channel=name))
+                                       channel=name, base=folder))
         run_sections.append((r["index"], secs))
     first = 2 + len(channels)
-    anchors: dict[int, int] = {}
+    anchors: dict[int, tuple[int, int]] = {}  # run → (its first section's number, how many)
     k = first
     for idx, secs in run_sections:
-        anchors[idx] = k
+        anchors[idx] = (k, len(secs))
         k += len(secs)
     n_failed = int(doc.get("n_failed") or 0)
     summary = ReportSection(

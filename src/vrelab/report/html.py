@@ -15,7 +15,6 @@ import base64
 import datetime as _dt
 import hashlib
 import io
-import json
 import math
 import os
 import sys
@@ -27,7 +26,7 @@ from matplotlib.figure import Figure
 
 from vrelab import __version__
 from vrelab import folder as F
-from vrelab._format import format_mg, format_value_u
+from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, field_label, field_text, format_mg, format_u, format_value, format_value_u
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
 from vrelab.report._markup import ReportTable, esc, kv_table, script_json, table_html
@@ -54,6 +53,12 @@ th, td { border-bottom: 1px solid var(--rule); padding: 3px 10px; text-align: le
 th { background: #f4f6f8; font-weight: 600; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 table.kv th { background: none; color: var(--mute); font-weight: 500; white-space: nowrap; }
+/* Headers of numeric columns wrap (their numbers do not): a wide table fits its box. Nested
+   field tables (a sensor's description in provenance) wrap inside their cell. */
+th.num { white-space: normal; }
+table.kv td { overflow-wrap: anywhere; }
+table.kv table.kv { margin: 0; }
+table.kv table.kv th { white-space: normal; }
 td.given-not { color: var(--mute); font-style: italic; }
 div.scroll { overflow-x: auto; max-width: 100%; }
 table.ident { width: 100%; border: 2px solid var(--ink); }
@@ -93,8 +98,10 @@ code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
   thead { display: table-header-group; }
   div.scroll { overflow: visible; }
   table { width: 100%; font-size: 8pt; }
-  th, td { padding: 2px 4px; overflow-wrap: break-word; }
-  td.num, th.num, table.kv th { white-space: normal; }
+  th, td { padding: 2px 4px; overflow-wrap: anywhere; }  /* a hash or a path breaks to fit 180 mm */
+  /* Headers wrap; a number never breaks inside itself (a "-1.145e-" / "07" on paper). */
+  th.num, table.kv th { white-space: normal; }
+  td.num { white-space: nowrap; overflow-wrap: normal; }
   .iplot { display: none !important; }
   figure img.static { display: block !important; max-width: 100%; max-height: 200mm; width: auto; border: none; }
   details::details-content { content-visibility: visible; display: block; }
@@ -184,11 +191,12 @@ class ReportSection:
 
 
 # --------------------------------------------------------------------------- helpers
-def _fmt(x: Any, spec: str = ".4g") -> str:
+def _fmt(x: Any, digits: int = 4) -> str:
+    """A table cell without an uncertainty: numbers by :func:`vrelab._format.format_value`."""
     if x is None:
         return "–"
-    if isinstance(x, float):
-        return "–" if not math.isfinite(x) else format(x, spec)
+    if isinstance(x, (int, float)) and not isinstance(x, bool):
+        return format_value(x, digits=digits)
     return str(x)
 
 
@@ -265,6 +273,8 @@ def collect_warnings(
 
 # --------------------------------------------------------------------------- rendering
 def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
+    from vrelab.report.plots import levels_reached
+
     c = result.conditions
     rows: list[tuple[str, Any]] = [
         ("kind", result.kind),
@@ -276,10 +286,11 @@ def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
         ("output data rate", None if c.odr_hz is None else f"{c.odr_hz:g} Hz"),
         ("static field g0", None if c.static_g is None else f"{c.static_g:+g} g"),
         ("profile", c.profile),
+        ("levels reached", levels_reached(result)),
         ("model", c.model),
     ]
     for k, v in dict(c.extra).items():
-        rows.append((k.replace("_", " "), json.dumps(v) if isinstance(v, (dict, list)) else v))
+        rows.append(field_text(k, v))
     return rows
 
 
@@ -299,13 +310,13 @@ def _levels_table(result: VreResult) -> str:
     for i, x in enumerate(lv, 1):
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
-        rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g, ".4g")
-        cells = [str(i)] + ([_fmt(x.freq_hz, "g")] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
+        rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g)
+        cells = [str(i)] + ([_fmt(x.freq_hz, 6)] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
         if has_b:
-            cells += [format_mg(x.U_vre_g, signed=False) if x.U_vre_g is not None else "–", _fmt(x.k, ".3g")]
+            cells += [format_u(x.U_vre_g, scale=1e3), format_value(x.k, resolution=0.01)]
         if has_d:
             cells += [x.decision or "undefined (no VRE)"]
-        cells += ([_fmt(x.duration_s, ".3g")] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
+        cells += ([_fmt(x.duration_s, 3)] if has_dur else []) + [_fmt(x.n_samples), str(x.n_saturated), ", ".join(x.flags)]
         rows.append("<tr>" + "".join(f'<td class="{"num" if h in num else ""}">{esc(c)}</td>' for h, c in zip(head, cells)) + "</tr>")
     th = "".join(f'<th class="{"num" if h in num else ""}">{esc(h)}</th>' for h in head)
     return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>'
@@ -317,12 +328,12 @@ def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") ->
     for i, x in enumerate(result.levels, 1):
         for t in x.budget:
             u = t.get("u_g")
-            rows.append((str(i), _fmt(x.rms_g, ".4g"), str(t.get("source", "")), str(t.get("type", "")),
-                         "not evaluated" if u is None else format_mg(u, signed=False), str(t.get("note", ""))))
+            rows.append((str(i), _fmt(x.rms_g), str(t.get("source", "")), str(t.get("type", "")),
+                         "not evaluated" if u is None else format_u(u, scale=1e3), str(t.get("note", ""))))
         if x.budget:
-            rows.append((str(i), _fmt(x.rms_g, ".4g"), "combined u; U = k·u", "",
-                         f"{format_mg(x.vre.u, signed=False)}; U = {format_mg(x.U_vre_g, signed=False)}",
-                         f"k = {_fmt(x.k, '.3g')} (Welch-Satterthwaite)"))
+            rows.append((str(i), _fmt(x.rms_g), "combined u; U = k·u", "",
+                         f"{format_u(x.vre.u, scale=1e3)}; U = {format_u(x.U_vre_g, scale=1e3)}",
+                         f"k = {format_value(x.k, resolution=0.01)} (Welch-Satterthwaite)"))
     if not rows:
         return ""
     return table_html(ReportTable(title, ["level", "g rms", "source", "type", "u (mg)", "note"],
@@ -338,16 +349,16 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             params = "no fit: one level only (a VRC needs two levels or more)"
         else:
             params = "; ".join(
-                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u)} {describe_fit_param(k)[1] or v.unit}"
+                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u, unit=describe_fit_param(k)[1] or v.unit)}"
                 for k, v in f.params.items()
             )
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
         cells = [
             f.model,
-            _fmt(f.freq_hz, "g") if f.freq_hz is not None else "",
+            _fmt(f.freq_hz, 6) if f.freq_hz is not None else "",
             params,
             used,
-            _fmt(f.chi2_reduced, ".3g"),
+            _fmt(f.chi2_reduced, 3),
             "" if f.departure_rms_g is None else f"{f.departure_rms_g:.3g} g rms",
             "; ".join(f.notes),
         ]
@@ -372,49 +383,68 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
 
     has_f = any(lv.get("freq_hz") is not None for lv in levels)
     has_valid = any("valid" in lv for lv in levels)
+    # Shown to PREDICTION_RESOLUTION_MG: a clipping share of -8.9e-112 mg is 0, not a number.
+    res = PREDICTION_RESOLUTION_MG
     head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
     head += [f"{share_name(k)} (mg)" for k in share_keys] + (["model valid"] if has_valid else [])
     # Per-level notes are sentences: listed under the table, each once with its levels.
     by_note: dict[str, list[str]] = {}
     for lv in levels:
         for n in lv.get("notes") or ():
-            by_note.setdefault(str(n), []).append(_fmt(lv.get("rms_g"), ".3g"))
+            by_note.setdefault(str(n), []).append(_fmt(lv.get("rms_g"), 3))
     rows = []
     for lv in levels:
         sh = lv.get("shares") or lv.get("mechanisms") or {}
-        cells = ([_fmt(lv.get("freq_hz"), "g")] if has_f else []) + [
-            _fmt(lv.get("rms_g"), ".4g"),
-            format_mg(lv["vre_g"]) if lv.get("vre_g") is not None else "–",
-            _fmt(lv.get("tilt_error_deg"), ".3g"),
+        cells = ([_fmt(lv.get("freq_hz"), 6)] if has_f else []) + [
+            _fmt(lv.get("rms_g")),
+            format_mg(lv.get("vre_g"), resolution_mg=res),
+            format_value(lv.get("tilt_error_deg"), resolution=TILT_RESOLUTION_DEG),
         ]
         for k in share_keys:
             v = sh.get(k)
             if isinstance(v, Mapping):
                 v = v.get("vre_g", v.get("value"))
-            cells.append(format_mg(v) if isinstance(v, (int, float)) else _fmt(v))
+            cells.append(format_mg(v, resolution_mg=res) if isinstance(v, (int, float)) else _fmt(v))
         if has_valid:
             why = "; ".join(str(n) for n in lv.get("notes") or ())
-            cells.append("yes" if lv.get("valid") else (f"no: {why}" if why else "no (reason not given)"))
+            # The reason is listed once under the table (by_note): a sentence per cell made the
+            # table 2000 px wide and hid this column.
+            cells.append("yes" if lv.get("valid") else ("no (see the notes below)" if why else "no (reason not given)"))
         rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in cells) + "</tr>")
     th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     extra = []
     for k, v in pred.items():
         if k in ("levels", "notes") or isinstance(v, (list, dict)):
             continue
-        extra.append((k.replace("_", " "), ("yes" if v else "no") if isinstance(v, bool) else v))
-    notes = ""
+        extra.append(field_text(k, v))
+    notes = f'<p class="mute">Predicted values to {res:g} mg; a smaller share is shown as 0.</p>'
     if by_note:
-        notes = '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
+        notes += '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
     return kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
 
 
-def _provenance_rows(prov: Mapping[str, Any]) -> list[tuple[str, Any]]:
-    rows = []
+# Provenance keys that name a file beside the report: shown as a link to it.
+_ATTACHED = ("results_file", "record_file")
+
+
+def _provenance_html(prov: Mapping[str, Any]) -> str:
+    """Provenance as a table a person reads (field names, units, nested descriptions as nested
+    tables folded on screen and open in print); the raw JSON is the results file it names."""
+    body = []
     for k, v in prov.items():
-        if isinstance(v, (dict, list)):
-            v = json.dumps(v)
-        rows.append((k.replace("_", " "), v))
-    return rows
+        if v in (None, "", {}) and k not in ("covariance",):
+            continue
+        if isinstance(v, Mapping) and v:
+            name = field_label(str(k))[0]
+            val = f"<details><summary>{esc(len(v))} fields</summary>{_provenance_html(v)}</details>"
+        elif k in _ATTACHED and isinstance(v, str) and not Path(v).is_absolute():
+            # The raw JSON (and the record) are attachments: linked, relative to the report.
+            name, val = field_label(str(k))[0], f'<a href="{esc(v)}">{esc(v)}</a>'
+        else:
+            name, text = field_text(str(k), v)
+            val = esc(text)
+        body.append(f"<tr><th>{esc(name)}</th><td>{val}</td></tr>")
+    return f'<table class="kv">{"".join(body)}</table>' if body else ""
 
 
 def _figure_html(fig: ReportFigure, fid: str, alt: str) -> str:
@@ -480,9 +510,9 @@ def render_section(sec: ReportSection, anchor: str, number: str = "") -> str:
         if k == 0:
             prov.update(sec.provenance)
         if prov:
-            parts.append(f"<h4>{esc(label + ': ' if label else '')}Provenance</h4>" + kv_table(_provenance_rows(prov)))
+            parts.append(f"<h4>{esc(label + ': ' if label else '')}Provenance</h4>" + _provenance_html(prov))
     if not results and sec.provenance:
-        parts.append("<h4>Provenance</h4>" + kv_table(_provenance_rows(sec.provenance)))
+        parts.append("<h4>Provenance</h4>" + _provenance_html(sec.provenance))
     parts.append("</section>")
     return "\n".join(parts)
 
@@ -640,9 +670,9 @@ def summary_sentence(result: VreResult) -> str:
     bits = []
     for f in result.fits:
         if "rail_g" in f.params:
-            bits.append(f"the {f.model} model fits with an effective rail of {f.params['rail_g'].value:.3g} ± {f.params['rail_g'].u:.2g} g")
+            bits.append(f"the {f.model} model fits with an effective rail of {format_value_u(f.params['rail_g'].value, f.params['rail_g'].u, unit='g')}")
         elif "vrc_ug_per_g2" in f.params and f.freq_hz is None:
-            bits.append(f"VRC = {f.params['vrc_ug_per_g2'].value:.3g} ± {f.params['vrc_ug_per_g2'].u:.2g} µg/g²")
+            bits.append(f"VRC = {format_value_u(f.params['vrc_ug_per_g2'].value, f.params['vrc_ug_per_g2'].u, unit='µg/g²')}")
     return s + ("; " + "; ".join(bits) if bits else "") + "."
 
 
@@ -651,14 +681,17 @@ def report_title(title: str | None, metadata: ReportMetadata | None, default: st
     return title or (metadata.get("", "title") if metadata else None) or default
 
 
-def result_section(rf: ResultsFolder, title: str | None = None, channel: str | None = None) -> ReportSection:
-    """The report section of one simulate/analyze/demo results folder (one channel's folder)."""
+def result_section(rf: ResultsFolder, title: str | None = None, channel: str | None = None,
+                   base: Path | None = None) -> ReportSection:
+    """The report section of one simulate/analyze/demo results folder (one channel's folder);
+    ``base``: the report's folder, when it is not this one (its files are linked from there)."""
     folder = rf.path
     result, prediction = rf.result, rf.prediction
     assert result is not None
     figs, notes = result_figures(result, folder)
     res_file = folder / F.RESULTS
-    prov: dict[str, Any] = {"results_file": res_file.name, "results_sha256": sha256_file(res_file)}
+    rel = Path(os.path.relpath(folder, base)) if base is not None else Path()
+    prov: dict[str, Any] = {"results_file": (rel / res_file.name).as_posix(), "results_sha256": sha256_file(res_file)}
     src = next((result.provenance.get(k) for k in ("input", "input_file", "file", "path") if result.provenance.get(k)), None)
     if src and not any(k.endswith("sha256") for k in result.provenance):
         p = Path(str(src))
@@ -668,7 +701,7 @@ def result_section(rf: ResultsFolder, title: str | None = None, channel: str | N
             prov["input_sha256"] = sha256_file(p)
     rec = folder / F.RECORD
     if rec.is_file():
-        prov["record_file"] = rec.name
+        prov["record_file"] = (rel / rec.name).as_posix()
         prov["record_sha256"] = sha256_file(rec)
     return ReportSection(
         title=title or f"{describe(result)}",
@@ -708,7 +741,8 @@ def report_channels_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
     sections = []
     for name, sub in subs.items():
         sf = F.read_folder(folder / sub)
-        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name, channel=name))
+        sections.append(result_section(sf, f"Channel {name}: {describe(sf.result)}" if sf.result else name, channel=name,
+                                       base=folder))
     src = (doc.get("provenance") or {}).get("input_file", "")
     return write_report(
         folder / F.REPORT,

@@ -35,6 +35,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.text import Annotation, Text
 
+from vrelab._format import format_u, format_value, format_value_u
 from vrelab.report._markup import shown_text
 
 __all__ = ["Unsupported", "plotly_js", "to_plotly", "to_plotly_json"]
@@ -132,8 +133,9 @@ class _AxesTranslator:
 
     def _hover(self, label: str | None, err: bool = False) -> str:
         name = "" if not label or str(label).startswith("_") else f"{_text(label)}<br>"
-        pm = "%{customdata}" if err else ""  # each point's own "± u" text, empty where it has no bar
-        return f"{name}{_text(self.xlabel)}: %{{x:.4g}}<br>{_text(self.ylabel)}: %{{y:.4g}}{pm}<extra></extra>"
+        # A point with a bar: its own "y ± u" text, rounded by GUM 7.2.6 as the tables are.
+        y = "%{customdata}" if err else "%{y:.4g}"
+        return f"{name}{_text(self.xlabel)}: %{{x:.4g}}<br>{_text(self.ylabel)}: {y}<extra></extra>"
 
     def _ref(self, data: bool, axis: str) -> str:
         ref = self.xref if axis == "x" else self.yref
@@ -203,9 +205,11 @@ class _AxesTranslator:
             if not sym_err:
                 tr["error_y"]["symmetric"] = False
                 tr["error_y"]["arrayminus"] = _arr(minus)
-            # A point without a bar (no uncertainty) shows none, never "± 0".
-            tr["customdata"] = ["" if not (math.isfinite(p) and math.isfinite(m)) else
-                                f" ± {p:.2g}" if sym_err else f" +{p:.2g} / −{m:.2g}" for p, m in zip(plus, minus)]
+            # A point without a bar (no uncertainty) shows its value alone, never "± 0".
+            tr["customdata"] = [format_value(v) if not (math.isfinite(p) and math.isfinite(m) and p > 0) else
+                                format_value_u(v, p) if sym_err else
+                                f"{format_value_u(v, min(p, m)).split(' ± ')[0]} +{format_u(p)} / −{format_u(m)}"
+                                for v, p, m in zip(y, plus, minus)]
             tr["hovertemplate"] = self._hover(label, err=True)
         else:
             tr["hovertemplate"] = self._hover(label)

@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
-from vrelab._format import format_value_u
+from vrelab._format import field_label, format_value, format_value_u
 from vrelab._load import json_loads
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
@@ -88,7 +88,19 @@ def describe_conditions(result: VreResult, short: bool = False) -> str:
     if c.profile and not short:
         prof = str(c.profile)
         parts.append(prof if len(prof) <= 40 else prof[:39] + "…")  # a title is one line
+    reached = levels_reached(result)
+    if reached and not short:
+        parts.append(reached)
     return ", ".join(parts)
+
+
+def levels_reached(result: VreResult) -> str | None:
+    """The vibration levels a test reached, from its levels: ``"0.3–0.92 g rms"`` (None without any)."""
+    rms = [lv.rms_g for lv in result.levels if math.isfinite(lv.rms_g) and lv.rms_g > 0]
+    if not rms:
+        return None
+    lo, hi = format_value(min(rms), digits=3), format_value(max(rms), digits=3)
+    return f"{lo} g rms" if lo == hi else f"{lo}–{hi} g rms"
 
 
 def _fit_label(fit: FitResult) -> str:
@@ -97,14 +109,10 @@ def _fit_label(fit: FitResult) -> str:
     for name, est in fit.params.items():
         if name in ("rail_g", "rail_low_g", "rail_high_g"):
             which = {"rail_g": "rail ±", "rail_low_g": "lower rail ", "rail_high_g": "upper rail "}[name]
-            bits.append(f"{which}{est.value:.3g} ± {est.u:.2g} g")
-        elif name == "vrc_ug_per_g2":
-            bits.append(f"VRC {est.value:.3g} ± {est.u:.2g} µg/g²")
-        elif name.endswith("_ug_per_g3") or name.endswith("_ug_per_g4"):
-            unit = "µg/g³" if name.endswith("g3") else "µg/g⁴"
-            bits.append(f"{name.split('_')[0]} {est.value:.3g} ± {est.u:.2g} {unit}")
+            bits.append(f"{which}{format_value_u(est.value, est.u, unit='g')}")
         else:
-            bits.append(f"{name} {est.value:.3g} ± {est.u:.2g}")
+            label, unit = field_label(name)
+            bits.append(f"{'VRC' if name == 'vrc_ug_per_g2' else label} {format_value_u(est.value, est.u, unit=unit or est.unit or None)}")
     return f"fit {fit.model}: " + ", ".join(bits)
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 from vrelab import __version__
-from vrelab._format import format_mg
+from vrelab._format import format_mg, format_u, u_resolution
 from vrelab.report._markup import ReportTable, css_string, esc, kv_table, table_html
 from vrelab.report.metadata import NOT_GIVEN, ReportMetadata
 from vrelab.results import VreResult
@@ -161,10 +161,11 @@ def _item(doc: Document) -> str:
     entries = list(_entries(doc))
     known = []
     for c in chans or [None]:
-        mine = [e.result for e in entries if e.channel == c or not chans]
+        mine_e = [e for e in entries if e.channel == c or not chans]
+        mine = [e.result for e in mine_e]
         known.append([
             c or "DUT",
-            _join(_sensor_text(r) for r in mine),
+            _sensors_where(mine_e),
             _join(f"±{r.conditions.range_g:g} g" if r.conditions.range_g is not None else None for r in mine),
             _join(str(r.conditions.axis).upper() if r.conditions.axis else None for r in mine),
             _join(_g(r.conditions.odr_hz, "g", "Hz") for r in mine),
@@ -173,6 +174,21 @@ def _item(doc: Document) -> str:
     parts.append(table_html(ReportTable("Recorded in the results", ["channel", "sensor", "range", "axis", "output data rate",
                                                                     "bandwidth"], known), 3))
     return "".join(parts)
+
+
+def _sensors_where(entries: Sequence[_Entry]) -> str:
+    """Each distinct sensor with the result sections that used it ("... [adxl355] (5.3–5.7)"): a
+    report of several sensors (the demo's ideal reference and its ADXL355) says which is which."""
+    where: dict[str, list[str]] = {}
+    for e in entries:
+        text = _sensor_text(e.result)
+        if text:
+            num = f"{RESULTS_NUMBER}.{e.anchor[1:]}" if e.anchor[1:].isdigit() else e.anchor
+            if num not in where.setdefault(text, []):
+                where[text].append(num)
+    if len(where) <= 1:
+        return next(iter(where), NOT_GIVEN)
+    return "; ".join(f"{text} (section{'s' if len(n) > 1 else ''} {', '.join(n)})" for text, n in where.items())
 
 
 def _sensor_text(r: VreResult) -> str | None:
@@ -220,10 +236,11 @@ def _equipment(doc: Document) -> str:
 
 # --------------------------------------------------------------------------- 3 conditions
 def _levels_text(r: VreResult) -> str:
-    rms = [lv.rms_g for lv in r.levels if lv.rms_g == lv.rms_g]
-    if not rms:
-        return "none"
-    return f"{len(rms)}: {min(rms):.3g} to {max(rms):.3g} g rms"
+    from vrelab.report.plots import levels_reached
+
+    reached = levels_reached(r)
+    n = sum(1 for lv in r.levels if lv.rms_g == lv.rms_g)
+    return "none" if reached is None else f"{n}: {reached}"
 
 
 def _conditions(doc: Document) -> str:
@@ -305,7 +322,8 @@ def _type_b_text(r: VreResult) -> str:
 def _decisions(doc: Document) -> str:
     entries = [e for e in _entries(doc) if dict(e.result.conditions.extra).get("limit_g") is not None]
     if not entries:
-        return ('<p class="rule">No limit was given, so no level was judged. A limit (<code>vrelab analyze ... '
+        return ('<p class="rule">No limit was given to any result, so no level was judged (a section that compares '
+                "a value with a published limit states a comparison, not a decision). A limit (<code>vrelab analyze ... "
                 "--limit G</code>, <code>vrelab campaign ... --limit G</code>) judges every level under the rule "
                 "of guarded acceptance: pass only when |VRE| + U &lt;= limit, fail when |VRE| − U &gt; limit, "
                 "indeterminate otherwise.</p>")
@@ -321,10 +339,11 @@ def _decisions(doc: Document) -> str:
             d = lv.decision or "undefined (no VRE)"
             counts[d] = counts.get(d, 0) + 1
             v, U = lv.vre.value, lv.U_vre_g
-            interval = "–" if U is None or v != v else f"{format_mg(abs(v) - U, signed=False)} … {format_mg(abs(v) + U, signed=False)}"
+            res = u_resolution(None if U is None else 1e3 * U)  # the numbers of a level at U's last digit
+            interval = "–" if U is None or v != v else f"{format_mg(abs(v) - U, signed=False, resolution_mg=res)} … {format_mg(abs(v) + U, signed=False, resolution_mg=res)}"
             rows.append([e.link, str(i), "–" if lv.freq_hz is None else f"{lv.freq_hz:.5g}", f"{lv.rms_g:.4g}",
-                         format_mg(v, signed=True) if v == v else "–",
-                         format_mg(U, signed=False) if U is not None else "not evaluated", interval,
+                         format_mg(v, signed=True, resolution_mg=res) if v == v else "–",
+                         format_u(U, scale=1e3) if U is not None else "not evaluated", interval,
                          format_mg(limit, signed=False), d])
     summary = ", ".join(f"{n} {k}" for k, n in counts.items())
     parts.append(f"<p>{esc(summary)} ({sum(counts.values())} levels).</p>")
