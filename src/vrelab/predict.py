@@ -563,13 +563,15 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
 
     f0 = vre_at({})
     assert f0 is not None
+    # one VRE per predicted level: a sine at several frequencies predicts each level at each of them
+    n_out = f0.size
     names = list(cov["params"]) if cov else []
     sigma = np.asarray(cov["matrix"], dtype=np.float64) if cov else np.zeros((0, 0))
     everything = [(n, math.sqrt(sigma[j, j]), True) for j, n in enumerate(names)] + [(n, u, False) for n, u in assumed.items()]
-    jac = np.zeros((lv.size, len(names)))
+    jac = np.zeros((n_out, len(names)))
     sources: dict[str, NDArray[np.float64]] = {}
-    level_notes: list[list[str]] = [[] for _ in lv]
-    nonlinear = np.zeros(lv.size, dtype=bool)
+    level_notes: list[list[str]] = [[] for _ in range(n_out)]
+    nonlinear = np.zeros(n_out, dtype=bool)
     bent_why: list[str] = []
     for j, (name, u, identified) in enumerate(everything):
         x = parameter(sensor, name)
@@ -577,19 +579,19 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
             continue
         ends = [vre_at({name: x + s}) for s in (0.1 * u, -0.1 * u)]
         if ends[0] is None or ends[1] is None:
-            d = np.zeros(lv.size)
-            for i in range(lv.size):
+            d = np.zeros(n_out)
+            for i in range(n_out):
                 level_notes[i].append(f"the VRE cannot be evaluated at {name} ± 0.1·u: u_vre_g is not a claim")
         else:
             d = (ends[0] - ends[1]) / (0.2 * u)
         wide = [vre_at({name: x + s}) for s in (u, -u)]
         step = np.abs(d) * u
         if wide[0] is None or wide[1] is None:
-            bent = np.ones(lv.size, dtype=bool)
+            bent = np.ones(n_out, dtype=bool)
             move = step
             why = f"{name} ± u ({x:.4g} ± {u:.2g}) leaves the parameter's domain"
             if not identified:  # an assumption that wide says the element is barely known: no u to claim
-                for i in range(lv.size):
+                for i in range(n_out):
                     level_notes[i].append(f"{why}: the VRE over that range is not known — u_vre_g is not a claim")
         else:
             curve = np.abs(wide[0] + wide[1] - 2 * f0) / 2
@@ -621,7 +623,7 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
                              f"where the VRE is not linear in them ({'; '.join(bent_why)}); 95 % intervals "
                              + ", ".join(f"[{1e3 * a:.4g}, {1e3 * b:.4g}] mg" for a, b in zip(lo95, hi95)))
         sources = {IDENTIFIED: u_cov, **sources}
-    u2 = sum((v**2 for v in sources.values()), np.zeros(lv.size))
+    u2 = sum((v**2 for v in sources.values()), np.zeros(n_out))
     if names:
         notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(names) + ") carried by linear "
                      "propagation; the model's own approximations are not in it")
