@@ -49,7 +49,7 @@ def _records(folder: Path, n: int, seconds: float) -> Path:
         f.write_bytes((rec / "record.h5").read_bytes())
         with h5py.File(f, "a") as h:
             h.attrs["run"] = i
-        runs.append(f'[[run]]\nfile = "{f.name}"\ndut = ["dut"]\nstatic_g = {1.0 if i % 2 else -1.0}\n')
+        runs.append(f'[[run]]\nfile = "{f.name}"\ndut = ["dut"]\nstatic_g = 1.0\n')  # the record's own baseline reads +1 g
     manifest = folder / "campaign.toml"
     manifest.write_text('name = "hardening"\n[defaults]\nreference = "reference"\n' + "".join(runs))
     return manifest
