@@ -12,3 +12,35 @@ settings.load_profile("vrelab")
 def rng() -> np.random.Generator:
     """A seeded generator: every random test is reproducible."""
     return np.random.default_rng(20161121)
+
+
+# The hardening suite (issue 23: a crafted file, a bomb, a runaway input) runs under a memory cap,
+# so a case that would allocate without bound fails here with MemoryError instead of taking the
+# machine (24 GiB, shared with the rest of the suite) down with it; pytest-timeout bounds its time.
+# The cap is the soft address-space limit, inherited by the CLI subprocesses these tests start,
+# and restored after each test. 6 GiB: numpy, scipy, h5py and their thread pools map ~1-2 GiB of
+# address space at import; a healthy run of any hardening case stays well below the cap.
+HARDENING_MODULES = ("test_hardening_folders", "test_hardening_inputs", "test_untrusted")
+HARDENING_CAP_BYTES = 6 * 1024**3
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.module is not None and item.module.__name__.rsplit(".", 1)[-1] in HARDENING_MODULES:
+            item.add_marker(pytest.mark.hardening)
+
+
+@pytest.fixture(autouse=True)
+def _memory_cap_for_hardening(request):
+    if request.node.get_closest_marker("hardening") is None:
+        yield
+        return
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    cap = HARDENING_CAP_BYTES if hard == resource.RLIM_INFINITY else min(HARDENING_CAP_BYTES, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))

@@ -280,3 +280,16 @@ def test_profile_slopes_from_log_differences_are_exact_and_quiet() -> None:
         assert prof.slopes_db_per_oct[0] == pytest.approx(99.0 * DB_PER_OCT_PER_N, rel=1e-12)
         assert prof.mean_square_g2 == pytest.approx(2e100, rel=1e-9)
         assert math.isfinite(prof.grms)
+
+
+def test_the_hardening_suite_runs_under_a_memory_cap():
+    """The cap of tests/conftest.py is in force here (and so in the CLI subprocesses these cases
+    start): an allocation far beyond it fails with MemoryError instead of taking the machine."""
+    import resource
+
+    import numpy as np
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    assert soft != resource.RLIM_INFINITY and soft <= 6 * 1024**3
+    with pytest.raises(MemoryError):
+        np.ones(soft // 8 + 1)
