@@ -112,7 +112,8 @@ _CHILD = r"""
 import json, resource, sys, time, tracemalloc
 from vrelab.analysis.readers import open_record
 from vrelab.analysis.reduction import analyze_full
-import vrelab.fits, vrelab.models.clipping, vrelab.synthesis, scipy.optimize, scipy.signal, scipy.fft, tqdm  # noqa
+import vrelab.fits, vrelab.models.clipping, vrelab.synthesis, scipy.optimize, scipy.signal, scipy.fft, tqdm, h5py  # noqa
+# (h5py too: the bare read's process has imported it before its timing starts)
 trace = sys.argv[2] == "trace"
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 if trace:
