@@ -72,6 +72,17 @@ class NeedsSdk(Source):
 
 def not_a_reader():
     return None
+
+
+class Grabby(Source):
+    """A plugin whose magic-bytes check fails on files it does not know."""
+
+    fmt = "grabby"
+    extensions = (".grb",)
+
+    @classmethod
+    def can_open(cls, head):
+        raise RuntimeError("cannot parse this header")
 '''
 
 _ENTRY_POINTS = """
@@ -80,6 +91,7 @@ vrx = vrx_reader:VrxSource
 nsd = vrx_reader:NeedsSdk
 broken = broken_reader:BrokenSource
 notaclass = vrx_reader:not_a_reader
+grabby = vrx_reader:Grabby
 """
 
 
@@ -160,6 +172,18 @@ def test_a_plugin_format_is_read_listed_and_broken_plugins_are_skipped(tmp_path)
     assert out.returncode == 2
     assert out.stderr.strip().splitlines()[-1] == ("vrelab: error: x.nsd: reading NSD needs vrelab_test_no_such_sdk: "
                                                    "pip install 'no-such-sdk>=2'")
+    # a plugin whose can_open raises on a file it is asked about is taken as not its file, said once
+    assert "reader plugin grabby = vrx_reader:Grabby (package vrx-reader): can_open raised RuntimeError: cannot " \
+        "parse this header (taken as not its file)" in out.stderr
+
+    # and a built-in format is read as before, with every plugin installed
+    csv = tmp_path / "run.csv"
+    np.savetxt(csv, np.column_stack([np.arange(2000) / 500.0, ref[:2000], dut[:2000]]), delimiter=",",
+               header="time,ref,dut", comments="")
+    out = _vrelab(site, "channels", str(csv), "--json")
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["format"] == "csv"
+    assert [c["rate_hz"] for c in json.loads(out.stdout)["channels"] if c["name"] == "dut"] == [pytest.approx(500.0)]
 
 
 def test_without_the_plugin_the_format_is_unknown_and_names_the_built_in_ones(tmp_path):

@@ -6,6 +6,7 @@ import importlib.util
 import logging
 import math
 import re
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Iterator, Literal, Mapping, Sequence
@@ -330,7 +331,8 @@ READERS: list[type[Source]] = []
 PLUGIN_GROUP = "vrelab.readers"
 PLUGINS: dict[type[Source], str] = {}  # a plugin's class -> where it came from (distribution, entry point)
 PLUGIN_NOTES: list[str] = []  # one line per plugin that was skipped, and why
-_plugins_loaded = False
+_plugins_started = _plugins_loaded = False
+_plugins_lock = threading.RLock()
 _log = logging.getLogger("vrelab.readers")
 
 
@@ -372,17 +374,29 @@ def load_plugins() -> list[str]:
     registered format name is skipped with a one-line note (:data:`PLUGIN_NOTES`, and a warning
     on the ``vrelab.readers`` logger); vrelab itself keeps working. Returns the notes.
     """
-    global _plugins_loaded
+    global _plugins_started, _plugins_loaded
     if _plugins_loaded:
         return PLUGIN_NOTES
-    _plugins_loaded = True
+    # two threads reading their first files: one loads, the other waits; a plugin whose own
+    # import reads a file (the same thread, back here) finds the loading started and goes on
+    with _plugins_lock:
+        if not _plugins_started:
+            _plugins_started = True
+            try:
+                _load_plugins()
+            finally:
+                _plugins_loaded = True
+    return PLUGIN_NOTES
+
+
+def _load_plugins() -> None:
     from importlib.metadata import entry_points
 
     try:
         eps = list(entry_points(group=PLUGIN_GROUP))
     except Exception as exc:  # a broken distribution's metadata
         _skip(f"reader plugins not loaded: {type(exc).__name__}: {exc}")
-        return PLUGIN_NOTES
+        return
     for ep in eps:
         dist = getattr(getattr(ep, "dist", None), "name", None)
         where = f"{ep.name} = {ep.value}" + (f" (package {dist})" if dist else "")
@@ -397,7 +411,6 @@ def load_plugins() -> list[str]:
             continue
         PLUGINS[cls] = where
         register(cls)
-    return PLUGIN_NOTES
 
 
 def _claims(cls: type[Source], head: bytes) -> bool:
