@@ -14,6 +14,7 @@ import re
 import textwrap
 
 from vrelab.cli import build_parser
+from vrelab.cli._common import FORMATS_TOKEN, expand_formats
 
 _INLINE = re.compile(r"([\\*`|_])")
 
@@ -30,10 +31,14 @@ def _literal(text: str | None) -> str | None:
 
 def _prepare(parser: argparse.ArgumentParser) -> None:
     raw = issubclass(parser.formatter_class, argparse.RawDescriptionHelpFormatter)
-    parser.description = _literal(parser.description) if raw else _escape(parser.description)
-    parser.epilog = _literal(parser.epilog) if raw else _escape(parser.epilog)
+    # the formats list is made from the reader registry when a help is printed: here, too
+    description, epilog = expand_formats(parser.description), expand_formats(parser.epilog)
+    parser.description = _literal(description) if raw else _escape(description)
+    parser.epilog = _literal(epilog) if raw else _escape(epilog)
     for action in parser._actions:
         if action.help not in (None, argparse.SUPPRESS):
+            if hasattr(action, "formats"):
+                action.help = action.help.replace(FORMATS_TOKEN, str(action.formats))
             action.help = _escape(action.help)
         if isinstance(action, argparse._SubParsersAction):
             for choice in action._choices_actions:

@@ -113,6 +113,9 @@ def _eps(x: float | NDArray[np.float64]) -> float | NDArray[np.float64]:
 
 # The DUT's smoothed series: a Hann kernel over SMOOTH_WINDOWS windows, centred on each window.
 SMOOTH_WINDOWS = 3
+# Samples per channel the window pass works on at once (512 KiB of float64: within a core's L2
+# cache on most machines); a block read from the record is worked chunk by chunk.
+CHUNK_SAMPLES = 1 << 16
 
 
 def smoothing_kernel(window: int) -> NDArray[np.float64]:
@@ -232,7 +235,8 @@ class _DutWindows:
         self.k, self.w, self.rail_g = k, w, rail_g
 
     def add(self, dv: NDArray[np.float64], kk: int, kern: NDArray[np.float64]) -> None:
-        """Windows ``kk ...`` of this block, ``dv`` shaped (windows, samples)."""
+        """Windows ``kk ...`` of this block, ``dv`` shaped (windows, samples); ``kern`` is
+        :func:`smoothing_kernel` transposed (one row per window of the kernel)."""
         m, L = dv.shape
         sl = slice(kk, kk + m)
         self.dsum[sl] = dv.sum(axis=1)
@@ -253,10 +257,15 @@ class _DutWindows:
             cand = np.flatnonzero((mx >= thr) | (mn <= -thr))
             if len(cand):
                 self.nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
-        if L == self.w:
-            self.parts[kk : kk + m] = dv @ kern
-        else:  # the record's last, partial window
-            self.parts[kk : kk + m] = (dv @ kern[:L]) * (self.w / L)
+        # each kernel column's weighted sum per window: einsum's own loop, not BLAS (whose threads,
+        # woken for every small product, made this pass 5 to 30 times slower on a busy machine)
+        for q in range(SMOOTH_WINDOWS):
+            col = self.parts[kk : kk + m, q]
+            if L == self.w:
+                np.einsum("ij,j->i", dv, kern[q], out=col)
+            else:  # the record's last, partial window
+                np.einsum("ij,j->i", dv, kern[q, :L], out=col)
+                col *= self.w / L
 
     def smooth(self, kern: NDArray[np.float64]) -> NDArray[np.float64]:
         """value at window j = Σ_q parts[j - h + q, q] / Σ(kernel weights present)"""
@@ -332,8 +341,9 @@ def window_pass_many(
     rac, rband, rsum = np.zeros(k), np.zeros(k), np.zeros(k)
     accs = {d: _DutWindows(k, w, rail_g) for d in duts}
     kern = smoothing_kernel(w)
-    ac_w, band_w = band_weights(w, fs, (f1, f2))
-    weights2 = np.repeat(np.column_stack([ac_w, band_w]), 2, axis=0)
+    kern_rows = np.ascontiguousarray(kern.T)
+    # the weights of |X|² repeated for the (re, im) pairs of the spectrum viewed as float64
+    weights2 = np.repeat(np.vstack(band_weights(w, fs, (f1, f2))), 2, axis=1)
     chans = list(dict.fromkeys(duts + [ref_name]))
     labels = channel_labels(record)
     bar = None
@@ -342,27 +352,33 @@ def window_pass_many(
 
         bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False)
     pos = 0
+    # a block is worked in cache-sized chunks of whole windows: the FFT, the squares, the sums,
+    # the extremes and the kernel then read each chunk from cache rather than from memory
+    chunk = max(1, CHUNK_SAMPLES // w) * w
     for blk in prefetch(exact_blocks(record, block, chans, 0, n)):
         r = np.asarray(blk[ref_name], dtype=np.float64)
+        xs = {d: np.asarray(blk[d], dtype=np.float64) for d in accs}
         kk = pos // w
-        for rv in _window_reduce(r, w):
-            m, L = rv.shape
-            sl = slice(kk, kk + m)
-            count[sl] = L
-            # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square, and
-            # let one matrix product weigh both halves (no complex temporaries)
-            spec = sfft.rfft(rv, axis=1).view(np.float64)
-            wts = weights2 if L == w else np.repeat(np.column_stack(band_weights(L, fs, (f1, f2))), 2, axis=0)
-            acb = (spec * spec) @ wts
-            rac[sl], rband[sl] = acb[:, 0], acb[:, 1]
-            rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
-            kk += m
-        for d, acc in accs.items():
-            x = np.asarray(blk[d], dtype=np.float64)
-            kk = pos // w
-            for dv in _window_reduce(x, w):
-                acc.add(dv, kk, kern)
-                kk += dv.shape[0]
+        for lo in range(0, len(r), chunk):
+            k_chunk = kk
+            for rv in _window_reduce(r[lo : lo + chunk], w):
+                m, L = rv.shape
+                sl = slice(kk, kk + m)
+                count[sl] = L
+                # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square in
+                # place and weigh both halves (no complex temporaries; einsum, not BLAS: see add)
+                spec = sfft.rfft(rv, axis=1).view(np.float64)
+                wts = weights2 if L == w else np.repeat(np.vstack(band_weights(L, fs, (f1, f2))), 2, axis=1)
+                rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
+                np.multiply(spec, spec, out=spec)
+                np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
+                np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
+                kk += m
+            for d, acc in accs.items():
+                kd = k_chunk
+                for dv in _window_reduce(xs[d][lo : lo + chunk], w):
+                    acc.add(dv, kd, kern_rows)
+                    kd += dv.shape[0]
         # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
         # a sum): test the small arrays, and scan the samples only to name the first bad one.
         sl = slice(pos // w, kk)

@@ -18,11 +18,58 @@ class UsageError(ValueError):
     """A command-line usage problem (unknown option, missing argument)."""
 
 
+class _Formats:
+    """The reader registry's formats as help text, made only when a help is printed (argparse
+    expands ``%(formats)s`` from the action's attributes with ``str``): building the parser, which
+    every command does, stays free of the readers' imports and the plugins' entry points."""
+
+    def __str__(self) -> str:
+        from vrelab.analysis.readers import formats_text
+
+        return formats_text()
+
+
+FORMATS_TOKEN = "%(formats)s"
+
+
+def with_formats(action: argparse.Action) -> argparse.Action:
+    """Let ``action``'s help say ``%(formats)s``: every registered format with its extensions."""
+    action.formats = _Formats()  # type: ignore[attr-defined]
+    return action
+
+
+def expand_formats(text: str | None, width: int = 88) -> str | None:
+    """``text`` with ``%(formats)s`` replaced by the registered formats; where the token stands
+    alone on a line (a raw description or epilog), wrapped to ``width`` at that line's indent."""
+    if not text or FORMATS_TOKEN not in text:
+        return text
+    import textwrap
+
+    fmts = str(_Formats())
+    lines = []
+    for line in text.split("\n"):
+        if line.strip() == FORMATS_TOKEN:
+            pad = line[: len(line) - len(line.lstrip())]
+            lines.append(textwrap.fill(fmts, width, initial_indent=pad, subsequent_indent=pad))
+        else:
+            lines.append(line.replace(FORMATS_TOKEN, fmts))
+    return "\n".join(lines)
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse prints usage plus a message and exits 2; we want one line and the same status."""
+    """argparse prints usage plus a message and exits 2; we want one line and the same status.
+    A description or epilog may say ``%(formats)s`` (:func:`expand_formats`)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: error: {message}")
+
+    def format_help(self) -> str:
+        saved = self.description, self.epilog
+        self.description, self.epilog = expand_formats(self.description), expand_formats(self.epilog)
+        try:
+            return super().format_help()
+        finally:
+            self.description, self.epilog = saved
 
 
 def print_json(obj: Any) -> None:

@@ -44,7 +44,14 @@ import numpy as np
 from vrelab import _io, folder
 from vrelab import _validate as V
 from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
-from vrelab.cli._common import add_budget_arguments, positive_list, print_json, print_levels, typeb_from_args
+from vrelab.cli._common import (
+    add_budget_arguments,
+    positive_list,
+    print_json,
+    print_levels,
+    typeb_from_args,
+    with_formats,
+)
 from vrelab.models.clipping import KINDS
 from vrelab.results import channels_to_dict
 
@@ -65,12 +72,13 @@ def _band(text: str) -> tuple[float, float]:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "analyze",
-        help="reduce a recorded shaker test (CSV, NPY/NPZ, HDF5, TDMS, WAV, MAT) to VRE per level and fit it",
+        help="reduce a recorded shaker test (a lab file of any format its --help lists) to VRE per level and fit it",
         description="Reduce a recorded shaker test to VRE per level (offset shift under vibration minus the "
         "bracketing vibration-off baselines, with batch-means uncertainties) and fit VRC and, for random "
         "vibration, the effective rail of the clipping model.",
     )
-    p.add_argument("file", metavar="FILE", help="recorded test: .csv .npy .npz .h5 .tdms .wav .mat")
+    with_formats(p.add_argument("file", metavar="FILE", help="recorded test, one of the formats read (by magic bytes, "
+                                "else by extension): %(formats)s"))
     p.add_argument("--dut", required=True, metavar="CH[,CH...]",
                    help="DUT channel(s) (column, dataset path, group/channel, index, UFF id1 or NODE:DIR); several "
                    "(x,y,z or several parts) are each reduced against the one reference")

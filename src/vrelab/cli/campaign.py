@@ -41,6 +41,9 @@ _EXAMPLE = """example MANIFEST (paths relative to it):
 run keys: file dut reference method static_g label fs_hz time dut_units dut_sensitivity
 reference_units reference_sensitivity schedule profile band settle_s rail_g
 u_reference_pct u_dut_pct u_static_g u_thermal_g
+
+file: a recorded test in one of these formats (by magic bytes, else by extension):
+  %(formats)s
 """
 
 

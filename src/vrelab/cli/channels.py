@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from vrelab.cli._common import print_json
+from vrelab.cli._common import print_json, with_formats
 
 
 def register(subparsers: Any) -> None:
@@ -26,7 +26,7 @@ def register(subparsers: Any) -> None:
         "pass to --dut/--reference, its sample rate, samples, duration, the unit the file states and the "
         "reader's notes.",
     )
-    p.add_argument("file", metavar="FILE", help="recorded file")
+    with_formats(p.add_argument("file", metavar="FILE", help="recorded file, one of: %(formats)s"))
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 

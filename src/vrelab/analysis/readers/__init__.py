@@ -29,7 +29,45 @@ exist), mismatched channel lengths, a bad time column (the first bad index), non
 
 Formats are a registry (:mod:`vrelab.analysis.readers._base`): each is one
 :class:`~vrelab.analysis.readers._base.Source` subclass in its own module that declares its
-extensions and magic bytes and how it opens and streams; :func:`register` adds another.
+extensions and magic bytes and how it opens and streams; :func:`register` adds another, and
+:func:`formats` lists them (the CLI's help texts are made from it). A format whose library is not
+installed is refused with its install hint (``requires``, ``install``).
+
+**Reader plugins.** Another package adds its recorder's format with an entry point in the group ``vrelab.readers``
+naming a :class:`Source` subclass, in its ``pyproject.toml``::
+
+    [project.entry-points."vrelab.readers"]
+    myrec = "myrec_vrelab.reader:MyRecSource"
+
+The class is written like the built-in readers (``text.py`` is a short one)::
+
+    from vrelab.analysis.readers import Source
+
+    class MyRecSource(Source):
+        fmt = "myrec"                   # its name: letters, digits, _ . + -
+        extensions = (".rec",)          # lower-case endings it claims
+        requires = None                 # or the import name of a library it needs
+
+        @classmethod
+        def can_open(cls, head):        # the file's first 1024 bytes: its magic?
+            return head.startswith(b"MYREC")
+
+        def __init__(self, path):
+            super().__init__(path)
+            ...                         # set self.lengths {channel: samples}, self.fs_hz,
+                                        # self.units {channel: unit}, self.notes
+        def read(self, name, start, stop):
+            ...                         # samples [start, stop) of channel name, 1-D array
+
+        def close(self):
+            ...
+
+Plugins are loaded on first use (:func:`load_plugins`) and asked after the built-in formats, so a
+plugin cannot change how a built-in format is read. A plugin that fails to import, is not a
+:class:`Source` subclass, reuses a registered format's name, or raises in ``can_open`` is skipped
+with a one-line note (:data:`PLUGIN_NOTES`, and a warning on the ``vrelab.readers`` logger, which
+the CLI prints on stderr); vrelab keeps working. A record read by a plugin says so in its
+``reader_notes``.
 """
 
 from __future__ import annotations
@@ -59,11 +97,17 @@ from vrelab.analysis.readers import (  # noqa: F401  (they register)
 from vrelab.analysis.readers._base import (
     _TIME_NAMES,
     G0,
+    PLUGIN_GROUP,
+    PLUGIN_NOTES,
+    PLUGINS,
     READERS,
     UNITS,
     Scale,
     Source,
     _as_scale,
+    formats,
+    formats_text,
+    load_plugins,
     reader_for,
     register,
 )
@@ -82,15 +126,13 @@ def detect_format(path: Path) -> str:
 
 
 def _open_source(path: Path) -> Source:
-    cls = reader_for(path)
+    cls = reader_for(path)  # a format whose library is missing: refused here with its install hint
     fmt = cls.fmt
-    if cls.requires is not None:
-        import importlib.util
-
-        if importlib.util.find_spec(cls.requires) is None:
-            raise ValueError(f"{path.name}: reading {fmt.upper()} needs {cls.requires}: pip install 'vrelab[formats]'")
     try:
-        return cls.open(path)
+        src = cls.open(path)
+        if cls in PLUGINS:
+            src.notes.append(f"read by reader plugin {PLUGINS[cls]}")
+        return src
     except ValueError as exc:
         if str(exc).startswith(path.name):
             raise
@@ -480,4 +522,5 @@ def _given_scale(scale: Any, key: str) -> Scale | None:
     return None if scale is None else _as_scale(scale)
 
 
-__all__ = ["open_record", "list_channels", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
+__all__ = ["open_record", "list_channels", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register",
+           "READERS", "UNITS", "G0", "formats", "formats_text", "load_plugins", "PLUGIN_GROUP", "PLUGIN_NOTES"]

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import importlib.util
+import logging
 import math
+import re
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Iterator, Literal, Mapping, Sequence
@@ -93,7 +97,8 @@ class Source:
     extensions: ClassVar[tuple[str, ...]] = ()
     has_magic: ClassVar[bool] = True
     random_access: ClassVar[bool] = True  # False: a stretch costs reading all before it (text)
-    requires: ClassVar[str | None] = None  # the import name of the library the format needs (pip name the same)
+    requires: ClassVar[str | None] = None  # the import name of the library the format needs
+    install: ClassVar[str | None] = None  # what to pip install for it (default: ``requires``)
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -321,6 +326,14 @@ class _ArraySource(Source):
 # ----------------------------------------------------------------------------- the registry
 
 READERS: list[type[Source]] = []
+# Entry points of this group name Source subclasses of other packages (a lab's recorder format):
+# ``[project.entry-points."vrelab.readers"] myrec = "mypkg.reader:MyRecSource"``.
+PLUGIN_GROUP = "vrelab.readers"
+PLUGINS: dict[type[Source], str] = {}  # a plugin's class -> where it came from (distribution, entry point)
+PLUGIN_NOTES: list[str] = []  # one line per plugin that was skipped, and why
+_plugins_started = _plugins_loaded = False
+_plugins_lock = threading.RLock()
+_log = logging.getLogger("vrelab.readers")
 
 
 def register(cls: type[Source]) -> type[Source]:
@@ -330,20 +343,147 @@ def register(cls: type[Source]) -> type[Source]:
     return cls
 
 
+def _skip(note: str) -> None:
+    """A plugin that cannot be used: said once, on one line (logging's last-resort handler
+    prints a warning on stderr when the application configured none), and kept in PLUGIN_NOTES."""
+    if note not in PLUGIN_NOTES:
+        PLUGIN_NOTES.append(note)
+        _log.warning("vrelab: %s", note)
+
+
+def _plugin_problem(cls: Any) -> str | None:
+    """Why a plugin's object cannot be a format (None: it can)."""
+    if not (isinstance(cls, type) and issubclass(cls, Source)):
+        what = f"class {cls.__qualname__}" if isinstance(cls, type) else f"a {type(cls).__name__}"
+        return f"it is {what}, not a subclass of vrelab.analysis.readers.Source"
+    if not isinstance(cls.fmt, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.+-]*", cls.fmt) or cls.fmt == "?":
+        return f"its fmt {cls.fmt!r} is not a format name (letters, digits, _ . + -)"
+    taken = {c.fmt.lower() for c in READERS if c is not cls}
+    if cls.fmt.lower() in taken:
+        return f"format {cls.fmt!r} is already registered"
+    ext = cls.extensions
+    if not isinstance(ext, tuple) or not all(isinstance(e, str) and re.fullmatch(r"\.[a-z0-9_.+-]+", e) for e in ext):
+        return f"its extensions {ext!r} are not a tuple of lower-case endings such as ('.rec',)"
+    return None
+
+
+def load_plugins() -> list[str]:
+    """Register the formats of every installed ``vrelab.readers`` entry point, once per process.
+
+    A plugin that fails to import, is not a :class:`Source` subclass, or clashes with a
+    registered format name is skipped with a one-line note (:data:`PLUGIN_NOTES`, and a warning
+    on the ``vrelab.readers`` logger); vrelab itself keeps working. Returns the notes.
+    """
+    global _plugins_started, _plugins_loaded
+    if _plugins_loaded:
+        return PLUGIN_NOTES
+    # two threads reading their first files: one loads, the other waits; a plugin whose own
+    # import reads a file (the same thread, back here) finds the loading started and goes on
+    with _plugins_lock:
+        if not _plugins_started:
+            _plugins_started = True
+            try:
+                _load_plugins()
+            finally:
+                _plugins_loaded = True
+    return PLUGIN_NOTES
+
+
+def _load_plugins() -> None:
+    from importlib.metadata import entry_points
+
+    try:
+        eps = list(entry_points(group=PLUGIN_GROUP))
+    except Exception as exc:  # a broken distribution's metadata
+        _skip(f"reader plugins not loaded: {type(exc).__name__}: {exc}")
+        return
+    for ep in eps:
+        dist = getattr(getattr(ep, "dist", None), "name", None)
+        where = f"{ep.name} = {ep.value}" + (f" (package {dist})" if dist else "")
+        try:
+            cls = ep.load()
+        except Exception as exc:  # whatever a plugin raises at import, vrelab keeps working
+            _skip(f"reader plugin {where} skipped: {type(exc).__name__}: {exc}")
+            continue
+        why = _plugin_problem(cls)
+        if why:
+            _skip(f"reader plugin {where} skipped: {why}")
+            continue
+        PLUGINS[cls] = where
+        register(cls)
+
+
+def _claims(cls: type[Source], head: bytes) -> bool:
+    if cls not in PLUGINS:
+        return cls.can_open(head)
+    try:  # a plugin's error here must not stop other formats from being read
+        return bool(cls.can_open(head))
+    except Exception as exc:
+        _skip(f"reader plugin {PLUGINS[cls]}: can_open raised {type(exc).__name__}: {exc} (taken as not its file)")
+        return False
+
+
+def missing_library(cls: type[Source]) -> str | None:
+    """The install hint of a format whose library is not installed (None: nothing missing)."""
+    if cls.requires is None:
+        return None
+    try:
+        found = importlib.util.find_spec(cls.requires) is not None
+    except (ImportError, ValueError):
+        found = False
+    if found:
+        return None
+    return f"reading {cls.fmt.upper()} needs {cls.requires}: pip install '{cls.install or cls.requires}'"
+
+
 def reader_for(path: Path) -> type[Source]:
-    """The registered format of ``path``: its magic bytes first, else its extension."""
+    """The registered format of ``path``: its magic bytes first, else its extension.
+
+    The built-in formats are asked first, then the plugins (:func:`load_plugins`). A format
+    whose library is not installed is refused with its install hint.
+    """
+    load_plugins()
     with open(path, "rb") as fh:
         head = fh.read(1024)
     if not head:
         raise ValueError(f"{path.name}: file is empty")
-    for cls in READERS:
-        if cls.can_open(head):
-            return cls
-    ext = path.suffix.lower()
-    for cls in READERS:
-        if ext in cls.extensions:
-            if cls.has_magic:
-                raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
-            return cls
-    names = ", ".join(dict.fromkeys(c.fmt.split("-")[0].upper() for c in READERS))
-    raise ValueError(f"{path.name}: unknown file format (extension {path.suffix or 'none'!r}); supported: {names}")
+    found = next((cls for cls in READERS if _claims(cls, head)), None)
+    if found is None:
+        ext = path.suffix.lower()
+        for cls in READERS:
+            if ext in cls.extensions:
+                if cls.has_magic:
+                    raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
+                found = cls
+                break
+    if found is None:
+        names = ", ".join(dict.fromkeys(c.fmt.split("-")[0].upper() for c in READERS))
+        raise ValueError(f"{path.name}: unknown file format (extension {path.suffix or 'none'!r}); supported: {names}")
+    hint = missing_library(found)
+    if hint:
+        raise ValueError(f"{path.name}: {hint}")
+    return found
+
+
+def formats() -> list[dict[str, Any]]:
+    """Every registered format, plugins included: ``{"format", "extensions", "requires",
+    "installed", "install", "plugin"}`` (``plugin``: the entry point, None for a built-in)."""
+    load_plugins()
+    return [{"format": cls.fmt, "extensions": list(cls.extensions), "requires": cls.requires,
+             "installed": missing_library(cls) is None, "install": cls.install or cls.requires,
+             "plugin": PLUGINS.get(cls)} for cls in READERS]
+
+
+def formats_text() -> str:
+    """The registered formats in one line for help texts: ``CSV (.csv .tsv), ..., MDF (.mf4 .mdf;
+    needs asammdf, not installed: pip install 'vrelab[formats]'), REC (.rec; plugin ...)``."""
+    parts = []
+    for f in formats():
+        extra = []
+        if f["requires"]:
+            extra.append(f"needs {f['requires']}" + ("" if f["installed"] else f", not installed: pip install '{f['install']}'"))
+        if f["plugin"]:
+            extra.append(f"plugin {f['plugin']}")
+        detail = "; ".join(([" ".join(f["extensions"])] if f["extensions"] else []) + extra)
+        parts.append(f"{f['format'].upper()} ({detail})" if detail else f["format"].upper())
+    return ", ".join(parts)

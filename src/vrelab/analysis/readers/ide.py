@@ -135,6 +135,7 @@ class IdeSource(Source):
     fmt = "ide"
     extensions = (".ide",)
     requires = "idelib"
+    install = "vrelab[formats]"
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:

@@ -92,6 +92,7 @@ class MdfSource(Source):
     fmt = "mdf"
     extensions = (".mf4", ".mdf")
     requires = "asammdf"
+    install = "vrelab[formats]"
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:

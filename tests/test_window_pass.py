@@ -1,0 +1,103 @@
+"""The analysis's first pass (segmentation.window_pass_many) against each window computed on its
+own with plain numpy: sums, extremes, samples on a rail, the reference's AC power in the time
+domain (Parseval's other side), its in-band power from numpy's FFT of that window alone, and
+the Hann-smoothed DUT series from the kernel's definition. The record is cut in blocks and
+chunks that end mid-record and leave a partial last window, so every edge of the pass is
+crossed; the numbers do not depend on the block size."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vrelab.analysis import segmentation
+from vrelab.analysis.segmentation import SMOOTH_WINDOWS, window_length, window_pass_many
+from vrelab.record import ArrayRecord
+
+FS = 1000.0
+BAND = (50.0, 300.0)
+
+
+def _record(n: int, seed: int = 3) -> ArrayRecord:
+    rng = np.random.default_rng(seed)
+    ref = rng.standard_normal(n) * np.linspace(0.0, 2.0, n)
+    a = 1.0 + ref
+    clipped = np.clip(a + 1e-3 * a**2 + 1e-4 * rng.standard_normal(n), -1.5, 2.5)
+    other = -1.0 + 0.5 * ref + 1e-4 * rng.standard_normal(n)
+    return ArrayRecord({"reference": ref, "dut": clipped, "dut:y": other}, FS)
+
+
+def _by_hand(x: np.ndarray, w: int, ref: np.ndarray, rail_g: float) -> dict[str, np.ndarray]:
+    n = len(x)
+    starts = np.arange(0, n, w)
+    out: dict[str, list[float]] = {k: [] for k in ("count", "sum", "max", "min", "rail", "ac", "band", "rsum")}
+    for s in starts:
+        seg, r = x[s : s + w], ref[s : s + w]
+        L = len(seg)
+        out["count"].append(L)
+        out["sum"].append(seg.sum())
+        out["max"].append(seg.max())
+        out["min"].append(seg.min())
+        thr = rail_g * (1 - 1e-6)
+        out["rail"].append(np.count_nonzero((seg >= thr) | (seg <= -thr)))
+        out["ac"].append(np.sum((r - r.mean()) ** 2))  # Parseval: all bins but DC, in the time domain
+        X = np.fft.rfft(r)
+        f = np.fft.rfftfreq(L, 1 / FS)
+        weight = np.where((f >= BAND[0]) & (f <= BAND[1]), 2.0, 0.0)
+        weight[0] = 0.0
+        if L % 2 == 0 and f[-1] >= BAND[0] and f[-1] <= BAND[1]:
+            weight[-1] = 1.0  # the Nyquist bin of an even window counts once
+        out["band"].append(np.sum(weight * np.abs(X) ** 2) / L)
+        out["rsum"].append(r.sum())
+    # the smoothed series: a Hann kernel over 3 windows centred on each, h(i) = sin²(π(i+½)/3w),
+    # normalised by the weights present; a partial last window weighs as if it were whole
+    h = np.sin(np.pi * (np.arange(SMOOTH_WINDOWS * w) + 0.5) / (SMOOTH_WINDOWS * w)) ** 2
+    k = len(starts)
+    smooth = np.zeros(k)
+    for j in range(k):
+        num = den = 0.0
+        for q in range(SMOOTH_WINDOWS):
+            src = j - SMOOTH_WINDOWS // 2 + q
+            if 0 <= src < k:
+                seg = x[src * w : src * w + w]
+                hq = h[q * w : q * w + w]
+                num += np.dot(hq[: len(seg)], seg) * (w / len(seg))
+                den += hq.sum()
+        smooth[j] = num / den
+    return {key: np.array(v) for key, v in out.items()} | {"smooth": smooth}
+
+
+@pytest.mark.parametrize("block", [1 << 18, 7 * 100 + 3])
+def test_window_sums_match_each_window_computed_alone(block, monkeypatch):
+    n = 12_345  # 123 whole windows of 100 samples and a partial one of 45
+    rec = _record(n)
+    w = window_length(FS, BAND)
+    assert w == 100
+    monkeypatch.setattr(segmentation, "CHUNK_SAMPLES", 250)  # chunks of 2 windows inside each block
+    stats = window_pass_many(rec, BAND, ["dut", "dut:y"], block_size=block, rail_g=2.5)
+    for d in ("dut", "dut:y"):
+        want = _by_hand(rec.data[d], w, rec.data["reference"], 2.5)
+        got = stats[d]
+        assert got.n_windows == 124
+        np.testing.assert_array_equal(got.count, want["count"])
+        np.testing.assert_allclose(got.dut_sum, want["sum"], rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(got.dut_max, want["max"])
+        np.testing.assert_array_equal(got.dut_min, want["min"])
+        np.testing.assert_array_equal(got.n_beyond_rail, want["rail"])
+        np.testing.assert_allclose(got.ref_ac_sumsq, want["ac"], rtol=1e-11)
+        np.testing.assert_allclose(got.ref_band_sumsq, want["band"], rtol=1e-11)
+        np.testing.assert_allclose(got.ref_sum, want["rsum"], rtol=1e-11, atol=1e-11)
+        np.testing.assert_allclose(got.dut_smooth, want["smooth"], rtol=1e-12)
+    # samples on the DUT's upper rail (2.5 g) counted in every window that reaches it
+    sat, notes = stats["dut"].saturated()
+    on = stats["dut"].dut_max >= 2.5 * (1 - 1e-6)
+    assert on.sum() > 5 and np.all(sat[on] >= want["rail"][on])
+
+
+def test_block_and_chunk_sizes_change_no_number(monkeypatch):
+    rec = _record(20_011, seed=4)
+    a = window_pass_many(rec, BAND, ["dut"])["dut"]
+    monkeypatch.setattr(segmentation, "CHUNK_SAMPLES", 300)
+    b = window_pass_many(rec, BAND, ["dut"], block_size=1_000)["dut"]
+    for name in ("count", "dut_sum", "dut_smooth", "dut_max", "dut_min", "ref_ac_sumsq", "ref_band_sumsq", "ref_sum"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
