@@ -127,3 +127,13 @@ def test_readme_command_runs(argv: list[str], workspace: Path, request) -> None:
     if argv[0] == "chromium":
         out = next(a.split("=", 1)[1] for a in argv if a.startswith("--print-to-pdf="))
         assert (workspace / out).read_bytes()[:5] == b"%PDF-"
+
+
+def test_the_sweep_file_the_readme_shows_is_the_one_it_runs():
+    """The README prints examples/sweep.toml and runs it: the two say the same."""
+    import tomllib
+
+    text = README.read_text(encoding="utf-8")
+    block = re.search(r"`examples/sweep\.toml`:\n\n```toml\n(.*?)^```", text, flags=re.S | re.M)
+    assert block, "the README no longer shows examples/sweep.toml"
+    assert tomllib.loads(block.group(1)) == tomllib.loads((ROOT / "examples" / "sweep.toml").read_text(encoding="utf-8"))
