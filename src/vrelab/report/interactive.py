@@ -374,7 +374,10 @@ class _AxesTranslator:
         out: dict[str, Any] = {"domain": [max(0.0, domain[0]), min(1.0, domain[1])], "anchor": anchor,
                                "showgrid": True, "gridcolor": "rgba(0,0,0,0.12)", "zeroline": False,
                                "showline": True, "linecolor": "black", "mirror": True, "ticks": "outside",
-                               "automargin": False, "title": {"text": _text(label), "font": {"size": self.px(10)}},
+                               "automargin": False,
+                               # Close to the tick labels, as matplotlib sets it: plotly's default standoff
+                               # put a panel's x title on the title of the panel below it.
+                               "title": {"text": _text(label), "font": {"size": self.px(10)}, "standoff": self.px(3)},
                                "tickfont": {"size": self.px(9)}}
         if scale == "log":
             out["type"] = "log"
