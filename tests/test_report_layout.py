@@ -1,6 +1,7 @@
 """The demo, a campaign and a sweep report laid out in a real browser: on a 1400 px screen and printed on
 A4, no table, figure or heading runs out of its box, and no text of an interactive figure (tick
-labels, axis titles, panel titles and annotations, legends) lies on another; every log axis
+labels, axis titles, panel titles and annotations, legends) lies on another, nor a legend on a
+data point; every log axis
 labels its ticks with their whole value ("20000", "5×10⁻⁴"), never a bare digit.
 
 Measured by the page itself (getBoundingClientRect, scrollWidth against clientWidth) in headless
@@ -64,13 +65,19 @@ JSON.stringify((function () {
     var hits = [];
     for (var i = 0; i < items.length; i++) for (var j = i + 1; j < items.length; j++)
       if (hit(items[i], items[j])) hits.push(items[i].kind + " '" + items[i].text + "' on " + items[j].kind + " '" + items[j].text + "'");
+    // Data points (markers) under a legend: hidden from the reader.
+    var legends = items.filter(function (r) { return r.kind === "legend"; }), covered = 0, points = 0;
+    boxes(gd, ".scatterlayer .points path.point", "point").forEach(function (p) {
+      points++;
+      if (legends.some(function (l) { return hit(p, l); })) covered++;
+    });
     var logs = [];
     Object.keys(gd._fullLayout).forEach(function (k) {
       var a = gd._fullLayout[k];
       if (/^[xy]axis\\d*$/.test(k) && a.type === "log" && a.showticklabels)
         logs.push({axis: k, ticks: Array.from(gd.querySelectorAll("." + a._id + "tick text")).map(function (t) { return t.textContent; })});
     });
-    figures.push({id: gd.parentNode.id, items: items.length, hits: hits, logs: logs});
+    figures.push({id: gd.parentNode.id, items: items.length, hits: hits, logs: logs, covered: covered, points: points});
   });
   return figures;
 })())
@@ -160,6 +167,8 @@ def test_figure_texts_do_not_overlap_and_log_axes_say_their_magnitude(which: str
     for f in figures:
         assert f["items"] >= 4, f"{f['id']}: no tick labels found (the page's structure changed?)"
         assert f["hits"] == [], f"{which} figure {f['id']}: {f['hits'][:4]}"
+        assert f["covered"] == 0, f"{which} figure {f['id']}: a legend covers {f['covered']} of {f['points']} data points"
+    assert sum(f["points"] for f in figures) > 0, "no data point found (the check above would test nothing)"
     logs = [a for f in figures for a in f["logs"]]
     if which != "sweep":  # the sweep's axes are linear
         assert logs, f"{which}: no log axis drawn (the check below would test nothing)"
