@@ -556,7 +556,7 @@ def test_prediction_table_rounds_at_its_resolution_and_lists_reasons_below(tmp_p
     assert not re.search(r"\de[-+]?\d", table), table  # no exponent anywhere in the table
     cells = table.split()
     assert "-0.198" in cells and "-789.490" in cells and "-0.205" in cells and "0" in cells
-    assert "no (see the notes below)" in table and why not in table.split("no (see the notes below)")[0]
+    assert "no (note 1)" in table and why not in table.split("no (note 1)")[0]  # the reason once, numbered, below
     assert f"{why} (at 4 g rms)" in table
     prov = text[text.index("Provenance"):]
     assert "null" not in prov and "{" not in prov and "\\u00" not in prov

@@ -127,3 +127,48 @@ def test_hover_never_shows_an_uncertainty_the_figure_does_not_have() -> None:
     no_u, one_u = _twin(fig)["data"]
     assert "error_y" not in no_u and "customdata" not in no_u and "±" not in no_u["hovertemplate"]
     assert one_u["customdata"] == ["5.00 ± 0.10", "6"]  # the value at u's last digit; no u, no "±"
+
+
+def _fig(nrows: int = 1) -> tuple[Figure, list]:
+    fig = Figure(figsize=(7.6, 4.6), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, list(fig.subplots(nrows, 1, sharex=True, squeeze=False)[:, 0])
+
+
+def test_log_axis_labels_every_tick_with_its_whole_value() -> None:
+    """A VRC axis from 1200 to 25 000 µg/g²: labels 2000, 5000, 10000, 20000 (plotly's default
+    prints "2", "3" ... between decades); a PSD axis below 0.001 writes its power of ten."""
+    fig, (ax,) = _fig()
+    ax.loglog([80, 300, 1000], [1200, 3300, 25000], "o-")
+    ax.set_ylim(1200, 25000)
+    ax.set_xlim(70, 1500)
+    spec = _twin(fig)
+    y, x = spec["layout"]["yaxis"], spec["layout"]["xaxis"]
+    assert y["type"] == "log" and y["tickmode"] == "array"
+    assert list(y["ticktext"]) == ["2000", "5000", "10000", "20000"]
+    np.testing.assert_allclose(y["tickvals"], [2000, 5000, 10000, 20000])
+    assert list(x["ticktext"]) == ["100", "200", "500", "1000"]
+    fig, (ax,) = _fig()
+    ax.loglog([50, 2000], [4e-4, 2e-2])
+    ax.set_ylim(4e-4, 2e-2)
+    assert list(_twin(fig)["layout"]["yaxis"]["ticktext"]) == ["5×10⁻⁴", "0.001", "0.002", "0.005", "0.01", "0.02"]
+
+
+def test_stacked_panels_keep_hidden_tick_labels_hidden_and_legends_inside_their_axes() -> None:
+    """Two panels sharing time: matplotlib labels only the lower one's ticks (the upper ones sat
+    under the lower panel's title); a lower-left legend is anchored at its axes' lower left, so a
+    taller plotly legend grows up into its own panel, not down over the ticks and the next panel."""
+    fig, (top, bottom) = _fig(2)
+    for ax in (top, bottom):
+        for k in range(4):
+            ax.plot([0, 10], [k, k + 1], label=f"trace {k} with a long legend label")
+        ax.legend(loc="lower left")
+    bottom.set_title("lower panel")
+    spec = _twin(fig)
+    lay = spec["layout"]
+    assert lay["xaxis"]["showticklabels"] is False
+    assert lay["xaxis2"].get("showticklabels", True) is True
+    for n, key in ((1, "legend"), (2, "legend2")):
+        leg, dom_x, dom_y = lay[key], lay[f"xaxis{n if n > 1 else ''}"]["domain"], lay[f"yaxis{n if n > 1 else ''}"]["domain"]
+        assert (leg["xanchor"], leg["yanchor"]) == ("left", "bottom")
+        assert dom_x[0] <= leg["x"] < dom_x[1] and dom_y[0] <= leg["y"] < dom_y[1]

@@ -259,7 +259,7 @@ def study_fig2(cfg: DemoConfig) -> _Study:
     kept = [lv for lv in res.levels if dep is None or lv.rms_g < dep]
     try:
         trunc = fit_rail(kept, 1.0, kind="truncated")
-        trunc_txt = f"{trunc.params['rail_g'].value:.3g} ± {trunc.params['rail_g'].u:.2g} g"
+        trunc_txt = format_value_u(trunc.params["rail_g"].value, trunc.params["rail_g"].u, unit="g")
     except ValueError:
         trunc, trunc_txt = None, "no fit"
     curves = plots.model_curves(res, rms_max_g=4.2)

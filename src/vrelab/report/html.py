@@ -61,6 +61,8 @@ table.kv table.kv { margin: 0; }
 table.kv table.kv th { white-space: normal; }
 td.given-not { color: var(--mute); font-style: italic; }
 div.scroll { overflow-x: auto; max-width: 100%; }
+/* The prediction's columns (a share per mechanism): headings wrap so the table fits the page. */
+table.pred th.num { white-space: normal; }
 table.ident { width: 100%; border: 2px solid var(--ink); }
 table.ident th { width: 24%; }
 table.approval { width: 100%; }
@@ -70,10 +72,10 @@ figure img { max-width: 100%; height: auto; border: 1px solid var(--rule); displ
 figcaption { color: var(--mute); font-size: .92em; margin-top: .3em; }
 /* The interactive twin shows where the script drew it; the PNG where it did not, and in print. */
 .iplot { display: none; }
-html.js .iplot { display: block; width: 100%; border: 1px solid var(--rule); }
+html.js .iplot { display: block; width: 100%; box-sizing: border-box; overflow: hidden; border: 1px solid var(--rule); }
 figure.live img.static { display: none; }
 ul.warn { background: var(--warnbg); border: 1px solid #f0c27a; padding: .6em 1em .6em 2em; color: var(--warn); }
-ul.notes li, ul.warn li { margin: .2em 0; }
+ul.notes li, ol.notes li, ul.warn li { margin: .2em 0; }
 nav ol { margin: .2em 0 1em; list-style: none; padding-left: 1.2em; }
 nav ol ol { margin: 0; }
 .mute { color: var(--mute); }
@@ -406,10 +408,10 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
                 v = v.get("vre_g", v.get("value"))
             cells.append(format_mg(v, resolution_mg=res) if isinstance(v, (int, float)) else _fmt(v))
         if has_valid:
-            why = "; ".join(str(n) for n in lv.get("notes") or ())
-            # The reason is listed once under the table (by_note): a sentence per cell made the
-            # table 2000 px wide and hid this column.
-            cells.append("yes" if lv.get("valid") else ("no (see the notes below)" if why else "no (reason not given)"))
+            # The reasons are the numbered notes under the table: written out in every row they
+            # made the table three page-widths wide and hid this column off the screen.
+            why = ", ".join(str(list(by_note).index(str(n)) + 1) for n in dict.fromkeys(lv.get("notes") or ()))
+            cells.append("yes" if lv.get("valid") else (f"no (note {why})" if why else "no (reason not given)"))
         rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in cells) + "</tr>")
     th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     extra = []
@@ -419,8 +421,9 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         extra.append(field_text(k, v))
     notes = f'<p class="mute">Predicted values to {res:g} mg; a smaller share is shown as 0.</p>'
     if by_note:
-        notes += '<ul class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ul>"
-    return kv_table(extra) + f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + notes
+        notes += '<ol class="notes">' + "".join(f"<li>{esc(n)} (at {', '.join(lv)} g rms)</li>" for n, lv in by_note.items()) + "</ol>"
+    return (kv_table(extra) + f'<div class="scroll"><table class="pred"><thead><tr>{th}</tr></thead>'
+            f'<tbody>{"".join(rows)}</tbody></table></div>' + notes)
 
 
 # Provenance keys that name a file beside the report: shown as a link to it.

@@ -378,17 +378,30 @@ class _AxesTranslator:
         out: dict[str, Any] = {"domain": [max(0.0, domain[0]), min(1.0, domain[1])], "anchor": anchor,
                                "showgrid": True, "gridcolor": "rgba(0,0,0,0.12)", "zeroline": False,
                                "showline": True, "linecolor": "black", "mirror": True, "ticks": "outside",
-                               "automargin": False, "title": {"text": _text(label), "font": {"size": self.px(10)}},
+                               "automargin": False,
+                               # Close to the tick labels, as matplotlib sets it: plotly's default standoff
+                               # put a panel's x title on the title of the panel below it.
+                               "title": {"text": _text(label), "font": {"size": self.px(10)}, "standoff": self.px(3)},
                                "tickfont": {"size": self.px(9)}}
         if scale == "log":
             out["type"] = "log"
             out["range"] = [math.log10(lo), math.log10(hi)]
+            # Between decades plotly labels its minor ticks with the bare digit ("2", "3" for
+            # 20 000) or an SI prefix ("600μ" beside a unit with a µ of its own): the ticks are
+            # given here, 1-2-5 per decade, each label its whole value.
+            out["tickmode"] = "array"
+            out["tickvals"], out["ticktext"] = _log_ticks(lo, hi)
         elif scale in ("linear", "symlog"):
             # plotly has no symmetric-log axis: linear, with the zoom to read small values.
             out["type"] = "linear"
             out["range"] = [lo, hi]
         else:
             raise Unsupported(f"{which} scale {scale!r}")
+        # A panel whose tick labels matplotlib hides (sharex: the panel below labels the time)
+        # hides them here too; shown, they sit under the next panel's title.
+        params = (ax.xaxis if which == "x" else ax.yaxis).get_tick_params(which="major")
+        if not any(params.get(k, False) for k in ("labelbottom", "labeltop", "labelleft", "labelright")):
+            out["showticklabels"] = False
         ticks = ax.get_xticklabels() if which == "x" else ax.get_yticklabels()
         texts = [t.get_text() for t in ticks]
         # Log axes label their ticks in mathtext ("$10^{2}$"): plotly's own log ticks say the same.
@@ -397,6 +410,35 @@ class _AxesTranslator:
             out["tickvals"] = [float(v) for v in (ax.get_xticks() if which == "x" else ax.get_yticks())]
             out["ticktext"] = [_text(s) for s in texts]
         return out
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def _tick_label(v: float) -> str:
+    """A log tick's whole value: plain from 0.001 to 99 999, else mantissa × 10 to a power."""
+    if 1e-3 <= abs(v) < 1e5:
+        return f"{v:g}"
+    e = math.floor(math.log10(abs(v)) + 1e-9)
+    m = round(v / 10**e)
+    return (f"{m}×" if m != 1 else "") + "10" + str(e).translate(_SUPERSCRIPT)
+
+
+def _log_ticks(lo: float, hi: float) -> tuple[list[float], list[str]]:
+    """Tick values and labels of a log axis from ``lo`` to ``hi``: 1, 2 and 5 per decade over
+    up to three decades, decades alone beyond (labels that would crowd a report's width)."""
+    lo, hi = min(lo, hi), max(lo, hi)
+    e0, e1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    steps = (1, 2, 5) if e1 - e0 <= 3 else (1,)
+    vals = [m * 10.0**e for e in range(e0, e1 + 1) for m in steps]
+    vals = [float(f"{v:.12g}") for v in vals if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)]
+    if len(vals) < 3:  # less than a decade: every digit
+        vals = [float(f"{m * 10.0**e:.12g}") for e in range(e0, e1 + 1) for m in range(1, 10)]
+        vals = [v for v in vals if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)]
+    if len(vals) > 12:  # many decades: every other, then every third ...
+        k = math.ceil(len(vals) / 12)
+        vals = vals[::k]
+    return vals, [_tick_label(v) for v in vals]
 
 
 def _is_number(s: str) -> bool:
@@ -452,7 +494,15 @@ def to_plotly(fig: Figure) -> dict[str, Any]:
         leg = ax.get_legend()
         if leg is not None:
             bb = leg.get_window_extent(renderer).transformed(inv)
-            layout[tr.legend] = {"x": max(0.0, bb.x0), "y": min(1.0, bb.y1), "xanchor": "left", "yanchor": "top",
+            # Anchored at the corner of matplotlib's box nearest its axes' corner: a plotly legend
+            # is taller and wider than matplotlib's (more space per entry, a browser's width),
+            # and from that corner it grows into its own axes, never over the ticks outside them
+            # or the panel below.
+            right = (bb.x0 + bb.x1) / 2 > (pos.x0 + pos.x1) / 2
+            top = (bb.y0 + bb.y1) / 2 > (pos.y0 + pos.y1) / 2
+            layout[tr.legend] = {"x": min(bb.x1, pos.x1) if right else max(bb.x0, pos.x0),
+                                 "y": min(bb.y1, pos.y1) if top else max(bb.y0, pos.y0),
+                                 "xanchor": "right" if right else "left", "yanchor": "top" if top else "bottom",
                                  "xref": "paper", "yref": "paper", "bgcolor": "rgba(255,255,255,0.85)",
                                  "bordercolor": "rgba(0,0,0,0.25)", "borderwidth": 1,
                                  "font": {"size": px(leg.get_texts()[0].get_fontsize()) if leg.get_texts() else px(8)}}
