@@ -32,7 +32,7 @@ demo: $(STAMP_BASE)
 
 test: $(STAMP_TEST)
 	$(BIN)/python tests/setup_browser.py
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 docs: $(STAMP_TEST)
 	$(BIN)/python -m sphinx -b html -W --keep-going docs docs/_build/html
