@@ -16,12 +16,12 @@ h5py for HDF5 (MAT v7.3 included). For every channel the library gives:
   the user names them (``Scale("lsb", 1)`` then gives the counts back exactly);
 * a unit that is not an acceleration (Pa, degC, Nm, ns, a quaternion's q, ...) is refused as a DUT;
 * the rate agrees within what the file states: exactly for WAV, within the rounding of the
-  written increment for UFF58 (E13.5: six significant digits), within double precision for MDF4
-  time stamps, and for IDE (recorders stamp blocks, not samples) within ten sample periods over
-  the record of the rate the library's own time stamps give.
+  written increment for UFF58 (E13.5: six significant digits), and for time-stamped formats
+  (MDF4, IDE: recorders stamp blocks, loggers stamp samples, with jitter) with the slope of a line
+  through the library's stamps, within the tilt their scatter about it allows.
 
 A file with an ``expected`` entry is one vrelab rightly refuses (truncated, no time record, no
-real-valued channel, unevenly sampled, a lossy audio codec): its message must match.
+real-valued channel, a lossy audio codec): its message must match.
 """
 
 from __future__ import annotations
@@ -104,9 +104,19 @@ def _uff(path: Path) -> dict[str, LibChannel]:
     return out
 
 
+def _stamped_rate(t: NDArray[np.float64]) -> tuple[float, float]:
+    """The rate [Hz] that time stamps [s] give (the slope of a least-squares line through them:
+    numpy's polyfit, not vrelab's code) and how closely they pin it: a line that stays within the
+    stamps' scatter about it (r) can tilt by 2r over the record, a relative 2r / span."""
+    i = np.arange(len(t), dtype=np.float64)
+    slope, icept = np.polyfit(i, t, 1)
+    r = float(np.max(np.abs(t - (slope * i + icept))))
+    return 1.0 / float(slope), 2.0 * r / float(t[-1] - t[0]) + 1e-9
+
+
 def _ide(path: Path) -> dict[str, LibChannel]:
     """idelib: every sub-channel with samples, named ``<channel id>.<sub-channel id>``; the rate
-    from the library's time stamps (µs) over the record, to within ten sample periods."""
+    from the library's time stamps (µs; recorders stamp blocks, which jitter)."""
     import idelib
 
     out: dict[str, LibChannel] = {}
@@ -119,9 +129,9 @@ def _ide(path: Path) -> dict[str, LibChannel]:
                 if n < 2:
                     continue
                 t, v = ev.arraySlice(0, n)
-                rate = (n - 1) / ((float(t[-1]) - float(t[0])) * 1e-6)
+                rate, rtol = _stamped_rate(np.asarray(t, dtype=np.float64) * 1e-6)
                 units = sc.units if isinstance(sc.units, tuple) else ("", sc.units)
-                out[f"{cid}.{sc.id}"] = LibChannel(np.asarray(v), rate, 10.0 / (n - 1), str(units[1] or "").strip())
+                out[f"{cid}.{sc.id}"] = LibChannel(np.asarray(v), rate, rtol, str(units[1] or "").strip())
     finally:
         doc.close()
     return out
@@ -144,10 +154,9 @@ def _mdf(path: Path) -> dict[str, LibChannel]:
                 x = np.asarray(s.samples)
                 if x.ndim != 1 or x.dtype.kind not in "biuf":
                     continue
-                t = np.asarray(s.timestamps, dtype=np.float64)
-                rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 else None
+                rate, rtol = _stamped_rate(np.asarray(s.timestamps, dtype=np.float64))
                 name = ch.name if len(mdf.channels_db[ch.name]) == 1 else f"{gi}/{ch.name}"
-                out[name] = LibChannel(x, rate, 1e-9, str(s.unit or "").strip())
+                out[name] = LibChannel(x, rate, rtol, str(s.unit or "").strip())
     finally:
         mdf.close()
     return out
@@ -295,7 +304,9 @@ def check_file(entry: dict[str, Any]) -> list[str]:
         return [f"refused: {exc}"]
     try:
         listed = set(src.channels)
-        stated = dict(getattr(src, "units", {}))
+        # the unit vrelab reports for each channel (Source.unit_of; a reader without it states none)
+        unit_of = getattr(src, "unit_of", lambda name: None)
+        stated = {name: unit_of(name) for name in lib if name in listed}
     finally:
         src.close()
     problems = []
