@@ -131,6 +131,11 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
         ("unknown-method", ["{d}/record.h5", "--dut", "dut", "--method", "chirp"], 'method'),
         ("not-a-record", ["{d}/a-file.txt", "--dut", "dut"], 'a-file.txt'),
     ],
+    "channels": [
+        ("missing-file", ["{d}/no-such-record.h5"], 'no-such-record.h5'),
+        ("not-a-record", ["{d}/a-file.txt"], 'a-file.txt'),
+        ("truncated-tdms", ["{d}/cut.tdms"], 'cut.tdms'),
+    ],
     "campaign": [
         ("missing-manifest", ["{d}/no-such-campaign.toml"], 'no-such-campaign.toml'),
         ("malformed-toml", ["{d}/malformed.toml"], 'malformed.toml'),
@@ -186,6 +191,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "campaign-missing-file.toml").write_text(camp.replace("record.h5", "nope.h5"))
     (d / "campaign-profile.toml").write_text(camp + 'profile = "flat:20-1990"\n')
     (d / "empty").mkdir()
+    (d / "cut.tdms").write_bytes(b"TDSm" + bytes(20))
     (d / "malformed").mkdir()
     (d / "malformed" / "results.json").write_text("{\"method\": ")
     from vrelab.results import Conditions, Estimate, LevelResult, VreResult

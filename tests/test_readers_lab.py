@@ -67,7 +67,9 @@ def test_lvm_bad_files(tmp_path: Path) -> None:
     ref, dut = _signals()
     p = tmp_path / "rates.lvm"
     write_lvm(p, ref, dut, delta_x=(1e-3, 2e-3))
-    with pytest.raises(ValueError, match="rates.lvm: LVM channels have different Delta_X"):
+    # the two channels a record reads must share a rate (the file may hold others: see
+    # test_lvm_only_the_chosen_channels_share_a_rate)
+    with pytest.raises(ValueError, match=r"rates.lvm: channels 'dut' \(500 Hz\) and 'ref' \(1000 Hz\) have different"):
         open_record(p, "dut", "ref")
     q = tmp_path / "cut.lvm"
     q.write_text("\n".join(p.read_text().splitlines()[:15]))
@@ -220,17 +222,20 @@ def test_tdms_daqmx_raw_data_is_read_scaled(tmp_path: Path) -> None:
 
 
 def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250, jitter: float = 0.0,
-              seed: int = 0, gap_after: int | None = None) -> None:
+              seed: int = 0, gap_after: int | None = None, drift: float = 0.0, gap_blocks: int = 1) -> None:
     """An IDE file as enDAQ recorders write it, encoded with ebmlite (the EBML library idelib
     reads with) against idelib's own schema (mide_ide.xml): recording properties declaring one
     channel (ID 8, float32 sub-channels), then data blocks stamped with their start and end
     time codes (1/32768 s); ``jitter`` moves each block's stamps by up to that many ticks;
-    ``gap_after`` blocks, the stamps jump one block ahead (samples lost)."""
+    ``gap_after`` blocks, the stamps jump ``gap_blocks`` blocks ahead (samples lost); ``drift``
+    bends the recorder's clock: block b is stamped ``drift`` samples late at the record's end,
+    quadratically in between (a clock slowing down as the recorder warms)."""
     import ebmlite
 
     schema = ebmlite.loadSchema("mide_ide.xml")
     names = list(cols)
-    subs = [{"SubChannelID": i, "SubChannelName": nm, "SubChannelAxisName": nm, "SubChannelUnitsName": "g"}
+    subs = [{"SubChannelID": i, "SubChannelName": nm, "SubChannelAxisName": nm,
+             "SubChannelLabel": "Acceleration", "SubChannelUnits": "g"}
             for i, nm in enumerate(names)]
     props = {"RecordingProperties": {"ChannelList": {"Channel": [
         {"ChannelID": 8, "ChannelName": "Accel", "ChannelFormat": "<" + "f" * len(names), "SubChannel": subs}]}}}
@@ -240,9 +245,11 @@ def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250
     blocks = []
     for b, i in enumerate(range(0, len(data), per)):
         j = min(i + per, len(data))
-        dj = rng.uniform(-jitter, jitter) + (per * tick if gap_after is not None and b >= gap_after else 0.0)
-        blocks.append({"ChannelDataBlock": {"ChannelIDRef": 8, "StartTimeCodeAbs": int(round(i * tick + dj)),
-                                            "EndTimeCodeAbs": int(round((j - 1) * tick + dj)),
+        dj = (rng.uniform(-jitter, jitter) + (gap_blocks * per * tick if gap_after is not None and b >= gap_after else 0.0)
+              + drift * tick * (i / len(data)) ** 2)
+        t0 = np.ceil(jitter)  # stamps are unsigned
+        blocks.append({"ChannelDataBlock": {"ChannelIDRef": 8, "StartTimeCodeAbs": int(round(t0 + i * tick + dj)),
+                                            "EndTimeCodeAbs": int(round(t0 + (j - 1) * tick + dj)),
                                             "ChannelDataPayload": data[i:j].tobytes()}})
     path.write_bytes(schema.encodes([props] + blocks, headers=True))
 

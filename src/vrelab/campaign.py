@@ -23,6 +23,7 @@ several DUTs) -> :func:`vrelab.analysis.reduction.analyze_channels` -> per-run r
 from __future__ import annotations
 
 import math
+import shutil
 import tomllib
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -59,9 +60,9 @@ class Run:
     method: str = "auto"
     fs_hz: float | None = None
     time: str | None = None
-    dut_units: str = "g"
+    dut_units: str | None = None  # None: the unit the file states, else g
     dut_sensitivity: Mapping[str, float | None] = field(default_factory=dict)
-    reference_units: str = "g"
+    reference_units: str | None = None
     reference_sensitivity: float | None = None
     schedule: Path | None = None
     profile: str | None = None
@@ -157,9 +158,9 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
             method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
             fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
             time=_opt_str(where, "time", d.get("time")),
-            dut_units=str(d.get("dut_units", "g")),
+            dut_units=None if d.get("dut_units") is None else str(d["dut_units"]),
             dut_sensitivity=sens,
-            reference_units=str(d.get("reference_units", "g")),
+            reference_units=None if d.get("reference_units") is None else str(d["reference_units"]),
             reference_sensitivity=_number(where, "reference_sensitivity", d.get("reference_sensitivity"), positive=True),
             schedule=_path(manifest, where, "schedule", d["schedule"]) if "schedule" in d else None,
             profile=_profile(manifest, where, d.get("profile")),
@@ -284,8 +285,11 @@ def _band(where: str, value: Any) -> tuple[float, float] | None:
 def _scales(run: Run) -> tuple[dict[str, Any], Any]:
     from vrelab.analysis.readers import Scale
 
-    dut = {c: Scale.parse(run.dut_units, run.dut_sensitivity.get(c), f"dut {c}") for c in run.dut}
-    ref = Scale.parse(run.reference_units, run.reference_sensitivity, "reference")
+    # neither a unit nor a sensitivity: None, the unit the file states (else g) is used
+    dut = {c: Scale.parse(run.dut_units, run.dut_sensitivity.get(c), f"dut {c}")
+           if run.dut_units is not None or run.dut_sensitivity.get(c) is not None else None for c in run.dut}
+    ref = (Scale.parse(run.reference_units, run.reference_sensitivity, "reference")
+           if run.reference_units is not None or run.reference_sensitivity is not None else None)
     return dut, ref
 
 
@@ -335,6 +339,8 @@ class RunResult:
     results: list[tuple[str, VreResult]] = field(default_factory=list)
     error: str | None = None
     folder: str | None = None  # sub-folder of the campaign folder, when written
+    # channel -> (kind, peak_hz, DUT/reference ratio) of each level: the campaign's units check
+    unit_probes: dict[str, list[tuple[str | None, float, float]]] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -361,8 +367,12 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
             progress=progress, profile=profile,
             settle_s=DEFAULT_SETTLE_S if run.settle_s is None else run.settle_s, provenance=prov,
             typeb=TypeB.from_mapping(run.budget) if run.budget else None, limit_g=limit_g,
+            # the units are judged per channel over all runs (run_campaign), not run by run: a
+            # sweep's run at the DUT's resonance has DUT/reference = Q, and is not a slip
+            accept=("unit-ratio",),
         )  # fmt: skip
-    res = RunResult(run, [(name, result) for name, result, _ in reduced])
+    res = RunResult(run, [(name, result) for name, result, _ in reduced],
+                    unit_probes={name: list(red.unit_probes) for name, _, red in reduced})
     if out is not None:
         from vrelab import folder as F
         from vrelab.results import channels_to_dict
@@ -406,10 +416,37 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
                 results.append(fut.result())
                 if on_done:
                     on_done(results[-1])
+    slipped = judge_units(results)
     for r, dest in zip(results, dests):
         if dest is not None and r.ok:
             r.folder = f"runs/{dest.name}"
+        elif dest is not None and any(r is s for s in slipped) and dest.exists():
+            shutil.rmtree(dest)  # written before the campaign's units check refused it
     return results
+
+
+def judge_units(results: Sequence[RunResult]) -> list[RunResult]:
+    """SPEC 4.2's units check, per DUT channel over all its runs
+    (:func:`vrelab.analysis.plausibility.check_units_over_runs`): a channel whose runs show a
+    unit slip fails every run that holds it, with the reason. Returns the runs it failed."""
+    from vrelab.analysis.plausibility import check_units_over_runs
+
+    probes: dict[str, list[tuple[str | None, float, float]]] = {}
+    failed: list[RunResult] = []
+    for r in results:
+        if r.ok:
+            for ch, ps in r.unit_probes.items():
+                probes.setdefault(ch, []).extend(ps)
+    for ch, ps in probes.items():
+        msg = check_units_over_runs(ch, ps)
+        if msg is None:
+            continue
+        for r in results:
+            if r.ok and ch in r.unit_probes:
+                r.error = msg
+                r.results = []
+                failed.append(r)
+    return failed
 
 
 def run_folders(manifest: Manifest) -> dict[int, str]:

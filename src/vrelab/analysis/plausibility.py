@@ -230,23 +230,36 @@ def resolve_methods(requested: MethodRequest, probes: Sequence[SegmentProbe], ac
     return out
 
 
+def _flat_ratios(probes: Sequence[tuple[str | None, float, float]]) -> list[float] | None:
+    """DUT/reference ratios where a flat DUT's response is flat, from (kind, peak_hz, ratio) of
+    each level: the sine levels at the lowest drive frequency (the likeliest to lie in the DUT's
+    flat band: filters attenuate and resonances amplify above it), else every level. None when a
+    level of those has no ratio (no reference vibration): nothing can be judged."""
+    sines = [p for p in probes if p[0] == "sine"]
+    if sines:
+        f_low = min(p[1] for p in sines)
+        probes = [p for p in sines if p[1] <= 1.01 * f_low]
+    ratios = [p[2] for p in probes if math.isfinite(p[2]) and p[2] > 0]
+    if not ratios or len(ratios) < len(probes):
+        return None
+    return ratios
+
+
+def _is_slip(ratios: Sequence[float]) -> bool:
+    limit = UNIT_RATIO_LIMIT
+    return all(r > limit or r < 1.0 / limit for r in ratios)
+
+
 def check_units(probes: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:
     """Refuse when the DUT/reference rms ratio is beyond :data:`UNIT_RATIO_LIMIT` at every level
     (for sine levels: at every level of the lowest drive frequency, the likeliest to lie in the
     DUT's flat band; a record whose frequencies all lie above the DUT's bandwidth can trip it,
-    and ``accept`` passes it on purpose)."""
+    and ``accept`` passes it on purpose). A campaign judges a channel over all its runs instead
+    (:func:`check_units_over_runs`)."""
     if accept or not probes:
         return
-    sines = [p for p in probes if p.kind == "sine"]
-    if sines:
-        # a DUT's filters attenuate a sine above its bandwidth: judge at the lowest drive frequency
-        f_low = min(p.peak_hz for p in sines)
-        probes = [p for p in sines if p.peak_hz <= 1.01 * f_low]
-    ratios = [p.unit_ratio for p in probes if math.isfinite(p.unit_ratio) and p.unit_ratio > 0]
-    if not ratios or len(ratios) < len(probes):
-        return
-    limit = UNIT_RATIO_LIMIT
-    if all(r > limit or r < 1.0 / limit for r in ratios):
+    ratios = _flat_ratios([(p.kind, p.peak_hz, p.unit_ratio) for p in probes])
+    if ratios and _is_slip(ratios):
         med = float(np.median(ratios))
         raise ValueError(
             f"DUT '{dut}' and reference '{reference}' vibration rms differ by a factor of {med:.3g} "
@@ -254,6 +267,27 @@ def check_units(probes: Sequence[SegmentProbe], dut: str, reference: str, accept
             "check --dut-units/--dut-sensitivity and --reference-units/--reference-sensitivity, "
             "or --accept-unit-ratio to accept it"
         )
+
+
+def check_units_over_runs(channel: str, probes: Sequence[tuple[str | None, float, float]]) -> str | None:
+    """A campaign's units check of one DUT channel over every level of every run: the refusal
+    (a message) or None.
+
+    A unit or sensitivity slip is a constant factor (9.81, 1000, a sensitivity) on every run of
+    a channel; a resonance's gain depends on frequency. So the channel is judged where its
+    response is flat: the levels at the lowest drive frequency of all its runs (a sine sweep's
+    run at the resonance, where DUT/reference rises to Q, is then not a slip). ``probes`` are
+    (kind, peak_hz, DUT/reference ratio) of each level (:attr:`Reduction.unit_probes`).
+    """
+    ratios = _flat_ratios(probes)
+    if not ratios or not _is_slip(ratios):
+        return None
+    med = float(np.median(ratios))
+    sines = [p[1] for p in probes if p[0] == "sine"]
+    where = f"at its lowest drive frequency {min(sines):.4g} Hz" if sines else "at every level"
+    return (f"DUT channel '{channel}' and the reference differ by a factor of {med:.3g} {where} over the "
+            f"campaign's runs (median of {len(ratios)} level(s); a flat DUT agrees within a few per cent): check "
+            "the run's dut_units/dut_sensitivity and reference_units/reference_sensitivity")
 
 
 def check_channels(baselines: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:

@@ -116,6 +116,9 @@ class Reduction:
     level_times_s: list[float]
     psd: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=list)
     method: Method = "random"  # what the levels were reduced as (auto: what they showed)
+    # (kind, peak_hz, DUT/reference rms ratio) of each level probed: a campaign judges a channel's
+    # units over all its runs with them (plausibility.check_units_over_runs)
+    unit_probes: list[tuple[str | None, float, float]] = field(default_factory=list)
 
     @property
     def static_g(self) -> float | None:
@@ -422,7 +425,7 @@ def reduce(
     baselines = _baselines(stats, sched, sat, warnings)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
-    kind = _plausible_method(record, sched, stats, band, method, baselines, accept)
+    kind, probes = _plausible_method(record, sched, stats, band, method, baselines, accept)
 
     levels: list[LevelResult] = []
     level_segs: list[Segment] = []
@@ -447,7 +450,8 @@ def reduce(
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
     if profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, profile)
-    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind)
+    return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind,
+                     unit_probes=[(p.kind, p.peak_hz, p.unit_ratio) for p in probes])
 
 
 def _n_windows(stats: WindowStats, seg: Segment) -> int:
@@ -556,13 +560,14 @@ def _plausible_method(
     method: MethodRequest,
     baselines: Sequence[Baseline],
     accept: Collection[str],
-) -> Method:
+) -> tuple[Method, list[Any]]:
     """The method the record's levels are reduced with, after SPEC 4.2's checks on a short probe
-    of every level (:mod:`vrelab.analysis.plausibility`); levels of both kinds are refused."""
+    of every level (:mod:`vrelab.analysis.plausibility`); levels of both kinds are refused. With
+    it, the probes (empty when nothing was checked)."""
     from vrelab.analysis import plausibility as P
 
     if method != "auto" and set(ACCEPTABLE) <= set(accept):
-        return method  # nothing to check: no probe (a simulated record re-runs for one)
+        return method, []  # nothing to check: no probe (a simulated record re-runs for one)
     # levels the reduction will skip as too short are not probed (their method is moot)
     usable = [g for g in sched.segments if not g.is_baseline and _n_windows(stats, g) >= MIN_SEGMENT_WINDOWS]
     ref = stats.reference
@@ -586,7 +591,7 @@ def _plausible_method(
             f"the record holds {n_sine} sine and {len(kinds) - n_sine} random level(s): reduce each kind "
             "on its own (--schedule with the levels of one kind, and --method)"
         )
-    return kinds[0] if kinds else ("sine" if method == "sine" else "random")
+    return (kinds[0] if kinds else ("sine" if method == "sine" else "random")), (probes if ref != "dut" else [])
 
 
 def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK):

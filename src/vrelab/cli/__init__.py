@@ -22,7 +22,7 @@ from vrelab.cli._common import Parser, UsageError, print_json
 __all__ = ["main", "build_parser", "Parser", "UsageError", "print_json"]
 
 # Order in `vrelab --help`; modules not listed come after, alphabetically.
-_ORDER = ("model", "profile", "environment", "predict", "simulate", "analyze", "campaign", "identify", "report", "demo",
+_ORDER = ("model", "profile", "environment", "predict", "simulate", "channels", "analyze", "campaign", "identify", "report", "demo",
           "sweep")
 
 

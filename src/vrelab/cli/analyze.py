@@ -3,8 +3,8 @@
 ::
 
     vrelab analyze FILE --dut CH [--reference CH] [--fs HZ] [--time CH]
-                   [--dut-units g|lsb|mv|v|m/s2] [--dut-sensitivity S]
-                   [--reference-units ...] [--reference-sensitivity S]
+                   [--dut-units g|mg|m/s2|mm/s2|lsb|mv|v] [--dut-sensitivity S]
+                   [--reference-units ...] [--reference-sensitivity S] [--accept-file-units]
                    [--method auto|random|sine] [--schedule FILE|auto] [--profile P] [--static G]
                    [--rail G] [--band F1:F2] [--settle S] [--kind censored|truncated] [--k4] [--rail-vrc]
                    [--accept-unit-ratio] [--accept-channels] [--accept-method]
@@ -15,7 +15,10 @@ beyond 3 at every level (a units or sensitivity slip), a reference reading a sta
 the DUT reads none (swapped channels), a method the spectra contradict. Each is refused with what
 was found; ``--accept-...`` passes it on purpose.
 
-Scaling: the file's raw values become g by dividing by the sensitivity in units per g, e.g.
+Scaling: the unit the file states for a channel is used when no ``--dut-units`` is given (a
+given one that contradicts it is refused unless ``--accept-file-units``; ``vrelab channels FILE``
+shows each channel's); integer samples with no unit are counts and need a sensitivity. The
+file's raw values become g by dividing by the sensitivity in units per g, e.g.
 ``--dut-units lsb --dut-sensitivity 256000`` (ADXL355 on ±2 g) and ``--reference-units mv
 --reference-sensitivity 10`` (a 10 mV/g IEPE reference).
 
@@ -74,7 +77,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--fs", type=float, metavar="HZ", help="sample rate when the file has none and no time column")
     p.add_argument("--time", metavar="CH", help="time column in s (default: a column named time/t/time_s)")
     for who in ("dut", "reference"):
-        p.add_argument(f"--{who}-units", default="g", metavar="U", help="raw units: g, lsb, mv, v, m/s2 (default g)")
+        p.add_argument(f"--{who}-units", metavar="U",
+                       help="raw units: g, mg, m/s2, mm/s2, lsb, mv, v (default: the unit the file states, else g)")
     p.add_argument("--dut-sensitivity", metavar="S[,S...]",
                    help="units per g (LSB/g, mV/g, V/g); one for all DUTs or one per DUT")
     p.add_argument("--reference-sensitivity", type=float, metavar="S", help="units per g (mV/g, V/g, LSB/g)")
@@ -85,6 +89,8 @@ def register(subparsers: Any) -> None:
                    help="accept a DUT/reference rms ratio beyond 3 at every level (SPEC 4.2: a units slip otherwise)")
     p.add_argument("--accept-channels", action="store_true",
                    help="accept a reference reading a static field while the DUT reads none (swapped channels otherwise)")
+    p.add_argument("--accept-file-units", action="store_true",
+                   help="use --dut-units/--reference-units even where they contradict the unit the file states")
     p.add_argument("--accept-method", action="store_true", help="reduce with --method even where the data show the other")
     p.add_argument("--schedule", metavar="FILE", help="schedule CSV (start_s,end_s,nominal_rms_g[,freq_hz]) or 'auto'")
     p.add_argument("--profile", metavar="P", help="random profile (file, F:P,... or flat:F1-F2): band and PSD check")
@@ -116,8 +122,11 @@ def run(args: argparse.Namespace) -> int:
                                 if args.dut_sensitivity else [None])
     if len(sens) not in (1, len(duts)):
         raise ValueError(f"--dut-sensitivity: give one value or one per DUT ({len(duts)}), got {len(sens)}")
-    scales = [Scale.parse(args.dut_units, s, "--dut") for s in (sens * len(duts) if len(sens) == 1 else sens)]
-    ref_scale = Scale.parse(args.reference_units, args.reference_sensitivity, "--reference")
+    # no unit and no sensitivity given: None, the unit the file states (else g) is used
+    scales = [Scale.parse(args.dut_units, s, "--dut") if args.dut_units or s is not None else None
+              for s in (sens * len(duts) if len(sens) == 1 else sens)]
+    ref_scale = (Scale.parse(args.reference_units, args.reference_sensitivity, "--reference")
+                 if args.reference_units or args.reference_sensitivity is not None else None)
     profile = None
     if args.profile:
         from vrelab.profiles import parse_profile
@@ -129,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("several DUT channels need --reference: their levels and segments come from it")
     dut_arg = duts if several else duts[0]
     dut_scale = dict(zip(duts, scales)) if several else scales[0]
-    record = open_record(path, dut_arg, args.reference, args.fs, dut_scale, ref_scale, args.time)
+    record = open_record(path, dut_arg, args.reference, args.fs, dut_scale, ref_scale, args.time,
+                         accept_file_units=args.accept_file_units)
     with record:
         schedule = None
         if args.schedule and args.schedule != "auto":

@@ -1,21 +1,31 @@
 """Readers for recorded shaker tests: lab files as a streaming :class:`~vrelab.record.Record`.
 
-:func:`open_record` opens CSV, NPY, NPZ, HDF5, NI TDMS, WAV (PCM, float, RF64) and MATLAB
-(v7.3 through h5py, v5 through scipy) files read-only, picks the DUT and reference channels by
-name, scales them to g, and returns a record whose ``blocks`` read lazily: memory is bounded by
-the block size whatever the length of the file. Exceptions, said in ``meta["reader_notes"]``:
+:func:`open_record` opens CSV, NPY, NPZ, HDF5, NI TDMS, WAV (through soundfile: every chunk
+layout, 8/16/24/32-bit PCM, float, RIFX, RF64), MATLAB (v7.3 through h5py, v5 through scipy),
+UFF58, ASAM MDF, enDAQ IDE and LabVIEW LVM files read-only, picks the DUT and reference channels
+by name (a name several channels answer to is refused as ambiguous, with each one's full name),
+scales them to g, and returns a record whose ``blocks`` read lazily: memory is bounded by the
+block size whatever the length of the file. Exceptions, said in ``meta["reader_notes"]``:
 compressed NPZ members and MAT v5 files cannot be memory-mapped and are read whole (one member /
-the file), 24-bit WAV is read whole (scipy cannot memory-map it).
+the file). :func:`list_channels` lists a file's channels (``vrelab channels``).
 
 Sample rate, in this order: the file's own (HDF5/MAT attributes or variables ``fs_hz``, ``fs``,
 ``sample_rate``, ``sampling_rate``, ``wf_increment`` (its inverse), TDMS ``wf_increment``, the
-WAV header), else a time column (checked increasing and evenly spaced), else ``fs_hz``. A given
-``fs_hz`` that disagrees with the file's is an error.
+WAV header, LVM ``Delta_X``, UFF58's increment, MDF/IDE time stamps fitted), else a time column
+(``time``, ``t``, ``Time (s)``, ``t [ms]``...: checked increasing and evenly spaced), else
+``fs_hz``. An increment written rounded (``0.000977``) gives the rate it rounds (1024 Hz), with a
+note. Channels of one file may have different rates; the ones a record reads must share one. A
+given ``fs_hz`` that disagrees with the file's is an error (MDF: it overrides the stamps).
 
-Every problem is a one-line ``ValueError``: unknown format, empty or truncated file, missing
-channel (the message lists the channels that exist), mismatched channel lengths, a bad time
-column (the first bad index), non-finite values (channel and first index, found while
-streaming).
+Units (:mod:`vrelab.analysis.readers.units`): the unit the file states for a channel converts it
+to g; a voltage or counts need a sensitivity; a non-acceleration is refused; a given unit that
+contradicts the file's is refused unless ``accept_file_units``; integer samples with no unit are
+counts, refused without a sensitivity.
+
+Every problem is a one-line ``ValueError``: unknown format, a reader library not installed (its
+install hint), empty or truncated file, missing channel (the message lists the channels that
+exist), mismatched channel lengths, a bad time column (the first bad index), non-finite values
+(channel and first index, found while streaming).
 
 Formats are a registry (:mod:`vrelab.analysis.readers._base`): each is one
 :class:`~vrelab.analysis.readers._base.Source` subclass in its own module that declares its
@@ -57,6 +67,7 @@ from vrelab.analysis.readers._base import (
     reader_for,
     register,
 )
+from vrelab.analysis.readers.units import channel_scale
 from vrelab.record import Schedule
 
 # SPEC 4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
@@ -73,6 +84,11 @@ def detect_format(path: Path) -> str:
 def _open_source(path: Path) -> Source:
     cls = reader_for(path)
     fmt = cls.fmt
+    if cls.requires is not None:
+        import importlib.util
+
+        if importlib.util.find_spec(cls.requires) is None:
+            raise ValueError(f"{path.name}: reading {fmt.upper()} needs {cls.requires}: pip install 'vrelab[formats]'")
     try:
         return cls.open(path)
     except ValueError as exc:
@@ -87,23 +103,47 @@ def _open_source(path: Path) -> Source:
 
 
 def _resolve(name: str, src: Source, role: str) -> str:
+    """The file's channel that ``name`` means: exactly, else case-insensitively, else as a column
+    index (``ch0``), else as the last part of a ``group/name``. A name that several channels
+    answer to is refused with each one's full name (never the first match, silently)."""
     chans = src.channels
+    many = getattr(src, "ambiguous", {}) or {}
+    if name in many or name.strip() in many:
+        cands = many.get(name, many.get(name.strip(), []))
+        raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: it names "
+                         f"{', '.join(repr(c) for c in cands)}; give one of these")
     if name in chans:
         return name
-    low = {c.lower(): c for c in chans}
     key = name.lower().lstrip("/")
-    if key in low:
-        return low[key]
+    low = [c for c in chans if c.lower() == key]
+    if len(low) == 1:
+        return low[0]
     m = re.fullmatch(r"(?:ch|col|channel|c)?_?(\d+)", key)
-    if m and m.group(1) in chans:
+    if not low and m and m.group(1) in chans:
         return m.group(1)
-    tails = [c for c in chans if c.lower().split("/")[-1] == key]
+    tails = low or [c for c in chans if c.lower().split("/")[-1] == key]
     if len(tails) == 1:
         return tails[0]
-    listing = ", ".join(chans) if chans else "none"
     if len(tails) > 1:
-        raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: matches {', '.join(tails)}")
-    raise ValueError(f"{role} channel {name!r} not found in {src.path.name}; channels: {listing}")
+        raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: it names "
+                         f"{', '.join(repr(c) for c in tails)}; give one of these")
+    listing = ", ".join(chans) if chans else "none"
+    raise ValueError(f"{role} channel {name!r} not found in {src.path.name}; channels: {listing} "
+                     f"(vrelab channels {src.path.name} lists each with its rate and unit)")
+
+
+# a time column by its header: time, t, timestamp, seconds, with a unit in brackets or after _
+_TIME_HEADER = re.compile(r"(?:time|t|timestamp|times|seconds|elapsed(?: time)?)\s*(?:[\(\[]\s*(s|sec|ms|us|µs|ns)\s*[\)\]]|_(s|sec|ms|us))?")
+_TIME_FACTOR = {None: 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+
+
+def time_unit(name: str) -> float | None:
+    """Seconds per unit of a column whose header names time (``Time (s)``, ``t [ms]``, ``time_s``),
+    else None."""
+    m = _TIME_HEADER.fullmatch(name.lower().split("/")[-1].strip())
+    if not m:
+        return None
+    return _TIME_FACTOR[m.group(1) or m.group(2)]
 
 
 def _time_rate(src: Source, name: str, block: int = 1 << 20) -> float:
@@ -238,6 +278,7 @@ def open_record(
     dut_scale: Scale | float | None | Mapping[str, Scale | float | None] = None,
     reference_scale: Scale | float | None = None,
     time_channel: str | None = None,
+    accept_file_units: bool = False,
 ) -> FileRecord:
     """Open a recorded test read-only as a streaming record with channels ``dut``/``reference`` in g.
 
@@ -254,10 +295,14 @@ def open_record(
     fs_hz : float, optional
         Sample rate [Hz] when neither the file nor a time column gives it.
     dut_scale, reference_scale : Scale or float, optional
-        Raw units to g (a float is a sensitivity in LSB/g). Default: the file holds g.
+        Raw units to g (a float is a sensitivity in LSB/g). Default (None): the unit the file
+        states for the channel (:mod:`vrelab.analysis.readers.units`), else g; integer samples
+        with no unit are counts and are refused without a sensitivity.
     time_channel : str, optional
         Time column [s]; by default a column named ``time``/``t``/``time_s``/``timestamp`` is
         used when the file has no sample rate of its own.
+    accept_file_units : bool
+        Use the given units even where they contradict the unit the file states.
 
     Returns
     -------
@@ -288,13 +333,14 @@ def open_record(
             mapping["reference"] = _resolve(reference, src, "reference")
             if mapping["reference"] in seen:
                 raise ValueError(f"reference and DUT are the same channel {mapping['reference']!r}")
-        src.select(list(mapping.values()))
+        src.select(list(mapping.values()), fs_hz)
         lens = {f"{role} {ch!r}": src.lengths[ch] for role, ch in mapping.items()}
         tcol = None
         if time_channel is not None:
             tcol = _resolve(time_channel, src, "time")
         elif src.fs_hz is None:
-            cands = [c for c in src.channels if c.lower().split("/")[-1] in _TIME_NAMES and c not in mapping.values()]
+            cands = [c for c in src.channels if (c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None)
+                     and c not in mapping.values()]
             tcol = cands[0] if len(cands) == 1 else None
         if tcol is not None:
             lens[f"time {tcol!r}"] = src.lengths[tcol]
@@ -309,7 +355,7 @@ def open_record(
         fs = src.fs_hz
         how = "file"
         if fs is None and tcol is not None:
-            fs, how = _time_rate(src, tcol), f"time column {tcol!r}"
+            fs, how = _time_rate(src, tcol) / (time_unit(tcol) or 1.0), f"time column {tcol!r}"
         if fs is None:
             if fs_hz is None:
                 raise ValueError(f"{path.name}: no sample rate in the file and no time column: give --fs HZ")
@@ -328,9 +374,18 @@ def open_record(
                 f"(above {MAX_PLAUSIBLE_FS_HZ:g} Hz; {n} samples would last {n / fs:.3g} s): a corrupt header? "
                 "give the true rate with --fs"
             )
-        scales = {key: _dut_scale(dut_scale, key) for key in mapping if key != "reference"}
-        if reference is not None:
-            scales["reference"] = _as_scale(reference_scale)
+        scales: dict[str, Scale] = {}
+        for key, ch in mapping.items():
+            ref = key == "reference"
+            given = _given_scale(reference_scale if ref else dut_scale, key)
+            role = "reference" if ref else ("DUT" if key == "dut" else f"DUT {key[4:]!r}")
+            try:
+                scales[key], note = channel_scale(role, ch, given, src.unit_of(ch), src.is_integer(ch),
+                                                  accept_file_units, "--reference-units" if ref else "--dut-units")
+            except ValueError as exc:
+                raise ValueError(f"{path.name}: {exc}") from None
+            if note:
+                src.notes.append(note)
         meta = dict(src.meta)
         meta.update(
             source=path.name,
@@ -347,15 +402,82 @@ def open_record(
         raise
 
 
-def _dut_scale(scale: Any, key: str) -> Scale:
-    """The scale of record channel ``key`` (``dut`` or ``dut:<name>``) from ``open_record``'s
-    ``dut_scale``: one for all, or a mapping name -> scale."""
+def list_channels(path: str | Path) -> dict[str, Any]:
+    """Every channel of a file as a plain dict (``vrelab channels``): ``{"file", "format",
+    "notes", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit", "notes"}]}``.
+
+    ``name`` is what ``--dut``/``--reference`` take; ``rate_hz`` the channel's own rate (null
+    with the reason in ``notes`` when the file gives none or its stamps are refused); ``unit``
+    what the file states (null: none); ``notes`` what a reader said of the channel (another
+    name it answers to, integer counts, the time column used, a rate snapped or fitted).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"input file not found: {path}")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path.name}: file is empty")
+    src = _open_source(path)
+    try:
+        if not src.channels:
+            raise ValueError(f"{path.name}: no numeric channels found")
+        aliases: dict[str, list[str]] = {}
+        for key, name in (getattr(src, "alias", {}) or {}).items():
+            if key != name:
+                aliases.setdefault(name, []).append(key)
+        names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
+        tcols = [c for c in names if c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None]
+        time_fs: float | None = None
+        time_note = None
+        if src.fs_hz is None and not src.rates and len(tcols) == 1:
+            try:
+                time_fs = _time_rate(src, tcols[0]) / (time_unit(tcols[0]) or 1.0)
+                time_note = f"rate from the time column {tcols[0]!r}"
+            except ValueError as exc:
+                time_note = str(exc)
+        file_notes_before = list(src.notes)
+        out = []
+        for name in names:
+            notes: list[str] = []
+            if name in aliases:
+                notes.append("also named " + ", ".join(repr(a) for a in aliases[name]))
+            before = len(src.notes)
+            try:
+                fs = src.rate_of(name)
+            except ValueError as exc:
+                fs, notes = None, notes + [str(exc)]
+            notes += [n for n in src.notes[before:] if n not in file_notes_before]
+            if name in tcols:
+                notes.append("a time column")
+            elif fs is None and time_fs is not None:
+                fs = time_fs
+                notes.append(time_note or "")
+            elif fs is None:
+                notes.append(time_note or "no sample rate in the file: give --fs HZ")
+            n = int(src.lengths[name])
+            if src.is_integer(name) and not src.unit_of(name):
+                notes.append("integer samples (ADC counts): give --dut-units lsb --dut-sensitivity S")
+            out.append({
+                "name": name, "rate_hz": fs, "n_samples": n,
+                "duration_s": (n / fs) if fs else None,
+                "unit": src.unit_of(name), "notes": notes,
+            })
+        for name, cands in src.ambiguous.items():
+            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None,
+                        "notes": [f"ambiguous: names {', '.join(repr(c) for c in cands)}; give one of these"]})
+        return {"file": str(path), "format": src.fmt, "notes": list(src.notes), "channels": out}
+    finally:
+        src.close()
+
+
+def _given_scale(scale: Any, key: str) -> Scale | None:
+    """The scale the caller gives for record channel ``key`` (``dut``, ``dut:<name>`` or
+    ``reference``): one for all, or a mapping name -> scale; None where none is given."""
     if isinstance(scale, Mapping):
         name = key[4:]
         if name not in scale:
             raise ValueError(f"no DUT sensitivity for channel {name!r} (the table names {', '.join(map(str, scale))})")
-        return _as_scale(scale[name])
-    return _as_scale(scale)
+        scale = scale[name]
+    return None if scale is None else _as_scale(scale)
 
 
-__all__ = ["open_record", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]
+__all__ = ["open_record", "list_channels", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register", "READERS", "UNITS", "G0"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Iterator, Literal, Mapping, Sequence
@@ -13,8 +14,10 @@ from vrelab import _validate as V
 from vrelab.record import Schedule
 
 G0 = 9.80665  # standard gravity, m/s² per g
-Units = Literal["g", "lsb", "mv", "v", "m/s2"]
-UNITS: tuple[str, ...] = ("g", "lsb", "mv", "v", "m/s2")
+Units = Literal["g", "lsb", "mv", "v", "m/s2", "mg", "mm/s2"]
+UNITS: tuple[str, ...] = ("g", "lsb", "mv", "v", "m/s2", "mg", "mm/s2")
+# acceleration units: how many of them make one g (the divisor of Scale.to_g)
+_PER_G = {"g": 1.0, "mg": 1000.0, "m/s2": G0, "mm/s2": 1000.0 * G0}
 _FS_KEYS = ("fs_hz", "fs", "Fs", "sample_rate", "sampling_rate", "sample_rate_hz", "rate")
 _DT_KEYS = ("wf_increment", "dt", "sample_interval", "sampling_interval")
 _TIME_NAMES = ("time", "t", "time_s", "times", "timestamp", "time_sec", "seconds")
@@ -27,7 +30,7 @@ class Scale:
 
     ``units`` is what the file holds: ``g`` (no scaling), ``lsb`` (counts; ``sensitivity`` in
     LSB/g, e.g. 256000 for an ADXL355 on ±2 g), ``mv`` or ``v`` (``sensitivity`` in mV/g or V/g,
-    e.g. 10 mV/g for an IEPE reference), ``m/s2``.
+    e.g. 10 mV/g for an IEPE reference), ``m/s2``, ``mg``, ``mm/s2``.
     """
 
     units: Units = "g"
@@ -40,8 +43,8 @@ class Scale:
     @classmethod
     def parse(cls, units: str | None, sensitivity: float | None, name: str = "channel") -> "Scale":
         """From CLI options: ``--dut-units lsb --dut-sensitivity 256000`` (units per g)."""
-        u = (units or "g").strip().lower().replace("/", "").replace("²", "2")
-        u = {"ms2": "m/s2", "mps2": "m/s2", "counts": "lsb", "count": "lsb"}.get(u, u)
+        u = (units or "g").strip().lower().replace("/", "").replace("²", "2").replace("^", "")
+        u = {"ms2": "m/s2", "mps2": "m/s2", "mms2": "mm/s2", "counts": "lsb", "count": "lsb"}.get(u, u)
         if u not in UNITS:
             raise ValueError(f"{name} units must be one of {', '.join(UNITS)}; got {units!r}")
         if u in ("lsb", "mv", "v"):
@@ -54,10 +57,8 @@ class Scale:
 
     @property
     def divisor(self) -> float:
-        if self.units == "g":
-            return 1.0
-        if self.units == "m/s2":
-            return G0
+        if self.units in _PER_G:
+            return _PER_G[self.units]
         return float(self.sensitivity)
 
     def to_g(self, raw: NDArray[Any]) -> NDArray[np.float64]:
@@ -92,6 +93,7 @@ class Source:
     extensions: ClassVar[tuple[str, ...]] = ()
     has_magic: ClassVar[bool] = True
     random_access: ClassVar[bool] = True  # False: a stretch costs reading all before it (text)
+    requires: ClassVar[str | None] = None  # the import name of the library the format needs (pip name the same)
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -119,14 +121,37 @@ class Source:
         self.notes: list[str] = []
         self.meta: dict[str, Any] = {}
         self.schedule: Schedule | None = None
+        self.units: dict[str, str] = {}  # channel -> the unit the file states for it
+        self.rates: dict[str, float] = {}  # channel -> its own rate, where channels differ
+        self.ambiguous: dict[str, list[str]] = {}  # a name several channels answer to -> their full names
 
     @property
     def channels(self) -> tuple[str, ...]:
         return tuple(self.lengths)
 
-    def select(self, names: Sequence[str]) -> None:
+    def rate_of(self, name: str) -> float | None:
+        """The sample rate of channel ``name`` [Hz]: its own, else the file's (None: neither)."""
+        return self.rates.get(name, self.fs_hz)
+
+    def unit_of(self, name: str) -> str | None:
+        """The unit the file states for channel ``name`` (None: none)."""
+        return self.units.get(name) or None
+
+    def is_integer(self, name: str) -> bool:
+        """Whether channel ``name`` holds integer samples (counts of an ADC)."""
+        try:
+            return np.asarray(self.read(name, 0, 1)).dtype.kind in "iub"
+        except Exception:
+            return False
+
+    def select(self, names: Sequence[str], fs_hz: float | None = None) -> None:
         """Called with the channels a record will read, before its rate is taken: a format whose
-        channels may have different rates (MDF groups) sets ``fs_hz`` for these, or refuses."""
+        channels may have different rates (MDF groups, TDMS, LVM) sets ``fs_hz`` for these, or
+        refuses. ``fs_hz`` is the user's rate (``--fs``): a format whose own rate check would
+        refuse (time stamps with jitter) may leave the rate to it, with a note."""
+        chosen = {n: self.rates[n] for n in names if n in self.rates}
+        if chosen:
+            self.fs_hz = one_rate(self.path, chosen, 1e-9)
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         raise NotImplementedError
@@ -138,6 +163,84 @@ class Source:
 
     def close(self) -> None:
         pass
+
+
+def snap_rate(increment: float, digits: int | None = None) -> float:
+    """The sample rate behind a sampling increment that was written with a few digits.
+
+    ``Delta_X 0.000977`` (LVM, 3 significant digits) is 1/1024 s rounded, ``1.95312E-05`` (UFF58's
+    E13.5) is 1/51200 s rounded: their inverses (1023.54 Hz, 51200.1 Hz) are not the rate the
+    instrument ran at. The rate with the fewest significant digits whose inverse, written with
+    ``digits`` significant digits, is the increment as written, is the one it ran at. ``digits``
+    defaults to the shortest form that gives the float back (a double-precision increment has
+    16-17: then nothing was rounded away and 1/increment is returned).
+    """
+    if not (increment > 0 and math.isfinite(increment)):
+        raise ValueError(f"sampling increment must be > 0, got {increment!r}")
+    if digits is None:
+        digits = next((d for d in range(1, 18) if float(f"{increment:.{d - 1}e}") == increment), 17)
+    if digits >= 10:
+        return 1.0 / increment
+    # half a unit of the last digit written (a tie such as 1/51200 = 1.953125e-05 may be written
+    # either way, so the bound is inclusive with a hair of slack for the binary representation)
+    half_unit = 0.5 * 10.0 ** (math.floor(math.log10(increment)) - digits + 1) * (1 + 1e-6)
+    for d in range(1, 10):
+        fs = float(f"{1.0 / increment:.{d}g}")
+        if abs(1.0 / fs - increment) <= half_unit:
+            return fs
+    return 1.0 / increment
+
+
+def significant_digits(text: str) -> int:
+    """Significant digits of a number as written (``0.000977`` -> 3, ``1.95312E-05`` -> 6)."""
+    mant = text.strip().lower().split("e")[0].lstrip("+-").replace(",", ".")
+    digits = mant.replace(".", "").lstrip("0")
+    return max(len(digits), 1)
+
+
+def stamped_rate(what: str, index: NDArray[Any], times_s: NDArray[Any], gap_samples: float,
+                 drift_samples: float) -> tuple[float, str | None]:
+    """The sample rate behind time stamps that jitter, and a note saying how much they do.
+
+    ``times_s[k]`` is the time of sample ``index[k]`` (every sample's, as MDF masters give, or
+    each block's first, as recorders stamp). The rate is the least-squares line through the
+    stamps (so a clock that runs a little fast or slow gives its own rate). Refused, with where:
+    a stamp not after the one before; a step between consecutive stamps more than
+    ``gap_samples`` samples off the fitted rate (a gap, a lost block); stamps drifting more
+    than ``drift_samples`` samples off the line (not one rate).
+    """
+    i = np.asarray(index, dtype=np.float64)
+    t = np.asarray(times_s, dtype=np.float64)
+    if len(t) < 2 or not (i[-1] > i[0]):
+        raise ValueError(f"{what}: fewer than two time stamps: no sample rate")
+    d = np.diff(t)
+    if not (d > 0).all():
+        k = int(np.flatnonzero(~(d > 0))[0]) + 1
+        raise ValueError(f"{what}: time stamps are not increasing at sample {int(i[k])} ({t[k]:.9g} s)")
+    # the line through the stamps, centred for precision (times of hours, steps of microseconds)
+    ic, tc = i - i.mean(), t - t.mean()
+    step = float(np.dot(ic, tc) / np.dot(ic, ic)) if len(t) > 2 else float((t[-1] - t[0]) / (i[-1] - i[0]))
+    if not step > 0:
+        raise ValueError(f"{what}: time stamps give no positive sample step")
+    # a gap is judged against the median step (the line's slope leans towards a large gap)
+    di = np.diff(i)
+    typical = float(np.median(d / di))
+    jump = (d - di * typical) / typical  # samples more (or fewer) than the rate puts between them
+    k = int(np.argmax(np.abs(jump)))
+    if abs(jump[k]) > gap_samples:
+        raise ValueError(f"{what}: not evenly sampled: {jump[k]:+.3g} samples between {t[k]:.6g} s and "
+                         f"{t[k + 1]:.6g} s (sample {int(i[k + 1])}) at {1 / typical:.6g} Hz: a gap in the recording?")
+    res = (tc - ic * step) / step
+    worst = float(np.max(np.abs(res)))
+    if worst > drift_samples:
+        k = int(np.argmax(np.abs(res)))
+        raise ValueError(f"{what}: time stamps drift {res[k]:+.3g} samples off one rate of {1 / step:.6g} Hz at "
+                         f"sample {int(i[k])}: not one sample rate")
+    note = None
+    if worst > 1e-6:
+        note = (f"{what}: time stamps scatter up to {worst:.3g} sample(s) ({worst * step:.3g} s) about a constant "
+                f"rate of {1 / step:.9g} Hz, fitted to them")
+    return 1.0 / step, note
 
 
 def one_rate(path: Path, rates: Mapping[str, float], rtol: float) -> float | None:

@@ -67,7 +67,14 @@ class Hdf5Source(_ArraySource):
                 if name.split("/")[-1] in _FS_KEYS:
                     self.fs_hz = float(np.asarray(d[()]).ravel()[0])
                 continue
-            self.add(_column_channels(name, d))
+            chans = _column_channels(name, d)
+            self.add(chans)
+            unit = next((d.attrs[k] for k in ("unit", "units", "unit_string") if k in d.attrs), None)
+            if isinstance(unit, bytes):
+                unit = unit.decode(errors="replace")
+            if isinstance(unit, str) and unit.strip():
+                for c in chans:
+                    self.units[c] = unit.strip()
         rates = {r for r in (_find_rate_h5(spec[0]) for spec in self.specs.values()) if r}
         if self.fs_hz is None and rates:
             if len(rates) > 1:

@@ -1,11 +1,13 @@
 """enDAQ IDE recordings through idelib (the EBML files enDAQ / Slam Stick recorders write).
 
 Channels: every sub-channel holding samples, named by its name (``X (100g)``) and by
-``<channel>.<sub-channel>`` (``8.0``). Values are what idelib gives (its calibration applied:
-g for accelerometers). A recorder timestamps each data block, not each sample: the sample rate
-is the count over the time span of a channel, checked even (every sample within half a step of
-a constant rate: no gap, no drop); channels of different rates cannot form one record (IDE files hold several, e.g.
-a 20 kHz accelerometer and a 100 Hz one), so a record's channels must share one.
+``<channel>.<sub-channel>`` (``8.0``); a name two sub-channels share is neither's (each is then
+``<channel name>/<name>``) and asking for it is refused as ambiguous. Values are what idelib
+gives (its calibration applied: g for accelerometers), in the sub-channel's units. A recorder
+timestamps each data block, not each sample: the sample rate is fitted to the block stamps
+(jitter of a clock tick and a slow drift accepted and said in the notes, a jump of several
+samples refused as a gap); channels of different rates cannot form one record (IDE files hold
+several, e.g. a 20 kHz accelerometer and a 100 Hz one), so a record's channels must share one.
 
 Memory: idelib indexes the file's data blocks on opening (a few numbers per block); a stretch
 is read by ``arraySlice(start, stop)``, so memory follows the block read, not the file.
@@ -13,21 +15,65 @@ is read by ``arraySlice(start, stop)``, so memory follows the block read, not th
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, one_rate, register
+from vrelab.analysis.readers._base import Source, one_rate, register, stamped_rate
 
 _EVEN_RTOL = 0.01
+# block stamps: a jump of more than this many samples between blocks is a gap (stamp jitter is a
+# clock tick, about a sample at 20 kHz); stamps further than this off one line are not one rate
+_GAP_SAMPLES = 5.0
+_DRIFT_SAMPLES = 25.0
+
+
+def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(first sample index, start time [s]) of each data block.
+
+    idelib keeps each block's index range and start stamp (``EventArray._data``, not public
+    API): reading them costs nothing, where every sample's time costs a pass over the file.
+    Without them, the first 20000 samples' times."""
+    try:
+        blocks = list(ev._data)
+        idx = [int(b.indexRange[0]) for b in blocks]
+        t = [float(b.startTime) for b in blocks]
+    except (AttributeError, TypeError):
+        idx = []
+    if len(idx) < 3:  # no block index, or too few blocks to fit: the samples' own times
+        k = min(len(ev), 20000)
+        times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
+        return np.arange(k, dtype=np.float64), times * 1e-6  # idelib times are µs
+    return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6
+
+
+class _Said(logging.Handler):
+    """idelib's log records, as one-line messages."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(str(record.getMessage()).splitlines()[0] if record.getMessage() else record.levelname)
+
+
+def _unit(sc: Any) -> str | None:
+    """The unit idelib gives a sub-channel (``units`` is (quantity, unit): ('Acceleration', 'g'))."""
+    u = getattr(sc, "units", None)
+    if isinstance(u, (tuple, list)) and len(u) >= 2:
+        return str(u[1]).strip() or None
+    return None
 
 
 @register
 class IdeSource(Source):
     fmt = "ide"
     extensions = (".ide",)
+    requires = "idelib"
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -37,13 +83,23 @@ class IdeSource(Source):
         import idelib
 
         super().__init__(path)
+        # idelib logs what it cannot parse (with a traceback) on the root logger's stderr: kept
+        # here as notes, one line each, so a command's stderr stays one line
+        log, said = logging.getLogger("idelib"), _Said()
+        log.addHandler(said)
+        log.propagate = False
         try:
             self.doc = idelib.importFile(str(path), quiet=True)
         except Exception as exc:
             raise ValueError(f"{path.name}: cannot read as IDE: {type(exc).__name__}: {exc}") from None
+        finally:
+            log.removeHandler(said)
+            log.propagate = True
+        self.notes += [f"idelib: {m}" for m in dict.fromkeys(said.messages)]
         self.events: dict[str, Any] = {}
         self.alias: dict[str, str] = {}
         self._rates: dict[str, float] = {}
+        found: list[tuple[str, str, str, Any, Any]] = []  # (name, channel/name, cid.sid, events, sub-channel)
         for cid, ch in sorted(self.doc.channels.items()):
             for sc in ch.subchannels:
                 try:
@@ -53,47 +109,61 @@ class IdeSource(Source):
                     continue
                 if n < 2:
                     continue
-                name = str(sc.name).strip() or f"{cid}.{sc.id}"
-                if name in self.events:
-                    name = f"{cid}.{sc.id}"
-                self.events[name] = ev
-                self.lengths[name] = n
-                self.alias[f"{cid}.{sc.id}"] = name
-        if not self.events:
+                key = f"{cid}.{sc.id}"
+                name = str(sc.name).strip() or key
+                found.append((name, f"{str(ch.name).strip() or cid}/{name}", key, ev, sc))
+        if not found:
             raise ValueError(f"{path.name}: no IDE channel holds samples")
+        counts: dict[str, int] = {}
+        for name, *_ in found:
+            counts[name] = counts.get(name, 0) + 1
+        full_counts: dict[str, int] = {}
+        for _, full, *_ in found:
+            full_counts[full] = full_counts.get(full, 0) + 1
+        for name, full, key, ev, sc in found:
+            # a name two sub-channels share (X of the accelerometer and X of a quaternion) is
+            # neither's: each is named by its channel, and the bare name is ambiguous
+            if counts[name] > 1:
+                self.ambiguous.setdefault(name, []).append(full if full_counts[full] == 1 else key)
+                name = full if full_counts[full] == 1 else key
+            self.events[name] = ev
+            self.lengths[name] = len(ev)
+            self.alias[key] = name
+            if full != name and full_counts[full] == 1:
+                self.alias[full] = name  # 'Acceleration/Y' too, whether or not 'Y' is unique
+            unit = _unit(sc)
+            if unit:
+                self.units[name] = unit
         for key, name in self.alias.items():
             if key not in self.lengths:
                 self.lengths[key] = self.lengths[name]
+                if name in self.units:
+                    self.units[key] = self.units[name]
 
     def rate(self, name: str) -> float:
-        """Samples per second of ``name``: count over time span, block starts checked even."""
+        """Samples per second of ``name``, fitted to the recorder's block stamps
+        (:func:`~vrelab.analysis.readers._base.stamped_rate`): stamps jitter by a clock tick
+        (1/32768 s, more than a sample at 20 kHz) and a recorder's clock drifts a few samples
+        over a record; a jump of more than a few samples between blocks is a gap, refused."""
         name = self.alias.get(name, name)
         if name not in self._rates:
-            ev = self.events[name]
-            n = len(ev)
-            k = min(n, 20000)
-            t = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64) * 1e-6  # idelib times are µs
-            t_end = float(ev.arraySlice(n - 1, n)[0][0]) * 1e-6
-            step = (t_end - t[0]) / (n - 1)
-            # block stamps jitter by a clock tick (1/32768 s: a large part of a sample at 20 kHz),
-            # so the test is a gap or a drop: every sample within half a step of the straight line
-            idx = np.arange(len(t))
-            line = np.polyval(np.polyfit(idx, t, 1), idx) if len(t) > 2 else t
-            off = t - line if step > 0 else np.array([np.inf])
-            if not (step > 0) or np.max(np.abs(off)) > 0.5 * step:
-                i = int(np.argmax(np.abs(off))) if step > 0 else 0
-                raise ValueError(f"{self.path.name}: IDE channel {name!r} is not evenly sampled (sample {i} lies "
-                                 f"{off[i] / step:+.2f} steps off a constant rate of {1 / step if step > 0 else 0:.6g} Hz: "
-                                 "a gap in the recording?)")
-            self._rates[name] = 1.0 / step
+            idx, t = _block_stamps(self.events[name])
+            fs, note = stamped_rate(f"{self.path.name}: IDE channel {name!r}", idx, t,
+                                    gap_samples=_GAP_SAMPLES, drift_samples=_DRIFT_SAMPLES)
+            if note and note not in self.notes:
+                self.notes.append(note)
+            self._rates[name] = fs
         return self._rates[name]
 
-    def select(self, names: Sequence[str]) -> None:
+    def rate_of(self, name: str) -> float | None:
+        return self.rate(name)
+
+    def select(self, names: Sequence[str], fs_hz: float | None = None) -> None:
         fs = one_rate(self.path, {n: self.rate(n) for n in names}, _EVEN_RTOL)
         if fs is None:
             return
         self.fs_hz = fs
-        self.notes.append(f"IDE: sample rate {self.fs_hz:.6g} Hz from the samples' time span (recorders stamp blocks)")
+        self.notes.append(f"IDE: sample rate {self.fs_hz:.9g} Hz fitted to the recorder's block time stamps")
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         name = self.alias.get(name, name)

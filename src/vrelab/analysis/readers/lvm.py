@@ -4,10 +4,11 @@ Written here: no maintained PyPI library reads LVM while streaming (``lvm_read``
 file into Python lists). The layout (NI, "The LabVIEW Measurement (.lvm) file format"): a file
 header from ``LabVIEW Measurement`` to ``***End_of_Header***`` (``Separator`` Tab or Comma,
 ``Decimal_Separator``, ``X_Columns`` No/One/Multi), then a segment header (``Channels``,
-``Samples``, ``Delta_X`` per channel, ...) ending with ``***End_of_Header***``, the column
+``Samples``, ``Delta_X`` and ``Y_Unit_Label`` per channel, ...) ending with ``***End_of_Header***``, the column
 names line (``X_Value``, channel names, ``Comment``) and the rows. One segment is read; a file
 with several segments is refused (each segment restarts its time base). The sample rate is
-``1/Delta_X``; every channel must share it. Rows are parsed in streaming batches by pyarrow,
+``1/Delta_X`` (snapped to the nominal rate when written rounded); channels may differ, the two
+a record reads must share one. ``Y_Unit_Label`` is each channel's unit. Rows are parsed in streaming batches by pyarrow,
 as CSV is (:class:`~vrelab.analysis.readers.text.CsvSource`), the decimal comma included.
 """
 
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vrelab.analysis.readers._base import register
+from vrelab.analysis.readers._base import Source, register, significant_digits, snap_rate
 from vrelab.analysis.readers.text import CsvSource
 
 _END = "***End_of_Header***"
@@ -38,12 +39,7 @@ class LvmSource(CsvSource):
         return tuple(cls(path, header_only=True).names)
 
     def __init__(self, path: Path, header_only: bool = False) -> None:  # noqa: D107  (not CsvSource's sniffing)
-        self.path = path
-        self.lengths = {}
-        self.fs_hz = None
-        self.notes = []
-        self.meta = {}
-        self.schedule = None
+        Source.__init__(self, path)
         lines: list[str] = []
         with open(path, encoding="utf-8-sig", errors="replace") as fh:
             for line in fh:
@@ -81,18 +77,42 @@ class LvmSource(CsvSource):
         self.names = [c for c in self.columns if c and not c.startswith("X_Value") and c != "Comment"]
         self.has_header = True
         self.skip_comments = ends[1] + 1
-        dx = [float(x.replace(self.decimal_point, ".")) for x in seg.get("Delta_X", []) if x.strip()]
-        if not dx:
-            raise ValueError(f"{path.name}: LVM segment header has no Delta_X: no sample rate")
-        if max(dx) - min(dx) > 1e-9 * max(dx):
-            raise ValueError(f"{path.name}: LVM channels have different Delta_X: {sorted(set(dx))}")
-        if not dx[0] > 0:
-            raise ValueError(f"{path.name}: LVM Delta_X must be > 0, got {dx[0]}")
-        self.fs_hz = 1.0 / dx[0]
+        self._rates(seg)
         if header_only:
             return
         self._scan()
         self.lengths = {n: self.lengths[n] for n in self.names}
+
+    def _rates(self, seg: dict[str, list[str]]) -> None:
+        """Each channel's rate from its ``Delta_X`` (snapped where the increment was written
+        rounded: ``0.000977`` is 1/1024 s) and its unit from ``Y_Unit_Label``; one rate for the
+        file when every channel shares it, else per channel (a record's channels must share one)."""
+        path = self.path
+        cells = [x.strip() for x in seg.get("Delta_X", [])][: len(self.names)]
+        if not any(cells):
+            raise ValueError(f"{path.name}: LVM segment header has no Delta_X: no sample rate")
+        for name, text in zip(self.names, cells):
+            if not text:
+                continue
+            try:
+                dx = float(text.replace(self.decimal_point, "."))
+            except ValueError:
+                raise ValueError(f"{path.name}: LVM Delta_X {text!r} of {name!r} is not a number") from None
+            if not dx > 0:
+                raise ValueError(f"{path.name}: LVM Delta_X must be > 0, got {dx} for {name!r}")
+            fs = snap_rate(dx, significant_digits(text))
+            if fs != 1.0 / dx:
+                note = (f"LVM Delta_X {text} s is the rounded inverse of {fs:g} Hz: that rate used "
+                        f"(1/Delta_X = {1.0 / dx:.9g} Hz)")
+                if note not in self.notes:
+                    self.notes.append(note)
+            self.rates[name] = fs
+        for name, unit in zip(self.names, seg.get("Y_Unit_Label", [])):
+            if unit.strip():
+                self.units[name] = unit.strip()
+        if len(set(self.rates.values())) == 1:
+            self.fs_hz = next(iter(self.rates.values()))
+            self.rates = {}
 
     @staticmethod
     def _table(lines: list[str]) -> dict[str, list[str]]:

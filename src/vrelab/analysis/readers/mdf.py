@@ -2,8 +2,10 @@
 
 Channels: every numeric channel that is not a group's master (time), by its name, or
 ``<group>/<name>`` when the name occurs in several groups. Values are physical (the channel's
-conversion applied, ``raw=False``). The sample rate comes from the master channel of each used
-channel's group: checked evenly spaced (1e-6 relative), and one rate for every channel read.
+conversion applied, ``raw=False``), in the channel's unit. The sample rate is fitted to the
+master channel (time stamps) of each used channel's group: jitter below half a sample is said in
+the notes, a gap refused (:func:`~vrelab.analysis.readers._base.stamped_rate`); the channels read
+must share one rate; ``--fs`` overrides the stamps.
 
 Memory: reads are record ranges (``get(record_offset=, record_count=)``), so a stretch costs
 the records it spans, not the file; opening reads the file's metadata (asammdf's ``MDF``).
@@ -17,15 +19,19 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, one_rate, register
+from vrelab.analysis.readers._base import Source, one_rate, register, stamped_rate
 
-_EVEN_RTOL = 1e-6
+# a logger stamps each record: a step more than half a sample off the fitted rate is a gap, and
+# stamps more than a sample off one straight line are not one rate
+_GAP_SAMPLES = 0.5
+_DRIFT_SAMPLES = 1.0
 
 
 @register
 class MdfSource(Source):
     fmt = "mdf"
     extensions = (".mf4", ".mdf")
+    requires = "asammdf"
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -70,25 +76,46 @@ class MdfSource(Source):
         return np.asarray(s.samples).dtype.kind in "biuf"
 
     def rate(self, name: str) -> float:
-        """The sample rate of ``name``'s group, from its master channel (checked evenly spaced)."""
+        """The sample rate of ``name``'s group, fitted to its master channel's time stamps:
+        jitter well below a sample (a logger's ns on 1 ms steps) is accepted and said in the
+        notes; a step half a sample off, or stamps drifting a sample off one rate, is refused."""
         gi, _ = self.where[name]
         if gi not in self._rates:
             t = np.asarray(self.mdf.get_master(gi), dtype=np.float64)
-            d = np.diff(t)
-            if len(d) == 0 or not (d > 0).all():
-                raise ValueError(f"{self.path.name}: group {gi}'s time channel is not increasing")
-            dt = float(np.median(d))
-            bad = np.flatnonzero(np.abs(d - dt) > _EVEN_RTOL * dt + 1e-12)
-            if len(bad):
-                raise ValueError(f"{self.path.name}: group {gi} is not evenly sampled (step {d[bad[0]]:.9g} s "
-                                 f"at record {bad[0] + 1}, expected {dt:.9g} s)")
-            self._rates[gi] = (len(t) - 1) / (t[-1] - t[0])
+            fs, note = stamped_rate(f"{self.path.name}: group {gi}", np.arange(len(t)), t,
+                                    gap_samples=_GAP_SAMPLES, drift_samples=_DRIFT_SAMPLES)
+            if note and note not in self.notes:
+                self.notes.append(note)
+            self._rates[gi] = fs
         return float(self._rates[gi])  # type: ignore[arg-type]
 
-    def select(self, names: Sequence[str]) -> None:
-        fs = one_rate(self.path, {n: self.rate(n) for n in names if n in self.where}, 1e-9)
+    def select(self, names: Sequence[str], fs_hz: float | None = None) -> None:
+        names = [n for n in names if n in self.where]
+        if fs_hz is not None:
+            # the user's rate (--fs) overrides the stamps: they are checked only to say so
+            for n in names:
+                try:
+                    fs = self.rate(n)
+                    self.notes.append(f"--fs {fs_hz:g} Hz used; {n!r}'s time stamps give {fs:.9g} Hz")
+                except ValueError as exc:
+                    self.notes.append(f"--fs {fs_hz:g} Hz used; {exc}")
+            self.fs_hz = None
+            return
+        fs = one_rate(self.path, {n: self.rate(n) for n in names}, 1e-6)
         if fs is not None:
             self.fs_hz = fs
+
+    def rate_of(self, name: str) -> float | None:
+        return self.rate(name)
+
+    def unit_of(self, name: str) -> str | None:
+        """The channel's physical unit (its conversion's, else its own), None when blank."""
+        gi, ci = self.where[name]
+        try:
+            unit = str(self.mdf.get(group=gi, index=ci, record_offset=0, record_count=1).unit or "").strip()
+        except Exception:
+            return None
+        return unit or None
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         gi, ci = self.where[name]

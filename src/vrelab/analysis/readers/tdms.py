@@ -1,4 +1,7 @@
-"""NI TDMS through npTDMS (``TdmsFile.open``: channels read by slices, never whole)."""
+"""NI TDMS through npTDMS (``TdmsFile.open``: channels read by slices, never whole).
+
+Each channel's rate is ``1/wf_increment`` (snapped when stored rounded), its unit
+``unit_string``; channels at several rates may share a file, a record's channels share one."""
 
 from __future__ import annotations
 
@@ -11,7 +14,18 @@ from numpy.typing import NDArray
 from vrelab.analysis.readers._base import (
     Source,
     register,
+    snap_rate,
 )
+
+
+def _rate(inc: float, notes: list[str]) -> float:
+    """The rate of a ``wf_increment`` (snapped when it was stored rounded, with a note)."""
+    fs = snap_rate(inc)
+    if fs != 1.0 / inc:
+        note = f"TDMS wf_increment {inc!r} s is the rounded inverse of {fs:g} Hz: that rate used"
+        if note not in notes:
+            notes.append(note)
+    return fs
 
 
 @register
@@ -32,7 +46,6 @@ class TdmsSource(Source):
         except Exception as exc:  # npTDMS raises ValueError/EOFError/struct.error on bad files
             raise ValueError(f"{path.name}: cannot read as TDMS (truncated or corrupt file?): {exc}") from None
         self.chans: dict[str, Any] = {}
-        rates = set()
         for g in self.f.groups():
             for ch in g.channels():
                 if ch.dtype is None or np.dtype(ch.dtype).kind not in "biuf":
@@ -42,11 +55,13 @@ class TdmsSource(Source):
                 self.lengths[name] = len(ch)
                 inc = ch.properties.get("wf_increment")
                 if inc:
-                    rates.add(round(1.0 / float(inc), 9))
-        if len(rates) > 1:
-            raise ValueError(f"{path.name}: channels have different wf_increment rates: {sorted(rates)}")
-        if rates:
-            self.fs_hz = rates.pop()
+                    self.rates[name] = _rate(float(inc), self.notes)
+                unit = str(ch.properties.get("unit_string", "") or "").strip()
+                if unit:
+                    self.units[name] = unit
+        if len(set(self.rates.values())) == 1:  # one rate for the file; else each record's channels share one
+            self.fs_hz = next(iter(self.rates.values()))
+            self.rates = {}
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         try:

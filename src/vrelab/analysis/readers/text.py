@@ -12,6 +12,7 @@ from vrelab.analysis.readers._base import (
     Source,
     register,
 )
+from vrelab.analysis.readers.units import header_unit
 
 
 @register
@@ -54,6 +55,10 @@ class CsvSource(Source):
             raise ValueError(f"{path.name}: duplicate column names in the header: {self.names}")
         self.columns = list(self.names)  # every column of a row, channels or not
         self.decimal_point = "."
+        for name in self.names:  # a header's unit: "Acceleration x (m/s^2)"
+            unit = header_unit(name)
+            if unit:
+                self.units[name] = unit
         self._scan()
 
     def _scan(self) -> None:
@@ -122,6 +127,9 @@ class CsvSource(Source):
             pos += m
             if pos >= stop:
                 break
+
+    def is_integer(self, name: str) -> bool:
+        return False  # parsed as float64: a text file's numbers carry no ADC type
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return np.concatenate([b[name] for b in self.stream([name], start, stop, stop - start)] or [np.empty(0)])

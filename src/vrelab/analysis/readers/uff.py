@@ -4,7 +4,8 @@ export them.
 A channel is one record of function type 1 (time response) with even abscissa spacing, named by
 its ``id1`` (trailing spaces stripped) and by ``NODE:DIR`` (response node and direction, e.g.
 ``101:+Z``: UFF directions 1/2/3 = X/Y/Z, 4/5/6 = RX/RY/RZ, signed). The sample rate is
-``1/abscissa_inc``; every channel must share it. Records of other kinds (spectra, FRFs) are left
+``1/abscissa_inc`` (snapped when written rounded); records at several rates may share a file,
+the ones a record reads must share one. Records of other kinds (spectra, FRFs) are left
 out with a note.
 
 Memory: pyuff reads a record whole, and lists the file by reading it whole. Opening reads the
@@ -23,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.readers._base import Source, register
+from vrelab.analysis.readers._base import Source, register, snap_rate
 
 _DIRS = {1: "X", 2: "Y", 3: "Z", 4: "RX", 5: "RY", 6: "RZ"}
 # a UFF file starts with the delimiter line "    -1" (I6: four spaces), then the dataset number
@@ -49,11 +50,17 @@ def rate_from_increment(inc: float) -> float:
     """
     if float(f"{inc:.5E}") != inc:
         return 1.0 / inc
-    for digits in range(1, 8):
-        fs = float(f"{1.0 / inc:.{digits}g}")
-        if float(f"{1.0 / fs:.5E}") == float(f"{inc:.5E}"):
-            return fs
-    return 1.0 / inc
+    return snap_rate(inc, 6)
+
+
+def _ordinate_unit(h: dict[str, Any]) -> str | None:
+    """The unit a record states for its values: its ordinate axis units label (record 8). The
+    data-type code and unit exponents are not used: what they mean depends on the file's unit
+    system (dataset 164), which a record does not carry."""
+    label = str(h.get("ordinate_axis_units_lab", "") or "").strip()
+    if label and label.upper() not in ("NONE", "-"):
+        return label
+    return None
 
 
 @functools.lru_cache(maxsize=16)
@@ -91,6 +98,7 @@ class UffSource(Source):
         self.alias: dict[str, str] = {}
         self.cache: dict[str, NDArray[np.float64]] = {}
         rates: dict[str, float] = {}
+        by_nd: dict[str, list[str]] = {}  # NODE:DIR -> the records there
         skipped = 0
         for i in np.flatnonzero(types == 58):
             h = self._header(int(i))
@@ -103,8 +111,10 @@ class UffSource(Source):
                 name = nd if nd not in self.sets else f"{name} #{i}"
             self.sets[name] = int(i)
             self.lengths[name] = int(h.get("num_pts", 0))
-            if nd not in self.alias and nd not in self.sets:
-                self.alias[nd] = name
+            by_nd.setdefault(nd, []).append(name)
+            unit = _ordinate_unit(h)
+            if unit:
+                self.units[name] = unit
             inc = float(h.get("abscissa_inc", 0.0))
             if not inc > 0:
                 raise ValueError(f"{path.name}: record {name!r} has abscissa increment {inc!r}: no sample rate")
@@ -113,18 +123,32 @@ class UffSource(Source):
             self.notes.append(f"{skipped} UFF58 record(s) that are not evenly sampled time responses were left out")
         if not self.sets:
             raise ValueError(f"{path.name}: no UFF58 time record (function type 1) in the file")
-        # NODE:DIR names are channels too (the campaign's and the CLI's lookups see them)
+        # NODE:DIR names are channels too (the campaign's and the CLI's lookups see them); one
+        # that several records share (two records on node 1 +Z) names none of them: ambiguous
+        for nd, names in by_nd.items():
+            if nd in self.sets:
+                continue
+            if len(names) > 1:
+                self.ambiguous[nd] = names
+                continue
+            self.alias[nd] = names[0]
+            self.lengths[nd] = self.lengths[names[0]]
+            if names[0] in self.units:
+                self.units[nd] = self.units[names[0]]
+        snapped: dict[str, float] = {}
+        for name, fs in rates.items():
+            snapped[name] = rate_from_increment(1.0 / fs)
+            if snapped[name] != fs:
+                note = (f"UFF58 abscissa increment {1.0 / fs:.6g} s is the rounded inverse of {snapped[name]:g} Hz: "
+                        f"that rate used (1/increment = {fs:.9g} Hz)")
+                if note not in self.notes:
+                    self.notes.append(note)
         for nd, name in self.alias.items():
-            self.lengths[nd] = self.lengths[name]
-        vals = np.array(list(rates.values()))
-        if np.ptp(vals) > 1e-9 * vals.max():
-            lo, hi = min(rates, key=rates.get), max(rates, key=rates.get)  # type: ignore[arg-type]
-            raise ValueError(f"{path.name}: records have different sample rates: {lo!r} {rates[lo]:.6g} Hz, "
-                             f"{hi!r} {rates[hi]:.6g} Hz")
-        self.fs_hz = rate_from_increment(float(1.0 / vals[0]))
-        if self.fs_hz != float(vals[0]):
-            self.notes.append(f"UFF58 abscissa increment {1.0 / vals[0]:.6g} s is the rounded inverse of "
-                              f"{self.fs_hz:g} Hz: that rate used (1/increment = {vals[0]:.9g} Hz)")
+            snapped[nd] = snapped[name]
+        if len(set(snapped.values())) == 1:  # one rate for the file; else a record's channels share one
+            self.fs_hz = next(iter(snapped.values()))
+        else:
+            self.rates = snapped
 
     def _header(self, i: int) -> dict[str, Any]:
         # pyuff's read_sets(header_only=True) splits the whole record into lines to keep 13 of
@@ -144,6 +168,9 @@ class UffSource(Source):
             return dict(self.uff.read_sets(i, header_only=True))
         except Exception as exc:
             raise ValueError(f"{self.path.name}: UFF record {i} has a malformed header: {type(exc).__name__}: {exc}") from None
+
+    def is_integer(self, name: str) -> bool:
+        return False  # pyuff gives float64 (and asking would parse the record)
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         name = self.alias.get(name, name)

@@ -1,0 +1,54 @@
+"""``vrelab channels``: every channel of a recorded file, the first step with a new file.
+
+::
+
+    vrelab channels FILE [--json]
+
+For each channel: the exact name to pass to ``--dut``/``--reference``, its sample rate, number
+of samples, duration, the unit the file states (or none) and what the reader noticed.
+``--json`` prints ``{"file", "format", "notes", "channels": [{"name", "rate_hz", "n_samples",
+"duration_s", "unit", "notes"}]}`` (:func:`vrelab.analysis.readers.list_channels`).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from vrelab.cli._common import print_json
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "channels",
+        help="list a recorded file's channels: the names --dut/--reference take, rates, units",
+        description="List every channel of a recorded file (any format analyze reads) with the exact name to "
+        "pass to --dut/--reference, its sample rate, samples, duration, the unit the file states and the "
+        "reader's notes.",
+    )
+    p.add_argument("file", metavar="FILE", help="recorded file")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def _num(x: float | None, fmt: str) -> str:
+    return "-" if x is None else format(x, fmt)
+
+
+def run(args: argparse.Namespace) -> int:
+    from vrelab.analysis.readers import list_channels
+
+    listing = list_channels(args.file)
+    if args.json:
+        print_json(listing)
+        return 0
+    rows = [(c["name"], _num(c["rate_hz"], ".9g"), _num(c["n_samples"], "d"), _num(c["duration_s"], ".6g"),
+             c["unit"] or "-", "; ".join(c["notes"])) for c in listing["channels"]]
+    head = ("channel", "rate_hz", "samples", "duration_s", "unit", "notes")
+    widths = [max(len(r[i]) for r in rows + [head]) for i in range(5)]
+    print(f"{listing['file']} ({listing['format'].upper()})")
+    for r in [head] + rows:
+        print("  ".join(f"{v:<{w}}" for v, w in zip(r[:5], widths)) + ("  " + r[5] if r[5] else ""))
+    for n in listing["notes"]:
+        print(f"note: {n}")
+    return 0
