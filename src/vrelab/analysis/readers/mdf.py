@@ -92,6 +92,7 @@ class MdfSource(Source):
     fmt = "mdf"
     extensions = (".mf4", ".mdf")
     requires = "asammdf"
+    own_stamps = True
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
