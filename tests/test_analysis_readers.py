@@ -159,6 +159,34 @@ def test_reader_notes_say_what_is_not_memory_mapped(tmp_path, truth):
     assert notes["rec.npz"] == [] and notes["rec.h5"] == [] and notes["rf64.wav"] == []
 
 
+def test_mat_reads_the_class_matlab_states_v4_and_v5(tmp_path):
+    """A double of whole numbers, which MATLAB (and scipy's savemat) stores compactly as uint8, is
+    read as the double it is; an int16 variable stays counts; a complex double is no channel (not
+    its real part); MAT v4 (no text header, MATLAB's "MAT-File Format" v4 matrix header) reads the
+    same way. The samples are compared with what was saved, not with vrelab's reading."""
+    from scipy.io import savemat
+
+    whole = np.arange(40.0) % 5  # whole numbers: stored as miUINT8 (MAT-File Format, v5 "compression")
+    p5 = tmp_path / "v5.mat"
+    savemat(p5, {"whole": whole, "counts": np.arange(40, dtype=np.int16), "z": whole * 1j, "fs": 100.0})
+    with open_record(p5, "whole") as rec:
+        got = np.concatenate([b["dut"] for b in rec.blocks(16, ["dut"])])
+    assert got.dtype == np.float64 and np.array_equal(got, whole) and rec.fs_hz == 100.0
+    with pytest.raises(ValueError, match="counts"):
+        open_record(p5, "counts")
+    with pytest.raises(ValueError, match="'z' not found"):
+        open_record(p5, "z")
+    p4 = tmp_path / "v4.mat"
+    savemat(p4, {"whole": whole, "fs": 100.0}, format="4")
+    assert detect_format(p4) == "mat"
+    with open_record(p4, "whole") as rec:
+        assert rec.source.fmt == "mat-v4" and np.array_equal(np.concatenate([b["dut"] for b in rec.blocks(16, ["dut"])]), whole)
+    bad = tmp_path / "bad.mat"
+    bad.write_bytes(b"\x00" * 64)  # no text header and no valid v4 matrix header
+    with pytest.raises(ValueError, match="wrong header bytes"):
+        open_record(bad, "whole", fs_hz=100.0)
+
+
 def test_uncompressed_npz_and_npy_are_memory_mapped(tmp_path):
     x = np.arange(10.0)
     np.savez(tmp_path / "a.npz", dut=x, reference=2 * x)

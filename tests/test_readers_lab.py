@@ -222,14 +222,17 @@ def test_tdms_daqmx_raw_data_is_read_scaled(tmp_path: Path) -> None:
 
 
 def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250, jitter: float = 0.0,
-              seed: int = 0, gap_after: int | None = None, drift: float = 0.0, gap_blocks: int = 1) -> None:
+              seed: int = 0, gap_after: int | None = None, drift: float = 0.0, gap_blocks: int = 1,
+              early_first: float = 0.0, boundary: float = 0.0) -> None:
     """An IDE file as enDAQ recorders write it, encoded with ebmlite (the EBML library idelib
     reads with) against idelib's own schema (mide_ide.xml): recording properties declaring one
     channel (ID 8, float32 sub-channels), then data blocks stamped with their start and end
     time codes (1/32768 s); ``jitter`` moves each block's stamps by up to that many ticks;
     ``gap_after`` blocks, the stamps jump ``gap_blocks`` blocks ahead (samples lost); ``drift``
     bends the recorder's clock: block b is stamped ``drift`` samples late at the record's end,
-    quadratically in between (a clock slowing down as the recorder warms)."""
+    quadratically in between (a clock slowing down as the recorder warms); ``early_first``: the
+    first block's start stamp that many samples early (its end stamp kept), ``boundary``: each
+    block after the first that many samples late, one step more at each (an enDAQ gyro's stamps)."""
     import ebmlite
 
     schema = ebmlite.loadSchema("mide_ide.xml")
@@ -246,9 +249,10 @@ def write_ide(path: Path, cols: dict[str, np.ndarray], fs: float, per: int = 250
     for b, i in enumerate(range(0, len(data), per)):
         j = min(i + per, len(data))
         dj = (rng.uniform(-jitter, jitter) + (gap_blocks * per * tick if gap_after is not None and b >= gap_after else 0.0)
-              + drift * tick * (i / len(data)) ** 2)
-        t0 = np.ceil(jitter)  # stamps are unsigned
-        blocks.append({"ChannelDataBlock": {"ChannelIDRef": 8, "StartTimeCodeAbs": int(round(t0 + i * tick + dj)),
+              + drift * tick * (i / len(data)) ** 2 + boundary * tick * b)
+        t0 = np.ceil(jitter) + early_first * tick  # stamps are unsigned
+        early = early_first * tick if b == 0 else 0.0
+        blocks.append({"ChannelDataBlock": {"ChannelIDRef": 8, "StartTimeCodeAbs": int(round(t0 + i * tick + dj - early)),
                                             "EndTimeCodeAbs": int(round(t0 + (j - 1) * tick + dj)),
                                             "ChannelDataPayload": data[i:j].tobytes()}})
     path.write_bytes(schema.encodes([props] + blocks, headers=True))

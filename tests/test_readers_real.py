@@ -173,6 +173,33 @@ def test_ide_stamps_jittering_a_sample_and_drifting_give_the_fitted_rate(tmp_pat
         open_record(g, "8.1", "8.0")
 
 
+def test_ide_block_stamps_a_few_samples_off_at_each_block_give_the_fitted_rate(tmp_path: Path) -> None:
+    """An enDAQ gyro's stamps (endaq-python's test4.IDE, issue 19): the first block's start stamp
+    14 samples early, each later block about 2 samples later than the one before ends: no step
+    of more than a few samples between a block's last sample and the next one's first, a drift
+    of ~10 samples about one line: read at the rate of the line through idelib's own per-sample
+    stamps, within the tilt their scatter allows (as tests/test_thirdparty_corpus.py judges it);
+    a lost block among such stamps is still a gap, refused saying where."""
+    import idelib
+
+    ref, dut = _signals(10)
+    p = tmp_path / "gyro.ide"
+    write_ide(p, {"ref": ref, "dut": dut}, 1024.0, early_first=14.0, boundary=1.9)
+    doc = idelib.importFile(str(p), quiet=True)
+    t = np.asarray(doc.channels[8].subchannels[1].getSession().arraySlice(0, N)[0], dtype=np.float64) * 1e-6
+    doc.close()
+    k = np.arange(N, dtype=np.float64)
+    slope, icept = np.polyfit(k, t, 1)
+    scatter = float(np.max(np.abs(t - (slope * k + icept))))
+    assert 5.0 < scatter / slope < 25.0  # the drift is the point of the test
+    with open_record(p, "8.1", "8.0") as rec:
+        assert rec.fs_hz == pytest.approx(1.0 / slope, rel=2.0 * scatter / (t[-1] - t[0]))
+    g = tmp_path / "gap.ide"
+    write_ide(g, {"ref": ref, "dut": dut}, 1024.0, early_first=14.0, boundary=1.9, gap_after=6)
+    with pytest.raises(ValueError, match=r"not evenly sampled: \+25\d samples .*\(sample 1500\).*a gap"):
+        open_record(g, "8.1", "8.0")
+
+
 def test_mdf_ns_jitter_on_1ms_steps_is_accepted_and_fs_overrides(tmp_path: Path) -> None:
     from asammdf import MDF, Signal
 

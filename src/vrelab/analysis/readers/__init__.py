@@ -467,7 +467,9 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             if key != name:
                 aliases.setdefault(name, []).append(key)
         names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
-        tcols = [c for c in names if c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None]
+        # a file-level time column times the others; where each channel has its own stamps, none does
+        tcols = [] if src.own_stamps else [c for c in names
+                                           if c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None]
         time_fs: float | None = None
         time_note = None
         if src.fs_hz is None and not src.rates and len(tcols) == 1:
@@ -483,17 +485,18 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             if name in aliases:
                 notes.append("also named " + ", ".join(repr(a) for a in aliases[name]))
             before = len(src.notes)
+            refused = False  # the file's stamps give no rate: their reason, not "give --fs", is the note
             try:
                 fs = src.rate_of(name)
             except ValueError as exc:
-                fs, notes = None, notes + [str(exc)]
+                fs, notes, refused = None, notes + [str(exc)], True
             notes += [n for n in src.notes[before:] if n not in file_notes_before]
             if name in tcols:
                 notes.append("a time column")
             elif fs is None and time_fs is not None:
                 fs = time_fs
                 notes.append(time_note or "")
-            elif fs is None:
+            elif fs is None and not refused:
                 notes.append(time_note or "no sample rate in the file: give --fs HZ")
             n = int(src.lengths[name])
             if src.is_integer(name) and not src.unit_of(name):

@@ -99,6 +99,9 @@ class Source:
     random_access: ClassVar[bool] = True  # False: a stretch costs reading all before it (text)
     requires: ClassVar[str | None] = None  # the import name of the library the format needs
     install: ClassVar[str | None] = None  # what to pip install for it (default: ``requires``)
+    # True: each channel carries its own time stamps (IDE, MDF): a channel named "Time" is one of
+    # them (a GNSS receiver's clock), never the time base of the others
+    own_stamps: ClassVar[bool] = False
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -204,7 +207,7 @@ def significant_digits(text: str) -> int:
 
 
 def stamped_rate(what: str, index: NDArray[Any], times_s: NDArray[Any], gap_samples: float,
-                 drift_samples: float) -> tuple[float, str | None]:
+                 drift_samples: float, spans_s: NDArray[Any] | None = None) -> tuple[float, str | None]:
     """The sample rate behind time stamps that jitter, and a note saying how much they do.
 
     ``times_s[k]`` is the time of sample ``index[k]`` (every sample's, as MDF masters give, or
@@ -213,6 +216,12 @@ def stamped_rate(what: str, index: NDArray[Any], times_s: NDArray[Any], gap_samp
     a stamp not after the one before; a step between consecutive stamps more than
     ``gap_samples`` samples off the fitted rate (a gap, a lost block); stamps drifting more
     than ``drift_samples`` samples off the line (not one rate).
+
+    ``spans_s[k]``, where the recorder also stamps each block's end: the time from stamp ``k``
+    to the last sample before stamp ``k + 1``. Samples within a block are contiguous, so a gap
+    can only lie between a block's end and the next block's start: the step judged is that one
+    (in samples of the blocks' own period), and a block a few samples longer or shorter than
+    the rate gives it is the clock's drift, judged with the rest against the line.
     """
     i = np.asarray(index, dtype=np.float64)
     t = np.asarray(times_s, dtype=np.float64)
@@ -229,8 +238,14 @@ def stamped_rate(what: str, index: NDArray[Any], times_s: NDArray[Any], gap_samp
         raise ValueError(f"{what}: time stamps give no positive sample step")
     # a gap is judged against the median step (the line's slope leans towards a large gap)
     di = np.diff(i)
-    typical = float(np.median(d / di))
-    jump = (d - di * typical) / typical  # samples more (or fewer) than the rate puts between them
+    inner = di - 1  # sample periods within a block, from its start stamp to its last sample
+    if spans_s is not None and (inner > 0).any():
+        span = np.asarray(spans_s, dtype=np.float64)
+        typical = float(np.median(span[inner > 0] / inner[inner > 0]))
+        jump = (d - span) / typical - 1.0  # samples more (or fewer) than the rate puts between blocks
+    else:
+        typical = float(np.median(d / di))
+        jump = (d - di * typical) / typical  # samples more (or fewer) than the rate puts between them
     k = int(np.argmax(np.abs(jump)))
     if abs(jump[k]) > gap_samples:
         raise ValueError(f"{what}: not evenly sampled: {jump[k]:+.3g} samples between {t[k]:.6g} s and "

@@ -37,23 +37,31 @@ _GAP_SAMPLES = 5.0
 _DRIFT_SAMPLES = 25.0
 
 
-def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(first sample index, start time [s]) of each data block.
+def _block_stamps(ev: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+    """(first sample index, start time [s]) of each data block, and the time [s] from each
+    block's start stamp to its end stamp (its last sample) where the recorder wrote end stamps
+    (None otherwise: old files have none, idelib then repeats the start).
 
-    idelib keeps each block's index range and start stamp (``EventArray._data``, not public
-    API): reading them costs nothing, where every sample's time costs a pass over the file.
-    Without them, the first 20000 samples' times."""
+    idelib keeps each block's index range and stamps (``EventArray._data``, not public API):
+    reading them costs nothing, where every sample's time costs a pass over the file. Without
+    them, the first 20000 samples' times."""
     try:
         blocks = list(ev._data)
         idx = [int(b.indexRange[0]) for b in blocks]
+        last = [int(b.indexRange[1]) - 1 for b in blocks]
         t = [float(b.startTime) for b in blocks]
+        end = [float(b.endTime) for b in blocks]
     except (AttributeError, TypeError):
         idx = []
     if len(idx) < 3:  # no block index, or too few blocks to fit: the samples' own times
         k = min(len(ev), 20000)
         times = np.asarray(ev.arraySlice(0, k)[0], dtype=np.float64)
-        return np.arange(k, dtype=np.float64), times * 1e-6  # idelib times are µs
-    return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6
+        return np.arange(k, dtype=np.float64), times * 1e-6, None  # idelib times are µs
+    span = (np.asarray(end) - np.asarray(t))[:-1] * 1e-6
+    inner = (np.asarray(last) - np.asarray(idx))[:-1]
+    # end stamps are the recorder's only where every block of several samples has one after its start
+    spans = span if ((span > 0) | (inner == 0)).all() else None
+    return np.asarray(idx, dtype=np.float64), np.asarray(t, dtype=np.float64) * 1e-6, spans
 
 
 class _Said(logging.Handler):
@@ -136,6 +144,7 @@ class IdeSource(Source):
     extensions = (".ide",)
     requires = "idelib"
     install = "vrelab[formats]"
+    own_stamps = True
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
@@ -211,9 +220,9 @@ class IdeSource(Source):
         over a record; a jump of more than a few samples between blocks is a gap, refused."""
         name = self.alias.get(name, name)
         if name not in self._rates:
-            idx, t = _block_stamps(self.events[name])
+            idx, t, spans = _block_stamps(self.events[name])
             fs, note = stamped_rate(f"{self.path.name}: IDE channel {name!r}", idx, t,
-                                    gap_samples=_GAP_SAMPLES, drift_samples=_DRIFT_SAMPLES)
+                                    gap_samples=_GAP_SAMPLES, drift_samples=_DRIFT_SAMPLES, spans_s=spans)
             if note and note not in self.notes:
                 self.notes.append(note)
             self._rates[name] = fs

@@ -93,6 +93,7 @@ class MdfSource(Source):
     extensions = (".mf4", ".mdf")
     requires = "asammdf"
     install = "vrelab[formats]"
+    own_stamps = True
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
