@@ -365,8 +365,7 @@ def test_clip_vre_is_the_mean_shift_referred_to_the_vibration_off_reading():
     rms = np.array([0.3, 1.0, 2.0])[:, None]
     np.testing.assert_array_equal(clip_vre(mu, rms, -2.0, 2.0), mean_shift(mu, rms, -2.0, 2.0))
     for m, lo, hi in ((2.5, -2.0, 2.0), (-3.0, -2.0, 2.0), (0.5, 1.0, 4.0)):
-        pdf = stats.norm(m, 0.8).pdf
-        inside, _ = integrate.quad(lambda x: x * pdf(x), lo, hi, epsabs=1e-13, epsrel=1e-13)
+        inside, _ = integrate.quad(lambda x, d=stats.norm(m, 0.8): x * d.pdf(x), lo, hi, epsabs=1e-13, epsrel=1e-13)
         out = lo * stats.norm.cdf((lo - m) / 0.8) + inside + hi * stats.norm.sf((hi - m) / 0.8)
         assert clip_vre(m, 0.8, lo, hi) == pytest.approx(out - min(max(m, lo), hi), abs=1e-10)
         assert clip_vre(m, 0.0, lo, hi) == 0.0  # no vibration, no VRE, wherever the static level is

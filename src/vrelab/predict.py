@@ -253,9 +253,9 @@ def _vibration_off(reading: _Reading, g0: float) -> tuple[float, str | None]:
         if st.analytic == "polynomial":
             level = memoryless.vibration_off_reading(level, st.k2_per_g, st.k3_per_g2, st.k4_per_g3)
         elif st.analytic == "clip":
-            rails = dict(rail_low_g=float(st.low_g), rail_high_g=float(st.high_g))
-            note = note or memoryless.reference_note(level, **rails)
-            level = memoryless.vibration_off_reading(level, **rails)
+            low, high = float(st.low_g), float(st.high_g)
+            note = note or memoryless.reference_note(level, rail_low_g=low, rail_high_g=high)
+            level = memoryless.vibration_off_reading(level, rail_low_g=low, rail_high_g=high)
     return level + (reading.offset_g - added), note
 
 
