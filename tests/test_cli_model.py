@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import math
 
+import numpy as np
 import pytest
+from scipy import integrate, stats
 
 from vrelab._lists import parse_list
 from vrelab.cli import main
@@ -53,7 +56,9 @@ def test_human_output_is_a_table_in_mg(capsys):
     assert main(["model", "clip", "--mean", "1", "--rail", "2", "--rms", "1,2"]) == 0
     out = capsys.readouterr().out
     assert "VRE (mg)" in out and "-82.9333" in out
-    assert len(out.strip().splitlines()) == 4
+    # title, the reference point (SPEC 1.5), header, two levels; no note: 1 g is within the rails
+    assert "VRE referred to the vibration-off reading (1 g)" in out and "note:" not in out
+    assert len(out.strip().splitlines()) == 5
 
 
 @pytest.mark.parametrize(
@@ -86,3 +91,57 @@ def test_parse_list_ranges_and_errors():
     for bad in ("", "1,,2", "1:2", "a", "inf"):
         with pytest.raises(ValueError, match="--rms"):
             parse_list(bad, "--rms")
+
+
+def _clipped_vre_by_quad(mu: float, sigma: float, lo: float, hi: float) -> float:
+    """E[clip(μ + X)] - clip(μ) for X ~ N(0, σ²), by scipy quadrature of the clipped value
+    (independent of vrelab: SPEC 1.5's reference point is the reading with no vibration)."""
+    pdf = stats.norm(mu, sigma).pdf
+    inside, _ = integrate.quad(lambda x: x * pdf(x), lo, hi, epsabs=1e-13, epsrel=1e-13)
+    mean_out = lo * stats.norm.cdf((lo - mu) / sigma) + inside + hi * stats.norm.sf((hi - mu) / sigma)
+    return mean_out - min(max(mu, lo), hi)
+
+
+def test_clip_beyond_a_rail_is_referred_to_the_clipped_reading_as_predict(capsys):
+    """Issue 21 / SPEC 1.5: ±2 g rails, 2.5 g static, 1 g rms. Measured from μ the mean moves
+    -698 mg; from the vibration-off reading (2 g, itself clipped) -198 mg. `model clip` and
+    `predict` on the ideal ±2 g sensor both state the latter, equal to 1e-9 and to scipy quad."""
+    want = _clipped_vre_by_quad(2.5, 1.0, -2.0, 2.0)
+    assert want == pytest.approx(-0.198, abs=0.5e-3)  # the issue's figure
+    d = _json(capsys, ["model", "clip", "--mean", "2.5", "--rail", "2", "--rms", "1", "--json"])
+    p = _json(capsys, ["predict", "--sensor", "ideal", "--range", "2", "--static", "2.5",
+                       "--profile", "flat:20-2000", "--levels", "1", "--json"])
+    assert d["vre_g"][0] == pytest.approx(want, abs=1e-9)
+    assert p["levels"][0]["vre_g"] == pytest.approx(want, abs=1e-9)
+    assert d["vre_g"][0] == pytest.approx(p["levels"][0]["vre_g"], abs=1e-9)
+    # both state the reference point, and that it is clipped here
+    for out in (d, p):
+        assert out["reference"] == "vibration-off reading" and out["vibration_off_g"] == 2.0
+        assert any("vibration-off reading is itself clipped" in n for n in out["notes"])
+    assert d["vibration_off_clipped"] is True
+    assert main(["model", "clip", "--mean", "2.5", "--rail", "2", "--rms", "1"]) == 0
+    table = capsys.readouterr().out
+    assert "VRE referred to the vibration-off reading (2 g)" in table and "itself clipped" in table
+
+
+@pytest.mark.parametrize("shape,kind", [("gaussian", "truncated"), ("sine", "censored"), ("sine", "truncated")])
+def test_clip_other_models_referred_to_the_clipped_reading(capsys, shape, kind):
+    """The same reference point for the truncated model and a sine, against direct computations:
+    truncated, scipy.stats.truncnorm's mean; a sine, a dense phase grid; less clip(μ) = 2 g."""
+    d = _json(capsys, ["model", "clip", "--mean", "2.5", "--rail", "2", "--rms", "1", "--shape", shape,
+                       "--kind", kind, "--json"])
+    if shape == "gaussian":
+        want = stats.truncnorm(-4.5, -0.5, loc=2.5, scale=1.0).mean() - 2.0
+    else:
+        x = 2.5 + math.sqrt(2.0) * np.cos(np.linspace(0.0, 2 * np.pi, 400_001)[:-1])
+        want = (np.clip(x, -2.0, 2.0).mean() if kind == "censored" else x[(x > -2.0) & (x < 2.0)].mean()) - 2.0
+    assert d["vre_g"][0] == pytest.approx(want, abs=1e-5 if shape == "sine" else 1e-9)
+
+
+def test_poly_states_its_reference(capsys):
+    """`model poly` is referred to P(g0) (SPEC 1.2, 1.5): 1 g + 100 µg/g²·(1 g)² = 1.0001 g."""
+    d = _json(capsys, ["model", "poly", "--k2", "100", "--static", "1", "--rms", "1", "--json"])
+    assert d["reference"] == "vibration-off reading"
+    assert d["vibration_off_g"] == pytest.approx(1.0001, abs=1e-15)
+    assert main(["model", "poly", "--k2", "100", "--static", "1", "--rms", "1"]) == 0
+    assert "VRE referred to the vibration-off reading (1.0001 g)" in capsys.readouterr().out

@@ -351,3 +351,21 @@ def test_both_gaussian_models_match_mpmath_across_the_space(mu, log_s, r1, log_w
     for ours, ref in ((censored_mean_shift, _mp_censored), (truncated_mean_shift, _mp_truncated)):
         expect = ref(mu, s, low, high)
         assert ours(mu, s, low, high) == pytest.approx(expect, rel=1e-9, abs=floor)
+
+
+def test_clip_vre_is_the_mean_shift_referred_to_the_vibration_off_reading():
+    """SPEC 1.5: VRE = E[out] - clip(μ). Within the rails the mean shift itself (exactly: the added
+    μ - clip(μ) is 0); beyond one it leaves out the static level's own clipping, here against an
+    independent scipy quadrature of E[clip(μ + X)] less clip(μ)."""
+    from scipy import integrate, stats
+
+    from vrelab.models.clipping import clip_vre, mean_shift
+
+    mu = np.array([-0.7, 0.0, 1.0, 1.9])
+    rms = np.array([0.3, 1.0, 2.0])[:, None]
+    np.testing.assert_array_equal(clip_vre(mu, rms, -2.0, 2.0), mean_shift(mu, rms, -2.0, 2.0))
+    for m, lo, hi in ((2.5, -2.0, 2.0), (-3.0, -2.0, 2.0), (0.5, 1.0, 4.0)):
+        inside, _ = integrate.quad(lambda x, d=stats.norm(m, 0.8): x * d.pdf(x), lo, hi, epsabs=1e-13, epsrel=1e-13)
+        out = lo * stats.norm.cdf((lo - m) / 0.8) + inside + hi * stats.norm.sf((hi - m) / 0.8)
+        assert clip_vre(m, 0.8, lo, hi) == pytest.approx(out - min(max(m, lo), hi), abs=1e-10)
+        assert clip_vre(m, 0.0, lo, hi) == 0.0  # no vibration, no VRE, wherever the static level is

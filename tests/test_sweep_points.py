@@ -56,10 +56,40 @@ def test_model_clipping_matches_spec_values_and_scipy(tmp_path):
         theta = np.linspace(0.0, 2 * np.pi, 200_001)[:-1]
         sine = np.clip(1.0 + rms * math.sqrt(2) * np.cos(theta), -2.0, 2.0).mean() - 1.0
         assert vre.sel(rms_g=rms, clip_kind="censored", shape="sine") == pytest.approx(sine, rel=1e-6, abs=1e-12)
-    # SPEC 4: delta g reads as delta/cos(theta) rad; level axis (theta = 0): degrees(delta)
-    np.testing.assert_allclose(ds["tilt_error_deg"], np.degrees(ds["vre_g"]), rtol=1e-12)
-    tilted = model_point({"rms_g": 1.0, "tilt_deg": 60.0}, None)
-    assert tilted["tilt_error_deg"] == pytest.approx(math.degrees(tilted["vre_g"] / 0.5), rel=1e-12)
+    # SPEC 1.5: at +1 g the axis is vertical, so no tilt corresponds to the reading: NaN
+    assert np.isnan(ds["tilt_error_deg"]).all()
+
+
+def test_model_tilt_is_asin_of_the_reading():
+    """SPEC 1.5: an axis at θ = asin(g0) reading g0 + δ has the tilt error asin(g0 + δ) - asin(g0)
+    (not δ/cos θ, its first order); NaN where g0 or g0 + δ is beyond ±1 g."""
+    for static, rms in ((0.2, 2.0), (0.5, 1.5), (-0.9, 1.2)):
+        pt = model_point({"rms_g": rms, "static_g": static, "range_g": 2.0}, None)
+        d = pt["vre_g"]
+        assert abs(d) > 1e-3  # large enough that asin and its first order differ visibly
+        want = math.degrees(math.asin(static + d) - math.asin(static))
+        assert pt["tilt_error_deg"] == pytest.approx(want, rel=1e-12)
+        assert abs(pt["tilt_error_deg"] - math.degrees(d / math.cos(math.asin(static)))) > 1e-9
+    assert math.isnan(model_point({"rms_g": 1.0, "static_g": 2.5, "range_g": 2.0}, None)["tilt_error_deg"])
+    with pytest.raises(ValueError, match="tilt_deg: unknown parameter"):
+        parse_spec({"kind": "model", "fixed": {"tilt_deg": 60.0}, "grid": {"rms_g": [1.0]}})
+
+
+def test_model_point_matches_predict_on_the_ideal_sensor_beyond_a_rail():
+    """SPEC 1.5: one reference point. At 2.5 g static on ±2 g rails the vibration-off reading is
+    itself clipped (2 g); the model point, predict on the ideal sensor and an independent scipy
+    quadrature of E[clip(μ + X)] - clip(μ) agree."""
+    from vrelab.predict import predict
+    from vrelab.profiles import parse_profile
+    from vrelab.sensor import load_sensor
+
+    mu, rms = 2.5, 1.0
+    want = _censored_by_quad(mu, rms, -2.0, 2.0) + mu - 2.0  # E[clip] - clip(μ), clip(μ) = 2 g
+    pt = model_point({"rms_g": rms, "static_g": mu, "range_g": 2.0}, None)
+    pred = predict(load_sensor("ideal", range_g=2.0), parse_profile("flat:20-2000"), [rms], static_g=mu)
+    assert pt["vre_g"] == pytest.approx(want, abs=1e-9)
+    assert pt["vre_g"] == pytest.approx(pred.levels[0].vre_g, abs=1e-9)
+    assert pt["vibration_off_g"] == pred.vibration_off_g == 2.0
 
 
 def test_model_nonlinearity_matches_gauss_hermite(tmp_path):

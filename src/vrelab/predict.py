@@ -56,6 +56,7 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.memoryless import REFERENCE
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.results import Conditions
 
@@ -138,6 +139,8 @@ class Prediction:
     conditions: Conditions
     levels: tuple[LevelPrediction, ...]
     notes: tuple[str, ...] = field(default=())
+    # every vre_g is the mean output with vibration less this reading (SPEC 1.5) [g]
+    vibration_off_g: float = math.nan
 
     @property
     def valid(self) -> bool:
@@ -147,6 +150,8 @@ class Prediction:
         return {
             "kind": "prediction",
             "conditions": self.conditions.to_dict(),
+            "reference": REFERENCE,
+            "vibration_off_g": finite_or_none(self.vibration_off_g),
             "levels": [lv.to_dict() for lv in self.levels],
             "valid": self.valid,
             "notes": list(self.notes),
@@ -205,6 +210,7 @@ class _Reading:
     proof_mass: tuple[Response, ...]  # the mechanical responses (resonance)
     output: tuple[Response, ...]  # every linear response
     unmodelled: tuple[str, ...]  # stages without a closed form
+    offset_g: float = 0.0  # every offset of the chain
 
 
 def _read_stages(stages: Sequence[Any]) -> _Reading:
@@ -230,7 +236,27 @@ def _read_stages(stages: Sequence[Any]) -> _Reading:
             sites.append(_Site(st, tuple(responses), offset))
         elif tag != "neutral":
             unmodelled.append(type(st).__name__)
-    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled))
+    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled), offset)
+
+
+def _vibration_off(reading: _Reading, g0: float) -> tuple[float, str | None]:
+    """The reading with no vibration (SPEC 1.5: what every VRE is referred to), the static level
+    walked through the sites in order (the polynomial, the rails by
+    :func:`vrelab.models.memoryless.vibration_off_reading`, the offsets; the linear stages pass
+    a static level unchanged), and the note where the rails clip it (None otherwise)."""
+    from vrelab.models import memoryless
+
+    level, added, note = g0, 0.0, None
+    for site in reading.sites:
+        st = site.stage
+        level, added = level + (site.offset_g - added), site.offset_g
+        if st.analytic == "polynomial":
+            level = memoryless.vibration_off_reading(level, st.k2_per_g, st.k3_per_g2, st.k4_per_g3)
+        elif st.analytic == "clip":
+            low, high = float(st.low_g), float(st.high_g)
+            note = note or memoryless.reference_note(level, rail_low_g=low, rail_high_g=high)
+            level = memoryless.vibration_off_reading(level, rail_low_g=low, rail_high_g=high)
+    return level + (reading.offset_g - added), note
 
 
 def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
@@ -468,7 +494,10 @@ def predict(
     why = _tilt(0.0, g0)[1]
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
-    return Prediction(cond, tuple(out), tuple(notes))
+    off, off_note = _vibration_off(reading, g0)
+    notes.append(f"VRE referred to the {REFERENCE} ({off:.9g} g): mean output with vibration less that reading"
+                 + (f"; {off_note}" if off_note else ""))
+    return Prediction(cond, tuple(out), tuple(notes), vibration_off_g=off)
 
 
 # The approximation's error is judged against the level's u or this share of |VRE| (or 1 µg),

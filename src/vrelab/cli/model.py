@@ -15,7 +15,8 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
-from vrelab.models.clipping import KINDS, mean_shift
+from vrelab.models.clipping import KINDS, clip_vre
+from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
 from vrelab.models.nonlinearity import UG, vre_poly
 
 _CLIP_HELP = """\
@@ -27,6 +28,8 @@ rail before the other, so the clipped output's mean moves.
              normal); it overstates the shift (-283 mg vs -83 mg at 1 g rms on +-2 g, 1 g field).
 
 Gaussian vibration uses sigma = rms; a sine uses amplitude = rms * sqrt(2).
+VRE = mean output with vibration - the vibration-off reading clip(mean) (SPEC 1.5; beyond a rail
+that reading is itself clipped, and the output says so).
 Example: vrelab model clip --mean 1 --rail 2 --rms 0.5:3:0.5
 """
 
@@ -40,6 +43,8 @@ VRE of a scale-factor nonlinearity y = a + k2*a^2 + k3*a^3 + k4*a^4 (a = static 
 coefficients in ug/g^2, ug/g^3, ug/g^4 (k2 is the VRC; 1 ug/g^2 = 1 ppm/g):
 
   VRE = (k2 + 3*k3*g0)*rms^2 + k4*(6*g0^2*rms^2 + E[x^4]),  E[x^4] = 3 rms^4 (Gaussian), 1.5 rms^4 (sine)
+
+referred to the vibration-off reading P(g0) (SPEC 1.5).
 
 Example: vrelab model poly --k2 100 --k3 5 --static 1 --rms 0.5,1,2
 """
@@ -57,6 +62,10 @@ def _levels(text: str) -> list[float]:
     return values
 
 
+def _reference_line(off_g: float) -> str:
+    return f"VRE referred to the {REFERENCE} ({off_g:.9g} g): mean output with vibration less that reading"
+
+
 def _table(title: str, rms: Sequence[float], vre_g: Sequence[float]) -> str:
     lines = [title, f"  {'rms (g)':>10}  {'VRE (mg)':>14}"]
     for r, v in zip(rms, vre_g):
@@ -72,7 +81,9 @@ def _run_clip(args: argparse.Namespace) -> int:
     if rail_low >= rail:
         raise ValueError(f"--rail-low ({rail_low:g} g) must be below --rail ({rail:g} g)")
     rms = _levels(args.rms)
-    vre = np.atleast_1d(mean_shift(mean, np.array(rms), rail_low, rail, shape=args.shape, kind=args.kind))
+    vre = np.atleast_1d(clip_vre(mean, np.array(rms), rail_low, rail, shape=args.shape, kind=args.kind))
+    off = vibration_off_reading(mean, rail_low_g=rail_low, rail_high_g=rail)
+    note = reference_note(mean, rail_low_g=rail_low, rail_high_g=rail)
     if args.json:
         print_json(
             {
@@ -82,16 +93,22 @@ def _run_clip(args: argparse.Namespace) -> int:
                 "rail_low_g": rail_low,
                 "shape": args.shape,
                 "kind": args.kind,
+                "reference": REFERENCE,
+                "vibration_off_g": off,
+                "vibration_off_clipped": note is not None,
                 "rms_g": rms,
                 "vre_g": [finite_or_none(v) for v in vre],
+                "notes": [note] if note else [],
             }
         )
     else:
         title = (
             f"Clipping VRE, {args.kind}: {args.shape} vibration, static {mean:g} g, "
-            f"rails [{rail_low:g}, {rail:g}] g"
+            f"rails [{rail_low:g}, {rail:g}] g\n{_reference_line(off)}"
         )
         print(_table(title, rms, vre.tolist()))
+        if note:
+            print(f"note: {note}")
         if args.kind == "truncated" and not np.isfinite(vre).all():
             print("n/a: the whole sine lies beyond a rail, no sample is left to average")
     return 0
@@ -110,6 +127,8 @@ def _run_poly(args: argparse.Namespace) -> int:
     if not np.isfinite(vre).all():
         raise ValueError(f"model poly: the VRE overflows float64 (k2 = {k2:g}, k3 = {k3:g}, k4 = {k4:g} at "
                          f"{max(rms):g} g rms, static {static:g} g): coefficients or levels out of any real range")
+    with np.errstate(over="ignore", invalid="ignore"):
+        off = vibration_off_reading(static, k2 * UG, k3 * UG, k4 * UG)
     if args.json:
         print_json(
             {
@@ -119,6 +138,8 @@ def _run_poly(args: argparse.Namespace) -> int:
                 "k4_ug_per_g4": k4,
                 "static_g": static,
                 "shape": args.shape,
+                "reference": REFERENCE,
+                "vibration_off_g": finite_or_none(off),
                 "rms_g": rms,
                 "vre_g": [finite_or_none(v) for v in vre],
             }
@@ -126,7 +147,7 @@ def _run_poly(args: argparse.Namespace) -> int:
     else:
         title = (
             f"Nonlinearity VRE: k2 = {k2:g} ug/g^2, k3 = {k3:g} ug/g^3, k4 = {k4:g} ug/g^4, "
-            f"static {static:g} g, {args.shape} vibration"
+            f"static {static:g} g, {args.shape} vibration\n{_reference_line(off)}"
         )
         print(_table(title, rms, vre.tolist()))
     return 0

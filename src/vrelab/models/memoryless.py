@@ -58,6 +58,41 @@ def polynomial(k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float =
     return Polynomial([offset_g, 1.0, k2_per_g, k3_per_g2, k4_per_g3])
 
 
+# SPEC 1.5: every VRE the tool states is the mean output with vibration less this reading.
+REFERENCE = "vibration-off reading"
+
+
+def vibration_off_reading(static_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
+                          offset_g: float = 0.0, rail_low_g: float = -math.inf,
+                          rail_high_g: float = math.inf) -> float:
+    r"""The reading with the same static field and no vibration: the VRE's reference point [g].
+
+    .. math:: r_0 = \mathrm{clip}(P(g_0) + \mathrm{offset},\ L,\ U)
+
+    SPEC 1.5: VRE is always ``E[output with vibration] - r0``, in every command (``model clip``,
+    ``model poly``, ``predict``, the sweep). Where ``P(g0) + offset`` lies beyond a rail the
+    reading is itself clipped (:func:`reference_note` says so); it is not μ = g0, which a
+    mean shift (:func:`vrelab.models.clipping.censored_mean_shift`) is measured from.
+    """
+    g0 = _validate.finite_scalar("static_g", static_g)
+    low, high = float(rail_low_g), float(rail_high_g)
+    if not low < high:
+        raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
+    return float(np.clip(polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)(g0), low, high))
+
+
+def reference_note(static_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
+                   offset_g: float = 0.0, rail_low_g: float = -math.inf,
+                   rail_high_g: float = math.inf) -> str | None:
+    """The note a result carries where the vibration-off reading is itself clipped (None otherwise)."""
+    level = float(polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)(float(static_g)))
+    r0 = vibration_off_reading(static_g, k2_per_g, k3_per_g2, k4_per_g3, offset_g, rail_low_g, rail_high_g)
+    if r0 == level:
+        return None
+    return (f"the vibration-off reading is itself clipped: the static level {level:g} g lies beyond the rail "
+            f"at {r0:g} g, so the sensor reads {r0:g} g with no vibration and the VRE is referred to that")
+
+
 def _pieces(p: Polynomial, low: float, high: float) -> list[tuple[float, float, str]]:
     """``clip(p(y), low, high)`` as pieces ``(a, b, what)`` covering the real line, ``what`` one of
     ``"low"``, ``"high"``, ``"poly"``."""
@@ -208,8 +243,10 @@ def poly_clip_vre(
     -------
     float
         ``E[out] - out(x = 0)``: the mean output with vibration less the vibration-off reading
-        ``clip(P(g0) + offset)``. With no rails this is SPEC 1.2's polynomial VRE exactly; with
-        k = 0, SPEC 1.1's clipped mean.
+        ``clip(P(g0) + offset)`` (:func:`vibration_off_reading`, SPEC 1.5). With no rails this is
+        SPEC 1.2's polynomial VRE exactly; with k = 0, SPEC 1.1's clipped mean
+        (:func:`vrelab.models.clipping.clip_vre`), which differs from the mean shift measured
+        from μ only where g0 lies beyond a rail.
 
     Notes
     -----
@@ -224,7 +261,7 @@ def poly_clip_vre(
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     _validate.one_of("kind", kind, ("censored", "truncated"))
     p = polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
-    ref = float(np.clip(p(g0), low, high))
+    ref = vibration_off_reading(g0, k2_per_g, k3_per_g2, k4_per_g3, offset_g, low, high)
     peaks = [float(a) for a in tone_peaks_g if a > 0]
     if rms == 0 and not peaks:
         return 0.0

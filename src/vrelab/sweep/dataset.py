@@ -27,6 +27,7 @@ VARIABLE_ATTRS: dict[str, dict[str, str]] = {
     "vre_g": {"units": "g", "long_name": "vibration rectification error"},
     "u_vre_g": {"units": "g", "long_name": "standard uncertainty of the VRE (k = 1)"},
     "tilt_error_deg": {"units": "degree", "long_name": "tilt error the VRE reads as"},
+    "vibration_off_g": {"units": "g", "long_name": "vibration-off reading, the VRE's reference point"},
     "vre_clip_g": {"units": "g", "long_name": "VRE from the rails (clipping)"},
     "vre_poly_g": {"units": "g", "long_name": "VRE from the scale-factor nonlinearity"},
     "vre_overrange_g": {"units": "g", "long_name": "VRE from over-range protection"},

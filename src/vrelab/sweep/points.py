@@ -9,7 +9,10 @@
   sensor's chain (polynomial, then ``offset_g``, then rails ±``range_g``), so the rails clip
   around ``static_g + offset_g`` and the polynomial rectifies around ``static_g``;
   ``vre_g`` = their sum (first-order superposition: each mechanism's shift is small next to
-  the vibration, so their interaction is second order), ``tilt_error_deg`` from ``tilt_deg``.
+  the vibration, so their interaction is second order), all referred to the vibration-off
+  reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (SPEC 1.5, as ``predict``);
+  ``tilt_error_deg`` = :func:`vrelab.models.design.tilt_error_from_static_deg` for an axis at
+  tilt ``asin(static_g)`` (``asin(g0 + δ) - asin(g0)``; NaN where undefined, near ±1 g).
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
 
 ``predict``: :func:`vrelab.predict.predict` on a :func:`vrelab.sensor.load_sensor` sensor at one
@@ -56,9 +59,18 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
     return rms_g * effective_rms(([lo, hi], [s0, s0]), [h], lo, hi)
 
 
+def _tilt_deg(vre_g: float, static_g: float) -> float:
+    """:func:`vrelab.models.design.tilt_error_from_static_deg` (an axis at tilt ``asin(g0)``), NaN
+    where it is undefined (g0 or g0 + δ at or beyond ±1 g): predict's rule, imported."""
+    from vrelab.predict import _tilt
+
+    return _tilt(vre_g, static_g)[0]
+
+
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
-    from vrelab.models.design import ideal_vre_shares, tilt_error_deg
+    from vrelab.models.design import ideal_vre_shares
+    from vrelab.models.memoryless import vibration_off_reading
     from vrelab.models.nonlinearity import ug_per_g2_to_per_g, vre_poly
 
     rms = float(params["rms_g"])
@@ -69,19 +81,24 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     rms_mass = _rms_at_proof_mass(rms, params)
     k2 = ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0)))
     k3 = ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0)))  # µg/g³ -> 1/g²: same factor
+    offset = float(params.get("offset_g", 0.0))
     if clip_kind == "none":
         vre_clip, vre_p = 0.0, float(vre_poly(rms_mass, k2, k3, static_g=static, shape=shape))
+        off = vibration_off_reading(static, float(k2), float(k3), offset_g=offset)
     else:
         clip, poly = ideal_vre_shares(rms_mass, static, -range_g, range_g, k2, k3, shape, clip_kind,
-                                      offset_g=float(params.get("offset_g", 0.0)))
+                                      offset_g=offset)
         vre_clip, vre_p = float(clip), float(poly)
+        off = vibration_off_reading(static, float(k2), float(k3), offset_g=offset, rail_low_g=-range_g,
+                                    rail_high_g=range_g)
     vre = vre_clip + vre_p
     return {
         "vre_g": vre,
         "vre_clip_g": vre_clip,
         "vre_poly_g": vre_p,
         "rms_mass_g": rms_mass,
-        "tilt_error_deg": float(tilt_error_deg(vre, float(params.get("tilt_deg", 0.0)))),
+        "vibration_off_g": off,
+        "tilt_error_deg": _tilt_deg(vre, static),
     }
 
 
@@ -151,13 +168,13 @@ def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> di
         "vre_overrange_g": sh.get("overrange_g", math.nan),
         "rms_mass_g": lv.sigma_proof_mass_g,
         "rms_out_g": lv.sigma_output_g,
+        "vibration_off_g": pred.vibration_off_g,
         "valid": float(lv.valid),
     }
 
 
 def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """One level of the simulated shaker test, its randomness drawn from the point's ``seed``."""
-    from vrelab.models.design import tilt_error_deg
     from vrelab.shaker import run_random_test, run_sine_test
 
     mode, excitation = _excitation(params)
@@ -176,7 +193,7 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     return {
         "vre_g": lv.vre.value,
         "u_vre_g": lv.vre.u,
-        "tilt_error_deg": float(tilt_error_deg(lv.vre.value)),
+        "tilt_error_deg": _tilt_deg(lv.vre.value, static),
         "rms_measured_g": lv.rms_g,
         "n_saturated": float(lv.n_saturated),
     }

@@ -109,7 +109,6 @@ PARAMS: dict[str, dict[str, Param]] = {
         "freq_hz": _P,
         "f_lo_hz": _P,
         "f_hi_hz": _P,
-        "tilt_deg": _F,
     },
     "predict": {
         **_COMMON,
