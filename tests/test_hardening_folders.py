@@ -210,6 +210,13 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+def _cmdline(pid: int) -> bytes | None:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return None
+
+
 def _alive(pid: int) -> bool:
     try:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
@@ -229,7 +236,10 @@ def _start_campaign(manifest: Path, out: Path, sigint_ignored: bool = False) -> 
     deadline = time.monotonic() + 20
     kids: list[int] = []
     while time.monotonic() < deadline and proc.poll() is None:
-        kids = _children(proc.pid)
+        # the pool's workers are forks of the command (its own command line); a library's helper
+        # process at import (ctypes.util.find_library runs ldconfig) is not, and signalling the
+        # command then would hit it before it has installed its handlers
+        kids = [k for k in _children(proc.pid) if _cmdline(k) == _cmdline(proc.pid)]
         if len(kids) >= 2:
             break
         time.sleep(0.02)
