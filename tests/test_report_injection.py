@@ -15,8 +15,8 @@ import re
 from pathlib import Path
 
 import pytest
-from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for, open_page
 
+from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for, open_page
 from vrelab.folder import ResultsFolder
 from vrelab.report import report_dir
 from vrelab.report._markup import css_string, esc, script_json

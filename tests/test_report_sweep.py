@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+
 from test_report_browser import (
     SCREENSHOT_DIR,
     assert_rendered_cleanly,
     markup_only,
     render_in_chromium,
 )
-
 from vrelab.cli import main
 from vrelab.report import sweep as S
 from vrelab.sweep import parse_spec, run_sweep

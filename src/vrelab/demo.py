@@ -63,7 +63,7 @@ class DemoConfig:
     quick: bool = False
 
     @classmethod
-    def make(cls, quick: bool = False, seconds: float | None = None, seed: int = 2017) -> "DemoConfig":
+    def make(cls, quick: bool = False, seconds: float | None = None, seed: int = 2017) -> DemoConfig:
         lo = min_seconds()
         if seconds is not None:
             seconds = V.positive_scalar("--seconds", seconds)

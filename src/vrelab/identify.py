@@ -950,7 +950,6 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     whose prediction is not valid for another reason; a sine level whose peak reaches a rail
     (deterministic, u of a few µg: the rails come from the random runs); a random level whose
     ``model_error_g`` exceeds half its u."""
-    from dataclasses import replace
 
     def covered(lv: Any, ob: Observation, u: float) -> bool:
         if not lv.valid_otherwise:

@@ -303,7 +303,7 @@ def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[flo
 
 
 def predict(
-    sensor: "Sensor",
+    sensor: Sensor,
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
     levels: Sequence[float],
     static_g: float = 1.0,
@@ -521,7 +521,7 @@ _DOMINANT = 0.25
 IDENTIFIED = "identified (covariance)"
 
 
-def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                 levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
@@ -645,7 +645,7 @@ _MC_DRAWS = 200
 _MC_OUTSIDE = 0.15
 
 
-def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
                  names: Sequence[str], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], float,
                                                                            NDArray[np.float64], NDArray[np.float64]]:
     """GUM Supplement 1 over the identified parameters: ``_MC_DRAWS`` seeded draws from the
@@ -673,7 +673,7 @@ def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64],
     return v.std(axis=0, ddof=1), outside, np.quantile(v, 0.025, axis=0), np.quantile(v, 0.975, axis=0)
 
 
-def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+def propagated_u(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                  levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
     """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
     return propagation(sensor, excitation, levels, static_g, kind).u_g

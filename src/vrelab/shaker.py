@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -60,7 +60,7 @@ def _provenance(function: str, sensor: Any) -> dict[str, Any]:
     prov: dict[str, Any] = {
         "software": f"vrelab {__version__}",
         "function": function,
-        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     to_dict = getattr(sensor, "to_dict", None)
     if callable(to_dict):
@@ -178,7 +178,7 @@ def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[
 
 
 def plan_random_test(
-    sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
+    sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
@@ -186,7 +186,7 @@ def plan_random_test(
 
 
 def run_random_test(
-    sensor: "Sensor",
+    sensor: Sensor,
     profile: RandomProfile | SineOnRandom,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
@@ -318,7 +318,7 @@ def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
 
 
 def plan_sine_test(
-    sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
+    sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
@@ -327,7 +327,7 @@ def plan_sine_test(
 
 
 def run_sine_test(
-    sensor: "Sensor",
+    sensor: Sensor,
     freqs_hz: Sequence[float],
     levels_rms_g: Sequence[float],
     static_g: float = 1.0,

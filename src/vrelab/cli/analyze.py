@@ -122,9 +122,8 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from vrelab._io import sha256_file
     from vrelab.analysis.readers import Scale, open_record
-    from vrelab.record import Schedule
-
     from vrelab.cli._common import input_paths
+    from vrelab.record import Schedule
 
     inputs = input_paths(args.file, args.schedule, args.profile)
     if args.out:  # refused before the record is read, not after

@@ -60,7 +60,7 @@ class Document:
 
     title: str
     intro: str
-    sections: Sequence["ReportSection"]
+    sections: Sequence[ReportSection]
     anchors: Sequence[str]
     results_html: str
     metadata: ReportMetadata

@@ -449,7 +449,7 @@ class _NoiseState(NamedTuple):
     frame_index: int  # index of the cached frame (-1: none)
     frame: FloatArray | None
 
-    def __deepcopy__(self, memo: dict[int, Any]) -> "_NoiseState":
+    def __deepcopy__(self, memo: dict[int, Any]) -> _NoiseState:
         # The cached frame is derived data (redrawn from the seed when needed), so a copy of
         # the run (the simulated test keeps one per segment as a checkpoint) leaves it behind
         # instead of holding another frame_size·8 bytes per copy.

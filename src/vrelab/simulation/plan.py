@@ -138,14 +138,14 @@ class TestPlan:
                 )
 
     @classmethod
-    def random(cls, sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
-               **kw: Any) -> "TestPlan":
+    def random(cls, sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
+               **kw: Any) -> TestPlan:
         """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms`` (a
         sine-on-random profile too: its tones scale with it and count in the level)."""
         return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
 
     @classmethod
-    def sine(cls, sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> "TestPlan":
+    def sine(cls, sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> TestPlan:
         """The sine method (IEEE 1293): each level at each frequency."""
         return cls("sine", sensor, tuple(np.atleast_1d(levels_rms_g)), freqs_hz=tuple(np.atleast_1d(freqs_hz)), **kw)
 

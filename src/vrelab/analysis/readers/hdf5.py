@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab._load import json_loads
 from vrelab.analysis.readers._base import (
     _DT_KEYS,
     _FS_KEYS,
@@ -16,7 +17,6 @@ from vrelab.analysis.readers._base import (
     _column_channels,
     register,
 )
-from vrelab._load import json_loads
 from vrelab.record import Schedule
 
 
