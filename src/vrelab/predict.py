@@ -418,7 +418,8 @@ def predict(
 
             def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
                        ) -> _Motion:
-                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,
+                # noqa below: motion() is called within this iteration only, so r is the current level's
+                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
                                *rh)
 
             sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen, rho)]

@@ -39,14 +39,14 @@ def print_prediction(pred: Any) -> None:
     vw = 18 if with_u else 10
     head = ("freq_hz " if sine else "") + f"{'rms_g':>8} {'VRE mg':>{vw}} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} {'overrange mg':>12}  valid"
     print(head)
+    res = PREDICTION_RESOLUTION_MG
+
+    def mg(x: Any) -> str:
+        return format_mg(x, signed=False, resolution_mg=res)
+
     for lv in d["levels"]:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
-        res = PREDICTION_RESOLUTION_MG
-
-        def mg(x: Any) -> str:
-            return format_mg(x, signed=False, resolution_mg=res)
-
         vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False, resolution_mg=res)
         print(
             f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {format_value(lv['tilt_error_deg'], resolution=TILT_RESOLUTION_DEG):>10} "

@@ -9,7 +9,7 @@ the rate at which Gaussian motion crosses a level (Rice), which drives over-rang
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence, Union
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,7 +23,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(10)
 Response = Callable[[NDArray[np.float64]], ArrayLike]
 """A frequency response: f [Hz] -> H(f) (complex) or |H(f)|; only the magnitude is used."""
 
-Psd = Union[Callable[[NDArray[np.float64]], ArrayLike], tuple[ArrayLike, ArrayLike]]
+Psd = Callable[[NDArray[np.float64]], ArrayLike] | tuple[ArrayLike, ArrayLike]
 """A PSD: a callable f [Hz] -> S(f) [g²/Hz] (e.g. ``RandomProfile.psd``), or a table
 ``(f_hz, psd_g2_per_hz)`` interpolated log-log between its points (SPEC 3) and zero outside."""
 

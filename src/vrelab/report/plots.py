@@ -484,7 +484,7 @@ def envelope_from_arrays(
 def _shade_segments(ax, schedule: Schedule | None, t_max: float, label_y: float | None = None) -> None:
     if schedule is None:
         return
-    for i, s in enumerate(schedule.segments):
+    for s in schedule.segments:
         if s.start_s > t_max:
             break
         ax.axvspan(s.start_s, min(s.end_s, t_max), color="0.85" if s.is_baseline else "#cfe3f3", alpha=0.55, lw=0, zorder=0)

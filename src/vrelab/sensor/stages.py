@@ -47,9 +47,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal
 
-FloatArray = NDArray[np.float64]
-ComplexArray = NDArray[np.complex128]
-
 from vrelab.sensor.base import (
     Stage,
     StageBase,
@@ -61,6 +58,9 @@ from vrelab.sensor.base import (
 )
 from vrelab.sensor.filtering import FilterState, discretize_zpk, run_filter
 from vrelab.sensor.overrange import OverRange
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
 
 __all__ = [
     "Stage",

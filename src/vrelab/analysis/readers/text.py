@@ -109,8 +109,7 @@ class CsvSource(Source):
         )
         try:
             reader = pacsv.open_csv(self.path, read_options=ro, parse_options=po, convert_options=co)
-            for batch in reader:
-                yield batch
+            yield from reader
         except pa.ArrowInvalid as exc:
             msg = str(exc).splitlines()[0]
             raise ValueError(f"{self.path.name}: cannot parse {self.fmt.upper()} (truncated or malformed row?): {msg}") from None
