@@ -89,6 +89,7 @@ def simulate(
         from vrelab.profiles import parse_profile
 
         profile = parse_profile(profile)
+    assert profile is not None  # checked above: freq_hz is None, so profile is given
     return run_random_test(sensor, profile, list(levels), static_g, record_path=record_path, **plan)
 
 

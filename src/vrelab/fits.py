@@ -153,7 +153,7 @@ def fit_vrc(
     X = np.column_stack([x2, x2**2]) if with_k4 else x2[:, None]
     A = X.T @ (w[:, None] * X)
     beta = np.linalg.solve(A, X.T @ (w * y))
-    cov = np.linalg.inv(A)
+    cov = np.linalg.inv(A).astype(np.float64, copy=False)
     resid = y - X @ beta
     chi2 = float(np.sum(w * resid**2))
     cov, chi2_red = _scale_cov(cov, chi2, len(sel) - n_par, bool(np.all(u > 0)), notes)
@@ -537,7 +537,7 @@ def _rails_of(fit: FitResult) -> tuple[float, float] | None:
 def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
     """Indices of the levels run at each sine frequency (:func:`vrelab.results.same_frequency`),
     in increasing frequency."""
-    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz)
+    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz or 0.0)
     groups: list[list[int]] = []
     for i in order:
         if groups and same_frequency(levels[groups[-1][0]].freq_hz, levels[i].freq_hz):
@@ -582,6 +582,7 @@ def fit_levels(
         for grp in groups:
             sel = [levels[i] for i in grp]
             nominal = {nominal_freqs_hz[i] for i in grp} if nominal_freqs_hz is not None else {None}
+            f: float | None
             if len(nominal) == 1 and None not in nominal:
                 f = float(next(iter(nominal)))  # type: ignore[arg-type]
             else:

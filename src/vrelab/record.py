@@ -107,11 +107,21 @@ class Schedule:
 class Record(Protocol):
     """What the analysis reads: channels in g, sampled at ``fs_hz``, delivered in blocks."""
 
-    fs_hz: float
-    n_samples: int
-    channels: tuple[str, ...]
-    schedule: Schedule | None
-    meta: Mapping[str, Any]
+    # read-only: a record may hold them as fields or give them as properties
+    @property
+    def fs_hz(self) -> float: ...
+
+    @property
+    def n_samples(self) -> int: ...
+
+    @property
+    def channels(self) -> tuple[str, ...]: ...
+
+    @property
+    def schedule(self) -> Schedule | None: ...
+
+    @property
+    def meta(self) -> Mapping[str, Any]: ...
 
     def blocks(
         self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None

@@ -75,7 +75,7 @@ def _reduce_and_fit(
     settle_s: float,
     record_path: str | Path | None,
     progress: bool,
-    clip_kind: str = "censored",
+    clip_kind: ClipKind = "censored",
 ) -> tuple[list[LevelResult], list[FitResult], list[str]]:
     """Reduce the record as a lab file (saturation counts and over-range flags from the
     simulation's truth), then fit it with the one fit policy (:func:`vrelab.fits.fit_levels`)
@@ -261,6 +261,7 @@ def run_test(
     """Run a :class:`~vrelab.simulation.plan.TestPlan`: simulate its record, reduce it as a lab
     file (writing it to ``record_path`` first when given) and fit it with the one fit policy."""
     record = plan.record(progress)
+    assert plan.settle_s is not None  # TestPlan.__post_init__ sets the default
     band = _measurement_band(plan.profile) if plan.method == "random" else _sine_band(record)  # type: ignore[arg-type]
     levels, fits, warnings = _reduce_and_fit(record, plan.method, band, plan.settle_s, record_path, progress,
                                              clip_kind)

@@ -697,7 +697,7 @@ def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baselin
     bracketing baselines' (their weights as in :func:`bracket`) and the low-frequency term's."""
     from vrelab.gum import welch_satterthwaite
 
-    parts = [(dm.u, max(dm.n_batches - 1, 1))]
+    parts: list[tuple[float, float]] = [(dm.u, max(dm.n_batches - 1, 1))]
     before = [b for b in baselines if b.t_s <= t_s]
     after = [b for b in baselines if b.t_s > t_s]
     if before and after:
@@ -1041,6 +1041,7 @@ def analyze_channels(
     out: list[tuple[str, VreResult, Reduction]] = []
     for d in duts:
         name = d[4:] if d.startswith("dut:") else d
+        g0: float | None
         if isinstance(static_g, Mapping):
             if name not in static_g:
                 raise ValueError(f"no static field for DUT channel {name!r}")

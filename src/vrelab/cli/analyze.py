@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     duts = [d.strip() for d in args.dut.split(",")]
     if any(not d for d in duts):
         raise ValueError(f"--dut {args.dut!r}: an empty channel name")
-    sens: list[float | None] = (positive_list(args.dut_sensitivity, "--dut-sensitivity")
+    sens: list[float | None] = ([*positive_list(args.dut_sensitivity, "--dut-sensitivity")]
                                 if args.dut_sensitivity else [None])
     if len(sens) not in (1, len(duts)):
         raise ValueError(f"--dut-sensitivity: give one value or one per DUT ({len(duts)}), got {len(sens)}")

@@ -59,8 +59,8 @@ def print_prediction(pred: Any) -> None:
         for note in lv["notes"]:
             where = f"{lv['rms_g']:.4g} g rms" + (f" at {lv['freq_hz']:g} Hz" if lv.get("freq_hz") is not None else "")
             reasons.setdefault(note, []).append(where)
-    for note, where in reasons.items():
-        print(f"level {', '.join(where)}: {note}")
+    for note, wheres in reasons.items():
+        print(f"level {', '.join(wheres)}: {note}")
     for note in d["notes"]:
         print(f"note: {note}")
 

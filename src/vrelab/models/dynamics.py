@@ -54,7 +54,7 @@ def second_order_response(f_hz: ArrayLike, fn_hz: ArrayLike, q: ArrayLike) -> ND
     fn = _validate.positive("fn_hz", fn_hz)
     qq = _validate.positive("q", q)
     r = f / fn
-    h = 1.0 / ((1.0 - r * r) + 1j * r / qq)
+    h = np.asarray(1.0 / ((1.0 - r * r) + 1j * r / qq), dtype=np.complex128)  # numpy's stubs: float64
     return h[()] if h.ndim == 0 else h
 
 
@@ -63,7 +63,7 @@ def resonator(fn_hz: float, q: float) -> Response:
     fn = _validate.positive_scalar("fn_hz", fn_hz)
     qq = _validate.positive_scalar("q", q)
 
-    def h(f_hz: ArrayLike) -> NDArray[np.complex128]:
+    def h(f_hz: ArrayLike) -> NDArray[np.complex128] | complex:
         return second_order_response(f_hz, fn, qq)
 
     h.fn_hz = fn  # type: ignore[attr-defined]  # lets effective_rms split its integral at the peak

@@ -176,7 +176,7 @@ def _double_factorial(m: int) -> float:
 # --- the polynomial model -----------------------------------------------------------------------
 
 
-def _coefficients(coeffs_k: Mapping[int, float] | Sequence[float]) -> dict[int, NDArray[np.float64]]:
+def _coefficients(coeffs_k: Mapping[int, ArrayLike] | Sequence[ArrayLike]) -> dict[int, NDArray[np.float64]]:
     if isinstance(coeffs_k, Mapping):
         items = dict(coeffs_k)
     else:
@@ -190,7 +190,7 @@ def _coefficients(coeffs_k: Mapping[int, float] | Sequence[float]) -> dict[int, 
 
 
 def polynomial_vre(
-    coeffs_k: Mapping[int, float] | Sequence[float],
+    coeffs_k: Mapping[int, ArrayLike] | Sequence[ArrayLike],
     static_g: ArrayLike,
     moments: ArrayLike,
 ) -> NDArray[np.float64] | float:

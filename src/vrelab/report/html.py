@@ -276,8 +276,7 @@ def collect_warnings(
                 + ", ".join(f"{lv.get('rms_g', float('nan')):.3g}" for lv in invalid)
                 + " g rms (see the notes of the prediction table); the simulation is the reference there."
             )
-    seen: set[str] = set()
-    return [w for w in out if not (w in seen or seen.add(w))]
+    return list(dict.fromkeys(out))  # each once, in order
 
 
 # --------------------------------------------------------------------------- rendering

@@ -133,7 +133,7 @@ class Resonator(FilterStage):
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         r = np.asarray(f_hz, dtype=float) / self.fn_hz
-        return 1.0 / (1.0 - r**2 + 1j * r / self.q)
+        return np.asarray(1.0 / (1.0 - r**2 + 1j * r / self.q), dtype=np.complex128)
 
     def analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
         wn = 2 * np.pi * self.fn_hz

@@ -226,6 +226,7 @@ class TestPlan:
 
     def _sine_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
         fs_int = rates.fs_internal_hz
+        assert self.settle_s is not None  # __post_init__ sets the default
         # the chain's seed is the first child, as before the sine phases were drawn (a plan's
         # sensor noise does not change with them); each level's phase from the second
         chain_seed, phase_seed = np.random.SeedSequence(self.seed).spawn(2)
@@ -240,6 +241,7 @@ class TestPlan:
             # many phases) or the drive meets fewer than 5 phases of the output, each batch
             # of m periods samples L phases (sine_drive) and the window holds whole batches.
             fs_out = fs_int / rates.decimation
+            window: float
             if self._needs_lattice(f, fs_out):
                 drive_hz, m, n_out = sine_drive(f, fs_out)
                 batches = max(3, round((self.seconds - 2 * self.settle_s) * drive_hz / m))
@@ -339,7 +341,9 @@ def _may_saturate(sensor: Any, static_g: float, rms_g: float, freq_hz: float) ->
     if static_g + amp >= 0.95 * hi or static_g - amp <= 0.95 * lo:
         return True
     thr = getattr(sensor, "overrange_threshold_g", None)
-    return bool(thr) and abs(static_g) + amp >= 0.95 * float(thr)
+    if not thr:
+        return False
+    return abs(static_g) + amp >= 0.95 * float(thr)
 
 
 # A sine drive this close to its nominal frequency (relative) is taken as at it: the rate

@@ -47,7 +47,7 @@ class Hdf5Source(_ArraySource):
 
         super().__init__(path)
         if matlab:
-            self.fmt = "mat-v7.3"
+            self.fmt = "mat-v7.3"  # type: ignore[misc]  # this instance's format name: MATLAB v7.3 is HDF5
         try:
             self.f = h5py.File(path, "r")
         except OSError as exc:

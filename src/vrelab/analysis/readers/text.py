@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, ClassVar, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +24,7 @@ class CsvSource(Source):
     """
 
     fmt = "csv"
-    extensions = (".csv", ".tsv", ".txt", ".dat")
+    extensions: ClassVar[tuple[str, ...]] = (".csv", ".tsv", ".txt", ".dat")
     has_magic = False  # text: chosen by extension
     random_access = False  # parsed from the start: read in passes, not by position
 
