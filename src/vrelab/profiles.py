@@ -154,7 +154,7 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     # (1e200/1e-200) where the difference of their logs cannot
     log_r = np.log(f2) - np.log(f1)
     n = (np.log(p2) - np.log(p1)) / log_r
-    return p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r)
+    return np.asarray(p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r), dtype=np.float64)  # numpy's log: Any
 
 
 @dataclass(frozen=True, eq=False)

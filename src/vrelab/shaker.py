@@ -52,7 +52,7 @@ __all__ = [
 
 def _conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
     """The sensor's conditions (range, axis, ODR, bandwidth, rails) plus the test's."""
-    base = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
+    base: Conditions = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
     return dataclasses.replace(base, extra={**dict(base.extra), **dict(extra)})
 
 
