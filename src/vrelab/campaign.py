@@ -661,7 +661,10 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             groups[-1].append(v)
         else:
             groups.append([v])
-    est = lambda v: Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")  # noqa: E731
+
+    def est(v: Mapping[str, Any]) -> Estimate:
+        return Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")
+
     by_freq: list[FitResult] = []
     k2_only: list[FitResult] = []
     for grp in groups:

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
 from vrelab.models.clipping import KINDS
@@ -178,7 +178,11 @@ def _cov_tuple(cov: Any) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(c) for c in row) for row in np.atleast_2d(cov))
 
 
-def _clip_model(kind: ClipKind):
+# a clipping model's mean shift: (mean_g, sigma_g, rail_low_g, rail_high_g) -> shift [g]
+_Shift = Callable[[ArrayLike, ArrayLike, ArrayLike, ArrayLike], NDArray[np.float64] | float]
+
+
+def _clip_model(kind: ClipKind) -> _Shift:
     # Imported here: the clipping models live in vrelab.models (one place for each formula).
     from vrelab.models import clipping
 
@@ -186,7 +190,7 @@ def _clip_model(kind: ClipKind):
 
 
 def _clip_predict(
-    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, shift, symmetric: bool, with_vrc: bool
+    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, shift: _Shift, symmetric: bool, with_vrc: bool
 ) -> NDArray[np.float64]:
     low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
     out = np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
@@ -303,7 +307,7 @@ def fit_rail(
     absolute = bool(np.all(np.isfinite(u)) and np.all(u > 0))
     shift = _clip_model(kind)
 
-    def fit_below(n_fit: int):
+    def fit_below(n_fit: int) -> tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]:
         """Fit the lowest n_fit levels; z = |residual| / combined u for every level."""
         p, cov, chi2 = _fit_clip_once(rms[:n_fit], y[:n_fit], w[:n_fit], static_g, kind, symmetric, with_vrc)
         dof = n_fit - n_par
