@@ -91,10 +91,10 @@ def kernel_floor(level_s: float, fs_internal_hz: float = 16000.0) -> int:
     sos4 = signal.butter(8, 1000.0, fs=fs_internal_hz, output="sos")
     zi2, zi4 = np.zeros((2, 2)), np.zeros((4, 2))
     h_f = scipy.fft.rfft(rng.standard_normal(4096), block)
-    for i in range(0, n, block - 4095):  # drive: noise + FFT pair
+    for _ in range(0, n, block - 4095):  # drive: noise + FFT pair
         rng.standard_normal(out=buf)
         scipy.fft.irfft(scipy.fft.rfft(buf) * h_f, block)
-    for i in range(0, n, block):  # chain: sensor noise + two filter passes
+    for _ in range(0, n, block):  # chain: sensor noise + two filter passes
         rng.standard_normal(out=buf)
         y, zi2 = signal.sosfilt(sos2, buf, zi=zi2)
         y, zi4 = signal.sosfilt(sos4, y, zi=zi4)

@@ -9,8 +9,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_analysis_helpers import make_record
 
+from test_analysis_helpers import make_record
 from vrelab._io import sha256_file
 from vrelab.analysis import reduce_record
 from vrelab.analysis.readers import Scale, detect_format, open_record

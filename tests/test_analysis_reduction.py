@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_analysis_helpers import make_record
 
+from test_analysis_helpers import make_record
 from vrelab.analysis import analyze, reduce_record
 from vrelab.analysis.reduction import estimate_frequency, reduce, whole_period_batch
 from vrelab.record import ArrayRecord, Schedule, Segment

@@ -9,8 +9,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_analysis_helpers import make_record
 
+from test_analysis_helpers import make_record
 from vrelab._io import sha256_file
 from vrelab.cli import main
 from vrelab.record import write_record_hdf5

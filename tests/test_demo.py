@@ -20,10 +20,8 @@ import numpy as np
 import pytest
 
 from test_report_browser import METADATA, markup_only
-
 from vrelab.cli import main
 from vrelab.models.clipping import censored_mean_shift
-
 
 N_FIGURES = 11
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from test_analysis_readers import FS, write_all
 
 # Address-space cap of the child [bytes]: numpy, scipy, h5py and pyarrow loaded take ~1 GiB of
@@ -95,6 +96,7 @@ def _header_claiming(path: Path, fs_hz: int, tmp: Path) -> Path:
 @pytest.fixture(scope="module")
 def fuzz_results(tmp_path_factory):
     from scipy.io import wavfile
+
     from test_analysis_helpers import make_record
 
     tmp = tmp_path_factory.mktemp("fuzz")

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_analysis_helpers import make_record
 
+from test_analysis_helpers import make_record
 from vrelab.analysis.readers import open_record
 from vrelab.analysis.reduction import analyze
 

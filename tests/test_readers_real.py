@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_readers_lab import FS, N, _signals, write_ide, write_lvm
 
-from vrelab.analysis.readers import Scale, list_channels, open_record
+from test_readers_lab import FS, N, _signals, write_ide, write_lvm
+from vrelab.analysis.readers import Scale, open_record
 from vrelab.analysis.readers._base import G0
 
 # ----------------------------------------------------------------------------- WAV bytes

@@ -15,8 +15,8 @@ import re
 from pathlib import Path
 
 import pytest
-from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for, open_page
 
+from test_report_browser import CDP, _chromium, _eval, _example_folder, _wait_for, open_page
 from vrelab.folder import ResultsFolder
 from vrelab.report import report_dir
 from vrelab.report._markup import css_string, esc, script_json
@@ -85,7 +85,7 @@ new Promise(function (done) {
   fetch("%s/probe").then(function () { seen.push("fetched"); }, function () { seen.push("fetch failed"); })
     .finally(function () { setTimeout(function () { done(JSON.stringify(seen)); }, 200); });
 })
-""" % (REMOTE, REMOTE)
+""" % (REMOTE, REMOTE)  # noqa: UP031 (the JavaScript's braces stay unescaped with %)
 
 
 def _load(report: Path, work: Path, figures: bool) -> tuple[dict, list[str], list[str]]:

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from test_report import _random_result, _sine_result
 
+from test_report import _random_result, _sine_result
 from vrelab.report import interactive, plots
 from vrelab.report.html import ReportFigure, ReportSection, render_report
 

@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+
 from test_report_browser import (
     SCREENSHOT_DIR,
     assert_rendered_cleanly,
     markup_only,
     render_in_chromium,
 )
-
 from vrelab.cli import main
 from vrelab.report import sweep as S
 from vrelab.sweep import parse_spec, run_sweep
@@ -155,7 +155,7 @@ def test_more_combinations_than_lines_go_to_more_figures_and_every_one_is_drawn(
     assert figs[0].caption.endswith("(combinations 1–8 of 12)") and figs[1].caption.endswith("(combinations 9–12 of 12)")
     combos = S.line_combinations(ds, "rms_g")
     labels = []
-    for first, piece in S.chunks(combos, S.MAX_LINES):
+    for _first, piece in S.chunks(combos, S.MAX_LINES):
         labels += [t.get_text() for t in S.plot_sweep_grid(ds, "rms_g", piece).axes[0].get_legend().get_texts()]
     assert labels == [f"static_g = {g:g}, range_g = {r:g}" for g in (1.0, 0.0, -1.0) for r in (2.0, 4.0, 8.0, 16.0)]
 

@@ -21,8 +21,8 @@ __all__ = ["simulate", "analyze", "campaign"]
 
 
 def simulate(
-    sensor: "Sensor",
-    profile: "RandomProfile | SineOnRandom | str | None" = None,
+    sensor: Sensor,
+    profile: RandomProfile | SineOnRandom | str | None = None,
     levels: Sequence[float] = (),
     static_g: float = 1.0,
     *,
@@ -31,7 +31,7 @@ def simulate(
     seed: int | None = None,
     record_path: str | Path | None = None,
     **plan: Any,
-) -> "VreResult":
+) -> VreResult:
     """Simulate a shaker test of ``sensor`` and reduce it like a lab record.
 
     Give either ``profile`` (the random method: ``levels`` are the profile's g rms, its shape
@@ -89,6 +89,7 @@ def simulate(
         from vrelab.profiles import parse_profile
 
         profile = parse_profile(profile)
+    assert profile is not None  # checked above: freq_hz is None, so profile is given
     return run_random_test(sensor, profile, list(levels), static_g, record_path=record_path, **plan)
 
 
@@ -102,7 +103,7 @@ def analyze(
     reference_scale: Any = None,
     method: str = "auto",
     **options: Any,
-) -> "VreResult":
+) -> VreResult:
     """Reduce a recorded shaker test (one DUT channel) to VRE per level and its fits.
 
     Opens ``path`` read-only with :func:`vrelab.analysis.readers.open_record` (any format

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import tomllib
+from collections.abc import Iterable
 from typing import IO, Any
 
 MAX_NESTING = 32
@@ -32,6 +33,7 @@ def check_nesting(doc: Any, what: str) -> Any:
     stack = [(doc, 0)]
     while stack:
         node, depth = stack.pop()
+        children: Iterable[Any]
         if isinstance(node, dict):
             children = node.values()
         elif isinstance(node, list):

@@ -24,7 +24,7 @@ import signal
 import sys
 import threading
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import Any, Iterator
 
@@ -59,7 +59,7 @@ def process_pool(n_workers: int, mp_context: Any = None, deathsig: bool = True) 
                                initargs=(os.getpid(), 0.5, deathsig))
 
 
-def stop(pool: ProcessPoolExecutor, timeout_s: float = 5.0) -> None:
+def stop(pool: Executor, timeout_s: float = 5.0) -> None:
     """End a pool now: pending work cancelled, running workers terminated (SIGTERM, then
     SIGKILL after ``timeout_s``) and reaped. ``shutdown(wait=True)`` would wait for each
     running task to finish: minutes of a campaign's run after the user pressed Ctrl-C."""

@@ -29,7 +29,7 @@ import shutil
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence, cast
 
 from vrelab import __version__
 from vrelab import _validate as V
@@ -37,6 +37,9 @@ from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
 from vrelab.results import Estimate, FitResult, VreResult, same_frequency
+
+if TYPE_CHECKING:
+    from vrelab.analysis.plausibility import MethodRequest
 
 RUN_KEYS = (
     "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
@@ -59,7 +62,7 @@ class Run:
     static_g: Mapping[str, float]
     label: str
     reference: str | None = None
-    method: str = "auto"
+    method: MethodRequest = "auto"
     fs_hz: float | None = None
     time: str | None = None
     dut_units: str | None = None  # None: the unit the file states, else g
@@ -158,7 +161,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
             index=index, file=file, dut=dut, label=label,
             static_g={k: V.acceleration(f"static_g.{k}", v) for k, v in static.items()},
             reference=_opt_str(where, "reference", d.get("reference")),
-            method=_choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine")),
+            method=cast("MethodRequest", _choice(where, "method", d.get("method", "auto"), ("auto", "random", "sine"))),
             fs_hz=_number(where, "fs_hz", d.get("fs_hz"), positive=True),
             time=_opt_str(where, "time", d.get("time")),
             dut_units=None if d.get("dut_units") is None else str(d["dut_units"]),
@@ -658,7 +661,10 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             groups[-1].append(v)
         else:
             groups.append([v])
-    est = lambda v: Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")  # noqa: E731
+
+    def est(v: Mapping[str, Any]) -> Estimate:
+        return Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")
+
     by_freq: list[FitResult] = []
     k2_only: list[FitResult] = []
     for grp in groups:

@@ -63,7 +63,7 @@ class DemoConfig:
     quick: bool = False
 
     @classmethod
-    def make(cls, quick: bool = False, seconds: float | None = None, seed: int = 2017) -> "DemoConfig":
+    def make(cls, quick: bool = False, seconds: float | None = None, seed: int = 2017) -> DemoConfig:
         lo = min_seconds()
         if seconds is not None:
             seconds = V.positive_scalar("--seconds", seconds)
@@ -204,7 +204,7 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
     env = plots.record_envelope(rec, n_bins=3000)
     figs = [
         _fig(
-            plots.plot_time_series(env, rails_g=tuple(sensor.rails_g), static_g=1.0, title="Figure 1: a ±2 g sensor in a 1 g field, 0.3 then 1 g rms random vibration"),
+            plots.plot_time_series(env, rails_g=sensor.rails_g, static_g=1.0, title="Figure 1: a ±2 g sensor in a 1 g field, 0.3 then 1 g rms random vibration"),
             "Top: the sensor output (blue, min/max per bin) is cut at +2 g, where the input (grey) goes on; its negative peaks never reach −2 g. "
             "Bottom: its mean steps down only when the vibration reaches the upper rail.",
         )
@@ -272,12 +272,13 @@ def study_fig2(cfg: DemoConfig) -> _Study:
     psd_fig, psd_verdict = _drive_psd_figure(record, profile, DATASHEET_LIMIT[0], "the datasheet's level")
     figs.append(psd_fig)
     nominal, x = _level_samples(record, 3.5)
+    assert sensor.overrange_hold_s is not None  # the ADXL355 preset has its over-range protection
     at = _overrange_at(x, record.fs_hz, float(sensor.overrange_hold_s))
     figs.append(
         _fig(
             plots.plot_time_windows([_window(f"{nominal:g} g rms, 20 ms" + (" around an over-range event" if at is not None else ""),
                                              record.fs_hz, x, at, 0.020)],
-                                    static_g=1.0, rails_g=tuple(sensor.rails_g),
+                                    static_g=1.0, rails_g=sensor.rails_g,
                                     title=f"Time history: ADXL355 Z, ±2 g, at {nominal:g} g rms"),
             "The output (blue) is flat at +2.048 g where the input goes beyond it (clipping)"
             + ("; in the middle, where the proof mass has passed the ±8 g over-range threshold, the output sits at 0 g for "
@@ -332,6 +333,7 @@ def study_fig3(cfg: DemoConfig) -> _Study:
     for axis in ("x", "z"):
         sensor = load_sensor("adxl355", range_g=8, axis=axis)
         out[f"fig3-{axis}-8g"], record = _random_run(sensor, profile, levels, cfg, cfg.seed + 3)
+        assert sensor.overrange_hold_s is not None  # the ADXL355 preset has its over-range protection
         samples[axis] = (record.fs_hz, float(sensor.overrange_hold_s), *_level_samples(record, 5.0))
     rx, rz = out["fig3-x-8g"], out["fig3-z-8g"]
     at = 5.0
@@ -480,6 +482,7 @@ def study_sine(cfg: DemoConfig) -> _Study:
     freqs = low_f + high_f
     f = np.geomspace(min(freqs) / 1.2, max(freqs) * 1.2, 300)
     k2_ug = sensor.k2_per_g * 1e6
+    assert sensor.fn_hz is not None and sensor.q is not None  # the ADXL355 preset has its resonance
     from vrelab.models.dynamics import vrc_at_frequency
 
     # The analytic model (SPEC 1.3), not the simulated chain: the plot holds one against the other.

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
 from vrelab.models.clipping import KINDS
@@ -153,7 +153,7 @@ def fit_vrc(
     X = np.column_stack([x2, x2**2]) if with_k4 else x2[:, None]
     A = X.T @ (w[:, None] * X)
     beta = np.linalg.solve(A, X.T @ (w * y))
-    cov = np.linalg.inv(A)
+    cov = np.linalg.inv(A).astype(np.float64, copy=False)
     resid = y - X @ beta
     chi2 = float(np.sum(w * resid**2))
     cov, chi2_red = _scale_cov(cov, chi2, len(sel) - n_par, bool(np.all(u > 0)), notes)
@@ -178,7 +178,11 @@ def _cov_tuple(cov: Any) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(c) for c in row) for row in np.atleast_2d(cov))
 
 
-def _clip_model(kind: ClipKind):
+# a clipping model's mean shift: (mean_g, sigma_g, rail_low_g, rail_high_g) -> shift [g]
+_Shift = Callable[[ArrayLike, ArrayLike, ArrayLike, ArrayLike], NDArray[np.float64] | float]
+
+
+def _clip_model(kind: ClipKind) -> _Shift:
     # Imported here: the clipping models live in vrelab.models (one place for each formula).
     from vrelab.models import clipping
 
@@ -186,7 +190,7 @@ def _clip_model(kind: ClipKind):
 
 
 def _clip_predict(
-    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, shift, symmetric: bool, with_vrc: bool
+    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, shift: _Shift, symmetric: bool, with_vrc: bool
 ) -> NDArray[np.float64]:
     low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
     out = np.asarray(shift(static_g, rms, low, high), dtype=np.float64)
@@ -303,7 +307,7 @@ def fit_rail(
     absolute = bool(np.all(np.isfinite(u)) and np.all(u > 0))
     shift = _clip_model(kind)
 
-    def fit_below(n_fit: int):
+    def fit_below(n_fit: int) -> tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]:
         """Fit the lowest n_fit levels; z = |residual| / combined u for every level."""
         p, cov, chi2 = _fit_clip_once(rms[:n_fit], y[:n_fit], w[:n_fit], static_g, kind, symmetric, with_vrc)
         dof = n_fit - n_par
@@ -537,7 +541,7 @@ def _rails_of(fit: FitResult) -> tuple[float, float] | None:
 def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
     """Indices of the levels run at each sine frequency (:func:`vrelab.results.same_frequency`),
     in increasing frequency."""
-    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz)
+    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz or 0.0)
     groups: list[list[int]] = []
     for i in order:
         if groups and same_frequency(levels[groups[-1][0]].freq_hz, levels[i].freq_hz):
@@ -582,6 +586,7 @@ def fit_levels(
         for grp in groups:
             sel = [levels[i] for i in grp]
             nominal = {nominal_freqs_hz[i] for i in grp} if nominal_freqs_hz is not None else {None}
+            f: float | None
             if len(nominal) == 1 and None not in nominal:
                 f = float(next(iter(nominal)))  # type: ignore[arg-type]
             else:

@@ -64,7 +64,7 @@ class TypeB:
         return {n: getattr(self, n) for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")}
 
     @classmethod
-    def from_mapping(cls, d: Mapping[str, Any]) -> "TypeB":
+    def from_mapping(cls, d: Mapping[str, Any]) -> TypeB:
         return cls(**{k: float(v) for k, v in d.items() if v is not None})
 
 

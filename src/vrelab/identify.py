@@ -514,17 +514,17 @@ def _vrc_chi2(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: fl
     from vrelab.models.dynamics import vrc_at_frequency
 
     vrc, u, f, g0 = data
-    h = np.asarray(vrc_at_frequency(1.0, f, fn, q)) if fn else np.ones_like(f)
+    h = np.asarray(vrc_at_frequency(1.0, f, fn, q)) if fn and q else np.ones_like(f)
     a = np.column_stack([h, 3 * g0 * h] if k3_free else [h]) / u[:, None]
     y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
     k, *_ = np.linalg.lstsq(a, y, rcond=None)
     r = a @ k - y
-    return k, float(r @ r)
+    return k.astype(np.float64, copy=False), float(r @ r)
 
 
 def _resonance_grid(sines: Sequence[Observation], n_fn: int = 60, n_q: int = 15) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """fn from a third of the lowest to ten times the highest sine frequency, Q from 0.5 to 50 (log)."""
-    f = [ob.freq_hz for ob in sines]
+    f = [ob.freq_hz for ob in sines if ob.freq_hz is not None]  # a sine observation has its frequency
     return np.geomspace(min(f) / 3, 10 * max(f), n_fn), np.geomspace(0.5, 50, n_q)
 
 
@@ -898,9 +898,9 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     for n in PARAMETERS:
         if n in values and n not in why:
             i = free.index(n)
-            params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), TABLE[n].unit)
+            est = params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), TABLE[n].unit)
             used[n] = values[n]
-            rel = params[n].u / abs(params[n].value) if params[n].value else math.inf
+            rel = est.u / abs(est.value) if est.value else math.inf
             if n in NUISANCE and not rel <= MAX_REL_U:
                 notes.append(f"{n} poorly determined ({100 * rel:.0f} % relative u): kept with its value, u and "
                              "correlations (predict carries them; --prefer-base takes the base sensor's instead)")
@@ -950,7 +950,6 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     whose prediction is not valid for another reason; a sine level whose peak reaches a rail
     (deterministic, u of a few µg: the rails come from the random runs); a random level whose
     ``model_error_g`` exceeds half its u."""
-    from dataclasses import replace
 
     def covered(lv: Any, ob: Observation, u: float) -> bool:
         if not lv.valid_otherwise:
@@ -1021,7 +1020,7 @@ def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Any, ob
         return dict(zip(free, (float(v) for v in f.x)))
 
     out = cov.copy()
-    terms = []
+    terms: list[dict[str, Any]] = []
     for source, delta, shift in type_b_shifts(values, refit, typeb):
         if shift is None:
             terms.append({"source": source, "type": "B", "shifts": None, "note": "not evaluated (the refit failed)"})
@@ -1063,7 +1062,7 @@ def cross_check_2f(obs: Sequence[Observation], base: Any = None) -> list[dict[st
 
     out = []
     for ob in obs:
-        if ob.method != "sine" or not ob.harmonic_g or not any(h is not None for h in ob.harmonic_g):
+        if ob.method != "sine" or ob.freq_hz is None or not ob.harmonic_g or not any(h is not None for h in ob.harmonic_g):
             continue
         pairs = [(r, h) for r, h in zip(ob.rms_g, ob.harmonic_g) if h is not None]
         two_f = fit_vrc([LevelResult(float(r), Estimate(h[0], h[1])) for r, h in pairs])
@@ -1207,7 +1206,7 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
         out["facts"] = facts_top
     axes: dict[str, Any] = {}
     for cm in ident.channels:
-        t: dict[str, Any] = {k: v for k, v in base_axis.items() if k not in keys and k != "uncertainty"}
+        t = {k: v for k, v in base_axis.items() if k not in keys and k != "uncertainty"}
         f: dict[str, str] = {}
         # the base's assumed u of what the campaign did not identify (its filters, its threshold), and the
         # profile u of a resonance the runs only bound

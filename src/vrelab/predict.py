@@ -329,9 +329,9 @@ def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[flo
 
 
 def predict(
-    sensor: "Sensor",
+    sensor: Sensor,
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-    levels: Sequence[float],
+    levels: Sequence[float] | NDArray[np.float64],
     static_g: float = 1.0,
     kind: ClipKind = "censored",
 ) -> Prediction:
@@ -403,8 +403,9 @@ def predict(
     clip_where = _clip_where(sensor)
     notes: list[str] = []
     out: list[LevelPrediction] = []
+    fn_hz = getattr(sensor, "fn_hz", None)
     if isinstance(excitation, RandomProfile):
-        points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
+        points = [float(fn_hz)] if fn_hz else []
         m0_drive = excitation.mean_square_g2
         # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
         # only the over-range site uses Rice's crossing rate
@@ -424,16 +425,16 @@ def predict(
         text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
         notes.append("random drive assumed Gaussian (a clipped or high-kurtosis drive needs `simulate`)")
     elif isinstance(excitation, SineOnRandom):
-        points = [float(sensor.fn_hz)] if getattr(sensor, "fn_hz", None) else []
+        points = [float(fn_hz)] if fn_hz else []
         rand, tones = excitation.random, excitation.tones
         freqs = tuple(t.freq_hz for t in tones)
         # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
-        seen = [(_spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
+        seen_tones = [(_spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
                 for site in reading.sites]
         # the held stretches' mean from the random part's correlation (the tones left out of it)
         rho = [_hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
                if site.stage.analytic == "overrange" else (math.nan, math.nan)
-               for site, ((m0, _), _) in zip(reading.sites, seen)]
+               for site, ((m0, _), _) in zip(reading.sites, seen_tones)]
         m0_m, _ = _spectral(rand, reading.proof_mass, points)
         m0_out, _ = _spectral(rand, reading.output, points)
         gain_m = [_gain(f, reading.proof_mass) for f in freqs]
@@ -444,10 +445,11 @@ def predict(
 
             def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
                        ) -> _Motion:
-                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,
+                # noqa below: motion() is called within this iteration only, so r is the current level's
+                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
                                *rh)
 
-            sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen, rho)]
+            sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen_tones, rho)]
             motions += sites
             out.append(_level(reading, float(rms), None, g0, kind, "sine-on-random", sites,
                               motion(m0_m, 0.0, gain_m).rms_g, motion(m0_out, 0.0, gain_out).rms_g))
@@ -464,17 +466,17 @@ def predict(
             notes.append(f"several strong tones: phase averages by Monte Carlo over {MC_DRAWS} seeded draws "
                          "(standard error 0.2 % of their spread over the phases)")
     else:
-        freqs = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
+        sine_hz = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
         from vrelab.models.dynamics import rms_through
 
-        for f in freqs:
+        for f in sine_hz:
             f = float(f)
             for rms in levels_arr:
                 sites = [_Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
                 out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
                                   float(rms_through(f, float(rms), list(reading.proof_mass))),
                                   float(rms_through(f, float(rms), list(reading.output)))))
-        text = "sine " + ", ".join(f"{f:g}" for f in freqs) + " Hz"
+        text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
                  "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "
                  "linear part through the filters, its remainder bounded in model_error_g); shares: the change "
@@ -517,7 +519,7 @@ def _judged(lv: LevelPrediction) -> LevelPrediction:
     if lv.model_error_g > 0 and lv.u_vre_g is not None:
         u_model = float(lv.model_error_g) / math.sqrt(3.0)
         sources = {**dict(lv.u_sources_g or {}), MODEL_SOURCE: u_model}
-        judged_u = lv.u_vre_g
+        judged_u: float | None = lv.u_vre_g
         lv = dataclasses.replace(lv, u_vre_g=math.hypot(lv.u_vre_g, u_model), u_sources_g=sources)
     else:
         judged_u = lv.u_vre_g
@@ -550,8 +552,8 @@ _DOMINANT = 0.25
 IDENTIFIED = "identified (covariance)"
 
 
-def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-                levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> Propagation:
+def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+                levels: Sequence[float] | NDArray[np.float64], static_g: float, kind: ClipKind = "censored") -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
     Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
@@ -639,7 +641,7 @@ def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | flo
         u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
         if nonlinear.any():
             u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma)
-            for i in np.flatnonzero(nonlinear):
+            for i in np.flatnonzero(nonlinear).tolist():
                 if outside > _MC_OUTSIDE:
                     level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
                                           f"parameters' domain in {100 * outside:.0f} % of draws: u_vre_g is not a claim "
@@ -674,7 +676,7 @@ _MC_DRAWS = 200
 _MC_OUTSIDE = 0.15
 
 
-def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
                  names: Sequence[str], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], float,
                                                                            NDArray[np.float64], NDArray[np.float64]]:
     """GUM Supplement 1 over the identified parameters: ``_MC_DRAWS`` seeded draws from the
@@ -702,7 +704,7 @@ def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64],
     return v.std(axis=0, ddof=1), outside, np.quantile(v, 0.025, axis=0), np.quantile(v, 0.975, axis=0)
 
 
-def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+def propagated_u(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                  levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
     """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
     return propagation(sensor, excitation, levels, static_g, kind).u_g
@@ -800,7 +802,7 @@ def _level(
                 # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
                 src_site, src_mo, own = (poly[0], poly[1], poly[2]) if poly else (site, mo, 0.0)
                 args = (g0 + src_site.offset_g, src_mo.sigma_g, *k, site.offset_g - src_site.offset_g)
-                rails = dict(shape=base, kind=kind, tone_peaks_g=src_mo.tone_peaks_g)
+                rails: dict[str, Any] = dict(shape=base, kind=kind, tone_peaks_g=src_mo.tone_peaks_g)
                 clip += float(memoryless.poly_clip_vre(*args, low, high, **rails)) - own
                 clip_low += float(memoryless.poly_clip_vre(*args, low, math.inf, **rails)) - own
                 clip_high += float(memoryless.poly_clip_vre(*args, -math.inf, high, **rails)) - own

@@ -106,7 +106,7 @@ class SineProfile:
         object.__setattr__(self, "rms_g", rms)
 
     @classmethod
-    def from_peak(cls, freq_hz: float, peak_g: float) -> "SineProfile":
+    def from_peak(cls, freq_hz: float, peak_g: float) -> SineProfile:
         """A sine given by its peak level [g pk]."""
         peak = v.finite_scalar("peak_g", peak_g)
         if peak < 0:
@@ -154,7 +154,7 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     # (1e200/1e-200) where the difference of their logs cannot
     log_r = np.log(f2) - np.log(f1)
     n = (np.log(p2) - np.log(p1)) / log_r
-    return p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r)
+    return np.asarray(p1 * f1 * log_r * _expm1_over_x((n + 1.0) * log_r), dtype=np.float64)  # numpy's log: Any
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,7 +220,7 @@ class RandomProfile:
         psd_g2_per_hz: ArrayLike,
         name: str | None = None,
         source: str | None = None,
-    ) -> "RandomProfile":
+    ) -> RandomProfile:
         """A profile from its breakpoint table (Hz, g²/Hz)."""
         return cls(np.asarray(freq_hz), np.asarray(psd_g2_per_hz), name=name, source=source)
 
@@ -232,7 +232,7 @@ class RandomProfile:
         segments: Sequence[tuple[float, float]],
         name: str | None = None,
         source: str | None = None,
-    ) -> "RandomProfile":
+    ) -> RandomProfile:
         """A profile from a start point and segments ``(f_end_hz, slope_db_per_oct)``.
 
         Each segment runs from the previous breakpoint to ``f_end_hz`` with exponent
@@ -271,7 +271,7 @@ class RandomProfile:
         psd: float | None = None,
         name: str | None = None,
         source: str | None = None,
-    ) -> "RandomProfile":
+    ) -> RandomProfile:
         """A flat PSD from ``f_lo_hz`` to ``f_hi_hz``, given by its grms or its PSD [g²/Hz].
 
         With neither, the PSD is 1 g²/Hz: a shape to be scaled with :meth:`scaled_to`.
@@ -359,7 +359,7 @@ class RandomProfile:
         out = np.maximum(hi - lo, 0.0)
         return float(out) if out.ndim == 0 else out
 
-    def scaled_to(self, grms: float) -> "RandomProfile":
+    def scaled_to(self, grms: float) -> RandomProfile:
         """The same shape at overall level ``grms`` [g rms]: every PSD value × (grms/self.grms)²."""
         target = float(v.vibration_level("grms", v.positive_scalar("grms", grms)))
         ratio2 = (target / self.grms) ** 2
@@ -550,7 +550,7 @@ class SineOnRandom:
         """The random part's PSD [g²/Hz]; a tone is a line, not a density, and is not in it."""
         return self.random.psd(f_hz)
 
-    def scaled_to(self, grms: float) -> "SineOnRandom":
+    def scaled_to(self, grms: float) -> SineOnRandom:
         """The same profile at overall level ``grms`` [g rms], tones included: PSD ×
         ``(grms/self.grms)²`` and every tone amplitude × ``grms/self.grms`` (see the class Notes)."""
         target = float(v.vibration_level("grms", v.positive_scalar("grms", grms)))

@@ -62,7 +62,7 @@ class Schedule:
         ).reshape(-1, 4)
 
     @classmethod
-    def from_array(cls, arr: NDArray[np.float64]) -> "Schedule":
+    def from_array(cls, arr: NDArray[np.float64]) -> Schedule:
         return cls(
             tuple(
                 Segment(float(a), float(b), float(c), None if not np.isfinite(d) else float(d))
@@ -78,7 +78,7 @@ class Schedule:
                 w.writerow([s.start_s, s.end_s, s.nominal_rms_g, "" if s.freq_hz is None else s.freq_hz])
 
     @classmethod
-    def read_csv(cls, path: str | Path) -> "Schedule":
+    def read_csv(cls, path: str | Path) -> Schedule:
         """Read ``start_s,end_s,nominal_rms_g[,freq_hz]`` rows (a header line is optional)."""
         path = Path(path)
         if not path.is_file():
@@ -107,11 +107,21 @@ class Schedule:
 class Record(Protocol):
     """What the analysis reads: channels in g, sampled at ``fs_hz``, delivered in blocks."""
 
-    fs_hz: float
-    n_samples: int
-    channels: tuple[str, ...]
-    schedule: Schedule | None
-    meta: Mapping[str, Any]
+    # read-only: a record may hold them as fields or give them as properties
+    @property
+    def fs_hz(self) -> float: ...
+
+    @property
+    def n_samples(self) -> int: ...
+
+    @property
+    def channels(self) -> tuple[str, ...]: ...
+
+    @property
+    def schedule(self) -> Schedule | None: ...
+
+    @property
+    def meta(self) -> Mapping[str, Any]: ...
 
     def blocks(
         self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None

@@ -39,7 +39,7 @@ class Notice(str):
 
     code: str
 
-    def __new__(cls, code: str, text: str) -> "Notice":
+    def __new__(cls, code: str, text: str) -> Notice:
         obj = super().__new__(cls, text)
         obj.code = code
         return obj
@@ -74,7 +74,7 @@ class Estimate:
         return {"value": finite_or_none(self.value), "u": finite_or_none(self.u), "unit": self.unit}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "Estimate":
+    def from_dict(cls, d: Mapping[str, Any]) -> Estimate:
         return cls(_nan(d["value"]), _nan(d["u"]), d.get("unit", "g"))
 
 
@@ -102,7 +102,7 @@ class Conditions:
         return d
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "Conditions":
+    def from_dict(cls, d: Mapping[str, Any]) -> Conditions:
         known = {k: d.get(k) for k in cls.__dataclass_fields__ if k != "extra"}
         return cls(**known, extra=dict(d.get("extra") or {}))
 
@@ -157,7 +157,7 @@ class LevelResult:
         return d
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "LevelResult":
+    def from_dict(cls, d: Mapping[str, Any]) -> LevelResult:
         return cls(
             rms_g=_nan(d["rms_g"]),
             vre=Estimate(_nan(d["vre_g"]), _nan(d["u_vre_g"]), "g"),
@@ -218,7 +218,7 @@ class FitResult:
         return d
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "FitResult":
+    def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
         fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes", "covariance"}
         params = {k: Estimate.from_dict(v) for k, v in d.items() if k not in fixed and isinstance(v, Mapping)}
         return cls(
@@ -280,7 +280,7 @@ class VreResult:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "VreResult":
+    def from_dict(cls, d: Mapping[str, Any]) -> VreResult:
         return cls(
             method=d["method"],
             conditions=Conditions.from_dict(d.get("conditions") or {}),

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -52,7 +52,7 @@ __all__ = [
 
 def _conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
     """The sensor's conditions (range, axis, ODR, bandwidth, rails) plus the test's."""
-    base = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
+    base: Conditions = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
     return dataclasses.replace(base, extra={**dict(base.extra), **dict(extra)})
 
 
@@ -60,7 +60,7 @@ def _provenance(function: str, sensor: Any) -> dict[str, Any]:
     prov: dict[str, Any] = {
         "software": f"vrelab {__version__}",
         "function": function,
-        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     to_dict = getattr(sensor, "to_dict", None)
     if callable(to_dict):
@@ -75,7 +75,7 @@ def _reduce_and_fit(
     settle_s: float,
     record_path: str | Path | None,
     progress: bool,
-    clip_kind: str = "censored",
+    clip_kind: ClipKind = "censored",
 ) -> tuple[list[LevelResult], list[FitResult], list[str]]:
     """Reduce the record as a lab file (saturation counts and over-range flags from the
     simulation's truth), then fit it with the one fit policy (:func:`vrelab.fits.fit_levels`)
@@ -178,7 +178,7 @@ def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[
 
 
 def plan_random_test(
-    sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
+    sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
@@ -186,7 +186,7 @@ def plan_random_test(
 
 
 def run_random_test(
-    sensor: "Sensor",
+    sensor: Sensor,
     profile: RandomProfile | SineOnRandom,
     levels_grms: Sequence[float],
     static_g: float = 1.0,
@@ -261,6 +261,7 @@ def run_test(
     """Run a :class:`~vrelab.simulation.plan.TestPlan`: simulate its record, reduce it as a lab
     file (writing it to ``record_path`` first when given) and fit it with the one fit policy."""
     record = plan.record(progress)
+    assert plan.settle_s is not None  # TestPlan.__post_init__ sets the default
     band = _measurement_band(plan.profile) if plan.method == "random" else _sine_band(record)  # type: ignore[arg-type]
     levels, fits, warnings = _reduce_and_fit(record, plan.method, band, plan.settle_s, record_path, progress,
                                              clip_kind)
@@ -318,7 +319,7 @@ def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
 
 
 def plan_sine_test(
-    sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
+    sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
@@ -327,7 +328,7 @@ def plan_sine_test(
 
 
 def run_sine_test(
-    sensor: "Sensor",
+    sensor: Sensor,
     freqs_hz: Sequence[float],
     levels_rms_g: Sequence[float],
     static_g: float = 1.0,

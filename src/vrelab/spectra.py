@@ -128,7 +128,7 @@ def _default_nperseg(profile: RandomProfile, fs_hz: float) -> int:
 
 
 def psd_tolerance_check(
-    blocks_or_array: ArrayLike | Iterable[ArrayLike],
+    blocks_or_array: NDArray[Any] | Iterable[ArrayLike],
     fs_hz: float,
     profile: RandomProfile,
     f_lo_hz: float | None = None,

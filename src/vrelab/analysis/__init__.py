@@ -6,12 +6,14 @@ uncertainties; ``analyze`` adds the fits (:mod:`vrelab.fits`) and returns a
 :class:`~vrelab.results.VreResult`.
 """
 
+from typing import Any
+
 from vrelab.analysis.reduction import analyze, analyze_full, reduce, reduce_record
 
 __all__ = ["analyze", "analyze_full", "reduce", "reduce_record", "open_record"]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     # Readers pull in h5py/pyarrow/npTDMS: load them only when asked for.
     if name == "open_record":
         from vrelab.analysis.readers import open_record

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Collection, Mapping, Sequence
+from typing import Any, Callable, Collection, Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,6 +58,7 @@ from vrelab.record import Record, Schedule, Segment
 from vrelab.results import (
     Conditions,
     Estimate,
+    FitResult,
     LevelResult,
     Method,
     Notice,
@@ -697,7 +698,7 @@ def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baselin
     bracketing baselines' (their weights as in :func:`bracket`) and the low-frequency term's."""
     from vrelab.gum import welch_satterthwaite
 
-    parts = [(dm.u, max(dm.n_batches - 1, 1))]
+    parts: list[tuple[float, float]] = [(dm.u, max(dm.n_batches - 1, 1))]
     before = [b for b in baselines if b.t_s <= t_s]
     after = [b for b in baselines if b.t_s > t_s]
     if before and after:
@@ -758,7 +759,7 @@ def _plausible_method(
     return (kinds[0] if kinds else ("sine" if method == "sine" else "random")), (probes if ref != "dut" else [])
 
 
-def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK):
+def _segment_blocks(record: Record, seg: Segment, ch: str, block: int = DEFAULT_BLOCK) -> Iterator[NDArray[np.float64]]:
     fs = record.fs_hz
     i0 = int(math.ceil(seg.start_s * fs - 1e-9))
     i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), record.n_samples)
@@ -950,8 +951,8 @@ def _with_budget(levels: list[LevelResult], fits: list[Any], method: Method, g0:
     if not typeb.declared:
         return out, fits
 
-    def refit_for(fit: Any):
-        def refit(delta: dict[str, float]):
+    def refit_for(fit: FitResult) -> Callable[[dict[str, float]], FitResult | None]:
+        def refit(delta: dict[str, float]) -> FitResult | None:
             lv = gum.perturb_levels(levels, delta.get("rms_rel", 0.0), delta.get("vre_rel", 0.0),
                                     delta.get("offset_g", 0.0))
             g = None if g0 is None else g0 + delta.get("static_g", 0.0)
@@ -1041,6 +1042,7 @@ def analyze_channels(
     out: list[tuple[str, VreResult, Reduction]] = []
     for d in duts:
         name = d[4:] if d.startswith("dut:") else d
+        g0: float | None
         if isinstance(static_g, Mapping):
             if name not in static_g:
                 raise ValueError(f"no static field for DUT channel {name!r}")

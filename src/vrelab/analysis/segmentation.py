@@ -227,9 +227,8 @@ class _DutWindows:
     """One DUT channel's per-window sums, filled block by block (see :func:`window_pass_many`)."""
 
     def __init__(self, k: int, w: int, rail_g: float | None) -> None:
-        z = lambda dt: np.zeros(k, dtype=dt)  # noqa: E731
-        self.dsum, self.dmax, self.dmin = z(float), z(float), z(float)
-        self.nmax, self.nmin, self.nrail = z(np.int64), z(np.int64), z(np.int64)
+        self.dsum, self.dmax, self.dmin = np.zeros(k), np.zeros(k), np.zeros(k)
+        self.nmax, self.nmin, self.nrail = (np.zeros(k, dtype=np.int64) for _ in range(3))
         self.parts = np.zeros((k + SMOOTH_WINDOWS, SMOOTH_WINDOWS))  # kernel partial sums per window
         self.run_max, self.run_min = -np.inf, np.inf
         self.k, self.w, self.rail_g = k, w, rail_g

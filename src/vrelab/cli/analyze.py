@@ -122,9 +122,8 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from vrelab._io import sha256_file
     from vrelab.analysis.readers import Scale, open_record
-    from vrelab.record import Schedule
-
     from vrelab.cli._common import input_paths
+    from vrelab.record import Schedule
 
     inputs = input_paths(args.file, args.schedule, args.profile)
     if args.out:  # refused before the record is read, not after
@@ -132,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     duts = [d.strip() for d in args.dut.split(",")]
     if any(not d for d in duts):
         raise ValueError(f"--dut {args.dut!r}: an empty channel name")
-    sens: list[float | None] = (positive_list(args.dut_sensitivity, "--dut-sensitivity")
+    sens: list[float | None] = ([*positive_list(args.dut_sensitivity, "--dut-sensitivity")]
                                 if args.dut_sensitivity else [None])
     if len(sens) not in (1, len(duts)):
         raise ValueError(f"--dut-sensitivity: give one value or one per DUT ({len(duts)}), got {len(sens)}")

@@ -39,14 +39,14 @@ def print_prediction(pred: Any) -> None:
     vw = 18 if with_u else 10
     head = ("freq_hz " if sine else "") + f"{'rms_g':>8} {'VRE mg':>{vw}} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} {'overrange mg':>12}  valid"
     print(head)
+    res = PREDICTION_RESOLUTION_MG
+
+    def mg(x: Any) -> str:
+        return format_mg(x, signed=False, resolution_mg=res)
+
     for lv in d["levels"]:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
-        res = PREDICTION_RESOLUTION_MG
-
-        def mg(x: Any) -> str:
-            return format_mg(x, signed=False, resolution_mg=res)
-
         vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False, resolution_mg=res)
         print(
             f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {format_value(lv['tilt_error_deg'], resolution=TILT_RESOLUTION_DEG):>10} "
@@ -59,8 +59,8 @@ def print_prediction(pred: Any) -> None:
         for note in lv["notes"]:
             where = f"{lv['rms_g']:.4g} g rms" + (f" at {lv['freq_hz']:g} Hz" if lv.get("freq_hz") is not None else "")
             reasons.setdefault(note, []).append(where)
-    for note, where in reasons.items():
-        print(f"level {', '.join(where)}: {note}")
+    for note, wheres in reasons.items():
+        print(f"level {', '.join(wheres)}: {note}")
     for note in d["notes"]:
         print(f"note: {note}")
 

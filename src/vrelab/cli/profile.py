@@ -26,7 +26,7 @@ from vrelab.cli._common import print_json, profile_table
 def _list(as_json: bool) -> int:
     from vrelab.profiles import load_named_profile, named_profiles
 
-    items = []
+    items: list[dict[str, Any]] = []
     for name in named_profiles():
         prof = load_named_profile(name)
         items.append(

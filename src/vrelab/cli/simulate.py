@@ -70,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
     profile = parse_profile(args.profile) if args.profile is not None else None
     freqs = V.frequency("--freq", positive_list(args.freq, "--freq")).tolist() if args.freq is not None else None
     progress = bool(args.progress or sys.stderr.isatty())
+    excitation = profile if profile is not None else freqs
+    assert excitation is not None  # --profile or --freq: the parser requires one
 
     def simulate(record_path: Path | None) -> Any:
         if profile is not None:
@@ -78,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
                                           record_path=record_path, progress=progress, clip_kind=args.kind,
                                           drive_method=args.drive, clip_sigma=args.clip_sigma,
                                           kurtosis=args.kurtosis, ramp_s=ramp_s)
+        assert freqs is not None  # --profile or --freq: the parser requires one
         return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
                                     baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
                                     record_path=record_path, progress=progress, ramp_s=ramp_s)
@@ -89,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
 
         with output_dir(args.out, inputs=input_paths(args.sensor, args.profile)) as stage:
             result = simulate(stage / folder.RECORD if args.record else None)
-            pred = predict(sensor, profile if profile is not None else freqs, levels, static_g=args.static_g,
+            pred = predict(sensor, excitation, levels, static_g=args.static_g,
                            kind=args.kind)
             folder.write_result(stage, result, pred.to_dict())
     else:

@@ -499,6 +499,7 @@ def clip_mean_shift(
         kept = total[(total >= low) & (total <= high)]
         return float(np.mean(kept) - np.mean(total)) if kept.size else float("nan")
 
+    assert pdf is not None  # exactly one of pdf and samples, checked above
     lo_x, hi_x = low - mu, high - mu  # rails in vibration coordinates
 
     def quad(f: Callable[[float], float], a: float, b: float) -> float:

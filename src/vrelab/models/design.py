@@ -45,7 +45,7 @@ def clip_vre(
         if shape != "gaussian":
             raise ValueError(f"tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian', got {shape!r}")
         with_vibration = np.asarray(
-            sine_on_random_mean_shift(mean_g, float(sigma_g), tone_peaks_g, rail_low_g, rail_high_g, kind))
+            sine_on_random_mean_shift(mean_g, float(np.asarray(sigma_g)), tone_peaks_g, rail_low_g, rail_high_g, kind))
     else:
         with_vibration = np.asarray(mean_shift(mean_g, sigma_g, rail_low_g, rail_high_g, shape=shape, kind=kind))
     out = with_vibration - (float(np.clip(mean_g, rail_low_g, rail_high_g)) - float(mean_g))

@@ -9,7 +9,7 @@ the rate at which Gaussian motion crosses a level (Rice), which drives over-rang
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence, Tuple, Union
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,7 +23,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(10)
 Response = Callable[[NDArray[np.float64]], ArrayLike]
 """A frequency response: f [Hz] -> H(f) (complex) or |H(f)|; only the magnitude is used."""
 
-Psd = Union[Callable[[NDArray[np.float64]], ArrayLike], Tuple[ArrayLike, ArrayLike]]
+Psd = Callable[[NDArray[np.float64]], ArrayLike] | tuple[ArrayLike, ArrayLike]
 """A PSD: a callable f [Hz] -> S(f) [g²/Hz] (e.g. ``RandomProfile.psd``), or a table
 ``(f_hz, psd_g2_per_hz)`` interpolated log-log between its points (SPEC 3) and zero outside."""
 
@@ -54,7 +54,7 @@ def second_order_response(f_hz: ArrayLike, fn_hz: ArrayLike, q: ArrayLike) -> ND
     fn = _validate.positive("fn_hz", fn_hz)
     qq = _validate.positive("q", q)
     r = f / fn
-    h = 1.0 / ((1.0 - r * r) + 1j * r / qq)
+    h = np.asarray(1.0 / ((1.0 - r * r) + 1j * r / qq), dtype=np.complex128)  # numpy's stubs: float64
     return h[()] if h.ndim == 0 else h
 
 
@@ -63,7 +63,7 @@ def resonator(fn_hz: float, q: float) -> Response:
     fn = _validate.positive_scalar("fn_hz", fn_hz)
     qq = _validate.positive_scalar("q", q)
 
-    def h(f_hz: ArrayLike) -> NDArray[np.complex128]:
+    def h(f_hz: ArrayLike) -> NDArray[np.complex128] | complex:
         return second_order_response(f_hz, fn, qq)
 
     h.fn_hz = fn  # type: ignore[attr-defined]  # lets effective_rms split its integral at the peak
@@ -135,7 +135,7 @@ def _spectral_moment(
     if hi <= lo:
         raise ValueError(f"f_hi_hz must be > f_lo_hz, got f_lo_hz={f_lo_hz!r}, f_hi_hz={f_hi_hz!r}")
     s, corners = _psd_callable(psd)
-    peaks = [float(getattr(h, "fn_hz")) for h in responses if hasattr(h, "fn_hz")]
+    peaks = [float(h.fn_hz) for h in responses if hasattr(h, "fn_hz")]
     peaks += [float(p) for p in points_hz]
 
     def integrand(f: NDArray[np.float64]) -> NDArray[np.float64]:

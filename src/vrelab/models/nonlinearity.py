@@ -15,7 +15,7 @@ datasheet states it.
 from __future__ import annotations
 
 import math
-from typing import Literal, Mapping, Sequence, overload
+from typing import Any, Literal, Mapping, Sequence, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -176,7 +176,7 @@ def _double_factorial(m: int) -> float:
 # --- the polynomial model -----------------------------------------------------------------------
 
 
-def _coefficients(coeffs_k: Mapping[int, float] | Sequence[float]) -> dict[int, NDArray[np.float64]]:
+def _coefficients(coeffs_k: Mapping[int, ArrayLike] | Sequence[ArrayLike]) -> dict[int, NDArray[np.float64]]:
     if isinstance(coeffs_k, Mapping):
         items = dict(coeffs_k)
     else:
@@ -190,7 +190,7 @@ def _coefficients(coeffs_k: Mapping[int, float] | Sequence[float]) -> dict[int, 
 
 
 def polynomial_vre(
-    coeffs_k: Mapping[int, float] | Sequence[float],
+    coeffs_k: Mapping[int, ArrayLike] | Sequence[ArrayLike],
     static_g: ArrayLike,
     moments: ArrayLike,
 ) -> NDArray[np.float64] | float:
@@ -351,7 +351,8 @@ def separate_k2_k3(vrc_plus: Estimate, vrc_minus: Estimate, static_g: float = 1.
 @overload
 def separate_k2_k3(vrc_plus: ArrayLike, vrc_minus: ArrayLike, static_g: float = 1.0,
                    static_minus_g: float | None = None) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]: ...
-def separate_k2_k3(vrc_plus, vrc_minus, static_g=1.0, static_minus_g=None):
+def separate_k2_k3(vrc_plus: Estimate | ArrayLike, vrc_minus: Estimate | ArrayLike, static_g: float = 1.0,
+                   static_minus_g: float | None = None) -> Any:
     """Separate k2 and k3 from VRCs measured at two orientations (SPEC 1.2).
 
     Parameters

@@ -55,7 +55,7 @@ def report_dir(
     return path
 
 
-def _write(rf: "ResultsFolder", argv: Sequence[str] | None, title: str | None, meta: ReportMetadata | None) -> Path:
+def _write(rf: ResultsFolder, argv: Sequence[str] | None, title: str | None, meta: ReportMetadata | None) -> Path:
     if rf.kind == "channels":
         from vrelab.report.html import report_channels_dir
 

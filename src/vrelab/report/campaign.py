@@ -141,6 +141,8 @@ def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, ti
         secs = []
         for name, d in names.items():
             sf = F.read_folder(sub / d)
+            if sf.result is None:
+                raise ValueError(f"{sub / d}: no result in this run's channel folder")
             secs.append(result_section(sf, f"Run {r['index']} ({r['label']}), channel {name}: {describe(sf.result)}",
                                        channel=name, base=folder))
         run_sections.append((r["index"], secs))

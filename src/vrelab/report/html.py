@@ -26,7 +26,16 @@ from matplotlib.figure import Figure
 
 from vrelab import __version__
 from vrelab import folder as F
-from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, field_label, field_text, format_mg, format_u, format_value, format_value_u
+from vrelab._format import (
+    PREDICTION_RESOLUTION_MG,
+    TILT_RESOLUTION_DEG,
+    field_label,
+    field_text,
+    format_mg,
+    format_u,
+    format_value,
+    format_value_u,
+)
 from vrelab._io import sha256_file
 from vrelab.folder import ResultsFolder
 from vrelab.report._markup import ReportTable, esc, kv_table, script_json, table_html
@@ -155,7 +164,7 @@ class ReportFigure:
     plotly_json: str | None = None
 
     @classmethod
-    def from_figure(cls, fig: Figure, caption: str = "", dpi: int = 110, interactive: bool = True) -> "ReportFigure":
+    def from_figure(cls, fig: Figure, caption: str = "", dpi: int = 110, interactive: bool = True) -> ReportFigure:
         from vrelab.report.interactive import to_plotly_json
 
         buf = io.BytesIO()
@@ -269,8 +278,7 @@ def collect_warnings(
                 + ", ".join(f"{lv.get('rms_g', float('nan')):.3g}" for lv in invalid)
                 + " g rms (see the notes of the prediction table); the simulation is the reference there."
             )
-    seen: set[str] = set()
-    return [w for w in out if not (w in seen or seen.add(w))]
+    return list(dict.fromkeys(out))  # each once, in order
 
 
 # --------------------------------------------------------------------------- rendering
@@ -564,7 +572,7 @@ def default_provenance(argv: Sequence[str] | None = None) -> dict[str, Any]:
     return {
         "vrelab_version": __version__,
         "command_line": " ".join(["vrelab", *sys.argv[1:]] if argv is None else list(argv)),
-        "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC"),
+        "date_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC"),
     }
 
 

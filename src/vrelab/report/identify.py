@@ -28,6 +28,7 @@ from vrelab.report.html import (
 from vrelab.report.metadata import ReportMetadata
 from vrelab.sensor.parameters import TABLE
 
+
 def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     """Apparent VRC of each sine run (markers, 1 u: :func:`vrelab.identify.apparent_vrc`, read
     from the document) and the identified model per orientation."""

@@ -44,7 +44,8 @@ __all__ = ["Unsupported", "plotly_js", "to_plotly", "to_plotly_json"]
 # a record's envelope is thousands of points per trace and the report has a size budget.
 _LONG = 256
 
-_DASH = {"-": "solid", "--": "dash", ":": "dot", "-.": "dashdot", "solid": "solid", "dashed": "dash",
+# keyed by matplotlib's line style: a name, or a (offset, pattern) tuple that falls to "solid"
+_DASH: dict[Any, str] = {"-": "solid", "--": "dash", ":": "dot", "-.": "dashdot", "solid": "solid", "dashed": "dash",
          "dotted": "dot", "dashdot": "dashdot"}
 _SYMBOL = {"o": "circle", "s": "square", "^": "triangle-up", "v": "triangle-down", "D": "diamond",
            "d": "diamond-tall", "P": "cross", "*": "star", "X": "x", "x": "x-thin", "+": "cross-thin",
@@ -93,7 +94,7 @@ class _Scale:
     def __init__(self, fig: Figure) -> None:
         self.px = fig.dpi / 72.0
 
-    def __call__(self, pt: float) -> float:
+    def __call__(self, pt: float | str) -> float:  # matplotlib's font sizes are typed float | str
         return round(float(pt) * self.px, 2)
 
 
@@ -124,14 +125,14 @@ class _AxesTranslator:
         self.ylabel = ax.get_ylabel() or "y"
 
     # ------------------------------------------------------------------ helpers
-    def _legend_entry(self, label: str | None) -> dict[str, Any]:
+    def _legend_entry(self, label: object) -> dict[str, Any]:  # an artist's label: any object, None
         shown = self.show_legend and bool(label) and not str(label).startswith("_")
         out: dict[str, Any] = {"showlegend": shown, "legend": self.legend}
         if label and not str(label).startswith("_"):
             out["name"] = _text(label)
         return out
 
-    def _hover(self, label: str | None, err: bool = False) -> str:
+    def _hover(self, label: object, err: bool = False) -> str:
         name = "" if not label or str(label).startswith("_") else f"{_text(label)}<br>"
         # A point with a bar: its own "y ± u" text, rounded by GUM 7.2.6 as the tables are.
         y = "%{customdata}" if err else "%{y:.4g}"
@@ -142,7 +143,7 @@ class _AxesTranslator:
         return ref if data else f"{ref} domain"
 
     # ------------------------------------------------------------------ artists
-    def line(self, ln: Line2D, label: str | None = None, yerr: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    def line(self, ln: Line2D, label: object = None, yerr: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         if not ln.get_visible():
             return
         xd, yd = _coords(self.ax, ln.get_transform())
@@ -249,7 +250,7 @@ class _AxesTranslator:
         faces = coll.get_facecolor()
         label = coll.get_label()
         for k, path in enumerate(coll.get_paths()):
-            v = path.vertices
+            v = np.asarray(path.vertices)
             face = faces[k % len(faces)] if len(faces) else (0, 0, 0, 0)
             entry = self._legend_entry(label if k == 0 else None)
             self.traces.append({"type": "scatter", "x": _arr(v[:, 0]), "y": _arr(v[:, 1]), "mode": "lines",
@@ -267,8 +268,8 @@ class _AxesTranslator:
             xs += [float(v) for v in s[:, 0]] + [None]
             ys += [float(v) for v in s[:, 1]] + [None]
         colors = coll.get_colors()
-        widths = coll.get_linewidths()
-        ls = coll.get_linestyle()[0] if len(coll.get_linestyle()) else (0, None)
+        widths = np.atleast_1d(coll.get_linewidth())  # one width per segment (get_linewidths: its alias)
+        ls: Any = coll.get_linestyle()[0] if len(coll.get_linestyle()) else (0, None)  # (offset, dashes or None)
         dash = "solid" if ls[1] is None else "dash"
         self.traces.append({"type": "scatter", "x": xs, "y": ys, "mode": "lines",
                             "line": {"color": _color(colors[0] if len(colors) else "k", coll.get_alpha()),
@@ -461,7 +462,7 @@ def to_plotly(fig: Figure) -> dict[str, Any]:
     px = _Scale(fig)
     height_px = fig.get_figheight() * fig.dpi
     inv = fig.transFigure.inverted()
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]  # report.plots draws on an Agg canvas
     data: list[dict[str, Any]] = []
     # template "none": every style is set here, and plotly's default template would add kilobytes
     # of unused defaults to every figure of the file.

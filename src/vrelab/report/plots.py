@@ -21,6 +21,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.layout_engine import ConstrainedLayoutEngine
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
@@ -370,7 +371,7 @@ def plot_vrc_vs_freq(
     ``model`` is an optional VRC(f) curve, e.g. ``VRC·|H(f)|²`` from
     :func:`vrelab.models.dynamics.vrc_at_frequency` (its ``y`` in µg/g²).
     """
-    fits = sorted((f for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params), key=lambda f: f.freq_hz)
+    fits = sorted((f for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params), key=lambda f: f.freq_hz or 0.0)
     if not fits:
         raise ValueError("result has no per-frequency VRC fits (needs a sine sweep with fits at freq_hz)")
     fig, (ax,) = _new_figure()
@@ -478,13 +479,13 @@ def envelope_from_arrays(
     for k, a in arrs.items():
         b = a[: nb * bin_size].reshape(nb, bin_size)
         out[k] = (b.min(axis=1), b.max(axis=1), b.mean(axis=1))
-    return Envelope((np.arange(nb) + 0.5) * bin_size / fs, bin_size, fs, out, schedule)
+    return Envelope(np.asarray((np.arange(nb) + 0.5) * bin_size / fs, dtype=np.float64), bin_size, fs, out, schedule)
 
 
 def _shade_segments(ax, schedule: Schedule | None, t_max: float, label_y: float | None = None) -> None:
     if schedule is None:
         return
-    for i, s in enumerate(schedule.segments):
+    for s in schedule.segments:
         if s.start_s > t_max:
             break
         ax.axvspan(s.start_s, min(s.end_s, t_max), color="0.85" if s.is_baseline else "#cfe3f3", alpha=0.55, lw=0, zorder=0)
@@ -512,7 +513,9 @@ def plot_time_series(
     moving mean in mg relative to the first vibration-off segment, the offset shift that is VRE.
     """
     fig, (ax, ax2) = _new_figure(2, height_in=6.2)
-    fig.get_layout_engine().set(h_pad=0.02)
+    engine = fig.get_layout_engine()
+    assert isinstance(engine, ConstrainedLayoutEngine)  # _new_figure's layout
+    engine.set(h_pad=0.02)
     t = env.t_s
     have_ref = "reference" in env.channels
     if have_ref:

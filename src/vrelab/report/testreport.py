@@ -60,7 +60,7 @@ class Document:
 
     title: str
     intro: str
-    sections: Sequence["ReportSection"]
+    sections: Sequence[ReportSection]
     anchors: Sequence[str]
     results_html: str
     metadata: ReportMetadata
@@ -156,11 +156,12 @@ def _item(doc: Document) -> str:
                          f"(channels: {', '.join(chans) or 'none named'})")
     keys = ("name", "manufacturer", "model", "serial", "description", "condition", "received")
     head = ["channel", "item", "manufacturer", "model", "serial", "description", "condition on receipt", "received"]
-    rows = [[c or "DUT"] + [m.item(c, k) or NOT_GIVEN for k in keys] for c in (chans or [None])]
+    each: list[str | None] = [*chans] if chans else [None]  # None: the report's one DUT
+    rows = [[c or "DUT"] + [m.item(c, k) or NOT_GIVEN for k in keys] for c in each]
     parts = [table_html(ReportTable("Identification (metadata)", head, rows), 3)]
     entries = list(_entries(doc))
     known = []
-    for c in chans or [None]:
+    for c in each:
         mine_e = [e for e in entries if e.channel == c or not chans]
         mine = [e.result for e in mine_e]
         known.append([

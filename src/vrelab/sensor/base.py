@@ -18,8 +18,12 @@ ComplexArray = NDArray[np.complex128]
 class Stage(Protocol):
     """What the chain needs from a stage (see the module docstring)."""
 
-    is_static: bool
-    rate_factor: int
+    # read-only: stages give them as class constants or properties
+    @property
+    def is_static(self) -> bool: ...
+
+    @property
+    def rate_factor(self) -> int: ...
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> Any: ...
 

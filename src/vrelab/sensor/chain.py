@@ -109,13 +109,13 @@ class SensorChain:
     def fs_out_hz(self, fs_in_hz: float) -> float:
         return float(fs_in_hz) / self.rate_factor
 
-    def start(self, fs_hz: float, seed: int | np.random.SeedSequence = 0) -> "ChainRun":
+    def start(self, fs_hz: float, seed: int | np.random.SeedSequence = 0) -> ChainRun:
         """A fresh run at input rate ``fs_hz`` [Hz]; stage ``i`` is seeded with child ``i`` of ``seed``."""
         return ChainRun(self, fs_hz, seed)
 
     def run(
         self, blocks: Iterable[ArrayLike], fs_hz: float, seed: int | np.random.SeedSequence = 0
-    ) -> "ChainOutput":
+    ) -> ChainOutput:
         """Stream ``blocks`` through the chain: an iterator of output blocks with ``.stats``."""
         return ChainOutput(self.start(fs_hz, seed), iter(blocks))
 

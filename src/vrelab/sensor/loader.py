@@ -239,7 +239,7 @@ class Sensor:
         if where not in ("proof-mass", "output"):
             raise ValueError(f"where must be one of proof-mass, output; got {where!r}")
         return [
-            s.response  # type: ignore[attr-defined]
+            s.response
             for s in self.stages()
             if hasattr(s, "response") and (where == "output" or isinstance(s, Resonator))
         ]
@@ -430,6 +430,7 @@ def _facts(data: Mapping[str, Any], where: str, origin: str) -> dict[str, str]:
     facts: dict[str, str] = {}
     allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {f.name for f in FIELDS}
     _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
+    key: str  # a TOML table's keys are strings
     for key, text in facts_raw.items():
         if not isinstance(text, str):
             raise ValueError(f"sensor {where}: facts.{key} must be a string, got {text!r}")

@@ -10,10 +10,10 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.sensor.base import StageBase, _finite, _non_negative, _positive
+
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
-
-from vrelab.sensor.base import StageBase, _finite, _non_negative, _positive
 
 # ----------------------------------------------------------------------------- over-range
 

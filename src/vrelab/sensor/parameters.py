@@ -63,7 +63,7 @@ def _param(name: str) -> Param:
     return ASSUMABLE[name]
 
 
-def parameter(sensor: "Sensor", name: str) -> float | None:
+def parameter(sensor: Sensor, name: str) -> float | None:
     """The value of ``name`` on ``sensor`` in the parameter's units (None: the element is absent)."""
     p = _param(name)
     v = getattr(sensor, p.attribute)
@@ -72,7 +72,7 @@ def parameter(sensor: "Sensor", name: str) -> float | None:
     return None if v is None else float(v) * p.scale
 
 
-def with_parameters(sensor: "Sensor", values: Mapping[str, float]) -> "Sensor":
+def with_parameters(sensor: Sensor, values: Mapping[str, float]) -> Sensor:
     """``sensor`` with the parameters in ``values`` set (the Sensor validates the result).
 
     A resonance needs both ``fn_hz`` and ``q``: setting one on a sensor that has none raises.

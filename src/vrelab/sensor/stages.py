@@ -47,9 +47,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal
 
-FloatArray = NDArray[np.float64]
-ComplexArray = NDArray[np.complex128]
-
 from vrelab.sensor.base import (
     Stage,
     StageBase,
@@ -61,6 +58,9 @@ from vrelab.sensor.base import (
 )
 from vrelab.sensor.filtering import FilterState, discretize_zpk, run_filter
 from vrelab.sensor.overrange import OverRange
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
 
 __all__ = [
     "Stage",
@@ -133,7 +133,7 @@ class Resonator(FilterStage):
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         r = np.asarray(f_hz, dtype=float) / self.fn_hz
-        return 1.0 / (1.0 - r**2 + 1j * r / self.q)
+        return np.asarray(1.0 / (1.0 - r**2 + 1j * r / self.q), dtype=np.complex128)
 
     def analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
         wn = 2 * np.pi * self.fn_hz
@@ -449,7 +449,7 @@ class _NoiseState(NamedTuple):
     frame_index: int  # index of the cached frame (-1: none)
     frame: FloatArray | None
 
-    def __deepcopy__(self, memo: dict[int, Any]) -> "_NoiseState":
+    def __deepcopy__(self, memo: dict[int, Any]) -> _NoiseState:
         # The cached frame is derived data (redrawn from the seed when needed), so a copy of
         # the run (the simulated test keeps one per segment as a checkpoint) leaves it behind
         # instead of holding another frame_size·8 bytes per copy.

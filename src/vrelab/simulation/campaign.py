@@ -239,7 +239,7 @@ def _write_uff(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     records, so the run is held in memory here (a few MB for the example)."""
     import pyuff
 
-    data = {c: [] for c in ["reference", *parts]}
+    data: dict[str, list[NDArray[np.float64]]] = {c: [] for c in ["reference", *parts]}
     for b in blocks:
         for c in data:
             data[c].append(np.asarray(b[c], dtype=float))

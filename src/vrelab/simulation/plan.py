@@ -138,14 +138,14 @@ class TestPlan:
                 )
 
     @classmethod
-    def random(cls, sensor: "Sensor", profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
-               **kw: Any) -> "TestPlan":
+    def random(cls, sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
+               **kw: Any) -> TestPlan:
         """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms`` (a
         sine-on-random profile too: its tones scale with it and count in the level)."""
         return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
 
     @classmethod
-    def sine(cls, sensor: "Sensor", freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> "TestPlan":
+    def sine(cls, sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> TestPlan:
         """The sine method (IEEE 1293): each level at each frequency."""
         return cls("sine", sensor, tuple(np.atleast_1d(levels_rms_g)), freqs_hz=tuple(np.atleast_1d(freqs_hz)), **kw)
 
@@ -226,6 +226,7 @@ class TestPlan:
 
     def _sine_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
         fs_int = rates.fs_internal_hz
+        assert self.settle_s is not None  # __post_init__ sets the default
         # the chain's seed is the first child, as before the sine phases were drawn (a plan's
         # sensor noise does not change with them); each level's phase from the second
         chain_seed, phase_seed = np.random.SeedSequence(self.seed).spawn(2)
@@ -240,6 +241,7 @@ class TestPlan:
             # many phases) or the drive meets fewer than 5 phases of the output, each batch
             # of m periods samples L phases (sine_drive) and the window holds whole batches.
             fs_out = fs_int / rates.decimation
+            window: float
             if self._needs_lattice(f, fs_out):
                 drive_hz, m, n_out = sine_drive(f, fs_out)
                 batches = max(3, round((self.seconds - 2 * self.settle_s) * drive_hz / m))
@@ -339,7 +341,9 @@ def _may_saturate(sensor: Any, static_g: float, rms_g: float, freq_hz: float) ->
     if static_g + amp >= 0.95 * hi or static_g - amp <= 0.95 * lo:
         return True
     thr = getattr(sensor, "overrange_threshold_g", None)
-    return bool(thr) and abs(static_g) + amp >= 0.95 * float(thr)
+    if not thr:
+        return False
+    return abs(static_g) + amp >= 0.95 * float(thr)
 
 
 # A sine drive this close to its nominal frequency (relative) is taken as at it: the rate

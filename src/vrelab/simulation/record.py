@@ -224,7 +224,7 @@ class SimulatedRecord:
             drive_hz = seg.freq_hz if seg.drive_hz is None else seg.drive_hz
             yield from synthesis.sine_blocks(drive_hz, seg.rms_g, fs, seg.n_internal, block, phase_rad=seg.phase_rad)
         else:
-            assert self._profile is not None
+            assert self._profile is not None and seg.seed is not None  # a random stretch has both
             yield from synthesis.random_blocks(
                 self._profile.scaled_to(seg.rms_g),
                 fs,

@@ -65,7 +65,7 @@ class Backend:
     def describe(self) -> dict[str, Any]:
         return {"backend": self.name, "n_workers": self.n_workers}
 
-    def __enter__(self) -> "Backend":
+    def __enter__(self) -> Backend:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -64,7 +64,7 @@ class PointRecord:
         return json.dumps(obj)
 
     @classmethod
-    def from_obj(cls, d: dict[str, Any]) -> "PointRecord":
+    def from_obj(cls, d: dict[str, Any]) -> PointRecord:
         return cls(
             index=int(d["i"]),
             status=d["status"],
@@ -200,7 +200,7 @@ class Checkpoint:
             fcntl.flock(self._fh.fileno(), fcntl.LOCK_UN)
             self._fh.close()
 
-    def __enter__(self) -> "Checkpoint":
+    def __enter__(self) -> Checkpoint:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -79,8 +79,8 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     shape = params.get("shape", "gaussian")
     clip_kind = params.get("clip_kind", "censored")
     rms_mass = _rms_at_proof_mass(rms, params)
-    k2 = ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0)))
-    k3 = ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0)))  # µg/g³ -> 1/g²: same factor
+    k2 = float(ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0))))
+    k3 = float(ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))))  # µg/g³ -> 1/g²: same factor
     offset = float(params.get("offset_g", 0.0))
     if clip_kind == "none":
         vre_clip, vre_p = 0.0, float(vre_poly(rms_mass, k2, k3, static_g=static, shape=shape))
@@ -182,7 +182,7 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     rms = float(params["rms_g"])
     static = float(params.get("static_g", 1.0))
     # durations the file does not set keep the shaker's own defaults
-    timing = {k: float(params[k]) for k in ("seconds", "baseline_s", "settle_s") if k in params}
+    timing: dict[str, Any] = {k: float(params[k]) for k in ("seconds", "baseline_s", "settle_s") if k in params}
     # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
     seed_int = int(seed.generate_state(1, dtype=np.uint64)[0])
     if mode == "sine":

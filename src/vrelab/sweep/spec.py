@@ -214,7 +214,6 @@ class SweepSpec:
         ``[fixed]`` or on a grid axis), by the name the file gives it; presets and inline
         profiles need none."""
         from vrelab._io import sha256_file
-
         from vrelab.profiles import split_tones
 
         names: list[Any] = [self.fixed.get(k) for k in _FILE_KEYS]

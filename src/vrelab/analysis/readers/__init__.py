@@ -285,7 +285,7 @@ class FileRecord:
     def close(self) -> None:
         self.source.close()
 
-    def __enter__(self) -> "FileRecord":
+    def __enter__(self) -> FileRecord:
         return self
 
     def __exit__(self, *exc: Any) -> None:

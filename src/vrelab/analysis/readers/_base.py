@@ -45,7 +45,7 @@ class Scale:
         V.positive_scalar("sensitivity", self.sensitivity)
 
     @classmethod
-    def parse(cls, units: str | None, sensitivity: float | None, name: str = "channel") -> "Scale":
+    def parse(cls, units: str | None, sensitivity: float | None, name: str = "channel") -> Scale:
         """From CLI options: ``--dut-units lsb --dut-sensitivity 256000`` (units per g)."""
         u = (units or "g").strip().lower().replace("/", "").replace("²", "2").replace("^", "")
         u = {"ms2": "m/s2", "mps2": "m/s2", "mms2": "mm/s2", "counts": "lsb", "count": "lsb"}.get(u, u)
@@ -109,7 +109,7 @@ class Source:
         return False
 
     @classmethod
-    def open(cls, path: Path) -> "Source":
+    def open(cls, path: Path) -> Source:
         return cls(path)
 
     @classmethod

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab._load import json_loads
 from vrelab.analysis.readers._base import (
     _DT_KEYS,
     _FS_KEYS,
@@ -16,7 +17,6 @@ from vrelab.analysis.readers._base import (
     _column_channels,
     register,
 )
-from vrelab._load import json_loads
 from vrelab.record import Schedule
 
 
@@ -47,7 +47,7 @@ class Hdf5Source(_ArraySource):
 
         super().__init__(path)
         if matlab:
-            self.fmt = "mat-v7.3"
+            self.fmt = "mat-v7.3"  # type: ignore[misc]  # this instance's format name: MATLAB v7.3 is HDF5
         try:
             self.f = h5py.File(path, "r")
         except OSError as exc:

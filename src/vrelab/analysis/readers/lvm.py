@@ -15,6 +15,7 @@ as CSV is (:class:`~vrelab.analysis.readers.text.CsvSource`), the decimal comma 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import ClassVar
 
 from vrelab.analysis.readers._base import Source, register, significant_digits, snap_rate
 from vrelab.analysis.readers.text import CsvSource
@@ -26,7 +27,7 @@ _SEPARATORS = {"tab": "\t", "comma": ",", "semicolon": ";", "space": " "}
 @register
 class LvmSource(CsvSource):
     fmt = "lvm"
-    extensions = (".lvm",)
+    extensions: ClassVar[tuple[str, ...]] = (".lvm",)
     has_magic = True
     random_access = False
 

@@ -116,7 +116,9 @@ class MdfSource(Source):
         except ValueError:
             self.mdf.close()
             raise
-        masters = {i: g.channel_group for i, g in enumerate(self.mdf.groups)}
+        # asammdf types groups as list[v3 Group] | list[v4 Group]: enumerate() joins them to object
+        groups: list[Any] = self.mdf.groups
+        masters = {i: g.channel_group for i, g in enumerate(groups)}
         for name, places in self.mdf.channels_db.items():
             for gi, ci in places:
                 grp = self.mdf.groups[gi]
@@ -176,9 +178,9 @@ class MdfSource(Source):
                     self.notes.append(f"--fs {fs_hz:g} Hz used; {exc}")
             self.fs_hz = None
             return
-        fs = one_rate(self.path, {n: self.rate(n) for n in names}, 1e-6)
-        if fs is not None:
-            self.fs_hz = fs
+        common = one_rate(self.path, {n: self.rate(n) for n in names}, 1e-6)
+        if common is not None:
+            self.fs_hz = common
 
     def rate_of(self, name: str) -> float | None:
         return self.rate(name)

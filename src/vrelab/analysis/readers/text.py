@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, ClassVar, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +24,7 @@ class CsvSource(Source):
     """
 
     fmt = "csv"
-    extensions = (".csv", ".tsv", ".txt", ".dat")
+    extensions: ClassVar[tuple[str, ...]] = (".csv", ".tsv", ".txt", ".dat")
     has_magic = False  # text: chosen by extension
     random_access = False  # parsed from the start: read in passes, not by position
 
@@ -109,8 +109,7 @@ class CsvSource(Source):
         )
         try:
             reader = pacsv.open_csv(self.path, read_options=ro, parse_options=po, convert_options=co)
-            for batch in reader:
-                yield batch
+            yield from reader
         except pa.ArrowInvalid as exc:
             msg = str(exc).splitlines()[0]
             raise ValueError(f"{self.path.name}: cannot parse {self.fmt.upper()} (truncated or malformed row?): {msg}") from None

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -162,5 +162,5 @@ def _bits(path: Path) -> int:
     i = head.find(b"fmt ")
     if i < 0:
         return 0
-    order = "big" if head[:4] == b"RIFX" else "little"
+    order: Literal["big", "little"] = "big" if head[:4] == b"RIFX" else "little"
     return int.from_bytes(head[i + 22 : i + 24], order)
