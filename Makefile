@@ -2,6 +2,7 @@
 #   make demo   create .venv, install vrelab, run the article's ADXL355 case study with its report
 #   make test   create .venv, install vrelab with its test extras, run the whole test suite
 #   make docs   build the documentation into docs/_build/html
+#   make examples  generate the example campaign's recordings (not committed; the three above run it)
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -9,7 +10,7 @@ STAMP_BASE := $(VENV)/.installed-base
 STAMP_TEST := $(VENV)/.installed-test
 STAMP_BENCH := $(VENV)/.installed-bench
 
-.PHONY: demo test bench docs clean
+.PHONY: demo test bench docs examples clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,14 +28,18 @@ $(STAMP_BENCH): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[test,sweep,dask,formats,docs,bench]"
 	touch $@ $(STAMP_TEST) $(STAMP_BASE)
 
-demo: $(STAMP_BASE)
+# writes only what is missing (a few seconds the first time), so it runs on every call
+examples: | $(STAMP_BASE)
+	$(BIN)/python examples/make_campaign.py
+
+demo: $(STAMP_BASE) examples
 	$(BIN)/vrelab demo --out demo-out
 
-test: $(STAMP_TEST)
+test: $(STAMP_TEST) examples
 	$(BIN)/python tests/setup_browser.py
 	$(BIN)/python -m pytest -n 2 --dist loadfile
 
-docs: $(STAMP_TEST)
+docs: $(STAMP_TEST) examples
 	$(BIN)/python -m sphinx -b html -W --keep-going docs docs/_build/html
 
 bench: $(STAMP_BENCH)

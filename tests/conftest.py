@@ -44,3 +44,20 @@ def _memory_cap_for_hardening(request):
         yield
     finally:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+# The example campaign's recordings (examples/campaign/runs/) are not committed: `make examples`
+# generates them, and so does this fixture when pytest runs without make. One file lock, so that
+# the pytest-xdist workers generate them once; the one function does it (vrelab.simulation.campaign).
+@pytest.fixture(scope="session", autouse=True)
+def _example_campaign() -> None:
+    import fcntl
+    from pathlib import Path
+
+    from vrelab.simulation.campaign import ensure_campaign
+
+    folder = Path(__file__).resolve().parent.parent / "examples" / "campaign"
+    (folder / "runs").mkdir(exist_ok=True)
+    with open(folder / "runs" / ".generate.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        ensure_campaign(folder)
