@@ -62,8 +62,11 @@ def small_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def slow_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Runs of ~1-2 s each on this machine: the pool is busy long enough to be signalled."""
-    return _records(tmp_path_factory.mktemp("slowcamp"), 8, 40.0)
+    """A campaign the pool is busy with for several seconds (24 runs of 300 s; ~7 s with two
+    workers on an idle 2-core machine, ~260 MB): long enough to be signalled mid-run. (8 runs of
+    40 s took 1 s once the window pass stopped waking BLAS threads per block, and the signal then
+    reached a finished command.)"""
+    return _records(tmp_path_factory.mktemp("slowcamp"), 24, 300.0)
 
 
 # ----------------------------------------------------------------------------- data loss
@@ -247,6 +250,8 @@ def _start_campaign(manifest: Path, out: Path, sigint_ignored: bool = False) -> 
         proc.kill()
         pytest.fail(f"the campaign never had two workers (exit {proc.poll()})")
     time.sleep(0.3)  # the workers are reducing their first runs
+    if proc.poll() is not None:
+        pytest.fail(f"the campaign finished (exit {proc.returncode}) before it could be signalled: make the fixture longer")
     return proc, kids
 
 
