@@ -31,11 +31,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
-from vrelab import __version__
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
+from vrelab._version import __version__
 from vrelab.results import Estimate, FitResult, VreResult, same_frequency
 
 RUN_KEYS = (
@@ -300,7 +300,7 @@ def _scales(run: Run) -> tuple[dict[str, Any], Any]:
 def _check_channels(run: Run) -> None:
     """The run's file is of a known format and holds its channels (its names only: a text
     format is not parsed, a UFF58 file's headers only)."""
-    from vrelab.analysis.readers import _resolve
+    from vrelab.analysis.readers import resolve_channel
     from vrelab.analysis.readers._base import reader_for
 
     try:
@@ -315,12 +315,12 @@ def _check_channels(run: Run) -> None:
     found = {}
     for name, ch in run.dut.items():
         try:
-            found[name] = _resolve(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
+            found[name] = resolve_channel(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: dut: {exc}") from None
     if run.reference is not None:
         try:
-            ref = _resolve(run.reference, listing, "reference")  # type: ignore[arg-type]
+            ref = resolve_channel(run.reference, listing, "reference")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: reference: {exc}") from None
         _check_reference(run, found, ref)

@@ -1174,9 +1174,9 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     set, so they win there (resolution: top level < axis < range); other ranges keep the base's
     rails and threshold (they were not tested).
     """
-    from vrelab.sensor.loader import _read
+    from vrelab.sensor.loader import read_spec
 
-    data, _origin = _read(ident.base_spec)
+    data, _origin = read_spec(ident.base_spec)
     base = ident.base
     out: dict[str, Any] = {k: v for k, v in data.items() if k not in ("name", "description", "source", "axes",
                                                                      "default_axis", "facts")}

@@ -491,7 +491,7 @@ def predict(
                                    notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
         notes += prop.notes
     out = [_judged(lv) for lv in out]
-    why = _tilt(0.0, g0)[1]
+    why = tilt_note(0.0, g0)[1]
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
     off, off_note = _vibration_off(reading, g0)
@@ -708,7 +708,7 @@ def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | fl
     return propagation(sensor, excitation, levels, static_g, kind).u_g
 
 
-def _tilt(vre_g: float, g0: float) -> tuple[float, str | None]:
+def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
     """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
     NaN with the reason where it is undefined."""
     from vrelab.models import design
@@ -896,8 +896,8 @@ def _level(
                         if shape == "sine-on-random" else "") + " — simulate")
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
-    tilt, why = _tilt(total, g0)
-    if why and _tilt(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
+    tilt, why = tilt_note(total, g0)
+    if why and tilt_note(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
         notes.append(why)
     return LevelPrediction(
         rms_g=rms_g,

@@ -24,7 +24,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from vrelab import __version__
+from vrelab._version import __version__
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5

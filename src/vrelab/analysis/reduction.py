@@ -35,8 +35,8 @@ from typing import Any, Collection, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab import __version__
 from vrelab import _validate as V
+from vrelab._version import __version__
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.analysis.segmentation import (
     SMOOTH_WINDOWS,

@@ -59,7 +59,7 @@ class Series:
     curves: tuple[Curve, ...] = ()
 
 
-def _new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list]:
+def new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list]:
     fig = Figure(figsize=(_SIZE_IN[0], height_in or _SIZE_IN[1]), dpi=_DPI, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
@@ -253,7 +253,7 @@ def plot_vre_vs_rms(
     """
     if isinstance(series, VreResult):
         series = [Series(describe_conditions(series, short=True) or "measured", series)]
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     for i, s in enumerate(series):
         color = COLORS[i % len(COLORS)]
         _draw_levels(ax, s.result, s.label, color, connect=len(series) > 1 and not s.curves)
@@ -320,7 +320,7 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     """
     from matplotlib.legend_handler import HandlerTuple
 
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     groups = frequency_groups(result)
     handles: list = []
     labels: list[str] = []
@@ -373,7 +373,7 @@ def plot_vrc_vs_freq(
     fits = sorted((f for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params), key=lambda f: f.freq_hz)
     if not fits:
         raise ValueError("result has no per-frequency VRC fits (needs a sine sweep with fits at freq_hz)")
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     f_hz = np.array([f.freq_hz for f in fits], dtype=float)
     v = np.array([f.params["vrc_ug_per_g2"].value for f in fits])
     u = np.array([f.params["vrc_ug_per_g2"].u for f in fits])
@@ -511,7 +511,7 @@ def plot_time_series(
     the DUT would read without rails, so what the rails cut off shows). Bottom panel: the DUT's
     moving mean in mg relative to the first vibration-off segment, the offset shift that is VRE.
     """
-    fig, (ax, ax2) = _new_figure(2, height_in=6.2)
+    fig, (ax, ax2) = new_figure(2, height_in=6.2)
     fig.get_layout_engine().set(h_pad=0.02)
     t = env.t_s
     have_ref = "reference" in env.channels
@@ -623,7 +623,7 @@ def plot_time_windows(
     """
     if not windows:
         raise ValueError("plot_time_windows needs at least one window")
-    fig, axes = _new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
+    fig, axes = new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
     off = static_g or 0.0
     for ax, w in zip(axes, windows):
         t_ms = 1e3 * np.asarray(w.t_s, dtype=np.float64)
@@ -683,7 +683,7 @@ def plot_envelope_csv(path: str | Path, *, title: str | None = None) -> Figure:
     if tk is None or mk is None or isinstance(cols[tk], list) or isinstance(cols[mk], list):
         raise ValueError(f"{Path(path).name}: need a time column and a DUT mean column, got {', '.join(cols)}")
     t = np.asarray(cols[tk])
-    fig, (ax, ax2) = _new_figure(2, height_in=5.4)
+    fig, (ax, ax2) = new_figure(2, height_in=5.4)
     if rk is not None and not isinstance(cols[rk], list):
         ax.plot(t, np.asarray(cols[rk]), color="0.35", lw=1, label="reference rms per window")
     ax.set_ylabel("vibration (g rms)")
@@ -734,7 +734,7 @@ def plot_psd(
     if not (f.shape == pm.shape == pp.shape):
         raise ValueError(f"freq_hz, psd_measured, psd_profile must have one shape, got {f.shape}, {pm.shape}, {pp.shape}")
     tol_db = V.positive_scalar("tol_db", tol_db)
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(f) & np.isfinite(pm) & (f > 0) & (pm > 0)
         prof = np.isfinite(f) & np.isfinite(pp) & (f > 0) & (pp > 0)

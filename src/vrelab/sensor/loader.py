@@ -313,7 +313,7 @@ def list_presets() -> list[str]:
     return sorted(p.name[: -len(".toml")] for p in _preset_dir().iterdir() if p.name.endswith(".toml"))
 
 
-def _read(spec: str) -> tuple[dict[str, Any], str]:
+def read_spec(spec: str) -> tuple[dict[str, Any], str]:
     presets = list_presets()
     if spec in presets:
         text = (_preset_dir() / f"{spec}.toml").read_text(encoding="utf-8")
@@ -536,7 +536,7 @@ def load_sensor(
     """
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
-    data, origin = _read(spec)
+    data, origin = read_spec(spec)
     _check_keys(data, _TOP_KEYS, origin)
     if "schema" not in data:
         raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "

@@ -62,9 +62,9 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
 def _tilt_deg(vre_g: float, static_g: float) -> float:
     """:func:`vrelab.models.design.tilt_error_from_static_deg` (an axis at tilt ``asin(g0)``), NaN
     where it is undefined (g0 or g0 + δ at or beyond ±1 g): predict's rule, imported."""
-    from vrelab.predict import _tilt
+    from vrelab.predict import tilt_note
 
-    return _tilt(vre_g, static_g)[0]
+    return tilt_note(vre_g, static_g)[0]
 
 
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
