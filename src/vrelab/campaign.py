@@ -36,7 +36,7 @@ from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
 from vrelab._version import __version__
-from vrelab.results import Estimate, FitResult, VreResult, same_frequency
+from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 RUN_KEYS = (
     "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
@@ -652,12 +652,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                         rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
                                       "rail_g": {"value": e.value, "u": e.u}, "model": f.model})
     vrcs.sort(key=lambda v: (v["freq_hz"], v["static_g"]))
-    groups: list[list[dict[str, Any]]] = []
-    for v in vrcs:
-        if groups and same_frequency(groups[-1][0]["freq_hz"], v["freq_hz"]):
-            groups[-1].append(v)
-        else:
-            groups.append([v])
+    groups = group_by_frequency(vrcs, lambda v: v["freq_hz"])
     est = lambda v: Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")  # noqa: E731
     by_freq: list[FitResult] = []
     k2_only: list[FitResult] = []

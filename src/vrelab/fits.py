@@ -37,6 +37,7 @@ from vrelab.results import (
     LevelResult,
     Method,
     Notice,
+    group_by_frequency,
     same_frequency,
 )
 
@@ -535,16 +536,10 @@ def _rails_of(fit: FitResult) -> tuple[float, float] | None:
 
 
 def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
-    """Indices of the levels run at each sine frequency (:func:`vrelab.results.same_frequency`),
+    """Indices of the levels run at each sine frequency (:func:`vrelab.results.group_by_frequency`),
     in increasing frequency."""
-    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz)
-    groups: list[list[int]] = []
-    for i in order:
-        if groups and same_frequency(levels[groups[-1][0]].freq_hz, levels[i].freq_hz):
-            groups[-1].append(i)
-        else:
-            groups.append([i])
-    return groups
+    return group_by_frequency((i for i, lv in enumerate(levels) if lv.freq_hz is not None),
+                              lambda i: float(levels[i].freq_hz))  # type: ignore[arg-type]
 
 
 def fit_levels(

@@ -68,7 +68,7 @@ from vrelab._format import finite_or_none
 from vrelab.campaign import SAME_ORIENTATION_G  # static fields closer than this are one orientation
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
-from vrelab.results import Estimate, same_frequency
+from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
@@ -319,12 +319,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         if any(r[3] is None for r in rows):
             notes.append(f"{where}: sine levels without a drive frequency: not used")
             return []
-        groups: list[list[tuple[Any, ...]]] = []
-        for r in sorted(rows, key=lambda r: r[3]):
-            if groups and same_frequency(groups[-1][0][3], r[3]):
-                groups[-1].append(r)
-            else:
-                groups.append([r])
+        groups = group_by_frequency(rows, lambda r: r[3])
         return [make(g, float(np.median([r[3] for r in g])), None) for g in groups]
     if method == "random":
         prof = run.get("profile")
@@ -365,11 +360,8 @@ def _orientations(obs: Sequence[Observation]) -> list[float]:
 
 
 def _sine_frequencies(obs: Sequence[Observation]) -> list[float]:
-    out: list[float] = []
-    for f in sorted(ob.freq_hz for ob in obs if ob.method == "sine" and ob.freq_hz):
-        if not out or not same_frequency(out[-1], f):
-            out.append(f)
-    return out
+    fs = [ob.freq_hz for ob in obs if ob.method == "sine" and ob.freq_hz]
+    return [g[0] for g in group_by_frequency(fs, float)]
 
 
 def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, str]]:

@@ -28,7 +28,7 @@ from vrelab._format import field_label, format_value, format_value_u
 from vrelab._load import json_loads
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
-from vrelab.results import FitResult, LevelResult, VreResult, same_frequency
+from vrelab.results import FitResult, LevelResult, VreResult, group_by_frequency, same_frequency
 
 FloatArray = NDArray[np.float64]
 
@@ -295,17 +295,12 @@ def frequency_groups(result: VreResult) -> list[tuple[float | None, list[LevelRe
     with its VRC fit; one group (frequency None) for a random test."""
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
-    groups: list[tuple[float | None, list[LevelResult]]] = []
-    for x in lv:
-        key = x.freq_hz
-        for g in groups:
-            if (g[0] is None) == (key is None) and same_frequency(g[0], key):
-                g[1].append(x)
-                break
-        else:
-            groups.append((key, [x]))
+    random = [x for x in lv if x.freq_hz is None]
+    groups: list[tuple[float | None, list[LevelResult]]] = [(None, random)] if random else []
+    groups += [(g[0].freq_hz, g) for g in group_by_frequency([x for x in lv if x.freq_hz is not None],
+                                                            lambda x: float(x.freq_hz))]  # type: ignore[arg-type]
     out = []
-    for fq, pts in sorted(groups, key=lambda g: -1.0 if g[0] is None else g[0]):
+    for fq, pts in groups:
         fit = next((f for f in fits if fq is not None and f.freq_hz is not None and same_frequency(f.freq_hz, fq)),
                    next((f for f in fits if f.freq_hz is None), None) if fq is None else None)
         out.append((fit.freq_hz if fit is not None and fit.freq_hz is not None else fq, pts, fit))
