@@ -6,7 +6,13 @@ from __future__ import annotations
 import itertools
 
 from vrelab.report.plots import frequency_groups
-from vrelab.results import Conditions, Estimate, LevelResult, VreResult, group_by_frequency
+from vrelab.results import (
+    Conditions,
+    Estimate,
+    LevelResult,
+    VreResult,
+    group_by_frequency,
+)
 
 # Three drive frequencies 0.9 % apart: 100 and 100.9 Hz are one sine point (within 1 %,
 # results.FREQ_RTOL), 100.9 and 101.8 Hz too, but 100 and 101.8 Hz (1.8 %) are not. Grouping
@@ -41,3 +47,43 @@ def test_report_frequency_groups_do_not_depend_on_level_order() -> None:
 def test_report_frequency_groups_put_random_levels_first_in_one_group() -> None:
     groups = frequency_groups(_result((200.0, None, None)))
     assert [(fq, len(pts)) for fq, pts, _ in groups] == [(None, 2), (200.0, 1)]
+
+
+# --------------------------------------------------------------------------- µg/gⁿ ↔ 1/gⁿ⁻¹
+def _unit_literals() -> list[str]:
+    """Lines of the package (but vrelab/units.py) writing the µg factor as a number (1e6, 1e-6,
+    1e12) on a line about µg, VRC or a per-g coefficient."""
+    import ast
+    from pathlib import Path
+
+    import vrelab
+
+    src = Path(vrelab.__file__).parent
+    hits = []
+    for path in sorted(src.rglob("*.py")):
+        if path.name == "units.py" and path.parent == src:
+            continue
+        text = path.read_text(encoding="utf-8")
+        lines = text.splitlines()
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.Constant) and isinstance(node.value, float) and node.value in (1e6, 1e-6, 1e12):
+                line = lines[node.lineno - 1]
+                if any(w in line.lower() for w in ("ug", "µg", "per_g", "vrc", "k2", "k3", "k4")):
+                    hits.append(f"{path.relative_to(src)}:{node.lineno}: {line.strip()}")
+    return hits
+
+
+def test_the_ug_factor_has_one_owner() -> None:
+    assert _unit_literals() == []
+
+
+def test_the_ug_owner_converts_a_datasheet_vrc() -> None:
+    """A datasheet's 20 µg/g² is k2 = 2e-5 /g (1 µg = 1e-6 g, SI prefix), to the last bit in the
+    loader and in the models alike (the models multiplied by 1e-6, the loader divided by 1e6:
+    1.9999999999999998e-05 against 2e-05)."""
+    from vrelab.models.nonlinearity import per_g_to_ug_per_g2, ug_per_g2_to_per_g
+    from vrelab.sensor import load_sensor
+
+    assert load_sensor("ideal", range_g=2, k2_ug_per_g2=20.0).k2_per_g == 2e-5
+    assert ug_per_g2_to_per_g(20.0) == 2e-5
+    assert per_g_to_ug_per_g2(2e-5) == 20.0

@@ -40,6 +40,7 @@ from vrelab.results import (
     group_by_frequency,
     same_frequency,
 )
+from vrelab.units import UG_PER_G
 
 # Residual (in combined standard uncertainties) beyond which a level has left the model.
 DEPARTURE_SIGMA = 3.0
@@ -159,9 +160,9 @@ def fit_vrc(
     chi2 = float(np.sum(w * resid**2))
     cov, chi2_red = _scale_cov(cov, chi2, len(sel) - n_par, bool(np.all(u > 0)), notes)
     se = np.sqrt(np.diag(cov))
-    params = {"vrc_ug_per_g2": Estimate(float(beta[0] * 1e6), float(se[0] * 1e6), "ug/g^2")}
+    params = {"vrc_ug_per_g2": Estimate(float(beta[0] * UG_PER_G), float(se[0] * UG_PER_G), "ug/g^2")}
     if with_k4:
-        params["c4_ug_per_g4"] = Estimate(float(beta[1] * 1e6), float(se[1] * 1e6), "ug/g^4")
+        params["c4_ug_per_g4"] = Estimate(float(beta[1] * UG_PER_G), float(se[1] * UG_PER_G), "ug/g^4")
         notes.append("c4 = k4*E[x^4]/rms^4: 3*k4 for Gaussian vibration, 1.5*k4 for sine")
     return FitResult(
         model="vrc+k4" if with_k4 else "vrc",
@@ -171,7 +172,7 @@ def fit_vrc(
         freq_hz=freq_hz,
         levels_used=tuple(float(r) for r in rms),
         notes=tuple(notes),
-        covariance=_cov_tuple(cov * 1e12),  # both parameters in µg units: (1e6)²
+        covariance=_cov_tuple(cov * UG_PER_G**2),  # both parameters in µg units
     )
 
 
@@ -347,7 +348,7 @@ def fit_rail(
     se = np.sqrt(np.diag(covs))
     scale = np.ones(len(p))  # units of params: g for rails, µg/g² for the joint VRC term
     if with_vrc:
-        scale[-1] = 1e6
+        scale[-1] = UG_PER_G
     if symmetric:
         params = {"rail_g": Estimate(float(p[0]), float(se[0]), "g")}
     else:
@@ -356,7 +357,7 @@ def fit_rail(
             "rail_high_g": Estimate(float(p[1]), float(se[1]), "g"),
         }
     if with_vrc:
-        params["vrc_ug_per_g2"] = Estimate(float(p[-1] * 1e6), float(se[-1] * 1e6), "ug/g^2")
+        params["vrc_ug_per_g2"] = Estimate(float(p[-1] * UG_PER_G), float(se[-1] * UG_PER_G), "ug/g^2")
     if departure is not None:
         notes.append(
             f"data leave the {kind} model from {rms[departure]:.4g} g rms on "

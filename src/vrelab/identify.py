@@ -70,6 +70,7 @@ from vrelab.models.clipping import Kind as ClipKind
 from vrelab.profiles import RandomProfile
 from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
+from vrelab.units import UG_PER_G
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
 # quadrature over the levels in units of their standard uncertainty, reaches this.
@@ -269,7 +270,7 @@ def apparent_vrc(ob: Observation) -> tuple[float, float]:
     w = 1.0 / ob.u_g**2
     x2 = ob.rms_g**2
     s = float(np.sum(w * x2 * x2))
-    return float(np.sum(w * ob.vre_g * x2)) / s * 1e6, 1e6 / math.sqrt(s)
+    return float(np.sum(w * ob.vre_g * x2)) / s * UG_PER_G, UG_PER_G / math.sqrt(s)
 
 
 def _type_a(level: Mapping[str, Any]) -> float | None:

@@ -28,7 +28,14 @@ from vrelab._format import field_label, format_value, format_value_u
 from vrelab._load import json_loads
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
-from vrelab.results import FitResult, LevelResult, VreResult, group_by_frequency, same_frequency
+from vrelab.results import (
+    FitResult,
+    LevelResult,
+    VreResult,
+    group_by_frequency,
+    same_frequency,
+)
+from vrelab.units import UG_PER_G
 
 FloatArray = NDArray[np.float64]
 
@@ -323,8 +330,8 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
         color, marker = COLORS[i % len(COLORS)], MARKERS[i % len(MARKERS)]
         used = set(np.round(fit.levels_used, 12)) if fit and fit.levels_used else None
         r2 = np.array([x.rms_g**2 for x in pts])
-        y = np.array([x.vre.value for x in pts]) * 1e6
-        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * 1e6
+        y = np.array([x.vre.value for x in pts]) * UG_PER_G
+        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * UG_PER_G
         mask = np.array([used is None or round(x.rms_g, 12) in used for x in pts], dtype=bool)
         name = f"{fq:g} Hz" if fq is not None else "measured"
         pts_h = ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt=marker, color=color, capsize=3, label="_nolegend_")

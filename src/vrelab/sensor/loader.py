@@ -53,6 +53,7 @@ from vrelab.sensor.stages import (
     Resonator,
     Stage,
 )
+from vrelab.units import UG_PER_G
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -587,10 +588,10 @@ def load_sensor(
         if v is not None:
             uncertainty.pop(key, None)  # set by the user: the file's assumed u is not about that value
     if k2_ug_per_g2 is not None:
-        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
+        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / UG_PER_G
         facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
     if k3_ug_per_g3 is not None:
-        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / 1e6
+        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / UG_PER_G
         facts["k3_per_g2"] = f"set by the user: {k3_ug_per_g3:g} µg/g³"
 
     description = data.get("description", "")

@@ -61,6 +61,7 @@ from vrelab.sensor.base import (
 )
 from vrelab.sensor.filtering import FilterState, discretize_zpk, run_filter
 from vrelab.sensor.overrange import OverRange
+from vrelab.units import from_ug
 
 __all__ = [
     "Stage",
@@ -486,7 +487,7 @@ class Noise(StageBase):
         positive_int(self, "frame_size")
 
     def sigma_g(self, fs_hz: float) -> float:
-        return self.density_ug_per_rthz * 1e-6 * math.sqrt(fs_hz / 2)
+        return from_ug(self.density_ug_per_rthz) * math.sqrt(fs_hz / 2)
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> _NoiseState:
         # Without a chain seed the stage is still reproducible: seed 0.
