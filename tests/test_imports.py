@@ -181,3 +181,12 @@ def test_each_module_imports_alone_in_a_fresh_interpreter() -> None:
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_the_simulation_does_not_import_the_analysis() -> None:
+    """Data flow one way: a simulated record goes to the analysis, never the reverse; the
+    timing both need (settling, window) lives in the record module below both."""
+    edges, _ = _graph()
+    sim = {m: sorted(d for d in deps if d.startswith("vrelab.analysis"))
+           for m, deps in edges.items() if m.startswith("vrelab.simulation")}
+    assert sim and all(v == [] for v in sim.values()), sim

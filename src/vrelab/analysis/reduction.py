@@ -54,7 +54,7 @@ from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.fits import fit_levels
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.record import Record, Schedule, Segment
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, Record, Schedule, Segment
 from vrelab.results import (
     Conditions,
     Estimate,
@@ -65,9 +65,7 @@ from vrelab.results import (
 )
 
 DEFAULT_BAND_HZ = (50.0, 2000.0)
-DEFAULT_SETTLE_S = 0.5
 DEFAULT_BLOCK = 1 << 18
-WINDOW_S = 0.1
 # A segment needs this many whole averaging windows after the trim, or it is ignored.
 MIN_SEGMENT_WINDOWS = 3
 
