@@ -87,3 +87,53 @@ def test_the_ug_owner_converts_a_datasheet_vrc() -> None:
     assert load_sensor("ideal", range_g=2, k2_ug_per_g2=20.0).k2_per_g == 2e-5
     assert ug_per_g2_to_per_g(20.0) == 2e-5
     assert per_g_to_ug_per_g2(2e-5) == 20.0
+
+
+# --------------------------------------------------------------------------- the clipping kind
+def _clip_kind_defaults() -> list[str]:
+    """Places (but vrelab/models/kinds.py) that write a clipping kind as a default: a function's
+    default value, an argparse ``default=``, or a ``.get(key, default)``."""
+    import ast
+    from pathlib import Path
+
+    import vrelab
+
+    src = Path(vrelab.__file__).parent
+    kinds = {"censored", "truncated"}
+
+    def is_kind(node: ast.AST | None) -> bool:
+        return isinstance(node, ast.Constant) and node.value in kinds
+
+    hits = []
+    for path in sorted(src.rglob("*.py")):
+        if path.relative_to(src).as_posix() == "models/kinds.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            found = False
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                found = any(is_kind(d) for d in [*node.args.defaults, *node.args.kw_defaults])
+            elif isinstance(node, ast.Call):
+                found = any(k.arg == "default" and is_kind(k.value) for k in node.keywords) or (
+                    isinstance(node.func, ast.Attribute) and node.func.attr == "get" and len(node.args) == 2
+                    and is_kind(node.args[1]))
+            if found:
+                hits.append(f"{path.relative_to(src)}:{node.lineno}")
+    return hits
+
+
+def test_the_clip_kind_default_has_one_owner() -> None:
+    assert _clip_kind_defaults() == []
+
+
+def test_the_clip_kind_default_is_censored() -> None:
+    """SPEC 1.1: physical saturation (a sample beyond a rail reads as the rail) is the default;
+    the CLI's --kind and the API agree with it."""
+    import inspect
+
+    from vrelab.models.clipping import mean_shift
+    from vrelab.models.kinds import DEFAULT_CLIP_KIND
+    from vrelab.predict import predict
+
+    assert DEFAULT_CLIP_KIND == "censored"
+    assert inspect.signature(mean_shift).parameters["kind"].default == "censored"
+    assert inspect.signature(predict).parameters["kind"].default == "censored"

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from vrelab import _validate as V
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.results import (
     Estimate,
     FitResult,
@@ -246,7 +247,7 @@ def _fit_clip_once(
 def fit_rail(
     levels: Sequence[LevelResult],
     static_g: float,
-    kind: ClipKind = "censored",
+    kind: ClipKind = DEFAULT_CLIP_KIND,
     symmetric: bool = True,
     with_vrc: bool = False,
 ) -> FitResult:
@@ -547,7 +548,7 @@ def fit_levels(
     levels: Sequence[LevelResult],
     method: Method,
     static_g: float | None,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     fit_k4: bool = False,
     rail_with_vrc: bool = False,
     nominal_freqs_hz: Sequence[float | None] | None = None,

@@ -67,6 +67,7 @@ from numpy.typing import NDArray
 from vrelab._format import finite_or_none
 from vrelab.campaign import SAME_ORIENTATION_G  # static fields closer than this are one orientation
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile
 from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
@@ -337,7 +338,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
 # --------------------------------------------------------------------------- the model
 
 
-def model_levels(sensor: Any, ob: Observation, kind: ClipKind = "censored") -> Any:
+def model_levels(sensor: Any, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Any:
     """:func:`vrelab.predict.predict` at the observation's conditions (its levels' rms)."""
     from vrelab.predict import predict
 
@@ -799,7 +800,7 @@ def _key(obs: Sequence[Observation]) -> list[tuple[int, float | None, tuple[floa
     return [(ob.run, ob.freq_hz, tuple(ob.rms_g)) for ob in obs]
 
 
-def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = "censored",
+def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = DEFAULT_CLIP_KIND,
                      campaign: str = "the campaign", typeb: Any = None, notes: Sequence[str] = (),
                      prefer_base: bool = False) -> ChannelModel:
     """Identify one channel's model from its observations (see the module docstring).
@@ -1104,7 +1105,7 @@ class Identification:
 
 
 def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | None = None,
-             odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = "censored",
+             odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = DEFAULT_CLIP_KIND,
              typeb: Any = None, workers: int = 1, prefer_base: bool = False) -> Identification:
     """Identify every channel of a campaign document on the base sensor ``base_spec``.
 

@@ -56,6 +56,7 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.results import Conditions
@@ -333,7 +334,7 @@ def predict(
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
     levels: Sequence[float],
     static_g: float = 1.0,
-    kind: ClipKind = "censored",
+    kind: ClipKind = DEFAULT_CLIP_KIND,
 ) -> Prediction:
     r"""Predict VRE at each vibration level, by mechanism, without simulating.
 
@@ -551,7 +552,7 @@ IDENTIFIED = "identified (covariance)"
 
 
 def propagation(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-                levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> Propagation:
+                levels: Sequence[float], static_g: float, kind: ClipKind = DEFAULT_CLIP_KIND) -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
     Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
@@ -703,7 +704,7 @@ def _monte_carlo(sensor: "Sensor", excitation: Any, levels: NDArray[np.float64],
 
 
 def propagated_u(sensor: "Sensor", excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-                 levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
+                 levels: Sequence[float], static_g: float, kind: ClipKind = DEFAULT_CLIP_KIND) -> NDArray[np.float64]:
     """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
     return propagation(sensor, excitation, levels, static_g, kind).u_g
 

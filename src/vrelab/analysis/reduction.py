@@ -54,6 +54,7 @@ from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.fits import fit_levels
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, Record, Schedule, Segment
 from vrelab.results import (
     Conditions,
@@ -855,7 +856,7 @@ def analyze_full(
     profile: Any = None,
     static_g: float | None = None,
     rail_g: float | None = None,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     band_hz: tuple[float, float] | None = None,
     fit_k4: bool = False,
     progress: bool = False,

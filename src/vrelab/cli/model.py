@@ -16,6 +16,7 @@ from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
 from vrelab.models.clipping import KINDS, clip_vre
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
 from vrelab.models.nonlinearity import vre_poly
 from vrelab.units import from_ug
@@ -174,7 +175,7 @@ def register(subparsers: Any) -> None:
     clip.add_argument(
         "--kind",
         choices=KINDS,
-        default="censored",
+        default=DEFAULT_CLIP_KIND,
         help="censored: beyond-rail samples read as the rail (default); truncated: they are discarded (article's model)",
     )
     clip.add_argument("--json", action="store_true", help="print one JSON object (keys rms_g, vre_g, ...)")

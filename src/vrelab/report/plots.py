@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as V
 from vrelab._format import field_label, format_value, format_value_u
 from vrelab._load import json_loads
+from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
 from vrelab.results import (
@@ -139,7 +140,7 @@ def clip_curves(
     static_g: float,
     rail_g: float,
     rms_g: ArrayLike,
-    kinds: Sequence[ClipKind] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = KINDS,
     rail_low_g: float | None = None,
     label_suffix: str = "",
 ) -> list[Curve]:
@@ -180,7 +181,7 @@ def vrc_curve(vrc_ug_per_g2: float, rms_g: ArrayLike, label: str | None = None) 
 def model_curves(
     result: VreResult,
     rms_max_g: float | None = None,
-    kinds: Sequence[ClipKind] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = KINDS,
     n: int = 200,
 ) -> list[Curve]:
     """The curves a result's own fits imply: clipping models at the fitted rail, VRC·rms².

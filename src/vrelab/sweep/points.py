@@ -36,6 +36,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
+
 
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
     """rms of the proof-mass motion: through the resonance at the sine frequency, or over the
@@ -77,7 +79,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     static = float(params.get("static_g", 1.0))
     range_g = float(params.get("range_g", 2.0))
     shape = params.get("shape", "gaussian")
-    clip_kind = params.get("clip_kind", "censored")
+    clip_kind = params.get("clip_kind", DEFAULT_CLIP_KIND)
     rms_mass = _rms_at_proof_mass(rms, params)
     k2 = ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0)))
     k3 = ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0)))  # µg/g³ -> 1/g²: same factor
