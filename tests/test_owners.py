@@ -137,3 +137,35 @@ def test_the_clip_kind_default_is_censored() -> None:
     assert DEFAULT_CLIP_KIND == "censored"
     assert inspect.signature(mean_shift).parameters["kind"].default == "censored"
     assert inspect.signature(predict).parameters["kind"].default == "censored"
+
+
+# --------------------------------------------------------------------------- the weighted mean, Type B
+def test_gum_weighted_mean_scales_by_the_birge_ratio_only_upward() -> None:
+    """By hand: 1 ± 1 and 3 ± 1 average to 2 with internal u 1/√2 and χ² = 2 (one dof), Birge
+    ratio √2, so u = 1; 1 ± 1 and 1.5 ± 1 scatter less than their u (χ² = 0.125): u stays 1/√2."""
+    import math
+
+    from vrelab.gum import weighted_mean, weighted_mean_chi2
+    from vrelab.results import Estimate
+
+    assert weighted_mean_chi2([1.0, 3.0], [1.0, 1.0]) == (2.0, math.sqrt(0.5), 2.0)
+    e = weighted_mean([Estimate(1.0, 1.0, "g"), Estimate(3.0, 1.0, "g")])
+    assert (e.value, e.unit) == (2.0, "g") and math.isclose(e.u, 1.0, rel_tol=1e-15)
+    e = weighted_mean([Estimate(1.0, 1.0, "g"), Estimate(1.5, 1.0, "g")])
+    assert e.value == 1.25 and math.isclose(e.u, math.sqrt(0.5), rel_tol=1e-15)
+    # weights 1/u²: 0 ± 1 and 10 ± 3 -> (0·1 + 10/9) / (1 + 1/9) = 1
+    assert math.isclose(weighted_mean([Estimate(0.0, 1.0, "g"), Estimate(10.0, 3.0, "g")]).value, 1.0, rel_tol=1e-15)
+
+
+def test_common_sensitivity_terms_in_closed_form() -> None:
+    """A VRC = VRE/rms² scales by -2·r (reference) and p (DUT): u² = u_A² + ((2r)² + p²)·k²;
+    with r = 1 %, p = 0.5 % and k2 = 100 ± 3: u = √(9 + (0.0004 + 0.000025)·10⁴) = √13.25."""
+    import math
+
+    from vrelab.gum import common_sensitivity_terms
+    from vrelab.results import Estimate
+
+    (k2, k3), note = common_sensitivity_terms(
+        (Estimate(100.0, 3.0, "ug/g^2"), None), [{"u_reference_pct": 1.0}, {"u_dut_pct": 0.5}])
+    assert k3 is None and note and math.isclose(k2.u, math.sqrt(13.25), rel_tol=1e-12)
+    assert common_sensitivity_terms((k2,), [{}]) == ([k2], None)

@@ -36,6 +36,7 @@ from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
 from vrelab._version import __version__
+from vrelab.gum import common_sensitivity_terms, weighted_mean, weighted_mean_chi2
 from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 RUN_KEYS = (
@@ -663,7 +664,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             by_freq.append(fit_k2_k3([(v["static_g"], est(v)) for v in grp], freq_hz=f0))
         elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
             k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
-                                     if len(grp) == 1 else {"k2_ug_per_g2": _wmean([est(v) for v in grp])},
+                                     if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])},
                                      n_points=len(grp), freq_hz=f0))
     k2 = k3 = None
     both = None
@@ -689,12 +690,12 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         notes.append("no sine run with a VRC fit of two levels or more: k2 and k3 = null")
     budgets = [rr.run.budget for rr in results if any(n == channel for n, _ in rr.results)]
     if k2 is not None or k3 is not None:
-        k2, k3, note = _common_type_b(k2, k3, budgets)
+        (k2, k3), note = common_sensitivity_terms((k2, k3), budgets)
         if note:
             notes.append(note)
     rail = None
     if rails:
-        rail = _wmean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
+        rail = weighted_mean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
     elif not any(rr.run.method != "sine" for rr in results):
         notes.append("no random run: rail = null")
     else:
@@ -720,9 +721,7 @@ def _k2_across_frequencies(fits: Sequence[FitResult]) -> list[str]:
     ks = [(fq, e) for fq, e in ks if fq is not None and math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0]
     if len(ks) < 2:
         return []
-    w = [1.0 / e.u**2 for _, e in ks]
-    m = sum(wi * e.value for wi, (_, e) in zip(w, ks)) / sum(w)
-    chi2 = sum(wi * (e.value - m) ** 2 for wi, (_, e) in zip(w, ks))
+    _, _, chi2 = weighted_mean_chi2([e.value for _, e in ks], [e.u for _, e in ks])
     dof = len(ks) - 1
     p = float(chi2_dist.sf(chi2, dof))
     each = ", ".join(f"{fq:g} Hz {format_value_u(e.value, e.u, unit='µg/g²')}" for fq, e in ks)
@@ -743,34 +742,6 @@ def _type_a(fit: FitResult, name: str) -> Estimate:
         i = list(fit.params).index(name)
         return Estimate(e.value, math.sqrt(fit.covariance[i][i]), e.unit)
     return e
-
-
-def _common_type_b(k2: Estimate | None, k3: Estimate | None,
-                   budgets: Sequence[Mapping[str, float]]) -> tuple[Estimate | None, Estimate | None, str | None]:
-    """k2 and k3 with the sensitivity terms that every run shares (one reference, one DUT:
-    a VRC scales by -2·r and by the DUT's p, so k2 and k3 do too): added once, after the
-    weighted combination that independent Type A errors allow. The largest declared values
-    of the runs are used."""
-    r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
-    p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
-    if not (r or p):
-        return k2, k3, None
-    rel = math.hypot(2 * r, p)
-    out = [None if e is None else Estimate(e.value, math.hypot(e.u, rel * abs(e.value)), e.unit) for e in (k2, k3)]
-    return out[0], out[1], (f"k2, k3: reference ({100 * r:g} %) and DUT ({100 * p:g} %) sensitivity terms, common to "
-                            "every run, added after the combination (the static-field and thermal terms are not)")
-
-
-def _wmean(es: Sequence[Estimate]) -> Estimate:
-    """Inverse-variance weighted mean; u scaled by the Birge ratio when the values scatter more
-    than their uncertainties."""
-    w = [1.0 / e.u**2 for e in es]
-    m = sum(wi * e.value for wi, e in zip(w, es)) / sum(w)
-    u = math.sqrt(1.0 / sum(w))
-    if len(es) > 1:
-        chi2 = sum(wi * (e.value - m) ** 2 for wi, e in zip(w, es)) / (len(es) - 1)
-        u *= math.sqrt(max(chi2, 1.0))
-    return Estimate(m, u, es[0].unit)
 
 
 # --------------------------------------------------------------------------- the document
