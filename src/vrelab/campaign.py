@@ -36,7 +36,12 @@ from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
 from vrelab._version import __version__
-from vrelab.gum import common_sensitivity_terms, weighted_mean, weighted_mean_chi2
+from vrelab.gum import (
+    TYPE_B_KEYS,
+    common_sensitivity_terms,
+    weighted_mean,
+    weighted_mean_chi2,
+)
 from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 RUN_KEYS = (
@@ -44,7 +49,7 @@ RUN_KEYS = (
     "dut_sensitivity", "reference_units", "reference_sensitivity", "schedule", "profile", "band",
     "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g",
 )  # fmt: skip
-BUDGET_KEYS = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
+BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
 TOP_KEYS = ("name", "description", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1

@@ -43,6 +43,10 @@ DECISION_RULE = ("guarded acceptance: pass when |VRE| + U <= limit; fail when |V
                  "indeterminate otherwise (U = k·u, coverage about 95 %)")
 
 
+# The Type B inputs a test declares (a campaign run's budget keys, TypeB's fields).
+TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
+
+
 @dataclass(frozen=True)
 class TypeB:
     """The Type B inputs of a test (SPEC 4.3); zero means not declared."""
@@ -53,15 +57,15 @@ class TypeB:
     u_thermal_g: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"):
+        for name in TYPE_B_KEYS:
             object.__setattr__(self, name, float(V.non_negative(name, getattr(self, name))))
 
     @property
     def declared(self) -> bool:
-        return any(getattr(self, n) > 0 for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"))
+        return any(getattr(self, n) > 0 for n in TYPE_B_KEYS)
 
     def to_dict(self) -> dict[str, float]:
-        return {n: getattr(self, n) for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")}
+        return {n: getattr(self, n) for n in TYPE_B_KEYS}
 
     @classmethod
     def from_mapping(cls, d: Mapping[str, Any]) -> "TypeB":
