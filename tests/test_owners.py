@@ -169,3 +169,27 @@ def test_common_sensitivity_terms_in_closed_form() -> None:
         (Estimate(100.0, 3.0, "ug/g^2"), None), [{"u_reference_pct": 1.0}, {"u_dut_pct": 0.5}])
     assert k3 is None and note and math.isclose(k2.u, math.sqrt(13.25), rel_tol=1e-12)
     assert common_sensitivity_terms((k2,), [{}]) == ([k2], None)
+
+
+def _sine_observation(vre_g: list[float]) -> object:
+    import numpy as np
+
+    from vrelab.identify import Observation
+
+    return Observation(run=1, label="s", method="sine", static_g=1.0, freq_hz=80.0, profile=None,
+                       rms_g=np.array([1.0, 2.0]), vre_g=np.array(vre_g), u_g=np.array([1e-6, 4e-6]))
+
+
+def test_identify_apparent_vrc_is_the_birge_scaled_weighted_mean() -> None:
+    """Levels at 1 and 2 g rms, u 1 and 4 µg: per level VRC = VRE/rms² with u/rms² = 1 µg/g²
+    each. VREs of 100 and 400 µg lie on VRC = 100 µg/g² exactly: 100 ± 1/√2 (χ² = 0, not scaled
+    down). VREs of 100 and 440 µg give 100 and 110 µg/g²: mean 105, χ² = 50 on one dof, so
+    u = √50/√2 = 5 (Birge); the unscaled fit said 1/√2."""
+    import math
+
+    from vrelab.identify import apparent_vrc
+
+    v, u = apparent_vrc(_sine_observation([100e-6, 400e-6]))  # type: ignore[arg-type]
+    assert math.isclose(v, 100.0, rel_tol=1e-12) and math.isclose(u, math.sqrt(0.5), rel_tol=1e-12)
+    v, u = apparent_vrc(_sine_observation([100e-6, 440e-6]))  # type: ignore[arg-type]
+    assert math.isclose(v, 105.0, rel_tol=1e-12) and math.isclose(u, 5.0, rel_tol=1e-12)

@@ -71,7 +71,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile
 from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
-from vrelab.units import UG_PER_G
+from vrelab.units import to_ug
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
 # quadrature over the levels in units of their standard uncertainty, reaches this.
@@ -267,11 +267,15 @@ def _pooled(u: NDArray[np.float64], dof: NDArray[np.float64]) -> NDArray[np.floa
 
 def apparent_vrc(ob: Observation) -> tuple[float, float]:
     """A sine observation's apparent VRC [µg/g²] and its u: the weighted least-squares fit
-    through the origin of VRE = VRC·rms² over its levels (u from the levels' u, unscaled)."""
-    w = 1.0 / ob.u_g**2
+    through the origin of VRE = VRC·rms² over its levels, which is the weighted mean of each
+    level's VRE/rms² (u: its u/rms²), so it is :func:`vrelab.gum.weighted_mean`'s: u scaled up by
+    the Birge ratio when the levels scatter about the line more than their u say."""
+    from vrelab.gum import weighted_mean
+
     x2 = ob.rms_g**2
-    s = float(np.sum(w * x2 * x2))
-    return float(np.sum(w * ob.vre_g * x2)) / s * UG_PER_G, UG_PER_G / math.sqrt(s)
+    e = weighted_mean([Estimate(to_ug(float(v / x)), to_ug(float(u / x)), "ug/g^2")
+                       for v, u, x in zip(ob.vre_g, ob.u_g, x2)])
+    return e.value, e.u
 
 
 def _type_a(level: Mapping[str, Any]) -> float | None:
@@ -1117,7 +1121,7 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     listed in ``notes`` and in every channel's notes.
     """
     from vrelab import _validate as V
-    from vrelab.gum import TypeB
+    from vrelab.gum import TYPE_B_KEYS, TypeB
     from vrelab.models.clipping import KINDS
     from vrelab.sensor import load_sensor
 
@@ -1130,9 +1134,8 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
         raise ValueError("identify: the campaign has no DUT channel with results"
                          + (f" ({len(failed)} run(s) failed: {'; '.join(failed)})" if failed else ""))
     if typeb is None:
-        keys = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
         runs = [r for r in doc["runs"] if isinstance(r.get("budget"), Mapping)]
-        typeb = TypeB(**{k: max((float(r["budget"].get(k, 0.0)) for r in runs), default=0.0) for k in keys})
+        typeb = TypeB(**{k: max((float(r["budget"].get(k, 0.0)) for r in runs), default=0.0) for k in TYPE_B_KEYS})
     name = str(doc.get("name", "campaign"))
     empty = [ch for ch, o in obs.items() if not o]
     if empty:
