@@ -42,14 +42,10 @@ from __future__ import annotations
 
 import importlib
 import sys
-from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("vrelab")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
+from vrelab._version import __version__
 
 if TYPE_CHECKING:
     from vrelab._api import analyze as analyze

@@ -23,6 +23,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from vrelab.units import UG_PER_G
+
 # What a missing or non-finite number shows as in a table.
 MISSING = "–"
 # GUM 7.2.6: an uncertainty is quoted with (at most) two significant digits.
@@ -174,8 +176,8 @@ def format_mg_text(value_g: float | None, u_g: float | None = None, signed: bool
 # factor to the unit a person reads (a sensor's k2 of 2e-05 1/g is 20 µg/g²).
 _UNIT_SUFFIXES: tuple[tuple[str, str, float], ...] = (
     ("_ug_per_rthz", "µg/√Hz", 1.0), ("_ug_per_g2", "µg/g²", 1.0), ("_ug_per_g3", "µg/g³", 1.0),
-    ("_ug_per_g4", "µg/g⁴", 1.0), ("_g_per_s", "g/s", 1.0), ("_per_g3", "µg/g⁴", 1e6), ("_per_g2", "µg/g³", 1e6),
-    ("_per_g", "µg/g²", 1e6), ("_g2_per_hz", "g²/Hz", 1.0), ("_hz", "Hz", 1.0), ("_db", "dB", 1.0),
+    ("_ug_per_g4", "µg/g⁴", 1.0), ("_g_per_s", "g/s", 1.0), ("_per_g3", "µg/g⁴", UG_PER_G), ("_per_g2", "µg/g³", UG_PER_G),
+    ("_per_g", "µg/g²", UG_PER_G), ("_g2_per_hz", "g²/Hz", 1.0), ("_hz", "Hz", 1.0), ("_db", "dB", 1.0),
     ("_deg", "°", 1.0), ("_s", "s", 1.0), ("_mg", "mg", 1.0), ("_g", "g", 1.0),
 )
 # Short names a person reads for the keys whose name alone says too little.

@@ -120,7 +120,7 @@ def _legacy_stranger(folder: Path) -> str | None:
     anything but must itself hold only such files; a symbolic link is never ours. And one
     results file must be at the top, so that a folder of the user's holding, say, only a
     ``levels.csv`` of their own is not taken."""
-    from vrelab.folder import KNOWN_NAMES, OPAQUE_DIRS, RESULT_FILES
+    from vrelab._names import KNOWN_NAMES, OPAQUE_DIRS, RESULT_FILES
 
     for rel, path in _entries(folder):
         if "/" in rel and rel.split("/", 1)[0] in OPAQUE_DIRS:
@@ -187,7 +187,7 @@ def _write_marker(folder: Path, extra: Iterable[str] = (), keep: Iterable[str] =
     import shlex
     import sys
 
-    from vrelab import __version__
+    from vrelab._version import __version__
 
     entries = {rel for rel, _ in _entries(folder)} | set(extra) | set(keep)
     doc = {

@@ -31,12 +31,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence, cast
 
-from vrelab import __version__
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._io import sha256_file
 from vrelab._load import toml_loads
-from vrelab.results import Estimate, FitResult, VreResult, same_frequency
+from vrelab._version import __version__
+from vrelab.gum import (
+    TYPE_B_KEYS,
+    common_sensitivity_terms,
+    weighted_mean,
+    weighted_mean_chi2,
+)
+from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 if TYPE_CHECKING:
     from vrelab.analysis.plausibility import MethodRequest
@@ -46,7 +52,7 @@ RUN_KEYS = (
     "dut_sensitivity", "reference_units", "reference_sensitivity", "schedule", "profile", "band",
     "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g",
 )  # fmt: skip
-BUDGET_KEYS = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
+BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
 TOP_KEYS = ("name", "description", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1
@@ -303,7 +309,7 @@ def _scales(run: Run) -> tuple[dict[str, Any], Any]:
 def _check_channels(run: Run) -> None:
     """The run's file is of a known format and holds its channels (its names only: a text
     format is not parsed, a UFF58 file's headers only)."""
-    from vrelab.analysis.readers import _resolve
+    from vrelab.analysis.readers import resolve_channel
     from vrelab.analysis.readers._base import reader_for
 
     try:
@@ -318,12 +324,12 @@ def _check_channels(run: Run) -> None:
     found = {}
     for name, ch in run.dut.items():
         try:
-            found[name] = _resolve(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
+            found[name] = resolve_channel(ch, listing, f"DUT {name!r}")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: dut: {exc}") from None
     if run.reference is not None:
         try:
-            ref = _resolve(run.reference, listing, "reference")  # type: ignore[arg-type]
+            ref = resolve_channel(run.reference, listing, "reference")  # type: ignore[arg-type]
         except ValueError as exc:
             raise ValueError(f"{run.where}: reference: {exc}") from None
         _check_reference(run, found, ref)
@@ -655,12 +661,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                         rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
                                       "rail_g": {"value": e.value, "u": e.u}, "model": f.model})
     vrcs.sort(key=lambda v: (v["freq_hz"], v["static_g"]))
-    groups: list[list[dict[str, Any]]] = []
-    for v in vrcs:
-        if groups and same_frequency(groups[-1][0]["freq_hz"], v["freq_hz"]):
-            groups[-1].append(v)
-        else:
-            groups.append([v])
+    groups = group_by_frequency(vrcs, lambda v: v["freq_hz"])
 
     def est(v: Mapping[str, Any]) -> Estimate:
         return Estimate(v["vrc_ug_per_g2"]["value"], v["vrc_ug_per_g2"]["u"], "ug/g^2")
@@ -674,7 +675,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             by_freq.append(fit_k2_k3([(v["static_g"], est(v)) for v in grp], freq_hz=f0))
         elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
             k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
-                                     if len(grp) == 1 else {"k2_ug_per_g2": _wmean([est(v) for v in grp])},
+                                     if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])},
                                      n_points=len(grp), freq_hz=f0))
     k2 = k3 = None
     both = None
@@ -700,12 +701,12 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         notes.append("no sine run with a VRC fit of two levels or more: k2 and k3 = null")
     budgets = [rr.run.budget for rr in results if any(n == channel for n, _ in rr.results)]
     if k2 is not None or k3 is not None:
-        k2, k3, note = _common_type_b(k2, k3, budgets)
+        (k2, k3), note = common_sensitivity_terms((k2, k3), budgets)
         if note:
             notes.append(note)
     rail = None
     if rails:
-        rail = _wmean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
+        rail = weighted_mean([Estimate(r["rail_g"]["value"], r["rail_g"]["u"], "g") for r in rails])
     elif not any(rr.run.method != "sine" for rr in results):
         notes.append("no random run: rail = null")
     else:
@@ -731,9 +732,7 @@ def _k2_across_frequencies(fits: Sequence[FitResult]) -> list[str]:
     ks = [(fq, e) for fq, e in ks if fq is not None and math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0]
     if len(ks) < 2:
         return []
-    w = [1.0 / e.u**2 for _, e in ks]
-    m = sum(wi * e.value for wi, (_, e) in zip(w, ks)) / sum(w)
-    chi2 = sum(wi * (e.value - m) ** 2 for wi, (_, e) in zip(w, ks))
+    _, _, chi2 = weighted_mean_chi2([e.value for _, e in ks], [e.u for _, e in ks])
     dof = len(ks) - 1
     p = float(chi2_dist.sf(chi2, dof))
     each = ", ".join(f"{fq:g} Hz {format_value_u(e.value, e.u, unit='µg/g²')}" for fq, e in ks)
@@ -754,34 +753,6 @@ def _type_a(fit: FitResult, name: str) -> Estimate:
         i = list(fit.params).index(name)
         return Estimate(e.value, math.sqrt(fit.covariance[i][i]), e.unit)
     return e
-
-
-def _common_type_b(k2: Estimate | None, k3: Estimate | None,
-                   budgets: Sequence[Mapping[str, float]]) -> tuple[Estimate | None, Estimate | None, str | None]:
-    """k2 and k3 with the sensitivity terms that every run shares (one reference, one DUT:
-    a VRC scales by -2·r and by the DUT's p, so k2 and k3 do too): added once, after the
-    weighted combination that independent Type A errors allow. The largest declared values
-    of the runs are used."""
-    r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
-    p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
-    if not (r or p):
-        return k2, k3, None
-    rel = math.hypot(2 * r, p)
-    out = [None if e is None else Estimate(e.value, math.hypot(e.u, rel * abs(e.value)), e.unit) for e in (k2, k3)]
-    return out[0], out[1], (f"k2, k3: reference ({100 * r:g} %) and DUT ({100 * p:g} %) sensitivity terms, common to "
-                            "every run, added after the combination (the static-field and thermal terms are not)")
-
-
-def _wmean(es: Sequence[Estimate]) -> Estimate:
-    """Inverse-variance weighted mean; u scaled by the Birge ratio when the values scatter more
-    than their uncertainties."""
-    w = [1.0 / e.u**2 for e in es]
-    m = sum(wi * e.value for wi, e in zip(w, es)) / sum(w)
-    u = math.sqrt(1.0 / sum(w))
-    if len(es) > 1:
-        chi2 = sum(wi * (e.value - m) ** 2 for wi, e in zip(w, es)) / (len(es) - 1)
-        u *= math.sqrt(max(chi2, 1.0))
-    return Estimate(m, u, es[0].unit)
 
 
 # --------------------------------------------------------------------------- the document

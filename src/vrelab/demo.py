@@ -35,6 +35,7 @@ from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
 from vrelab.report.metadata import ReportMetadata, load_metadata
 from vrelab.results import VreResult
+from vrelab.units import UG_PER_G
 
 # The article's numbers the demo holds itself against (seed article, SPEC 1.1 and 2).
 ARTICLE_FIG1_VRE_G = -0.100  # "VRE about -100 mg" at 1 g rms on a ±2 g sensor in 1 g
@@ -481,7 +482,7 @@ def study_sine(cfg: DemoConfig) -> _Study:
     res = _merge_sine(runs, low_f + high_f)
     freqs = low_f + high_f
     f = np.geomspace(min(freqs) / 1.2, max(freqs) * 1.2, 300)
-    k2_ug = sensor.k2_per_g * 1e6
+    k2_ug = sensor.k2_per_g * UG_PER_G
     assert sensor.fn_hz is not None and sensor.q is not None  # the ADXL355 preset has its resonance
     from vrelab.models.dynamics import vrc_at_frequency
 

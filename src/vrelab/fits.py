@@ -31,14 +31,17 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as V
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.results import (
     Estimate,
     FitResult,
     LevelResult,
     Method,
     Notice,
+    group_by_frequency,
     same_frequency,
 )
+from vrelab.units import UG_PER_G
 
 # Residual (in combined standard uncertainties) beyond which a level has left the model.
 DEPARTURE_SIGMA = 3.0
@@ -158,9 +161,9 @@ def fit_vrc(
     chi2 = float(np.sum(w * resid**2))
     cov, chi2_red = _scale_cov(cov, chi2, len(sel) - n_par, bool(np.all(u > 0)), notes)
     se = np.sqrt(np.diag(cov))
-    params = {"vrc_ug_per_g2": Estimate(float(beta[0] * 1e6), float(se[0] * 1e6), "ug/g^2")}
+    params = {"vrc_ug_per_g2": Estimate(float(beta[0] * UG_PER_G), float(se[0] * UG_PER_G), "ug/g^2")}
     if with_k4:
-        params["c4_ug_per_g4"] = Estimate(float(beta[1] * 1e6), float(se[1] * 1e6), "ug/g^4")
+        params["c4_ug_per_g4"] = Estimate(float(beta[1] * UG_PER_G), float(se[1] * UG_PER_G), "ug/g^4")
         notes.append("c4 = k4*E[x^4]/rms^4: 3*k4 for Gaussian vibration, 1.5*k4 for sine")
     return FitResult(
         model="vrc+k4" if with_k4 else "vrc",
@@ -170,7 +173,7 @@ def fit_vrc(
         freq_hz=freq_hz,
         levels_used=tuple(float(r) for r in rms),
         notes=tuple(notes),
-        covariance=_cov_tuple(cov * 1e12),  # both parameters in µg units: (1e6)²
+        covariance=_cov_tuple(cov * UG_PER_G**2),  # both parameters in µg units
     )
 
 
@@ -248,7 +251,7 @@ def _fit_clip_once(
 def fit_rail(
     levels: Sequence[LevelResult],
     static_g: float,
-    kind: ClipKind = "censored",
+    kind: ClipKind = DEFAULT_CLIP_KIND,
     symmetric: bool = True,
     with_vrc: bool = False,
 ) -> FitResult:
@@ -350,7 +353,7 @@ def fit_rail(
     se = np.sqrt(np.diag(covs))
     scale = np.ones(len(p))  # units of params: g for rails, µg/g² for the joint VRC term
     if with_vrc:
-        scale[-1] = 1e6
+        scale[-1] = UG_PER_G
     if symmetric:
         params = {"rail_g": Estimate(float(p[0]), float(se[0]), "g")}
     else:
@@ -359,7 +362,7 @@ def fit_rail(
             "rail_high_g": Estimate(float(p[1]), float(se[1]), "g"),
         }
     if with_vrc:
-        params["vrc_ug_per_g2"] = Estimate(float(p[-1] * 1e6), float(se[-1] * 1e6), "ug/g^2")
+        params["vrc_ug_per_g2"] = Estimate(float(p[-1] * UG_PER_G), float(se[-1] * UG_PER_G), "ug/g^2")
     if departure is not None:
         notes.append(
             f"data leave the {kind} model from {rms[departure]:.4g} g rms on "
@@ -539,23 +542,17 @@ def _rails_of(fit: FitResult) -> tuple[float, float] | None:
 
 
 def _frequency_groups(levels: Sequence[LevelResult]) -> list[list[int]]:
-    """Indices of the levels run at each sine frequency (:func:`vrelab.results.same_frequency`),
+    """Indices of the levels run at each sine frequency (:func:`vrelab.results.group_by_frequency`),
     in increasing frequency."""
-    order = sorted((i for i, lv in enumerate(levels) if lv.freq_hz is not None), key=lambda i: levels[i].freq_hz or 0.0)
-    groups: list[list[int]] = []
-    for i in order:
-        if groups and same_frequency(levels[groups[-1][0]].freq_hz, levels[i].freq_hz):
-            groups[-1].append(i)
-        else:
-            groups.append([i])
-    return groups
+    return group_by_frequency((i for i, lv in enumerate(levels) if lv.freq_hz is not None),
+                              lambda i: float(levels[i].freq_hz))  # type: ignore[arg-type]
 
 
 def fit_levels(
     levels: Sequence[LevelResult],
     method: Method,
     static_g: float | None,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     fit_k4: bool = False,
     rail_with_vrc: bool = False,
     nominal_freqs_hz: Sequence[float | None] | None = None,

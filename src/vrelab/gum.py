@@ -43,6 +43,10 @@ DECISION_RULE = ("guarded acceptance: pass when |VRE| + U <= limit; fail when |V
                  "indeterminate otherwise (U = k·u, coverage about 95 %)")
 
 
+# The Type B inputs a test declares (a campaign run's budget keys, TypeB's fields).
+TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
+
+
 @dataclass(frozen=True)
 class TypeB:
     """The Type B inputs of a test (SPEC 4.3); zero means not declared."""
@@ -53,15 +57,15 @@ class TypeB:
     u_thermal_g: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"):
+        for name in TYPE_B_KEYS:
             object.__setattr__(self, name, float(V.non_negative(name, getattr(self, name))))
 
     @property
     def declared(self) -> bool:
-        return any(getattr(self, n) > 0 for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g"))
+        return any(getattr(self, n) > 0 for n in TYPE_B_KEYS)
 
     def to_dict(self) -> dict[str, float]:
-        return {n: getattr(self, n) for n in ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")}
+        return {n: getattr(self, n) for n in TYPE_B_KEYS}
 
     @classmethod
     def from_mapping(cls, d: Mapping[str, Any]) -> TypeB:
@@ -130,6 +134,45 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
     decision = decide(v, U, limit_g) if limit_g is not None else None
     return replace(level, vre=Estimate(v, u_c, level.vre.unit), budget=tuple(terms), U_vre_g=U, k=k,
                    decision=decision)
+
+
+def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[float, float, float]:
+    """(mean, u, χ²) of independent values with standard uncertainties ``us``: the
+    inverse-variance weighted mean, its internal u = 1/√Σw (w = 1/u²) and χ² = Σ w·(x − mean)²
+    of the values about it (JCGM 100:2008 does not treat the combination of repeated results;
+    this is the usual least-squares one, e.g. Bevington & Robinson, Data Reduction, ch. 4)."""
+    w = [1.0 / u**2 for u in us]
+    m = sum(wi * x for wi, x in zip(w, values)) / sum(w)
+    chi2 = sum(wi * (x - m) ** 2 for wi, x in zip(w, values))
+    return m, math.sqrt(1.0 / sum(w)), chi2
+
+
+def weighted_mean(es: Sequence[Estimate]) -> Estimate:
+    """Inverse-variance weighted mean of independent estimates; its u scaled by the Birge ratio
+    √(χ²/(n−1)) when the values scatter more than their uncertainties (never scaled down: R. T.
+    Birge, Phys. Rev. 40, 207 (1932); the CODATA adjustments' practice)."""
+    m, u, chi2 = weighted_mean_chi2([e.value for e in es], [e.u for e in es])
+    if len(es) > 1:
+        u *= math.sqrt(max(chi2 / (len(es) - 1), 1.0))
+    return Estimate(m, u, es[0].unit)
+
+
+def common_sensitivity_terms(estimates: Sequence[Estimate | None], budgets: Sequence[Mapping[str, float]]
+                             ) -> tuple[list[Estimate | None], str | None]:
+    """Nonlinearity coefficients (k2, k3: a VRC's kin) with the sensitivity terms every run of a
+    campaign shares (one reference, one DUT): a VRC = VRE/rms² scales by −2·r with the reference
+    sensitivity and by p with the DUT's (closed form, this module's docstring), so k2 and k3 do
+    too. Added once, after the weighted combination that independent Type A errors allow; the
+    largest declared values of the runs are used. Returns the estimates and a note (None when no
+    run declares either term)."""
+    r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
+    p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
+    if not (r or p):
+        return list(estimates), None
+    rel = math.hypot(2 * r, p)
+    out = [None if e is None else Estimate(e.value, math.hypot(e.u, rel * abs(e.value)), e.unit) for e in estimates]
+    return out, (f"k2, k3: reference ({100 * r:g} %) and DUT ({100 * p:g} %) sensitivity terms, common to "
+                 "every run, added after the combination (the static-field and thermal terms are not)")
 
 
 # The Type B inputs as perturbations of a reduction's inputs: a refit with one of them moved by

@@ -67,9 +67,11 @@ from numpy.typing import NDArray
 from vrelab._format import finite_or_none
 from vrelab.campaign import SAME_ORIENTATION_G  # static fields closer than this are one orientation
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile
-from vrelab.results import Estimate, same_frequency
+from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
+from vrelab.units import to_ug
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
 # quadrature over the levels in units of their standard uncertainty, reaches this.
@@ -265,11 +267,15 @@ def _pooled(u: NDArray[np.float64], dof: NDArray[np.float64]) -> NDArray[np.floa
 
 def apparent_vrc(ob: Observation) -> tuple[float, float]:
     """A sine observation's apparent VRC [µg/g²] and its u: the weighted least-squares fit
-    through the origin of VRE = VRC·rms² over its levels (u from the levels' u, unscaled)."""
-    w = 1.0 / ob.u_g**2
+    through the origin of VRE = VRC·rms² over its levels, which is the weighted mean of each
+    level's VRE/rms² (u: its u/rms²), so it is :func:`vrelab.gum.weighted_mean`'s: u scaled up by
+    the Birge ratio when the levels scatter about the line more than their u say."""
+    from vrelab.gum import weighted_mean
+
     x2 = ob.rms_g**2
-    s = float(np.sum(w * x2 * x2))
-    return float(np.sum(w * ob.vre_g * x2)) / s * 1e6, 1e6 / math.sqrt(s)
+    e = weighted_mean([Estimate(to_ug(float(v / x)), to_ug(float(u / x)), "ug/g^2")
+                       for v, u, x in zip(ob.vre_g, ob.u_g, x2)])
+    return e.value, e.u
 
 
 def _type_a(level: Mapping[str, Any]) -> float | None:
@@ -319,12 +325,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         if any(r[3] is None for r in rows):
             notes.append(f"{where}: sine levels without a drive frequency: not used")
             return []
-        groups: list[list[tuple[Any, ...]]] = []
-        for r in sorted(rows, key=lambda r: r[3]):
-            if groups and same_frequency(groups[-1][0][3], r[3]):
-                groups[-1].append(r)
-            else:
-                groups.append([r])
+        groups = group_by_frequency(rows, lambda r: r[3])
         return [make(g, float(np.median([r[3] for r in g])), None) for g in groups]
     if method == "random":
         prof = run.get("profile")
@@ -341,7 +342,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
 # --------------------------------------------------------------------------- the model
 
 
-def model_levels(sensor: Any, ob: Observation, kind: ClipKind = "censored") -> Any:
+def model_levels(sensor: Any, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Any:
     """:func:`vrelab.predict.predict` at the observation's conditions (its levels' rms)."""
     from vrelab.predict import predict
 
@@ -365,11 +366,8 @@ def _orientations(obs: Sequence[Observation]) -> list[float]:
 
 
 def _sine_frequencies(obs: Sequence[Observation]) -> list[float]:
-    out: list[float] = []
-    for f in sorted(ob.freq_hz for ob in obs if ob.method == "sine" and ob.freq_hz):
-        if not out or not same_frequency(out[-1], f):
-            out.append(f)
-    return out
+    fs = [ob.freq_hz for ob in obs if ob.method == "sine" and ob.freq_hz]
+    return [g[0] for g in group_by_frequency(fs, float)]
 
 
 def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, str]]:
@@ -806,7 +804,7 @@ def _key(obs: Sequence[Observation]) -> list[tuple[int, float | None, tuple[floa
     return [(ob.run, ob.freq_hz, tuple(ob.rms_g)) for ob in obs]
 
 
-def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = "censored",
+def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = DEFAULT_CLIP_KIND,
                      campaign: str = "the campaign", typeb: Any = None, notes: Sequence[str] = (),
                      prefer_base: bool = False) -> ChannelModel:
     """Identify one channel's model from its observations (see the module docstring).
@@ -1110,7 +1108,7 @@ class Identification:
 
 
 def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | None = None,
-             odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = "censored",
+             odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = DEFAULT_CLIP_KIND,
              typeb: Any = None, workers: int = 1, prefer_base: bool = False) -> Identification:
     """Identify every channel of a campaign document on the base sensor ``base_spec``.
 
@@ -1122,7 +1120,7 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     listed in ``notes`` and in every channel's notes.
     """
     from vrelab import _validate as V
-    from vrelab.gum import TypeB
+    from vrelab.gum import TYPE_B_KEYS, TypeB
     from vrelab.models.clipping import KINDS
     from vrelab.sensor import load_sensor
 
@@ -1135,9 +1133,8 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
         raise ValueError("identify: the campaign has no DUT channel with results"
                          + (f" ({len(failed)} run(s) failed: {'; '.join(failed)})" if failed else ""))
     if typeb is None:
-        keys = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
         runs = [r for r in doc["runs"] if isinstance(r.get("budget"), Mapping)]
-        typeb = TypeB(**{k: max((float(r["budget"].get(k, 0.0)) for r in runs), default=0.0) for k in keys})
+        typeb = TypeB(**{k: max((float(r["budget"].get(k, 0.0)) for r in runs), default=0.0) for k in TYPE_B_KEYS})
     name = str(doc.get("name", "campaign"))
     empty = [ch for ch, o in obs.items() if not o]
     if empty:
@@ -1173,9 +1170,9 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     set, so they win there (resolution: top level < axis < range); other ranges keep the base's
     rails and threshold (they were not tested).
     """
-    from vrelab.sensor.loader import _read
+    from vrelab.sensor.loader import read_spec
 
-    data, _origin = _read(ident.base_spec)
+    data, _origin = read_spec(ident.base_spec)
     base = ident.base
     out: dict[str, Any] = {k: v for k, v in data.items() if k not in ("name", "description", "source", "axes",
                                                                      "default_axis", "facts")}

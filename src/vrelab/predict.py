@@ -56,6 +56,7 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.results import Conditions
@@ -333,7 +334,7 @@ def predict(
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
     levels: Sequence[float] | NDArray[np.float64],
     static_g: float = 1.0,
-    kind: ClipKind = "censored",
+    kind: ClipKind = DEFAULT_CLIP_KIND,
 ) -> Prediction:
     r"""Predict VRE at each vibration level, by mechanism, without simulating.
 
@@ -493,7 +494,7 @@ def predict(
                                    notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
         notes += prop.notes
     out = [_judged(lv) for lv in out]
-    why = _tilt(0.0, g0)[1]
+    why = tilt_note(0.0, g0)[1]
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
     off, off_note = _vibration_off(reading, g0)
@@ -553,7 +554,8 @@ IDENTIFIED = "identified (covariance)"
 
 
 def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-                levels: Sequence[float] | NDArray[np.float64], static_g: float, kind: ClipKind = "censored") -> Propagation:
+                levels: Sequence[float] | NDArray[np.float64], static_g: float,
+                kind: ClipKind = DEFAULT_CLIP_KIND) -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
     Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
@@ -705,12 +707,12 @@ def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], s
 
 
 def propagated_u(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
-                 levels: Sequence[float], static_g: float, kind: ClipKind = "censored") -> NDArray[np.float64]:
+                 levels: Sequence[float], static_g: float, kind: ClipKind = DEFAULT_CLIP_KIND) -> NDArray[np.float64]:
     """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
     return propagation(sensor, excitation, levels, static_g, kind).u_g
 
 
-def _tilt(vre_g: float, g0: float) -> tuple[float, str | None]:
+def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
     """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
     NaN with the reason where it is undefined."""
     from vrelab.models import design
@@ -898,8 +900,8 @@ def _level(
                         if shape == "sine-on-random" else "") + " — simulate")
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
-    tilt, why = _tilt(total, g0)
-    if why and _tilt(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
+    tilt, why = tilt_note(total, g0)
+    if why and tilt_note(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
         notes.append(why)
     return LevelPrediction(
         rms_g=rms_g,

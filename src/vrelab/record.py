@@ -19,6 +19,11 @@ from numpy.typing import NDArray
 
 from vrelab import _validate as V
 
+# The timing of a schedule's reduction, shared by the reducer (vrelab.analysis) and the simulated
+# test that must give it long enough segments (vrelab.simulation): the settling time trimmed at
+# each segment edge by default [s] and the averaging window [s].
+DEFAULT_SETTLE_S = 0.5
+WINDOW_S = 0.1
 
 @dataclass(frozen=True)
 class Segment:

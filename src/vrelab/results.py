@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal, Mapping, Sequence
+from typing import Any, Callable, Iterable, Literal, Mapping, Sequence, TypeVar
 
 from vrelab._format import finite_or_none, format_mg_text, format_value_u
 
@@ -25,6 +25,25 @@ def same_frequency(a: float | None, b: float | None) -> bool:
     ``None`` (a random level, or an unknown frequency) matches anything.
     """
     return a is None or b is None or abs(a - b) <= FREQ_RTOL * max(abs(a), abs(b))
+
+
+_T = TypeVar("_T")
+
+
+def group_by_frequency(items: Iterable[_T], freq: Callable[[_T], float]) -> list[list[_T]]:
+    """``items`` grouped by drive frequency, the one rule for every caller: sorted by ``freq``
+    (a stable sort: items of one frequency keep their order), each item joins the current group
+    when :func:`same_frequency` holds against the group's first (lowest) item, else starts the
+    next. The groups, low to high, therefore depend only on the frequencies, never on the order
+    the items came in. Every ``freq(item)`` must be a number; callers set aside items without
+    one (a random level)."""
+    groups: list[list[_T]] = []
+    for x in sorted(items, key=freq):
+        if groups and same_frequency(freq(groups[-1][0]), freq(x)):
+            groups[-1].append(x)
+        else:
+            groups.append([x])
+    return groups
 
 
 class Notice(str):

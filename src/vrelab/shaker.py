@@ -24,8 +24,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from vrelab import __version__
+from vrelab._version import __version__
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Method, Notice, VreResult
@@ -75,7 +76,7 @@ def _reduce_and_fit(
     settle_s: float,
     record_path: str | Path | None,
     progress: bool,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
 ) -> tuple[list[LevelResult], list[FitResult], list[str]]:
     """Reduce the record as a lab file (saturation counts and over-range flags from the
     simulation's truth), then fit it with the one fit policy (:func:`vrelab.fits.fit_levels`)
@@ -193,7 +194,7 @@ def run_random_test(
     *,
     record_path: str | Path | None = None,
     progress: bool = False,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     **plan: Any,
 ) -> VreResult:
     """Simulate the random method (SPEC 4) on ``sensor`` and reduce it like a lab record.
@@ -256,7 +257,7 @@ def run_test(
     plan: TestPlan,
     record_path: str | Path | None = None,
     progress: bool = False,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
 ) -> VreResult:
     """Run a :class:`~vrelab.simulation.plan.TestPlan`: simulate its record, reduce it as a lab
     file (writing it to ``record_path`` first when given) and fit it with the one fit policy."""

@@ -35,8 +35,8 @@ from typing import Any, Callable, Collection, Iterator, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab import __version__
 from vrelab import _validate as V
+from vrelab._version import __version__
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.analysis.segmentation import (
     SMOOTH_WINDOWS,
@@ -54,7 +54,8 @@ from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.fits import fit_levels
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.record import Record, Schedule, Segment
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, Record, Schedule, Segment
 from vrelab.results import (
     Conditions,
     Estimate,
@@ -66,9 +67,7 @@ from vrelab.results import (
 )
 
 DEFAULT_BAND_HZ = (50.0, 2000.0)
-DEFAULT_SETTLE_S = 0.5
 DEFAULT_BLOCK = 1 << 18
-WINDOW_S = 0.1
 # A segment needs this many whole averaging windows after the trim, or it is ignored.
 MIN_SEGMENT_WINDOWS = 3
 
@@ -858,7 +857,7 @@ def analyze_full(
     profile: Any = None,
     static_g: float | None = None,
     rail_g: float | None = None,
-    clip_kind: ClipKind = "censored",
+    clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     band_hz: tuple[float, float] | None = None,
     fit_k4: bool = False,
     progress: bool = False,

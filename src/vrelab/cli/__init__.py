@@ -16,7 +16,7 @@ import pkgutil
 import sys
 from typing import Sequence
 
-from vrelab import __version__
+from vrelab._version import __version__
 from vrelab.cli._common import Parser, UsageError, print_json
 
 __all__ = ["main", "build_parser", "Parser", "UsageError", "print_json"]

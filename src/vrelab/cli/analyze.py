@@ -53,6 +53,7 @@ from vrelab.cli._common import (
     with_formats,
 )
 from vrelab.models.clipping import KINDS
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.results import channels_to_dict
 
 
@@ -109,7 +110,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--band", type=_band, metavar="F1:F2", help="test band in Hz (default: profile's, or 50:2000)")
     p.add_argument("--settle", type=float, default=DEFAULT_SETTLE_S, metavar="S",
                    help=f"settling time trimmed at each segment edge [s] (default {DEFAULT_SETTLE_S:g})")
-    p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model of the rail fit")
+    p.add_argument("--kind", choices=KINDS, default=DEFAULT_CLIP_KIND, help="clipping model of the rail fit")
     p.add_argument("--k4", action="store_true", help="add a rms⁴ term to the VRC fit")
     p.add_argument("--rail-vrc", action="store_true", help="fit the rail jointly with a VRC·rms² term")
     add_budget_arguments(p, limit=True)
@@ -226,7 +227,7 @@ def _command_line(args: argparse.Namespace) -> str:
             continue
         if key in ("dut_units", "reference_units") and value == "g":
             continue
-        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "auto"), ("kind", "censored")) or (
+        if (key, value) in (("settle", DEFAULT_SETTLE_S), ("method", "auto"), ("kind", DEFAULT_CLIP_KIND)) or (
                 key.startswith("u_") and value == 0.0):
             continue
         opt = "--" + key.replace("_", "-")

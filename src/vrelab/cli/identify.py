@@ -24,6 +24,7 @@ from vrelab.cli._common import add_budget_arguments, print_json, typeb_from_args
 from vrelab.folder import IDENTIFICATION as DOCUMENT
 from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.models.clipping import KINDS
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 
 
 def register(subparsers: Any) -> None:
@@ -56,7 +57,7 @@ def register(subparsers: Any) -> None:
                    help="the ODR they were tested at [Hz] (default: the base sensor's default_odr_hz)")
     p.add_argument("--base-axis", metavar="A",
                    help="the base sensor's axis whose values the channels start from (default: its default_axis)")
-    p.add_argument("--kind", choices=KINDS, default="censored", help="clipping model (default censored)")
+    p.add_argument("--kind", choices=KINDS, default=DEFAULT_CLIP_KIND, help="clipping model (default censored)")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="reduce runs (a manifest) and identify channels N at a time in processes (default 1)")
     p.add_argument("--prefer-base", action="store_true",

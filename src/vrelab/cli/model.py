@@ -16,8 +16,10 @@ from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
 from vrelab.models.clipping import KINDS, clip_vre
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
-from vrelab.models.nonlinearity import UG, vre_poly
+from vrelab.models.nonlinearity import vre_poly
+from vrelab.units import from_ug
 
 _CLIP_HELP = """\
 Mean shift (VRE) caused by the sensor's range rails: in a static field the vibration reaches one
@@ -123,12 +125,12 @@ def _run_poly(args: argparse.Namespace) -> int:
     # the levels and field are bounded; a coefficient is not (any value is a model), so the
     # product is checked: a VRE beyond float64 is refused, not printed as inf after a warning
     with np.errstate(over="ignore", invalid="ignore"):
-        vre = np.atleast_1d(vre_poly(np.array(rms), k2 * UG, k3 * UG, k4 * UG, static_g=static, shape=args.shape))
+        vre = np.atleast_1d(vre_poly(np.array(rms), from_ug(k2), from_ug(k3), from_ug(k4), static_g=static, shape=args.shape))
     if not np.isfinite(vre).all():
         raise ValueError(f"model poly: the VRE overflows float64 (k2 = {k2:g}, k3 = {k3:g}, k4 = {k4:g} at "
                          f"{max(rms):g} g rms, static {static:g} g): coefficients or levels out of any real range")
     with np.errstate(over="ignore", invalid="ignore"):
-        off = vibration_off_reading(static, k2 * UG, k3 * UG, k4 * UG)
+        off = vibration_off_reading(static, from_ug(k2), from_ug(k3), from_ug(k4))
     if args.json:
         print_json(
             {
@@ -173,7 +175,7 @@ def register(subparsers: Any) -> None:
     clip.add_argument(
         "--kind",
         choices=KINDS,
-        default="censored",
+        default=DEFAULT_CLIP_KIND,
         help="censored: beyond-rail samples read as the rail (default); truncated: they are discarded (article's model)",
     )
     clip.add_argument("--json", action="store_true", help="print one JSON object (keys rms_g, vre_g, ...)")

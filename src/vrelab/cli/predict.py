@@ -25,6 +25,7 @@ from vrelab.cli._common import (
     sensor_from_args,
 )
 from vrelab.models.clipping import KINDS
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 
 
 def print_prediction(pred: Any) -> None:
@@ -105,7 +106,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--levels", required=True, metavar="LIST",
                    help="vibration levels [g rms], e.g. 0.5,1,2 or 0.5:3:0.5; with tones, the overall rms "
                    "(random and tones), reached by scaling the PSD by the ratio squared and each tone by the ratio")
-    p.add_argument("--kind", choices=KINDS, default="censored",
+    p.add_argument("--kind", choices=KINDS, default=DEFAULT_CLIP_KIND,
                    help="clipping model: censored (a saturating sensor, default) or truncated (the article's)")
     p.add_argument("--out", metavar="DIR", help="write DIR/prediction.json")
     p.add_argument("--json", action="store_true", help="print one JSON object")

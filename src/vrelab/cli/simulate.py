@@ -34,6 +34,7 @@ from vrelab.cli._common import (
     sensor_from_args,
 )
 from vrelab.models.clipping import KINDS
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 
 
 def print_result(result: Any) -> None:
@@ -130,7 +131,7 @@ def register(subparsers: Any) -> None:
                    help="ramp each level up and down over S seconds, as a shaker controller does (default 0)")
     p.add_argument("--drift", type=float, default=0.0, metavar="G_PER_S",
                    help="slow linear drift of the sensor's output [g/s] (default 0)")
-    p.add_argument("--kind", choices=KINDS, default="censored",
+    p.add_argument("--kind", choices=KINDS, default=DEFAULT_CLIP_KIND,
                    help="clipping model of the effective-rail fit and the prediction (default censored)")
     p.add_argument("--drive", choices=("gaussian", "multisine"), default="gaussian",
                    help="random drive: a Gaussian process (default) or a random-phase multisine")

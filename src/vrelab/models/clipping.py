@@ -34,10 +34,13 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import integrate, special
 
 from vrelab import _validate
+from vrelab.models.kinds import (  # re-exported: the clipping model's kinds
+    DEFAULT_CLIP_KIND,
+    KINDS,
+    Kind,
+)
 
-Kind = Literal["censored", "truncated"]
 Shape = Literal["gaussian", "sine"]
-KINDS: tuple[str, ...] = ("censored", "truncated")
 SHAPES: tuple[str, ...] = ("gaussian", "sine")
 
 _SQRT_HALF_PI = np.sqrt(np.pi / 2.0)
@@ -356,7 +359,7 @@ def sine_clip_mean_shift(
     amplitude_g: ArrayLike,
     rail_low_g: ArrayLike,
     rail_high_g: ArrayLike,
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
 ) -> NDArray[np.float64] | float:
     r"""Mean shift of a sine vibration clipped at the rails (closed form).
 
@@ -448,7 +451,7 @@ def clip_mean_shift(
     *,
     pdf: Callable[[float], float] | None = None,
     samples: ArrayLike | None = None,
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
 ) -> float:
     r"""Mean shift of any vibration distribution clipped at the rails (numerical expectation).
 
@@ -534,7 +537,7 @@ def sine_on_random_mean_shift(
     peaks_g: Sequence[float],
     rail_low_g: float,
     rail_high_g: float,
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
 ) -> float:
     r"""Mean shift of Gaussian vibration plus sine tones (sine-on-random) clipped at the rails.
 
@@ -597,7 +600,7 @@ def mean_shift(
     rail_low_g: ArrayLike,
     rail_high_g: ArrayLike,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
 ) -> NDArray[np.float64] | float:
     """VRE of clipping for a vibration given by its rms: Gaussian (σ = rms) or sine (A = rms·√2).
 
@@ -621,7 +624,7 @@ def clip_vre(
     rail_low_g: ArrayLike,
     rail_high_g: ArrayLike,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
 ) -> NDArray[np.float64] | float:
     r"""VRE of clipping referred to the vibration-off reading (SPEC 1.5) [g].
 

@@ -19,6 +19,7 @@ from scipy import optimize
 from vrelab import _validate
 from vrelab.models.clipping import Kind, Shape, mean_shift, sine_on_random_mean_shift
 from vrelab.models.dynamics import rice_upcrossing_rate
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.nonlinearity import vre_poly
 
 
@@ -28,7 +29,7 @@ def clip_vre(
     rail_low_g: float,
     rail_high_g: float,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
     tone_peaks_g: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
     """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading.
@@ -60,7 +61,7 @@ def ideal_vre_shares(
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
     offset_g: float = 0.0,
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
     """(clipping, polynomial) VRE of an ideal sensor [g]: shares of one exact mean.
@@ -90,7 +91,7 @@ def total_vre(
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
     offset_g: float = 0.0,
 ) -> NDArray[np.float64] | float:
     """Clipping plus polynomial VRE of an ideal sensor [g]: the exact mean of the polynomial
@@ -107,7 +108,7 @@ def max_rms_for_budget(
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
     rms_max_g: float | None = None,
 ) -> float:
     """Largest vibration rms whose |VRE| stays within ``budget_g`` at every lower level [g rms].

@@ -41,9 +41,9 @@ from numpy.typing import NDArray
 from scipy import special
 
 from vrelab import _validate
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS, Kind
 
 Shape = Literal["gaussian", "sine"]
-Kind = Literal["censored", "truncated"]
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
 # Gauss-Hermite (probabilists'): exact for polynomials of degree <= 2·24 - 1 = 47
@@ -214,7 +214,7 @@ def poly_clip_vre(
     rail_low_g: float = -math.inf,
     rail_high_g: float = math.inf,
     shape: Shape = "gaussian",
-    kind: Kind = "censored",
+    kind: Kind = DEFAULT_CLIP_KIND,
     tone_peaks_g: Sequence[float] = (),
 ) -> float:
     r"""VRE [g] of ``clip(P(g0 + x) + offset, L, U)``: polynomial and rails as one memoryless map.
@@ -259,7 +259,7 @@ def poly_clip_vre(
     if not low < high:
         raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
     _validate.one_of("shape", shape, ("gaussian", "sine"))
-    _validate.one_of("kind", kind, ("censored", "truncated"))
+    _validate.one_of("kind", kind, KINDS)
     p = polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
     ref = vibration_off_reading(g0, k2_per_g, k3_per_g2, k4_per_g3, offset_g, low, high)
     peaks = [float(a) for a in tone_peaks_g if a > 0]

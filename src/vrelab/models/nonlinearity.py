@@ -22,10 +22,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate
 from vrelab.results import Estimate
+from vrelab.units import from_ug, to_ug
 
 Shape = Literal["gaussian", "sine"]
 
-UG = 1e-6  # 1 µg in g
 
 
 # --- moments of the zero-mean vibration ----------------------------------------------------------
@@ -295,13 +295,13 @@ def vre_poly(
 
 
 def ug_per_g2_to_per_g(vrc_ug_per_g2: ArrayLike) -> NDArray[np.float64] | float:
-    """VRC in µg/g² (= ppm/g) to the normalised k2 in 1/g: ×1e-6."""
-    return _out(_validate.finite("vrc_ug_per_g2", vrc_ug_per_g2) * UG)
+    """VRC in µg/g² (= ppm/g) to the normalised k2 in 1/g (:func:`vrelab.units.from_ug`)."""
+    return _out(from_ug(_validate.finite("vrc_ug_per_g2", vrc_ug_per_g2)))
 
 
 def per_g_to_ug_per_g2(k2_per_g: ArrayLike) -> NDArray[np.float64] | float:
-    """Normalised k2 in 1/g to the VRC in µg/g² (= ppm/g): ×1e6."""
-    return _out(_validate.finite("k2_per_g", k2_per_g) / UG)
+    """Normalised k2 in 1/g to the VRC in µg/g² (= ppm/g) (:func:`vrelab.units.to_ug`)."""
+    return _out(to_ug(_validate.finite("k2_per_g", k2_per_g)))
 
 
 def ppm_per_g_to_ug_per_g2(vrc_ppm_per_g: ArrayLike) -> NDArray[np.float64] | float:
@@ -342,7 +342,7 @@ def vrc_ug_per_g2_from_vre(vre_g: ArrayLike, rms_g: ArrayLike) -> NDArray[np.flo
     below clipping, where VRE grows as rms² (SPEC 1.2).
     """
     rms = _validate.positive("rms_g", rms_g)
-    return _out(_validate.finite("vre_g", vre_g) / rms**2 / UG)
+    return _out(to_ug(_validate.finite("vre_g", vre_g) / rms**2))
 
 
 @overload

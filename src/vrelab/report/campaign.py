@@ -33,7 +33,7 @@ from vrelab.report.testreport import RESULTS_NUMBER
 def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
     """VRC(f) of one channel: log frequency axis; log VRC axis when the values share a sign
     (their magnitude, the sign said in the label), symmetric-log otherwise."""
-    from vrelab.report.plots import _new_figure
+    from vrelab.report.plots import new_figure
 
     pts = channel.get("vrc_by_freq") or []
     if not pts:
@@ -42,7 +42,7 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
     v = np.array([p["vrc_ug_per_g2"]["value"] for p in pts], dtype=float)
     u = np.array([p["vrc_ug_per_g2"]["u"] for p in pts], dtype=float)
     g = np.array([p["static_g"] for p in pts], dtype=float)
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     sign = 1.0
     if (v > 0).all():
         ax.set_yscale("log")

@@ -24,7 +24,6 @@ from typing import Any, Mapping, Sequence
 
 from matplotlib.figure import Figure
 
-from vrelab import __version__
 from vrelab import folder as F
 from vrelab._format import (
     PREDICTION_RESOLUTION_MG,
@@ -37,7 +36,9 @@ from vrelab._format import (
     format_value_u,
 )
 from vrelab._io import sha256_file
+from vrelab._version import __version__
 from vrelab.folder import ResultsFolder
+from vrelab.report import testreport as T
 from vrelab.report._markup import ReportTable, esc, kv_table, script_json, table_html
 from vrelab.report.metadata import ReportMetadata
 from vrelab.results import FitResult, VreResult
@@ -199,6 +200,11 @@ class ReportSection:
     tables: Sequence[ReportTable] = ()
     results: Sequence[tuple[str, VreResult]] = ()
     channel: str | None = None
+
+    def tabulated(self) -> list[tuple[str | None, VreResult]]:
+        """The results the section tabulates: its ``result`` (no label), then its labelled
+        ``results``."""
+        return ([(None, self.result)] if self.result is not None else []) + [(label, r) for label, r in self.results]
 
 
 # --------------------------------------------------------------------------- helpers
@@ -472,8 +478,8 @@ def _figure_html(fig: ReportFigure, fid: str, alt: str) -> str:
 
 
 def section_results(sec: ReportSection) -> list[tuple[str | None, VreResult]]:
-    """The results a section tabulates: its ``result`` (no label), then its labelled ``results``."""
-    return ([(None, sec.result)] if sec.result is not None else []) + [(label, r) for label, r in sec.results]
+    """The results a section tabulates (:meth:`ReportSection.tabulated`)."""
+    return sec.tabulated()
 
 
 def _result_tables(r: VreResult, label: str | None) -> list[str]:
@@ -539,8 +545,6 @@ def render_report(
     (:mod:`vrelab.report.testreport`): identification, 1 test item, 2 equipment, 3 conditions,
     4 procedure, 5 results (``sections``), 6 decisions, 7 approval. The plotly.js bundle is
     embedded once when any figure has an interactive twin."""
-    from vrelab.report import testreport as T
-
     meta = metadata or ReportMetadata()
     prov = default_provenance() | dict(provenance or {})
     anchors = [f"s{i}" for i in range(1, len(sections) + 1)]

@@ -33,7 +33,7 @@ def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     """Apparent VRC of each sine run (markers, 1 u: :func:`vrelab.identify.apparent_vrc`, read
     from the document) and the identified model per orientation."""
     from vrelab.models.dynamics import vrc_at_frequency
-    from vrelab.report.plots import _new_figure
+    from vrelab.report.plots import new_figure
 
     pts = [(r["freq_hz"], r["static_g"], r["vrc_ug_per_g2"]["value"], r["vrc_ug_per_g2"]["u"])
            for r in ch.get("runs") or [] if r.get("vrc_ug_per_g2")]
@@ -43,7 +43,7 @@ def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     k2, k3 = used.get("k2_ug_per_g2") or 0.0, used.get("k3_ug_per_g3") or 0.0
     fn, q = used.get("fn_hz"), used.get("q")
     f = np.array([p[0] for p in pts])
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     grid = np.geomspace(f.min() / 1.5, f.max() * 1.5, 400)
     markers = ["o", "s", "^", "D"]
     for i, g0 in enumerate(sorted({round(p[1], 2) for p in pts}, reverse=True)):
@@ -65,12 +65,12 @@ def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
 
 def pulls_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     """Each level's (measured - model)/u, one column of points per run."""
-    from vrelab.report.plots import _new_figure
+    from vrelab.report.plots import new_figure
 
     runs = ch.get("runs") or []
     if not runs:
         return None
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     labels = []
     for i, r in enumerate(runs):
         z = [x["pull"] for x in r["residuals"]]

@@ -27,9 +27,17 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as V
 from vrelab._format import field_label, format_value, format_value_u
 from vrelab._load import json_loads
+from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
-from vrelab.results import FitResult, LevelResult, VreResult, same_frequency
+from vrelab.results import (
+    FitResult,
+    LevelResult,
+    VreResult,
+    group_by_frequency,
+    same_frequency,
+)
+from vrelab.units import UG_PER_G
 
 FloatArray = NDArray[np.float64]
 
@@ -60,7 +68,7 @@ class Series:
     curves: tuple[Curve, ...] = ()
 
 
-def _new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list]:
+def new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list]:
     fig = Figure(figsize=(_SIZE_IN[0], height_in or _SIZE_IN[1]), dpi=_DPI, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
@@ -133,7 +141,7 @@ def clip_curves(
     static_g: float,
     rail_g: float,
     rms_g: ArrayLike,
-    kinds: Sequence[ClipKind] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = KINDS,
     rail_low_g: float | None = None,
     label_suffix: str = "",
 ) -> list[Curve]:
@@ -174,7 +182,7 @@ def vrc_curve(vrc_ug_per_g2: float, rms_g: ArrayLike, label: str | None = None) 
 def model_curves(
     result: VreResult,
     rms_max_g: float | None = None,
-    kinds: Sequence[ClipKind] = ("censored", "truncated"),
+    kinds: Sequence[ClipKind] = KINDS,
     n: int = 200,
 ) -> list[Curve]:
     """The curves a result's own fits imply: clipping models at the fitted rail, VRC·rms².
@@ -254,7 +262,7 @@ def plot_vre_vs_rms(
     """
     if isinstance(series, VreResult):
         series = [Series(describe_conditions(series, short=True) or "measured", series)]
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     for i, s in enumerate(series):
         color = COLORS[i % len(COLORS)]
         _draw_levels(ax, s.result, s.label, color, connect=len(series) > 1 and not s.curves)
@@ -296,17 +304,12 @@ def frequency_groups(result: VreResult) -> list[tuple[float | None, list[LevelRe
     with its VRC fit; one group (frequency None) for a random test."""
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
-    groups: list[tuple[float | None, list[LevelResult]]] = []
-    for x in lv:
-        key = x.freq_hz
-        for g in groups:
-            if (g[0] is None) == (key is None) and same_frequency(g[0], key):
-                g[1].append(x)
-                break
-        else:
-            groups.append((key, [x]))
+    random = [x for x in lv if x.freq_hz is None]
+    groups: list[tuple[float | None, list[LevelResult]]] = [(None, random)] if random else []
+    groups += [(g[0].freq_hz, g) for g in group_by_frequency([x for x in lv if x.freq_hz is not None],
+                                                            lambda x: float(x.freq_hz))]  # type: ignore[arg-type]
     out = []
-    for fq, pts in sorted(groups, key=lambda g: -1.0 if g[0] is None else g[0]):
+    for fq, pts in groups:
         fit = next((f for f in fits if fq is not None and f.freq_hz is not None and same_frequency(f.freq_hz, fq)),
                    next((f for f in fits if f.freq_hz is None), None) if fq is None else None)
         out.append((fit.freq_hz if fit is not None and fit.freq_hz is not None else fq, pts, fit))
@@ -321,7 +324,7 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     """
     from matplotlib.legend_handler import HandlerTuple
 
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     groups = frequency_groups(result)
     handles: list = []
     labels: list[str] = []
@@ -329,8 +332,8 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
         color, marker = COLORS[i % len(COLORS)], MARKERS[i % len(MARKERS)]
         used = set(np.round(fit.levels_used, 12)) if fit and fit.levels_used else None
         r2 = np.array([x.rms_g**2 for x in pts])
-        y = np.array([x.vre.value for x in pts]) * 1e6
-        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * 1e6
+        y = np.array([x.vre.value for x in pts]) * UG_PER_G
+        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * UG_PER_G
         mask = np.array([used is None or round(x.rms_g, 12) in used for x in pts], dtype=bool)
         name = f"{fq:g} Hz" if fq is not None else "measured"
         pts_h = ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt=marker, color=color, capsize=3, label="_nolegend_")
@@ -374,7 +377,7 @@ def plot_vrc_vs_freq(
     fits = sorted((f for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params), key=lambda f: f.freq_hz or 0.0)
     if not fits:
         raise ValueError("result has no per-frequency VRC fits (needs a sine sweep with fits at freq_hz)")
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     f_hz = np.array([f.freq_hz for f in fits], dtype=float)
     v = np.array([f.params["vrc_ug_per_g2"].value for f in fits])
     u = np.array([f.params["vrc_ug_per_g2"].u for f in fits])
@@ -512,9 +515,9 @@ def plot_time_series(
     the DUT would read without rails, so what the rails cut off shows). Bottom panel: the DUT's
     moving mean in mg relative to the first vibration-off segment, the offset shift that is VRE.
     """
-    fig, (ax, ax2) = _new_figure(2, height_in=6.2)
+    fig, (ax, ax2) = new_figure(2, height_in=6.2)
     engine = fig.get_layout_engine()
-    assert isinstance(engine, ConstrainedLayoutEngine)  # _new_figure's layout
+    assert isinstance(engine, ConstrainedLayoutEngine)  # new_figure's layout
     engine.set(h_pad=0.02)
     t = env.t_s
     have_ref = "reference" in env.channels
@@ -626,7 +629,7 @@ def plot_time_windows(
     """
     if not windows:
         raise ValueError("plot_time_windows needs at least one window")
-    fig, axes = _new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
+    fig, axes = new_figure(len(windows), height_in=1.2 + 2.6 * len(windows))
     off = static_g or 0.0
     for ax, w in zip(axes, windows):
         t_ms = 1e3 * np.asarray(w.t_s, dtype=np.float64)
@@ -686,7 +689,7 @@ def plot_envelope_csv(path: str | Path, *, title: str | None = None) -> Figure:
     if tk is None or mk is None or isinstance(cols[tk], list) or isinstance(cols[mk], list):
         raise ValueError(f"{Path(path).name}: need a time column and a DUT mean column, got {', '.join(cols)}")
     t = np.asarray(cols[tk])
-    fig, (ax, ax2) = _new_figure(2, height_in=5.4)
+    fig, (ax, ax2) = new_figure(2, height_in=5.4)
     if rk is not None and not isinstance(cols[rk], list):
         ax.plot(t, np.asarray(cols[rk]), color="0.35", lw=1, label="reference rms per window")
     ax.set_ylabel("vibration (g rms)")
@@ -737,7 +740,7 @@ def plot_psd(
     if not (f.shape == pm.shape == pp.shape):
         raise ValueError(f"freq_hz, psd_measured, psd_profile must have one shape, got {f.shape}, {pm.shape}, {pp.shape}")
     tol_db = V.positive_scalar("tol_db", tol_db)
-    fig, (ax,) = _new_figure()
+    fig, (ax,) = new_figure()
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(f) & np.isfinite(pm) & (f > 0) & (pm > 0)
         prof = np.isfinite(f) & np.isfinite(pp) & (f > 0) & (pp > 0)

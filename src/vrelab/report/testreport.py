@@ -21,8 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
-from vrelab import __version__
 from vrelab._format import format_mg, format_u, u_resolution
+from vrelab._version import __version__
 from vrelab.report._markup import ReportTable, css_string, esc, kv_table, table_html
 from vrelab.report.metadata import NOT_GIVEN, ReportMetadata
 from vrelab.results import VreResult
@@ -81,10 +81,8 @@ class _Entry:
 
 
 def _entries(doc: Document) -> Iterator[_Entry]:
-    from vrelab.report.html import section_results
-
     for sec, anchor in zip(doc.sections, doc.anchors):
-        for label, r in section_results(sec):
+        for label, r in sec.tabulated():
             yield _Entry(anchor, sec.title, label, sec.channel or _dut_channel(r), r)
 
 
@@ -270,9 +268,7 @@ def _input_files(doc: Document) -> list[list[Any]]:
     """(file, SHA-256, where) for every checksummed file the results name."""
     seen: dict[tuple[str, str], list[Any]] = {}
     for sec, anchor in zip(doc.sections, doc.anchors):
-        from vrelab.report.html import section_results
-
-        provs = [dict(r.provenance) for _, r in section_results(sec)] + [dict(sec.provenance)]
+        provs = [dict(r.provenance) for _, r in sec.tabulated()] + [dict(sec.provenance)]
         for prov in provs:
             for key, digest in prov.items():
                 if not key.endswith("_sha256") or not isinstance(digest, str):

@@ -39,32 +39,32 @@ def _name(stage: object) -> str:
     return type(stage).__name__
 
 
-def _finite(stage: object, field: str) -> float:
+def finite(stage: object, field: str) -> float:
     return V.finite_scalar(f"{_name(stage)} {field}", getattr(stage, field))
 
 
-def _positive(stage: object, field: str) -> float:
-    x = _finite(stage, field)
+def positive(stage: object, field: str) -> float:
+    x = finite(stage, field)
     if x <= 0:
         raise ValueError(f"{_name(stage)} {field} must be > 0, got {getattr(stage, field)!r}")
     return x
 
 
-def _non_negative(stage: object, field: str) -> float:
-    x = _finite(stage, field)
+def non_negative(stage: object, field: str) -> float:
+    x = finite(stage, field)
     if x < 0:
         raise ValueError(f"{_name(stage)} {field} must be >= 0, got {getattr(stage, field)!r}")
     return x
 
 
-def _positive_int(stage: object, field: str) -> int:
+def positive_int(stage: object, field: str) -> int:
     value = getattr(stage, field)
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise ValueError(f"{_name(stage)} {field} must be an integer >= 1, got {value!r}")
     return int(value)
 
 
-def _below_nyquist(stage: object, field: str, f_hz: float, fs_hz: float) -> None:
+def below_nyquist(stage: object, field: str, f_hz: float, fs_hz: float) -> None:
     if not f_hz < fs_hz / 2:
         raise ValueError(
             f"{_name(stage)} {field} must be below fs/2 = {fs_hz / 2:g} Hz, got {f_hz:g} Hz "

@@ -15,6 +15,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from vrelab.units import UG_PER_G
+
 Kind = Literal["positive", "finite", "non_negative", "order", "bool", "choice", "rails"]
 
 
@@ -102,9 +104,9 @@ FIELDS: tuple[Field, ...] = (
           why_upper="a resonance above 1 MHz is beyond any accelerometer's; it would only make the simulation rate run away"),
     Field("q", "q", "positive", None, "quality factor of the resonance (the gain at fn_hz)"),
     Field("k2_ug_per_g2", "k2_per_g", "finite", 0.0, "second-order nonlinearity k2 = K2/K1 [µg/g²] (the VRC)",
-          scale=1e6),
-    Field("k3_ug_per_g3", "k3_per_g2", "finite", 0.0, "third-order nonlinearity k3 [µg/g³]", scale=1e6),
-    Field("k4_ug_per_g4", "k4_per_g3", "finite", 0.0, "fourth-order nonlinearity k4 [µg/g⁴]", scale=1e6),
+          scale=UG_PER_G),
+    Field("k3_ug_per_g3", "k3_per_g2", "finite", 0.0, "third-order nonlinearity k3 [µg/g³]", scale=UG_PER_G),
+    Field("k4_ug_per_g4", "k4_per_g3", "finite", 0.0, "fourth-order nonlinearity k4 [µg/g⁴]", scale=UG_PER_G),
     Field("rails_g", "rails_g", "rails", None, "[low, high] clip levels [g] (default ±full_scale_g)"),
     Field("clip_position", "clip_position", "choice", "output",
           "where the rails sit: output (after the low-pass) or proof-mass", choices=("output", "proof-mass")),

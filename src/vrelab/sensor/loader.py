@@ -53,6 +53,7 @@ from vrelab.sensor.stages import (
     Resonator,
     Stage,
 )
+from vrelab.units import UG_PER_G
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -313,7 +314,7 @@ def list_presets() -> list[str]:
     return sorted(p.name[: -len(".toml")] for p in _preset_dir().iterdir() if p.name.endswith(".toml"))
 
 
-def _read(spec: str) -> tuple[dict[str, Any], str]:
+def read_spec(spec: str) -> tuple[dict[str, Any], str]:
     presets = list_presets()
     if spec in presets:
         text = (_preset_dir() / f"{spec}.toml").read_text(encoding="utf-8")
@@ -537,7 +538,7 @@ def load_sensor(
     """
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
-    data, origin = _read(spec)
+    data, origin = read_spec(spec)
     _check_keys(data, _TOP_KEYS, origin)
     if "schema" not in data:
         raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "
@@ -588,10 +589,10 @@ def load_sensor(
         if v is not None:
             uncertainty.pop(key, None)  # set by the user: the file's assumed u is not about that value
     if k2_ug_per_g2 is not None:
-        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / 1e6
+        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / UG_PER_G
         facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
     if k3_ug_per_g3 is not None:
-        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / 1e6
+        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / UG_PER_G
         facts["k3_per_g2"] = f"set by the user: {k3_ug_per_g3:g} µg/g³"
 
     description = data.get("description", "")

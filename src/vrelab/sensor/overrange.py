@@ -10,7 +10,7 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.sensor.base import StageBase, _finite, _non_negative, _positive
+from vrelab.sensor.base import StageBase, finite, non_negative, positive
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -218,10 +218,10 @@ class OverRange(StageBase):
     analytic: ClassVar[str | None] = "overrange"
 
     def __post_init__(self) -> None:
-        _positive(self, "threshold_g")
-        _positive(self, "hold_s")
-        _finite(self, "value_g")
-        _non_negative(self, "float_tau_s")
+        positive(self, "threshold_g")
+        positive(self, "hold_s")
+        finite(self, "value_g")
+        non_negative(self, "float_tau_s")
         if not isinstance(self.retrigger, (bool, np.bool_)):
             raise ValueError(f"OverRange retrigger must be True or False, got {self.retrigger!r}")
 

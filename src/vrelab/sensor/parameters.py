@@ -15,6 +15,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Mapping
 
+from vrelab.units import UG_PER_G
+
 if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
@@ -39,8 +41,8 @@ class Param:
 
 
 TABLE: dict[str, Param] = {p.name: p for p in (
-    Param("k2_ug_per_g2", "ug/g^2", "µg/g²", "k2_ug_per_g2", "k2_per_g", 1e6),
-    Param("k3_ug_per_g3", "ug/g^3", "µg/g³", "k3_ug_per_g3", "k3_per_g2", 1e6),
+    Param("k2_ug_per_g2", "ug/g^2", "µg/g²", "k2_ug_per_g2", "k2_per_g", UG_PER_G),
+    Param("k3_ug_per_g3", "ug/g^3", "µg/g³", "k3_ug_per_g3", "k3_per_g2", UG_PER_G),
     Param("fn_hz", "Hz", "Hz", "fn_hz", "fn_hz"),
     Param("q", "1", "", "q", "q"),
     Param("rail_low_g", "g", "g", "rails_g", "rails_g", rail=0),

@@ -50,14 +50,15 @@ from scipy import signal
 from vrelab.sensor.base import (
     Stage,
     StageBase,
-    _below_nyquist,
-    _finite,
-    _non_negative,
-    _positive,
-    _positive_int,
+    below_nyquist,
+    finite,
+    non_negative,
+    positive,
+    positive_int,
 )
 from vrelab.sensor.filtering import FilterState, discretize_zpk, run_filter
 from vrelab.sensor.overrange import OverRange
+from vrelab.units import from_ug
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -128,8 +129,8 @@ class Resonator(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        _positive(self, "fn_hz")
-        _positive(self, "q")
+        positive(self, "fn_hz")
+        positive(self, "q")
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         r = np.asarray(f_hz, dtype=float) / self.fn_hz
@@ -140,7 +141,7 @@ class Resonator(FilterStage):
         return np.array([], complex), np.roots([1.0, wn / self.q, wn**2]).astype(complex), wn**2
 
     def design(self, fs_hz: float) -> FloatArray:
-        _below_nyquist(self, "fn_hz", self.fn_hz, fs_hz)
+        below_nyquist(self, "fn_hz", self.fn_hz, fs_hz)
         return discretize_zpk(*self.analog_zpk(), fs_hz)
 
 
@@ -170,8 +171,8 @@ class AntiAlias(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        _positive(self, "corner_hz")
-        _positive_int(self, "order")
+        positive(self, "corner_hz")
+        positive_int(self, "order")
 
     def analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
         return signal.butter(self.order, 2 * np.pi * self.corner_hz, analog=True, output="zpk")
@@ -182,7 +183,7 @@ class AntiAlias(FilterStage):
         return h.reshape(np.shape(f_hz))
 
     def design(self, fs_hz: float) -> FloatArray:
-        _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
+        below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
         return discretize_zpk(*self.analog_zpk(), fs_hz)
 
 
@@ -215,8 +216,8 @@ class LowPass(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        _positive(self, "corner_hz")
-        _positive_int(self, "order")
+        positive(self, "corner_hz")
+        positive_int(self, "order")
         if self.kind not in ("butterworth", "bessel"):
             raise ValueError(f"LowPass kind must be one of butterworth, bessel; got {self.kind!r}")
 
@@ -231,7 +232,7 @@ class LowPass(FilterStage):
         return h.reshape(np.shape(f_hz))
 
     def design(self, fs_hz: float) -> FloatArray:
-        _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
+        below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
         return self._design(self.corner_hz, fs=fs_hz, output="sos")
 
 
@@ -252,8 +253,8 @@ class HighPass(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        _positive(self, "corner_hz")
-        _positive_int(self, "order")
+        positive(self, "corner_hz")
+        positive_int(self, "order")
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         z, p, k = signal.butter(self.order, 2 * np.pi * self.corner_hz, btype="highpass", analog=True, output="zpk")
@@ -261,7 +262,7 @@ class HighPass(FilterStage):
         return h.reshape(np.shape(f_hz))
 
     def design(self, fs_hz: float) -> FloatArray:
-        _below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
+        below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
         # the steady state of a high-pass for a constant input is zero output, which is what
         # the shared start (sosfilt_zi·x0) gives too
         return signal.butter(self.order, self.corner_hz, btype="highpass", fs=fs_hz, output="sos")
@@ -295,7 +296,7 @@ class Polynomial(StageBase):
 
     def __post_init__(self) -> None:
         for f in ("k2_per_g", "k3_per_g2", "k4_per_g3"):
-            _finite(self, f)
+            finite(self, f)
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         k2, k3, k4 = self.k2_per_g, self.k3_per_g2, self.k4_per_g3
@@ -326,7 +327,7 @@ class Offset(StageBase):
     analytic: ClassVar[str | None] = "offset"
 
     def __post_init__(self) -> None:
-        _finite(self, "offset_g")
+        finite(self, "offset_g")
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         return x + self.offset_g, state
@@ -353,7 +354,7 @@ class Drift(StageBase):
     analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
-        _finite(self, "rate_g_per_s")
+        finite(self, "rate_g_per_s")
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> int:
         return 0  # samples seen so far
@@ -381,8 +382,8 @@ class Clip(StageBase):
     analytic: ClassVar[str | None] = "clip"
 
     def __post_init__(self) -> None:
-        lo = _finite(self, "low_g")
-        hi = _finite(self, "high_g")
+        lo = finite(self, "low_g")
+        hi = finite(self, "high_g")
         if not lo < hi:
             raise ValueError(f"Clip low_g must be < high_g, got low_g={self.low_g!r}, high_g={self.high_g!r}")
 
@@ -406,7 +407,7 @@ class Quantize(StageBase):
     analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
-        _positive(self, "lsb_g")
+        positive(self, "lsb_g")
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         return np.round(x / self.lsb_g) * self.lsb_g, state
@@ -427,7 +428,7 @@ class Decimate(StageBase):
     analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
-        _positive_int(self, "factor")
+        positive_int(self, "factor")
 
     @property
     def rate_factor(self) -> int:  # type: ignore[override]
@@ -482,11 +483,11 @@ class Noise(StageBase):
     analytic: ClassVar[str | None] = "neutral"
 
     def __post_init__(self) -> None:
-        _non_negative(self, "density_ug_per_rthz")
-        _positive_int(self, "frame_size")
+        non_negative(self, "density_ug_per_rthz")
+        positive_int(self, "frame_size")
 
     def sigma_g(self, fs_hz: float) -> float:
-        return self.density_ug_per_rthz * 1e-6 * math.sqrt(fs_hz / 2)
+        return from_ug(self.density_ug_per_rthz) * math.sqrt(fs_hz / 2)
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> _NoiseState:
         # Without a chain seed the stage is still reproducible: seed 0.

@@ -18,6 +18,7 @@ from vrelab import _budget
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import NYQUIST_MARGIN, simulation_rate_hz
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S
 from vrelab.results import Method
 from vrelab.simulation.record import (
     MIN_WINDOWS,
@@ -41,8 +42,6 @@ def default_settle_s(settle_s: float | None = None) -> float:
     """The settling time trimmed at each segment edge: by default the reduction's own default
     (its DUT low-pass must settle after every level change)."""
     if settle_s is None:
-        from vrelab.analysis.reduction import DEFAULT_SETTLE_S
-
         return float(DEFAULT_SETTLE_S)
     return float(V.non_negative("settle_s", settle_s))
 
@@ -54,8 +53,6 @@ def min_segment_seconds(settle_s: float | None = None) -> float:
     (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
     per edge, so a segment shorter than 4·settle_s would be trimmed less than asked.
     """
-    from vrelab.analysis.reduction import WINDOW_S
-
     settle_s = default_settle_s(settle_s)
     return max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
 
@@ -126,8 +123,6 @@ class TestPlan:
         if self.fs_internal_hz is not None:
             put(self, "fs_internal_hz", V.positive_scalar("fs_internal_hz", self.fs_internal_hz))
         need = min_segment_seconds(self.settle_s)
-        from vrelab.analysis.reduction import WINDOW_S
-
         for key in ("seconds", "baseline_s"):
             value = getattr(self, key)
             if value < need - 1e-9:
@@ -270,8 +265,6 @@ class TestPlan:
     def _check_budget(self, segs: Sequence[Stretch], rates: Rates) -> None:
         """Refuse, before anything runs, a test beyond the time or memory budget (vrelab._budget):
         its compute grows with the internal samples, the reduction's window table with the record."""
-        from vrelab.analysis.reduction import WINDOW_S
-
         n_internal = float(sum(s.n_internal for s in segs))
         duration_s = n_internal / rates.fs_internal_hz
         window_bytes = duration_s / WINDOW_S * _WINDOW_STATS_BYTES
@@ -300,8 +293,6 @@ def sine_drive(freq_hz: float, fs_out_hz: float) -> tuple[float, int, int]:
     output, 1.6 Hz on a 4 kHz one). The level is reported at the frequency measured from
     the reference, and fitted at the nominal one.
     """
-    from vrelab.analysis.reduction import WINDOW_S
-
     ratio = freq_hz / fs_out_hz
     l0 = max(2, round(max(WINDOW_S, 1.0 / freq_hz) * fs_out_hz))
     best: tuple[float, int, int] | None = None

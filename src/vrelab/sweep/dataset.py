@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from vrelab import __version__
+from vrelab._version import __version__
 from vrelab.sweep.checkpoint import PointRecord
 from vrelab.sweep.spec import SweepSpec
 

@@ -36,6 +36,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
+
 
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
     """rms of the proof-mass motion: through the resonance at the sine frequency, or over the
@@ -62,9 +64,9 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
 def _tilt_deg(vre_g: float, static_g: float) -> float:
     """:func:`vrelab.models.design.tilt_error_from_static_deg` (an axis at tilt ``asin(g0)``), NaN
     where it is undefined (g0 or g0 + δ at or beyond ±1 g): predict's rule, imported."""
-    from vrelab.predict import _tilt
+    from vrelab.predict import tilt_note
 
-    return _tilt(vre_g, static_g)[0]
+    return tilt_note(vre_g, static_g)[0]
 
 
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
@@ -77,7 +79,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     static = float(params.get("static_g", 1.0))
     range_g = float(params.get("range_g", 2.0))
     shape = params.get("shape", "gaussian")
-    clip_kind = params.get("clip_kind", "censored")
+    clip_kind = params.get("clip_kind", DEFAULT_CLIP_KIND)
     rms_mass = _rms_at_proof_mass(rms, params)
     k2 = float(ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0))))
     k3 = float(ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))))  # µg/g³ -> 1/g²: same factor

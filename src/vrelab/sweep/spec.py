@@ -50,6 +50,7 @@ import numpy as np
 
 from vrelab._lists import parse_list
 from vrelab._load import toml_load
+from vrelab.models.kinds import KINDS as CLIP_KINDS
 
 Kind = Literal["model", "predict", "simulate", "python"]
 KINDS: tuple[str, ...] = ("model", "predict", "simulate", "python")
@@ -105,7 +106,7 @@ PARAMS: dict[str, dict[str, Param]] = {
     "model": {
         **_COMMON,
         "shape": Param(str, ("gaussian", "sine")),
-        "clip_kind": Param(str, ("censored", "truncated", "none")),
+        "clip_kind": Param(str, (*CLIP_KINDS, "none")),
         "freq_hz": _P,
         "f_lo_hz": _P,
         "f_hi_hz": _P,

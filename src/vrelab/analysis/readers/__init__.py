@@ -95,16 +95,16 @@ from vrelab.analysis.readers import (  # noqa: F401  (they register)
     wav,
 )
 from vrelab.analysis.readers._base import (
-    _TIME_NAMES,
     G0,
     PLUGIN_GROUP,
     PLUGIN_NOTES,
     PLUGINS,
     READERS,
+    TIME_NAMES,
     UNITS,
     Scale,
     Source,
-    _as_scale,
+    as_scale,
     formats,
     formats_text,
     load_plugins,
@@ -144,7 +144,7 @@ def _open_source(path: Path) -> Source:
                          f"{type(exc).__name__}: {exc}") from None
 
 
-def _resolve(name: str, src: Source, role: str) -> str:
+def resolve_channel(name: str, src: Source, role: str) -> str:
     """The file's channel that ``name`` means: exactly, else case-insensitively, else as a column
     index (``ch0``), else as the last part of a ``group/name``. A name that several channels
     answer to is refused with each one's full name (never the first match, silently)."""
@@ -365,23 +365,23 @@ def open_record(
     try:
         if not src.channels:
             raise ValueError(f"{path.name}: no numeric channels found")
-        mapping = {key: _resolve(ch, src, "DUT") for key, ch in dut_channels(dut).items()}
+        mapping = {key: resolve_channel(ch, src, "DUT") for key, ch in dut_channels(dut).items()}
         seen: dict[str, str] = {}
         for key, ch in mapping.items():
             if ch in seen:
                 raise ValueError(f"DUTs {seen[ch][4:]!r} and {key[4:]!r} are the same file channel {ch!r}")
             seen[ch] = key
         if reference is not None:
-            mapping["reference"] = _resolve(reference, src, "reference")
+            mapping["reference"] = resolve_channel(reference, src, "reference")
             if mapping["reference"] in seen:
                 raise ValueError(f"reference and DUT are the same channel {mapping['reference']!r}")
         src.select(list(mapping.values()), fs_hz)
         lens = {f"{role} {ch!r}": src.lengths[ch] for role, ch in mapping.items()}
         tcol = None
         if time_channel is not None:
-            tcol = _resolve(time_channel, src, "time")
+            tcol = resolve_channel(time_channel, src, "time")
         elif src.fs_hz is None:
-            cands = [c for c in src.channels if (c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None)
+            cands = [c for c in src.channels if (c.lower().split("/")[-1] in TIME_NAMES or time_unit(c) is not None)
                      and c not in mapping.values()]
             tcol = cands[0] if len(cands) == 1 else None
         if tcol is not None:
@@ -469,7 +469,7 @@ def list_channels(path: str | Path) -> dict[str, Any]:
         names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
         # a file-level time column times the others; where each channel has its own stamps, none does
         tcols = [] if src.own_stamps else [c for c in names
-                                           if c.lower().split("/")[-1] in _TIME_NAMES or time_unit(c) is not None]
+                                           if c.lower().split("/")[-1] in TIME_NAMES or time_unit(c) is not None]
         time_fs: float | None = None
         time_note = None
         if src.fs_hz is None and not src.rates and len(tcols) == 1:
@@ -522,7 +522,7 @@ def _given_scale(scale: Any, key: str) -> Scale | None:
         if name not in scale:
             raise ValueError(f"no DUT sensitivity for channel {name!r} (the table names {', '.join(map(str, scale))})")
         scale = scale[name]
-    return None if scale is None else _as_scale(scale)
+    return None if scale is None else as_scale(scale)
 
 
 __all__ = ["open_record", "list_channels", "dut_channels", "FileRecord", "Scale", "Source", "detect_format", "register",

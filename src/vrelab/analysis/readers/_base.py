@@ -22,9 +22,9 @@ Units = Literal["g", "lsb", "mv", "v", "m/s2", "mg", "mm/s2"]
 UNITS: tuple[str, ...] = ("g", "lsb", "mv", "v", "m/s2", "mg", "mm/s2")
 # acceleration units: how many of them make one g (the divisor of Scale.to_g)
 _PER_G = {"g": 1.0, "mg": 1000.0, "m/s2": G0, "mm/s2": 1000.0 * G0}
-_FS_KEYS = ("fs_hz", "fs", "Fs", "sample_rate", "sampling_rate", "sample_rate_hz", "rate")
-_DT_KEYS = ("wf_increment", "dt", "sample_interval", "sampling_interval")
-_TIME_NAMES = ("time", "t", "time_s", "times", "timestamp", "time_sec", "seconds")
+FS_KEYS = ("fs_hz", "fs", "Fs", "sample_rate", "sampling_rate", "sample_rate_hz", "rate")
+DT_KEYS = ("wf_increment", "dt", "sample_interval", "sampling_interval")
+TIME_NAMES = ("time", "t", "time_s", "times", "timestamp", "time_sec", "seconds")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 
@@ -71,7 +71,7 @@ class Scale:
         return x if d == 1.0 else x / d
 
 
-def _as_scale(s: Scale | float | None) -> Scale:
+def as_scale(s: Scale | float | None) -> Scale:
     if s is None:
         return Scale()
     if isinstance(s, Scale):
@@ -275,7 +275,7 @@ def one_rate(path: Path, rates: Mapping[str, float], rtol: float) -> float | Non
     return float(sum(rates.values()) / len(rates))
 
 
-def _column_channels(prefix: str, arr: Any) -> dict[str, tuple[Any, Any]]:
+def column_channels(prefix: str, arr: Any) -> dict[str, tuple[Any, Any]]:
     """Channels of an array-like: 1-D -> itself; (N, C) -> columns; structured -> fields."""
     out: dict[str, tuple[Any, Any]] = {}
     dt = arr.dtype
@@ -297,7 +297,7 @@ def _column_channels(prefix: str, arr: Any) -> dict[str, tuple[Any, Any]]:
     return out
 
 
-def _slice(spec: tuple[Any, Any], start: int, stop: int) -> NDArray[Any]:
+def spec_slice(spec: tuple[Any, Any], start: int, stop: int) -> NDArray[Any]:
     arr, how = spec
     if how is None:
         return np.asarray(arr[start:stop])
@@ -309,7 +309,7 @@ def _slice(spec: tuple[Any, Any], start: int, stop: int) -> NDArray[Any]:
     return np.asarray(arr[start:stop][how])
 
 
-def _length(spec: tuple[Any, Any]) -> int:
+def spec_length(spec: tuple[Any, Any]) -> int:
     arr, how = spec
     if isinstance(how, str) and how == "squeeze":
         return int(max(arr.shape))
@@ -318,7 +318,7 @@ def _length(spec: tuple[Any, Any]) -> int:
     return int(arr.shape[0])
 
 
-class _ArraySource(Source):
+class ArraySource(Source):
     """Channels backed by array-likes that slice lazily (memmaps, h5py datasets)."""
 
     def __init__(self, path: Path) -> None:
@@ -332,10 +332,10 @@ class _ArraySource(Source):
             if (arr.dtype[how] if is_field else arr.dtype).kind not in "biuf":
                 continue
             self.specs[name] = spec
-            self.lengths[name] = _length(spec)
+            self.lengths[name] = spec_length(spec)
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
-        return _slice(self.specs[name], start, stop)
+        return spec_slice(self.specs[name], start, stop)
 
 
 # ----------------------------------------------------------------------------- the registry

@@ -10,11 +10,11 @@ from numpy.typing import NDArray
 
 from vrelab._load import json_loads
 from vrelab.analysis.readers._base import (
-    _DT_KEYS,
-    _FS_KEYS,
+    DT_KEYS,
+    FS_KEYS,
     HDF5_MAGIC,
-    _ArraySource,
-    _column_channels,
+    ArraySource,
+    column_channels,
     register,
 )
 from vrelab.record import Schedule
@@ -22,10 +22,10 @@ from vrelab.record import Schedule
 
 def _find_rate_h5(obj: Any) -> float | None:
     while obj is not None:
-        for k in _FS_KEYS:
+        for k in FS_KEYS:
             if k in obj.attrs:
                 return float(np.asarray(obj.attrs[k]).ravel()[0])
-        for k in _DT_KEYS:
+        for k in DT_KEYS:
             if k in obj.attrs:
                 dt = float(np.asarray(obj.attrs[k]).ravel()[0])
                 return 1.0 / dt if dt > 0 else None
@@ -34,7 +34,7 @@ def _find_rate_h5(obj: Any) -> float | None:
 
 
 @register
-class Hdf5Source(_ArraySource):
+class Hdf5Source(ArraySource):
     fmt = "hdf5"
     extensions = (".h5", ".hdf5", ".hdf", ".he5", ".nc")
 
@@ -64,10 +64,10 @@ class Hdf5Source(_ArraySource):
                     self.schedule = Schedule.from_array(d[()]) if d.shape[0] else None
                 continue
             if d.size <= 1:
-                if name.split("/")[-1] in _FS_KEYS:
+                if name.split("/")[-1] in FS_KEYS:
                     self.fs_hz = float(np.asarray(d[()]).ravel()[0])
                 continue
-            chans = _column_channels(name, d)
+            chans = column_channels(name, d)
             self.add(chans)
             unit = next((d.attrs[k] for k in ("unit", "units", "unit_string") if k in d.attrs), None)
             if isinstance(unit, bytes):

@@ -11,13 +11,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.analysis.readers._base import (
-    _FS_KEYS,
+    FS_KEYS,
     HDF5_MAGIC,
     Source,
-    _column_channels,
-    _length,
-    _slice,
+    column_channels,
     register,
+    spec_length,
+    spec_slice,
 )
 
 
@@ -99,15 +99,15 @@ class MatV5Source(Source):
             if stated is not None and v.dtype.kind in "biu":
                 v = v.astype(stated)  # whole numbers stored compactly: exact in the stated class
             if v.size == 1:
-                if k in _FS_KEYS:
+                if k in FS_KEYS:
                     self.fs_hz = float(v.ravel()[0])
                 continue
-            for name, spec in _column_channels(k, v).items():
+            for name, spec in column_channels(k, v).items():
                 self.arrays[name] = spec
-                self.lengths[name] = _length(spec)
+                self.lengths[name] = spec_length(spec)
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
-        return _slice(self.arrays[name], start, stop)
+        return spec_slice(self.arrays[name], start, stop)
 
 
 class MatV4Source(MatV5Source):

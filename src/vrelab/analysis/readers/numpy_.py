@@ -11,15 +11,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.analysis.readers._base import (
-    _FS_KEYS,
-    _ArraySource,
-    _column_channels,
+    FS_KEYS,
+    ArraySource,
+    column_channels,
     register,
 )
 
 
 @register
-class NpySource(_ArraySource):
+class NpySource(ArraySource):
     fmt = "npy"
     extensions = (".npy",)
 
@@ -30,7 +30,7 @@ class NpySource(_ArraySource):
     def __init__(self, path: Path) -> None:
         super().__init__(path)
         arr = np.load(path, mmap_mode="r", allow_pickle=False)
-        self.add(_column_channels("", arr))
+        self.add(column_channels("", arr))
 
 
 def _npy_header(fh: Any, version: tuple[int, int]) -> tuple[tuple[int, ...], bool, np.dtype]:
@@ -59,7 +59,7 @@ def _npz_member_memmap(path: Path, zf: zipfile.ZipFile, info: zipfile.ZipInfo) -
 
 
 @register
-class NpzSource(_ArraySource):
+class NpzSource(ArraySource):
     fmt = "npz"
     extensions = (".npz",)
 
@@ -84,10 +84,10 @@ class NpzSource(_ArraySource):
                     compressed.append(name)
                     arr = _LazyMember(path, info.filename)
                 if arr.ndim == 0 or arr.shape == (1,) or arr.shape == (1, 1):
-                    if name in _FS_KEYS:
+                    if name in FS_KEYS:
                         self.fs_hz = float(np.asarray(arr[...]).ravel()[0])
                     continue
-                chans = _column_channels(name if len(infos) > 1 or arr.ndim == 1 else "", arr)
+                chans = column_channels(name if len(infos) > 1 or arr.ndim == 1 else "", arr)
                 if arr.ndim == 1 and not arr.dtype.names:
                     chans = {name: (arr, None)}
                 self.add(chans)

@@ -1,0 +1,192 @@
+"""The package's import graph: no cycles (top-level and function-level imports alike), data
+flowing one way, and no private name imported from another module (issue 21, "imports").
+
+The graph is read from the source with :mod:`ast` (every ``import vrelab...`` and ``from vrelab...
+import`` at any depth, so an import hidden in a function counts; those under ``if
+TYPE_CHECKING:`` are never executed and are left out), then checked for strongly connected
+components (Tarjan). Each module is also imported alone in a fresh interpreter, which catches an
+import that fails in some order.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import vrelab
+
+SRC = Path(vrelab.__file__).parent
+PACKAGE = "vrelab"
+
+
+def _modules() -> dict[str, tuple[Path, bool]]:
+    out = {}
+    for p in sorted(SRC.rglob("*.py")):
+        parts = list(p.relative_to(SRC.parent).with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        if is_pkg:
+            parts = parts[:-1]
+        out[".".join(parts)] = (p, is_pkg)
+    return out
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+
+
+def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement at any depth, except under ``if TYPE_CHECKING:``."""
+    found: list[ast.Import | ast.ImportFrom] = []
+
+    def walk(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                for other in child.orelse:
+                    walk(other)
+                continue
+            if isinstance(child, (ast.Import, ast.ImportFrom)):
+                found.append(child)
+            walk(child)
+
+    walk(tree)
+    return found
+
+
+def _graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
+    """(module -> modules it imports, [(importer, source module, private name)])."""
+    mods = _modules()
+    edges: dict[str, set[str]] = {m: set() for m in mods}
+    private: list[tuple[str, str, str]] = []
+    for m, (path, is_pkg) in mods.items():
+        pkg = m if is_pkg else m.rsplit(".", 1)[0]
+        for node in _imports(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.split(".")[0] == PACKAGE and a.name != m:
+                        edges[m].add(a.name)
+                continue
+            if node.level:
+                base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != PACKAGE:
+                continue
+            for a in node.names:
+                full = f"{target}.{a.name}"
+                dest = full if full in mods else target
+                if dest != m:
+                    edges[m].add(dest)
+                if full not in mods and a.name.startswith("_") and not a.name.startswith("__"):
+                    private.append((m, target, a.name))
+    return edges, private
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+    counter = 0
+    for root in edges:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(edges.get(root, ()))))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            for w in it:
+                if w not in index:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(edges.get(w, ())))))
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp.append(w)
+                        if w == v:
+                            break
+                    if len(comp) > 1:
+                        out.append(sorted(comp))
+    return out
+
+
+def test_the_cycle_detector_finds_a_cycle_hidden_in_a_function() -> None:
+    """The detector itself: a two-module cycle through a function-level import is found, a
+    TYPE_CHECKING-only back edge is not."""
+    tree_a = ast.parse("from vrelab.b import x\n")
+    tree_b = ast.parse("def f():\n    from vrelab.a import y\n")
+    tree_c = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from vrelab.a import y\n")
+    assert len(_imports(tree_b)) == 1 and len(_imports(tree_c)) == 1  # only the typing import
+    assert _cycles({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [["a", "b"]]
+    assert _cycles({"a": {"b"}, "b": set(), "c": {"a"}}) == []
+    assert len(_imports(tree_a)) == 1
+
+
+def test_no_import_cycles_in_the_package() -> None:
+    edges, _ = _graph()
+    assert len(edges) > 50  # the walk saw the package
+    assert _cycles(edges) == []
+
+
+def test_nothing_imports_the_front_door() -> None:
+    """``vrelab/__init__`` imports every verb lazily; a module importing it (``from vrelab import
+    __version__``) would close a loop through it, so the version lives in ``vrelab._version``."""
+    edges, _ = _graph()
+    assert [m for m, deps in edges.items() if PACKAGE in deps] == []
+
+
+def test_no_private_name_imported_across_modules() -> None:
+    _, private = _graph()
+    assert private == []
+
+
+def test_each_module_imports_alone_in_a_fresh_interpreter() -> None:
+    """One interpreter imports every module, each in a fresh ``sys.modules`` state for the
+    package (removed before the next), so a module that needs another imported first fails."""
+    names = sorted(m for m in _modules() if not m.endswith("__main__"))
+    code = (
+        "import importlib, sys\n"
+        f"names = {names!r}\n"
+        "bad = []\n"
+        "for n in names:\n"
+        "    for k in [k for k in sys.modules if k == 'vrelab' or k.startswith('vrelab.')]:\n"
+        "        del sys.modules[k]\n"
+        "    try:\n"
+        "        importlib.import_module(n)\n"
+        "    except Exception as e:\n"
+        "        bad.append(f'{n}: {type(e).__name__}: {e}')\n"
+        "print('\\n'.join(bad))\n"
+        "sys.exit(1 if bad else 0)\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_the_simulation_does_not_import_the_analysis() -> None:
+    """Data flow one way: a simulated record goes to the analysis, never the reverse; the
+    timing both need (settling, window) lives in the record module below both."""
+    edges, _ = _graph()
+    sim = {m: sorted(d for d in deps if d.startswith("vrelab.analysis"))
+           for m, deps in edges.items() if m.startswith("vrelab.simulation")}
+    assert sim and all(v == [] for v in sim.values()), sim
