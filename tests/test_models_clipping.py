@@ -359,7 +359,8 @@ def test_clip_vre_is_the_mean_shift_referred_to_the_vibration_off_reading():
     independent scipy quadrature of E[clip(μ + X)] less clip(μ)."""
     from scipy import integrate, stats
 
-    from vrelab.models.clipping import clip_vre, mean_shift
+    from vrelab.models.clipping import mean_shift
+    from vrelab.models.design import clip_vre
 
     mu = np.array([-0.7, 0.0, 1.0, 1.9])
     rms = np.array([0.3, 1.0, 2.0])[:, None]

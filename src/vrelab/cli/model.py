@@ -15,7 +15,8 @@ from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, print_json
-from vrelab.models.clipping import KINDS, clip_vre
+from vrelab.models.clipping import KINDS
+from vrelab.models.design import clip_vre
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
 from vrelab.models.nonlinearity import vre_poly

@@ -12,7 +12,7 @@ function returns the mean shift ``E[output] - E[input]`` (measured from μ = g0)
 broadcasts its array arguments.
 
 Reference point: the VRE the tool states (SPEC 1.5) is referred to the vibration-off reading
-``clip(μ)`` (:func:`vrelab.models.memoryless.vibration_off_reading`), not to μ: :func:`clip_vre`.
+``clip(μ)`` (:func:`vrelab.models.memoryless.vibration_off_reading`), not to μ: :func:`vrelab.models.design.clip_vre`.
 The two are the same number wherever μ lies within the rails; beyond a rail the mean shift
 also counts the static level's own clipping ``clip(μ) - μ``, which no vibration causes (±2 g
 rails, μ = 2.5 g, 1 g rms: mean shift -698 mg, VRE -198 mg). The mean shifts stay as they are
@@ -150,7 +150,7 @@ def censored_mean_shift(
     -------
     numpy.ndarray or float
         VRE = E[clip(X, L, U)] - μ for X ~ N(μ, σ²) [g]. σ = 0 gives clip(μ) - μ.
-        Measured from μ; :func:`clip_vre` refers it to the vibration-off reading clip(μ).
+        Measured from μ; :func:`vrelab.models.design.clip_vre` refers it to the vibration-off reading clip(μ).
 
     Notes
     -----
@@ -229,7 +229,7 @@ def truncated_mean_shift(
     -------
     numpy.ndarray or float
         VRE = E[X | L < X < U] - μ for X ~ N(μ, σ²) [g]. σ = 0 gives clip(μ) - μ (the limit).
-        Measured from μ; :func:`clip_vre` refers it to the vibration-off reading clip(μ).
+        Measured from μ; :func:`vrelab.models.design.clip_vre` refers it to the vibration-off reading clip(μ).
 
     Notes
     -----
@@ -606,7 +606,7 @@ def mean_shift(
 
     Dispatches to :func:`censored_mean_shift`, :func:`truncated_mean_shift` or
     :func:`sine_clip_mean_shift`; see those for the equations. Units: g in, g out. Measured
-    from μ; :func:`clip_vre` is the same referred to the vibration-off reading (SPEC 1.5).
+    from μ; :func:`vrelab.models.design.clip_vre` is the same referred to the vibration-off reading (SPEC 1.5).
     """
     _validate.one_of("shape", shape, SHAPES)
     _validate.one_of("kind", kind, KINDS)
@@ -616,38 +616,3 @@ def mean_shift(
     if kind == "censored":
         return censored_mean_shift(mean_g, rms, rail_low_g, rail_high_g)
     return truncated_mean_shift(mean_g, rms, rail_low_g, rail_high_g)
-
-
-def clip_vre(
-    mean_g: ArrayLike,
-    rms_g: ArrayLike,
-    rail_low_g: ArrayLike,
-    rail_high_g: ArrayLike,
-    shape: Shape = "gaussian",
-    kind: Kind = DEFAULT_CLIP_KIND,
-) -> NDArray[np.float64] | float:
-    r"""VRE of clipping referred to the vibration-off reading (SPEC 1.5) [g].
-
-    .. math:: \mathrm{VRE} = E[\mathrm{out}] - \mathrm{clip}(μ, L, U)
-              = \mathrm{shift}(μ) + μ - \mathrm{clip}(μ, L, U)
-
-    with ``shift`` the mean shift of :func:`mean_shift` (censored: ``E[clip(μ + x)] - μ``;
-    truncated: ``E[μ + x | L < μ + x < U] - μ``) and ``clip(μ)`` the reading with no vibration
-    (:func:`vrelab.models.memoryless.vibration_off_reading`). Equal to the mean shift wherever
-    μ lies within the rails (the added term is exactly 0); beyond a rail the static level's own
-    clipping is left out: ±2 g rails, μ = 2.5 g, 1 g rms Gaussian, censored: -0.198 g (the mean
-    shift is -0.698 g). This is what ``vrelab model clip`` and :func:`vrelab.predict.predict`
-    state. The added term is exact; the sum's absolute error is a few ulps of ``|μ|``.
-
-    References
-    ----------
-    .. [1] SPEC sections 1.1 (the clipping mechanism) and 1.5 (the reference point).
-    """
-    from vrelab.models.memoryless import vibration_off_reading
-
-    shift = np.asarray(mean_shift(mean_g, rms_g, rail_low_g, rail_high_g, shape=shape, kind=kind), dtype=np.float64)
-    mu, low, high = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (mean_g, rail_low_g, rail_high_g)))
-    off = np.vectorize(lambda m, lo, hi: vibration_off_reading(m, rail_low_g=lo, rail_high_g=hi),
-                       otypes=[float])(mu, low, high)
-    out = shift + (mu - off)
-    return _scalar_or_array(np.asarray(out, dtype=np.float64))

@@ -24,15 +24,18 @@ from vrelab.models.nonlinearity import vre_poly
 
 
 def clip_vre(
-    mean_g: float,
+    mean_g: ArrayLike,
     sigma_g: ArrayLike,
-    rail_low_g: float,
-    rail_high_g: float,
+    rail_low_g: ArrayLike,
+    rail_high_g: ArrayLike,
     shape: Shape = "gaussian",
     kind: Kind = DEFAULT_CLIP_KIND,
     tone_peaks_g: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
-    """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading.
+    """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading
+    (SPEC 1.5; ``vrelab model clip`` prints it). ``mean_g`` and the rails broadcast with ``sigma_g``
+    (a scalar ``mean_g`` and ``sigma_g`` with tones). Censored, 1 g rms Gaussian at μ = 2.5 g on
+    ±2 g rails: -0.198 g, where the mean shift measured from μ is -0.698 g.
 
     ``mean_shift(μ, σ, L, U) - (clip(μ, L, U) - μ)`` (:func:`vrelab.models.clipping.mean_shift`,
     SPEC 1.1). A VRE is measured against the reading with the vibration off, which a static
@@ -46,10 +49,14 @@ def clip_vre(
         if shape != "gaussian":
             raise ValueError(f"tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian', got {shape!r}")
         with_vibration = np.asarray(
-            sine_on_random_mean_shift(mean_g, float(np.asarray(sigma_g)), tone_peaks_g, rail_low_g, rail_high_g, kind))
+            sine_on_random_mean_shift(float(np.asarray(mean_g)), float(np.asarray(sigma_g)), tone_peaks_g,
+                                      float(np.asarray(rail_low_g)), float(np.asarray(rail_high_g)), kind))
     else:
         with_vibration = np.asarray(mean_shift(mean_g, sigma_g, rail_low_g, rail_high_g, shape=shape, kind=kind))
-    out = with_vibration - (float(np.clip(mean_g, rail_low_g, rail_high_g)) - float(mean_g))
+    # the vibration-off reading of bare rails, clip(μ) (vrelab.models.memoryless.vibration_off_reading
+    # with no polynomial), broadcast over μ and the rails
+    mu = np.asarray(mean_g, dtype=np.float64)
+    out = with_vibration - (np.clip(mu, rail_low_g, rail_high_g) - mu)
     return out[()] if out.ndim == 0 else out
 
 

@@ -245,7 +245,7 @@ def poly_clip_vre(
         ``E[out] - out(x = 0)``: the mean output with vibration less the vibration-off reading
         ``clip(P(g0) + offset)`` (:func:`vibration_off_reading`, SPEC 1.5). With no rails this is
         SPEC 1.2's polynomial VRE exactly; with k = 0, SPEC 1.1's clipped mean
-        (:func:`vrelab.models.clipping.clip_vre`), which differs from the mean shift measured
+        (:func:`vrelab.models.design.clip_vre`), which differs from the mean shift measured
         from μ only where g0 lies beyond a rail.
 
     Notes
