@@ -487,7 +487,7 @@ def predict(
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
     if getattr(sensor, "covariance", None) or getattr(sensor, "uncertainty", None):
-        prop = propagation(sensor, excitation, levels_arr, g0, kind)
+        prop = propagation(sensor, excitation, levels_arr, g0, kind, vre_g=np.array([lv.vre_g for lv in out]))
         out = [dataclasses.replace(lv, u_vre_g=float(prop.u_g[i]),
                                    u_sources_g={k: float(v[i]) for k, v in prop.sources_g.items()},
                                    valid=lv.valid and not prop.level_notes[i],
@@ -555,7 +555,7 @@ IDENTIFIED = "identified (covariance)"
 
 def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                 levels: Sequence[float] | NDArray[np.float64], static_g: float,
-                kind: ClipKind = DEFAULT_CLIP_KIND) -> Propagation:
+                kind: ClipKind = DEFAULT_CLIP_KIND, vre_g: NDArray[np.float64] | None = None) -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
     Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
@@ -576,7 +576,8 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
     ``valid`` False with a note.
 
     ``sources_g``: ``"identified (covariance)"`` (the covariance block, correlations in it) and
-    one entry per assumed parameter; their quadrature sum is ``u_g``.
+    one entry per assumed parameter; their quadrature sum is ``u_g``. ``vre_g``: the VRE already
+    predicted at the parameters' values, one per predicted level (saves predicting it again).
     """
     from vrelab.sensor.parameters import parameter, with_parameters
 
@@ -594,7 +595,8 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
             return None
         return np.array([x.vre_g for x in p.levels])
 
-    f0 = vre_at({})
+    # the VRE at the parameters' values: the caller's prediction when it has one (predict), else computed
+    f0 = vre_at({}) if vre_g is None else np.asarray(vre_g, dtype=np.float64)
     assert f0 is not None
     # one VRE per predicted level: a sine at several frequencies predicts each level at each of them
     n_out = f0.size
