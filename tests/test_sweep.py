@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from test_hardening_folders import _alive, _children
 from vrelab.cli import main
 from vrelab.sweep import (
     Backend,
@@ -272,26 +273,6 @@ def _point_lines(path: Path) -> list[dict]:
         if obj["type"] == "point":
             out.append(obj)
     return out
-
-
-def _children(pid: int) -> list[int]:
-    kids = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            kids.append(int(stat.parent.name))
-    return kids
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 @pytest.mark.parametrize("where", [[], ["--workers", "2"]], ids=["serial", "pool"])
