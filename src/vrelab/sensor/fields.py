@@ -132,6 +132,32 @@ FIELDS: tuple[Field, ...] = (
     Field("highpass_hz", "highpass_hz", "positive", None, "high-pass corner [Hz] (omit: off)"),
     Field("offset_g", "offset_g", "finite", 0.0, "0 g offset [g], added before the output rails"),
     Field("drift_g_per_s", "drift_g_per_s", "finite", 0.0, "slow linear output drift [g/s]"),
+    # Beyond one axis (SPEC 1.6, IEEE 1293): this axis's cross-axis sensitivity row (its output
+    # per g along x, y, z relative to its own sensitivity; its own entry stays 0) and the model
+    # equation's second-order cross-coupling coefficients, on the triad (i, p, o) = this axis,
+    # pendulous_axis and the third.
+    Field("cross_axis_x", "cross_axis_x", "finite", 0.0,
+          "cross-axis sensitivity to x [g/g] (0 on the x axis itself)", upper=0.5,
+          why_upper="a sensitivity to another axis above half the own one is no accelerometer axis"),
+    Field("cross_axis_y", "cross_axis_y", "finite", 0.0,
+          "cross-axis sensitivity to y [g/g] (0 on the y axis itself)", upper=0.5,
+          why_upper="a sensitivity to another axis above half the own one is no accelerometer axis"),
+    Field("cross_axis_z", "cross_axis_z", "finite", 0.0,
+          "cross-axis sensitivity to z [g/g] (0 on the z axis itself)", upper=0.5,
+          why_upper="a sensitivity to another axis above half the own one is no accelerometer axis"),
+    Field("pendulous_axis", "pendulous_axis", "choice", None,
+          "IEEE 1293 pendulous axis p (default: the next axis, x->y->z->x); o is the third",
+          choices=("x", "y", "z")),
+    Field("kip_ug_per_g2", "kip_per_g", "finite", 0.0, "cross-coupling Kip, output per a_i·a_p [µg/g²]",
+          scale=UG_PER_G),
+    Field("kio_ug_per_g2", "kio_per_g", "finite", 0.0, "cross-coupling Kio, output per a_i·a_o [µg/g²]",
+          scale=UG_PER_G),
+    Field("kpp_ug_per_g2", "kpp_per_g", "finite", 0.0, "cross-axis nonlinearity Kpp, output per a_p² [µg/g²]",
+          scale=UG_PER_G),
+    Field("koo_ug_per_g2", "koo_per_g", "finite", 0.0, "cross-axis nonlinearity Koo, output per a_o² [µg/g²]",
+          scale=UG_PER_G),
+    Field("kpo_ug_per_g2", "kpo_per_g", "finite", 0.0, "cross-coupling Kpo, output per a_p·a_o [µg/g²]",
+          scale=UG_PER_G),
 )
 
 BY_KEY: dict[str, Field] = {f.key: f for f in FIELDS}

@@ -113,6 +113,20 @@ class Sensor:
     # Slow linear drift of the output [g/s] (bias drift: warm-up, temperature). Not a data-sheet
     # number of any preset (none sets it): 0 unless a file or dataclasses.replace sets it.
     drift_g_per_s: float = 0.0
+    # Beyond one axis (SPEC 1.6, IEEE 1293). The cross-axis sensitivity row: this axis's output
+    # per g along x, y, z relative to its own sensitivity (own entry 0; :attr:`sensitivity_row`
+    # adds the 1). The cross-coupling coefficients [1/g] of the model equation's terms
+    # Kip·a_i·a_p + Kio·a_i·a_o + Kpp·a_p² + Koo·a_o² + Kpo·a_p·a_o on the triad
+    # (i, p, o) = :attr:`triad`. All 0: the single-axis sensor of SPEC 1.1-1.5.
+    cross_axis_x: float = 0.0
+    cross_axis_y: float = 0.0
+    cross_axis_z: float = 0.0
+    pendulous_axis: str | None = None
+    kip_per_g: float = 0.0
+    kio_per_g: float = 0.0
+    kpp_per_g: float = 0.0
+    koo_per_g: float = 0.0
+    kpo_per_g: float = 0.0
     description: str = ""
     source: str = ""
     ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
@@ -143,6 +157,18 @@ class Sensor:
         if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
             raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
         object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
+        if self.axis in ("x", "y", "z"):
+            if getattr(self, f"cross_axis_{self.axis}") != 0:
+                raise ValueError(f"sensor {self.name}: cross_axis_{self.axis} must be 0 on the {self.axis} axis "
+                                 f"(its own sensitivity is 1 by definition), got {getattr(self, f'cross_axis_{self.axis}')!r}")
+            if self.pendulous_axis == self.axis:
+                raise ValueError(f"sensor {self.name}: pendulous_axis must be another axis than the input axis "
+                                 f"{self.axis}, got {self.pendulous_axis!r}")
+        for a in ("x", "y", "z"):
+            c = getattr(self, f"cross_axis_{a}")
+            if c < -0.5:
+                raise ValueError(f"sensor {self.name}: cross_axis_{a} must be at least -0.5 (a sensitivity to another "
+                                 f"axis above half the own one is no accelerometer axis), got {c!r}")
         if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
             raise ValueError(
                 f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
@@ -151,6 +177,37 @@ class Sensor:
         if self.covariance is not None:
             object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
         object.__setattr__(self, "uncertainty", _check_uncertainty(self))
+
+    # ------------------------------------------------------------------ beyond one axis
+
+    @property
+    def triad(self) -> tuple[int, int, int]:
+        """IEEE 1293's (input, pendulous, output) axes as indices of (x, y, z).
+
+        The input axis is :attr:`axis`; the pendulous axis is ``pendulous_axis`` or, by default,
+        the next axis in x -> y -> z -> x; the output axis is the third. Raises for an axis not
+        named x, y or z.
+        """
+        names = ("x", "y", "z")
+        if self.axis not in names:
+            raise ValueError(f"sensor {self.name}: axis {self.axis!r} is not x, y or z: no IEEE 1293 triad")
+        i = names.index(self.axis)
+        p = names.index(self.pendulous_axis) if self.pendulous_axis is not None else (i + 1) % 3
+        return i, p, 3 - i - p
+
+    @property
+    def sensitivity_row(self) -> NDArray[np.float64]:
+        """This axis's output per g along (x, y, z): 1 on its own axis, the cross-axis sensitivity elsewhere."""
+        row = np.array([self.cross_axis_x, self.cross_axis_y, self.cross_axis_z], dtype=np.float64)
+        i, _, _ = self.triad
+        row[i] = 1.0
+        return row
+
+    @property
+    def is_single_axis(self) -> bool:
+        """True when no cross-axis term is set (the sensor of SPEC 1.1-1.5)."""
+        return not any((self.cross_axis_x, self.cross_axis_y, self.cross_axis_z, self.kip_per_g, self.kio_per_g,
+                        self.kpp_per_g, self.koo_per_g, self.kpo_per_g))
 
     # ------------------------------------------------------------------ rates and chain
 
