@@ -288,3 +288,29 @@ def test_ide_values_names_and_rate(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="bad.ide"):
         with open_record(bad, "8.1", "8.0") as rec:
             next(rec.blocks(N, ["dut"]))
+
+
+def test_ide_refused_after_opening_closes_idelib_document(tmp_path: Path) -> None:
+    """A file idelib opens but vrelab refuses (no channel holds two samples) is closed at once,
+    not left open for the garbage collector (it was: a ResourceWarning at exit)."""
+    import gc
+    import os
+
+    ref, dut = _signals(1)
+    p = tmp_path / "one.ide"
+    write_ide(p, {"ref": ref[:1], "dut": dut[:1]}, 1024.0, per=1)
+
+    def open_on_p() -> int:
+        return sum(1 for fd in os.listdir("/proc/self/fd") if os.path.realpath(f"/proc/self/fd/{fd}") == str(p))
+
+    gc.disable()  # the collector would close a leaked handle and hide the leak
+    try:
+        with pytest.raises(ValueError, match="one.ide: no IDE channel holds samples"):
+            open_record(p, "8.1", "8.0")
+        assert open_on_p() == 0
+        p.write_bytes(p.read_bytes()[:40])  # truncated: refused by idelib itself, half-way
+        with pytest.raises(ValueError, match="one.ide"):
+            open_record(p, "8.1", "8.0")
+        assert open_on_p() == 0
+    finally:
+        gc.enable()

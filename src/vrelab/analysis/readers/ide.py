@@ -159,16 +159,32 @@ class IdeSource(Source):
         log, said = logging.getLogger("idelib"), _Said()
         log.addHandler(said)
         log.propagate = False
+        # idelib.importFile's two steps (openFile, readData) on a stream this reader owns, so a
+        # file idelib refuses half-way is closed here rather than left to the garbage collector
+        stream = open(path, "rb")
         try:
-            self.doc = idelib.importFile(str(path), quiet=True, parserTypes=_parser_types())
+            parsers = _parser_types()
+            self.doc = idelib.importer.openFile(stream, parserTypes=parsers, quiet=True)
+            idelib.importer.readData(self.doc, parserTypes=parsers)
         except _Refused as exc:
+            stream.close()
             raise ValueError(f"{path.name}: {exc}") from None
         except Exception as exc:
+            stream.close()
             raise ValueError(f"{path.name}: cannot read as IDE: {type(exc).__name__}: {exc}") from None
         finally:
             log.removeHandler(said)
             log.propagate = True
         self.notes += [f"idelib: {m}" for m in dict.fromkeys(said.messages)]
+        try:
+            self._index()
+        except BaseException:
+            self.close()  # refused after idelib opened the file: do not leave its handle to the GC
+            raise
+
+    def _index(self) -> None:
+        """The channels that hold samples, by name (ambiguous names by channel)."""
+        path = self.path
         self.events: dict[str, Any] = {}
         self.alias: dict[str, str] = {}
         self._rates: dict[str, float] = {}
