@@ -314,3 +314,25 @@ def test_ide_refused_after_opening_closes_idelib_document(tmp_path: Path) -> Non
         assert open_on_p() == 0
     finally:
         gc.enable()
+
+
+def test_truncated_mdf4_is_one_line_on_stderr(tmp_path: Path) -> None:
+    """asammdf's MDF4.__del__ raised on the half-built object of a file it refused ("Exception
+    ignored in ... AttributeError" and a traceback after vrelab's one line)."""
+    import subprocess
+    import sys
+
+    from asammdf import MDF, Signal
+
+    ref, dut = _signals(3)
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(ref, np.arange(N) / FS, name="ref"), Signal(dut, np.arange(N) / FS, name="dut")])
+    p = tmp_path / "whole.mf4"
+    mdf.save(str(p), overwrite=True)
+    mdf.close()
+    bad = tmp_path / "cut.mf4"
+    bad.write_bytes(p.read_bytes()[:200])
+    out = subprocess.run([sys.executable, "-m", "vrelab", "analyze", str(bad), "--dut", "dut", "--reference", "ref"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and out.stderr.startswith("vrelab: error: cut.mf4: cannot read as MDF"), out.stderr

@@ -18,8 +18,11 @@ the records it spans, not the file; opening reads the file's metadata (asammdf's
 
 from __future__ import annotations
 
+import contextlib
+import gc
+import sys
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,6 +90,27 @@ def _physical(conv: Any, raw: NDArray[Any]) -> NDArray[Any]:
     return np.asarray(conv.convert(raw))
 
 
+@contextlib.contextmanager
+def _half_built_mdf_quiet() -> Iterator[None]:
+    """Swallow what asammdf's ``MDF4.__del__``/``MDF3.__del__`` raise on an object whose
+    ``__init__`` failed half-way (it closes attributes never set: "Exception ignored in ...
+    AttributeError" and a traceback on stderr, after vrelab's one line). Only that: any other
+    unraisable exception goes to the hook as before. asammdf gives no way to open a file
+    without building that object, hence this filter."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        owner = getattr(unraisable.object, "__qualname__", "")
+        if isinstance(unraisable.exc_value, AttributeError) and owner in ("MDF4.__del__", "MDF3.__del__"):
+            return
+        previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
+
 @register
 class MdfSource(Source):
     fmt = "mdf"
@@ -103,10 +127,15 @@ class MdfSource(Source):
         from asammdf import MDF
 
         super().__init__(path)
-        try:
-            self.mdf = MDF(str(path))
-        except Exception as exc:
-            raise ValueError(f"{path.name}: cannot read as MDF: {type(exc).__name__}: {exc}") from None
+        failure = None
+        with _half_built_mdf_quiet():
+            try:
+                self.mdf = MDF(str(path))
+            except Exception as exc:
+                failure = f"{path.name}: cannot read as MDF: {type(exc).__name__}: {exc}"
+            gc.collect()
+        if failure is not None:
+            raise ValueError(failure)
         self.where: dict[str, tuple[int, int]] = {}
         self._rates: dict[int, float | None] = {}
         try:
@@ -131,6 +160,7 @@ class MdfSource(Source):
                 self.where[key] = (gi, ci)
                 self.lengths[key] = int(masters[gi].cycles_nr)
         if not self.where:
+            self.mdf.close()
             raise ValueError(f"{path.name}: no numeric MDF channel")
 
     def _refuse_formula(self, name: str, conv: Any) -> None:
