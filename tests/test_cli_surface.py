@@ -383,3 +383,20 @@ def test_every_bad_value_case_under_a_memory_cap(files: Path, tmp_path: Path) ->
     assert len(results) == len(cases) > 60
     bad = [(argv, rc, err) for argv, rc, err in results if rc != 2 or len(err.splitlines()) != 1 or "Traceback" in err]
     assert not bad, bad[:5]
+
+
+def test_a_channel_name_with_terminal_escapes_reaches_stderr_as_text(tmp_path):
+    """A recording's channel name is the file's text: an ESC/OSC sequence in it (clear the
+    screen, retitle the window) is printed as escapes in the one error line, never executed."""
+    import subprocess
+    import sys
+
+    rec = tmp_path / "rec.csv"
+    evil = "acc\x1b]0;owned\x07\x1b[2J"
+    rec.write_text("time,ref," + evil + "\n" + "".join(f"{i / 1000},{(-1) ** i},{0.5}\n" for i in range(50)),
+                   encoding="utf-8")
+    out = subprocess.run([sys.executable, "-m", "vrelab", "analyze", str(rec), "--dut", "nope", "--reference", "ref"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert "\x1b" not in out.stderr and "\x07" not in out.stderr
+    assert out.stderr.count("\n") == 1 and "\\x1b]0;owned\\x07\\x1b[2J" in out.stderr, out.stderr

@@ -17,7 +17,7 @@ import sys
 from typing import Sequence
 
 from vrelab._version import __version__
-from vrelab.cli._common import Parser, UsageError, print_json
+from vrelab.cli._common import Parser, UsageError, print_json, printable
 
 __all__ = ["main", "build_parser", "Parser", "UsageError", "print_json"]
 
@@ -110,6 +110,7 @@ def _run(argv: list[str], debug: bool) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         if isinstance(exc, OSError) and exc.filename and str(exc.filename) not in msg:
             msg = f"{msg}: {exc.filename}"
+        msg = printable(msg)
         prefix = "" if isinstance(exc, UsageError) else "vrelab: error: "
         sys.stderr.write(f"{prefix}{msg}\n")
         return 2
@@ -127,7 +128,7 @@ def _run(argv: list[str], debug: bool) -> int:
             import traceback
 
             traceback.print_exc()
-        first = str(exc).splitlines()[0] if str(exc) else ""
+        first = printable(str(exc).splitlines()[0]) if str(exc) else ""
         sys.stderr.write(f"vrelab: internal error: {type(exc).__name__}{': ' + first if first else ''} "
                          "(run again with --debug for the traceback, and please report it)\n")
         return 1

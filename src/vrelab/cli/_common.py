@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from typing import Any
 
@@ -209,3 +210,13 @@ def typeb_from_args(args: argparse.Namespace) -> Any:
     from vrelab.gum import TypeB
 
     return TypeB(args.u_reference_pct, args.u_dut_pct, args.u_static_g, args.u_thermal_g)
+
+
+def printable(text: str) -> str:
+    """``text`` with control characters written as escapes (``\\x1b``): a channel name or a
+    path from a file reaches the terminal as text, never as an escape sequence that moves the
+    cursor, retitles the window or hides the rest of the line."""
+    return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+
+
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")

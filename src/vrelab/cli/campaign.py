@@ -17,7 +17,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-from vrelab.cli._common import print_json
+from vrelab.cli._common import print_json, printable
 
 _EXAMPLE = """example MANIFEST (paths relative to it):
 
@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {args.out}/results.json, levels.csv, runs/; `vrelab report {args.out}` makes the report")
     failed = [r for r in doc["runs"] if r["status"] != "ok"]
     for r in failed:
-        sys.stderr.write(f"vrelab: run {r['index']} ({r['label']}) failed: {r['error']}\n")
+        sys.stderr.write(printable(f"vrelab: run {r['index']} ({r['label']}) failed: {r['error']}") + "\n")
     return 1 if failed else 0
 
 

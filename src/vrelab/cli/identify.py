@@ -20,7 +20,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
-from vrelab.cli._common import add_budget_arguments, print_json, typeb_from_args
+from vrelab.cli._common import add_budget_arguments, print_json, printable, typeb_from_args
 from vrelab.folder import IDENTIFICATION as DOCUMENT
 from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.models.clipping import KINDS
@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     for line in ident.notes:  # a failed run is never silent, whatever the output format
-        sys.stderr.write(f"vrelab identify: {line}\n")
+        sys.stderr.write(printable(f"vrelab identify: {line}") + "\n")
     if args.json:
         print_json(out)
     else:

@@ -69,7 +69,7 @@ def _json_num(x: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab.cli._common import print_json
+    from vrelab.cli._common import print_json, printable
     from vrelab.sweep import SweepAborted, load_spec, run_sweep
     from vrelab.sweep.dataset import flat_rows
 
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
             inputs=[args.file],
         )
     except SweepAborted as exc:
-        sys.stderr.write(f"vrelab: sweep stopped: {exc}\n")
+        sys.stderr.write(printable(f"vrelab: sweep stopped: {exc}") + "\n")
         return 3
     s = res.summary
     if args.json:
@@ -110,5 +110,5 @@ def run(args: argparse.Namespace) -> int:
                   f"and their points recomputed (first: line {s['quarantined'][0]['line']}, "
                   f"{s['quarantined'][0]['why']})", file=sys.stderr)
         for f in s["failed"][:5]:
-            print(f"  point {f['index']} failed: {f['error']}", file=sys.stderr)
+            print(printable(f"  point {f['index']} failed: {f['error']}"), file=sys.stderr)
     return 1 if s["n_failed"] else 0
