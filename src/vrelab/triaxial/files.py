@@ -159,7 +159,8 @@ def read_triaxial(path: str | os.PathLike[str]) -> TriaxialProfile:
             try:
                 axes[a] = _profile_from_table(p, doc[a])
             except ValueError as exc:
-                raise ValueError(str(exc).replace("profile.", f"{a}.")) from None
+                rest = str(exc).removeprefix(f"{p}: ").replace("profile.", f"{a}.")
+                raise ValueError(f"{p}: axis {a}: {rest}") from None
     if not axes:
         raise ValueError(f"{p}: no axis moves: give at least one of [x], [y], [z] with breakpoints")
     pairs_doc = doc.get("pair", {})
