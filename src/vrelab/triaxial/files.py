@@ -52,7 +52,7 @@ import tomli_w
 from numpy.typing import NDArray
 
 from vrelab._load import toml_load
-from vrelab.profiles import RandomProfile, _atomic_write, _profile_from_table, parse_profile
+from vrelab.profiles import RandomProfile, atomic_write, parse_profile, profile_from_table
 from vrelab.triaxial.profile import AXES, PairCoherence, TriaxialProfile, TriaxialSine, direction
 
 __all__ = ["read_triaxial", "write_triaxial", "parse_triaxial", "parse_direction", "is_triaxial_spec"]
@@ -157,7 +157,7 @@ def read_triaxial(path: str | os.PathLike[str]) -> TriaxialProfile:
             if not isinstance(doc[a], dict):
                 raise ValueError(f"{p}: {a} must be a table ([{a}] with breakpoints)")
             try:
-                axes[a] = _profile_from_table(p, doc[a])
+                axes[a] = profile_from_table(p, doc[a])
             except ValueError as exc:
                 rest = str(exc).removeprefix(f"{p}: ").replace("profile.", f"{a}.")
                 raise ValueError(f"{p}: axis {a}: {rest}") from None
@@ -229,7 +229,7 @@ def write_triaxial(profile: TriaxialProfile, path: str | os.PathLike[str]) -> Pa
             }
     if pairs:
         doc["pair"] = pairs
-    _atomic_write(p, tomli_w.dumps(doc).encode())
+    atomic_write(p, tomli_w.dumps(doc).encode())
     return p
 
 
@@ -269,8 +269,8 @@ def is_triaxial_spec(spec: str) -> bool:
     if p.suffix.lower() == ".toml" and p.is_file():
         try:
             with open(p, "rb") as fh:
-                doc = tomllib.load(fh)
-        except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+                doc = toml_load(fh, str(p))
+        except (OSError, ValueError):  # not TOML, or too deep: the single-axis reader says why
             return False
         return any(k in doc for k in ("triaxial", *AXES))
     return False
