@@ -651,7 +651,7 @@ def _toml_pair(path: Path, field: str, item: Any) -> tuple[float, float]:
         raise ValueError(f"{path}: {field} must hold numbers, got {item!r}") from None
 
 
-def _profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
+def profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
     """Build a profile from a TOML ``[profile]`` table (SPEC section 3 file format)."""
     name = table.get("name")
     source = table.get("source")
@@ -725,7 +725,7 @@ def _read_toml(path: Path) -> Profile:
     table = doc.get("profile")
     if not isinstance(table, dict):
         raise ValueError(f"{path}: no [profile] table")
-    prof = _profile_from_table(path, table)
+    prof = profile_from_table(path, table)
     if "tone" not in doc:
         return prof
     try:
@@ -759,7 +759,8 @@ def read_profile(path: str | os.PathLike[str]) -> Profile:
     return _read_toml(p) if suffix == ".toml" else _read_csv(p)
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
+def atomic_write(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` completely or not at all (temporary file + rename)."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent or ".")
     try:
         with os.fdopen(fd, "wb") as fh:
@@ -804,7 +805,7 @@ def write_profile(profile: Profile, path: str | os.PathLike[str]) -> Path:
         data = buf.getvalue().encode()
     else:
         raise ValueError(f"profile file must be .csv or .toml, got {str(path)!r}")
-    _atomic_write(p, data)
+    atomic_write(p, data)
     return p
 
 

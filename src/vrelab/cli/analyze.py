@@ -117,6 +117,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, envelope.csv, PSDs")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
+    p.add_argument("--triaxial", action="store_true",
+                   help="a triaxial reference: --reference X,Y,Z names its x, y, z channels and --dut one to three "
+                   "DUT axes (x,y,z in order, or AXIS=CH: x=ch3,z=ch5), each reduced against its own reference axis; "
+                   "levels are the reference's total rms, with each axis's and the measured cross-spectrum")
     p.set_defaults(func=run)
 
 
@@ -129,6 +133,10 @@ def run(args: argparse.Namespace) -> int:
     inputs = input_paths(args.file, args.schedule, args.profile)
     if args.out:  # refused before the record is read, not after
         _io.check_output(args.out, inputs)
+    if args.triaxial:
+        from vrelab.cli._analyze_triaxial import run_triaxial
+
+        return run_triaxial(args, inputs, _command_line(args))
     duts = [d.strip() for d in args.dut.split(",")]
     if any(not d for d in duts):
         raise ValueError(f"--dut {args.dut!r}: an empty channel name")

@@ -50,6 +50,10 @@ def run(args: argparse.Namespace) -> int:
         return _list(args.json)
     if spec is None:
         raise ValueError("profile: give PROFILE (a name, file, F:P,F:P,... or flat:F1-F2) or --list")
+    from vrelab.triaxial.files import is_triaxial_spec
+
+    if is_triaxial_spec(spec):
+        return _triaxial(args)
     prof = parse_profile(spec)
     if args.grms is not None:
         prof = prof.scaled_to(V.positive_scalar("--grms", args.grms))
@@ -67,6 +71,30 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _triaxial(args: argparse.Namespace) -> int:
+    """A triaxial vibration (PROFILE@dir=X,Y,Z, PROFILE@z45x, sine:F@..., a triaxial .toml)."""
+    from vrelab.triaxial.files import parse_triaxial, write_triaxial
+    from vrelab.triaxial.profile import TriaxialProfile
+
+    prof = parse_triaxial(args.profile)
+    if args.grms is not None:
+        prof = prof.scaled_to(V.positive_scalar("--grms", args.grms))
+    if args.write is not None:
+        if not isinstance(prof, TriaxialProfile):
+            raise ValueError("--write: a sine along a direction has no profile file; give it as sine:F@... where used")
+        write_triaxial(prof, args.write)
+    if args.json:
+        d = prof.to_dict()
+        if args.write is not None:
+            d["written"] = str(args.write)
+        print_json(d)
+    else:
+        print(prof.describe())
+        if args.write is not None:
+            print(f"written: {args.write}")
+    return 0
+
+
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "profile",
@@ -74,7 +102,10 @@ def register(subparsers: Any) -> None:
         description="Show a random vibration profile (breakpoints interpolated log-log): its "
         "grms, band, breakpoint table and slopes in dB/oct. PROFILE is a named profile "
         "(see --list), a .csv/.toml file, an inline list F:P,F:P,... (Hz:g²/Hz) or flat:F1-F2; "
-        "+sine:F:PEAK,... adds sine tones (Hz:g peak), e.g. navmat-p9492+sine:120:0.5,240:0.2.",
+        "+sine:F:PEAK,... adds sine tones (Hz:g peak), e.g. navmat-p9492+sine:120:0.5,240:0.2. A triaxial "
+        "vibration: PROFILE@dir=X,Y,Z or PROFILE@z45x (along a direction or IEEE 1293 mount angle: axis z at 45 "
+        "degrees toward x), sine:F@..., or a triaxial .toml ([x], [y], [z] breakpoints, [pair.xz] coherence and "
+        "phase_deg); --write FILE.toml writes it.",
     )
     p.add_argument("profile", nargs="?", metavar="PROFILE", help="profile, or 'list'")
     p.add_argument("--grms", type=str, metavar="G",

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrelab.profiles import RandomProfile, segment_areas
 
-__all__ = ["AXES", "TriaxialProfile", "TriaxialSine", "direction"]
+__all__ = ["AXES", "PairCoherence", "TriaxialProfile", "TriaxialSine", "direction"]
 
 AXES: tuple[str, str, str] = ("x", "y", "z")
 # Coherency matrices are checked positive semi-definite to this (eigenvalues of a unit-diagonal
@@ -63,6 +63,63 @@ def _unit(vector: ArrayLike, what: str = "direction") -> NDArray[np.float64]:
     if n == 0:
         raise ValueError(f"{what} must not be the zero vector")
     return d / n
+
+
+@dataclass(frozen=True, eq=False)
+class PairCoherence:
+    """The coherence ``γ²`` and phase between two axes, constant or a table over frequency.
+
+    ``freq_hz`` None: one value at every frequency. Else breakpoints [Hz] (at least 2, strictly
+    increasing) with ``coherence`` (0..1) and ``phase_deg`` at each, linear in ln f between them.
+    The phase is the one of ``S_jk = E[A_j A_k*]``: positive when axis k lags axis j.
+    """
+
+    coherence: NDArray[np.float64]
+    phase_deg: NDArray[np.float64]
+    freq_hz: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        g = np.array(self.coherence, dtype=np.float64, copy=True).ravel()
+        ph = np.array(self.phase_deg, dtype=np.float64, copy=True).ravel()
+        if self.freq_hz is None:
+            if g.size != 1 or ph.size != 1:
+                raise ValueError("a constant coherence is one coherence and one phase")
+        else:
+            f = np.array(self.freq_hz, dtype=np.float64, copy=True).ravel()
+            if f.size < 2 or g.size != f.size or ph.size != f.size:
+                raise ValueError(f"a coherence table needs >= 2 breakpoints with a coherence and a phase at each, "
+                                 f"got {f.size} frequencies, {g.size} coherences, {ph.size} phases")
+            if not np.isfinite(f).all():
+                raise ValueError("a coherence table's frequencies must be finite (got NaN or inf)")
+            if f[0] <= 0 or (np.diff(f) <= 0).any():
+                raise ValueError("non-monotonic coherence table: its frequencies must be positive and strictly increasing")
+            f.setflags(write=False)
+            object.__setattr__(self, "freq_hz", f)
+        if not (np.isfinite(g).all() and np.isfinite(ph).all()):
+            raise ValueError("a coherence and its phase must be finite numbers (got NaN or inf)")
+        if ((g < 0) | (g > 1)).any():
+            bad = float(g[(g < 0) | (g > 1)][0])
+            raise ValueError(f"coherence must be within 0..1, got {bad:g}")
+        for a in (g, ph):
+            a.setflags(write=False)
+        object.__setattr__(self, "coherence", g)
+        object.__setattr__(self, "phase_deg", ph)
+
+    @classmethod
+    def constant(cls, coherence: float, phase_deg: float = 0.0) -> PairCoherence:
+        return cls(np.array([coherence], dtype=np.float64), np.array([phase_deg], dtype=np.float64))
+
+    def coherency(self, f_hz: ArrayLike) -> NDArray[np.complex128]:
+        """``sqrt(γ²)·exp(i·phase)`` at ``f_hz`` (γ² and phase linear in ln f; held at the ends)."""
+        f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
+        if self.freq_hz is None:
+            g = np.full(f.size, self.coherence[0])
+            ph = np.full(f.size, self.phase_deg[0])
+        else:
+            lf, lb = np.log(f), np.log(self.freq_hz)
+            g = np.interp(lf, lb, self.coherence)
+            ph = np.interp(lf, lb, self.phase_deg)
+        return np.asarray(np.sqrt(g) * np.exp(1j * np.radians(ph)), dtype=np.complex128)
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,34 +194,71 @@ class TriaxialProfile:
     def from_axes(
         cls,
         axes: Mapping[str, RandomProfile],
-        coherence: Mapping[tuple[str, str], tuple[float, float]] | None = None,
+        coherence: Mapping[tuple[str, str], tuple[float, float] | PairCoherence] | None = None,
         name: str | None = None,
+        source: str | None = None,
     ) -> TriaxialProfile:
-        """Per-axis profiles on one set of breakpoints, with a coherence and phase per pair.
+        """Per-axis profiles with a coherence and phase per pair, on the union of their breakpoints.
 
-        ``axes`` maps "x", "y", "z" to a profile (a missing axis is still); all given profiles
-        share their breakpoint frequencies. ``coherence[(j, k)] = (γ², phase_deg)``, the same
-        at every frequency; pairs not given are incoherent.
+        ``axes`` maps "x", "y", "z" to a profile (a missing axis is still). Axes whose breakpoints
+        differ are each evaluated, log-log, on the union of all breakpoints: exact, as every
+        segment is a power law and a point added inside it lies on it. Every moving axis must
+        span the same band: an axis narrower than another would be 0 where the other moves, which
+        a log-log breakpoint table cannot hold, and is refused.
+
+        ``coherence[(j, k)]`` is ``(γ², phase_deg)``, the same at every frequency, or a
+        :class:`PairCoherence` table (γ² and phase linear in ln f between its breakpoints, which
+        join the union; it must span the band); pairs not given are incoherent. The profile then
+        holds the complex coherency at every breakpoint of the union and interpolates it linearly
+        in ln f (the class Notes): at the breakpoints it is the table's γ² and phase exactly.
         """
         if not axes or set(axes) - set(AXES):
             raise ValueError(f"axes must map some of x, y, z to profiles, got {sorted(axes)!r}")
-        freqs = [pr.freq_hz for pr in axes.values()]
-        if any(fr.shape != freqs[0].shape or not np.array_equal(fr, freqs[0]) for fr in freqs):
-            raise ValueError("the axes' profiles must share their breakpoint frequencies")
-        f = freqs[0]
-        p = np.zeros((f.size, 3))
-        for a, pr in axes.items():
-            p[:, AXES.index(a)] = pr.psd_g2_per_hz
-        c = np.eye(3, dtype=np.complex128)
-        for (j, k), (gamma2, phase_deg) in (coherence or {}).items():
+        bands = {a: pr.band for a, pr in axes.items()}
+        lo = max(b[0] for b in bands.values())
+        hi = min(b[1] for b in bands.values())
+        for a, (a_lo, a_hi) in sorted(bands.items()):
+            if a_lo < lo or a_hi > hi:
+                narrow = min(bands, key=lambda k: bands[k][1] - bands[k][0])
+                raise ValueError(
+                    f"axis {narrow} spans {bands[narrow][0]:g}-{bands[narrow][1]:g} Hz but axis {a} spans "
+                    f"{a_lo:g}-{a_hi:g} Hz: every moving axis must span the same band (a log-log breakpoint "
+                    "table cannot fall to 0 inside the band)")
+        pairs = dict(coherence or {})
+        grids = [pr.freq_hz for pr in axes.values()]
+        tables: dict[tuple[int, int], PairCoherence] = {}
+        for (j, k), value in pairs.items():
             if j not in AXES or k not in AXES or j == k:
                 raise ValueError(f"a coherence pair must be two different axes of x, y, z, got ({j!r}, {k!r})")
-            if not 0 <= float(gamma2) <= 1:
-                raise ValueError(f"coherence between {j} and {k} must be within 0..1, got {gamma2!r}")
-            v = math.sqrt(float(gamma2)) * np.exp(1j * math.radians(float(phase_deg)))
-            c[AXES.index(j), AXES.index(k)] = v
-            c[AXES.index(k), AXES.index(j)] = np.conj(v)
-        return cls(f, p, np.broadcast_to(c, (f.size, 3, 3)), name=name)
+            if j not in axes or k not in axes:
+                still = j if j not in axes else k
+                raise ValueError(f"coherence between {j} and {k} given, but axis {still} is still (no PSD)")
+            table = value if isinstance(value, PairCoherence) else PairCoherence.constant(*value)
+            jj, kk = AXES.index(j), AXES.index(k)
+            if (jj, kk) in tables or (kk, jj) in tables:
+                raise ValueError(f"coherence between {j} and {k} given twice")
+            if table.freq_hz is not None:
+                if table.freq_hz[0] > lo * (1 + 1e-12) or table.freq_hz[-1] < hi * (1 - 1e-12):
+                    raise ValueError(
+                        f"the coherence table of {j}{k} spans {table.freq_hz[0]:g}-{table.freq_hz[-1]:g} Hz, "
+                        f"not the whole band {lo:g}-{hi:g} Hz")
+                inside = table.freq_hz[(table.freq_hz > lo) & (table.freq_hz < hi)]
+                grids.append(inside)
+            tables[(jj, kk)] = table
+        f = np.unique(np.concatenate(grids))
+        f = f[(f >= lo) & (f <= hi)]
+        p = np.zeros((f.size, 3))
+        for a, pr in axes.items():
+            p[:, AXES.index(a)] = np.asarray(pr.psd(f))
+            own = np.isin(f, pr.freq_hz)  # the axis's own breakpoints keep their values bit for bit
+            p[own, AXES.index(a)] = pr.psd_g2_per_hz[np.isin(pr.freq_hz, f[own])]
+        c = np.zeros((f.size, 3, 3), dtype=np.complex128)
+        c[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        for (jj, kk), table in tables.items():
+            v = table.coherency(f)
+            c[:, jj, kk] = v
+            c[:, kk, jj] = np.conj(v)
+        return cls(f, p, c, name=name, source=source)
 
     # --- what it is ---------------------------------------------------------------------------
 

@@ -1,0 +1,281 @@
+"""Triaxial recordings reduced per axis (SPEC 1.6, 4): a triaxial reference and up to three DUT axes.
+
+Each DUT axis is reduced as one axis is today (:func:`vrelab.analysis.analyze_full`: baselines,
+offset shift under vibration, batch-means uncertainty), against the reference channel of its own
+axis, so the DUT/reference ratio check compares like with like. When that reference axis is
+still (its rms under a tenth of the most moving axis's), the levels are read from the most
+moving axis instead and the ratio check, which would then compare two axes, is skipped: said in
+the channel's warnings.
+
+Every DUT axis uses the same segments: found once from the most moving reference axis (or the
+given or embedded schedule), so a still axis still has its levels.
+
+The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, SPEC 1.6): each level's
+``rms_g`` is the reduction's level rescaled by ``sqrt(Σ_j m_j / m_r)``, with ``m_j`` the
+reference's mean square along axis j in the test band (at the drive frequency for a sine) from
+the level's Welch cross-spectrum and ``r`` the reference axis the reduction read; ``axis_rms_g``
+gives each axis's. The measured cross-spectral matrix of each level (PSDs, coherences, phases,
+their uncertainty and number of averages, :mod:`vrelab.triaxial.recording`) is reported.
+
+Fits: the VRC of each DUT axis against the total rms (``VRE = VRC·rms²`` holds for any quadratic
+mechanism, cross terms included, when one shape is scaled). The clipping rail is **not** fitted:
+an axis's rail sees the vibration sensed along that axis, not the total, and a rail fitted
+against the total rms would be a confident wrong number; fit it from a single-axis run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab.analysis.plausibility import MethodRequest
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, Schedule, Segment
+from vrelab.results import LevelResult, Notice, VreResult, channels_to_dict
+from vrelab.triaxial.profile import AXES
+from vrelab.triaxial.recording import CsdAccumulator, MeasuredCsd, band_csd, default_nperseg, record_blocks
+
+__all__ = ["TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial"]
+
+# A reference axis whose rms is under this fraction of the most moving axis's is still: its
+# DUT axis's levels are read from the most moving axis.
+STILL_FRACTION = 0.1
+# Points per octave of the reported cross-spectrum of each level.
+POINTS_PER_OCTAVE = 3.0
+
+
+class _PairView:
+    """One DUT channel and one reference channel of a record, seen as ``dut`` and ``reference``."""
+
+    def __init__(self, record: Any, dut: str, reference: str) -> None:
+        self.base = record
+        self.names = {"dut": dut, "reference": reference}
+        self.fs_hz = record.fs_hz
+        self.n_samples = record.n_samples
+        self.schedule = record.schedule
+        meta = dict(record.meta or {})
+        files = dict(meta.get("channels") or {})
+        meta["channels"] = {k: files.get(v, v) for k, v in self.names.items()}
+        self.meta = meta
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return ("dut", "reference")
+
+    @property
+    def random_access(self) -> bool:
+        return bool(getattr(self.base, "random_access", True))
+
+    def blocks(self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None) -> Any:
+        for c in channels:
+            if c not in self.names:
+                raise ValueError(f"record has no channel {c!r}; channels: dut, reference")
+        raw = [self.names[c] for c in channels]
+        for blk in self.base.blocks(block_size, list(dict.fromkeys(raw)), start, stop):
+            yield {c: blk[r] for c, r in zip(channels, raw)}
+
+
+@dataclass(frozen=True, eq=False)
+class TriaxialLevel:
+    """The reference's vibration at one level: total and per-axis rms [g] and its cross-spectrum."""
+
+    start_s: float
+    end_s: float
+    rms_g: float
+    axis_rms_g: tuple[float, float, float]
+    csd: MeasuredCsd | None  # random: the band-mean CSD; sine: None (see ``line``)
+    line: Mapping[str, Any] | None = None  # sine: the drive line's amplitudes and phases
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"start_s": self.start_s, "end_s": self.end_s, "rms_g": self.rms_g,
+                             "axis_rms_g": dict(zip(AXES, self.axis_rms_g))}
+        if self.csd is not None:
+            d["csd"] = self.csd.to_dict()
+        if self.line is not None:
+            d["line"] = dict(self.line)
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class TriaxialAnalysis:
+    """Per DUT axis (name, result, reduction), the reference's levels, what the reduction used."""
+
+    channels: tuple[tuple[str, VreResult, Any], ...]
+    levels: tuple[TriaxialLevel, ...]
+    reference: Mapping[str, str]
+    segmenting_axis: str
+    level_axis: Mapping[str, str]  # DUT axis -> the reference axis its levels were read from
+
+    def to_dict(self, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        doc = channels_to_dict([(n, r) for n, r, _ in self.channels], provenance or {})
+        by_time = {(lv.start_s, lv.end_s): lv for lv in self.levels}
+        for ch, (name, _, red) in zip(doc["channels"], self.channels):
+            ch["level_axis"] = self.level_axis[name]
+            for d, seg in zip(ch["levels"], red.level_segments):
+                lv = by_time.get((seg.start_s, seg.end_s))
+                if lv is not None:
+                    d["axis_rms_g"] = dict(zip(AXES, lv.axis_rms_g))
+        doc["triaxial"] = {
+            "reference_channels": dict(self.reference),
+            "segmenting_axis": self.segmenting_axis,
+            "level": "rms_g of every level is the reference's total rms, sqrt(x² + y² + z²) of the axes' rms in the "
+                     "test band (at the drive frequency for a sine); axis_rms_g gives each axis's",
+            "levels": [lv.to_dict() for lv in self.levels],
+        }
+        return doc
+
+
+def _ac_rms(record: Any, channels: Sequence[str], block: int) -> NDArray[np.float64]:
+    """AC rms of each channel over the whole record (one streaming pass)."""
+    s = np.zeros(len(channels))
+    s2 = np.zeros(len(channels))
+    n = 0
+    for b in record_blocks(record, channels, 0, None, block):
+        s += b.sum(axis=0)
+        s2 += (b * b).sum(axis=0)
+        n += b.shape[0]
+    mean = s / max(n, 1)
+    return np.asarray(np.sqrt(np.maximum(s2 / max(n, 1) - mean * mean, 0.0)), dtype=np.float64)
+
+
+def _segment_range(fs: float, seg: Segment, n: int) -> tuple[int, int]:
+    i0 = int(math.ceil(seg.start_s * fs - 1e-9))
+    i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), n)
+    return i0, i1
+
+
+def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
+                     freq_hz: float | None, block: int) -> tuple[NDArray[np.float64], TriaxialLevel]:
+    """(mean square per axis [g²] in the band or at the line, the level's TriaxialLevel)."""
+    fs = record.fs_hz
+    i0, i1 = _segment_range(fs, seg, record.n_samples)
+    if freq_hz is None:
+        nper = default_nperseg(fs, band, POINTS_PER_OCTAVE)
+    else:  # a sine: about 1 Hz resolution, the line summed over its bins
+        nper = int(min(2 ** round(math.log2(fs)), 1 << 14))
+    nper = max(8, min(nper, 2 ** int(math.log2(max(i1 - i0, 16)))))
+    acc = CsdAccumulator(fs, nper)
+    for b in record_blocks(record, refs, i0, i1, block):
+        acc.add(b)
+    s = acc.csd
+    f = acc.freq_hz
+    df = fs / nper
+    if freq_hz is None:
+        sel = (f >= band[0]) & (f <= band[1])
+        ms = np.real(np.diagonal(s[sel], axis1=1, axis2=2)).sum(axis=0) * df
+        csd = band_csd(acc, band, POINTS_PER_OCTAVE)
+        total = math.sqrt(float(ms.sum()))
+        return ms, TriaxialLevel(seg.start_s, seg.end_s, total, (*map(float, np.sqrt(ms)),), csd)  # type: ignore[arg-type]
+    sel = np.abs(f - freq_hz) <= max(3 * df, 0.02 * freq_hz)
+    line = s[sel].sum(axis=0) * df
+    ms = np.real(np.diagonal(line)).copy()
+    total = math.sqrt(float(ms.sum()))
+    phases = {AXES[j] + AXES[k]: (float(np.degrees(np.angle(line[j, k]))) if ms[j] > 0 and ms[k] > 0 else None)
+              for j, k in ((0, 1), (0, 2), (1, 2))}
+    info = {"freq_hz": freq_hz, "phase_deg": phases,
+            "note": "the line's cross-spectrum summed over its Welch bins; phase positive when the second axis lags"}
+    return ms, TriaxialLevel(seg.start_s, seg.end_s, total, (*map(float, np.sqrt(ms)),), None, info)  # type: ignore[arg-type]
+
+
+def analyze_triaxial(
+    record: Any,
+    reference: Mapping[str, str],
+    duts: Mapping[str, str],
+    method: MethodRequest = "auto",
+    schedule: Schedule | None = None,
+    band_hz: tuple[float, float] | None = None,
+    settle_s: float = DEFAULT_SETTLE_S,
+    block_size: int = 1 << 18,
+    rail_g: float | None = None,
+    fit_k4: bool = False,
+    accept: Sequence[str] = (),
+    progress: bool = False,
+    provenance: Mapping[str, Any] | None = None,
+) -> TriaxialAnalysis:
+    """Reduce each DUT axis of a record with a triaxial reference (the module docstring).
+
+    Parameters
+    ----------
+    record : Record
+        In g, holding the reference's three channels and the DUT axes' channels.
+    reference : mapping "x", "y", "z" -> record channel
+        All three axes.
+    duts : mapping axis ("x", "y" or "z") -> record channel
+        One to three DUT axes, named by the axis of the reference they are reduced against.
+    method, schedule, band_hz, settle_s, block_size, rail_g, fit_k4, accept, progress, provenance
+        As :func:`vrelab.analysis.analyze_full`.
+    """
+    from vrelab.analysis.reduction import analyze_full, default_band
+    from vrelab.analysis.segmentation import auto_segment, window_pass
+    from vrelab.fits import fit_levels
+
+    if sorted(reference) != list(AXES):
+        raise ValueError(f"a triaxial reference needs three channels x, y, z, got {sorted(reference)!r}")
+    if not duts or set(duts) - set(AXES):
+        raise ValueError(f"DUT axes must be some of x, y, z, got {sorted(duts)!r}")
+    for name, ch in {**{f"reference {a}": c for a, c in reference.items()},
+                     **{f"DUT {a}": c for a, c in duts.items()}}.items():
+        if ch not in record.channels:
+            raise ValueError(f"{name}: record has no channel {ch!r}; channels: {', '.join(record.channels)}")
+    refs = [reference[a] for a in AXES]
+    if len(set(refs) | set(duts.values())) != len(refs) + len(duts):
+        raise ValueError("the reference's and the DUT's channels must be distinct channels")
+    fs = float(record.fs_hz)
+    band = default_band(fs, band_hz, None)
+    rms = _ac_rms(record, refs, block_size)
+    if not rms.max() > 0:
+        raise ValueError("the triaxial reference does not move (every axis reads a constant)")
+    dom = int(np.argmax(rms))
+    first = next(iter(duts.values()))
+    if schedule is None and getattr(record, "schedule", None) is None:
+        stats0 = window_pass(_PairView(record, first, refs[dom]), band, WINDOW_S, int(block_size), rail_g, progress)
+        schedule, _ = auto_segment(stats0)
+    channels: list[tuple[str, VreResult, Any]] = []
+    level_axis: dict[str, str] = {}
+    reduced: list[tuple[str, VreResult, Any, int]] = []
+    for axis in AXES:
+        if axis not in duts:
+            continue
+        j = AXES.index(axis)
+        r = j if rms[j] >= STILL_FRACTION * rms[dom] else dom
+        acc = list(accept)
+        notes: list[str] = []
+        if r != j:
+            acc = sorted(set(acc) | {"unit-ratio"})
+            notes.append(Notice("triaxial", f"reference axis {axis} is still ({rms[j]:.3g} g rms against "
+                                f"{rms[dom]:.3g} g on {AXES[dom]}): levels read from reference {AXES[dom]}, "
+                                "the DUT/reference ratio check skipped (it would compare two axes)"))
+        view = _PairView(record, duts[axis], refs[r])
+        result, red = analyze_full(view, method, schedule, band_hz=band, settle_s=settle_s, block_size=block_size,
+                                   rail_g=rail_g, accept=acc, progress=progress, provenance=provenance)
+        reduced.append((axis, dataclasses.replace(result, warnings=result.warnings + tuple(notes)), red, r))
+        level_axis[axis] = AXES[r]
+    # the reference's levels: one cross-spectrum per level segment (every DUT axis has the same segments)
+    levels: dict[tuple[float, float], tuple[NDArray[np.float64], TriaxialLevel]] = {}
+    for _, _, red, _ in reduced:
+        for seg, lv in zip(red.level_segments, red.levels):
+            key = (seg.start_s, seg.end_s)
+            if key not in levels:
+                levels[key] = _reference_level(record, refs, seg, band, lv.freq_hz, block_size)
+    for axis, result, red, r in reduced:
+        new: list[LevelResult] = []
+        for seg, lv in zip(red.level_segments, red.levels):
+            ms, _ = levels[(seg.start_s, seg.end_s)]
+            ratio = math.sqrt(float(ms.sum()) / float(ms[r])) if ms[r] > 0 else math.nan
+            new.append(dataclasses.replace(lv, rms_g=lv.rms_g * ratio,
+                                           u_rms_g=None if lv.u_rms_g is None else lv.u_rms_g * ratio))
+        nominal = [seg.freq_hz for seg in red.level_segments]
+        fits, w = fit_levels(new, red.method, None, fit_k4=fit_k4, nominal_freqs_hz=nominal)
+        note = Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
+                      "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")
+        extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
+                 "level_axis": AXES[r]}
+        cond = dataclasses.replace(result.conditions, extra=extra)
+        channels.append((axis, dataclasses.replace(result, levels=tuple(new), fits=tuple(fits), conditions=cond,
+                                                   warnings=result.warnings + tuple(w) + (note,)), red))
+    return TriaxialAnalysis(tuple(channels), tuple(lv for _, lv in levels.values()), dict(reference), AXES[dom],
+                            level_axis)
