@@ -236,11 +236,16 @@ class TriaxialTest:
     record_path: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "simulation", "triaxial": True, "method": self.method,
-                "excitation": self.excitation.to_dict(), "level": LEVEL_TEXT,
-                "levels_g": list(self.levels_g), "static_vector_g": list(self.static_g),
-                "conditions": dict(self.conditions), "record": self.record_path,
-                "axes": {a: r.to_dict() for a, r in self.axes.items()}}
+        """The document of several DUT channels (``channels``: each axis's whole
+        :meth:`VreResult.to_dict` with ``channel`` its axis, as ``vrelab analyze`` writes for a
+        file with several DUTs, so ``vrelab report`` reads it) plus the triaxial conditions."""
+        chans = [{"channel": a, **r.to_dict()} for a, r in self.axes.items()]
+        first = next(iter(self.axes.values()), None)
+        return {"kind": "simulation", "method": self.method, "channels": chans,
+                "triaxial": {"excitation": self.excitation.to_dict(), "level": LEVEL_TEXT,
+                             "levels_g": list(self.levels_g), "static_vector_g": list(self.static_g),
+                             "conditions": dict(self.conditions), "record": self.record_path},
+                "provenance": dict(first.provenance) if first is not None else {}}
 
 
 @dataclass
