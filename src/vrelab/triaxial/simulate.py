@@ -12,6 +12,12 @@ record.
   :class:`~vrelab.triaxial.profile.TriaxialSine`).
 * :func:`simulate_direction`: that drive plus the static vector through one or more DUT axes,
   block by block: (reference (3, n), {axis: output}).
+* :func:`simulate_triaxial`: a whole simulated test (the single-axis test's plan: baselines,
+  levels, seeds, rates), the drive a :class:`~vrelab.triaxial.profile.TriaxialProfile`
+  (:mod:`vrelab.triaxial.synthesis`) or a sine along a direction, written as an HDF5 record
+  (``reference_x``, ``reference_y``, ``reference_z``, ``dut_<axis>``) and reduced per DUT axis
+  from the file; the level of each is the total rms. Along one axis it is
+  :func:`vrelab.shaker.run_random_test` exactly.
 """
 
 from __future__ import annotations
