@@ -138,3 +138,22 @@ def test_bad_input_is_refused():
         simulate_triaxial(s, prof, [1.0], direction=(1, 0, 0), static_g=(1, 2))
     with pytest.raises(ValueError, match="levels"):
         simulate_triaxial(s, prof, [-1.0], direction=(1, 0, 0))
+
+
+def test_cross_axis_sensitivity_feeds_another_axis_vibration_into_the_clipping():
+    # SPEC 1.6: the x axis (rails ±2 g, 1 g static along it) feels 0.3 g/g of a vibration along y
+    # alone: u = 1 + 0.3·a_y, Gaussian with σ = 0.3·rms. Censored clipping, SPEC 1.1's closed form
+    # written out here with scipy.stats.norm: E[clip(X)] - clip(μ).
+    from scipy.stats import norm
+
+    sensor = dataclasses.replace(load_sensor("ideal", axis="x", range_g=2.0), cross_axis_y=0.3)
+    prof = TriaxialProfile.along(RandomProfile.flat(20.0, 400.0), (0.0, 1.0, 0.0))
+    res = simulate_triaxial(sensor, prof, [2.5, 4.0], static_g=(1.0, 0.0, 0.0), seconds=4.0, seed=5)
+    for lv in res.axes["x"].levels:
+        mu, sigma, lo, hi = 1.0, 0.3 * lv.rms_g, -2.0, 2.0
+        a, b = (lo - mu) / sigma, (hi - mu) / sigma
+        mean = lo * norm.cdf(a) + hi * norm.sf(b) + mu * (norm.cdf(b) - norm.cdf(a)) + sigma * (norm.pdf(a) - norm.pdf(b))
+        truth = mean - mu
+        assert abs(lv.vre.value - truth) < 4 * lv.vre.u, (lv.rms_g, lv.vre, truth)
+        assert lv.vre.u < 0.15 * abs(truth)
+        assert "saturated" in lv.flags
