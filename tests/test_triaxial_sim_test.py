@@ -157,3 +157,14 @@ def test_cross_axis_sensitivity_feeds_another_axis_vibration_into_the_clipping()
         assert abs(lv.vre.value - truth) < 4 * lv.vre.u, (lv.rms_g, lv.vre, truth)
         assert lv.vre.u < 0.15 * abs(truth)
         assert "saturated" in lv.flags
+
+
+def test_the_rate_rule_serves_the_axis_that_needs_the_fastest_rate():
+    # the one rate rule (vrelab.rates: 5·fn) for a 1.5 kHz proof mass on z asks 8 kHz, x 4 kHz
+    x = load_sensor("ideal", axis="x", range_g=20.0)
+    z = dataclasses.replace(load_sensor("ideal", axis="z", range_g=20.0), fn_hz=1500.0, q=2.0)
+    want = max(x.internal_rate_hz(400.0), z.internal_rate_hz(400.0))
+    assert want > x.internal_rate_hz(400.0)
+    for axes in ([x, z], [z, x]):
+        res = simulate_triaxial(axes, RandomProfile.flat(20.0, 400.0), [1.0], direction=(1, 0, 1), seconds=2.0)
+        assert res.conditions["fs_internal_hz"] == want

@@ -335,6 +335,13 @@ def simulate_triaxial(
     # the plan's saturation check (which sine levels need every phase sampled) sees the axis
     # whose static reading is largest
     static_plan = max((float(s.sensitivity_row @ g) for s in axes.values()), key=abs)
+    if fs_internal_hz is None:
+        # the one rate rule, for the axis that needs the fastest rate (the plan applies it to the
+        # first axis only; the axes of one part share their ODR, so every rule's rate is a multiple of it)
+        f_max = exc.freq_hz if isinstance(exc, TriaxialSine) else exc.band[1]
+        rates_needed = {float(s.internal_rate_hz(f_max)) for s in axes.values()}
+        if len(rates_needed) > 1:
+            fs_internal_hz = max(rates_needed)
     common = dict(static_g=static_plan, baseline_s=baseline_s, settle_s=settle_s, seed=seed,
                   fs_internal_hz=fs_internal_hz)
     method: Method
