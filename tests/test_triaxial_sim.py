@@ -19,7 +19,8 @@ from vrelab.sensor import load_sensor
 from vrelab.synthesis import random_signal
 from vrelab.triaxial.chain import TriaxialChain, TriaxialPolynomial, triaxial_chain
 from vrelab.triaxial.profile import TriaxialSine, direction
-from vrelab.triaxial.simulate import direction_blocks, simulate_direction
+from vrelab.triaxial.simulate import simulate_direction
+from vrelab.triaxial.synthesis import direction_blocks
 
 FLAT = RandomProfile.flat(20.0, 500.0, grms=1.0)
 

@@ -55,7 +55,7 @@ def direction(input_axis: str, toward_axis: str, angle_deg: float) -> NDArray[np
     return d
 
 
-def _unit(vector: ArrayLike, what: str = "direction") -> NDArray[np.float64]:
+def unit_vector(vector: ArrayLike, what: str = "direction") -> NDArray[np.float64]:
     d = np.asarray(vector, dtype=np.float64).ravel()
     if d.size != 3 or not np.isfinite(d).all():
         raise ValueError(f"{what} must be three finite numbers (x, y, z), got {vector!r}")
@@ -182,7 +182,7 @@ class TriaxialProfile:
         ``a(t) = d · x(t)`` with ``d`` the unit vector of ``vector``: ``S(f) = d dᵀ P(f)``; the
         total rms is the profile's.
         """
-        d = _unit(vector)
+        d = unit_vector(vector)
         n = profile.freq_hz.size
         p = np.outer(profile.psd_g2_per_hz, d * d)
         s = np.where(d == 0, 1.0, np.sign(d))
@@ -365,7 +365,7 @@ class TriaxialSine:
             raise ValueError(f"rms_g must be a finite number >= 0, got {self.rms_g!r}")
         object.__setattr__(self, "freq_hz", f)
         object.__setattr__(self, "rms_g", r)
-        object.__setattr__(self, "direction", tuple(float(x) for x in _unit(self.direction)))
+        object.__setattr__(self, "direction", tuple(float(x) for x in unit_vector(self.direction)))
 
     @property
     def grms(self) -> float:

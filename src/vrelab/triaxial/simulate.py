@@ -37,11 +37,12 @@ from vrelab.record import write_record_hdf5
 from vrelab.results import LevelResult, Method, Notice, VreResult
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
-from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, _unit
+from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
+from vrelab.triaxial.synthesis import direction_blocks
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["direction_blocks", "simulate_direction", "DirectionBlock", "static_vector", "axis_runs",
+__all__ = ["simulate_direction", "DirectionBlock", "static_vector", "axis_runs",
            "simulate_triaxial", "TriaxialTest", "LEVEL_TEXT"]
 
 # Internal samples per simulated block (as vrelab.simulation.record.BLOCK_INTERNAL).
@@ -57,52 +58,6 @@ def static_vector(value: ArrayLike | None) -> FloatArray:
     if g.size != 3 or not np.isfinite(g).all():
         raise ValueError(f"static vector must be three finite numbers (x, y, z) in g, got {value!r}")
     return g
-
-
-def direction_blocks(
-    excitation: RandomProfile | SineOnRandom | TriaxialSine,
-    fs_hz: float,
-    n_samples: int,
-    block_size: int,
-    seed: int,
-    direction: ArrayLike | None = None,
-    method: DriveMethod = "gaussian",
-) -> Iterator[FloatArray]:
-    """A single-axis drive along a direction: (3, n) blocks of ``d · s(t)`` [g].
-
-    Parameters
-    ----------
-    excitation : RandomProfile, SineOnRandom or TriaxialSine
-        A random profile (its grms the rms along ``d``), or a sine along its own direction.
-    fs_hz : float
-        Sample rate [Hz].
-    n_samples, block_size : int
-        Record and block length [samples]; the values do not depend on ``block_size``.
-    seed : int
-        Seed of the random drive (:func:`vrelab.synthesis.random_blocks`); a sine starts at phase 0.
-    direction : array_like (3,), optional
-        The direction (normalised here); required for a random profile, and for a sine must
-        be left out (its own direction is used).
-    method : {"gaussian", "multisine"}
-        The random drive's synthesis.
-    """
-    from vrelab import synthesis
-
-    if isinstance(excitation, TriaxialSine):
-        if direction is not None:
-            raise ValueError("a TriaxialSine carries its own direction: leave direction out")
-        d = np.asarray(excitation.direction, dtype=np.float64)
-        blocks = synthesis.sine_blocks(excitation.freq_hz, excitation.rms_g, fs_hz, n_samples, block_size)
-    elif isinstance(excitation, (RandomProfile, SineOnRandom)):
-        if direction is None:
-            raise ValueError("a random profile along a direction needs the direction (x, y, z)")
-        d = _unit(direction)
-        blocks = synthesis.random_blocks(excitation, fs_hz, n_samples, block_size, seed, method)
-    else:
-        raise ValueError(f"excitation must be a RandomProfile, SineOnRandom or TriaxialSine, "
-                         f"got {type(excitation).__name__}")
-    for s in blocks:
-        yield d[:, None] * s[None, :]
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ variance has the one-sided PSD 2/fs). Here:
   is drawn once per filter it feeds (the same seed, the same noise).
 * **rank one**: a profile that is one real direction times one PSD (``TriaxialProfile.along``,
   the mount-angle drive) is synthesised as that: ``x = d · s(t)`` with ``s`` today's
-  single-axis drive (:func:`vrelab.triaxial.simulate.direction_blocks`), exactly coherent.
+  single-axis drive (:func:`direction_blocks`), exactly coherent.
 
 References
 ----------
@@ -44,20 +44,21 @@ from typing import Iterator
 
 import numpy as np
 import scipy.fft
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
-from vrelab.profiles import RandomProfile
+from vrelab.profiles import RandomProfile, SineOnRandom
 
 # The single-axis design's rules, imported rather than copied (one owner): the FIR length
 # (bins at most f_lo/8 wide), each bin's exact mean square, the overlap-save frame size, the
 # Gaussian noise stream and the re-chunking into blocks.
 from vrelab.synthesis import _MIN_FFT, _bin_powers, _gaussian_frames, _rechunk, _resolution_length
-from vrelab.triaxial.profile import TriaxialProfile
+from vrelab.synthesis import Method as DriveMethod
+from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, unit_vector
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["design_fir_matrix", "triaxial_random_blocks", "triaxial_random_signal", "rank_one", "COHERENCE_EPS"]
+__all__ = ["design_fir_matrix", "direction_blocks", "triaxial_random_blocks", "triaxial_random_signal", "rank_one", "COHERENCE_EPS"]
 
 # Regularisation of the coherency before its Cholesky factor (see the module docstring): a
 # fully coherent pair comes out with coherence 1 - O(ε), far below any estimate's resolution.
@@ -189,8 +190,6 @@ def triaxial_random_blocks(
     sd = V.integer("seed", seed, 0)
     one = rank_one(profile)
     if one is not None:
-        from vrelab.triaxial.simulate import direction_blocks
-
         yield from direction_blocks(one[0], fs, n, bs, sd, direction=one[1])
         return
     h = design_fir_matrix(profile, fs)
@@ -226,3 +225,49 @@ def triaxial_random_signal(profile: TriaxialProfile, fs_hz: float, n_samples: in
     n = V.integer("n_samples", n_samples, 0)
     blocks = list(triaxial_random_blocks(profile, fs_hz, n, max(n, 1), seed))
     return np.concatenate(blocks, axis=1) if blocks else np.zeros((3, 0))
+
+
+def direction_blocks(
+    excitation: RandomProfile | SineOnRandom | TriaxialSine,
+    fs_hz: float,
+    n_samples: int,
+    block_size: int,
+    seed: int,
+    direction: ArrayLike | None = None,
+    method: DriveMethod = "gaussian",
+) -> Iterator[FloatArray]:
+    """A single-axis drive along a direction: (3, n) blocks of ``d · s(t)`` [g].
+
+    Parameters
+    ----------
+    excitation : RandomProfile, SineOnRandom or TriaxialSine
+        A random profile (its grms the rms along ``d``), or a sine along its own direction.
+    fs_hz : float
+        Sample rate [Hz].
+    n_samples, block_size : int
+        Record and block length [samples]; the values do not depend on ``block_size``.
+    seed : int
+        Seed of the random drive (:func:`vrelab.synthesis.random_blocks`); a sine starts at phase 0.
+    direction : array_like (3,), optional
+        The direction (normalised here); required for a random profile, and for a sine must
+        be left out (its own direction is used).
+    method : {"gaussian", "multisine"}
+        The random drive's synthesis.
+    """
+    from vrelab import synthesis
+
+    if isinstance(excitation, TriaxialSine):
+        if direction is not None:
+            raise ValueError("a TriaxialSine carries its own direction: leave direction out")
+        d = np.asarray(excitation.direction, dtype=np.float64)
+        blocks = synthesis.sine_blocks(excitation.freq_hz, excitation.rms_g, fs_hz, n_samples, block_size)
+    elif isinstance(excitation, (RandomProfile, SineOnRandom)):
+        if direction is None:
+            raise ValueError("a random profile along a direction needs the direction (x, y, z)")
+        d = unit_vector(direction)
+        blocks = synthesis.random_blocks(excitation, fs_hz, n_samples, block_size, seed, method)
+    else:
+        raise ValueError(f"excitation must be a RandomProfile, SineOnRandom or TriaxialSine, "
+                         f"got {type(excitation).__name__}")
+    for s in blocks:
+        yield d[:, None] * s[None, :]
