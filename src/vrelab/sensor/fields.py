@@ -19,7 +19,9 @@ The loader parses and checks a file by this table, ``Sensor`` validates itself b
 :mod:`vrelab.sensor.parameters`, the sweep's parameter lists and the sensor-file writer
 (:mod:`vrelab.sensor.writer`) are views of it, and ``presets/README`` documents every row (a
 test holds the README to :func:`schema_text`; :func:`update_readme` rewrites that block:
-``python -c "from vrelab.sensor.fields import update_readme; update_readme()"``). A new sensor parameter is one row here, one ``Sensor`` attribute and its stage.
+``python -c "from vrelab.sensor.fields import update_readme; update_readme()"``). A new sensor
+parameter is one row here, one ``Sensor`` attribute and its stage (and its closed form in
+:mod:`vrelab.predict`, where it has one).
 """
 
 from __future__ import annotations
@@ -150,21 +152,17 @@ FIELDS: tuple[Field, ...] = (
     Field("fn_hz", "fn_hz", "positive", None,
           "proof-mass resonance [Hz] (with q; omit both for none)", upper=1e6,
           why_upper="a resonance above 1 MHz is beyond any accelerometer's; it would only make the simulation rate run away",
-          sweepable=True,
-          identifiable=True, fitted=True, assumable=True),
-    Field("q", "q", "positive", None, "quality factor of the resonance (the gain at fn_hz)", sweepable=True,
-          identifiable=True, fitted=True, assumable=True),
+          sweepable=True, identifiable=True, fitted=True, assumable=True),
+    Field("q", "q", "positive", None, "quality factor of the resonance (the gain at fn_hz)",
+          sweepable=True, identifiable=True, fitted=True, assumable=True),
     Field("k2_ug_per_g2", "k2_per_g", "finite", 0.0, "second-order nonlinearity k2 = K2/K1 [µg/g²] (the VRC)",
-          scale=UG_PER_G, sweepable=True, default_fact=_ZERO,
-          identifiable=True, fitted=True, assumable=True),
+          scale=UG_PER_G, default_fact=_ZERO, sweepable=True, identifiable=True, fitted=True, assumable=True),
     Field("k3_ug_per_g3", "k3_per_g2", "finite", 0.0, "third-order nonlinearity k3 [µg/g³]", scale=UG_PER_G,
-          sweepable=True, default_fact=_ZERO,
-          identifiable=True, fitted=True, assumable=True),
+          default_fact=_ZERO, sweepable=True, identifiable=True, fitted=True, assumable=True),
     Field("k4_ug_per_g4", "k4_per_g3", "finite", 0.0, "fourth-order nonlinearity k4 [µg/g⁴]", scale=UG_PER_G,
           default_fact=_ZERO),
     Field("rails_g", "rails_g", "rails", None, "[low, high] clip levels [g] (default ±full_scale_g)",
-          elements=("rail_low_g", "rail_high_g"),
-          identifiable=True, fitted=True, assumable=True),
+          elements=("rail_low_g", "rail_high_g"), identifiable=True, fitted=True, assumable=True),
     Field("clip_position", "clip_position", "choice", "output",
           "where the rails sit: output (after the low-pass) or proof-mass", choices=("output", "proof-mass")),
     Field("overrange_threshold_g", "overrange_threshold_g", "positive", None,
