@@ -165,3 +165,15 @@ def test_the_views_follow_the_table_back_after_a_patch():
     """The views are of the table in place at the call (run after the patched test: its row is gone)."""
     assert "drift_ug_per_s" not in parameters.identifiable() and "drift_g_per_s" in fields.by_key()
     assert load_sensor("ideal").drift_g_per_s == 0.0
+
+
+def test_a_covariance_may_name_every_identifiable_parameter_and_no_other(tmp_path):
+    """Kip is identifiable (a mount-angle campaign's covariance may carry it) though identify does
+    not fit it yet; a cross-axis sensitivity is only assumable: no covariance names it."""
+    f = tmp_path / "ident.toml"
+    body = ('schema = 1\nname = "ident"\n[axes.x.covariance]\nparams = ["{p}"]\nmatrix = [[4.0]]\n')
+    f.write_text(body.replace("{p}", "kip_ug_per_g2"), encoding="utf-8")
+    assert load_sensor(str(f)).covariance == {"params": ["kip_ug_per_g2"], "matrix": [[4.0]]}
+    f.write_text(body.replace("{p}", "cross_axis_y"), encoding="utf-8")
+    with pytest.raises(ValueError, match="params must be distinct names of"):
+        load_sensor(str(f))
