@@ -57,13 +57,25 @@ def test_every_preset_loads_for_every_range_axis_odr_it_declares(name):
 
 @pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])
 def test_facts_cover_every_numeric_field(name):
-    """Each preset says, for every number, whether it is a data-sheet fact or an assumption."""
-    facts = _preset_toml(name)["facts"]
+    """Each preset says, for every number, whether it is a data-sheet fact or an assumption: in its
+    [facts], or by the field table's default fact for a value it leaves at the row's default."""
+    from vrelab.sensor.fields import FIELDS
+
+    data = _preset_toml(name)
+    rows = {f.name: f for f in FIELDS}
+    aliases = {f.key: f.name for f in FIELDS}
+    facts = {aliases.get(k, k): v for k, v in data["facts"].items()}
+    tables = [data, *data.get("axes", {}).values(), *data.get("ranges", {}).values()]
+    written = {aliases[k] for t in tables for k in t if k in aliases}
     for field in NUMERIC_FIELDS:
-        assert field in facts, f"{name}: no fact for {field}"
-        assert facts[field].startswith(("datasheet", "assumption")), f"{name}.{field}: {facts[field]}"
-    s = load_sensor(name)
-    assert set(NUMERIC_FIELDS) <= set(s.facts)
+        if field in facts:
+            assert facts[field].startswith(("datasheet", "assumption")), f"{name}.{field}: {facts[field]}"
+        else:
+            assert field in rows and rows[field].default_fact and field not in written, f"{name}: no fact for {field}"
+    for axis in load_sensor(name).axes:
+        s = load_sensor(name, axis=axis)
+        assert set(NUMERIC_FIELDS) <= set(s.facts)
+        assert all(s.facts[f].startswith(("datasheet", "assumption")) for f in NUMERIC_FIELDS)
     numeric = {f.name for f in Sensor.__dataclass_fields__.values() if f.type in (
         "float", "float | None", "int | None", "tuple[float, float]")}
     assert len(numeric) >= 15 and numeric <= set(NUMERIC_FIELDS)

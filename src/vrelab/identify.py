@@ -71,6 +71,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile
 from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
+from vrelab.sensor.writer import file_values
 from vrelab.units import to_ug
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
@@ -1182,7 +1183,7 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     out["source"] = f"vrelab identify: campaign {ident.campaign!r} on base sensor {ident.base_spec}"
     out["default_range_g"] = base.range_g
     out["default_axis"] = ident.channels[0].channel
-    keys = {"k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "rails_g", "overrange_threshold_g"}
+    keys = {TABLE[n].file_key for n in PARAMETERS}
     out.pop("uncertainty", None)  # resolved per axis below (an identified parameter carries its covariance instead)
     ranges = data.get("ranges")
     if isinstance(ranges, dict):
@@ -1223,14 +1224,8 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
                 src = (f"assumption, from base sensor {ident.base_spec} ({cm.reasons.get(n, 'not identified')})"
                        + (f", u {unc[n]:.3g} {TABLE[n].text_unit}".rstrip() if n in unc else ", no stated u")
                        + f": {base_facts.get(fk, 'unmarked')}")
-            f[fk] = f"{f[fk]}; {_side(n)}: {src}" if fk in f else (f"{_side(n)}: {src}" if n.startswith("rail") else src)
-            if v is None:
-                continue
-            if n.startswith("rail"):
-                continue
-            t[n] = float(v)
-        lo, hi = cm.values["rail_low_g"], cm.values["rail_high_g"]
-        t["rails_g"] = [float(lo), float(hi)]  # type: ignore[arg-type]
+            f[fk] = f"{f[fk]}; {_side(n)}: {src}" if fk in f else (f"{_side(n)}: {src}" if TABLE[n].rail is not None else src)
+        t.update(file_values({n: cm.values[n] for n in PARAMETERS}))
         t["facts"] = f
         if cm.covariance is not None:
             t["covariance"] = {"params": list(cm.covariance[0]), "matrix": [[float(c) for c in row]
@@ -1243,33 +1238,21 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
 
 
 def _side(name: str) -> str:
-    return {"rail_low_g": "lower", "rail_high_g": "upper"}.get(name, name)
+    rail = TABLE[name].rail
+    return name if rail is None else ("lower", "upper")[rail]
 
 
 def write_sensor_file(path: str | Path, ident: Identification) -> Path:
-    """Write :func:`sensor_file_document` as TOML to ``path``: written beside it, loaded for
-    each channel, then renamed into place (a file that would not load is never left behind)."""
-    import os
+    """Write :func:`sensor_file_document` as TOML to ``path`` by the one sensor-file writer
+    (:func:`vrelab.sensor.writer.write_sensor_file`: loaded for each channel before it is renamed
+    into place, so a file that would not load is never left behind)."""
+    from vrelab.sensor.writer import write_sensor_file as write
 
-    import tomli_w
-
-    from vrelab.sensor import load_sensor
-
-    path = Path(path)
     doc = sensor_file_document(ident)
-    text = tomli_w.dumps(doc)
     header = (f"# Identified by vrelab from campaign {ident.campaign!r} (SPEC 6.1): one [axes.<channel>] per channel,\n"
               "# every number's source in its facts, the identified parameters' covariance beside them.\n"
               "# Use it as --sensor with --axis <channel> in predict, simulate and sweep.\n")
-    tmp = path.with_name(path.name + ".partial.toml")
-    try:
-        tmp.write_text(header + text, encoding="utf-8")
-        for cm in ident.channels:
-            load_sensor(str(tmp), axis=cm.channel)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return write(path, doc, header, axes=[cm.channel for cm in ident.channels])
 
 
 __all__ = ["Observation", "ChannelModel", "Identification", "observations", "identify", "identify_channel",

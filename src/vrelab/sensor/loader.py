@@ -36,8 +36,10 @@ from numpy.typing import NDArray
 
 from vrelab._load import toml_loads
 from vrelab.results import Conditions
+from vrelab.sensor import fields
 from vrelab.sensor.chain import SensorChain
-from vrelab.sensor.fields import BY_KEY, FIELDS, is_number
+from vrelab.sensor.fields import is_number
+from vrelab.sensor.parameters import assumable, identifiable, parameter
 from vrelab.sensor.stages import (
     AntiAlias,
     Clip,
@@ -53,7 +55,6 @@ from vrelab.sensor.stages import (
     Resonator,
     Stage,
 )
-from vrelab.units import UG_PER_G
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -68,11 +69,15 @@ _ODR_RTOL = 1e-3
 # A requested range matches a nominal range or its full scale within this.
 _RANGE_RTOL = 1e-6
 
-# Every number a Sensor holds, for describe() and the facts a user file must mark (the table's
-# numeric rows, plus the resolved range and ODR).
-NUMERIC_FIELDS: tuple[str, ...] = ("range_g", "odr_hz") + tuple(
-    f.name for f in FIELDS if f.kind in ("positive", "finite", "non_negative", "order", "rails")
-)
+
+
+def numeric_fields() -> tuple[str, ...]:
+    """Every number a Sensor holds, for describe() and the facts a file marks: the resolved range
+    and ODR, and the field table's numeric rows."""
+    return ("range_g", "odr_hz") + fields.numeric()
+
+
+NUMERIC_FIELDS: tuple[str, ...] = numeric_fields()  # as the table stands at import
 
 
 @dataclass(frozen=True)
@@ -149,7 +154,7 @@ class Sensor:
                 raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
         if self.odr_hz is not None and (not is_number(self.odr_hz) or not math.isfinite(self.odr_hz) or self.odr_hz <= 0):
             raise ValueError(f"sensor {self.name}: odr_hz must be a number > 0, got {self.odr_hz!r}")
-        for f in FIELDS:
+        for f in fields.FIELDS:
             if f.name != "full_scale_g":
                 f.check(getattr(self, f.name), self.name)
         if (self.fn_hz is None) != (self.q is None):
@@ -341,7 +346,7 @@ class Sensor:
         ]
         if self.description:
             lines.append(f"  {self.description}")
-        for name in NUMERIC_FIELDS:
+        for name in numeric_fields():
             value = getattr(self, name)
             shown = "none" if value is None else (f"[{value[0]:g}, {value[1]:g}]" if isinstance(value, tuple) else f"{value:g}")
             lines.append(f"  {name} = {shown}    ({self.facts.get(name, 'unmarked')})")
@@ -351,15 +356,15 @@ class Sensor:
 
 # ---------------------------------------------------------------------------- files
 
-# Keys a file may set at top level, in [axes.*] or in [ranges.*]: the rows of the field table
-# (vrelab.sensor.fields), written in the field's units (µg/g² for the nonlinearity, SPEC 1.2).
-_TOP_KEYS = {
+# Keys a file may set at top level besides the rows of the field table (vrelab.sensor.fields,
+# written in the field's units: µg/g² for the nonlinearity, SPEC 1.2), which it may also set in
+# [axes.*] or in [ranges.*].
+_FILE_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
     "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty",
-} | set(BY_KEY)
+}
 # The table of assumed standard uncertainties (top level < [axes.*] < [ranges.*]).
 UNCERTAINTY = "uncertainty"
-_FACT_ALIASES = {f.key: f.name for f in FIELDS}
 
 
 def _preset_dir() -> Any:
@@ -404,8 +409,9 @@ def _number(value: Any, key: str, where: str) -> float:
 
 
 def _apply(values: dict[str, Any], table: Mapping[str, Any], where: str) -> None:
+    rows = fields.by_key()
     for key, raw in table.items():
-        f = BY_KEY[key]
+        f = rows[key]
         values[f.name] = f.parse(raw, where)
 
 
@@ -480,37 +486,33 @@ def _choose_odr(data: Mapping[str, Any], odr_hz: float | None, name: str, where:
     return odrs, chosen_odr
 
 
-def _facts(data: Mapping[str, Any], where: str, origin: str) -> dict[str, str]:
-    """Where each number comes from ([facts], by field name); a user file's unmarked numbers say so."""
+def _facts(data: Mapping[str, Any], where: str) -> dict[str, str]:
+    """Where each number comes from ([facts], by Sensor attribute or file key)."""
     facts_raw = data.get("facts", {})
     if not isinstance(facts_raw, dict):
         raise ValueError(f"sensor {where}: facts must be a table of strings, got {facts_raw!r}")
     facts: dict[str, str] = {}
-    allowed_facts = set(NUMERIC_FIELDS) | set(_FACT_ALIASES) | {f.name for f in FIELDS}
-    _check_keys(facts_raw, allowed_facts, f"{where} [facts]")
+    aliases = {f.key: f.name for f in fields.FIELDS}
+    _check_keys(facts_raw, set(numeric_fields()) | set(aliases) | set(aliases.values()), f"{where} [facts]")
     key: str  # a TOML table's keys are strings
     for key, text in facts_raw.items():
         if not isinstance(text, str):
             raise ValueError(f"sensor {where}: facts.{key} must be a string, got {text!r}")
-        facts[_FACT_ALIASES.get(key, key)] = text
-    if origin.startswith("file"):
-        for f in NUMERIC_FIELDS:
-            facts.setdefault(f, f"unmarked, from user {origin}")
+        facts[aliases.get(key, key)] = text
     return facts
 
 
 def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
     """An identified sensor's covariance table, checked: known parameter names, a square,
     symmetric, finite matrix with a non-negative diagonal."""
-    from vrelab.sensor.parameters import PARAMETERS
-
+    known = tuple(identifiable())
     where = f"sensor {name}: covariance"
     if not isinstance(cov, Mapping) or set(cov) != {"params", "matrix"}:
         raise ValueError(f"{where} must be a table with params (names) and matrix (rows), got {cov!r}")
     params, matrix = cov["params"], cov["matrix"]
-    if not isinstance(params, (list, tuple)) or not params or any(p not in PARAMETERS for p in params) \
+    if not isinstance(params, (list, tuple)) or not params or any(p not in known for p in params) \
             or len(set(params)) != len(params):
-        raise ValueError(f"{where}: params must be distinct names of {', '.join(PARAMETERS)}, got {params!r}")
+        raise ValueError(f"{where}: params must be distinct names of {', '.join(known)}, got {params!r}")
     try:
         m = np.array(matrix, dtype=np.float64)
     except (TypeError, ValueError):
@@ -533,16 +535,15 @@ def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
 
 def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
     """A file's ``[uncertainty]`` table: parameter name -> assumed standard uncertainty (> 0)."""
-    from vrelab.sensor.parameters import ASSUMABLE
-
     if table is None:
         return {}
     if not isinstance(table, dict):
         raise ValueError(f"sensor {where}: uncertainty must be a table of parameter = standard uncertainty, got {table!r}")
     out = {}
+    allowed = assumable()
     for key, u in table.items():
-        if key not in ASSUMABLE:
-            raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(ASSUMABLE)}")
+        if key not in allowed:
+            raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(allowed)}")
         if not is_number(u) or not math.isfinite(u) or u <= 0:
             raise ValueError(f"sensor {where}: uncertainty.{key} must be a standard uncertainty > 0, got {u!r}")
         out[key] = float(u)
@@ -552,8 +553,6 @@ def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
 def _check_uncertainty(sensor: Sensor) -> dict[str, float]:
     """The Sensor's assumed uncertainties, checked: each of a parameter the sensor has, none of
     one its covariance already carries (one source of u per parameter)."""
-    from vrelab.sensor.parameters import parameter
-
     out = _uncertainty_table(dict(sensor.uncertainty), sensor.name)
     cov = set(sensor.covariance["params"]) if sensor.covariance else set()
     for key in out:
@@ -576,6 +575,7 @@ def load_sensor(
     odr_hz: float | None = None,
     k2_ug_per_g2: float | None = None,
     k3_ug_per_g3: float | None = None,
+    overrides: Mapping[str, Any] | None = None,
 ) -> Sensor:
     """Load a preset (``ideal``, ``adxl355``, ``adxl354``, ``adxl357``) or a user sensor TOML.
 
@@ -586,7 +586,12 @@ def load_sensor(
         default: the file's ``default_range_g``.
     axis : ``x``, ``y``, ``z`` (or the file's axes); default: the file's ``default_axis``.
     odr_hz : output data rate [Hz], one of the file's ``odrs_hz``; default ``default_odr_hz``.
-    k2_ug_per_g2, k3_ug_per_g3 : override the nonlinearity [µg/g², µg/g³] (SPEC 5 ``--k2``/``--k3``).
+    k2_ug_per_g2, k3_ug_per_g3 : override the nonlinearity [µg/g², µg/g³] (SPEC 5 ``--k2``/``--k3``);
+        the same as ``overrides={"k2_ug_per_g2": ...}``.
+    overrides : values set by the user, by file key in the file's units (a sweep point's
+        ``fn_hz``, ``kip_ug_per_g2``, ...): they win over every table of the file, their facts
+        say "set by the user", and the file's covariance and assumed u of those parameters are
+        dropped (they are not about the value set).
 
     Raises
     ------
@@ -596,7 +601,8 @@ def load_sensor(
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
     data, origin = read_spec(spec)
-    _check_keys(data, _TOP_KEYS, origin)
+    rows = fields.by_key()
+    _check_keys(data, _FILE_KEYS | set(rows), origin)
     if "schema" not in data:
         raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "
                          "(see the presets README); an empty file is not a sensor")
@@ -614,43 +620,51 @@ def load_sensor(
 
     # ---- values: top level < axis < range
     values: dict[str, Any] = {}
-    _apply(values, {k: v for k, v in data.items() if k in BY_KEY}, where)
+    _apply(values, {k: v for k, v in data.items() if k in rows}, where)
     uncertainty = _uncertainty_table(data.get(UNCERTAINTY), where)
     axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
     axis_facts = axis_table.pop("facts", {})
     covariance = axis_table.pop("covariance", None)
     uncertainty.update(_uncertainty_table(axis_table.pop(UNCERTAINTY, None), f"{where} [axes.{chosen_axis}]"))
     if axes_table:
-        _check_keys(axis_table, set(BY_KEY), f"{where} [axes.{chosen_axis}]")
+        _check_keys(axis_table, set(rows), f"{where} [axes.{chosen_axis}]")
         _apply(values, axis_table, f"{where} [axes.{chosen_axis}]")
     if range_key is not None:
         range_table = {k: v for k, v in ranges_table[range_key].items() if k != UNCERTAINTY}
-        _check_keys(range_table, set(BY_KEY), f"{where} [ranges.{range_key}]")
+        _check_keys(range_table, set(rows), f"{where} [ranges.{range_key}]")
         _apply(values, range_table, f"{where} [ranges.{range_key}]")
         uncertainty.update(_uncertainty_table(ranges_table[range_key].get(UNCERTAINTY), f"{where} [ranges.{range_key}]"))
         # a value the range's table sets was not the one identified on the axis: not an estimate here
-        from vrelab.sensor.parameters import TABLE
-
-        covariance = _without(covariance, {n for n, p in TABLE.items() if p.file_key in ranges_table[range_key]})
+        covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in ranges_table[range_key]})
     if chosen_odr is not None:
         per_odr = data.get("bandwidth_per_odr")
         if per_odr is not None:
             values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * chosen_odr
+    # ---- values the user sets (--k2/--k3, a sweep point) win over the file
+    user = dict(overrides or {})
+    user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
+    _check_keys(user, set(rows), f"{where} (values set by the user)")
+    _apply(values, user, f"{where} (set by the user)")
+    user_params = {n for k in user for n in rows[k].parameters}
+    for n in user_params:
+        uncertainty.pop(n, None)  # the file's assumed u is not about the value set
+    given = set(values)  # the attributes the file or the user set; the others keep their default
     full_scale = values.pop("full_scale_g", req)
     rails = values.pop("rails_g", (-full_scale, full_scale))
 
-    facts = _facts(data, where, origin)
+    facts = _facts(data, where)
     if axis_facts:  # an axis's own sources (an identified file marks each number per channel)
-        facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]", "axis"))
-    for key, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)):
-        if v is not None:
-            uncertainty.pop(key, None)  # set by the user: the file's assumed u is not about that value
-    if k2_ug_per_g2 is not None:
-        values["k2_per_g"] = _number(k2_ug_per_g2, "k2_ug_per_g2", where) / UG_PER_G
-        facts["k2_per_g"] = f"set by the user: {k2_ug_per_g2:g} µg/g²"
-    if k3_ug_per_g3 is not None:
-        values["k3_per_g2"] = _number(k3_ug_per_g3, "k3_ug_per_g3", where) / UG_PER_G
-        facts["k3_per_g2"] = f"set by the user: {k3_ug_per_g3:g} µg/g³"
+        facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]"))
+    for key, raw in user.items():
+        shown = ", ".join(f"{x:g}" for x in raw) if isinstance(raw, (list, tuple)) else (
+            f"{raw:g}" if is_number(raw) else str(raw))
+        facts[rows[key].name] = f"set by the user: {shown} {rows[key].text_unit}".rstrip()
+    for f in fields.FIELDS:  # a value left at its default has the row's default fact
+        if f.name not in facts and f.name not in given and f.default_fact:
+            facts[f.name] = f.default_fact
+    if origin.startswith("file"):  # a user file's other numbers say they are unmarked
+        for attr in numeric_fields():
+            facts.setdefault(attr, f"unmarked, from user {origin}")
 
     description = data.get("description", "")
     source = data.get("source", origin)
@@ -661,22 +675,21 @@ def load_sensor(
         axis=chosen_axis,
         odr_hz=chosen_odr,
         rails_g=rails,
-        **{f.name: values.get(f.name, f.default) for f in FIELDS if f.name not in ("full_scale_g", "rails_g")},
+        **{f.name: values.get(f.name, f.default) for f in fields.FIELDS if f.name not in ("full_scale_g", "rails_g")},
         description=description if isinstance(description, str) else "",
         source=source if isinstance(source, str) else origin,
         ranges_g=tuple(sorted(nominal)),
         axes=axes,
         odrs_hz=odrs,
         facts=facts,
-        covariance=_without(covariance, {n for n, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3))
-                                         if v is not None}),
+        covariance=_without(covariance, user_params),
         uncertainty=uncertainty,
     )
 
 
 def _without(cov: Any, names: set[str]) -> Any:
     """The covariance without ``names``: parameters set otherwise than by the identification (by
-    hand with --k2/--k3, or by the chosen range's table), no longer estimates here; None when
+    hand with --k2/--k3 or a sweep point, or by the chosen range's table), no longer estimates here; None when
     nothing is left."""
     if not isinstance(cov, Mapping) or not names or not isinstance(cov.get("params"), list):
         return cov

@@ -1,12 +1,14 @@
-"""The parameters of a sensor's VRE model that a campaign can identify (SPEC 6.1).
+"""The parameters of a sensor's VRE model: the identifiable ones (SPEC 6.1) and the assumable ones.
 
-One table (:data:`TABLE`): the name a parameter has in ``vrelab identify``'s JSON and in an
-identified sensor file's covariance (units in the name), its unit, the sensor-file key that
-holds it, the ``facts`` key that says where it comes from, and how it reads from and writes to
-a :class:`~vrelab.sensor.Sensor`. :mod:`vrelab.identify` fits these on a base sensor, and
-:func:`vrelab.predict.predict` carries an identified sensor's covariance over the same names
-into ``u_vre_g``: both go through :func:`with_parameters`, so they cannot read a parameter two
-ways.
+A view of the one field table (:data:`vrelab.sensor.fields.FIELDS`, its ``identifiable``,
+``fitted`` and ``assumable`` columns): the name a parameter has in ``vrelab identify``'s JSON
+and in an identified sensor file's covariance (the file key, units in the name; a rails pair's
+``rail_low_g`` and ``rail_high_g``), its unit, the sensor-file key that holds it, the ``facts``
+key that says where it comes from, and how it reads from and writes to a
+:class:`~vrelab.sensor.Sensor`. :mod:`vrelab.identify` fits :data:`PARAMETERS` on a base
+sensor, and :func:`vrelab.predict.predict` carries an identified sensor's covariance over the
+same names into ``u_vre_g``: both go through :func:`with_parameters`, so they cannot read a
+parameter two ways.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Mapping
 
-from vrelab.units import UG_PER_G
+from vrelab.sensor import fields
 
 if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
@@ -23,8 +25,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Param:
-    """One identifiable parameter: ``Sensor.<attribute>`` (element ``rail`` of a rails pair)
-    holds ``value / scale``."""
+    """One parameter: ``Sensor.<attribute>`` (element ``rail`` of a rails pair) holds ``value / scale``."""
 
     name: str  # JSON and covariance name, units in it
     unit: str  # ASCII, as in the JSON
@@ -40,29 +41,46 @@ class Param:
         return self.attribute
 
 
-TABLE: dict[str, Param] = {p.name: p for p in (
-    Param("k2_ug_per_g2", "ug/g^2", "µg/g²", "k2_ug_per_g2", "k2_per_g", UG_PER_G),
-    Param("k3_ug_per_g3", "ug/g^3", "µg/g³", "k3_ug_per_g3", "k3_per_g2", UG_PER_G),
-    Param("fn_hz", "Hz", "Hz", "fn_hz", "fn_hz"),
-    Param("q", "1", "", "q", "q"),
-    Param("rail_low_g", "g", "g", "rails_g", "rails_g", rail=0),
-    Param("rail_high_g", "g", "g", "rails_g", "rails_g", rail=1),
-    Param("overrange_threshold_g", "g", "g", "overrange_threshold_g", "overrange_threshold_g"),
-)}  # fmt: skip
-PARAMETERS: tuple[str, ...] = tuple(TABLE)
-# Parameters a sensor file may give an assumed standard uncertainty (``[uncertainty]``, SPEC 6.1)
-# without a campaign identifying them: the identifiable ones and the base sensor's filters (a
-# datasheet gives their corners as "about"; predict propagates these u like the covariance).
-ASSUMABLE: dict[str, Param] = {**TABLE, **{p.name: p for p in (
-    Param("bandwidth_hz", "Hz", "Hz", "bandwidth_hz", "bandwidth_hz"),
-    Param("anti_alias_hz", "Hz", "Hz", "anti_alias_hz", "anti_alias_hz"),
-)}}  # fmt: skip
+# (the table, its parameters by column): built again only when FIELDS is another table
+_built: dict[str, tuple[tuple[fields.Field, ...], dict[str, Param]]] = {}
+
+
+def _params(which: str) -> dict[str, Param]:
+    """The parameters of the rows whose column ``which`` is set, in the table's order."""
+    hit = _built.get(which)
+    if hit is None or hit[0] is not fields.FIELDS:
+        hit = _built[which] = (fields.FIELDS, {
+            name: Param(name, f.unit, f.text_unit, f.key, f.name, f.scale, i if f.elements else None)
+            for f in fields.FIELDS if getattr(f, which) for i, name in enumerate(f.parameters)})
+    return dict(hit[1])
+
+
+def identifiable() -> dict[str, Param]:
+    """Every parameter a campaign can identify (an identified file's covariance may name it)."""
+    return _params("identifiable")
+
+
+def assumable() -> dict[str, Param]:
+    """Every parameter a sensor file's ``[uncertainty]`` may give an assumed standard uncertainty."""
+    return _params("assumable")
+
+
+# The views as the table stands at import (the names other modules import):
+# every identifiable parameter,
+TABLE: dict[str, Param] = identifiable()
+# the ones vrelab identify fits (its JSON's and its sensor file's parameters, in this order),
+PARAMETERS: tuple[str, ...] = tuple(_params("fitted"))
+# and the ones a file may give an assumed standard uncertainty ([uncertainty], SPEC 6.1) without
+# a campaign identifying them (a datasheet tolerance, a base sensor's filter corner given as
+# "about"; predict propagates these u like the covariance).
+ASSUMABLE: dict[str, Param] = assumable()
 
 
 def _param(name: str) -> Param:
-    if name not in ASSUMABLE:
-        raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(ASSUMABLE)}")
-    return ASSUMABLE[name]
+    known = assumable() | identifiable()
+    if name not in known:
+        raise ValueError(f"unknown sensor parameter {name!r}; known: {', '.join(known)}")
+    return known[name]
 
 
 def parameter(sensor: Sensor, name: str) -> float | None:

@@ -28,7 +28,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 import os
@@ -105,38 +104,35 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
 
 
 def _base_sensor(name: str, range_g: float | None, axis: str | None, odr_hz: float | None,
-                 k2: float | None, k3: float | None) -> Any:
+                 overrides: tuple[tuple[str, Any], ...]) -> Any:
     # A sensor file's state is part of the cache key: an edited file is read again.
     try:
         st = os.stat(name)
         version: tuple[int, int] | None = (st.st_mtime_ns, st.st_size)
     except OSError:
         version = None  # a preset name
-    return _load_sensor_cached(name, version, range_g, axis, odr_hz, k2, k3)
+    return _load_sensor_cached(name, version, range_g, axis, odr_hz, overrides)
 
 
 @functools.lru_cache(maxsize=64)
 def _load_sensor_cached(name: str, version: tuple[int, int] | None, range_g: float | None, axis: str | None,
-                        odr_hz: float | None, k2: float | None, k3: float | None) -> Any:
+                        odr_hz: float | None, overrides: tuple[tuple[str, Any], ...]) -> Any:
     from vrelab.sensor import load_sensor
 
-    return load_sensor(name, range_g=range_g, axis=axis, odr_hz=odr_hz, k2_ug_per_g2=k2, k3_ug_per_g3=k3)
+    return load_sensor(name, range_g=range_g, axis=axis, odr_hz=odr_hz, overrides=dict(overrides))
 
 
 def sensor_for(params: Mapping[str, Any]) -> Any:
-    """The :class:`vrelab.sensor.Sensor` of a point: a preset (or file) as configured, with any
-    ``fn_hz``, ``q``, ``offset_g`` of the point (a Monte Carlo unit's draws) put in its place."""
-    s = _base_sensor(
-        params.get("sensor", "adxl355"),
-        params.get("range_g"),
-        params.get("axis"),
-        params.get("odr_hz"),
-        params.get("k2_ug_per_g2"),
-        params.get("k3_ug_per_g3"),
-    )
-    over = {k: float(params[k]) for k in ("fn_hz", "q", "offset_g") if k in params}
-    # Sensor is frozen and validates in __post_init__, so replace() checks the drawn values too
-    return dataclasses.replace(s, **over) if over else s
+    """The :class:`vrelab.sensor.Sensor` of a point: a preset (or file) as configured, with the
+    point's sensor parameters (the field table's sweepable rows, by file key: ``k2_ug_per_g2``,
+    ``fn_hz``, ``q``, ``offset_g``, ``kip_ug_per_g2``, ...; a Monte Carlo unit's draws) set as the
+    user's values (:func:`vrelab.sensor.load_sensor`'s ``overrides``: they leave the file's
+    covariance and assumed u, and the Sensor checks them)."""
+    from vrelab.sensor.fields import sweepable
+
+    overrides = tuple((f.key, params[f.key]) for f in sweepable() if f.key in params)
+    return _base_sensor(params.get("sensor", "adxl355"), params.get("range_g"), params.get("axis"),
+                        params.get("odr_hz"), overrides)
 
 
 @functools.lru_cache(maxsize=64)

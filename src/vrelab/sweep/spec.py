@@ -51,6 +51,7 @@ import numpy as np
 from vrelab._lists import parse_list
 from vrelab._load import toml_load
 from vrelab.models.kinds import KINDS as CLIP_KINDS
+from vrelab.sensor import fields
 
 Kind = Literal["model", "predict", "simulate", "python"]
 KINDS: tuple[str, ...] = ("model", "predict", "simulate", "python")
@@ -92,35 +93,38 @@ class Param:
 _F, _P, _N = Param(float), Param(float, "positive"), Param(float, "non-negative")
 
 # The parameters each built-in kind understands (vrelab.sweep.points documents their meaning).
-_COMMON = {
-    "rms_g": _P,
-    "static_g": _F,
-    "range_g": _P,
-    "k2_ug_per_g2": _F,
-    "k3_ug_per_g3": _F,
-    "fn_hz": _P,
-    "q": _P,
-    "offset_g": _F,
-}
-PARAMS: dict[str, dict[str, Param]] = {
-    "model": {
-        **_COMMON,
-        "shape": Param(str, ("gaussian", "sine")),
-        "clip_kind": Param(str, (*CLIP_KINDS, "none")),
-        "freq_hz": _P,
-        "f_lo_hz": _P,
-        "f_hi_hz": _P,
-    },
-    "predict": {
-        **_COMMON,
-        "sensor": Param(str),
-        "axis": Param(str),  # x, y, z or an identified sensor file's channel: the sensor file checks it
-        "odr_hz": _P,
-        "profile": Param(str),
-        "freq_hz": _P,
-    },
-}
-PARAMS["simulate"] = {**PARAMS["predict"], "baseline_s": _P, "settle_s": _N}
+_POINT = {"rms_g": _P, "static_g": _F, "range_g": _P}
+# The sensor parameters the model kind's closed forms read (vrelab.sweep.points.model_point);
+# each is a sweepable row of the field table.
+MODEL_SENSOR_PARAMS: tuple[str, ...] = ("k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "offset_g")
+_CHECKS: dict[str, Literal["positive", "non-negative"]] = {"positive": "positive", "non_negative": "non-negative"}
+
+
+def sensor_params() -> dict[str, Param]:
+    """The sensor parameters a predict or simulate point may set, by file key: the sweepable
+    rows of the field table (:func:`vrelab.sensor.fields.sweepable`), checked as the row says
+    (the Sensor checks the rest, bounds and pairs, when the point builds it)."""
+    return {f.key: Param(str, f.choices) if f.kind == "choice" else Param(float, _CHECKS.get(f.kind, "any"))
+            for f in fields.sweepable()}
+
+
+def params_for(kind: str) -> dict[str, Param]:
+    """The parameters a built-in point kind understands."""
+    sensor = sensor_params()
+    if kind == "model":
+        return {**_POINT, **{k: sensor[k] for k in MODEL_SENSOR_PARAMS},
+                "shape": Param(str, ("gaussian", "sine")), "clip_kind": Param(str, (*CLIP_KINDS, "none")),
+                "freq_hz": _P, "f_lo_hz": _P, "f_hi_hz": _P}
+    predict = {**_POINT, **sensor,
+               "sensor": Param(str),
+               "axis": Param(str),  # x, y, z or an identified sensor file's channel: the sensor file checks it
+               "odr_hz": _P, "profile": Param(str), "freq_hz": _P}
+    if kind == "predict":
+        return predict
+    return {**predict, "baseline_s": _P, "settle_s": _N}
+
+
+PARAMS: dict[str, dict[str, Param]] = {k: params_for(k) for k in ("model", "predict", "simulate")}  # at import
 REQUIRED: dict[str, tuple[str, ...]] = {"model": ("rms_g",), "predict": ("rms_g",), "simulate": ("rms_g",)}
 
 _DISTS: dict[str, tuple[str, ...]] = {
@@ -283,7 +287,7 @@ def _table(doc: Mapping[str, Any], key: str) -> Mapping[str, Any]:
 def _param_spec(kind: str, field_name: str, name: str) -> Param | None:
     if kind == "python":
         return None
-    known = PARAMS[kind]
+    known = params_for(kind)
     if name not in known:
         raise ValueError(f"{field_name}: unknown parameter for kind {kind!r} (known: {', '.join(sorted(known))})")
     return known[name]
