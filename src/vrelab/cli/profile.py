@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TypedDict
+from typing import Any, TypedDict
 
 from vrelab import _validate as V
-from vrelab.cli._common import Subparsers, print_json, profile_table
+from vrelab.cli._common import print_json, profile_table
 
 
 class _Listed(TypedDict):
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: Subparsers) -> None:
+def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "profile",
         help="show a random vibration profile: grms and breakpoints",
