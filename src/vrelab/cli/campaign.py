@@ -15,9 +15,12 @@ import shlex
 import sys
 import textwrap
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vrelab.cli._common import Subparsers, print_json
+from vrelab.cli._common import print_json
+
+if TYPE_CHECKING:
+    from vrelab.cli._common import Subparsers
 
 _EXAMPLE = """example MANIFEST (paths relative to it):
 

@@ -18,13 +18,16 @@ import argparse
 import shlex
 import textwrap
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vrelab.cli._common import Subparsers, add_budget_arguments, print_json, typeb_from_args
+from vrelab.cli._common import add_budget_arguments, print_json, typeb_from_args
 from vrelab.folder import IDENTIFICATION as DOCUMENT
 from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.models.clipping import KINDS
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
+
+if TYPE_CHECKING:
+    from vrelab.cli._common import Subparsers
 
 
 def register(subparsers: Subparsers) -> None:
