@@ -31,7 +31,7 @@ References
 from __future__ import annotations
 
 import math
-from typing import Any, Iterator, Literal
+from typing import Iterator, Literal
 
 import numpy as np
 import scipy.fft
@@ -76,7 +76,7 @@ _MIN_FFT = 2**16
 # --- validation helpers -----------------------------------------------------------------------
 
 
-def _seed(value: Any) -> int:
+def _seed(value: object) -> int:
     return v.integer("seed", value, 0)
 
 
