@@ -21,7 +21,7 @@ that a table cell never holds ``-8.943e-112`` or 20 digits.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import SupportsFloat, TypeGuard
 
 from vrelab.units import UG_PER_G
 
@@ -41,7 +41,7 @@ _SMALL, _LARGE = 1e-4, 1e6
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
-def finite_or_none(x: Any) -> float | None:
+def finite_or_none(x: SupportsFloat | None) -> float | None:
     """``float(x)``, or ``None`` when ``x`` is None, NaN or infinite (JSON has no NaN/inf)."""
     if x is None:
         return None
@@ -49,7 +49,7 @@ def finite_or_none(x: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _usable(x: Any) -> bool:
+def _usable(x: float | None) -> TypeGuard[float]:
     return x is not None and math.isfinite(float(x))
 
 
@@ -90,9 +90,9 @@ def format_value_u(value: float | None, u: float | None = None, scale: float = 1
     """
     if not _usable(value):
         return MISSING
-    if not _usable(u) or float(u) <= 0:  # type: ignore[arg-type]
+    if not _usable(u) or float(u) <= 0:
         return format_value(value, scale=scale, signed=signed, unit=unit, resolution=resolution)
-    v, uu = float(value) * scale, float(u) * scale  # type: ignore[arg-type]
+    v, uu = float(value) * scale, float(u) * scale
     if resolution is not None and resolution > 0 and uu < resolution:
         # a u below the resolution the number is shown at (a prediction's 1e-14 mg from a far-off
         # over-range threshold) is said as such, not written out to its own last digit
@@ -112,16 +112,16 @@ def format_value_u(value: float | None, u: float | None = None, scale: float = 1
 def u_resolution(u: float | None) -> float | None:
     """The place of ``u``'s last shown digit (0.0149 → 0.001, 538 → 10): the resolution at which
     numbers that go with ``u`` (an interval v ± U, a limit) are shown. None without a usable u."""
-    if not _usable(u) or float(u) <= 0:  # type: ignore[arg-type]
+    if not _usable(u) or float(u) <= 0:
         return None
-    return 10.0 ** _last_digit(float(u))  # type: ignore[arg-type]
+    return 10.0 ** _last_digit(float(u))
 
 
 def format_u(u: float | None, scale: float = 1.0, unit: str | None = None) -> str:
     """An uncertainty alone (a standard u or an expanded U): two significant digits (GUM 7.2.6)."""
-    if not _usable(u) or float(u) < 0:  # type: ignore[arg-type]
+    if not _usable(u) or float(u) < 0:
         return MISSING
-    uu = float(u) * scale  # type: ignore[arg-type]
+    uu = float(u) * scale
     if uu == 0:
         return _with_unit("0", unit)
     if uu >= _LARGE or uu < _SMALL:
@@ -143,7 +143,7 @@ def format_value(value: float | None, scale: float = 1.0, signed: bool = False, 
     sign = "+" if signed else ""
     if isinstance(value, int) and not isinstance(value, bool) and scale == 1.0 and resolution is None:
         return _with_unit(f"{value:{sign}d}", unit)  # a count is exact: all its digits
-    v = float(value) * scale  # type: ignore[arg-type]
+    v = float(value) * scale
     if resolution is not None and resolution > 0:
         if abs(v) < resolution / 2:
             return _with_unit("0", unit)
@@ -200,7 +200,7 @@ def field_label(key: str) -> tuple[str, str | None]:
     return name, unit
 
 
-def field_text(key: str, value: Any) -> tuple[str, str]:
+def field_text(key: str, value: object) -> tuple[str, str]:
     """A JSON field as a person reads it: its name and its value with the unit, e.g.
     ``("k2", "20 µg/g²")`` for ``"k2_per_g": 2e-05``; ``("rails", "-2.048, 2.048 g")``."""
     name, unit, scale = _field(key)
@@ -211,7 +211,7 @@ def field_text(key: str, value: Any) -> tuple[str, str]:
     return name, format_field(value, unit)
 
 
-def format_field(value: Any, unit: str | None = None) -> str:
+def format_field(value: object, unit: str | None = None) -> str:
     """A JSON field's value as text: numbers by :func:`format_value` with the unit, lists as
     ``"-2.048, 2.048 g"``, ``None`` as ``"not set"``, booleans as yes/no (never ``null``,
     ``[...]`` or ``4000.0``)."""

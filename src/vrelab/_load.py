@@ -18,19 +18,21 @@ from __future__ import annotations
 import json
 import tomllib
 from collections.abc import Iterable
-from typing import IO, Any
+from typing import IO, Any, TypeVar
 
 MAX_NESTING = 32
+
+_Doc = TypeVar("_Doc")
 
 
 def _too_deep(what: str) -> ValueError:
     return ValueError(f"{what}: nested more than {MAX_NESTING} levels deep (no vrelab file is): refused")
 
 
-def check_nesting(doc: Any, what: str) -> Any:
+def check_nesting(doc: _Doc, what: str) -> _Doc:
     """``doc`` itself when its tables/arrays nest at most :data:`MAX_NESTING` deep; walked with a
     stack of its own (a recursive walk would fail the way the parser does)."""
-    stack = [(doc, 0)]
+    stack: list[tuple[object, int]] = [(doc, 0)]
     while stack:
         node, depth = stack.pop()
         children: Iterable[Any]

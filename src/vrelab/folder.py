@@ -39,24 +39,24 @@ from typing import Any, Literal, Mapping, Sequence
 
 from vrelab._io import write_json, write_levels_csv, write_levels_table
 from vrelab._load import json_loads
-from vrelab._names import (  # noqa: F401 - the folder's names, re-exported (their owner)
-    ENVELOPE,
-    IDENTIFICATION,
-    IDENTIFIED_SENSOR,
-    KNOWN_NAMES,
-    LEVELS,
-    OPAQUE_DIRS,
-    PREDICTION,
-    PSD,
-    PSD_LEVELS,
-    RECORD,
-    REPORT,
-    RESULT_FILES,
-    RESULTS,
-    SUMMARY,
-    SWEEP_FILES,
-    SWEEP_RESULT,
-)
+
+# the folder's names, re-exported (their owner is _names; `X as X` makes it explicit for mypy)
+from vrelab._names import ENVELOPE as ENVELOPE
+from vrelab._names import IDENTIFICATION as IDENTIFICATION
+from vrelab._names import IDENTIFIED_SENSOR as IDENTIFIED_SENSOR
+from vrelab._names import KNOWN_NAMES as KNOWN_NAMES
+from vrelab._names import LEVELS as LEVELS
+from vrelab._names import OPAQUE_DIRS as OPAQUE_DIRS
+from vrelab._names import PREDICTION as PREDICTION
+from vrelab._names import PSD as PSD
+from vrelab._names import PSD_LEVELS as PSD_LEVELS
+from vrelab._names import RECORD as RECORD
+from vrelab._names import REPORT as REPORT
+from vrelab._names import RESULT_FILES as RESULT_FILES
+from vrelab._names import RESULTS as RESULTS
+from vrelab._names import SUMMARY as SUMMARY
+from vrelab._names import SWEEP_FILES as SWEEP_FILES
+from vrelab._names import SWEEP_RESULT as SWEEP_RESULT
 from vrelab.results import VreResult
 
 FolderKind = Literal["result", "sweep", "channels", "campaign", "identification"]
@@ -186,6 +186,6 @@ def _load_prediction(folder: Path) -> Mapping[str, Any] | None:
         return None
     doc = _read_json(f)
     levels = doc.get("levels") if isinstance(doc, dict) else None
-    if not isinstance(levels, list) or not all(isinstance(lv, dict) for lv in levels):
+    if not isinstance(doc, dict) or not isinstance(levels, list) or not all(isinstance(lv, dict) for lv in levels):
         raise ValueError(f"report: {f} is not a vrelab prediction (needs a list of level objects under 'levels')")
     return doc

@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 # The record's Nyquist frequency must exceed the highest drive frequency by this factor.
 NYQUIST_MARGIN = 1.25
@@ -42,7 +41,7 @@ _ANALOG_OVERSAMPLING = 5.0
 _LOWPASS_OVERSAMPLING = 16.0
 
 
-def simulation_rate_hz(sensor: Any, f_max_hz: float) -> float:
+def simulation_rate_hz(sensor: object, f_max_hz: float) -> float:
     """The internal rate of a simulated test: accurate where the test looks, and cheap.
 
     Rule: ``f_need = max(8·f_max, 5·fn, 5·f_anti-alias, 16·bandwidth)`` (the reasons for each
@@ -74,7 +73,8 @@ def simulation_rate_hz(sensor: Any, f_max_hz: float) -> float:
     f_max = float(f_max_hz)
     if not math.isfinite(f_max) or f_max <= 0:
         raise ValueError(f"f_max_hz must be a finite number > 0, got {f_max_hz!r}")
-    odr = getattr(sensor, "odr_hz", None)
+    # any object: a sensor's optional corners are read by name, absent or None if it has none
+    odr: float | None = getattr(sensor, "odr_hz", None)
     corners = {
         _ANALOG_OVERSAMPLING: (getattr(sensor, "fn_hz", None), getattr(sensor, "anti_alias_hz", None)),
         _LOWPASS_OVERSAMPLING: (getattr(sensor, "bandwidth_hz", None),),

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Protocol, Sequence
 
@@ -142,14 +142,14 @@ class ArrayRecord:
     data: Mapping[str, NDArray[np.float64]]
     fs_hz: float
     schedule: Schedule | None = None
-    meta: Mapping[str, Any] = None  # type: ignore[assignment]
+    meta: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         V.positive_scalar("fs_hz", self.fs_hz)
         lengths = {k: len(v) for k, v in self.data.items()}
         if len(set(lengths.values())) > 1:
             raise ValueError(f"channels have mismatched lengths: {lengths}")
-        if self.meta is None:
+        if self.meta is None:  # given as None: no metadata
             self.meta = {}
 
     @property
@@ -231,7 +231,7 @@ class ChannelView:
     view, so it never needs to know that the file holds others.
     """
 
-    def __init__(self, record: Any, dut: str) -> None:
+    def __init__(self, record: Record, dut: str) -> None:
         if dut not in record.channels:
             raise ValueError(f"record has no channel {dut!r}; channels: {', '.join(record.channels)}")
         self.base = record

@@ -31,7 +31,7 @@ References
 from __future__ import annotations
 
 import math
-from typing import Any, Iterator, Literal
+from typing import Iterator, Literal
 
 import numpy as np
 import scipy.fft
@@ -76,7 +76,7 @@ _MIN_FFT = 2**16
 # --- validation helpers -----------------------------------------------------------------------
 
 
-def _seed(value: Any) -> int:
+def _seed(value: object) -> int:
     return v.integer("seed", value, 0)
 
 
@@ -188,7 +188,7 @@ def _bin_powers(profile: RandomProfile, fs_hz: float, n: int) -> NDArray[np.floa
     powers = np.diff(np.asarray(profile.cumulative_mean_square(edges), dtype=np.float64))
     powers[0] = 0.0
     powers[k == n // 2] = 0.0
-    total = powers.sum()
+    total = float(powers.sum())
     if total <= 0:
         raise ValueError(
             f"profile band {profile.band[0]:g}-{profile.band[1]:g} Hz holds no frequency line at "
@@ -238,7 +238,7 @@ def design_fir(profile: RandomProfile, fs_hz: float, n_taps: int | None = None) 
     df = fs / n
     mag = np.sqrt(powers / df * fs / 2)  # |H_k|
     k = np.arange(n // 2 + 1)
-    h = scipy.fft.irfft(mag * np.exp(-1j * np.pi * k), n)  # e^{-iπk}: delay by n/2 samples
+    h: NDArray[np.float64] = scipy.fft.irfft(mag * np.exp(-1j * np.pi * k), n)  # e^{-iπk}: delay by n/2 samples
     return h
 
 
@@ -261,7 +261,8 @@ def multisine_period(profile: RandomProfile, fs_hz: float, seed: int, n_period: 
     amps = np.sqrt(2.0 * powers)
     # irfft(X)[n] = (1/N)·Σ_k X_k e^{2πikn/N} over the full spectrum: a real line of amplitude a
     # needs X_k = (N/2)·a·e^{iφ}.
-    return scipy.fft.irfft(n / 2 * amps * np.exp(1j * phases), n)
+    period: NDArray[np.float64] = scipy.fft.irfft(n / 2 * amps * np.exp(1j * phases), n)
+    return period
 
 
 # --- random: non-Gaussian and clipping transforms ---------------------------------------------
@@ -322,7 +323,7 @@ def hermite_h4_for_kurtosis(kurtosis: float, samples: NDArray[np.float64] | None
 
 def _clip_mean_square(c: float) -> float:
     """E[clip(Z, ±c)²] for Z ~ N(0, 1): (2Φ(c)-1) - 2c·φ(c) + 2c²·(1-Φ(c))."""
-    return (2 * stats.norm.cdf(c) - 1) - 2 * c * stats.norm.pdf(c) + 2 * c * c * stats.norm.sf(c)
+    return float((2 * stats.norm.cdf(c) - 1) - 2 * c * stats.norm.pdf(c) + 2 * c * c * stats.norm.sf(c))
 
 
 def clip_prescale(clip_sigma: float, samples: NDArray[np.float64] | None = None) -> float:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +36,10 @@ RAIL_EPS_REL = 1e-6
 # A rail is declared only when at least this many samples sit on the same extreme (a clipped
 # signal pins many samples there; an unclipped one reaches its maximum once).
 RAIL_MIN_SAMPLES = 10
+
+SharedCache = dict[tuple[str, int, int], float]
+"""What the DUT channels of one record share, found once for all of them: a sine level's drive
+frequency [Hz] under ``("frequency", i0, i1)`` (its first and end sample)."""
 
 
 @dataclass(frozen=True)
@@ -60,7 +64,7 @@ class WindowStats:
     reference: str  # channel used as reference ("dut" when the record has no reference)
     rail_g: float | None = None  # the given rail n_beyond_rail counts against (None: none given)
     # what the DUT channels of one pass share beyond these arrays (a sine level's drive frequency)
-    shared: dict = field(default_factory=dict, compare=False, repr=False)
+    shared: SharedCache = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_windows(self) -> int:
@@ -171,7 +175,7 @@ def window_length(fs_hz: float, band_hz: tuple[float, float], window_s: float = 
     return max(1, int(round(max(window_s, 2.0 / band_hz[0]) * fs_hz)))
 
 
-def _window_reduce(x: NDArray[np.float64], w: int):
+def _window_reduce(x: NDArray[np.float64], w: int) -> list[NDArray[np.float64]]:
     """Reshape into full windows plus a tail; returns list of 2-D views."""
     nfull = len(x) // w
     parts = [x[: nfull * w].reshape(nfull, w)] if nfull else []
@@ -182,7 +186,7 @@ def _window_reduce(x: NDArray[np.float64], w: int):
 
 def exact_blocks(
     record: Record, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None
-):
+) -> Iterator[dict[str, NDArray[np.float64]]]:
     """Blocks of exactly ``block_size`` samples (the last may be shorter), whatever the record yields.
 
     The Record protocol allows shorter blocks; window sums need block edges on window edges.
@@ -392,7 +396,7 @@ def window_pass_many(
         bar.close()
     if pos != n:
         raise ValueError(f"record delivered {pos} samples, expected {n} (truncated file?)")
-    shared: dict = {}
+    shared: SharedCache = {}
     return {
         d: WindowStats(
             fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),

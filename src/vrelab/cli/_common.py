@@ -8,11 +8,18 @@ import argparse
 import json
 import re
 import sys
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, TypeAlias
 
 from vrelab import _validate as V
 from vrelab._format import format_mg, format_u, format_value
 from vrelab._lists import parse_list
+
+if TYPE_CHECKING:  # the commands import these when they run, not when the parser is built
+    from vrelab.gum import TypeB
+    from vrelab.profiles import Profile
+    from vrelab.results import VreResult
+    from vrelab.sensor import Sensor
 
 
 class UsageError(ValueError):
@@ -73,7 +80,11 @@ class Parser(argparse.ArgumentParser):
             self.description, self.epilog = saved
 
 
-def print_json(obj: Any) -> None:
+# What build_parser hands each command's register(); argparse's class is generic only in its stub.
+Subparsers: TypeAlias = "argparse._SubParsersAction[Parser]"
+
+
+def print_json(obj: object) -> None:
     """Print exactly one JSON object on stdout (NaN/inf are not JSON: they must be None already)."""
     sys.stdout.write(json.dumps(obj, allow_nan=False) + "\n")
 
@@ -95,14 +106,14 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--k3", dest="k3_ug_per_g3", type=float, metavar="UG_PER_G3", help="third-order nonlinearity [µg/g³]")
 
 
-def input_paths(*values: Any) -> list[Any]:
+def input_paths(*values: object) -> list[Path]:
     """The files and folders a run reads, among option values (a record, a manifest, a sensor
     or profile given as a path; ``adxl355`` or ``flat:20-2000`` name none): its output folder
     must not hold them (:func:`vrelab._io.check_output`). A manifest contributes its runs' files."""
     from vrelab._io import existing_paths
     from vrelab.profiles import split_tones
 
-    found: list[Any] = []
+    found: list[object] = []
     for v in values:
         if hasattr(v, "runs") and hasattr(v, "path"):  # a campaign.Manifest
             found += [v.path] + [x for r in v.runs for x in (r.file, r.schedule, r.profile)]
@@ -113,7 +124,7 @@ def input_paths(*values: Any) -> list[Any]:
     return existing_paths(found)
 
 
-def sensor_from_args(args: argparse.Namespace) -> Any:
+def sensor_from_args(args: argparse.Namespace) -> Sensor:
     from vrelab.sensor import load_sensor
 
     V.acceleration("--static", args.static_g)
@@ -136,7 +147,7 @@ def positive_list(text: str, name: str) -> list[float]:
     return values
 
 
-def profile_table(profile: Any) -> str:
+def profile_table(profile: Profile) -> str:
     """A profile as text: name, source, grms, its breakpoint table with slopes and, for
     sine-on-random, its tones (``vrelab profile`` and ``vrelab environment show``)."""
     lo, hi = profile.band
@@ -146,7 +157,9 @@ def profile_table(profile: Any) -> str:
     if profile.source:
         lines.append(f"source: {profile.source}")
     lines.append(f"grms: {profile.grms:.6g} g" + (" (random and tones)" if tones else ""))
-    random = getattr(profile, "random", profile)
+    from vrelab.profiles import SineOnRandom  # loaded already: the profile is one of its classes
+
+    random = profile.random if isinstance(profile, SineOnRandom) else profile
     if tones:
         lines.append(f"random part: {random.grms:.6g} g rms")
     lines.append(f"{'f_hz':>10}  {'psd_g2_per_hz':>14}  {'slope to next':>14}")
@@ -161,7 +174,7 @@ def profile_table(profile: Any) -> str:
     return "\n".join(lines)
 
 
-def print_levels(result: Any) -> None:
+def print_levels(result: VreResult) -> None:
     """The levels of a ``VreResult`` as a table, then its fits and warnings (simulate, analyze)."""
     sine = result.method == "sine"
     budget = any(lv.budget for lv in result.levels)
@@ -205,7 +218,7 @@ def add_budget_arguments(p: argparse.ArgumentParser, limit: bool = False) -> Non
                        "acceptance (pass when |VRE| + U <= limit, fail when |VRE| - U > limit)")
 
 
-def typeb_from_args(args: argparse.Namespace) -> Any:
+def typeb_from_args(args: argparse.Namespace) -> TypeB:
     """The :class:`vrelab.gum.TypeB` the budget options declare (it refuses a negative value)."""
     from vrelab.gum import TypeB
 

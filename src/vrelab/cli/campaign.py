@@ -15,9 +15,12 @@ import shlex
 import sys
 import textwrap
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vrelab.cli._common import print_json, printable
+
+if TYPE_CHECKING:
+    from vrelab.cli._common import Subparsers
 
 _EXAMPLE = """example MANIFEST (paths relative to it):
 
@@ -47,7 +50,7 @@ file: a recorded test in one of these formats (by magic bytes, else by extension
 """
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "campaign",
         help="reduce every run of a shaker campaign (a TOML manifest): VRC by frequency, k2/k3, rail per channel",
@@ -76,6 +79,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from vrelab import _io
     from vrelab.campaign import (
+        RunResult,
         campaign_doc,
         combine,
         read_manifest,
@@ -91,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     command = shlex.join(["vrelab", "campaign", args.manifest]
                          + (["--out", args.out] if args.out else []) + ["--workers", str(args.workers)])
 
-    def done(rr: Any) -> None:
+    def done(rr: RunResult) -> None:
         if not args.json and sys.stderr.isatty():
             sys.stderr.write(f"run {rr.run.index}/{len(manifest.runs)} {'ok' if rr.ok else 'FAILED'}\n")
 

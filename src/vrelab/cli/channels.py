@@ -13,12 +13,11 @@ of samples, duration, the unit the file states (or none) and what the reader not
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
-from vrelab.cli._common import print_json, with_formats
+from vrelab.cli._common import Subparsers, print_json, with_formats
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "channels",
         help="list a recorded file's channels: the names --dut/--reference take, rates, units",

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from vrelab.cli._common import print_json
+from vrelab.cli._common import Subparsers, print_json
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "demo",
         help="the article's ADXL355 case study, simulated, with its report",

@@ -14,9 +14,7 @@ Any environment is also a profile: ``--profile NAME`` in ``predict``, ``simulate
 
 from __future__ import annotations
 
-from typing import Any
-
-from vrelab.cli._common import print_json, profile_table
+from vrelab.cli._common import Subparsers, print_json, profile_table
 
 
 def _list(as_json: bool) -> int:
@@ -54,7 +52,7 @@ def _show(name: str, as_json: bool) -> int:
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     from vrelab.cli._common import Parser
 
     env = subparsers.add_parser(

@@ -18,7 +18,7 @@ import argparse
 import shlex
 import textwrap
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vrelab.cli._common import add_budget_arguments, print_json, printable, typeb_from_args
 from vrelab.folder import IDENTIFICATION as DOCUMENT
@@ -26,8 +26,11 @@ from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.models.clipping import KINDS
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 
+if TYPE_CHECKING:
+    from vrelab.cli._common import Subparsers
 
-def register(subparsers: Any) -> None:
+
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "identify",
         help="identify each channel's VRE model (k2, k3, fn, Q, rails, over-range) from a campaign: a sensor file",

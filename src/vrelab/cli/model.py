@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
-from vrelab.cli._common import Parser, print_json
+from vrelab.cli._common import Parser, Subparsers, print_json
 from vrelab.models.clipping import KINDS
 from vrelab.models.design import clip_vre
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
@@ -156,7 +156,7 @@ def _run_poly(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     model = subparsers.add_parser(
         "model",
         help="analytic VRE models: clipping at the rails, polynomial nonlinearity",

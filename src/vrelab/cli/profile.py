@@ -17,16 +17,25 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from vrelab import _validate as V
 from vrelab.cli._common import print_json, profile_table
 
 
+class _Listed(TypedDict):
+    """One named profile in ``vrelab profile list`` (a JSON object with ``--json``)."""
+
+    name: str
+    grms: float
+    band_hz: list[float]
+    source: str | None
+
+
 def _list(as_json: bool) -> int:
     from vrelab.profiles import load_named_profile, named_profiles
 
-    items: list[dict[str, Any]] = []
+    items: list[_Listed] = []
     for name in named_profiles():
         prof = load_named_profile(name)
         items.append(

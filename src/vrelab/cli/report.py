@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vrelab.cli._common import print_json
+from vrelab.cli._common import Subparsers, print_json
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "report",
         help="write DIR/report.html from a simulate/analyze or sweep output folder",

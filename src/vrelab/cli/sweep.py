@@ -7,7 +7,8 @@ import math
 import sys
 import textwrap
 from pathlib import Path
-from typing import Any
+
+from vrelab.cli._common import Subparsers
 
 _EXAMPLE = """example FILE (see vrelab.sweep.spec for every field):
 
@@ -28,7 +29,7 @@ _EXAMPLE = """example FILE (see vrelab.sweep.spec for every field):
 """
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "sweep",
         help="parameter sweep or Monte Carlo lot from a TOML file (serial, processes or Dask)",
@@ -62,7 +63,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _json_num(x: Any) -> Any:
+def _json_num(x: object) -> object:
     if isinstance(x, float) and not math.isfinite(x):
         return None
     return x

@@ -34,11 +34,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import integrate, special
 
 from vrelab import _validate
-from vrelab.models.kinds import (  # re-exported: the clipping model's kinds
-    DEFAULT_CLIP_KIND,
-    KINDS,
-    Kind,
-)
+
+# re-exported (`X as X`, explicit for mypy's no_implicit_reexport): the clipping model's kinds
+from vrelab.models.kinds import DEFAULT_CLIP_KIND as DEFAULT_CLIP_KIND
+from vrelab.models.kinds import KINDS as KINDS
+from vrelab.models.kinds import Kind as Kind
 
 Shape = Literal["gaussian", "sine"]
 SHAPES: tuple[str, ...] = ("gaussian", "sine")
@@ -66,7 +66,9 @@ def _check_rails(rail_low_g: NDArray[np.float64], rail_high_g: NDArray[np.float6
         )
 
 
-def _inputs(mean_g: ArrayLike, spread: ArrayLike, spread_name: str, low: ArrayLike, high: ArrayLike):
+def _inputs(
+    mean_g: ArrayLike, spread: ArrayLike, spread_name: str, low: ArrayLike, high: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     mu = _validate.finite("mean_g", mean_g)
     s = _validate.non_negative(spread_name, spread)
     lo = _validate.as_float_array("rail_low_g", low)
@@ -76,7 +78,8 @@ def _inputs(mean_g: ArrayLike, spread: ArrayLike, spread_name: str, low: ArrayLi
     if (hi == -np.inf).any():
         raise ValueError("rail_high_g must be > -inf, got -inf")
     _check_rails(lo, hi)
-    return np.broadcast_arrays(mu, s, lo, hi)
+    mu_b, s_b, lo_b, hi_b = np.broadcast_arrays(mu, s, lo, hi)
+    return mu_b, s_b, lo_b, hi_b
 
 
 def _scalar_or_array(x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -508,7 +511,7 @@ def clip_mean_shift(
     def quad(f: Callable[[float], float], a: float, b: float) -> float:
         if a >= b:
             return 0.0
-        return integrate.quad(f, a, b, limit=200, epsabs=1e-15, epsrel=1e-12)[0]
+        return float(integrate.quad(f, a, b, limit=200, epsabs=1e-15, epsrel=1e-12)[0])
 
     if kind == "censored":
         gain = quad(lambda x: (lo_x - x) * pdf(x), -np.inf, lo_x)
@@ -528,7 +531,8 @@ def _inside_probability(mean_g: NDArray[np.float64], sigma_g: float, low: float,
     a = (low - mean_g) / sigma_g
     b = (high - mean_g) / sigma_g
     upper = a > 0  # both rails above the mean: difference of upper tails
-    return np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
+    inside: NDArray[np.float64] = np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
+    return inside
 
 
 def sine_on_random_mean_shift(

@@ -75,8 +75,8 @@ def vrc_at_frequency(vrc: ArrayLike, f_hz: ArrayLike, fn_hz: ArrayLike, q: Array
 
     Units follow ``vrc`` (e.g. µg/g²). At f = fn this is VRC·Q² (SPEC 1.3).
     """
-    h = np.abs(second_order_response(f_hz, fn_hz, q))
-    out = _validate.finite("vrc", vrc) * h**2
+    h2: NDArray[np.float64] = np.abs(np.asarray(second_order_response(f_hz, fn_hz, q))) ** 2  # an array, even at one f
+    out = _validate.finite("vrc", vrc) * h2
     return out[()] if np.ndim(out) == 0 else out
 
 

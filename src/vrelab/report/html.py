@@ -208,7 +208,7 @@ class ReportSection:
 
 
 # --------------------------------------------------------------------------- helpers
-def _fmt(x: Any, digits: int = 4) -> str:
+def _fmt(x: object, digits: int = 4) -> str:
     """A table cell without an uncertainty: numbers by :func:`vrelab._format.format_value`."""
     if x is None:
         return "–"
@@ -288,11 +288,11 @@ def collect_warnings(
 
 
 # --------------------------------------------------------------------------- rendering
-def _conditions_rows(result: VreResult) -> list[tuple[str, Any]]:
+def _conditions_rows(result: VreResult) -> list[tuple[str, object]]:
     from vrelab.report.plots import levels_reached
 
     c = result.conditions
-    rows: list[tuple[str, Any]] = [
+    rows: list[tuple[str, object]] = [
         ("kind", result.kind),
         ("method", result.method),
         ("sensor", c.sensor),

@@ -64,7 +64,8 @@ def plotly_js() -> str:
     """The plotly.js bundle shipped with the plotly package (embedded once per report)."""
     from plotly.offline import get_plotlyjs
 
-    return get_plotlyjs()
+    bundle: str = get_plotlyjs()  # plotly has no type hints (plotly-stubs on PyPI, not installed)
+    return bundle
 
 
 def _text(s: Any) -> str:
@@ -513,7 +514,8 @@ def to_plotly(fig: Figure) -> dict[str, Any]:
                                       "xanchor": "center", "yanchor": "top", "showarrow": False,
                                       "font": {"size": px(sup.get_fontsize())}})
     # Validation: a property plotly does not know is an error here, not a blank figure later.
-    return go.Figure(data=data, layout=layout).to_plotly_json()
+    spec: dict[str, Any] = go.Figure(data=data, layout=layout).to_plotly_json()
+    return spec
 
 
 def to_plotly_json(fig: Figure) -> str | None:
@@ -525,4 +527,5 @@ def to_plotly_json(fig: Figure) -> str | None:
         spec = to_plotly(fig)
     except Unsupported:
         return None
-    return pio.to_json(spec, validate=False, remove_uids=True)
+    text: str = pio.to_json(spec, validate=False, remove_uids=True)
+    return text

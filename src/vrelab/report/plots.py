@@ -19,7 +19,10 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
+from matplotlib.artist import Artist
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.container import Container
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 from numpy.typing import ArrayLike, NDArray
@@ -68,7 +71,7 @@ class Series:
     curves: tuple[Curve, ...] = ()
 
 
-def new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list]:
+def new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = True) -> tuple[Figure, list[Axes]]:
     fig = Figure(figsize=(_SIZE_IN[0], height_in or _SIZE_IN[1]), dpi=_DPI, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
@@ -208,7 +211,7 @@ def model_curves(
 
 
 # --------------------------------------------------------------------------- VRE vs rms
-def _draw_levels(ax, result: VreResult, label: str, color: str, connect: bool = False) -> None:
+def _draw_levels(ax: Axes, result: VreResult, label: str, color: str, connect: bool = False) -> None:
     """VRE (mg) ± u against level (g rms); over-range levels hollow."""
     lv = [x for x in result.levels if np.isfinite(x.rms_g) and np.isfinite(x.vre.value)]
     if not lv:
@@ -306,8 +309,8 @@ def frequency_groups(result: VreResult) -> list[tuple[float | None, list[LevelRe
     fits = [f for f in result.fits if "vrc_ug_per_g2" in f.params]
     random = [x for x in lv if x.freq_hz is None]
     groups: list[tuple[float | None, list[LevelResult]]] = [(None, random)] if random else []
-    groups += [(g[0].freq_hz, g) for g in group_by_frequency([x for x in lv if x.freq_hz is not None],
-                                                            lambda x: float(x.freq_hz))]  # type: ignore[arg-type]
+    tagged = [(x.freq_hz, x) for x in lv if x.freq_hz is not None]  # a sine level and its frequency
+    groups += [(g[0][0], [x for _, x in g]) for g in group_by_frequency(tagged, lambda t: float(t[0]))]
     out = []
     for fq, pts in groups:
         fit = next((f for f in fits if fq is not None and f.freq_hz is not None and same_frequency(f.freq_hz, fq)),
@@ -326,7 +329,7 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
 
     fig, (ax,) = new_figure()
     groups = frequency_groups(result)
-    handles: list = []
+    handles: list[Artist | Container | tuple[Artist | Container, ...]] = []
     labels: list[str] = []
     for i, (fq, pts, fit) in enumerate(groups):
         color, marker = COLORS[i % len(COLORS)], MARKERS[i % len(MARKERS)]
@@ -357,7 +360,9 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
     ax.set_ylabel("VRE (µg)")
     ax.set_xlim(left=0)
     ax.set_title(title or f"VRE vs rms² (slope = VRC)\n{describe_conditions(result, short=True)}", fontsize=10)
-    ax.legend(handles, labels, handler_map={tuple: HandlerTuple(ndivide=1)}, fontsize=7.5, loc="best",
+    # matplotlib's stub types a handle as Artist | tuple[Artist, ...]; at run time a tuple may
+    # hold an errorbar container too (HandlerTuple draws it with its own handler)
+    ax.legend(handles, labels, handler_map={tuple: HandlerTuple(ndivide=1)}, fontsize=7.5, loc="best",  # type: ignore[call-overload]
               ncol=2 if len(labels) > 6 else 1)
     return fig
 
@@ -485,7 +490,7 @@ def envelope_from_arrays(
     return Envelope(np.asarray((np.arange(nb) + 0.5) * bin_size / fs, dtype=np.float64), bin_size, fs, out, schedule)
 
 
-def _shade_segments(ax, schedule: Schedule | None, t_max: float, label_y: float | None = None) -> None:
+def _shade_segments(ax: Axes, schedule: Schedule | None, t_max: float, label_y: float | None = None) -> None:
     if schedule is None:
         return
     for s in schedule.segments:

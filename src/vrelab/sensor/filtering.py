@@ -4,7 +4,7 @@ into one ``sosfilt``)."""
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -57,7 +57,8 @@ def discretize_zpk(
         raise ValueError("discretize_zpk needs at least one pole")
     if np.max(np.abs(p)) / (2 * np.pi) < fs_hz / 64:
         zd, pd, kd = signal.bilinear_zpk(z, p, k, fs_hz)
-        return signal.zpk2sos(zd, pd, kd)
+        bilinear: FloatArray = signal.zpk2sos(zd, pd, kd)
+        return bilinear
     fit_max = fs_hz / 8 if fit_max_hz is None else fit_max_hz
     f = np.linspace(0.0, fit_max, 400)
     s = 2j * np.pi * f
@@ -73,7 +74,8 @@ def discretize_zpk(
     dc = k * np.prod(-z) / np.prod(-p)
     if np.isfinite(dc) and abs(dc) > 0:
         b = b * (np.real(dc) * a.sum() / b.sum())
-    return signal.tf2sos(b, a)
+    sos: FloatArray = signal.tf2sos(b, a)
+    return sos
 
 
 class FilterState(NamedTuple):
@@ -93,7 +95,7 @@ def run_filter(x: FloatArray, state: FilterState) -> tuple[FloatArray, FilterSta
     return y, FilterState(state.sos, zi)
 
 
-def fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> FilterState | None:
+def fused_filter_state(stages: tuple[object, ...], states: tuple[object, ...]) -> FilterState | None:
     """One filter state for consecutive linear filter stages, or None if they cannot be fused.
 
     ``states`` are the stages' fresh states (from ``init_state``, not yet run).
@@ -108,9 +110,10 @@ def fused_filter_state(stages: tuple[Any, ...], states: tuple[Any, ...]) -> Filt
     """
     if len(stages) < 2 or not all(is_sos_filter(st) for st in stages):
         return None
-    if not all(isinstance(s, FilterState) and s.zi is None for s in states):
+    fresh = [s for s in states if isinstance(s, FilterState) and s.zi is None]
+    if len(fresh) != len(states):
         return None
-    return FilterState(np.vstack([s.sos for s in states]), None)
+    return FilterState(np.vstack([s.sos for s in fresh]), None)
 
 
 def is_sos_filter(stage: object) -> bool:

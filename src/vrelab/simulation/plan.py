@@ -88,7 +88,7 @@ class TestPlan:
     __test__ = False  # a pytest collection hint: this is not a test class
 
     method: Method
-    sensor: Any
+    sensor: Sensor
     levels_g: tuple[float, ...]
     static_g: float = 1.0
     seconds: float = 4.0
@@ -145,9 +145,16 @@ class TestPlan:
         return cls("sine", sensor, tuple(np.atleast_1d(levels_rms_g)), freqs_hz=tuple(np.atleast_1d(freqs_hz)), **kw)
 
     @property
+    def _random_profile(self) -> RandomProfile | SineOnRandom:
+        """The random method's profile (__post_init__ refuses a random plan without one)."""
+        if self.profile is None:
+            raise ValueError("the random method needs a profile")
+        return self.profile
+
+    @property
     def f_max_hz(self) -> float:
         """The drive's highest frequency [Hz]."""
-        return float(self.profile.band[1]) if self.method == "random" else max(self.freqs_hz)  # type: ignore[union-attr]
+        return float(self._random_profile.band[1]) if self.method == "random" else max(self.freqs_hz)
 
     @property
     def profile_text(self) -> str:
@@ -184,8 +191,8 @@ class TestPlan:
         n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
         if self.method == "random":
             extra.update(drive_method=self.drive_method, clip_sigma=self.clip_sigma, kurtosis=self.kurtosis,
-                         band_hz=list(self.profile.band))  # type: ignore[union-attr]
-            meta_more: dict[str, Any] = {"profile": self.profile.to_dict()}  # type: ignore[union-attr]
+                         band_hz=list(self._random_profile.band))
+            meta_more: dict[str, Any] = {"profile": self._random_profile.to_dict()}
         else:
             extra["drive_method"] = "sine"
             extra["sine_drive_hz"] = list(dict.fromkeys(s.drive_hz for s in segs if s.drive_hz is not None))
@@ -318,7 +325,7 @@ def _few_phases(freq_hz: float, fs_out_hz: float) -> bool:
     return Fraction(freq_hz / fs_out_hz).limit_denominator(1 << 20).denominator < 5
 
 
-def _may_saturate(sensor: Any, static_g: float, rms_g: float, freq_hz: float) -> bool:
+def _may_saturate(sensor: Sensor, static_g: float, rms_g: float, freq_hz: float) -> bool:
     """Whether a sine of ``rms_g`` at ``freq_hz`` may bring the output within 5 % of a rail or
     of the over-range threshold: its peak through the resonance's gain (SPEC 1.3; the filters'
     gain is at most 1), on the static field."""
@@ -342,7 +349,7 @@ def _may_saturate(sensor: Any, static_g: float, rms_g: float, freq_hz: float) ->
 DRIVE_TOLERANCE = 1e-5
 
 
-def _lattice_rate(sensor: Any, fs_hz: float, freqs_hz: Sequence[float]) -> float:
+def _lattice_rate(sensor: Sensor, fs_hz: float, freqs_hz: Sequence[float]) -> float:
     """A rate at or a little above ``fs_hz`` at which every sine of ``freqs_hz`` runs at its own
     frequency (within ``DRIVE_TOLERANCE``) in :func:`sine_drive` (m periods in L samples,
     gcd(m, L) = 1), for a chain whose

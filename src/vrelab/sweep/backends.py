@@ -15,14 +15,17 @@ from __future__ import annotations
 import multiprocessing
 import os
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
-from typing import Any, Callable
+from typing import Any, Callable, ParamSpec, TypeVar
+
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
 
 
 class SerialExecutor(Executor):
     """Runs each call at submit time, in this process, and returns a finished future."""
 
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
-        fut: Future = Future()
+    def submit(self, fn: Callable[_P, _T], /, *args: _P.args, **kwargs: _P.kwargs) -> Future[_T]:
+        fut: Future[_T] = Future()
         try:
             fut.set_result(fn(*args, **kwargs))
         except BaseException as exc:  # the caller reads it from the future, as from a pool

@@ -35,7 +35,7 @@ from concurrent.futures import (
     Future,
     wait,
 )
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Literal, Mapping, Sequence
 
 import numpy as np
 
@@ -45,6 +45,10 @@ from vrelab.sweep.checkpoint import PointRecord
 PointFunction = Callable[[Mapping[str, Any], np.random.SeedSequence], Mapping[str, float]]
 # (index, params, (entropy, spawn_key))
 Item = tuple[int, Mapping[str, Any], tuple[int, tuple[int, ...]]]
+
+# (index, outcome, the point's values when "ok" else the error's line, wall s, CPU s): run_task's
+# result for one point
+TaskResult = tuple[int, Literal["ok", "error", "invalid"], dict[str, float] | str, float, float]
 
 _resolved: dict[str, PointFunction] = {}
 
@@ -77,16 +81,18 @@ def _as_values(out: Any) -> dict[str, float]:
     return {str(k): float(v) for k, v in out.items()}
 
 
-def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[tuple[int, str, Any, float, float]]:
+def run_task(func: str | PointFunction, items: Sequence[Item]) -> list[TaskResult]:
     """Worker side: evaluate each point; return (index, outcome, values-or-error, wall seconds,
     CPU seconds of the worker process) per point, outcome "ok", "error" (worth retrying) or "invalid" (a ValueError: by the library's
     convention, bad input, which fails the same way every time)."""
     f = resolve(func)
-    out = []
+    out: list[TaskResult] = []
     for index, params, (entropy, key) in items:
         t0, c0 = time.perf_counter(), time.process_time()
+        values: dict[str, float] | str
+        outcome: Literal["ok", "error", "invalid"]
         try:
-            values: Any = _as_values(f(params, np.random.SeedSequence(entropy, spawn_key=key)))
+            values = _as_values(f(params, np.random.SeedSequence(entropy, spawn_key=key)))
             outcome = "ok"
         except Exception as exc:  # recorded, not raised: one bad point must not stop the lot
             values = f"{type(exc).__name__}: {exc}".splitlines()[0]
@@ -154,12 +160,12 @@ def run_points(
     suspects: deque[int] = deque()  # rerun alone after a worker crash, to find the culprit
     attempts: dict[int, int] = {}
     results: dict[int, PointRecord] = {}
-    inflight: dict[Future, list[int]] = {}
+    inflight: dict[Future[list[TaskResult]], list[int]] = {}
     window = window or max(2, 4 * backend.n_workers)
     n_total = total if total is not None else len(items)
     bar = _Progress(n_total, n_total - len(items), progress, "sweep")
     n_failed = 0
-    isolated: Future | None = None  # the lone task run after a crash, to pin the crash on it
+    isolated: Future[list[TaskResult]] | None = None  # the lone task run after a crash, to pin the crash on it
 
     pending: list[PointRecord] = []  # finished in this turn of the loop: one checkpoint write
 
@@ -188,7 +194,7 @@ def run_points(
         queue.appendleft(i)
         return None
 
-    def submit(idx: list[int]) -> Future:
+    def submit(idx: list[int]) -> Future[list[TaskResult]]:
         try:
             fut = backend.executor.submit(run_task, func, [by_index[i] for i in idx])
         except BrokenExecutor as exc:  # the pool broke since the last wait: handled as a crash below
@@ -197,7 +203,7 @@ def run_points(
         inflight[fut] = idx
         return fut
 
-    def collect(fut: Future, idx: list[int], crashed: list[int]) -> None:
+    def collect(fut: Future[list[TaskResult]], idx: list[int], crashed: list[int]) -> None:
         try:
             out = fut.result()
         except BrokenExecutor:
@@ -219,7 +225,7 @@ def run_points(
             return
         recs = []
         for i, outcome, payload, dt, cpu in out:
-            if outcome == "ok":
+            if isinstance(payload, dict):  # outcome "ok" (run_task gives values exactly then)
                 recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run, cpu))
             elif (r := attempt_failed(i, payload, dt, todo, final=outcome == "invalid")) is not None:
                 recs.append(r)

@@ -120,17 +120,19 @@ def _parser_types() -> list[type]:
     idelib evaluates first (idelib's own hook: ``importFile(parserTypes=)``)."""
     from idelib import importer, parsers
 
-    class Channel(parsers.ChannelParser):
+    # idelib has no type hints (nor stubs on PyPI): its parser classes are Any to mypy, hence the
+    # three ignores of subclassing them
+    class Channel(parsers.ChannelParser):  # type: ignore[misc]
         def parse(self, element: Any, **kwargs: Any) -> Any:
             why = evaluated_field_refusal(element.dump())
             if why:
                 raise _Refused(why)
             return super().parse(element, **kwargs)
 
-    class ChannelList(parsers.ChannelListParser):
+    class ChannelList(parsers.ChannelListParser):  # type: ignore[misc]
         children = (Channel,)
 
-    class RecordingProperties(parsers.RecordingPropertiesParser):
+    class RecordingProperties(parsers.RecordingPropertiesParser):  # type: ignore[misc]
         children = tuple(ChannelList if c is parsers.ChannelListParser else c
                          for c in parsers.RecordingPropertiesParser.children)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 import zipfile
 from pathlib import Path
+from types import EllipsisType
 from typing import Any
 
 import numpy as np
@@ -108,7 +109,8 @@ class _LazyMember:
         self.ndim = len(self.shape)
         self._arr: NDArray[Any] | None = None
 
-    def __getitem__(self, key: Any) -> NDArray[Any]:
+    # what spec_slice and the fs lookup ask: a range of rows, a row or column's range, or all
+    def __getitem__(self, key: slice | tuple[int | slice, int | slice] | EllipsisType) -> NDArray[Any]:
         if self._arr is None:
             with zipfile.ZipFile(self.path) as zf, zf.open(self.member) as fh:
                 self._arr = np.lib.format.read_array(fh, allow_pickle=False)

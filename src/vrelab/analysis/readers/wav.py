@@ -94,10 +94,12 @@ class WavSource(Source):
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         self.f.seek(int(start))
         n = int(stop - start)
+        # soundfile has no type hints: its read gives the dtype asked for, (frames, channels)
         if self.bits:
-            raw = self.f.read(n, dtype="int32", always_2d=True)[:, int(name)]
+            raw: NDArray[np.int32] = self.f.read(n, dtype="int32", always_2d=True)[:, int(name)]
             return (raw >> (32 - self.bits)).astype(np.int32)
-        return self.f.read(n, dtype="float64", always_2d=True)[:, int(name)]
+        samples: NDArray[np.float64] = self.f.read(n, dtype="float64", always_2d=True)[:, int(name)]
+        return samples
 
     def is_integer(self, name: str) -> bool:
         return self.bits is not None
