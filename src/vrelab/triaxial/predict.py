@@ -97,20 +97,23 @@ class TriaxialLevelPrediction(LevelPrediction):
     ``shares``: the single-axis mechanisms of the sensed vibration (``clip_g``,
     ``nonlinearity_g``, ``overrange_g``, each rail alone) and the cross terms after the rails and
     over-range (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``); ``vre_g`` is
-    ``clip_g + nonlinearity_g + overrange_g + cross_g``. ``sensed_rms_g``: rms of ``w·a`` (the
-    vibration the axis senses, before its dynamics); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
+    ``clip_g + nonlinearity_g + overrange_g + cross_g``. ``axis_rms_g``: the vibration's rms
+    along x, y, z at this level; ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis
+    senses, before its dynamics; ``w_eff = w + 2Kg``: the static vector across the cross terms
+    adds a sensitivity to the other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
     y, z at the proof mass; ``cross_pass``: the factor the rails and over-range pass the cross
     terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them.
     """
 
     sensed_rms_g: float = 0.0
+    axis_rms_g: tuple[float, ...] = ()
     proof_mass_cov_g2: tuple[tuple[float, ...], ...] = ()
     cross_pass: float = 1.0
     cross_unpassed_g: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         d = super().to_dict()
-        d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g),
+        d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g), axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g],
                  proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2],
                  cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g))
         return d
@@ -485,7 +488,9 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
         moments = mh / m_tot  # E[b bᵀ] per unit total mean square
         sensed, ratio, interp_err = _projected(excitation, w_eff, sensor, front)
         sensed_hz: float | None = None
-        cond_profile = excitation.describe()
+        frac = np.sqrt(excitation.axis_mean_square_g2 / m_tot)
+        cond_profile = (f"{excitation.name or 'triaxial random'}, {excitation.band[0]:g}-{excitation.band[1]:g} Hz: "
+                        f"rms x {frac[0]:.3g}, y {frac[1]:.3g}, z {frac[2]:.3g} of the total")
     else:
         shape = "sine"
         d = np.asarray(excitation.direction)
@@ -497,6 +502,8 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
         sensed_hz = excitation.freq_hz
         cond_profile = f"sine {excitation.freq_hz:g} Hz along ({d[0]:.4g}, {d[1]:.4g}, {d[2]:.4g})"
     sensed_rms = levels_arr * math.sqrt(ratio)
+    axis_frac = (np.sqrt(excitation.axis_mean_square_g2 / excitation.mean_square_g2)
+                 if isinstance(excitation, TriaxialProfile) else np.abs(d))
     single: Prediction | None = None
     slope = np.zeros(levels_arr.size)
     if sensed is not None:
@@ -569,8 +576,12 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             lv_notes.pop()  # predict's judgement of its own bound: judged again below on the whole one
         vre = base.vre_g + shares["cross_g"]
         tilt, why = tilt_note(vre, u0)
+        # the level's tilt note, of the whole VRE (the sensed part's, if any, replaced)
+        lv_notes = [nt for nt in lv_notes if nt != tilt_note(base.vre_g, u0)[1]]
+        if why and tilt_note(0.0, u0)[1] is None:  # the static field's own case is one note of the prediction
+            lv_notes.append(why)
         interp_bound = 2.0 * interp_err * abs(float(slope[n]))
-        if any_cross and bound > 0:
+        if abs(through - 1.0) > 1e-6:
             lv_notes.append(f"the cross terms' mean ({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
                             f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
                             "model_error_g)")
@@ -580,10 +591,9 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             sigma_at_clip_g=base.sigma_at_clip_g, overrange_rate_hz=base.overrange_rate_hz,
             valid=base.valid_otherwise, notes=tuple(lv_notes), freq_hz=base.freq_hz,
             model_error_g=float(base.model_error_g) + bound + interp_bound, valid_otherwise=base.valid_otherwise,
-            sensed_rms_g=float(sensed_rms[n]),
+            sensed_rms_g=float(sensed_rms[n]), axis_rms_g=tuple(float(rms) * float(x) for x in axis_frac),
             proof_mass_cov_g2=tuple(tuple(float(v) for v in row) for row in cov_b),
             cross_pass=through, cross_unpassed_g=cross_mean))
-        del why  # the static field's tilt note is the prediction's (below), as predict has it
     if single is not None:
         notes += [nt for nt in single.notes if not nt.startswith("VRE referred to")]
     if interp_err > 0:
@@ -643,8 +653,12 @@ def _excitation_summary(excitation: Excitation) -> dict[str, Any]:
     """What the conditions carry of the excitation: kind, per-axis rms per unit total rms, the
     coherences and phases at the breakpoints (random) or the direction (sine)."""
     if isinstance(excitation, TriaxialSine):
-        return excitation.to_dict()
+        d = excitation.to_dict()
+        d.pop("rms_g")  # the levels are the rms
+        return d
     d = excitation.to_dict()
     ms = excitation.axis_mean_square_g2
     d["axis_rms_fraction"] = [float(math.sqrt(x / excitation.mean_square_g2)) for x in ms]
+    # the breakpoints are the shape's, scaled to each level: its own rms is not a level
+    d["shape_grms"], d["shape_axis_grms"] = d.pop("grms"), d.pop("axis_grms")
     return d
