@@ -20,14 +20,16 @@ filters, offset, ...) on ``y``. So
 * the **cross terms** rectify in closed form, ``VRE_jk = K_jk · Re ∫ S_jk(f)·|H(f)|² df``
   (sine: ``K_jk·d_j·d_k·rms²·|H(f)|²``): the products of the static vector with the zero-mean
   vibration average out, and ``K·g_j·g_k`` is in the vibration-off reading as well (SPEC 1.5);
-* where rails or over-range act after the nonlinearity, the cross terms' mean shift passes them
-  approximately: times the rails' response to a shift of their input, ``∂E[out]/∂(shift)``
-  (the probability of being inside for censored rails), and times the time not held,
-  ``1 - rate·hold``. What that misses (the cross terms' fluctuation correlating with the
-  rails' indicator, by Cauchy-Schwarz ``r·sqrt(p_out·(1-p_out))``; the second-order effect
-  across a rail; the static cross terms moving the rails' working point; the over-range rate's
-  change) is bounded in ``model_error_g``, as :mod:`vrelab.predict` bounds its own, and
-  ``valid`` is False where the bound may exceed the stated u.
+* where rails or over-range act after the nonlinearity, the cross terms pass them to first
+  order: their mean times the rails' response to a shift of their input, ``∂E[out]/∂(shift)``
+  (the probability of being inside, for censored rails), plus the part of their fluctuation
+  the rails see (its second Hermite component in the rails' Gaussian input, through the filters
+  between: :func:`_rails_pass`, :func:`_filtered_he2`), plus the static cross terms ``K·g_j·g_k``
+  moving the rails' working point; and times the time not held, ``1 - rate·hold``. What that
+  misses (second order across a rail, the rails' input read as Gaussian, a truncated rail's
+  correlation with the fluctuation, the over-range rate's change) is bounded in
+  ``model_error_g``, as :mod:`vrelab.predict` bounds its own, and ``valid`` is False where the
+  bound may exceed the stated u.
 
 The projected PSD is a sum of the axes' power laws (and coherences linear in ln f): where it is
 one power law between the profile's breakpoints (a vibration along a direction, axes of one
@@ -192,8 +194,19 @@ def _k_matrix(sensor: Sensor) -> NDArray[np.float64]:
     return k
 
 
+def _resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
+    """(fn, Q) of each resonance among the responses (a stage's bound ``response`` method)."""
+    out = []
+    for r in responses:
+        st = getattr(r, "__self__", r)
+        fn, q = getattr(st, "fn_hz", None), getattr(st, "q", None)
+        if fn and q:
+            out.append((float(fn), float(q)))
+    return out
+
+
 def _cuts(lo: float, hi: float, corners: Sequence[float], responses: Sequence[Response]) -> list[float]:
-    peaks = [float(getattr(r, "fn_hz", math.nan)) for r in responses]
+    peaks = [fn for fn, _ in _resonances(responses)]
     return sorted({lo, hi, *(c for c in [*corners, *peaks] if lo < c < hi)})
 
 
@@ -272,7 +285,8 @@ def _projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
         if not resp and err:
             continue
         exact_ratio = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), resp) / m_u
-        tab = effective_rms((fd, pd), resp, *profile.band) ** 2 / prof.mean_square_g2
+        tab = effective_rms((fd, pd), resp, *profile.band, points_hz=[fn for fn, _ in _resonances(resp)]) ** 2
+        tab /= prof.mean_square_g2
         err = max(err, abs(tab / exact_ratio - 1.0))
     return prof, ratio, err
 
@@ -286,7 +300,8 @@ def _phi(z: float) -> float:
 
 def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
                 kind: ClipKind, cross_mean: float, r_fluct: float, q_peak: float,
-                static_cross: float) -> tuple[float, float, float, float]:
+                static_cross: float, sine_hz: float | None = None,
+                c2_total: float = 0.0) -> tuple[float, float, float, float]:
     """(dc, factor, he2, bound): what the rails make of the cross terms, to first order in them.
 
     A term ``K·b_j·b_k`` reaches the rails as its mean ``C`` and a zero-mean rest. ``factor``:
@@ -296,10 +311,12 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
     its linear part through the filters). Memoryless censored rails, Gaussian: the rest's part
     that the rails see is its second Hermite component in ``Z = u/σ_u``,
     ``E[b_j b_k | u] = C + c2·He2(Z)``, ``c2 = K·v_j·v_k/σ_u²`` (``v = Cov(b, u)``), and
-    ``E[1_in·He2(Z)] = α·φ(α) - β·φ(β)`` (``he2``): the term passes as ``C·factor + c2·he2``.
-    Sine, memoryless censored: the term is ``C·2cos²θ``, and ``E[1_in·2cos²θ] = 1 - Σ (θ_r +
-    sin θ_r cos θ_r)/π`` over the arcs ``θ_r`` beyond each rail is ``factor``. Elsewhere (filters
-    between, truncated rails) the rest's correlation with the rails is bounded, not taken. The
+    ``E[1_in·He2(Z)] = α·φ(α) - β·φ(β)`` (``he2``): the term passes as ``C·factor + c2·he2``
+    (with filters between, ``c2`` is :func:`_filtered_he2`'s). Sine, censored: the term is
+    ``C·(1 + cos 2θ)``, ``cos 2θ`` through the filters between as ``|H(2f)|·cos(2ψ + Δ)`` in the
+    rails' own phase ψ (``Δ = arg H(2f) - 2·arg H(f)``), and ``E[1_in] = 1 - Σ θ_r/π``,
+    ``E[1_in·cos 2ψ] = -Σ sin 2θ_r/(2π)`` over the arcs ``θ_r`` beyond each rail give
+    ``factor``. Truncated rails: the rest's correlation with them is bounded, not taken. The
     bound also holds the second-order effect across a rail and the static cross terms' move of
     the rails' working point: the static cross terms ``gᵀKg`` move the reading with vibration by
     ``dc`` times them (the rails' response to a static shift) and the vibration-off reading by
@@ -333,7 +350,7 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
 
     h = 1e-6 * max(sigma, 1e-3)
     factor = dc = (mean_out(h) - mean_out(-h)) / (2 * h)
-    exact_rest = not site.filtered and kind == "censored"
+    exact_rest = kind == "censored"
     # the rails' input, linearised: mean c0 + nonlinearity, rms s (Gaussian) or peak √2·s (sine)
     m, s = c0 + nonlin, abs(gain) * lv.sigma_at_clip_g
     a, b = (low - m) / s, (high - m) / s
@@ -341,7 +358,6 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
     he2 = 0.0
     shift = abs(cross_mean) + abs(static_cross)  # the cross terms' means, static and rectified
     if shape == "gaussian":
-        dens = (_phi(a) + _phi(b)) / s
         chaos = a * _phi(a) - b * _phi(b)
         if exact_rest:
             he2 = chaos
@@ -353,8 +369,11 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
             # norm |α·φ(α) - β·φ(β)|/√2, correlates with it (Cauchy-Schwarz within the chaos, as
             # vrelab.predict bounds the polynomial's rest); filters between pass it at most gmax times
             bound += _linear_gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
+        # second order across a rail: ½·E[Q²|Z = z_r]·pdf(z_r)/s at each rail, with E[Q²|Z] at most
+        # (|means| + |c2|·|He2(z)|)² + Var(rest); taken twice
         gmax = _linear_gain_max(site.responses)
-        bound += 2.0 * (shift**2 + (gmax * r_fluct) ** 2) * dens
+        bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * r_fluct) ** 2) * _phi(z) / s
+                     for z in (a, b))
     else:
         amp = math.sqrt(2.0) * s
 
@@ -364,13 +383,64 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
         tu, tl = arc(high - m), arc(m - low)
         p_out = (tu + tl) / math.pi
         if exact_rest:
-            factor = 1.0 - sum(t + math.sin(t) * math.cos(t) for t in (tu, tl)) / math.pi
+            h1 = h2f = complex(1.0)
+            for r in site.responses:
+                h1 *= complex(np.asarray(r(np.array([sine_hz or 0.0])))[0])
+                h2f *= complex(np.asarray(r(np.array([2.0 * (sine_hz or 0.0)])))[0])
+            delta = np.angle(h2f) - 2.0 * np.angle(h1)
+            factor = 1.0 - p_out - abs(h2f) * math.cos(delta) * sum(math.sin(2 * t) for t in (tu, tl)) / (2 * math.pi)
         else:
             bound += r_fluct * math.sqrt(max(p_out * (1.0 - p_out), 0.0))
         q = shift + q_peak
         near = sum(abs(arc(r - q) - arc(r + q)) / math.pi for r in (high - m, m - low))
         bound += q * near
     return dc, factor, he2, bound
+
+
+def _he2_step(profile: TriaxialProfile, responses: Sequence[Response]) -> float:
+    """The grid step of :func:`_filtered_he2` [Hz]: an eighth of the band's lowest frequency and of
+    every resonance's half-power width fn/Q."""
+    return min([profile.band[0], *(fn / q for fn, q in _resonances(responses))]) / 8.0
+
+
+def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Sequence[Response],
+                  between: Sequence[Response], df_hz: float | None = None) -> NDArray[np.float64]:
+    r"""``G`` (3×3, per unit total mean square) with ``c2 = K_jk·G_jk``: the second Hermite
+    coefficient, in ``Z`` (the rails' Gaussian input, unit variance), of the cross terms after
+    the filters between the nonlinearity and the rails.
+
+    ``Z(t) = (h_F * u)(t)/s``; the term ``b_j·b_k`` reaches the rails as ``(h_F * b_j b_k)(t)``,
+    and by Isserlis ``E[(Z² - 1)·b_j(t-τ) b_k(t-τ)] = 2·c_j(τ)·c_k(τ)``, ``c_j(τ) = Cov(b_j(t-τ),
+    Z(t)) = Re ∫ |H|²·(S w)_j·H_F*·e^{-i2πfτ} df / s``, so ``G_jk = ∫ h_F(τ)·c_j(τ)·c_k(τ) dτ``.
+    With no filter (``h_F = δ``) this is ``v_j v_k/σ_u²``. Computed on a uniform frequency grid
+    (FFT): ``c`` by an inverse FFT, ``h_F`` by one of ``H_F``'s exact samples, so the discrete sum
+    is Parseval's of the grid (``c_j c_k`` reaches 2·f_max < the grid's top: no aliasing);
+    ``df`` resolves the band's lowest breakpoint and every resonance's width fn/Q.
+    """
+    lo, hi = profile.band
+    df = df_hz or _he2_step(profile, [*front, *between])
+    n_half = int(math.ceil(2.5 * hi / df))
+    n_half += n_half % 2
+    f = np.arange(n_half + 1) * df
+    s_f = profile.csd(f) / profile.mean_square_g2
+    s_f[(f < lo) | (f > hi)] = 0.0
+    hf = np.ones(f.size, dtype=complex)
+    for r in front:
+        hf = hf * np.asarray(r(f.astype(np.float64)))
+    hb = np.ones(f.size, dtype=complex)
+    for r in between:
+        hb = hb * np.asarray(r(f.astype(np.float64)))
+    sw = np.abs(hf)[:, None] ** 2 * (s_f @ w)  # S_{b_j u}(f)
+    var = float(np.sum(np.abs(hb) ** 2 * (sw @ w).real) * df)  # s² of h_F * u
+    if not var > 0:
+        return np.zeros((3, 3))
+    n = 2 * n_half
+    # c_j[n] = Re Σ_k A_j(f_k) e^{-i2πf_kτ_n} df = (N/2)·irfft(conj(A_j)·df) (A is 0 at DC and the top)
+    a = sw * np.conj(hb)[:, None] / math.sqrt(var)
+    c = 0.5 * n * np.fft.irfft(np.conj(a) * df, n=n, axis=0)  # (n, 3)
+    h = n * np.fft.irfft(hb * df, n=n)  # h_F(τ_n): two-sided ∫H e^{i2πfτ} df on the grid
+    dt = 1.0 / (n * df)
+    return np.asarray(np.einsum("n,nj,nk->jk", h, c, c) * dt, dtype=np.float64)
 
 
 def _overrange_pass(lv: LevelPrediction | None, site: _After, u0: float, cross_mean: float,
@@ -517,6 +587,15 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
                      "cross terms act alone")
     out: list[LevelPrediction] = []
     any_cross = bool(np.any(kmat))
+    g_filtered, g_err = None, np.zeros((3, 3))
+    clips = [site for site in after if site.kind == "clip"]
+    if (any_cross and isinstance(excitation, TriaxialProfile) and clips and clips[-1].filtered
+            and sensed is not None):
+        # the filtered rails' He2 coefficients, and their grid error: the same on a grid twice as fine
+        g_filtered = _filtered_he2(excitation, w_eff, front, clips[-1].responses)
+        finer = _filtered_he2(excitation, w_eff, front, clips[-1].responses,
+                              df_hz=_he2_step(excitation, [*front, *clips[-1].responses]) / 2.0)
+        g_err = 2.0 * np.abs(finer - g_filtered)
     for n, rms in enumerate(levels_arr):
         lv_s = single.levels[n] if single is not None else None
         cov_b = moments * float(rms) ** 2  # E[b bᵀ] [g²] (sine: its mean square)
@@ -544,17 +623,23 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             s_eff, s_true = (math.sqrt(max(float(v @ cov_b @ v), 0.0)) for v in (w_eff, w))
             bound += abs(float(memoryless.poly_clip_vre(u0, s_eff, *k, shape=shape))
                          - float(memoryless.poly_clip_vre(u0, s_true, *k, shape=shape)))
-        # each term's He2 coefficient in Z = u/σ_u (memoryless Gaussian rails): K·v_j·v_k/σ_u², v = Σ_b·w_eff
+        # each term's He2 coefficient in the rails' Z: K·v_j·v_k/σ_u² (v = Σ_b·w_eff) with nothing
+        # between, else K·G_jk (:func:`_filtered_he2`); with two sets of rails the last one's
         v = cov_b @ w_eff
         var_u = float(w_eff @ v)
-        c2 = ({key: float(getattr(sensor, attr)) * float(v[triad[a]] * v[triad[b]]) / var_u
-               for key, attr, a, b in CROSS_SHARES} if shape == "gaussian" and var_u > 0 else dict.fromkeys(terms, 0.0))
+        gmat = (g_filtered * float(rms) ** 2 if g_filtered is not None
+                else np.outer(v, v) / var_u if var_u > 0 else np.zeros((3, 3)))
+        c2 = ({key: float(getattr(sensor, attr)) * float(gmat[triad[a], triad[b]]) for key, attr, a, b in CROSS_SHARES}
+              if shape == "gaussian" else dict.fromkeys(terms, 0.0))
+        c2_err = sum(abs(float(getattr(sensor, attr))) * float(g_err[triad[a], triad[b]]) * float(rms) ** 2
+                     for _, attr, a, b in CROSS_SHARES)
         he2 = 0.0
         if any_cross:
             for site in after:
                 if site.kind == "clip":
                     dc_, f_, h_, b_ = _rails_pass(lv_s, site, sensor, u0, shape, kind, cross_mean, r_fluct, q_peak,
-                                                  static_cross)
+                                                  static_cross, sensed_hz, sum(c2.values()))
+                    b_ += c2_err * abs(h_)
                     he2 = he2 * dc_ + h_  # a first set of rails' He2 part, through a second one
                 else:
                     f_, b_ = _overrange_pass(lv_s, site, u0, cross_mean, r_fluct)
