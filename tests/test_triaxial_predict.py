@@ -340,6 +340,51 @@ def test_sine_at_45_degrees_against_a_phase_average() -> None:
         assert got.shares["cross_kip_g"] / got.cross_pass == pytest.approx(6000 * UG * rms**2 * hmag**2 / 2, rel=1e-9)
 
 
+def test_filtered_sine_against_a_periodic_computation() -> None:
+    # a sine at 45°, rails after an anti-alias filter that follows the nonlinearity: one period of
+    # the model equation, filtered at each harmonic with the stage's own response (FFT), clipped;
+    # the cross terms by the difference with them off, within their own bound
+    from vrelab.sensor.stages import AntiAlias
+
+    sensor = _ideal(fn_hz=1000.0, q=5.0, anti_alias_hz=600.0, anti_alias_order=2, k2_per_g=1000 * UG,
+                    kip_per_g=8000 * UG, kpp_per_g=3000 * UG)
+    plain = dataclasses.replace(sensor, kip_per_g=0.0, kpp_per_g=0.0)
+    d = direction("z", "x", 45.0)
+    g = np.array([0.0, 0.0, 1.0])
+    n = 2**12
+    theta = np.arange(n) * 2 * math.pi / n
+
+    def periodic(s: object, f: float, rms: float) -> float:
+        hm = 1.0 / (1 - (f / 1000.0) ** 2 + 1j * (f / 1000.0) / 5.0)
+        b = np.outer(d, math.sqrt(2) * rms * np.real(hm * np.exp(1j * theta)))
+        m = _model_of(s)
+        y = _model_out(g[:, None] + b, **{**m, "rails": (-np.inf, np.inf)})  # type: ignore[arg-type]
+        y0 = float(_model_out(g[:, None], **{**m, "rails": (-np.inf, np.inf)})[0])  # type: ignore[arg-type]
+        harm = np.fft.rfft(y)
+        yf = np.fft.irfft(harm * AntiAlias(600.0, 2).response(np.arange(harm.size) * f), n=n)
+        return float(np.clip(yf, *m["rails"]).mean() - np.clip(y0, *m["rails"]))  # type: ignore[misc]
+
+    for f, rms in ((150.0, 0.5), (500.0, 1.2)):  # the second reaches the upper rail
+        got = predict_triaxial(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
+        got0 = predict_triaxial(plain, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
+        assert abs(got.vre_g - periodic(sensor, f, rms)) <= got.model_error_g + 1e-9
+        cross, truth = got.vre_g - got0.vre_g, periodic(sensor, f, rms) - periodic(plain, f, rms)
+        assert abs(cross - truth) <= max(got.model_error_g - got0.model_error_g, 0.0) + 1e-9, (f, cross, truth)
+    assert got.cross_pass < 0.9
+
+
+def test_an_axis_that_senses_none_of_the_vibration() -> None:
+    # z axis, no cross-axis sensitivity, vibration along its output axis y: only Koo·σ² (SPEC 1.6)
+    sensor = _ideal(koo_per_g=700 * UG, k2_per_g=500 * UG)
+    pred = predict_triaxial(sensor, TriaxialProfile.along(parse_profile("flat:20-500"), (0, 1, 0)), [0.5, 1.0],
+                            static_g=(0, 0, 1))
+    for lv, rms in zip(pred.levels, (0.5, 1.0)):
+        assert lv.shares["cross_koo_g"] == pytest.approx(700 * UG * rms**2, rel=1e-12)
+        assert lv.vre_g == pytest.approx(700 * UG * rms**2, rel=1e-12)
+        assert lv.shares["clip_g"] == 0.0 and lv.shares["nonlinearity_g"] == 0.0 and lv.sensed_rms_g == 0.0
+    assert any("senses none of this vibration" in n for n in pred.notes)
+
+
 # --- validity, uncertainty, conditions, bad input ---------------------------------------------------
 
 
