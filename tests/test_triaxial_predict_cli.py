@@ -106,3 +106,36 @@ def test_report_table_shows_the_cross_terms() -> None:
     html = render_section(ReportSection("triaxial", "a 45° mount", prediction=pred.to_dict()), "t")
     for col in ("clip (mg)", "nonlinearity (mg)", "cross kip (mg)", "cross kpp (mg)", "cross (mg)"):
         assert col in html
+
+
+def test_a_triaxial_profile_string_goes_through_vrelab_triaxial_files(capsys: pytest.CaptureFixture[str],
+                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    # `vrelab simulate`'s triaxial profile strings (PROFILE@dir=X,Y,Z, @z45x, triaxial TOML files)
+    # belong to vrelab.triaxial.files; predict hands them over. A stand-in module here so that the
+    # wiring is held whatever that module's own forms are.
+    import sys
+    import types
+
+    seen: list[str] = []
+    stub = types.ModuleType("vrelab.triaxial.files")
+
+    def parse_triaxial(spec: str) -> TriaxialProfile:
+        seen.append(spec)
+        return TriaxialProfile.along(parse_profile(spec.partition("@")[0]), direction("z", "x", 45.0))
+
+    stub.is_triaxial_spec = lambda spec: "@" in spec  # type: ignore[attr-defined]
+    stub.parse_triaxial = parse_triaxial  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "vrelab.triaxial.files", stub)
+    rc, out, err = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500@z45x", "--levels", "0.5", "--json")
+    assert rc == 0, err
+    assert seen == ["flat:20-500@z45x"]
+    rc2, out2, _ = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500", "--levels", "0.5",
+                        "--mount-deg", "45", "--json")
+    assert json.loads(out)["levels"][0]["vre_g"] == json.loads(out2)["levels"][0]["vre_g"]
+    rc, _, err = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500@z45x", "--levels", "0.5",
+                      "--direction", "1,0,0")
+    assert rc == 2 and "apply to a single-axis --profile" in err
+    # where the module is not installed: one line saying so
+    monkeypatch.setitem(sys.modules, "vrelab.triaxial.files", None)
+    rc, _, err = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500@z45x", "--levels", "0.5")
+    assert rc == 2 and "need vrelab.triaxial.files" in err and len(err.strip().splitlines()) == 1

@@ -11,7 +11,8 @@ SPEC section 5::
 ``rms_g``, ``vre_g``, ``tilt_error_deg``, shares by mechanism). The sensor options here are
 shared with ``vrelab simulate``. With a direction, a mount angle or a static vector the
 vibration is triaxial (SPEC 1.6): the profile or sine applied along that direction in the
-part's frame, the levels its total rms, and the prediction
+part's frame (or a triaxial ``--profile``: ``PROFILE@dir=X,Y,Z``, a triaxial TOML file, where
+:mod:`vrelab.triaxial.files` is installed), the levels its total rms, and the prediction
 :func:`vrelab.triaxial.predict.predict_triaxial`'s (the IEEE 1293 cross terms' shares
 ``cross_kip_g`` ... ``cross_g`` beside the single-axis ones).
 """
@@ -91,7 +92,11 @@ def run(args: argparse.Namespace) -> int:
     from vrelab.profiles import parse_profile
 
     levels = positive_list(args.levels, "--levels")
-    triaxial = args.direction is not None or args.mount_deg is not None or args.static_vector is not None
+    spec = args.profile is not None and _triaxial_spec(args.profile)
+    along = args.direction is not None or args.mount_deg is not None
+    triaxial = along or spec or args.static_vector is not None
+    if spec and along:
+        raise ValueError("--direction and --mount-deg apply to a single-axis --profile, not to a triaxial one")
     if args.mount_plane is not None and args.mount_deg is None:
         raise ValueError("--mount-plane needs --mount-deg (the angle of the input axis to the vibration)")
     if args.direction is not None and args.mount_deg is not None:
@@ -101,8 +106,14 @@ def run(args: argparse.Namespace) -> int:
     if args.static_g is None:
         args.static_g = 1.0
     sensor = sensor_from_args(args)
-    if args.profile is not None:
-        excitation: Any = parse_profile(args.profile)
+    if spec:
+        files = _triaxial_files()
+        if files is None:
+            raise ValueError(f"--profile {args.profile!r}: triaxial profile strings need vrelab.triaxial.files; "
+                             "give a single-axis profile with --direction X,Y,Z")
+        excitation: Any = files.parse_triaxial(args.profile)
+    elif args.profile is not None:
+        excitation = parse_profile(args.profile)
     else:
         excitation = float(V.frequency("--freq", V.positive_scalar("--freq", args.freq)))
     if triaxial:
@@ -120,6 +131,25 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_prediction(pred)
     return 0
+
+
+def _triaxial_files() -> Any:
+    """vrelab.triaxial.files (triaxial profile strings ``PROFILE@dir=X,Y,Z`` and TOML files), or
+    None where this installation has none (imported by name, as ``vrelab simulate`` does)."""
+    import importlib
+
+    try:
+        return importlib.import_module("vrelab.triaxial.files")
+    except ModuleNotFoundError as exc:
+        if exc.name != "vrelab.triaxial.files":
+            raise
+        return None
+
+
+def _triaxial_spec(spec: str) -> bool:
+    """Whether a --profile names a triaxial vibration (PROFILE@direction, a triaxial file)."""
+    files = _triaxial_files()
+    return "@" in spec if files is None else bool(files.is_triaxial_spec(spec))
 
 
 def _vector(text: str, name: str) -> list[float]:
@@ -148,8 +178,10 @@ def _predict_triaxial(args: argparse.Namespace, sensor: Any, excitation: Any, le
         d = [1.0 if j == i else 0.0 for j in range(3)]
     static = (_vector(args.static_vector, "--static-vector") if args.static_vector is not None
               else [args.static_g if j == i else 0.0 for j in range(3)])
-    if isinstance(excitation, float):
-        tri: Any = TriaxialSine(excitation, (d[0], d[1], d[2]), 1.0)
+    if isinstance(excitation, (TriaxialProfile, TriaxialSine)):  # a triaxial --profile: its own directions
+        tri: Any = excitation
+    elif isinstance(excitation, float):
+        tri = TriaxialSine(excitation, (d[0], d[1], d[2]), 1.0)
     elif isinstance(excitation, RandomProfile):
         tri = TriaxialProfile.along(excitation, d)
     else:
