@@ -555,7 +555,8 @@ IDENTIFIED = "identified (covariance)"
 
 def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                 levels: Sequence[float] | NDArray[np.float64], static_g: float,
-                kind: ClipKind = DEFAULT_CLIP_KIND, vre_g: NDArray[np.float64] | None = None) -> Propagation:
+                kind: ClipKind = DEFAULT_CLIP_KIND, vre_g: NDArray[np.float64] | None = None,
+                predictor: Callable[..., Prediction] | None = None) -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
     Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
@@ -578,6 +579,8 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
     ``sources_g``: ``"identified (covariance)"`` (the covariance block, correlations in it) and
     one entry per assumed parameter; their quadrature sum is ``u_g``. ``vre_g``: the VRE already
     predicted at the parameters' values, one per predicted level (saves predicting it again).
+    ``predictor``: what is propagated, called as :func:`predict` is (default :func:`predict`;
+    :func:`vrelab.triaxial.predict.predict_triaxial` passes its own, so one rule carries both).
     """
     from vrelab.sensor.parameters import parameter, with_parameters
 
@@ -590,7 +593,7 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
 
     def vre_at(values: Mapping[str, float]) -> NDArray[np.float64] | None:
         try:
-            p = predict(with_parameters(sensor, values), excitation, lv, static_g, kind)
+            p = (predictor or predict)(with_parameters(sensor, values), excitation, lv, static_g, kind)
         except ValueError:  # outside the parameter's domain (rails crossing the static level, Q <= 0)
             return None
         return np.array([x.vre_g for x in p.levels])
@@ -644,7 +647,8 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
     if names:
         u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
         if nonlinear.any():
-            u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma)
+            u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma,
+                                                      predictor or predict)
             for i in np.flatnonzero(nonlinear).tolist():
                 if outside > _MC_OUTSIDE:
                     level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
@@ -681,7 +685,8 @@ _MC_OUTSIDE = 0.15
 
 
 def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
-                 names: Sequence[str], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], float,
+                 names: Sequence[str], sigma: NDArray[np.float64],
+                 predictor: Callable[..., Prediction] | None = None) -> tuple[NDArray[np.float64], float,
                                                                            NDArray[np.float64], NDArray[np.float64]]:
     """GUM Supplement 1 over the identified parameters: ``_MC_DRAWS`` seeded draws from the
     normal distribution of mean the identified values and covariance ``Σ`` (numpy's
@@ -695,7 +700,7 @@ def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], s
     vre = []
     for x in draws:
         try:
-            p = predict(with_parameters(sensor, dict(zip(names, (float(v) for v in x)))), excitation, levels,
+            p = (predictor or predict)(with_parameters(sensor, dict(zip(names, (float(v) for v in x)))), excitation, levels,
                         static_g, kind)
         except ValueError:
             continue

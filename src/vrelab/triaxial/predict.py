@@ -1,0 +1,749 @@
+r"""Analytic VRE of one DUT axis under a triaxial vibration, by mechanism, cross terms included.
+
+The model of one axis (the triaxial model contract, SPEC 1.6; IEEE Std 1293-2018's model
+equation): the acceleration ``a = g + x`` in the part's frame (static vector ``g``, zero-mean
+vibration ``x``) passes the axis's linear front end ``H`` (the stages before its
+:class:`~vrelab.sensor.stages.Polynomial`, today the proof-mass resonance) on every component
+alike, ``b = H*a`` (an ASSUMPTION: the proof mass answers every direction with its own
+dynamics; a triaxial part's other modes are not modelled), then
+
+``y = P(u) + Kip·b_i·b_p + Kio·b_i·b_o + Kpp·b_p² + Koo·b_o² + Kpo·b_p·b_o``,  ``u = w·b``,
+
+with ``w`` the axis's sensitivity row (:attr:`~vrelab.sensor.Sensor.sensitivity_row`), ``P``
+its polynomial and ``(i, p, o)`` its triad; then the rest of its chain (over-range, rails,
+filters, offset, ...) on ``y``. So
+
+* the **sensed vibration** ``u`` is Gaussian (random drive) with PSD ``wᵀ Re S(f) w`` and static
+  level ``w·g``, or a sine of amplitude ``|w·d|·A`` (sine along ``d``): the polynomial, the rails
+  and the over-range act on it exactly as on one axis, and :func:`vrelab.predict.predict` of
+  that projected vibration gives the clipping, nonlinearity and over-range shares;
+* the **cross terms** rectify in closed form, ``VRE_jk = K_jk · Re ∫ S_jk(f)·|H(f)|² df``
+  (sine: ``K_jk·d_j·d_k·rms²·|H(f)|²``): the products of the static vector with the zero-mean
+  vibration average out, and ``K·g_j·g_k`` is in the vibration-off reading as well (SPEC 1.5);
+* where rails or over-range act after the nonlinearity, the cross terms pass them to first
+  order: their mean times the rails' response to a shift of their input, ``∂E[out]/∂(shift)``
+  (the probability of being inside, for censored rails), plus the part of their fluctuation
+  the rails see (its second Hermite component in the rails' Gaussian input, through the filters
+  between: :func:`_rails_pass`, :func:`_filtered_he2`), plus the static cross terms ``K·g_j·g_k``
+  moving the rails' working point; and times the time not held, ``1 - rate·hold``. What that
+  misses (second order across a rail, the rails' input read as Gaussian, a truncated rail's
+  correlation with the fluctuation, the over-range rate's change) is bounded in
+  ``model_error_g``, as :mod:`vrelab.predict` bounds its own, and ``valid`` is False where the
+  bound may exceed the stated u.
+
+The projected PSD is a sum of the axes' power laws (and coherences linear in ln f): where it is
+one power law between the profile's breakpoints (a vibration along a direction, axes of one
+shape with constant coherences) the single-axis profile is exact on those breakpoints; otherwise
+it is tabulated on a dense log grid (steps of 0.002 in ln f), and the tabulation's error in what
+every site sees is measured against adaptive quadrature of the exact PSD and bounded in
+``model_error_g``.
+
+References
+----------
+.. [1] IEEE Std 1293-2018, IEEE Specification Format Guide and Test Procedure for Linear
+   Single-Axis, Nongyroscopic Accelerometers: the model equation's cross-coupling terms.
+.. [2] SPEC 1.6 (the vibropendulous error ``Kip·σ²·sin φ·cos φ``) and 1.1-1.5.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence, cast
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import integrate
+
+from vrelab import _validate as V
+from vrelab._format import finite_or_none
+from vrelab.models.clipping import KINDS
+from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.predict import LevelPrediction, Prediction, predict, propagation, tilt_note
+from vrelab.profiles import RandomProfile
+from vrelab.results import Conditions
+from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
+
+__all__ = ["CROSS_SHARES", "TriaxialLevelPrediction", "TriaxialPrediction", "predict_triaxial"]
+
+Excitation = TriaxialProfile | TriaxialSine
+Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
+
+# The model equation's cross terms: (share key, Sensor attribute, the two triad positions).
+CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = (
+    ("cross_kip_g", "kip_per_g", 0, 1),
+    ("cross_kio_g", "kio_per_g", 0, 2),
+    ("cross_kpp_g", "kpp_per_g", 1, 1),
+    ("cross_koo_g", "koo_per_g", 2, 2),
+    ("cross_kpo_g", "kpo_per_g", 1, 2),
+)
+# The projected PSD is taken as exact on the profile's own breakpoints where log-log
+# interpolation reproduces it to this (relative) inside every segment.
+_EXACT_REL = 1e-12
+# Otherwise tabulated with this step in ln f (at least _MIN_PER_SEGMENT points a segment), at
+# most _MAX_POINTS points.
+_DENSE_STEP = 2e-3
+_MIN_PER_SEGMENT = 8
+_MAX_POINTS = 40000
+
+
+@dataclass(frozen=True)
+class TriaxialLevelPrediction(LevelPrediction):
+    """One level (total rms ``rms_g``) of a triaxial prediction.
+
+    ``shares``: the single-axis mechanisms of the sensed vibration (``clip_g``,
+    ``nonlinearity_g``, ``overrange_g``, each rail alone) and the cross terms after the rails and
+    over-range (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``); ``vre_g`` is
+    ``clip_g + nonlinearity_g + overrange_g + cross_g``. ``axis_rms_g``: the vibration's rms
+    along x, y, z at this level; ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis
+    senses, before its dynamics; ``w_eff = w + 2Kg``: the static vector across the cross terms
+    adds a sensitivity to the other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
+    y, z at the proof mass; ``cross_pass``: the factor the rails and over-range pass the cross
+    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them.
+    """
+
+    sensed_rms_g: float = 0.0
+    axis_rms_g: tuple[float, ...] = ()
+    proof_mass_cov_g2: tuple[tuple[float, ...], ...] = ()
+    cross_pass: float = 1.0
+    cross_unpassed_g: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g), axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g],
+                 proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2],
+                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g))
+        return d
+
+
+@dataclass(frozen=True)
+class TriaxialPrediction(Prediction):
+    """The analytic VRE of one DUT axis at each total level of a triaxial excitation."""
+
+    excitation: Mapping[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        d["kind"] = "triaxial-prediction"
+        d["excitation"] = dict(self.excitation or {})
+        return d
+
+
+# --- the axis, read as its stages ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _After:
+    """A site after the nonlinearity that the cross terms' mean must pass."""
+
+    kind: Literal["clip", "overrange"]
+    stage: Any
+    filtered: bool  # linear stages between the nonlinearity and it
+    responses: tuple[Response, ...]  # those stages' responses
+    offset_g: float  # offsets between the nonlinearity and it
+
+
+def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
+    """The front end (the linear stages before the Polynomial; without one, the leading
+    resonances: where the model equation's nonlinearity sits) and the sites after it."""
+    from vrelab.sensor.stages import Polynomial, Resonator
+
+    poly = [k for k, s in enumerate(stages) if isinstance(s, Polynomial)]
+    if len(poly) > 1:
+        raise ValueError("a triaxial axis has at most one Polynomial stage")
+    if poly:
+        n, rest = poly[0], poly[0] + 1
+    else:
+        n = 0
+        while n < len(stages) and isinstance(stages[n], Resonator):
+            n += 1
+        rest = n
+    front = list(stages[:n])
+    if any(getattr(s, "analytic", None) != "linear" for s in front):
+        raise ValueError("the stages before the nonlinearity must be linear (the front end): "
+                         + ", ".join(type(s).__name__ for s in front))
+    after: list[_After] = []
+    filtered, offset = False, 0.0
+    between: list[Response] = []
+    for s in stages[rest:]:
+        tag = getattr(s, "analytic", None)
+        if tag == "linear":
+            filtered = True
+            between.append(s.response)
+        elif tag == "offset":
+            offset += float(s.offset_g)
+        elif tag in ("clip", "overrange"):
+            after.append(_After(tag, s, filtered, tuple(between), offset))
+    return [s.response for s in front], after
+
+
+def _k_matrix(sensor: Sensor) -> NDArray[np.float64]:
+    """The symmetric K over x, y, z with ``bᵀ K b`` the cross terms [1/g]."""
+    triad = sensor.triad
+    k = np.zeros((3, 3))
+    for _, attr, a, b in CROSS_SHARES:
+        v = float(getattr(sensor, attr))
+        j, m = triad[a], triad[b]
+        k[j, m] += v / 2.0
+        k[m, j] += v / 2.0
+    return k
+
+
+def _resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
+    """(fn, Q) of each resonance among the responses (a stage's bound ``response`` method)."""
+    out = []
+    for r in responses:
+        st = getattr(r, "__self__", r)
+        fn, q = getattr(st, "fn_hz", None), getattr(st, "q", None)
+        if fn and q:
+            out.append((float(fn), float(q)))
+    return out
+
+
+def _cuts(lo: float, hi: float, corners: Sequence[float], responses: Sequence[Response]) -> list[float]:
+    peaks = [fn for fn, _ in _resonances(responses)]
+    return sorted({lo, hi, *(c for c in [*corners, *peaks] if lo < c < hi)})
+
+
+def _csd_integral(profile: TriaxialProfile, responses: Sequence[Response]) -> tuple[NDArray[np.float64],
+                                                                                    NDArray[np.float64]]:
+    """(Re ∫S df, Re ∫S·|H|² df) [g²], 3×3, with ``H`` the responses in series.
+
+    Adaptive quadrature (``scipy.integrate.quad_vec``) in ln f, split at the breakpoints and the
+    resonances, to 1e-11 relative: the integrand (power laws times coherencies linear in ln f
+    times |H|²) has no closed form in general.
+    """
+    def integrand(t: float) -> NDArray[np.float64]:
+        f = np.array([math.exp(t)])
+        s = profile.csd(f)[0].real * f[0]
+        h2 = 1.0
+        for r in responses:
+            h2 *= float(abs(np.asarray(r(f))[0])) ** 2
+        return np.stack([s, s * h2])
+
+    cuts = _cuts(*profile.band, profile.freq_hz.tolist(), responses)
+    total = np.zeros((2, 3, 3))
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        val, _ = integrate.quad_vec(integrand, math.log(a), math.log(b), epsabs=0.0, epsrel=1e-11, limit=400)
+        total += val
+    return total[0], total[1]
+
+
+def _scalar_integral(psd: Callable[[NDArray[np.float64]], NDArray[np.float64]], band: tuple[float, float],
+                     corners: Sequence[float], responses: Sequence[Response]) -> float:
+    """∫ psd(f)·|H(f)|² df over ``band``, adaptive quadrature in ln f (see :func:`_csd_integral`)."""
+    def integrand(t: float) -> float:
+        f = np.array([math.exp(t)])
+        h2 = 1.0
+        for r in responses:
+            h2 *= float(abs(np.asarray(r(f))[0])) ** 2
+        return float(psd(f)[0]) * f[0] * h2
+
+    total = 0.0
+    for a, b in zip(*(lambda c: (c[:-1], c[1:]))(_cuts(*band, corners, responses))):
+        total += integrate.quad(integrand, math.log(a), math.log(b), epsabs=0.0, epsrel=1e-11, limit=400)[0]
+    return total
+
+
+def _projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
+               front: Sequence[Response]) -> tuple[RandomProfile | None, float, float]:
+    """The sensed vibration ``w·a`` as a single-axis profile, its mean square per unit of the
+    triaxial one's, and the relative error of the tabulation in what the sites see (0: exact)."""
+    f = profile.freq_hz
+    m_u = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), [])
+    if not m_u > 1e-15 * profile.mean_square_g2:
+        return None, 0.0, 0.0
+    ratio = m_u / profile.mean_square_g2
+    pb = profile.psd_along(w, f)
+    name = f"{profile.name or 'triaxial random'}, sensed along ({w[0]:.4g}, {w[1]:.4g}, {w[2]:.4g})"
+    if (pb > 0).all():
+        frac = np.linspace(0.0, 1.0, 9)[1:-1]
+        lf = np.log(f)
+        inner = np.exp((lf[:-1, None] + np.diff(lf)[:, None] * frac).ravel())
+        exact = profile.psd_along(w, inner)
+        interp = np.exp(np.interp(np.log(inner), lf, np.log(pb)))
+        if np.all(np.abs(interp - exact) <= _EXACT_REL * exact):
+            prof = RandomProfile(f, pb, name=name, source=profile.source)
+            return prof, prof.mean_square_g2 / profile.mean_square_g2, 0.0
+    lf = np.log(f)
+    step = max(_DENSE_STEP, (lf[-1] - lf[0]) / _MAX_POINTS)
+    grid = [np.linspace(a, b, max(_MIN_PER_SEGMENT, math.ceil((b - a) / step)) + 1)[:-1] for a, b in zip(lf[:-1], lf[1:])]
+    fd = np.exp(np.concatenate([*grid, lf[-1:]]))
+    fd[0], fd[-1] = f[0], f[-1]
+    pd = profile.psd_along(w, fd)
+    pd = np.maximum(pd, 1e-12 * pd.max())  # a log-log table cannot reach 0: the floor's error is measured below
+    prof = RandomProfile(fd, pd, name=name, source=profile.source)
+    from vrelab.models.dynamics import effective_rms
+
+    err = 0.0
+    for resp in ([], list(front), sensor.linear_responses("output")):
+        if not resp and err:
+            continue
+        exact_ratio = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), resp) / m_u
+        tab = effective_rms((fd, pd), resp, *profile.band, points_hz=[fn for fn, _ in _resonances(resp)]) ** 2
+        tab /= prof.mean_square_g2
+        err = max(err, abs(tab / exact_ratio - 1.0))
+    return prof, ratio, err
+
+
+# --- the cross terms through what follows the nonlinearity ------------------------------------------
+
+
+def _phi(z: float) -> float:
+    return math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
+
+
+def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
+                kind: ClipKind, cross_mean: float, r_fluct: float, q_peak: float,
+                static_cross: float, sine_hz: float | None = None,
+                c2_total: float = 0.0) -> tuple[float, float, float, float]:
+    """(dc, factor, he2, bound): what the rails make of the cross terms, to first order in them.
+
+    A term ``K·b_j·b_k`` reaches the rails as its mean ``C`` and a zero-mean rest. ``factor``:
+    the rails' response ``∂E[out]/∂s`` to a shift ``s`` of their input, of the model
+    :func:`vrelab.predict.predict` takes for them (the exact memoryless map where no filter sits
+    between the nonlinearity and the rails; else a Gaussian or sine of the polynomial's mean and
+    its linear part through the filters). Memoryless censored rails, Gaussian: the rest's part
+    that the rails see is its second Hermite component in ``Z = u/σ_u``,
+    ``E[b_j b_k | u] = C + c2·He2(Z)``, ``c2 = K·v_j·v_k/σ_u²`` (``v = Cov(b, u)``), and
+    ``E[1_in·He2(Z)] = α·φ(α) - β·φ(β)`` (``he2``): the term passes as ``C·factor + c2·he2``
+    (with filters between, ``c2`` is :func:`_filtered_he2`'s). Sine, censored: the term is
+    ``C·(1 + cos 2θ)``, ``cos 2θ`` through the filters between as ``|H(2f)|·cos(2ψ + Δ)`` in the
+    rails' own phase ψ (``Δ = arg H(2f) - 2·arg H(f)``), and ``E[1_in] = 1 - Σ θ_r/π``,
+    ``E[1_in·cos 2ψ] = -Σ sin 2θ_r/(2π)`` over the arcs ``θ_r`` beyond each rail give
+    ``factor``. Truncated rails: the rest's correlation with them is bounded, not taken. The
+    bound also holds the second-order effect across a rail and the static cross terms' move of
+    the rails' working point: the static cross terms ``gᵀKg`` move the reading with vibration by
+    ``dc`` times them (the rails' response to a static shift) and the vibration-off reading by
+    them, so they add ``gᵀKg·(dc - 1)``.
+    """
+    from vrelab.models import memoryless
+    from vrelab.predict import _linear_gain_max  # one rule for sup|H| of the filters between
+
+    low, high = float(site.stage.low_g), float(site.stage.high_g)
+    k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
+    c0 = float(memoryless.polynomial(*k)(u0)) + site.offset_g
+    if lv is None or not lv.sigma_at_clip_g > 0:
+        inside = low < c0 < high
+        near = min(abs(c0 - low), abs(c0 - high))
+        reach = abs(cross_mean) + q_peak + abs(static_cross)
+        return (1.0 if inside else 0.0), (1.0 if inside else 0.0), 0.0, (reach if near <= reach else 0.0)
+    nonlin = float(lv.shares.get("nonlinearity_g", 0.0))
+    gain, rest = memoryless.linear_part(u0, lv.sigma_proof_mass_g, *k, shape=shape)
+    if site.filtered:
+        # the rails see a Gaussian (sine) of the polynomial's mean and its linear part through the filters
+        static, sigma, kk, offset = c0 + nonlin, abs(gain) * lv.sigma_at_clip_g, (0.0, 0.0, 0.0), 0.0
+    else:
+        static, sigma, kk, offset = u0, lv.sigma_at_clip_g, k, site.offset_g
+
+    def mean_out(s: float) -> float:
+        vre = float(memoryless.poly_clip_vre(static, sigma, *kk, offset_g=offset + s, rail_low_g=low,
+                                             rail_high_g=high, shape=shape, kind=kind))
+        ref = float(memoryless.vibration_off_reading(static, *kk, offset_g=offset + s, rail_low_g=low,
+                                                     rail_high_g=high))
+        return vre + ref
+
+    h = 1e-6 * max(sigma, 1e-3)
+    factor = dc = (mean_out(h) - mean_out(-h)) / (2 * h)
+    exact_rest = kind == "censored"
+    # the rails' input, linearised: mean c0 + nonlinearity, rms s (Gaussian) or peak √2·s (sine)
+    m, s = c0 + nonlin, abs(gain) * lv.sigma_at_clip_g
+    a, b = (low - m) / s, (high - m) / s
+    bound = 0.0
+    he2 = 0.0
+    shift = abs(cross_mean) + abs(static_cross)  # the cross terms' means, static and rectified
+    if shape == "gaussian":
+        chaos = a * _phi(a) - b * _phi(b)
+        if exact_rest:
+            he2 = chaos
+            # the indicator read through the linearised polynomial: its rest (rms ``rest``) moves the
+            # rails' crossings by about rest/s standard deviations
+            bound += r_fluct * (abs(a) + abs(b) + 2.0) * (_phi(a) + _phi(b)) * rest / s
+        else:
+            # the rest is in the second chaos: only the indicator's second Hermite component, of
+            # norm |α·φ(α) - β·φ(β)|/√2, correlates with it (Cauchy-Schwarz within the chaos, as
+            # vrelab.predict bounds the polynomial's rest); filters between pass it at most gmax times
+            bound += _linear_gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
+        # second order across a rail: ½·E[Q²|Z = z_r]·pdf(z_r)/s at each rail, with E[Q²|Z] at most
+        # (|means| + |c2|·|He2(z)|)² + Var(rest); taken twice
+        gmax = _linear_gain_max(site.responses)
+        bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * r_fluct) ** 2) * _phi(z) / s
+                     for z in (a, b))
+    else:
+        amp = math.sqrt(2.0) * s
+
+        def arc(x: float) -> float:  # half-arc θ of the phase beyond a rail x away from the mean
+            return math.acos(max(-1.0, min(1.0, x / amp)))
+
+        tu, tl = arc(high - m), arc(m - low)
+        p_out = (tu + tl) / math.pi
+        if exact_rest:
+            h1 = h2f = complex(1.0)
+            for r in site.responses:
+                h1 *= complex(np.asarray(r(np.array([sine_hz or 0.0])))[0])
+                h2f *= complex(np.asarray(r(np.array([2.0 * (sine_hz or 0.0)])))[0])
+            delta = np.angle(h2f) - 2.0 * np.angle(h1)
+            factor = 1.0 - p_out - abs(h2f) * math.cos(delta) * sum(math.sin(2 * t) for t in (tu, tl)) / (2 * math.pi)
+        else:
+            bound += r_fluct * math.sqrt(max(p_out * (1.0 - p_out), 0.0))
+        q = shift + q_peak
+        near = sum(abs(arc(r - q) - arc(r + q)) / math.pi for r in (high - m, m - low))
+        bound += q * near
+    return dc, factor, he2, bound
+
+
+def _he2_step(profile: TriaxialProfile, responses: Sequence[Response]) -> float:
+    """The grid step of :func:`_filtered_he2` [Hz]: an eighth of the band's lowest frequency and of
+    every resonance's half-power width fn/Q."""
+    return min([profile.band[0], *(fn / q for fn, q in _resonances(responses))]) / 8.0
+
+
+def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Sequence[Response],
+                  between: Sequence[Response], df_hz: float | None = None) -> NDArray[np.float64]:
+    r"""``G`` (3×3, per unit total mean square) with ``c2 = K_jk·G_jk``: the second Hermite
+    coefficient, in ``Z`` (the rails' Gaussian input, unit variance), of the cross terms after
+    the filters between the nonlinearity and the rails.
+
+    ``Z(t) = (h_F * u)(t)/s``; the term ``b_j·b_k`` reaches the rails as ``(h_F * b_j b_k)(t)``,
+    and by Isserlis ``E[(Z² - 1)·b_j(t-τ) b_k(t-τ)] = 2·c_j(τ)·c_k(τ)``, ``c_j(τ) = Cov(b_j(t-τ),
+    Z(t)) = Re ∫ |H|²·(S w)_j·H_F*·e^{-i2πfτ} df / s``, so ``G_jk = ∫ h_F(τ)·c_j(τ)·c_k(τ) dτ``.
+    With no filter (``h_F = δ``) this is ``v_j v_k/σ_u²``. Computed on a uniform frequency grid
+    (FFT): ``c`` by an inverse FFT, ``h_F`` by one of ``H_F``'s exact samples, so the discrete sum
+    is Parseval's of the grid (``c_j c_k`` reaches 2·f_max < the grid's top: no aliasing);
+    ``df`` resolves the band's lowest breakpoint and every resonance's width fn/Q.
+    """
+    lo, hi = profile.band
+    df = df_hz or _he2_step(profile, [*front, *between])
+    n_half = int(math.ceil(2.5 * hi / df))
+    n_half += n_half % 2
+    f = np.arange(n_half + 1) * df
+    s_f = profile.csd(f) / profile.mean_square_g2
+    s_f[(f < lo) | (f > hi)] = 0.0
+    hf = np.ones(f.size, dtype=complex)
+    for r in front:
+        hf = hf * np.asarray(r(f.astype(np.float64)))
+    hb = np.ones(f.size, dtype=complex)
+    for r in between:
+        hb = hb * np.asarray(r(f.astype(np.float64)))
+    sw = np.abs(hf)[:, None] ** 2 * (s_f @ w)  # S_{b_j u}(f)
+    var = float(np.sum(np.abs(hb) ** 2 * (sw @ w).real) * df)  # s² of h_F * u
+    if not var > 0:
+        return np.zeros((3, 3))
+    n = 2 * n_half
+    # c_j[n] = Re Σ_k A_j(f_k) e^{-i2πf_kτ_n} df = (N/2)·irfft(conj(A_j)·df) (A is 0 at DC and the top)
+    a = sw * np.conj(hb)[:, None] / math.sqrt(var)
+    c = 0.5 * n * np.fft.irfft(np.conj(a) * df, n=n, axis=0)  # (n, 3)
+    h = n * np.fft.irfft(hb * df, n=n)  # h_F(τ_n): two-sided ∫H e^{i2πfτ} df on the grid
+    dt = 1.0 / (n * df)
+    return np.asarray(np.einsum("n,nj,nk->jk", h, c, c) * dt, dtype=np.float64)
+
+
+def _overrange_pass(lv: LevelPrediction | None, site: _After, u0: float, cross_mean: float,
+                    r_fluct: float) -> tuple[float, float]:
+    """(factor, bound) of the over-range holds: the cross terms' mean is lost while held
+    (``1 - rate·hold``); bounded: that share again, and the change of Rice's rate a shift of the
+    motion's mean by the cross terms makes (∂ ln rate/∂μ = (threshold - μ)/σ²)."""
+    if lv is None or not lv.sigma_proof_mass_g > 0:
+        return 1.0, 0.0
+    duty = min(1.0, lv.overrange_rate_hz * float(site.stage.hold_s))
+    thr = float(site.stage.threshold_g)
+    over = abs(float(lv.shares.get("overrange_g", 0.0)))
+    bound = abs(cross_mean) * duty + over * (abs(cross_mean) + 2 * r_fluct) * (thr + abs(u0)) / lv.sigma_proof_mass_g**2
+    return 1.0 - duty, bound
+
+
+# --- prediction ---------------------------------------------------------------------------------
+
+
+def _static_vector(static_g: ArrayLike) -> NDArray[np.float64]:
+    g = np.asarray(static_g, dtype=np.float64).ravel()
+    if g.size != 3 or not np.isfinite(g).all():
+        raise ValueError(f"static_g must be three finite numbers (gx, gy, gz) [g], got {static_g!r}")
+    return g
+
+
+def _level_zero(rms: float, freq_hz: float | None, u0: float) -> LevelPrediction:
+    """The single-axis part where the axis senses none of the vibration."""
+    zero = {"clip_low_g": 0.0, "clip_high_g": 0.0, "clip_g": 0.0, "nonlinearity_g": 0.0, "overrange_g": 0.0}
+    return LevelPrediction(rms, 0.0, tilt_note(0.0, u0)[0], zero, 0.0, 0.0, 0.0, 0.0, True, freq_hz=freq_hz)
+
+
+def predict_triaxial(
+    sensor: Sensor,
+    excitation: TriaxialProfile | TriaxialSine,
+    levels: Sequence[float] | NDArray[np.float64],
+    static_g: ArrayLike = (0.0, 0.0, 1.0),
+    kind: ClipKind = DEFAULT_CLIP_KIND,
+) -> TriaxialPrediction:
+    r"""Predict the VRE of one DUT axis under a triaxial vibration, by mechanism, without simulating.
+
+    Parameters
+    ----------
+    sensor : vrelab.sensor.Sensor
+        One axis (loaded with ``axis`` x, y or z): its stages, sensitivity row ``w``, triad and
+        cross-coupling coefficients (SPEC 1.6).
+    excitation : TriaxialProfile or TriaxialSine
+        Random: the cross-spectral density matrix's shape, scaled to each level (Gaussian
+        drive). Sine: frequency and direction, at each level's rms.
+    levels : sequence of float
+        Total rms [g] (:attr:`TriaxialProfile.grms`: ``sqrt(trace ∫S df)``; along one direction,
+        the rms along it), each > 0.
+    static_g : three floats
+        The static acceleration vector in the part's frame [g] (``(0, 0, 1)``: z up in 1 g).
+    kind : {"censored", "truncated"}
+        Clipping model (SPEC 1.1).
+
+    Returns
+    -------
+    TriaxialPrediction
+        Per level: ``vre_g``, the single-axis shares of the sensed vibration and the cross
+        terms' (``cross_kip_g`` ...), ``model_error_g``, ``u_vre_g`` where the sensor carries
+        parameter uncertainties, ``valid`` and ``notes``; the conditions (excitation with its
+        per-axis rms and coherences, static vector, triad, sensitivity row, coefficients).
+
+    Notes
+    -----
+    ``VRE = VRE_1(u) + pass · Σ_jk K_jk·Re ∫ S_jk(f)|H(f)|² df`` (the module docstring):
+    ``VRE_1`` is :func:`vrelab.predict.predict` of the sensed vibration ``u = w·b`` (PSD
+    ``wᵀ Re S w``, static ``w·g``); ``pass`` the rails' and over-range's response to a shift of
+    their input. With the vibration along the input axis and every cross term 0 it is
+    :func:`vrelab.predict.predict` itself. ``u_vre_g``: the sensor's covariance and assumed
+    uncertainties carried by :func:`vrelab.predict.propagation` through this function.
+
+    References
+    ----------
+    .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
+    .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.predict.predict`.
+    """
+    from vrelab.predict import _judged  # one rule: a bound judged against the stated u as predict judges
+
+    return _predict(sensor, excitation, levels, static_g, kind, _judged)
+
+
+def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
+             judged: Callable[[LevelPrediction], LevelPrediction] | None) -> TriaxialPrediction:
+    if not isinstance(excitation, (TriaxialProfile, TriaxialSine)):
+        raise ValueError(f"a triaxial prediction needs a TriaxialProfile or TriaxialSine, got {type(excitation).__name__}")
+    levels_arr = V.vibration_level("levels", np.atleast_1d(np.asarray(levels, dtype=np.float64)))
+    if levels_arr.ndim != 1 or levels_arr.size == 0:
+        raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
+    V.one_of("kind", kind, KINDS)
+    g = _static_vector(static_g)
+    w = sensor.sensitivity_row
+    kmat = _k_matrix(sensor)
+    # the cross terms' part linear in the vibration, 2gᵀK·x (a static vector across K: a
+    # sensitivity to the other axes), joins the sensed vibration: the rails and over-range see it
+    # exactly as the rest of u; what the polynomial then makes of it is bounded below
+    w_eff = w + 2.0 * kmat @ g
+    triad = sensor.triad
+    u0 = float(w @ g)
+    static_cross = float(g @ kmat @ g)
+    front, after = _read(sensor.stages())
+    bare = dataclasses.replace(sensor, covariance=None, uncertainty={})  # u below, over the whole prediction
+    notes: list[str] = []
+    interp_err = 0.0
+    sensed: Any
+    d, h2 = np.zeros(3), 1.0  # a sine's direction and |H(f)|² at the proof mass
+    if isinstance(excitation, TriaxialProfile):
+        shape: Literal["gaussian", "sine"] = "gaussian"
+        m_tot = excitation.mean_square_g2
+        m0, mh = _csd_integral(excitation, front)
+        if not math.isclose(float(np.trace(m0)), m_tot, rel_tol=1e-8):
+            raise AssertionError(f"trace ∫S df by quadrature {np.trace(m0)!r} is not the profile's {m_tot!r}")
+        moments = mh / m_tot  # E[b bᵀ] per unit total mean square
+        sensed, ratio, interp_err = _projected(excitation, w_eff, sensor, front)
+        sensed_hz: float | None = None
+        frac = np.sqrt(excitation.axis_mean_square_g2 / m_tot)
+        cond_profile = (f"{excitation.name or 'triaxial random'}, {excitation.band[0]:g}-{excitation.band[1]:g} Hz: "
+                        f"rms x {frac[0]:.3g}, y {frac[1]:.3g}, z {frac[2]:.3g} of the total")
+    else:
+        shape = "sine"
+        d = np.asarray(excitation.direction)
+        for r in front:
+            h2 *= float(abs(np.asarray(r(np.array([excitation.freq_hz])))[0])) ** 2
+        moments = np.outer(d, d) * h2
+        ratio = float(w_eff @ d) ** 2
+        sensed = excitation.freq_hz if ratio > 0 else None
+        sensed_hz = excitation.freq_hz
+        cond_profile = f"sine {excitation.freq_hz:g} Hz along ({d[0]:.4g}, {d[1]:.4g}, {d[2]:.4g})"
+    sensed_rms = levels_arr * math.sqrt(ratio)
+    axis_frac = (np.sqrt(excitation.axis_mean_square_g2 / excitation.mean_square_g2)
+                 if isinstance(excitation, TriaxialProfile) else np.abs(d))
+    single: Prediction | None = None
+    slope = np.zeros(levels_arr.size)
+    if sensed is not None:
+        single = predict(bare, sensed, sensed_rms, static_g=u0, kind=kind)
+        if interp_err > 0:
+            # how the VRE moves with the mean square the sites see: the tabulation's error times it
+            bumped = predict(bare, sensed, sensed_rms * math.sqrt(1.0 + 1e-3), static_g=u0, kind=kind)
+            slope = np.array([(b.vre_g - a.vre_g) / 1e-3 for a, b in zip(single.levels, bumped.levels)])
+    else:
+        notes.append("the axis senses none of this vibration (w·a = 0): its single-axis mechanisms are 0, the "
+                     "cross terms act alone")
+    out: list[LevelPrediction] = []
+    any_cross = bool(np.any(kmat))
+    g_filtered, g_err = None, np.zeros((3, 3))
+    clips = [site for site in after if site.kind == "clip"]
+    if (any_cross and isinstance(excitation, TriaxialProfile) and clips and clips[-1].filtered
+            and sensed is not None):
+        # the filtered rails' He2 coefficients, and their grid error: the same on a grid twice as fine
+        g_filtered = _filtered_he2(excitation, w_eff, front, clips[-1].responses)
+        finer = _filtered_he2(excitation, w_eff, front, clips[-1].responses,
+                              df_hz=_he2_step(excitation, [*front, *clips[-1].responses]) / 2.0)
+        g_err = 2.0 * np.abs(finer - g_filtered)
+    for n, rms in enumerate(levels_arr):
+        lv_s = single.levels[n] if single is not None else None
+        cov_b = moments * float(rms) ** 2  # E[b bᵀ] [g²] (sine: its mean square)
+        terms = {key: float(getattr(sensor, attr)) * float(cov_b[triad[a], triad[b]])
+                 for key, attr, a, b in CROSS_SHARES}
+        cross_mean = sum(terms.values())
+        statics = {key: float(getattr(sensor, attr)) * float(g[triad[a]] * g[triad[b]]) for key, attr, a, b in CROSS_SHARES}
+        kc = kmat @ cov_b
+        if shape == "gaussian":
+            # the quadratic cross terms' zero-mean part bᵀKb - E (second Wiener chaos): Var = 2 tr((KΣ)²)
+            r_fluct = math.sqrt(max(2.0 * float(np.trace(kc @ kc)), 0.0))
+            q_peak = 0.0
+        else:
+            s2 = 2.0 * float(rms) ** 2 * h2  # the sine's peak² at the proof mass
+            dkd = float(d @ kmat @ d)  # Q = dᵀKd·s²·cos²θ: its zero-mean part dᵀKd·s²·cos 2θ/2
+            r_fluct = abs(dkd) * s2 / math.sqrt(8.0)
+            q_peak = abs(dkd) * s2 / 2.0
+        factor, dc, bound = 1.0, 1.0, 0.0
+        if any_cross and sensed is not None:
+            # the polynomial sees w_eff·b instead of w·b: what that moves its mean (σ² moves by
+            # 2·Cov(u, 2gᵀKb) + Var(2gᵀKb), of order k2·σ²·|2Kg|)
+            from vrelab.models import memoryless
+
+            k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
+            s_eff, s_true = (math.sqrt(max(float(v @ cov_b @ v), 0.0)) for v in (w_eff, w))
+            bound += abs(float(memoryless.poly_clip_vre(u0, s_eff, *k, shape=shape))
+                         - float(memoryless.poly_clip_vre(u0, s_true, *k, shape=shape)))
+        # each term's He2 coefficient in the rails' Z: K·v_j·v_k/σ_u² (v = Σ_b·w_eff) with nothing
+        # between, else K·G_jk (:func:`_filtered_he2`); with two sets of rails the last one's
+        v = cov_b @ w_eff
+        var_u = float(w_eff @ v)
+        gmat = (g_filtered * float(rms) ** 2 if g_filtered is not None
+                else np.outer(v, v) / var_u if var_u > 0 else np.zeros((3, 3)))
+        c2 = ({key: float(getattr(sensor, attr)) * float(gmat[triad[a], triad[b]]) for key, attr, a, b in CROSS_SHARES}
+              if shape == "gaussian" else dict.fromkeys(terms, 0.0))
+        c2_err = sum(abs(float(getattr(sensor, attr))) * float(g_err[triad[a], triad[b]]) * float(rms) ** 2
+                     for _, attr, a, b in CROSS_SHARES)
+        he2 = 0.0
+        if any_cross:
+            for site in after:
+                if site.kind == "clip":
+                    dc_, f_, h_, b_ = _rails_pass(lv_s, site, sensor, u0, shape, kind, cross_mean, r_fluct, q_peak,
+                                                  static_cross, sensed_hz, sum(c2.values()))
+                    b_ += c2_err * abs(h_)
+                    he2 = he2 * dc_ + h_  # a first set of rails' He2 part, through a second one
+                else:
+                    f_, b_ = _overrange_pass(lv_s, site, u0, cross_mean, r_fluct)
+                    dc_, he2 = f_, he2 * f_
+                factor *= f_
+                dc *= dc_
+                bound += b_
+        shares = dict(lv_s.shares) if lv_s is not None else dict(_level_zero(float(rms), sensed_hz, u0).shares)
+        # each term: its rectified mean through the rails and holds, its He2 part, and its static
+        # part K·g_j·g_k, which moves the reading with vibration by dc times it, the vibration-off
+        # reading by all of it
+        passed = {key: c * factor + c2[key] * he2 + statics[key] * (dc - 1.0) for key, c in terms.items()}
+        shares.update(passed)
+        shares["cross_g"] = sum(passed.values())
+        through = shares["cross_g"] / cross_mean if cross_mean else factor
+        base = lv_s if lv_s is not None else _level_zero(float(rms), sensed_hz, u0)
+        lv_notes = list(base.notes)
+        if lv_s is not None and lv_s.valid_otherwise and not lv_s.valid and lv_notes:
+            lv_notes.pop()  # predict's judgement of its own bound: judged again below on the whole one
+        vre = base.vre_g + shares["cross_g"]
+        tilt, why = tilt_note(vre, u0)
+        # the level's tilt note, of the whole VRE (the sensed part's, if any, replaced)
+        lv_notes = [nt for nt in lv_notes if nt != tilt_note(base.vre_g, u0)[1]]
+        if why and tilt_note(0.0, u0)[1] is None:  # the static field's own case is one note of the prediction
+            lv_notes.append(why)
+        interp_bound = 2.0 * interp_err * abs(float(slope[n]))
+        if abs(through - 1.0) > 1e-6:
+            lv_notes.append(f"the cross terms' mean ({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
+                            f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
+                            "model_error_g)")
+        out.append(TriaxialLevelPrediction(
+            rms_g=float(rms), vre_g=vre, tilt_error_deg=tilt, shares=shares,
+            sigma_proof_mass_g=base.sigma_proof_mass_g, sigma_output_g=base.sigma_output_g,
+            sigma_at_clip_g=base.sigma_at_clip_g, overrange_rate_hz=base.overrange_rate_hz,
+            valid=base.valid_otherwise, notes=tuple(lv_notes), freq_hz=base.freq_hz,
+            model_error_g=float(base.model_error_g) + bound + interp_bound, valid_otherwise=base.valid_otherwise,
+            sensed_rms_g=float(sensed_rms[n]), axis_rms_g=tuple(float(rms) * float(x) for x in axis_frac),
+            proof_mass_cov_g2=tuple(tuple(float(v) for v in row) for row in cov_b),
+            cross_pass=through, cross_unpassed_g=cross_mean))
+    if single is not None:
+        notes += [nt for nt in single.notes if not nt.startswith("VRE referred to")]
+    if interp_err > 0:
+        notes.append(f"the sensed PSD wᵀ Re S w is no power law between the profile's breakpoints: tabulated on "
+                     f"{sensed.freq_hz.size} log-spaced points, whose error in what the sites see "
+                     f"({interp_err:.2g} relative, against adaptive quadrature) is bounded in model_error_g")
+    if any_cross:
+        notes.append("cross terms (IEEE 1293 model equation): K_jk·Re ∫S_jk|H|²df at the proof mass, H the axis's "
+                     "front end on every component alike (assumption: the part's other modes are not modelled), "
+                     "passed through the rails and over-range after the nonlinearity to first order (bound in "
+                     "model_error_g)")
+    # the reading with no vibration does not depend on the excitation: predict's, of any one
+    off = (single or predict(bare, [100.0], [1e-6], static_g=u0, kind=kind)).vibration_off_g + static_cross
+    notes.append(f"VRE referred to the vibration-off reading ({off:.9g} g, the static vector {_vec(g)} g through "
+                 "the axis: w·g and the cross terms' K·g_j·g_k): mean output with vibration less that reading")
+    base_cond = bare.conditions(static_g=float(g[triad[0]]), profile=cond_profile, model=f"prediction-{kind}-triaxial")
+    extra = {**dict(base_cond.extra),
+             "clip_position": str(getattr(sensor, "clip_position", "output") or "output"),
+             "level": "total rms sqrt(trace ∫S df) [g]",
+             "static_vector_g": [float(x) for x in g],
+             "sensed_static_g": u0,
+             "triad": {"input": AXES[triad[0]], "pendulous": AXES[triad[1]], "output": AXES[triad[2]]},
+             "sensitivity_row": [float(x) for x in w],
+             "cross_coupling_ug_per_g2": {attr[:3]: float(getattr(sensor, attr)) * 1e6 for _, attr, _, _ in CROSS_SHARES},
+             "excitation": _excitation_summary(excitation)}
+    cond = Conditions(sensor=base_cond.sensor, model=base_cond.model, profile=base_cond.profile,
+                      static_g=base_cond.static_g, range_g=base_cond.range_g, bandwidth_hz=base_cond.bandwidth_hz,
+                      odr_hz=base_cond.odr_hz, axis=base_cond.axis, extra=extra)
+    if judged is not None and (getattr(sensor, "covariance", None) or getattr(sensor, "uncertainty", None)):
+        def again(s: Sensor, _e: Any, lv: Any, _g: float, k: ClipKind) -> Prediction:
+            return _predict(s, excitation, lv, g, k, None)
+
+        prop = propagation(sensor, cast(Any, excitation), levels_arr, u0, kind, vre_g=np.array([lv.vre_g for lv in out]),
+                           predictor=again)
+        out = [dataclasses.replace(lv, u_vre_g=float(prop.u_g[i]),
+                                   u_sources_g={k: float(v[i]) for k, v in prop.sources_g.items()},
+                                   valid=lv.valid and not prop.level_notes[i],
+                                   notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
+        notes += prop.notes
+        if any_cross:
+            notes.append("u_vre_g does not carry the cross-coupling coefficients' own uncertainty: the parameter "
+                         "table (vrelab.sensor.parameters) does not list Kip ... Kpo as propagatable yet")
+    if judged is not None:
+        out = [judged(lv) for lv in out]
+    why0 = tilt_note(0.0, u0)[1]
+    if why0 and single is None:
+        notes.append(why0.replace("the static field", "the static field of every level"))
+    return TriaxialPrediction(cond, tuple(out), tuple(notes), vibration_off_g=off,
+                              excitation=_excitation_summary(excitation))
+
+
+def _vec(v: Sequence[float] | NDArray[np.float64]) -> str:
+    return "(" + ", ".join(f"{float(x):.4g}" for x in v) + ")"
+
+
+def _excitation_summary(excitation: Excitation) -> dict[str, Any]:
+    """What the conditions carry of the excitation: kind, per-axis rms per unit total rms, the
+    coherences and phases at the breakpoints (random) or the direction (sine)."""
+    if isinstance(excitation, TriaxialSine):
+        d = excitation.to_dict()
+        d.pop("rms_g")  # the levels are the rms
+        return d
+    d = excitation.to_dict()
+    ms = excitation.axis_mean_square_g2
+    d["axis_rms_fraction"] = [float(math.sqrt(x / excitation.mean_square_g2)) for x in ms]
+    # the breakpoints are the shape's, scaled to each level: its own rms is not a level
+    d["shape_grms"], d["shape_axis_grms"] = d.pop("grms"), d.pop("axis_grms")
+    return d
