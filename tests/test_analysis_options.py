@@ -89,3 +89,20 @@ def test_an_unknown_keyword_is_a_type_error():
     tr = make_record(3, levels_g=(0.5,), vre_g=(1e-3,), t_off_s=4.0, t_on_s=4.0)
     with pytest.raises(TypeError, match="unexpected keyword argument 'settle'"):
         analyze(tr.record, settle=1.0)
+
+
+def test_the_reduction_takes_its_options_as_three_objects():
+    """Issue 21's row: analyze_full took 20 parameters, reduce 12, _level 10, _with_budget 10.
+    Now the options are three keyword-only objects, and no function of the reduction takes more
+    than ten parameters (the former flat keywords only through ``**keywords``, for one release)."""
+    import inspect
+
+    from vrelab.analysis import levels, pipeline
+
+    for fn in (pipeline.analyze_full, pipeline.analyze, pipeline.analyze_channels, pipeline.reduce,
+               pipeline.reduce_record, pipeline.with_budget, levels.reduce_level):
+        params = [p for p in inspect.signature(fn).parameters.values() if p.kind is not p.VAR_KEYWORD]
+        assert len(params) <= 10, (fn.__name__, len(params))
+        for name in ("options", "fit", "budget"):
+            if name in inspect.signature(fn).parameters and fn is not pipeline.with_budget:
+                assert inspect.signature(fn).parameters[name].kind is inspect.Parameter.KEYWORD_ONLY
