@@ -147,7 +147,7 @@ def test_analyze_u_on_white_noise_alone_stays_near_its_claim():
 def test_flicker_noise_is_not_covered_without_the_low_frequency_term(monkeypatch):
     """The failure the low-frequency term fixes, on the same records (issue 18: 0.56 of ±2u):
     with the term switched off, u is the batch means' alone and covers far less."""
-    import vrelab.analysis.reduction as R
+    import vrelab.analysis.pipeline as R
 
     monkeypatch.setattr(R, "low_frequency", lambda baselines: None)
     z, _ = _analyze_z(30)

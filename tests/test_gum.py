@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from vrelab import gum
-from vrelab.analysis.reduction import _with_budget
+from vrelab.analysis.options import BudgetOptions, FitOptions
+from vrelab.analysis.pipeline import with_budget
 from vrelab.fits import fit_levels
 from vrelab.models.clipping import censored_mean_shift
 from vrelab.results import Estimate, LevelResult
@@ -78,14 +79,14 @@ def test_vrc_budget_agrees_with_monte_carlo() -> None:
     levels = _sine_levels(rng)
     typeb = gum.TypeB(u_reference_pct=1.0, u_dut_pct=0.5, u_static_g=0.02, u_thermal_g=1e-5)
     fits, _ = fit_levels(levels, "sine", 1.0, nominal_freqs_hz=[80.0] * 4)
-    _, budgeted = _with_budget(levels, fits, "sine", 1.0, "censored", False, False, [80.0] * 4, typeb, None)
+    _, budgeted = with_budget(levels, fits, "sine", 1.0, [80.0] * 4, FitOptions(clip_kind="censored"), BudgetOptions(typeb, None))
     u = budgeted[0].params["vrc_ug_per_g2"].u
     mc = _mc_param(levels, "sine", 1.0, typeb, "vrc_ug_per_g2", 3000, rng)
     # 3000 draws: the MC standard deviation is good to about 1.3 % (1/√(2·3000))
     assert np.std(mc, ddof=1) == pytest.approx(u, rel=0.06)
     # closed form of SPEC 4.3: a reference-sensitivity error r changes a VRC by -2r
     only_r = gum.TypeB(u_reference_pct=1.0)
-    _, b = _with_budget(levels, fits, "sine", 1.0, "censored", False, False, [80.0] * 4, only_r, None)
+    _, b = with_budget(levels, fits, "sine", 1.0, [80.0] * 4, FitOptions(clip_kind="censored"), BudgetOptions(only_r, None))
     u_a = fits[0].params["vrc_ug_per_g2"].u
     vrc = fits[0].params["vrc_ug_per_g2"].value
     assert math.sqrt(b[0].params["vrc_ug_per_g2"].u ** 2 - u_a**2) == pytest.approx(2 * 0.01 * abs(vrc), rel=0.02)
@@ -98,7 +99,7 @@ def test_rail_budget_agrees_with_monte_carlo() -> None:
     fits, _ = fit_levels(levels, "random", 1.0)
     rail = next(f for f in fits if "rail_g" in f.params)
     assert rail.params["rail_g"].value == pytest.approx(2.0, rel=1e-3)
-    _, budgeted = _with_budget(levels, fits, "random", 1.0, "censored", False, False, [None] * 5, typeb, None)
+    _, budgeted = with_budget(levels, fits, "random", 1.0, [None] * 5, FitOptions(clip_kind="censored"), BudgetOptions(typeb, None))
     u = next(f for f in budgeted if "rail_g" in f.params).params["rail_g"].u
     # 500 draws (each a nonlinear rail fit): the MC standard deviation is good to about 3 %
     mc = _mc_param(levels, "random", 1.0, typeb, "rail_g", 500, rng)
@@ -110,7 +111,7 @@ def test_vre_budget_agrees_with_monte_carlo() -> None:
     levels = _random_levels()
     typeb = gum.TypeB(u_reference_pct=1.0, u_dut_pct=2.0, u_static_g=0.02, u_thermal_g=3e-4)
     fits, _ = fit_levels(levels, "random", 1.0)
-    out, _ = _with_budget(levels, fits, "random", 1.0, "censored", False, False, [None] * 5, typeb, 0.2)
+    out, _ = with_budget(levels, fits, "random", 1.0, [None] * 5, FitOptions(clip_kind="censored"), BudgetOptions(typeb, 0.2))
     rail = next(f for f in fits if "rail_g" in f.params).params["rail_g"].value
     lv, b = levels[-1], out[-1]
     n = 20000

@@ -109,7 +109,7 @@ def analyze(
     Opens ``path`` read-only with :func:`vrelab.analysis.readers.open_record` (any format
     ``vrelab channels`` lists) and reduces it with :func:`vrelab.analysis.analyze`; the file is
     closed afterwards. Several DUT channels of one file: ``vrelab analyze --dut A,B`` or
-    :func:`vrelab.analysis.reduction.analyze_channels`.
+    :func:`vrelab.analysis.pipeline.analyze_channels`.
 
     Parameters
     ----------
@@ -124,7 +124,11 @@ def analyze(
     method : {"auto", "sine", "random"}
         How each level is reduced; ``auto`` decides from the reference's spectrum.
     **options
-        Keywords of :func:`vrelab.analysis.analyze` (``profile``, ``static_g``, ``rail_g``, ...).
+        Keywords of :func:`vrelab.analysis.analyze`: ``options`` (a
+        :class:`~vrelab.analysis.options.ReductionOptions`: band, settling, rail, profile, ...),
+        ``fit`` (:class:`~vrelab.analysis.options.FitOptions`: static field, clipping model, ...),
+        ``budget`` (:class:`~vrelab.analysis.options.BudgetOptions`), ``conditions``. The former
+        flat keywords (``profile=``, ``static_g=``, ...) work for one more release.
 
     Returns
     -------

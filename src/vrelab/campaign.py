@@ -18,7 +18,7 @@ as failed with its error, the others go on) and :func:`combine` gives per channe
 * the effective ``rail`` from every random run (weighted mean).
 
 Data flow: manifest -> :class:`Run` -> record (:func:`vrelab.analysis.readers.open_record`,
-several DUTs) -> :func:`vrelab.analysis.reduction.analyze_channels` -> per-run results ->
+several DUTs) -> :func:`vrelab.analysis.pipeline.analyze_channels` -> per-run results ->
 :func:`combine` -> the campaign document (``results.json``) and folder.
 """
 
@@ -477,13 +477,14 @@ class RunResult:
 
 def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_g: float | None = None) -> RunResult:
     """Reduce one run: its record opened with every DUT, each reduced against the reference
-    (:func:`vrelab.analysis.reduction.analyze_channels`). With ``out`` the run's folder is
+    (:func:`vrelab.analysis.pipeline.analyze_channels`). With ``out`` the run's folder is
     written there (a ``results.json`` of its channels and a sub-folder per channel)."""
+    from vrelab.analysis.options import BudgetOptions, ReductionOptions
+    from vrelab.analysis.pipeline import analyze_channels
     from vrelab.analysis.readers import open_record
-    from vrelab.analysis.reduction import DEFAULT_SETTLE_S, analyze_channels
     from vrelab.gum import TypeB
     from vrelab.profiles import parse_profile
-    from vrelab.record import Schedule
+    from vrelab.record import DEFAULT_SETTLE_S, Schedule
 
     dut_scales, ref_scale = _scales(run)
     profile = parse_profile(run.profile) if run.profile else None
@@ -491,13 +492,16 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
     prov = {"input_file": run.file.name, "input_sha256": sha256_file(run.file), "run": run.index, "label": run.label}
     with open_record(run.file, dict(run.dut), run.reference, run.fs_hz, dut_scales, ref_scale, run.time) as rec:
         reduced = analyze_channels(
-            rec, None, run.method, schedule, static_g=dict(run.static_g), band_hz=run.band, rail_g=run.rail_g,
-            progress=progress, profile=profile,
-            settle_s=DEFAULT_SETTLE_S if run.settle_s is None else run.settle_s, provenance=prov,
-            typeb=TypeB.from_mapping(run.budget) if run.budget else None, limit_g=limit_g,
-            # the units are judged per channel over all runs (run_campaign), not run by run: a
-            # sweep's run at the DUT's resonance has DUT/reference = Q, and is not a slip
-            accept=("unit-ratio",),
+            rec, None, run.method, schedule, static_g=dict(run.static_g),
+            options=ReductionOptions(
+                band_hz=run.band, rail_g=run.rail_g, progress=progress, profile=profile,
+                settle_s=DEFAULT_SETTLE_S if run.settle_s is None else run.settle_s,
+                # the units are judged per channel over all runs (run_campaign), not run by run: a
+                # sweep's run at the DUT's resonance has DUT/reference = Q, and is not a slip
+                accept=frozenset({"unit-ratio"}),
+            ),
+            budget=BudgetOptions(TypeB.from_mapping(run.budget) if run.budget else None, limit_g),
+            provenance=prov,
         )  # fmt: skip
     for name, _, red in reduced:
         check_static(run, name, red.static_g)

@@ -10,7 +10,7 @@ the next level, ..., each level bracketed by baselines. Three rooms:
   :meth:`vrelab.sensor.Sensor.chain` at the rate of :func:`vrelab.rates.simulation_rate_hz`),
   so memory does not grow with the duration;
 * this module: :func:`run_test` runs a plan, reduces its record exactly as a file recorded in a
-  lab (:func:`vrelab.analysis.reduce`) and fits it with the one fit policy
+  lab (:func:`vrelab.analysis.pipeline.reduce`) and fits it with the one fit policy
   (:func:`vrelab.fits.fit_levels`) that ``vrelab analyze`` applies to the same record.
 
 :func:`run_random_test` / :func:`run_sine_test` (and ``plan_*``) are the keyword forms.
@@ -81,8 +81,8 @@ def _reduce_and_fit(
     """Reduce the record as a lab file (saturation counts and over-range flags from the
     simulation's truth), then fit it with the one fit policy (:func:`vrelab.fits.fit_levels`)
     that ``vrelab analyze`` applies to the same record."""
-    from vrelab.analysis import reduce
-    from vrelab.analysis.reduction import ACCEPTABLE
+    from vrelab.analysis.options import ACCEPTABLE, ReductionOptions
+    from vrelab.analysis.pipeline import reduce
     from vrelab.fits import fit_levels
 
     source: Any = record
@@ -106,8 +106,9 @@ def _reduce_and_fit(
     # the sensor's bandwidth legitimately shows a DUT far smaller than its reference). Probing
     # would re-run the simulation for each segment, so nothing is checked here.
     red = reduce(
-        source, schedule=record.schedule, method=method, band_hz=band_hz, settle_s=settle_s,
-        progress=progress and record_path is not None, accept=ACCEPTABLE,
+        source, record.schedule, method,
+        options=ReductionOptions(band_hz=band_hz, settle_s=settle_s, progress=progress and record_path is not None,
+                                 accept=frozenset(ACCEPTABLE)),
     )
     levels, warnings = _with_simulated_saturation(record, list(red.levels), list(red.warnings))
     levels = _with_lattice_u(record, levels)

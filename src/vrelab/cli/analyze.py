@@ -43,7 +43,7 @@ import numpy as np
 
 from vrelab import _io, folder
 from vrelab import _validate as V
-from vrelab.analysis.reduction import ACCEPTABLE, DEFAULT_SETTLE_S
+from vrelab.analysis.options import ACCEPTABLE, BudgetOptions, FitOptions, ReductionOptions
 from vrelab.cli._common import (
     add_budget_arguments,
     positive_list,
@@ -54,6 +54,7 @@ from vrelab.cli._common import (
 )
 from vrelab.models.clipping import KINDS
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.record import DEFAULT_SETTLE_S
 from vrelab.results import channels_to_dict
 
 
@@ -174,31 +175,32 @@ def run(args: argparse.Namespace) -> int:
             "input_sha256": sha256_file(path),
             "command": _command_line(args),
         }
-        typeb = typeb_from_args(args)
-        options = dict(
-            typeb=typeb,
-            limit_g=args.limit,
-            profile=profile,
-            static_g=None if args.static is None else V.acceleration("--static", args.static),
-            rail_g=args.rail,
-            clip_kind=args.kind,
+        options = ReductionOptions(
             band_hz=args.band,
-            fit_k4=args.k4,
-            progress=progress,
             settle_s=args.settle,
-            provenance=provenance,
+            rail_g=args.rail,
+            profile=profile,
+            accept=frozenset(name for name in ACCEPTABLE if getattr(args, "accept_" + name.replace("-", "_"))),
+            progress=progress,
             psd=bool(args.out),
-            rail_with_vrc=args.rail_vrc,
-            accept=[name for name in ACCEPTABLE if getattr(args, "accept_" + name.replace("-", "_"))],
         )
+        fit = FitOptions(
+            static_g=None if args.static is None else V.acceleration("--static", args.static),
+            clip_kind=args.kind,
+            k4=args.k4,
+            rail_with_vrc=args.rail_vrc,
+        )
+        budget = BudgetOptions(typeb_from_args(args), args.limit)
         if several:
-            from vrelab.analysis.reduction import analyze_channels
+            from vrelab.analysis.pipeline import analyze_channels
 
-            reduced = analyze_channels(record, None, args.method, schedule, **options)
+            reduced = analyze_channels(record, None, args.method, schedule, options=options, fit=fit, budget=budget,
+                                       provenance=provenance)
         else:
-            from vrelab.analysis.reduction import analyze_full
+            from vrelab.analysis.pipeline import analyze_full
 
-            reduced = [(duts[0], *analyze_full(record, args.method, schedule, **options))]
+            reduced = [(duts[0], *analyze_full(record, args.method, schedule, options=options, fit=fit, budget=budget,
+                                               provenance=provenance))]
     doc = channels_to_dict([(n, r) for n, r, _ in reduced], provenance) if several else reduced[0][1].to_dict()
     if args.out:
         _write_out(Path(args.out), reduced, doc, profile, several, inputs)

@@ -1,0 +1,384 @@
+"""One level's VRE against the vibration-off baselines that bracket it (SPEC 4, steps 3 and 5).
+
+* DUT mean of a segment (baseline or random level) and its uncertainty: from the Hann-smoothed
+  window series (:func:`dut_mean_estimate`), batch means sized by the autocorrelation time.
+* Baselines (:func:`find_baselines`): the DUT's vibration-off readings.
+* Level (:func:`reduce_level`). *Random*: level = reference rms in the test band (the window
+  FFTs' in-band power). *Sine*: the second pass of :func:`vrelab.analysis.sine.sine_level`.
+* VRE = DUT mean under vibration − baseline at the level's centre time, the baseline linearly
+  interpolated between the off-segments before and after the level (:func:`bracket`: bracketing
+  removes a linear drift exactly); fall back to the nearest baseline with a warning.
+  ``u² = u_level² + (1-λ)²·u_before² + λ²·u_after² + u_lf²`` (λ the interpolation weight, u_lf
+  the low-frequency term of :class:`LowFrequency`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vrelab.analysis.segmentation import SMOOTH_WINDOWS, WindowStats, kernel_tau, segment_windows
+from vrelab.analysis.sine import sine_level
+from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
+from vrelab.gum import welch_satterthwaite
+from vrelab.record import Record, Schedule, Segment
+from vrelab.results import Estimate, LevelResult, Method, Notice
+
+# A segment needs this many whole averaging windows after the trim, or it is ignored.
+MIN_SEGMENT_WINDOWS = 3
+
+
+@dataclass(frozen=True)
+class Baseline:
+    t_s: float  # centre time
+    mean_g: float
+    u_g: float
+    segment: Segment
+    n_saturated: int = 0  # DUT samples at a rail: the vibration-off reading is off-scale
+    dof: float = math.inf  # degrees of freedom of u_g (batch means: batches - 1)
+    # second difference of the baseline's thirds, m2 - (m1 + m3)/2 (None: too short to split),
+    # and its variance were the noise white at the batch scale (4.5·u_g²)
+    thirds_g: float | None = None
+    thirds_white_var: float = 0.0
+
+
+@dataclass(frozen=True)
+class LowFrequency:
+    """Offset wander the bracketing cannot remove and the segments' batch means cannot see.
+
+    Batch means measure a segment's scatter about a straight line over a fraction of the
+    segment, and the bracketing removes a linear drift; 1/f (flicker) noise, a random walk or
+    thermal wander still move the offset between a level and its baselines. That movement is a
+    second difference of the offset at the segment time scale. It is measured on the
+    vibration-off readings (no vibration in them) as the excess of squared second differences
+    over what the white scatter (the batch means) predicts, in two geometries:
+
+    * ``between``: each inner baseline against the linear interpolation of its neighbours (the
+      level's own geometry at twice the spacing), ``n_between`` of them;
+    * ``within`` (a Hadamard-type term at a third of the segment): each baseline's middle third
+      against the mean of its outer thirds, ``n_within`` of them.
+
+    Each is carried to a level's geometry (its mean against the interpolated baselines) by the
+    ratio of the two geometries' variances for power-law noise ``S(f) ∝ f^α``
+    (:func:`second_difference_var`). α is where the two measured excesses agree, within
+    [-2, -1] (random walk to flicker), and the larger of the two carried values is taken. With
+    one excess only: when the other geometry was not measured (fewer than 3 baselines, or
+    baselines too short to split), the α that gives the larger u; when it was and showed no
+    excess, the α that gives the smaller. The term's degrees of freedom are the number of
+    second differences behind it. The excesses are not truncated at a significance level, so
+    white noise alone adds a little (measured: ±1u covers 0.79 instead of 0.68 on white noise,
+    tests/test_coverage.py).
+    """
+
+    between: float  # mean excess [g²] (nan: none)
+    within: float
+    n_between: int
+    n_within: int
+    third_s: float  # length of a third in the within term (mean over baselines)
+
+    def at(self, level: tuple[float, float], before: tuple[float, float], after: tuple[float, float]
+           ) -> tuple[float, float, float]:
+        """(variance [g²], degrees of freedom, α) of the term for a level (centre, length)
+        bracketed by baselines ``before`` and ``after`` (centre, length)."""
+        have_b = self.n_between > 0 and self.between > 0
+        have_w = self.n_within > 0 and self.within > 0
+        if not (have_b or have_w):
+            return 0.0, math.inf, math.nan
+        lam = (level[0] - before[0]) / (after[0] - before[0])
+        lvl = ((level[0], level[1], 1.0), (before[0], before[1], -(1 - lam)), (after[0], after[1], -lam))
+        # the between geometry: a baseline between neighbours at twice the bracket's spacing
+        sp = after[0] - before[0]
+        bl = ((before[0], before[1], 1.0), (before[0] - sp, before[1], -0.5), (before[0] + sp, before[1], -0.5))
+        t = self.third_s
+        th = ((0.0, t, 1.0), (-t, t, -0.5), (t, t, -0.5))
+        v_l = second_difference_var(lvl, ALPHAS)
+        v_b = second_difference_var(bl, ALPHAS)
+        v_w = second_difference_var(th, ALPHAS)
+        alphas = ALPHAS
+        if have_b and have_w:
+            i = int(np.argmin(np.abs(np.log(v_b / v_w) - math.log(self.between / self.within))))
+            var = max(self.between * v_l[i] / v_b[i], self.within * v_l[i] / v_w[i])
+            return float(var), float(self.n_between + self.n_within), float(alphas[i])
+        # One estimate only: with the other absent, the α that gives the larger u; with the
+        # other measured and showing no excess, the α that gives the smaller (the noise is not
+        # red across both scales).
+        if have_b:
+            var_b = self.between * v_l / v_b
+            i = int(np.argmin(var_b) if self.n_within else np.argmax(var_b))
+            return float(var_b[i]), float(self.n_between), float(alphas[i])
+        var_w = self.within * v_l / v_w
+        i = int(np.argmin(var_w) if self.n_between else np.argmax(var_w))
+        return float(var_w[i]), float(self.n_within), float(alphas[i])
+
+
+# The noise types the low-frequency term spans, S(f) ∝ f^α: random walk (-2) to flicker (-1).
+ALPHAS = np.linspace(-2.0, -1.0, 11)
+
+
+def second_difference_var(boxes: Sequence[tuple[float, float, float]], alpha: NDArray[np.float64]
+                          ) -> NDArray[np.float64]:
+    """Variance of ``Σ c·(mean of the offset over [t - T/2, t + T/2])`` over boxes (t, T, c)
+    whose coefficients sum to 0, for noise of one-sided PSD ``f^α`` (unit level), per α:
+    ``∫ f^α·|Σ c·e^{-2πift}·sinc(fT)|² df``. Numerical, on a logarithmic grid (no closed form
+    for general boxes); the integrand is O(f^(α+4)) at 0 for a second difference, which removes
+    a line, and O(f^(α-2)) above 1/T, so the grid's ends (10⁻⁴/span, 10³/T) lose nothing."""
+    t = np.array([b[0] for b in boxes])
+    T = np.array([b[1] for b in boxes])
+    c = np.array([b[2] for b in boxes])
+    span = float(np.max(t + T / 2) - np.min(t - T / 2))
+    f = np.logspace(math.log10(1e-4 / span), math.log10(1e3 / float(np.min(T))), 1500)
+    W = (c[None, :] * np.exp(-2j * np.pi * f[:, None] * (t - t.mean())[None, :])
+         * np.sinc(f[:, None] * T[None, :])).sum(axis=1)
+    y = f[None, :] ** (np.asarray(alpha)[:, None] + 1.0) * (np.abs(W) ** 2)[None, :]  # × f: over ln f
+    var: NDArray[np.float64] = np.trapezoid(y, np.log(f), axis=1)
+    return var
+
+
+def _mean_excess(excess: Sequence[float]) -> float:
+    """Mean excess of the squared second differences over the white prediction (nan: none).
+    Not truncated at a significance level: white noise then adds its own positive fluctuations
+    to some records' u (about +10 % coverage of ±1u on white noise), which is the price of not
+    dropping real low-frequency noise from records that show it only weakly."""
+    return float(np.mean(excess)) if excess else math.nan
+
+
+def low_frequency(baselines: Sequence[Baseline]) -> LowFrequency:
+    """The measured second differences of the baselines (see :class:`LowFrequency`)."""
+    between = []
+    for a, b, c in zip(baselines, baselines[1:], baselines[2:]):
+        lam = (b.t_s - a.t_s) / (c.t_s - a.t_s)
+        r = b.mean_g - ((1 - lam) * a.mean_g + lam * c.mean_g)
+        white = b.u_g**2 + ((1 - lam) * a.u_g) ** 2 + (lam * c.u_g) ** 2
+        if math.isfinite(r) and math.isfinite(white):
+            between.append(r * r - white)
+    used = [b for b in baselines if b.thirds_g is not None and math.isfinite(b.thirds_g)
+            and math.isfinite(b.thirds_white_var)]
+    within = [b.thirds_g**2 - b.thirds_white_var for b in used]  # type: ignore[operator]
+    third = float(np.mean([(b.segment.end_s - b.segment.start_s) / 3 for b in used])) if used else math.nan
+    return LowFrequency(_mean_excess(between), _mean_excess(within),
+                        len(between), len(within), third)
+
+
+def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Baseline]:
+    """The baselines a level at ``t_s`` is referred to (:func:`bracket`) that sit at a rail."""
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    used = ([before[-1]] if before else []) + ([after[0]] if after else [])
+    return [b for b in used if b.n_saturated > 0]
+
+
+
+def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
+    """DUT mean over windows [k0, k1) with its standard uncertainty.
+
+    The Hann-smoothed values (see :func:`~vrelab.analysis.segmentation.smoothing_kernel`) of the
+    windows whose kernel stays inside the segment ("interior" windows) average the segment's
+    samples with weights that are flat inside and taper over its first and last 0.2 s: a
+    hard-edged (boxcar) mean would keep a residual of the vibration the DUT reads (of order
+    σ/(π·f·T): 0.4 mg for 1.5 g of 80-200 Hz noise over 9 s) that no batch-means uncertainty
+    accounts for.
+
+    * 10 interior windows or more: batch means (:func:`batch_mean`) of the interior values;
+    * 3 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s²`` their squared residuals
+      about a straight line over ``n - 2·τ_k`` degrees of freedom and ``τ_k`` the correlation
+      the kernel itself puts between neighbours
+      (:func:`~vrelab.analysis.segmentation.kernel_tau`), i.e. noise taken as white at 0.1 s;
+    * fewer: the plain mean, uncertainty from the raw window means.
+    """
+    h = SMOOTH_WINDOWS // 2
+    a, b = k0 + h, k1 - h
+    n = b - a
+    if n >= 10:
+        return batch_mean(stats.dut_smooth[a:b], tau_min=kernel_tau(stats.window))
+    if n >= 3:
+        y = stats.dut_smooth[a:b]
+        t = np.arange(n, dtype=float)
+        r = y - np.polyval(np.polyfit(t, y, 1), t)
+        tau = kernel_tau(stats.window)
+        # residuals of a correlated series about a fitted line understate its variance: about
+        # 2·τ degrees of freedom go to the line, not 2
+        u = math.sqrt(float(r @ r) / max(n - 2 * tau, 1.0) * tau / n)
+        return MeanEstimate(float(y.mean()), u, tau, 1, n)
+    raw = batch_mean(stats.dut_mean()[k0:k1])
+    mean = float(stats.dut_sum[k0:k1].sum() / stats.count[k0:k1].sum())
+    return MeanEstimate(mean, raw.u, raw.tau, raw.batch, raw.n_batches)
+
+
+# --------------------------------------------------------------------------- bracketing
+
+
+def bracket(t_s: float, baselines: Sequence[Baseline]) -> tuple[float, float, str | None]:
+    """Baseline at time ``t_s``: linear interpolation between the bracketing baselines.
+
+    Returns (value, standard uncertainty, warning or None). With a baseline on one side only,
+    the nearest one is used and a warning says so.
+    """
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if before and after:
+        a, b = before[-1], after[0]
+        lam = (t_s - a.t_s) / (b.t_s - a.t_s)
+        val = (1 - lam) * a.mean_g + lam * b.mean_g
+        u = math.hypot((1 - lam) * a.u_g, lam * b.u_g)
+        return val, u, None
+    near = before[-1] if before else after[0]
+    side = "after" if before else "before"
+    return near.mean_g, near.u_g, f"no baseline {side} the level at {t_s:.4g} s: nearest baseline used, drift not removed"
+
+
+# --------------------------------------------------------------------------- baselines and levels
+
+
+def segment_samples(seg: Segment, fs_hz: float, n_samples: int) -> tuple[int, int]:
+    """The samples ``[i0, i1)`` of a segment: those whose time lies within it."""
+    i0 = int(math.ceil(seg.start_s * fs_hz - 1e-9))
+    i1 = min(int(math.floor(seg.end_s * fs_hz + 1e-9)), n_samples)
+    return i0, i1
+
+
+def n_windows(stats: WindowStats, seg: Segment) -> int:
+    """Whole averaging windows inside a segment."""
+    k0, k1 = segment_windows(stats, seg)
+    return k1 - k0
+
+
+def find_baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warnings: list[str]) -> list[Baseline]:
+    """The DUT's vibration-off readings, one per baseline segment long enough to average."""
+    out: list[Baseline] = []
+    for seg in sched.segments:
+        if not seg.is_baseline:
+            continue
+        k0, k1 = segment_windows(stats, seg)
+        if k1 - k0 < MIN_SEGMENT_WINDOWS:
+            warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
+            continue
+        est = dut_mean_estimate(stats, k0, k1)
+        t_c = float(np.mean(stats.times_s[k0:k1]))
+        h = SMOOTH_WINDOWS // 2
+        y = stats.dut_smooth[k0 + h : k1 - h]
+        thirds, white = None, 0.0
+        if len(y) >= 15:  # thirds of 0.5 s or more: longer than the smoothing kernel
+            m = len(y) // 3
+            m1, m2, m3 = (float(y[i * m : (i + 1) * m].mean()) for i in range(3))
+            # each third holds a third of the samples: variance 3·u² if white; m2 - (m1+m3)/2
+            # then has 3·u²·(1 + 1/4 + 1/4)
+            thirds, white = m2 - (m1 + m3) / 2, 4.5 * est.u**2
+        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), max(est.n_batches - 1, 1),
+                            thirds, white))
+    return out
+
+
+@dataclass(frozen=True)
+class LevelContext:
+    """What every level of one record is reduced with (:func:`reduce_level`)."""
+
+    record: Record
+    stats: WindowStats  # the first pass
+    saturated: NDArray[np.int64]  # saturated DUT samples per window (WindowStats.saturated)
+    baselines: Sequence[Baseline]
+    low_frequency: LowFrequency | None  # None: no low-frequency term
+    block_size: int  # samples per block of a sine level's second pass
+
+
+def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[LevelResult, float, list[str]]:
+    """One level (segment ``seg``): its rms and DUT mean by ``method``, its VRE against the
+    bracketing baselines; its centre time and warnings. Its u: the level's and the baselines'
+    batch means and the low-frequency term (:class:`LowFrequency`)."""
+    record, stats, baselines = ctx.record, ctx.stats, ctx.baselines
+    k0, k1 = segment_windows(stats, seg)
+    n_sat = int(ctx.saturated[k0:k1].sum())
+    warnings: list[str] = []
+    fs = record.fs_hz
+    freq = None
+    vre_2f = None
+    if method == "random":
+        dm = dut_mean_estimate(stats, k0, k1)
+        power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
+        pm = batch_mean(power, detrend=False)
+        rms = math.sqrt(max(pm.mean, 0.0))
+        u_rms = pm.u / (2 * rms) if rms > 0 else math.nan
+        t_c = float(np.mean(stats.times_s[k0:k1]))
+        n_used = int(stats.count[k0:k1].sum())
+    else:
+        i0, i1 = segment_samples(seg, fs, stats.n_samples)
+        sl = sine_level(record, i0, i1, stats.reference, ctx.block_size, seg.freq_hz, stats.shared)
+        freq, dm, t_c = sl.freq_hz, sl.dut_mean, sl.t_centre_s
+        warnings += sl.warnings
+        rms, u_rms, n_used = sl.ref_rms.mean, sl.ref_rms.u, sl.n_samples
+        h2 = sl.shift_2f
+        if h2 is not None and math.isfinite(h2.mean) and math.isfinite(h2.u):
+            vre_2f = Estimate(h2.mean, h2.u, "g")
+    base, u_base, note = bracket(t_c, baselines)
+    if note:
+        warnings.append(Notice("bracket", note))
+    flags: tuple[str, ...] = ("saturated",) if n_sat > 0 else ()
+    var_lf, dof_lf = _low_frequency_at(ctx.low_frequency, t_c, n_used / fs, baselines)
+    vre = Estimate(dm.mean - base, math.sqrt(dm.u**2 + u_base**2 + var_lf), "g")
+    dof = _vre_dof(vre.u, dm, t_c, baselines, (math.sqrt(var_lf), dof_lf))
+    off = _off_scale_baselines(t_c, baselines)
+    if off:
+        # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
+        flags += ("baseline-off-scale",)
+        vre = Estimate(math.nan, math.nan, "g")
+        warnings.append(Notice(
+            "baseline-off-scale",
+            f"level {rms:.4g} g rms: its baseline at {off[0].t_s:.4g} s sits at a rail ({off[0].n_saturated} "
+            f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
+        ))
+    level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
+                        n_saturated=n_sat, flags=flags, dof=dof, vre_2f=vre_2f)
+    return level, t_c, warnings
+
+
+def _low_frequency_at(lf: LowFrequency | None, t_s: float, length_s: float,
+                      baselines: Sequence[Baseline]) -> tuple[float, float]:
+    """(variance [g²], dof) of the low-frequency term for the level at ``t_s`` (0, inf when
+    it is not bracketed: the nearest baseline alone is already flagged as not removing drift)."""
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if lf is None or not (before and after):
+        return 0.0, math.inf
+    a, b = before[-1], after[0]
+    var, dof, _ = lf.at((t_s, length_s), (a.t_s, a.segment.end_s - a.segment.start_s),
+                        (b.t_s, b.segment.end_s - b.segment.start_s))
+    return var, dof
+
+
+def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baseline],
+             lf: tuple[float, float] | None = None) -> float:
+    """Welch-Satterthwaite degrees of freedom of a VRE's u: the level's batch means, the
+    bracketing baselines' (their weights as in :func:`bracket`) and the low-frequency term's."""
+    parts: list[tuple[float, float]] = [(dm.u, max(dm.n_batches - 1, 1))]
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    if before and after:
+        a, b = before[-1], after[0]
+        lam = (t_s - a.t_s) / (b.t_s - a.t_s)
+        parts += [((1 - lam) * a.u_g, a.dof), (lam * b.u_g, b.dof)]
+    else:
+        near = before[-1] if before else after[0]
+        parts.append((near.u_g, near.dof))
+    if lf is not None and lf[0] > 0:
+        parts.append(lf)
+    return welch_satterthwaite(u, parts) if u > 0 else math.inf
+
+
+__all__ = [
+    "ALPHAS",
+    "MIN_SEGMENT_WINDOWS",
+    "Baseline",
+    "LevelContext",
+    "LowFrequency",
+    "bracket",
+    "dut_mean_estimate",
+    "find_baselines",
+    "low_frequency",
+    "n_windows",
+    "reduce_level",
+    "second_difference_var",
+    "segment_samples",
+]
