@@ -70,7 +70,7 @@ _MAX_TAPS = 2**15
 # 69 632 = 2^12·17 that "a 2^16-sample frame + the overlap" would need), at least 2^16 and five
 # filter lengths, so the overlap (M - 1 samples) costs at most a fifth and memory stays a few MB
 # whatever the record length.
-_MIN_FFT = 2**16
+MIN_FFT = 2**16
 
 
 # --- validation helpers -----------------------------------------------------------------------
@@ -90,7 +90,7 @@ def _check_band(profile: RandomProfile, fs_hz: float) -> None:
         )
 
 
-def _rechunk(frames: Iterator[NDArray[np.float64]], n_samples: int, block_size: int) -> Iterator[NDArray[np.float64]]:
+def rechunk(frames: Iterator[NDArray[np.float64]], n_samples: int, block_size: int) -> Iterator[NDArray[np.float64]]:
     """Cut a stream of frames into blocks of ``block_size`` (last one shorter), ``n_samples`` in all."""
     # Each block is filled straight from the frames (one copy, no concatenation keeping
     # earlier frames alive through views); a frame is pulled only while samples are still
@@ -166,14 +166,14 @@ def sine_blocks(
 # --- random: shared design --------------------------------------------------------------------
 
 
-def _resolution_length(profile: RandomProfile, fs_hz: float) -> int:
+def resolution_length(profile: RandomProfile, fs_hz: float) -> int:
     """Power-of-two length whose bin width fs/N is at most f_lo/8 (within the tap bounds)."""
     want = fs_hz / (profile.band[0] / _BINS_BELOW_F_LO)
     n = 1 << max(0, math.ceil(math.log2(want)))
     return int(min(max(n, _MIN_TAPS), _MAX_TAPS))
 
 
-def _bin_powers(profile: RandomProfile, fs_hz: float, n: int) -> NDArray[np.float64]:
+def bin_powers(profile: RandomProfile, fs_hz: float, n: int) -> NDArray[np.float64]:
     """Mean square [g²] of the profile in each rfft bin of an n-point frame.
 
     Bin k holds the exact (closed-form) area of the PSD over [(k-½)·df, (k+½)·df], so a
@@ -219,7 +219,7 @@ def design_fir(profile: RandomProfile, fs_hz: float, n_taps: int | None = None) 
     White noise of unit variance has a one-sided PSD of 2/fs, so a filter with
     ``|H(f_k)|² = S_k·fs/2`` gives output PSD S_k at its design frequencies
     ``f_k = k·fs/N``. S_k is the profile's mean over bin k (closed-form areas,
-    :func:`_bin_powers`), so by Parseval the output variance ``Σ h² = Σ_k S_k·df`` is the
+    :func:`bin_powers`), so by Parseval the output variance ``Σ h² = Σ_k S_k·df`` is the
     profile's mean square exactly. The zero-phase response is shifted by N/2 samples to make
     the filter causal. No window is applied: a window would smear the band edges and change
     the variance; the bins are fine enough (≤ f_lo/8) that the ripple between design
@@ -231,10 +231,10 @@ def design_fir(profile: RandomProfile, fs_hz: float, n_taps: int | None = None) 
     """
     fs = v.positive_scalar("fs_hz", fs_hz)
     _check_band(profile, fs)
-    n = _resolution_length(profile, fs) if n_taps is None else v.integer("n_taps", n_taps, 4)
+    n = resolution_length(profile, fs) if n_taps is None else v.integer("n_taps", n_taps, 4)
     if n % 2:
         raise ValueError(f"n_taps must be even, got {n_taps!r}")
-    powers = _bin_powers(profile, fs, n)
+    powers = bin_powers(profile, fs, n)
     df = fs / n
     mag = np.sqrt(powers / df * fs / 2)  # |H_k|
     k = np.arange(n // 2 + 1)
@@ -254,8 +254,8 @@ def multisine_period(profile: RandomProfile, fs_hz: float, seed: int, n_period: 
     """
     fs = v.positive_scalar("fs_hz", fs_hz)
     _check_band(profile, fs)
-    n = _resolution_length(profile, fs) if n_period is None else v.integer("n_period", n_period, 4)
-    powers = _bin_powers(profile, fs, n)
+    n = resolution_length(profile, fs) if n_period is None else v.integer("n_period", n_period, 4)
+    powers = bin_powers(profile, fs, n)
     rng = np.random.default_rng(np.random.SeedSequence(_seed(seed)))
     phases = rng.uniform(0.0, 2.0 * np.pi, powers.size)
     amps = np.sqrt(2.0 * powers)
@@ -359,7 +359,7 @@ def clip_prescale(clip_sigma: float, samples: NDArray[np.float64] | None = None)
 # --- random: generators -----------------------------------------------------------------------
 
 
-def _gaussian_frames(
+def gaussian_frames(
     h: NDArray[np.float64], seed: int, frame: int, n_samples: int | None = None
 ) -> Iterator[NDArray[np.float64]]:
     """Frames of white Gaussian noise filtered by h ('valid' convolution), ``n_samples`` in all
@@ -522,8 +522,8 @@ def random_blocks(
         frames: Iterator[NDArray[np.float64]] = _multisine_frames(period)
     else:
         h = design_fir(profile, fs)
-        nfft = max(_MIN_FFT, 1 << math.ceil(math.log2(5 * h.size)))
-        frames = _gaussian_frames(h, sd, nfft - (h.size - 1), n)
+        nfft = max(MIN_FFT, 1 << math.ceil(math.log2(5 * h.size)))
+        frames = gaussian_frames(h, sd, nfft - (h.size - 1), n)
 
     if clip_sigma is not None:
         k = float(clip_sigma)
@@ -551,7 +551,7 @@ def random_blocks(
 
         frames = (herm(fr) for fr in frames)
 
-    return _rechunk(frames, n, bs)
+    return rechunk(frames, n, bs)
 
 
 def _with_tones(

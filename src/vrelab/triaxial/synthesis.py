@@ -52,7 +52,7 @@ from vrelab.profiles import RandomProfile, SineOnRandom
 # The single-axis design's rules, imported rather than copied (one owner): the FIR length
 # (bins at most f_lo/8 wide), each bin's exact mean square, the overlap-save frame size, the
 # Gaussian noise stream and the re-chunking into blocks.
-from vrelab.synthesis import _MIN_FFT, _bin_powers, _gaussian_frames, _rechunk, _resolution_length
+from vrelab.synthesis import MIN_FFT, bin_powers, gaussian_frames, rechunk, resolution_length
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, unit_vector
 
@@ -135,14 +135,14 @@ def design_fir_matrix(profile: TriaxialProfile, fs_hz: float, n_taps: int | None
     fs = _check(profile, fs_hz)
     moving = np.flatnonzero(~profile.still)
     lowest = _axis_profile(profile, int(moving[0]))
-    n = _resolution_length(lowest, fs) if n_taps is None else V.integer("n_taps", n_taps, 4)
+    n = resolution_length(lowest, fs) if n_taps is None else V.integer("n_taps", n_taps, 4)
     if n % 2:
         raise ValueError(f"n_taps must be even, got {n_taps!r}")
     df = fs / n
     k = np.arange(n // 2 + 1)
     amp = np.zeros((k.size, 3))
     for j in moving:
-        amp[:, j] = np.sqrt(_bin_powers(_axis_profile(profile, int(j)), fs, n) / df * fs / 2)
+        amp[:, j] = np.sqrt(bin_powers(_axis_profile(profile, int(j)), fs, n) / df * fs / 2)
     # the coherency at the bin centres (inside the band; outside, the amplitude is 0 anyway)
     f = np.clip(k * df, profile.band[0], profile.band[1])
     s = profile.csd(f)[:, moving][:, :, moving]
@@ -194,13 +194,13 @@ def triaxial_random_blocks(
         return
     h = design_fir_matrix(profile, fs)
     m = h.shape[-1]
-    nfft = max(_MIN_FFT, 1 << math.ceil(math.log2(5 * m)))
+    nfft = max(MIN_FFT, 1 << math.ceil(math.log2(5 * m)))
     frame = nfft - (m - 1)
     stream_seeds = [int(s.generate_state(1, np.uint32)[0]) for s in np.random.SeedSequence(sd).spawn(3)]
     rows: list[Iterator[FloatArray]] = []
     for j in range(3):
-        gens = [_gaussian_frames(h[j, c], stream_seeds[c], frame, n) for c in range(3) if np.any(h[j, c])]
-        rows.append(_rechunk(_summed(gens, frame, n), n, bs))
+        gens = [gaussian_frames(h[j, c], stream_seeds[c], frame, n) for c in range(3) if np.any(h[j, c])]
+        rows.append(rechunk(_summed(gens, frame, n), n, bs))
     for x, y, z in zip(*rows):
         yield np.stack([x, y, z])
 
