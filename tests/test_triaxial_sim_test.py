@@ -66,7 +66,10 @@ def test_a_drive_along_the_input_axis_is_todays_single_axis_test_exactly():
     got = tri.axes["z"].levels
     assert len(got) == 2
     for a, b in zip(single.levels, got):
-        assert (a.vre.value, a.vre.u, a.rms_g, a.u_rms_g, a.flags) == (b.vre.value, b.vre.u, b.rms_g, b.u_rms_g, b.flags)
+        assert (a.vre.value, a.vre.u, a.rms_g, a.u_rms_g) == (b.vre.value, b.vre.u, b.rms_g, b.u_rms_g)
+        # 2 s levels: 1 s after the settling trims, five 0.2 s windows (band from 10 Hz): the
+        # triaxial reduction says their u is no 68 % interval (vrelab.triaxial.analyze.BATCH_WINDOWS)
+        assert b.flags == (*a.flags, "few-windows")
     assert got[1].vre.value < -0.05  # the clipping really rectified (not two zero results)
 
 
