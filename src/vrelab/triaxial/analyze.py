@@ -298,8 +298,8 @@ def analyze_triaxial(
     # axis (a DUT axis reduced against it, or the first DUT once more against it), made total
     # by the Welch ratio of the level's cross-spectrum
     own = next((red for *_, red, _, _, r in reduced if r == dom), None)
-    if own is None:
-        _, own = reduce_pair(first, dom, sorted(set(accept) | {"unit-ratio"}))
+    if own is None:  # read for its levels only: the DUT's own checks ran against its own axis
+        _, own = reduce_pair(first, dom, sorted(set(accept) | {"unit-ratio", "channels"}))
     dom_levels = {(seg.start_s, seg.end_s): lv for seg, lv in zip(own.level_segments, own.levels)}
     levels_out: dict[tuple[float, float], TriaxialLevel] = {}
     totals: dict[tuple[float, float], tuple[float, float | None]] = {}
@@ -328,8 +328,9 @@ def analyze_triaxial(
         notes = [Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
                         "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")]
         if few:
-            notes.append(Notice("few-windows", f"{few} level(s) hold fewer than {BATCH_WINDOWS} averaging windows "
-                                f"after the settling trim (flagged 'few-windows'): their u rests on a few windows' "
+            notes.append(Notice("few-windows", f"{few} level(s) or their bracketing baselines hold fewer than "
+                                f"{BATCH_WINDOWS} averaging windows after the settling trims (flagged 'few-windows'): "
+                                "their u rests on a few windows' "
                                 "scatter, with few degrees of freedom (see dof), and ±u, ±2u do not cover 68 %, "
                                 "95 %: use U = t(dof)·u, or record longer levels"))
         extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
@@ -341,8 +342,15 @@ def analyze_triaxial(
 
 
 def _interior_windows(red: Any, seg: Segment) -> int:
-    """The level's windows whose smoothing kernel stays inside it (what its u averages)."""
+    """The fewest windows whose smoothing kernel stays inside the segment (what a DUT mean's u
+    averages) of the level and the baselines bracketing it (their u enter the VRE's)."""
     from vrelab.analysis.segmentation import SMOOTH_WINDOWS, segment_windows
 
-    k0, k1 = segment_windows(red.stats, seg)
-    return k1 - k0 - 2 * (SMOOTH_WINDOWS // 2)
+    def interior(s: Segment) -> int:
+        k0, k1 = segment_windows(red.stats, s)
+        return k1 - k0 - 2 * (SMOOTH_WINDOWS // 2)
+
+    mid = 0.5 * (seg.start_s + seg.end_s)
+    before = [b for b in red.baselines if b.t_s <= mid][-1:]
+    after = [b for b in red.baselines if b.t_s > mid][:1]
+    return min([interior(seg)] + [interior(b.segment) for b in before + after])

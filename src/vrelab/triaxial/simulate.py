@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
-from vrelab.results import LevelResult, Method, Notice, VreResult
+from vrelab.results import LevelResult, Method, VreResult
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
