@@ -16,8 +16,10 @@ docstring of vrelab.triaxial.analyze).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
+import pytest
 from scipy import integrate, stats
 
 from vrelab.profiles import RandomProfile
@@ -120,3 +122,25 @@ def test_a_level_of_a_few_windows_is_flagged():
     _, result, _ = res.channels[0]
     assert "few-windows" in result.levels[0].flags
     assert any(getattr(w, "code", None) == "few-windows" for w in result.warnings)
+
+
+def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
+    # every channel's level and triaxial.levels hold one number: sqrt(Σ_j level_j²) of the three
+    # reference axes' single-axis levels (vrelab.analysis.analyze_full against each axis alone),
+    # within its u of the drive's nominal total rms
+    from vrelab.analysis.reduction import analyze_full
+
+    rec = _record(INCOHERENT, (1.0, 2.0), 2.5, 3)
+    res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+    _, result, _ = res.channels[0]
+    single = []
+    for a in AXES:
+        pair = ArrayRecord({"dut": rec.data["dut_x"], "reference": rec.data[f"ref_{a}"]}, rec.fs_hz, rec.schedule)
+        r, _ = analyze_full(pair, "random", band_hz=BAND, accept=("unit-ratio", "channels"))
+        single.append([lv.rms_g for lv in r.levels])
+    totals = np.sqrt(np.sum(np.square(single), axis=0))
+    for lv, tri, total, nominal in zip(result.levels, res.levels, totals, (1.0, 2.0)):
+        assert lv.rms_g == tri.rms_g and lv.u_rms_g == tri.u_rms_g
+        assert lv.rms_g == pytest.approx(total, rel=1e-9)
+        assert math.sqrt(sum(x * x for x in tri.axis_rms_g)) == pytest.approx(tri.rms_g, rel=1e-12)
+        assert abs(lv.rms_g - nominal) < 3 * lv.u_rms_g

@@ -12,20 +12,20 @@ given or embedded schedule), so a still axis still has its levels.
 
 The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, SPEC 1.6), one number per
 level for every DUT axis and for ``triaxial.levels``: the level the reduction reads from the
-most moving reference axis ``d`` (the single-axis estimator: the window FFTs' in-band power,
-its batch-means u; at the drive frequency for a sine, the lock-in) rescaled by
-``sqrt(Σ_j m_j / m_d)``, with ``m_j`` the reference's mean square along axis j in the test band
-(at the drive line for a sine) from the level's Welch cross-spectrum. Along one axis the ratio
-is exactly 1 and the level is the single-axis one; ``axis_rms_g`` is the total times
-``sqrt(m_j / Σ m)``. ``u`` of the total: ``u(level_d)`` times the ratio, the ratio taken as
-exact: it compares mean squares of the same samples, so the drive's scatter (the level's u)
-moves its numerator and denominator together; what remains is the two estimators' difference
-at the band edges, ~0.3 % of a mean square for a profile whose band the test band holds (its
-edges off the window FFTs' 10 Hz bins), under the level's u for levels of a few seconds. The
-Welch band integral itself (``csd.rms_g``) is the spectrum's, not the level: it differs from
-it by that difference. The measured cross-spectral matrix of each level (PSDs, coherences,
-phases, their uncertainty and number of averages, :mod:`vrelab.triaxial.recording`) is
-reported.
+most moving reference axis ``d`` (the single-axis rule: the window FFTs' in-band power, its
+batch-means u; the lock-in at the drive frequency for a sine) times ``sqrt(Σ_j m_j / m_d)``,
+``m_j`` each reference axis's mean square in the band by the same window rule over the same
+windows (:func:`_band_power`; at the drive line of the level's Welch cross-spectrum for a
+sine). It is thus ``sqrt(Σ_j level_j²)`` of the three single-axis levels (to rounding), and
+along one axis exactly the single-axis level; ``axis_rms_g`` is the total times
+``sqrt(m_j / Σ m)``. ``u`` of the total: ``u(level_d)`` times the ratio: exact for a drive
+along one direction (the axes' powers move together), conservative for incoherent axes (their
+independent scatter partly averages out in the sum). The Welch band integral of the reported
+cross-spectrum (``csd.rms_g``) is the spectrum's, not the level: its segments, sized for
+the spectrum's resolution, may be few over a short level and weigh its samples unevenly (one
+1 s Hann segment over a 1.5 s level: 1-8 % off the level, measured). The measured
+cross-spectral matrix of each level (PSDs, coherences, phases, their uncertainty and number of
+averages, :mod:`vrelab.triaxial.recording`) is reported.
 
 The VRE of each axis and its u are the single-axis reduction's (:func:`vrelab.analysis.analyze_full`):
 its u is the batch means of the DUT's smoothed window series when a level holds 10 interior
@@ -150,8 +150,9 @@ class TriaxialAnalysis:
             "segmenting_axis": self.segmenting_axis,
             "level": "rms_g of every level is the reference's total rms in the test band (at the drive frequency for "
                      "a sine): the most moving axis's level (segmenting_axis) times sqrt(Σ m_j / m_axis), m_j the "
-                     "axes' mean squares from the level's Welch cross-spectrum; the same number in every channel's "
-                     "levels; axis_rms_g gives each axis's; csd.rms_g is the Welch band integral (the spectrum's)",
+                     "axes' in-band mean squares by the same windows (sqrt of the sum of the axes' single-axis "
+                     "levels squared); the same number in every channel's levels; axis_rms_g gives each axis's; "
+                     "csd.rms_g is the Welch band integral of the reported spectrum, not the level",
             "levels": [lv.to_dict() for lv in self.levels],
         }
         return doc
@@ -176,6 +177,31 @@ def _segment_range(fs: float, seg: Segment, n: int) -> tuple[int, int]:
     return i0, i1
 
 
+def _band_power(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
+                block: int) -> NDArray[np.float64]:
+    """Each reference axis's mean square [g²] in the band over a level, by the reduction's own
+    rule (:func:`vrelab.analysis.segmentation.window_pass`: the level's whole windows, each
+    window's rfft weighed by :func:`~vrelab.analysis.segmentation.band_weights`, the windows'
+    in-band powers averaged), so that the ratio of two axes' is the ratio of their single-axis
+    levels. Written here because the window pass reads one reference channel; streamed in
+    blocks of whole windows."""
+    from vrelab.analysis.segmentation import band_weights, window_length
+
+    fs = float(record.fs_hz)
+    w = window_length(fs, band)
+    per = w / fs
+    k0 = int(math.ceil(seg.start_s / per - 1e-9))
+    k1 = min(int(math.floor(seg.end_s / per + 1e-9)), record.n_samples // w)
+    if k1 <= k0:
+        return np.zeros(3)
+    weights = band_weights(w, fs, band)[1]
+    total = np.zeros(3)
+    for b in record_blocks(record, refs, k0 * w, k1 * w, max(1, block // w) * w):
+        spec = np.fft.rfft(b.T.reshape(3, -1, w), axis=2)
+        total += ((spec.real ** 2 + spec.imag ** 2) @ weights).sum(axis=1)
+    return np.asarray(total / ((k1 - k0) * w), dtype=np.float64)
+
+
 def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
                      freq_hz: float | None, block: int) -> tuple[NDArray[np.float64], TriaxialLevel]:
     """(mean square per axis [g²] in the band or at the line, the level's TriaxialLevel)."""
@@ -193,8 +219,7 @@ def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple
     f = acc.freq_hz
     df = fs / nper
     if freq_hz is None:
-        sel = (f >= band[0]) & (f <= band[1])
-        ms = np.real(np.diagonal(s[sel], axis1=1, axis2=2)).sum(axis=0) * df
+        ms = _band_power(record, refs, seg, band, block)
         csd = band_csd(acc, band, POINTS_PER_OCTAVE)
         total = math.sqrt(float(ms.sum()))
         return ms, TriaxialLevel(seg.start_s, seg.end_s, total, (*map(float, np.sqrt(ms)),), csd)  # type: ignore[arg-type]
@@ -296,7 +321,7 @@ def analyze_triaxial(
         level_axis[axis] = AXES[r]
     # the level of each segment, one number for every axis: read from the most moving reference
     # axis (a DUT axis reduced against it, or the first DUT once more against it), made total
-    # by the Welch ratio of the level's cross-spectrum
+    # by the axes' in-band mean squares over the same windows (_band_power)
     own = next((red for *_, red, _, _, r in reduced if r == dom), None)
     if own is None:  # read for its levels only: the DUT's own checks ran against its own axis
         _, own = reduce_pair(first, dom, sorted(set(accept) | {"unit-ratio", "channels"}))
