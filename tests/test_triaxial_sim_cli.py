@@ -97,3 +97,33 @@ def test_two_sine_frequencies_along_a_direction_are_refused(capsys):
     rc, out, err = _run(capsys, "simulate", "--sensor", "ideal", "--freq", "80,160", "--levels", "1",
                         "--direction", "1,0,0")
     assert rc == 2 and "one --freq F along a --direction" in err
+
+
+def test_simulate_and_analyze_give_the_same_numbers_for_the_same_record(tmp_path, capsys):
+    # one owner: `vrelab simulate --direction ... --record` reduces its record through
+    # analyze_triaxial, so `vrelab analyze RECORD --triaxial` with the simulation's band and
+    # settling time gives the same VRE, u and level, bit for bit
+    out_dir = tmp_path / "out"
+    rc, out, err = _run(capsys, "simulate", "--sensor", "ideal", "--range", "20", "--k2", "1000",
+                        "--profile", "flat:20-500", "--direction", "1,0,1", "--axes", "x,z", "--levels", "1,2",
+                        "--seconds", "2", "--seed", "3", "--out", str(out_dir), "--record", "--json")
+    assert rc == 0, err
+    sim = json.loads(out)
+    cond = sim["channels"][0]["conditions"]
+    band = cond["extra"]["band_hz"] if "extra" in cond else cond["band_hz"]
+    settle = cond["extra"]["settle_s"] if "extra" in cond else cond["settle_s"]
+    assert band == [10.0, 1000.0]  # the profile's band widened an octave (vrelab.shaker)
+    rc, out, err = _run(capsys, "analyze", str(out_dir / "record.h5"), "--triaxial", "--reference",
+                        "reference_x,reference_y,reference_z", "--dut", "x=dut_x,z=dut_z",
+                        "--band", f"{band[0]}:{band[1]}", "--settle", str(settle), "--json")
+    assert rc == 0, err
+    ana = json.loads(out)
+    assert [c["channel"] for c in ana["channels"]] == [c["channel"] for c in sim["channels"]] == ["x", "z"]
+    keys = ("vre_g", "u_vre_g", "rms_g", "u_rms_g", "dof")
+    for a, b in zip(sim["channels"], ana["channels"]):
+        assert len(a["levels"]) == len(b["levels"]) == 2
+        for la, lb in zip(a["levels"], b["levels"]):
+            assert {k: la.get(k) for k in keys} == {k: lb.get(k) for k in keys}
+        assert a["fit"] == b["fit"]
+    # one level per segment for every axis, and the triaxial summary holds the same number
+    assert [lv["rms_g"] for lv in ana["triaxial"]["levels"]] == [lv["rms_g"] for lv in ana["channels"][0]["levels"]]

@@ -10,12 +10,34 @@ the channel's warnings.
 Every DUT axis uses the same segments: found once from the most moving reference axis (or the
 given or embedded schedule), so a still axis still has its levels.
 
-The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, SPEC 1.6): each level's
-``rms_g`` is the reduction's level rescaled by ``sqrt(Σ_j m_j / m_r)``, with ``m_j`` the
-reference's mean square along axis j in the test band (at the drive frequency for a sine) from
-the level's Welch cross-spectrum and ``r`` the reference axis the reduction read; ``axis_rms_g``
-gives each axis's. The measured cross-spectral matrix of each level (PSDs, coherences, phases,
-their uncertainty and number of averages, :mod:`vrelab.triaxial.recording`) is reported.
+The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, SPEC 1.6), one number per
+level for every DUT axis and for ``triaxial.levels``: the level the reduction reads from the
+most moving reference axis ``d`` (the single-axis rule: the window FFTs' in-band power, its
+batch-means u; the lock-in at the drive frequency for a sine) times ``sqrt(Σ_j m_j / m_d)``,
+``m_j`` each reference axis's mean square in the band by the same window rule over the same
+windows (:func:`_band_power`; at the drive line of the level's Welch cross-spectrum for a
+sine). It is thus ``sqrt(Σ_j level_j²)`` of the three single-axis levels (to rounding), and
+along one axis exactly the single-axis level; ``axis_rms_g`` is the total times
+``sqrt(m_j / Σ m)``. ``u`` of the total: ``u(level_d)`` times the ratio: exact for a drive
+along one direction (the axes' powers move together), conservative for incoherent axes (their
+independent scatter partly averages out in the sum). The Welch band integral of the reported
+cross-spectrum (``csd.rms_g``) is the spectrum's, not the level: its segments, sized for
+the spectrum's resolution, may be few over a short level and weigh its samples unevenly (one
+1 s Hann segment over a 1.5 s level: 1-8 % off the level, measured). The measured
+cross-spectral matrix of each level (PSDs, coherences, phases, their uncertainty and number of
+averages, :mod:`vrelab.triaxial.recording`) is reported.
+
+The VRE of each axis and its u are the single-axis reduction's (:func:`vrelab.analysis.analyze_full`):
+its u is the batch means of the DUT's smoothed window series when a level holds 10 interior
+windows or more (a window is 0.1 s, or ``2/F1`` for a band starting below 20 Hz); a shorter
+level (or baseline) falls back on a few windows' scatter (3 to 9: ~n-4 degrees of freedom;
+under 3: the raw window means), whose u is no longer a 68 % interval: such a level, or one
+whose u takes a tenth of its variance from such a baseline, carries the flag ``few-windows``
+and a warning. The two rules' u differ widely over a short level (2 s levels, a 20-500 Hz
+profile: 0.04 mg over 8 interior 0.1 s windows with the 50-2000 Hz band, 4.4 mg over the raw
+means of 0.2 s windows with the band from 10 Hz); with 13 interior windows or more they agree
+and cover (tests/test_triaxial_analyze_coverage.py: ±u 0.70, ±2u 0.955 over 800 draws).
+:func:`vrelab.triaxial.simulate.simulate_triaxial` reduces its record through this function.
 
 Fits: the VRC of each DUT axis against the total rms (``VRE = VRC·rms²`` holds for any quadratic
 mechanism, cross terms included, when one shape is scaled). The clipping rail is **not** fitted:
@@ -28,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +68,11 @@ __all__ = ["TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial"]
 STILL_FRACTION = 0.1
 # Points per octave of the reported cross-spectrum of each level.
 POINTS_PER_OCTAVE = 3.0
+# Interior windows a random level needs for the batch-means u of its DUT mean (the threshold of
+# vrelab.analysis.reduction.dut_mean_estimate, a literal there: kept equal by hand); fewer, its
+# u rests on a few windows' scatter: measured 62 % / 83 % coverage of ±u / ±2u over 60 levels of
+# 8 interior windows (tests/test_triaxial_analyze_coverage.py's drives, 2 s levels).
+BATCH_WINDOWS = 10
 
 
 class _PairView:
@@ -89,10 +116,11 @@ class TriaxialLevel:
     axis_rms_g: tuple[float, float, float]
     csd: MeasuredCsd | None  # random: the band-mean CSD; sine: None (see ``line``)
     line: Mapping[str, Any] | None = None  # sine: the drive line's amplitudes and phases
+    u_rms_g: float | None = None  # u of rms_g (the module docstring)
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"start_s": self.start_s, "end_s": self.end_s, "rms_g": self.rms_g,
-                             "axis_rms_g": dict(zip(AXES, self.axis_rms_g))}
+                             "u_rms_g": self.u_rms_g, "axis_rms_g": dict(zip(AXES, self.axis_rms_g))}
         if self.csd is not None:
             d["csd"] = self.csd.to_dict()
         if self.line is not None:
@@ -108,7 +136,9 @@ class TriaxialAnalysis:
     levels: tuple[TriaxialLevel, ...]
     reference: Mapping[str, str]
     segmenting_axis: str
-    level_axis: Mapping[str, str]  # DUT axis -> the reference axis its levels were read from
+    # DUT axis -> the reference axis its reduction read (its DUT/reference ratio check); every
+    # level itself is the segmenting axis's, made total (the module docstring)
+    level_axis: Mapping[str, str]
 
     def to_dict(self, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
         doc = channels_to_dict([(n, r) for n, r, _ in self.channels], provenance or {})
@@ -122,8 +152,11 @@ class TriaxialAnalysis:
         doc["triaxial"] = {
             "reference_channels": dict(self.reference),
             "segmenting_axis": self.segmenting_axis,
-            "level": "rms_g of every level is the reference's total rms, sqrt(x² + y² + z²) of the axes' rms in the "
-                     "test band (at the drive frequency for a sine); axis_rms_g gives each axis's",
+            "level": "rms_g of every level is the reference's total rms in the test band (at the drive frequency for "
+                     "a sine): the most moving axis's level (segmenting_axis) times sqrt(Σ m_j / m_axis), m_j the "
+                     "axes' in-band mean squares by the same windows (sqrt of the sum of the axes' single-axis "
+                     "levels squared); the same number in every channel's levels; axis_rms_g gives each axis's; "
+                     "csd.rms_g is the Welch band integral of the reported spectrum, not the level",
             "levels": [lv.to_dict() for lv in self.levels],
         }
         return doc
@@ -148,6 +181,31 @@ def _segment_range(fs: float, seg: Segment, n: int) -> tuple[int, int]:
     return i0, i1
 
 
+def _band_power(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
+                block: int) -> NDArray[np.float64]:
+    """Each reference axis's mean square [g²] in the band over a level, by the reduction's own
+    rule (:func:`vrelab.analysis.segmentation.window_pass`: the level's whole windows, each
+    window's rfft weighed by :func:`~vrelab.analysis.segmentation.band_weights`, the windows'
+    in-band powers averaged), so that the ratio of two axes' is the ratio of their single-axis
+    levels. Written here because the window pass reads one reference channel; streamed in
+    blocks of whole windows."""
+    from vrelab.analysis.segmentation import band_weights, window_length
+
+    fs = float(record.fs_hz)
+    w = window_length(fs, band)
+    per = w / fs
+    k0 = int(math.ceil(seg.start_s / per - 1e-9))
+    k1 = min(int(math.floor(seg.end_s / per + 1e-9)), record.n_samples // w)
+    if k1 <= k0:
+        return np.zeros(3)
+    weights = band_weights(w, fs, band)[1]
+    total = np.zeros(3)
+    for b in record_blocks(record, refs, k0 * w, k1 * w, max(1, block // w) * w):
+        spec = np.fft.rfft(b.T.reshape(3, -1, w), axis=2)
+        total += ((spec.real ** 2 + spec.imag ** 2) @ weights).sum(axis=1)
+    return np.asarray(total / ((k1 - k0) * w), dtype=np.float64)
+
+
 def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
                      freq_hz: float | None, block: int) -> tuple[NDArray[np.float64], TriaxialLevel]:
     """(mean square per axis [g²] in the band or at the line, the level's TriaxialLevel)."""
@@ -165,8 +223,7 @@ def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple
     f = acc.freq_hz
     df = fs / nper
     if freq_hz is None:
-        sel = (f >= band[0]) & (f <= band[1])
-        ms = np.real(np.diagonal(s[sel], axis1=1, axis2=2)).sum(axis=0) * df
+        ms = _band_power(record, refs, seg, band, block)
         csd = band_csd(acc, band, POINTS_PER_OCTAVE)
         total = math.sqrt(float(ms.sum()))
         return ms, TriaxialLevel(seg.start_s, seg.end_s, total, (*map(float, np.sqrt(ms)),), csd)  # type: ignore[arg-type]
@@ -195,6 +252,7 @@ def analyze_triaxial(
     accept: Sequence[str] = (),
     progress: bool = False,
     provenance: Mapping[str, Any] | None = None,
+    known: Callable[[str, list[LevelResult], list[Any]], tuple[list[LevelResult], list[Any]]] | None = None,
 ) -> TriaxialAnalysis:
     """Reduce each DUT axis of a record with a triaxial reference (the module docstring).
 
@@ -208,6 +266,11 @@ def analyze_triaxial(
         One to three DUT axes, named by the axis of the reference they are reduced against.
     method, schedule, band_hz, settle_s, block_size, rail_g, fit_k4, accept, progress, provenance
         As :func:`vrelab.analysis.analyze_full`.
+    known : callable, optional
+        ``known(axis, levels, warnings) -> (levels, warnings)``: what the caller knows better
+        than the record shows, applied to each axis's reduced levels before the level and the
+        fits (a simulation's saturation counts and a sine lattice's error,
+        :func:`vrelab.triaxial.simulate.simulate_triaxial`).
     """
     from vrelab.analysis.reduction import analyze_full, default_band
     from vrelab.analysis.segmentation import auto_segment, window_pass
@@ -234,48 +297,97 @@ def analyze_triaxial(
     if schedule is None and getattr(record, "schedule", None) is None:
         stats0 = window_pass(_PairView(record, first, refs[dom]), band, WINDOW_S, int(block_size), rail_g, progress)
         schedule, _ = auto_segment(stats0)
-    channels: list[tuple[str, VreResult, Any]] = []
+
+    def reduce_pair(dut: str, r: int, acc: Sequence[str]) -> tuple[VreResult, Any]:
+        return analyze_full(_PairView(record, dut, refs[r]), method, schedule, band_hz=band, settle_s=settle_s,
+                            block_size=block_size, rail_g=rail_g, accept=acc, progress=progress,
+                            provenance=provenance)
+
     level_axis: dict[str, str] = {}
-    reduced: list[tuple[str, VreResult, Any, int]] = []
+    reduced: list[tuple[str, VreResult, Any, list[LevelResult], list[Any], int]] = []
     for axis in AXES:
         if axis not in duts:
             continue
         j = AXES.index(axis)
         r = j if rms[j] >= STILL_FRACTION * rms[dom] else dom
         acc = list(accept)
-        notes: list[str] = []
+        notes: list[Any] = []
         if r != j:
             acc = sorted(set(acc) | {"unit-ratio"})
             notes.append(Notice("triaxial", f"reference axis {axis} is still ({rms[j]:.3g} g rms against "
                                 f"{rms[dom]:.3g} g on {AXES[dom]}): levels read from reference {AXES[dom]}, "
                                 "the DUT/reference ratio check skipped (it would compare two axes)"))
-        view = _PairView(record, duts[axis], refs[r])
-        result, red = analyze_full(view, method, schedule, band_hz=band, settle_s=settle_s, block_size=block_size,
-                                   rail_g=rail_g, accept=acc, progress=progress, provenance=provenance)
-        reduced.append((axis, dataclasses.replace(result, warnings=result.warnings + tuple(notes)), red, r))
+        result, red = reduce_pair(duts[axis], r, acc)
+        levels, warnings = list(result.levels), list(result.warnings) + notes
+        if known is not None:
+            levels, warnings = known(axis, levels, warnings)
+        reduced.append((axis, result, red, levels, warnings, r))
         level_axis[axis] = AXES[r]
-    # the reference's levels: one cross-spectrum per level segment (every DUT axis has the same segments)
-    levels: dict[tuple[float, float], tuple[NDArray[np.float64], TriaxialLevel]] = {}
-    for _, _, red, _ in reduced:
-        for seg, lv in zip(red.level_segments, red.levels):
-            key = (seg.start_s, seg.end_s)
-            if key not in levels:
-                levels[key] = _reference_level(record, refs, seg, band, lv.freq_hz, block_size)
-    for axis, result, red, r in reduced:
+    # the level of each segment, one number for every axis: read from the most moving reference
+    # axis (a DUT axis reduced against it, or the first DUT once more against it), made total
+    # by the axes' in-band mean squares over the same windows (_band_power)
+    own = next((red for *_, red, _, _, r in reduced if r == dom), None)
+    if own is None:  # read for its levels only: the DUT's own checks ran against its own axis
+        _, own = reduce_pair(first, dom, sorted(set(accept) | {"unit-ratio", "channels"}))
+    dom_levels = {(seg.start_s, seg.end_s): lv for seg, lv in zip(own.level_segments, own.levels)}
+    levels_out: dict[tuple[float, float], TriaxialLevel] = {}
+    totals: dict[tuple[float, float], tuple[float, float | None]] = {}
+    for key, lv in dom_levels.items():
+        seg = next(s for s in own.level_segments if (s.start_s, s.end_s) == key)
+        ms, info = _reference_level(record, refs, seg, band, lv.freq_hz, block_size)
+        ratio = math.sqrt(float(ms.sum()) / float(ms[dom])) if ms[dom] > 0 else math.nan
+        total = lv.rms_g * ratio
+        u_total = None if lv.u_rms_g is None else lv.u_rms_g * ratio
+        share = np.sqrt(ms / ms.sum()) if ms.sum() > 0 else np.full(3, math.nan)
+        totals[key] = (total, u_total)
+        levels_out[key] = dataclasses.replace(info, rms_g=total, u_rms_g=u_total,
+                                              axis_rms_g=(*map(float, total * share),))  # type: ignore[arg-type]
+    channels: list[tuple[str, VreResult, Any]] = []
+    for axis, result, red, levels, warnings, _ in reduced:
         new: list[LevelResult] = []
-        for seg, lv in zip(red.level_segments, red.levels):
-            ms, _ = levels[(seg.start_s, seg.end_s)]
-            ratio = math.sqrt(float(ms.sum()) / float(ms[r])) if ms[r] > 0 else math.nan
-            new.append(dataclasses.replace(lv, rms_g=lv.rms_g * ratio,
-                                           u_rms_g=None if lv.u_rms_g is None else lv.u_rms_g * ratio))
+        few = 0
+        for seg, t_s, lv in zip(red.level_segments, red.level_times_s, levels):
+            total, u_total = totals.get((seg.start_s, seg.end_s), (math.nan, None))
+            flags = lv.flags
+            if red.method == "random" and "few-windows" not in flags and _few_windows(red, seg, t_s, lv.vre.u):
+                flags, few = flags + ("few-windows",), few + 1
+            new.append(dataclasses.replace(lv, rms_g=total, u_rms_g=u_total, flags=flags))
         nominal = [seg.freq_hz for seg in red.level_segments]
         fits, w = fit_levels(new, red.method, None, fit_k4=fit_k4, nominal_freqs_hz=nominal)
-        note = Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
-                      "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")
+        notes = [Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
+                        "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")]
+        if few:
+            notes.append(Notice("few-windows", f"{few} level(s) (or a bracketing baseline that weighs in their u) "
+                                f"hold fewer than {BATCH_WINDOWS} averaging windows after the settling trims (flagged "
+                                "'few-windows'): their u rests on a few windows' "
+                                "scatter, with few degrees of freedom (see dof), and ±u, ±2u do not cover 68 %, "
+                                "95 %: use U = t(dof)·u, or record longer levels"))
         extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
-                 "level_axis": AXES[r]}
+                 "level_axis": AXES[dom], "reduced_against": level_axis[axis]}
         cond = dataclasses.replace(result.conditions, extra=extra)
         channels.append((axis, dataclasses.replace(result, levels=tuple(new), fits=tuple(fits), conditions=cond,
-                                                   warnings=result.warnings + tuple(w) + (note,)), red))
-    return TriaxialAnalysis(tuple(channels), tuple(lv for _, lv in levels.values()), dict(reference), AXES[dom],
-                            level_axis)
+                                                   warnings=tuple(warnings) + tuple(w) + tuple(notes)), red))
+    return TriaxialAnalysis(tuple(channels), tuple(levels_out.values()), dict(reference), AXES[dom], level_axis)
+
+
+def _few_windows(red: Any, seg: Segment, t_s: float, u_vre: float) -> bool:
+    """Whether a random level's VRE u rests on a few windows' scatter: the level holds fewer
+    than BATCH_WINDOWS interior windows (those whose smoothing kernel stays inside it), or a
+    bracketing baseline does and its share of u (its interpolation weight times its u, as
+    :func:`vrelab.analysis.reduction.bracket`) is over 0.3·u (a tenth of the variance)."""
+    from vrelab.analysis.segmentation import SMOOTH_WINDOWS, segment_windows
+
+    def interior(s: Segment) -> int:
+        k0, k1 = segment_windows(red.stats, s)
+        return k1 - k0 - 2 * (SMOOTH_WINDOWS // 2)
+
+    if interior(seg) < BATCH_WINDOWS:
+        return True
+    before = [b for b in red.baselines if b.t_s <= t_s][-1:]
+    after = [b for b in red.baselines if b.t_s > t_s][:1]
+    if before and after:
+        lam = (t_s - before[0].t_s) / (after[0].t_s - before[0].t_s)
+        shares = [(before[0], 1.0 - lam), (after[0], lam)]
+    else:
+        shares = [(b, 1.0) for b in before + after]
+    return any(interior(b.segment) < BATCH_WINDOWS and not weight * b.u_g <= 0.3 * u_vre for b, weight in shares)

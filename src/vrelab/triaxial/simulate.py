@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
-from vrelab.results import LevelResult, Method, Notice, VreResult
+from vrelab.results import LevelResult, Method, VreResult
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
@@ -184,8 +184,8 @@ class TriaxialTest:
     ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
     the axis's output against its interpolated vibration-off readings, SPEC 4) with the
     reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
-    reference (:data:`LEVEL_TEXT`). No fits: the single-axis fits (VRC, effective rail) assume
-    the axis sees the whole level along itself.
+    reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.triaxial.analyze.analyze_triaxial`
+    gives them for the record (its VRC fit against the total rms; no rail fit).
     """
 
     method: Method
@@ -271,12 +271,13 @@ def simulate_triaxial(
     by a baseline; the plan is made for the first axis, and its rates serve every axis); the
     drive is :func:`vrelab.triaxial.synthesis.triaxial_random_blocks` of the profile scaled to
     each level (a sine: the plan's drive frequency and phase along the sine's direction); each
-    axis sees ``static_g + drive`` through :func:`vrelab.triaxial.chain.triaxial_chain`. Each
-    axis's record is reduced by :func:`vrelab.analysis.reduce` against the reference of the
-    axis that moves most, its saturation flags taken from the simulation's counts and a sine's
-    lattice error added to u, as :func:`vrelab.shaker.run_test` does; the level is then the
-    total rms of the three reference channels, each reduced alone
-    (``u`` of the total: the axes' u summed linearly, the bound for correlated estimates).
+    axis sees ``static_g + drive`` through :func:`vrelab.triaxial.chain.triaxial_chain`. The
+    record is reduced from the file by :func:`vrelab.triaxial.analyze.analyze_triaxial` (what
+    ``vrelab analyze FILE --triaxial --band F1:F2`` gives for it, ``conditions.extra.band_hz``
+    the band: the profile's widened an octave, as :func:`vrelab.shaker.run_test` does), its
+    saturation flags taken from the simulation's counts and a sine's lattice error added to u,
+    as the single-axis test does; the level is the total rms of the triaxial reference (that
+    function's rule).
     """
     import tempfile
 
@@ -303,13 +304,11 @@ def simulate_triaxial(
     if isinstance(exc, TriaxialSine):
         method = "sine"
         plan = TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds, **common)
-        direction_ref = np.asarray(exc.direction)
         band_profile = None
     else:
         method = "random"
         proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
         plan = TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common)
-        direction_ref = np.sqrt(exc.axis_mean_square_g2)
         band_profile = proxy
     base = plan.record()
     rates, segs = base.rates, base._segments
@@ -318,7 +317,6 @@ def simulate_triaxial(
     if abs(fs_out * rates.decimation - rates.fs_internal_hz) > 1e-9 * rates.fs_internal_hz:
         raise ValueError(f"the DUT axes' output rate {fs_out:g} Hz does not divide the internal rate "
                          f"{rates.fs_internal_hz:g} Hz of the plan")
-    ref_axis = AXES[int(np.argmax(np.abs(direction_ref)))]
     meta = dict(base.meta)
     meta["triaxial"] = {"excitation": exc.to_dict(), "static_vector_g": g.tolist(), "axes": list(axes),
                         "level": LEVEL_TEXT, "reference_channels": [f"reference_{a}" for a in AXES],
@@ -336,19 +334,19 @@ def simulate_triaxial(
         else:
             band = shaker._sine_band(base)
         assert plan.settle_s is not None
-        results = _reduce_axes(path, axes, counts, ref_axis, direction_ref, method, band, plan.settle_s, progress)
+        analysis = _reduce_axes(path, axes, counts, method, band, plan.settle_s, progress)
     conditions = {"sensor": first.name, "axes": list(axes), "static_vector_g": g.tolist(),
                   "excitation": exc.describe(), "level": LEVEL_TEXT, **base.meta["simulation"]}
     out = {}
-    for a, (levels, warnings) in results.items():
+    for a, result, _ in analysis.channels:
         s = axes[a]
         cond = shaker._conditions(s, exc.describe(), float(s.sensitivity_row @ g),
                                   {**base.meta["simulation"], "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
-                                   "triaxial": True, "excitation": exc.to_dict()})
-        warnings.append(Notice("triaxial-no-fit", "no fit: the single-axis fits (VRC, effective rail) assume the "
-                               "axis sees the whole level along itself; a triaxial axis does not"))
-        out[a] = VreResult(method=method, conditions=cond, levels=tuple(levels), fits=(), warnings=tuple(warnings),
-                           provenance=shaker._provenance("vrelab.triaxial.simulate_triaxial", s), kind="simulation")
+                                   "triaxial": True, "excitation": exc.to_dict(),
+                                   "band_hz": result.conditions.extra.get("band_hz"),
+                                   "settle_s": plan.settle_s})
+        out[a] = dataclasses.replace(result, conditions=cond, kind="simulation",
+                                     provenance=shaker._provenance("vrelab.triaxial.simulate_triaxial", s))
     return TriaxialTest(method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out, conditions,
                         None if record_path is None else str(record_path))
 
@@ -408,49 +406,26 @@ def _reduce_axes(
     path: Path,
     axes: Mapping[str, Any],
     counts: Mapping[str, _Counts],
-    ref_axis: str,
-    direction_ref: FloatArray,
     method: Method,
     band: tuple[float, float] | None,
     settle_s: float,
     progress: bool,
-) -> dict[str, tuple[list[LevelResult], list[Any]]]:
-    """Each DUT axis reduced from the file (as vrelab.shaker does), its levels' rms the total."""
+) -> Any:
+    """The record reduced from the file by :func:`vrelab.triaxial.analyze.analyze_triaxial` (the
+    reduction ``vrelab analyze FILE --triaxial`` runs: one owner of the VRE, its u and the total
+    level), with what the simulation knows better than the record shows: the saturation counts
+    and a sine lattice's error (as :func:`vrelab.shaker.run_test` does)."""
     from vrelab import shaker
-    from vrelab.analysis import reduce
     from vrelab.analysis.readers import open_record
     from vrelab.analysis.reduction import ACCEPTABLE
+    from vrelab.triaxial.analyze import analyze_triaxial
 
-    def reduced(dut: str, ref: str) -> Any:
-        with open_record(path, dut=dut, reference=ref) as rec:
-            return reduce(rec, schedule=rec.schedule, method=method, band_hz=band, settle_s=settle_s,
-                          progress=progress, accept=ACCEPTABLE)
+    def known(axis: str, levels: list[LevelResult], warnings: list[Any]) -> tuple[list[LevelResult], list[Any]]:
+        levels, warnings = shaker._with_simulated_saturation(counts[axis], levels, warnings)  # type: ignore[arg-type]
+        return shaker._with_lattice_u(counts[axis], levels), warnings  # type: ignore[arg-type]
 
-    # each DUT axis against the reference of the axis that moves most; the level: each moving
-    # reference channel's rms (a reduction against it, with the first axis as its DUT)
-    duts = {a: reduced(f"dut_{a}", f"reference_{ref_axis}") for a in axes}
-    first = next(iter(axes))
-    rms2: list[float] | None = None
-    urms: list[float] | None = None
-    for j, c in enumerate(AXES):
-        if direction_ref[j] == 0:
-            continue
-        red = duts[first] if c == ref_axis else reduced(f"dut_{first}", f"reference_{c}")
-        r = [lv.rms_g for lv in red.levels]
-        u = [lv.u_rms_g if lv.u_rms_g is not None else math.nan for lv in red.levels]
-        rms2 = [x * x for x in r] if rms2 is None else [a + x * x for a, x in zip(rms2, r)]
-        urms = [x * ux for x, ux in zip(r, u)] if urms is None else [a + x * ux for a, x, ux in zip(urms, r, u)]
-    assert rms2 is not None and urms is not None
-    total = [math.sqrt(x) for x in rms2]
-    u_total = [a / t if t > 0 else math.nan for a, t in zip(urms, total)]
-
-    out: dict[str, tuple[list[LevelResult], list[Any]]] = {}
-    for a in axes:
-        red = duts[a]
-        levels, warnings = shaker._with_simulated_saturation(counts[a], list(red.levels), list(red.warnings))  # type: ignore[arg-type]
-        levels = shaker._with_lattice_u(counts[a], levels)  # type: ignore[arg-type]
-        if len(levels) != len(total):
-            raise ValueError(f"axis {a}: {len(levels)} levels reduced, {len(total)} in the reference")
-        levels = [dataclasses.replace(lv, rms_g=t, u_rms_g=u) for lv, t, u in zip(levels, total, u_total)]
-        out[a] = (levels, warnings)
-    return out
+    names = {**{a: f"dut_{a}" for a in axes}, **{f"reference-{c}": f"reference_{c}" for c in AXES}}
+    with open_record(path, names, None) as rec:
+        return analyze_triaxial(rec, {c: f"dut:reference-{c}" for c in AXES}, {a: f"dut:{a}" for a in axes},
+                                method, rec.schedule, band, settle_s, accept=ACCEPTABLE, progress=progress,
+                                known=known)
