@@ -50,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -484,6 +484,30 @@ def predict(
     notes.append(f"VRE referred to the {REFERENCE} ({off:.9g} g): mean output with vibration less that reading"
                  + (f"; {off_note}" if off_note else ""))
     return Prediction(cond, tuple(out), tuple(notes), vibration_off_g=off)
+
+
+def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
+                     shape: Literal["gaussian", "sine"] = "gaussian", kind: ClipKind = DEFAULT_CLIP_KIND,
+                     each_rail: bool = True) -> tuple[LevelPrediction, float]:
+    """One level of a chain of memoryless stages (no linear stage: every stage sees the same
+    vibration, rms ``rms_g``, Gaussian or a sine), each stage's own mean shift summed as
+    :func:`predict` sums them; and the vibration-off reading (SPEC 1.5) the VRE is referred to.
+
+    What the sweep's ``model`` points evaluate (a polynomial, an offset and rails: one exact
+    memoryless map). ``each_rail`` False skips each rail alone (``clip_low_g``/``clip_high_g``
+    then 0). The level carries ``vre_g``, its shares, ``tilt_error_deg``, ``valid`` and notes,
+    without the prediction's conditions.
+    """
+    g0 = V.finite_scalar("static_g", static_g)
+    rms = float(V.non_negative("rms_g", rms_g))
+    V.one_of("shape", shape, ("gaussian", "sine"))
+    V.one_of("kind", kind, KINDS)
+    reading = _read_stages(stages, g0)
+    if reading.output:
+        raise ValueError("memoryless_level takes memoryless stages; a chain with linear stages needs predict")
+    motions = [Motion(rms, math.nan)] * len(reading.sites)
+    lv = _level(reading, rms, None, g0, kind, shape, motions, rms, rms, each_rail)
+    return lv, reading.vibration_off_g
 
 
 # The approximation's error is judged against the level's u or this share of |VRE| (or 1 µg),
