@@ -366,8 +366,14 @@ def predict(
       reaches the threshold trips every period: not modelled (``valid`` False). Where the
       over-range share is large against the others the Rice×hold estimate is rough and the
       level is not valid, for random and sine-on-random alike.
-    * noise, quantisation, decimation, drift: no mean shift. A stage with no closed form makes
-      every level invalid, naming it.
+    * noise, quantisation, decimation, drift: no mean shift (each says why: ``zero_mean_shift``).
+      A memoryless stage with no closed form: the mean of its map by quadrature
+      (:func:`vrelab.models.memoryless.map_vre`, share ``numerical_g``, its error in
+      ``model_error_g``), valid only as the chain's one nonlinearity. A stage with memory and no
+      closed form makes every level invalid, naming it.
+
+    Each stage owns its closed form (``mean_shift``, :mod:`vrelab.sensor.meanshift`); this
+    function computes the vibration at each stage's site and sums what the stages say.
 
     References
     ----------

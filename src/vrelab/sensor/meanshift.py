@@ -155,6 +155,11 @@ def gain_max(responses: Sequence[Response]) -> float:
     return float(max(1.0, h.max()))
 
 
+def _name(stage: Any) -> str:
+    """A stage's class name (a :class:`Numerical` fallback: its stage's)."""
+    return stage.name if isinstance(stage, Numerical) else type(stage).__name__
+
+
 def memoryless_map(stage: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     """A memoryless stage's map ``y = f(x)``, from its ``process`` (fresh state, rate 1 Hz: a
     memoryless stage keeps no signal state and does not depend on the rate)."""
@@ -191,7 +196,7 @@ class Numerical:
         value, err = map_vre(self._map, site.vibration_off_g, mo.sigma_g, shape=site.shape,
                              tone_peaks_g=mo.tone_peaks_g)
         notes: tuple[str, ...] = ()
-        others = [type(d.stage).__name__ for d in site.before] + [type(s).__name__ for s, _ in site.after]
+        others = [_name(d.stage) for d in site.before] + [_name(s) for s, _ in site.after]
         if others:
             notes = (f"stage {self.name} has no closed form: its mean by quadrature of its memoryless map, "
                      f"alone; {', '.join(others)} and it see each other's non-Gaussian output as Gaussian — simulate",)
