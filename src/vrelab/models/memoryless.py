@@ -310,14 +310,16 @@ def _rail_part(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: f
     return float(_gaussian(p, only_rails, low, high, np.array([g0]), rms, ref)[0][0])
 
 
-def _nodes(rms: float, shape: Shape, peaks: Sequence[float]) -> NDArray[np.float64]:
-    """Quadrature nodes (x, w) of the vibration's distribution: Gauss-Hermite (exact for
-    polynomials of degree <= 47 in x), 32 equally spaced phases for a sine (exact for degree
-    <= 31), their product with the tones' phase grid for sine-on-random."""
+def _nodes(rms: float, shape: Shape, peaks: Sequence[float], n_gauss: int = 24, n_sine: int = 32) -> NDArray[np.float64]:
+    """Quadrature nodes (x, w) of the vibration's distribution: Gauss-Hermite on ``n_gauss``
+    nodes (exact for polynomials of degree < 2·n_gauss in x: 47 by default), ``n_sine`` equally
+    spaced phases for a sine (exact for degree < n_sine), their product with the tones' phase
+    grid for sine-on-random."""
     if shape == "sine":
-        th = 2.0 * np.pi * np.arange(32) / 32
-        return np.stack([rms * math.sqrt(2.0) * np.cos(th), np.full(32, 1.0 / 32)])
-    x, w = rms * _GH_X, _GH_W
+        th = 2.0 * np.pi * np.arange(n_sine) / n_sine
+        return np.stack([rms * math.sqrt(2.0) * np.cos(th), np.full(n_sine, 1.0 / n_sine)])
+    z, w = (_GH_X, _GH_W) if n_gauss == _GH_X.size else _hermite_nodes(n_gauss)
+    x = rms * z
     if peaks:
         from vrelab.models.tones import phase_grid
 
@@ -438,30 +440,22 @@ def map_vre(f: Callable[[NDArray[np.float64]], NDArray[np.float64]], static_g: f
         return np.asarray(f(np.asarray(x, dtype=np.float64)), dtype=np.float64)
 
     ref = float(values(np.array([g0]))[0])
-    if shape == "sine":
-        amp = rms * math.sqrt(2.0)
 
-        def mean(n: int) -> float:
-            return float(np.mean(values(g0 + amp * np.cos(2.0 * np.pi * np.arange(n) / n))))
-    else:
-        if peaks:
-            from vrelab.models.tones import phase_grid
-
-            tones = phase_grid(peaks, rms).sum_of(peaks)
-        else:
-            tones = np.zeros(1)
-
-        def mean(n: int) -> float:
-            z, w = _hermite_nodes(n)
-            return float(w @ np.mean(values(g0 + rms * z[:, None] + tones[None, :]).reshape(n, -1), axis=1))
+    def mean(n: int) -> float:
+        x, w = _nodes(rms, shape, peaks, n_gauss=n, n_sine=n)
+        return float(w @ values(g0 + x))
 
     coarse, fine = mean(_MAP_NODES) - ref, mean(2 * _MAP_NODES) - ref
     if abs(fine - coarse) <= _MAP_ATOL + _MAP_RTOL * abs(fine):
         return fine, abs(fine - coarse)
     if shape == "sine":
+        amp = rms * math.sqrt(2.0)
         value, err = integrate.quad(lambda t: float(values(np.array([g0 + amp * math.cos(t)]))[0]) / math.pi,
                                     0.0, math.pi, epsabs=_MAP_ATOL, epsrel=_MAP_RTOL, limit=500)
     else:
+        from vrelab.models.tones import phase_grid
+
+        tones = phase_grid(peaks, rms).sum_of(peaks) if peaks else np.zeros(1)
         value, err = integrate.quad_vec(
             lambda z: math.exp(-0.5 * z * z) / _SQRT2PI * float(np.mean(values(g0 + rms * z + tones))),
             -math.inf, math.inf, epsabs=_MAP_ATOL, epsrel=_MAP_RTOL, limit=500)
