@@ -1,9 +1,10 @@
 """Analytic VRE of a sensor in a vibration environment, without simulating it.
 
 The sensor is read through :meth:`vrelab.sensor.Sensor.stages`, the same tuple of stages the
-simulation runs, walked in signal order: each stage that has a closed form gives it (its
-``analytic`` tag), fed the vibration that reaches it through the linear stages before it and
-the static level the offsets before it leave (SPEC 1.3):
+simulation runs, walked in signal order: each stage that changes the mean gives its own change
+(its ``mean_shift``, :mod:`vrelab.sensor.meanshift`), fed the vibration that reaches it through
+the linear stages before it and the static level the offsets before it leave (SPEC 1.3), and
+predict sums what they say:
 
 * **nonlinearity** (:class:`~vrelab.sensor.stages.Polynomial`) on the proof-mass motion:
   ``E[P(g0 + x)] - P(g0)`` (SPEC 1.2), exact for any polynomial and any zero-mean vibration;
@@ -21,8 +22,10 @@ the static level the offsets before it leave (SPEC 1.3):
   replacing motion whose mean is not g0 but :func:`vrelab.models.design.overrange_held_mean_g`
   (Rice's conditioning on the crossing), read through the rails after the holds (what those
   stretches would have read: the censored mean of a Gaussian of that mean and the rails' rms);
-* noise, quantisation, decimation and drift shift no mean; a stage with no closed form makes
-  the prediction say so (``valid`` False).
+* noise, quantisation, decimation and drift shift no mean (their ``zero_mean_shift``); a
+  memoryless stage with no closed form gets the mean of its map by quadrature
+  (:func:`vrelab.models.memoryless.map_vre`, valid only as the one nonlinearity of the chain);
+  a stage with memory and no closed form makes the prediction say so (``valid`` False).
 
 Shares: each stage's change of the mean, in signal order, referred to the vibration-off
 reading (``nonlinearity_g``, then what the rails add, ``clip_g``, and the holds,
@@ -47,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,6 +63,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.results import Conditions
+from vrelab.sensor.meanshift import NUMERICAL_SHARE, SHARES, VRE_SHARES, Done, Drive, Motion, Response, Site
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -67,9 +71,6 @@ if TYPE_CHECKING:
 
 # Shares below this fraction of the largest one are "negligible" in the validity notes.
 _MINOR = 0.1
-# The over-range model counts independent holds: beyond this fraction of time held, holds
-# overlap and the output no longer returns to the vibration between them.
-_MAX_HOLD_DUTY = 0.05
 
 
 @dataclass(frozen=True)
@@ -162,102 +163,75 @@ class Prediction:
 # --- the sensor, read as its stages -------------------------------------------------------------
 
 
-Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
-# What each stage's ``analytic`` tag makes of it (vrelab.sensor.stages.StageBase.analytic).
-_NONLINEAR = ("polynomial", "overrange", "clip")
-_NEUTRAL_WHY = {
-    "Noise": "zero-mean noise",
-    "Quantize": "rounding to the LSB (mean error 0 for vibration spanning many LSB)",
-    "Decimate": "decimation (keeps the mean)",
-    "Drift": "a slow drift (bracketing removes it from a measured VRE)",
-}
-
-
-@dataclass(frozen=True)
-class _Motion:
-    """The vibration reaching one site: Gaussian (``sigma_g``, Rice's ``nu0_hz``), a sine
-    (``sigma_g`` its rms, ``nu0_hz`` its frequency), or Gaussian plus tones (``tone_peaks_g``
-    [g peak] at ``tone_freqs_hz``, as seen there)."""
-
-    sigma_g: float
-    nu0_hz: float
-    tone_peaks_g: tuple[float, ...] = ()
-    tone_freqs_hz: tuple[float, ...] = ()
-    # at an over-range site (random part): ρ̄ over the hold and 1 - ρ(hold), ρ the motion's
-    # correlation (:func:`vrelab.models.design.overrange_held_mean_g`); NaN elsewhere
-    rho_mean: float = math.nan
-    one_minus_rho_hold: float = math.nan
-
-    @property
-    def rms_g(self) -> float:
-        """Total rms [g]: the Gaussian (or sine) part with the tones' Σ A²/2."""
-        return math.sqrt(self.sigma_g**2 + sum(a * a for a in self.tone_peaks_g) / 2.0)
-
-
 @dataclass(frozen=True)
 class _Site:
-    """A stage with a closed-form mean shift, and what reaches it."""
+    """A stage with a mean shift (its own ``mean_shift``, or the numerical fallback), and what
+    reaches it: the linear stages before it, the offsets added before it, and the static level
+    reaching it with no vibration."""
 
     stage: Any
     responses: tuple[Response, ...]  # the linear stages before it
     offset_g: float  # offsets added before it
+    vibration_off_g: float  # the static level reaching it with no vibration
 
 
 @dataclass(frozen=True)
 class _Reading:
-    """A sensor's stages, read once for the analytic model."""
+    """A sensor's stages, read once for the analytic model at one static field."""
 
     sites: tuple[_Site, ...]
     proof_mass: tuple[Response, ...]  # the mechanical responses (resonance)
     output: tuple[Response, ...]  # every linear response
-    unmodelled: tuple[str, ...]  # stages without a closed form
-    offset_g: float = 0.0  # every offset of the chain
+    unmodelled: tuple[str, ...]  # stages with memory that say nothing of their mean
+    numerical: tuple[str, ...]  # memoryless stages without a closed form (quadrature)
+    vibration_off_g: float  # the reading with no vibration (SPEC 1.5)
+    reference_note: str | None  # where the rails clip that reading
 
 
-def _read_stages(stages: Sequence[Any]) -> _Reading:
-    """Walk the stages in order, as the signal goes (SPEC 1.3): a linear stage shapes what every
-    later stage sees, an offset moves the static level of every later stage, and a stage with a
-    closed-form mean shift becomes a site evaluated with the vibration that reaches it."""
+def _read_stages(stages: Sequence[Any], g0: float) -> _Reading:
+    """Walk the stages in order, as the signal goes (SPEC 1.3), asking each what it does
+    (:mod:`vrelab.sensor.meanshift`): a linear stage (``response``) shapes what every later
+    stage sees, an offset (``static_shift_g``) moves the static level of every later stage, a
+    stage with a ``mean_shift`` becomes a site evaluated with the vibration that reaches it,
+    ``zero_mean_shift`` shifts nothing; a memoryless stage that says none of these gets the
+    numerical fallback (:class:`vrelab.sensor.meanshift.Numerical`). The static level ``g0`` is
+    walked through the stages too (their ``vibration_off``; the linear stages pass it): the
+    vibration-off reading every VRE is referred to, and the level reaching each site."""
+    from vrelab.sensor.meanshift import Numerical
     from vrelab.sensor.stages import Resonator
 
     responses: list[Response] = []
     mechanical: list[Response] = []
     offset = 0.0
+    level, note = g0, None
     sites: list[_Site] = []
     unmodelled: list[str] = []
+    numerical: list[str] = []
     for st in stages:
-        tag = getattr(st, "analytic", None)
-        if tag == "linear":
+        if hasattr(st, "response"):
             responses.append(st.response)
             if isinstance(st, Resonator):
                 mechanical.append(st.response)
-        elif tag == "offset":
-            offset += float(st.offset_g)
-        elif tag in _NONLINEAR:
-            sites.append(_Site(st, tuple(responses), offset))
-        elif tag != "neutral":
-            unmodelled.append(type(st).__name__)
-    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled), offset)
-
-
-def _vibration_off(reading: _Reading, g0: float) -> tuple[float, str | None]:
-    """The reading with no vibration (SPEC 1.5: what every VRE is referred to), the static level
-    walked through the sites in order (the polynomial, the rails by
-    :func:`vrelab.models.memoryless.vibration_off_reading`, the offsets; the linear stages pass
-    a static level unchanged), and the note where the rails clip it (None otherwise)."""
-    from vrelab.models import memoryless
-
-    level, added, note = g0, 0.0, None
-    for site in reading.sites:
-        st = site.stage
-        level, added = level + (site.offset_g - added), site.offset_g
-        if st.analytic == "polynomial":
-            level = memoryless.vibration_off_reading(level, st.k2_per_g, st.k3_per_g2, st.k4_per_g3)
-        elif st.analytic == "clip":
-            low, high = float(st.low_g), float(st.high_g)
-            note = note or memoryless.reference_note(level, rail_low_g=low, rail_high_g=high)
-            level = memoryless.vibration_off_reading(level, rail_low_g=low, rail_high_g=high)
-    return level + (reading.offset_g - added), note
+            continue
+        shift = getattr(st, "static_shift_g", None)
+        if shift is not None:
+            offset += float(shift)
+            level = level + float(shift)
+            continue
+        if getattr(st, "zero_mean_shift", None):
+            continue
+        if not hasattr(st, "mean_shift"):
+            if not (getattr(st, "is_static", False) and getattr(st, "rate_factor", 1) == 1):
+                unmodelled.append(type(st).__name__)
+                continue
+            numerical.append(type(st).__name__)
+            st = Numerical(st)
+        sites.append(_Site(st, tuple(responses), offset, level))
+        if hasattr(st, "vibration_off"):
+            level, why = st.vibration_off(level)
+            note = note or why
+    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled), tuple(numerical),
+                    level, note)
 
 
 def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
@@ -298,6 +272,12 @@ def _hold_correlation(profile: RandomProfile, responses: Sequence[Response], poi
     one_minus_mean, _ = _spectral(profile, [*responses, w_mean], points_hz, rate=False)
     one_minus_end, _ = _spectral(profile, [*responses, w_end], points_hz, rate=False)
     return 1.0 - one_minus_mean / m0, one_minus_end / m0
+
+
+def _needs_rate(site: _Site) -> bool:
+    """Whether the stage at ``site`` needs Rice's crossing rate and the motion's correlation over
+    its hold (over-range protection says so)."""
+    return bool(getattr(site.stage, "needs_crossing_rate", False))
 
 
 def _clip_where(sensor: Any) -> str:
@@ -386,8 +366,14 @@ def predict(
       reaches the threshold trips every period: not modelled (``valid`` False). Where the
       over-range share is large against the others the Rice×hold estimate is rough and the
       level is not valid, for random and sine-on-random alike.
-    * noise, quantisation, decimation, drift: no mean shift. A stage with no closed form makes
-      every level invalid, naming it.
+    * noise, quantisation, decimation, drift: no mean shift (each says why: ``zero_mean_shift``).
+      A memoryless stage with no closed form: the mean of its map by quadrature
+      (:func:`vrelab.models.memoryless.map_vre`, share ``numerical_g``, its error in
+      ``model_error_g``), valid only as the chain's one nonlinearity. A stage with memory and no
+      closed form makes every level invalid, naming it.
+
+    Each stage owns its closed form (``mean_shift``, :mod:`vrelab.sensor.meanshift`); this
+    function computes the vibration at each stage's site and sums what the stages say.
 
     References
     ----------
@@ -400,7 +386,7 @@ def predict(
         raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
-    reading = _read_stages(sensor.stages())
+    reading = _read_stages(sensor.stages(), g0)
     clip_where = _clip_where(sensor)
     notes: list[str] = []
     out: list[LevelPrediction] = []
@@ -410,16 +396,16 @@ def predict(
         m0_drive = excitation.mean_square_g2
         # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
         # only the over-range site uses Rice's crossing rate
-        seen = [_spectral(excitation, site.responses, points, rate=site.stage.analytic == "overrange")
+        seen = [_spectral(excitation, site.responses, points, rate=_needs_rate(site))
                 for site in reading.sites]
         rho = [_hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
-               if site.stage.analytic == "overrange" else (math.nan, math.nan)
+               if _needs_rate(site) else (math.nan, math.nan)
                for site, (m0, _) in zip(reading.sites, seen)]
         m0_m, _ = _spectral(excitation, reading.proof_mass, points, rate=False)
         m0_out, _ = _spectral(excitation, reading.output, points, rate=False)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
-            sites = [_Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
+            sites = [Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
                      for (m0, nu0), r in zip(seen, rho)]
             out.append(_level(reading, float(rms), None, g0, kind, "gaussian", sites,
                               math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
@@ -434,20 +420,20 @@ def predict(
                 for site in reading.sites]
         # the held stretches' mean from the random part's correlation (the tones left out of it)
         rho = [_hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
-               if site.stage.analytic == "overrange" else (math.nan, math.nan)
+               if _needs_rate(site) else (math.nan, math.nan)
                for site, ((m0, _), _) in zip(reading.sites, seen_tones)]
         m0_m, _ = _spectral(rand, reading.proof_mass, points)
         m0_out, _ = _spectral(rand, reading.output, points)
         gain_m = [_gain(f, reading.proof_mass) for f in freqs]
         gain_out = [_gain(f, reading.output) for f in freqs]
-        motions: list[_Motion] = []
+        motions: list[Motion] = []
         for rms in levels_arr:
             r = float(rms) / excitation.grms  # the scaling rule: PSD × r², tones × r
 
             def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
-                       ) -> _Motion:
+                       ) -> Motion:
                 # noqa below: motion() is called within this iteration only, so r is the current level's
-                return _Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
+                return Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
                                *rh)
 
             sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen_tones, rho)]
@@ -473,7 +459,7 @@ def predict(
         for f in sine_hz:
             f = float(f)
             for rms in levels_arr:
-                sites = [_Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
+                sites = [Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
                 out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
                                   float(rms_through(f, float(rms), list(reading.proof_mass))),
                                   float(rms_through(f, float(rms), list(reading.output)))))
@@ -484,6 +470,9 @@ def predict(
                  "of the mean each stage makes, in signal order, summing to vre_g")
     if reading.unmodelled:
         notes.append(f"no closed form for stage(s) {', '.join(reading.unmodelled)}: simulate")
+    if reading.numerical:
+        notes.append(f"stage(s) {', '.join(reading.numerical)} without a closed form: the mean of their memoryless "
+                     "map by quadrature (vrelab.models.memoryless.map_vre), its error in model_error_g")
     base = sensor.conditions(static_g=g0, profile=text, model=f"prediction-{kind}")
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
     if getattr(sensor, "covariance", None) or getattr(sensor, "uncertainty", None):
@@ -497,10 +486,34 @@ def predict(
     why = tilt_note(0.0, g0)[1]
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
-    off, off_note = _vibration_off(reading, g0)
+    off, off_note = reading.vibration_off_g, reading.reference_note
     notes.append(f"VRE referred to the {REFERENCE} ({off:.9g} g): mean output with vibration less that reading"
                  + (f"; {off_note}" if off_note else ""))
     return Prediction(cond, tuple(out), tuple(notes), vibration_off_g=off)
+
+
+def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
+                     shape: Literal["gaussian", "sine"] = "gaussian", kind: ClipKind = DEFAULT_CLIP_KIND,
+                     each_rail: bool = True) -> tuple[LevelPrediction, float]:
+    """One level of a chain of memoryless stages (no linear stage: every stage sees the same
+    vibration, rms ``rms_g``, Gaussian or a sine), each stage's own mean shift summed as
+    :func:`predict` sums them; and the vibration-off reading (SPEC 1.5) the VRE is referred to.
+
+    What the sweep's ``model`` points evaluate (a polynomial, an offset and rails: one exact
+    memoryless map). ``each_rail`` False skips each rail alone (``clip_low_g``/``clip_high_g``
+    then 0). The level carries ``vre_g``, its shares, ``tilt_error_deg``, ``valid`` and notes,
+    without the prediction's conditions.
+    """
+    g0 = V.finite_scalar("static_g", static_g)
+    rms = float(V.non_negative("rms_g", rms_g))
+    V.one_of("shape", shape, ("gaussian", "sine"))
+    V.one_of("kind", kind, KINDS)
+    reading = _read_stages(stages, g0)
+    if reading.output:
+        raise ValueError("memoryless_level takes memoryless stages; a chain with linear stages needs predict")
+    motions = [Motion(rms, math.nan)] * len(reading.sites)
+    lv = _level(reading, rms, None, g0, kind, shape, motions, rms, rms, each_rail)
+    return lv, reading.vibration_off_g
 
 
 # The approximation's error is judged against the level's u or this share of |VRE| (or 1 µg),
@@ -730,181 +743,58 @@ def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
         return math.nan, f"tilt error undefined: {err}"
 
 
-def _linear_gain_max(responses: Sequence[Response]) -> float:
-    """sup_f |H(f)| of the linear stages ``responses`` in series (1 for none), on a log grid
-    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band)."""
-    if not responses:
-        return 1.0
-    f = np.geomspace(1e-2, 1e7, 4001)
-    h = np.ones(f.size)
-    for r in responses:
-        h = h * np.abs(np.asarray(r(f)))
-    return float(max(1.0, h.max()))
-
-
 def _level(
     reading: _Reading,
     rms_g: float,
     freq_hz: float | None,
     g0: float,
     kind: ClipKind,
-    shape: Literal["gaussian", "sine", "sine-on-random"],
-    sites: Sequence[_Motion],
+    shape: Drive,
+    sites: Sequence[Motion],
     sigma_m: float,
     sigma_out: float,
+    each_rail: bool = True,
 ) -> LevelPrediction:
-    """One level: the stages walked in order, each share the change of the mean it makes.
+    """One level: the stages walked in order, each one's ``mean_shift`` at its site, summed.
 
     Breakdown (it telescopes to ``vre_g`` exactly): ``nonlinearity_g = E[P(g0 + x)] - P(g0)``
-    (the polynomial alone, exact); ``clip_g`` = what the rails add to the mean of what reaches
-    them (``E[clip(P(...))] - E[P(...)]`` less the same with no vibration), so where no filter
-    sits between the polynomial and the rails ``nonlinearity_g + clip_g`` is the exact mean of
-    the memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`; ``overrange_g`` the
-    change the holds make. ``clip_low_g``/``clip_high_g``: each rail alone on the same input.
-    ``model_error_g`` bounds what the remaining approximation (a filter between the
-    polynomial and the rails: the rails see a Gaussian with the polynomial's linear part, the
-    non-Gaussian rest bounded) may add; the over-range estimate is judged by its share.
+    (:meth:`vrelab.sensor.stages.Polynomial.mean_shift`, exact); ``clip_g`` what the rails
+    add to the mean of what reaches them (:meth:`vrelab.sensor.stages.Clip.mean_shift`), so
+    where no filter sits between the polynomial and the rails ``nonlinearity_g + clip_g`` is the
+    exact mean of the memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`;
+    ``overrange_g`` the change the holds make (:meth:`vrelab.sensor.overrange.OverRange.mean_shift`);
+    ``numerical_g`` (present only then) what stages without a closed form add by quadrature.
+    ``clip_low_g``/``clip_high_g``: each rail alone on the same input. ``model_error_g`` is the
+    sum of the stages' bounds; a stage whose estimate is rough when large (over-range) makes the
+    level invalid where its share is more than a tenth of the largest.
     """
-    from vrelab.models import design, memoryless
-
     notes: list[str] = []
     valid = not reading.unmodelled
-    clip_low = clip_high = clip = nonlin = over = rate = 0.0
-    bound = 0.0
+    totals = dict.fromkeys(SHARES, 0.0)
+    bound = rate = 0.0
     sigma_clip = math.nan
-    # the closed forms take the Gaussian part's σ plus the tones; a sine keeps its own shape
-    base: Literal["gaussian", "sine"] = "sine" if shape == "sine" else "gaussian"
-    poly: tuple[_Site, _Motion, float] | None = None  # the polynomial's site, motion there, its own share
-    holds: list[tuple[Any, ...]] = []  # over-range sites' arguments, evaluated after the walk
-    rails_after: list[tuple[float, float, float]] = []  # (L, U, rms at the rails) of rails after a hold
-    clipped = False
-    for site, mo in zip(reading.sites, sites):
-        st, mean = site.stage, g0 + site.offset_g
-        sigma, nu0, peaks = mo.sigma_g, mo.nu0_hz, mo.tone_peaks_g
-        if st.analytic == "polynomial":
-            if clipped:
-                valid = False
-                notes.append("a polynomial after the rails: its input is clipped, not Gaussian — simulate")
-            share = float(memoryless.poly_clip_vre(mean, sigma, st.k2_per_g, st.k3_per_g2, st.k4_per_g3,
-                                                   shape=base, tone_peaks_g=peaks))
-            nonlin += share
-            poly = (site, mo, share)
-        elif st.analytic == "clip":
-            low, high = float(st.low_g), float(st.high_g)
-            if holds:
-                rails_after.append((low, high, mo.rms_g))
-            if clipped:
-                valid = False
-                notes.append("a second set of rails: evaluated as if alone — simulate")
-            clipped = True
-            k = (0.0, 0.0, 0.0)
-            if poly is not None:
-                p_site, p_mo, p_share = poly
-                k = (p_site.stage.k2_per_g, p_site.stage.k3_per_g2, p_site.stage.k4_per_g3)
-            c0 = float(memoryless.polynomial(*k)(g0 + (poly[0].offset_g if poly else 0.0))) + (
-                site.offset_g - (poly[0].offset_g if poly else 0.0))
-            if not low < c0 < high:
-                valid = False
-                notes.append(f"the static level {c0:g} g at the rails (field {g0:g} g, offsets, nonlinearity) is at "
-                             f"or beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration — simulate")
-            if poly is None or len(site.responses) == len(poly[0].responses):
-                # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
-                src_site, src_mo, own = (poly[0], poly[1], poly[2]) if poly else (site, mo, 0.0)
-                args = (g0 + src_site.offset_g, src_mo.sigma_g, *k, site.offset_g - src_site.offset_g)
-                rails: dict[str, Any] = dict(shape=base, kind=kind, tone_peaks_g=src_mo.tone_peaks_g)
-                clip += float(memoryless.poly_clip_vre(*args, low, high, **rails)) - own
-                clip_low += float(memoryless.poly_clip_vre(*args, low, math.inf, **rails)) - own
-                clip_high += float(memoryless.poly_clip_vre(*args, -math.inf, high, **rails)) - own
-                sigma_clip = mo.rms_g
-            else:
-                # filters between: the rails see the polynomial's mean and its linear part through
-                # them (Gaussian), the rest (harmonics, higher Hermite terms) bounded below
-                p_site, p_mo, p_share = poly
-                gain, rest = memoryless.linear_part(g0 + p_site.offset_g, p_mo.sigma_g, *k, shape=base,
-                                                    tone_peaks_g=p_mo.tone_peaks_g)
-                m = c0 + p_share
-                sz, pz = abs(gain) * sigma, tuple(abs(gain) * a for a in peaks)
-                sigma_clip = mo.rms_g
-                parts = []
-                for lo_, hi_ in ((low, high), (low, math.inf), (-math.inf, high)):
-                    moved = float(memoryless.poly_clip_vre(m, sz, rail_low_g=lo_, rail_high_g=hi_, shape=base,
-                                                           kind=kind, tone_peaks_g=pz))
-                    # referred to the vibration-off reading at the rails, clip(c0), not clip(m)
-                    parts.append(moved + (float(np.clip(m, lo_, hi_)) - m) - (float(np.clip(c0, lo_, hi_)) - c0))
-                clip, clip_low, clip_high = clip + parts[0], clip_low + parts[1], clip_high + parts[2]
-                r = rest * _linear_gain_max(site.responses[len(p_site.responses):])
-                if base == "sine":
-                    # deterministic: the harmonics (rms r, peak at most 2r for the 2nd and 3rd)
-                    # matter only where the sine, so widened, reaches a rail
-                    if r > 0 and not (low < m - math.sqrt(2) * sz - 2 * r and m + math.sqrt(2) * sz + 2 * r < high):
-                        bound += 2 * r
-                elif r > 0 and sz > 0 and not peaks:
-                    # the rest's n-th Hermite component (n >= 2, in the n-th Wiener chaos, through
-                    # the filters at most gmax times its rms) correlates only with the n-th chaos
-                    # part of 1{L < Z < U}, of norm |He_{n-1}(α)φ(α) - He_{n-1}(β)φ(β)|/sqrt(n!)
-                    # (Cauchy-Schwarz within each chaos); plus the rest's second-order effect
-                    # across the rails, r²·(pdf at the rails)
-                    gmax = _linear_gain_max(site.responses[len(p_site.responses):])
-                    comps = memoryless.hermite_rms(g0 + p_site.offset_g, p_mo.sigma_g, *k)[1:]
-                    a, b = (low - m) / sz, (high - m) / sz
-                    pa, pb = math.exp(-0.5 * a * a) / math.sqrt(2 * math.pi), math.exp(-0.5 * b * b) / math.sqrt(2 * math.pi)
-                    for n, cn in enumerate(comps, start=2):
-                        he = np.polynomial.hermite_e.hermeval([a, b], [0.0] * (n - 1) + [1.0])
-                        bound += gmax * cn * abs(he[0] * pa - he[1] * pb) / math.sqrt(math.factorial(n))
-                    bound += r * r * (pa + pb) / sz
-                elif r > 0 and sz > 0:
-                    from scipy import special
-
-                    a, b = (low - m) / sz, (high - m) / sz
-                    p_out = float(special.ndtr(a) + special.ndtr(-b))
-                    dens = (math.exp(-0.5 * a * a) + math.exp(-0.5 * b * b)) / (math.sqrt(2 * math.pi) * sz)
-                    bound += r * math.sqrt(p_out * (1.0 - p_out)) + r * r * dens
-        elif st.analytic == "overrange":
-            thr, hold = float(st.threshold_g), float(st.hold_s)
-            if shape != "sine":
-                rate += float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0, peaks, mo.tone_freqs_hz))
-                held = None
-                if math.isfinite(mo.rho_mean) and sigma > 0:
-                    held = design.overrange_held_mean_g(mean, sigma, thr, hold, nu0, mo.rho_mean, mo.one_minus_rho_hold)
-                # evaluated after the walk: rails after the holds change what the held stretches
-                # would have read
-                holds.append((mean, sigma, thr, hold, nu0, float(st.value_g), peaks, mo.tone_freqs_hz, held))
-                duty = rate * hold
-                if duty > _MAX_HOLD_DUTY:
-                    valid = False
-                    notes.append(
-                        f"over-range holds fill {100 * duty:.0f} % of the time: holds overlap, "
-                        "the rare-event model fails — simulate"
-                    )
-            else:
-                peak = math.sqrt(2) * sigma
-                if abs(mean) + peak > thr:
-                    valid = False
-                    rate = freq_hz or 0.0
-                    notes.append(
-                        f"sine peak at the proof mass ({abs(mean) + peak:.3g} g) reaches the over-range "
-                        f"threshold ({thr:g} g): trips every period, not modelled — simulate"
-                    )
-    for mean, sigma, thr, hold, nu0, value, peaks, freqs, held in holds:
-        if held is not None and rails_after:
-            # what the held stretches would have read: their motion, through the rails after
-            # (the output stays near its mean over a stretch; its spread taken as the
-            # unconditional one at the rails): E[clip(N(held, σ²))]
-            from vrelab.models.clipping import censored_mean_shift
-
-            for low, high, sig_r in rails_after:
-                if sig_r > 0:
-                    held = held + float(censored_mean_shift(held, sig_r, low, high))
-        over += float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=value, tone_peaks_g=peaks,
-                                           tone_freqs_hz=freqs, held_mean_g=held))
-    total = clip + nonlin + over
-    big = max(abs(clip), abs(nonlin), abs(over))
-    if big > 0 and abs(over) > _MINOR * big and shape != "sine":
-        valid = False
-        notes.append("over-range share is large: the Rice×hold estimate (mean of the held stretches from Rice's "
-                     "conditioning on the crossing, holds taken as not overlapping) is rough"
-                     + (" (Rice's rate for the Gaussian part with the tones as a moving mean)"
-                        if shape == "sine-on-random" else "") + " — simulate")
+    done: list[Done] = []
+    for i, (rs, mo) in enumerate(zip(reading.sites, sites)):
+        site = Site(g0, rs.offset_g, rs.vibration_off_g, mo, rs.responses, shape, freq_hz, kind, tuple(done),
+                    tuple((later.stage, m) for later, m in zip(reading.sites[i + 1:], sites[i + 1:])), each_rail)
+        shift = rs.stage.mean_shift(site)
+        for k, v in shift.shares.items():
+            totals[k] = totals.get(k, 0.0) + v
+        valid = valid and shift.valid
+        notes += shift.notes
+        bound += shift.model_error_g
+        rate += shift.rate_hz
+        if shift.sigma_at_clip_g is not None:
+            sigma_clip = shift.sigma_at_clip_g
+        done.append(Done(rs.stage, site, shift))
+    total = totals["clip_g"] + totals["nonlinearity_g"] + totals["overrange_g"]
+    if NUMERICAL_SHARE in totals:
+        total += totals[NUMERICAL_SHARE]
+    big = max(abs(totals[k]) for k in totals if k in VRE_SHARES or k == NUMERICAL_SHARE)
+    for d in done:
+        if d.shift.rough_if_large and big > 0 and any(abs(totals[k]) > _MINOR * big for k in d.shift.shares):
+            valid = False
+            notes.append(d.shift.rough_if_large)
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
     tilt, why = tilt_note(total, g0)
@@ -914,13 +804,7 @@ def _level(
         rms_g=rms_g,
         vre_g=total,
         tilt_error_deg=tilt,
-        shares={
-            "clip_low_g": clip_low,
-            "clip_high_g": clip_high,
-            "clip_g": clip,
-            "nonlinearity_g": nonlin,
-            "overrange_g": over,
-        },
+        shares=totals,
         sigma_proof_mass_g=sigma_m,
         sigma_output_g=sigma_out,
         sigma_at_clip_g=sigma_clip,

@@ -78,7 +78,7 @@ def ideal_vre_shares(
     one memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`. The polynomial share is
     :func:`vrelab.models.nonlinearity.vre_poly` (exact), the clipping share what the rails add
     to it: the convention :func:`vrelab.predict.predict` follows for any sensor by walking its
-    stages, and the sweep's ``model`` points use.
+    stages (the sweep's ``model`` points go through those stages, :func:`vrelab.predict.memoryless_level`).
     """
     from vrelab.models.memoryless import poly_clip_vre
 

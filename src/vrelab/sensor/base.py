@@ -76,11 +76,9 @@ class StageBase:
     """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one."""
 
     is_static: ClassVar[bool] = True
-    # What the analytic prediction (vrelab.predict) takes from this stage: "linear" (a
-    # ``response(f)``), "offset", "polynomial", "overrange", "clip", "neutral" (no mean shift:
-    # zero-mean noise, rounding, decimation, a drift that bracketing removes), or None (no closed
-    # form: a prediction for a chain with such a stage says so and is not valid).
-    analytic: ClassVar[str | None] = None
+    # What the analytic prediction (vrelab.predict) asks of a stage is what it defines (a
+    # ``response``, ``static_shift_g``, ``mean_shift``, ``vibration_off``, ``zero_mean_shift``):
+    # see vrelab.sensor.meanshift. A memoryless stage that defines none gets the numerical fallback.
     rate_factor: ClassVar[int] = 1
 
     def init_state(self, fs_hz: float, seed_seq: np.random.SeedSequence | None) -> Any:

@@ -11,9 +11,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.sensor.base import StageBase, finite, non_negative, positive
+from vrelab.sensor.meanshift import Shift, Site
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
+
+# The over-range model counts independent holds: beyond this fraction of time held, holds
+# overlap and the output no longer returns to the vibration between them.
+MAX_HOLD_DUTY = 0.05
 
 # ----------------------------------------------------------------------------- over-range
 
@@ -215,7 +220,9 @@ class OverRange(StageBase):
     float_tau_s: float = 0.0
     is_static: ClassVar[bool] = False
     delay_samples: ClassVar[int] = 2  # output k is input k - 2 (see Notes)
-    analytic: ClassVar[str | None] = "overrange"
+    # what the prediction needs of the motion at this stage (vrelab.predict): Rice's crossing
+    # rate and the motion's correlation over the hold
+    needs_crossing_rate: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         positive(self, "threshold_g")
@@ -267,6 +274,61 @@ class OverRange(StageBase):
             events=state.events + new,
             held_samples=state.held_samples + float(cov.sum()),
         )
+
+    def mean_shift(self, site: Site) -> Shift:
+        """The change of the mean the holds make (SPEC 1.3), an estimate.
+
+        Random drive: Rice's trip rate ν of the Gaussian motion at the site
+        (:func:`vrelab.models.design.overrange_trip_rate_hz`, with tones the phase-averaged rate)
+        and ``VRE_or = (1 - exp(-ν·hold))·(value - held)``
+        (:func:`vrelab.models.design.overrange_vre`), ``held`` the mean of the motion over the
+        stretches the holds replace (:func:`vrelab.models.design.overrange_held_mean_g`, Rice's
+        conditioning on the crossing) read through the rails after the holds (what those
+        stretches would have read: the censored mean of a Gaussian of that mean and the rails'
+        rms). Invalid where the holds fill more than 5 % of the time (they overlap) and, as a
+        ``rough_if_large`` note, where this share is more than a tenth of the largest.
+
+        Sine: a sine whose peak reaches the threshold trips every period; not modelled (invalid);
+        one that does not adds nothing.
+        """
+        from vrelab.models import design
+
+        mo = site.motion
+        thr, hold, mean = float(self.threshold_g), float(self.hold_s), site.level_g
+        sigma, nu0, peaks = mo.sigma_g, mo.nu0_hz, mo.tone_peaks_g
+        if site.drive == "sine":
+            peak = math.sqrt(2) * sigma
+            if abs(mean) + peak > thr:
+                return Shift({"overrange_g": 0.0}, valid=False, rate_hz=site.freq_hz or 0.0, notes=(
+                    f"sine peak at the proof mass ({abs(mean) + peak:.3g} g) reaches the over-range "
+                    f"threshold ({thr:g} g): trips every period, not modelled — simulate",))
+            return Shift({"overrange_g": 0.0})
+        notes: list[str] = []
+        rate = float(design.overrange_trip_rate_hz(thr, mean, sigma, nu0, peaks, mo.tone_freqs_hz))
+        held = None
+        if math.isfinite(mo.rho_mean) and sigma > 0:
+            held = design.overrange_held_mean_g(mean, sigma, thr, hold, nu0, mo.rho_mean, mo.one_minus_rho_hold)
+        duty = rate * hold
+        if duty > MAX_HOLD_DUTY:
+            notes.append(f"over-range holds fill {100 * duty:.0f} % of the time: holds overlap, "
+                         "the rare-event model fails — simulate")
+        if held is not None:
+            # what the held stretches would have read: their motion, through the rails after
+            # (the output stays near its mean over a stretch; its spread taken as the
+            # unconditional one at the rails): E[clip(N(held, σ²))]
+            from vrelab.models.clipping import censored_mean_shift
+
+            for stage, later in site.after:
+                rails = getattr(stage, "rails_g", None)
+                if rails is not None and later.rms_g > 0:
+                    held = held + float(censored_mean_shift(held, later.rms_g, rails[0], rails[1]))
+        over = float(design.overrange_vre(mean, sigma, thr, hold, nu0, value_g=float(self.value_g),
+                                          tone_peaks_g=peaks, tone_freqs_hz=mo.tone_freqs_hz, held_mean_g=held))
+        rough = ("over-range share is large: the Rice×hold estimate (mean of the held stretches from Rice's "
+                 "conditioning on the crossing, holds taken as not overlapping) is rough"
+                 + (" (Rice's rate for the Gaussian part with the tones as a moving mean)"
+                    if site.drive == "sine-on-random" else "") + " — simulate")
+        return Shift({"overrange_g": over}, valid=not notes, notes=tuple(notes), rate_hz=rate, rough_if_large=rough)
 
     def _episodes(
         self, starts: FloatArray, ends: FloatArray, values: FloatArray, hold: float, state: _HoldState

@@ -34,6 +34,15 @@ fs/4. Digital filters of the sensor (:class:`LowPass`, :class:`HighPass`) are di
 Butterworth designs, as in the part. Consecutive filter stages run as one ``sosfilt`` over
 their stacked sections (:class:`~vrelab.sensor.chain.ChainRun` fuses them). Each
 filter stage has ``response(f_hz)``: the analog equivalent used by the analytic ``predict``.
+
+What each stage does to the mean
+--------------------------------
+The analytic :func:`vrelab.predict.predict` asks each stage (:mod:`vrelab.sensor.meanshift`):
+a filter shapes the vibration (``response``), an :class:`Offset` moves the static level
+(``static_shift_g``), :class:`Polynomial`, :class:`Clip` and :class:`OverRange` give their
+own change of the mean (``mean_shift``, in closed form) and what they make of a static level
+(``vibration_off``), and noise, rounding, decimation and drift say why they shift none
+(``zero_mean_shift``).
 """
 
 from __future__ import annotations
@@ -57,6 +66,7 @@ from vrelab.sensor.base import (
     positive_int,
 )
 from vrelab.sensor.filtering import FilterState, discretize_zpk, run_filter
+from vrelab.sensor.meanshift import Shift, Site, gain_max
 from vrelab.sensor.overrange import OverRange
 from vrelab.units import from_ug
 
@@ -92,7 +102,6 @@ class FilterStage(StageBase):
     first input), and ``response(f)`` its analog equivalent for the prediction."""
 
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "linear"
 
     def design(self, fs_hz: float) -> FloatArray:
         raise NotImplementedError
@@ -125,7 +134,6 @@ class Resonator(FilterStage):
     fn_hz: float
     q: float
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "linear"
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
@@ -167,7 +175,6 @@ class AntiAlias(FilterStage):
     corner_hz: float
     order: int = 2
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "linear"
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
@@ -212,7 +219,6 @@ class LowPass(FilterStage):
     order: int = 4
     kind: LowPassKind = "butterworth"
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "linear"
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
@@ -249,7 +255,6 @@ class HighPass(FilterStage):
     corner_hz: float
     order: int = 1
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "linear"
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
@@ -292,11 +297,36 @@ class Polynomial(StageBase):
     k2_per_g: float = 0.0
     k3_per_g2: float = 0.0
     k4_per_g3: float = 0.0
-    analytic: ClassVar[str | None] = "polynomial"
 
     def __post_init__(self) -> None:
         for f in ("k2_per_g", "k3_per_g2", "k4_per_g3"):
             finite(self, f)
+
+    @property
+    def coefficients(self) -> tuple[float, float, float]:
+        """(k2, k3, k4) [1/g, 1/g², 1/g³]."""
+        return (self.k2_per_g, self.k3_per_g2, self.k4_per_g3)
+
+    def vibration_off(self, level_g: float) -> tuple[float, str | None]:
+        """``P(level)``: what a static level reads through the polynomial."""
+        from vrelab.models.memoryless import vibration_off_reading
+
+        return vibration_off_reading(level_g, *self.coefficients), None
+
+    def mean_shift(self, site: Site) -> Shift:
+        """``E[P(g0 + x)] - P(g0)`` at the site (SPEC 1.2): exact for any zero-mean vibration
+        (:func:`vrelab.models.memoryless.poly_clip_vre` without rails; with tones, the average
+        over their phases), ``g0`` the static field with the offsets before it. Its input must be
+        the Gaussian (or sine) vibration: rails before it make the level invalid."""
+        from vrelab.models.memoryless import poly_clip_vre
+
+        mo = site.motion
+        share = float(poly_clip_vre(site.level_g, mo.sigma_g, *self.coefficients, shape=site.shape,
+                                    tone_peaks_g=mo.tone_peaks_g))
+        if any(d.shift.saturates for d in site.before):
+            return Shift({"nonlinearity_g": share}, valid=False, notes=(
+                "a polynomial after the rails: its input is clipped, not Gaussian — simulate",))
+        return Shift({"nonlinearity_g": share})
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         k2, k3, k4 = self.k2_per_g, self.k3_per_g2, self.k4_per_g3
@@ -324,10 +354,14 @@ class Offset(StageBase):
     """Constant offset ``y = x + offset_g`` (0 g offset of the part, ±25 mg typ. for ADXL355)."""
 
     offset_g: float = 0.0
-    analytic: ClassVar[str | None] = "offset"
 
     def __post_init__(self) -> None:
         finite(self, "offset_g")
+
+    @property
+    def static_shift_g(self) -> float:
+        """What it adds to the static level every later stage sees [g] (no VRE of its own)."""
+        return float(self.offset_g)
 
     def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
         return x + self.offset_g, state
@@ -351,7 +385,7 @@ class Drift(StageBase):
 
     rate_g_per_s: float = 0.0
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "neutral"
+    zero_mean_shift: ClassVar[str] = "a slow drift (bracketing removes it from a measured VRE)"
 
     def __post_init__(self) -> None:
         finite(self, "rate_g_per_s")
@@ -379,7 +413,6 @@ class Clip(StageBase):
 
     low_g: float
     high_g: float
-    analytic: ClassVar[str | None] = "clip"
 
     def __post_init__(self) -> None:
         lo = finite(self, "low_g")
@@ -398,13 +431,120 @@ class Clip(StageBase):
     def stats(self, state: _ClipCount) -> dict[str, int | float]:
         return {"clipped_low": state.low, "clipped_high": state.high, "clipped_samples": state.low + state.high}
 
+    @property
+    def rails_g(self) -> tuple[float, float]:
+        """(L, U) [g]."""
+        return float(self.low_g), float(self.high_g)
+
+    def vibration_off(self, level_g: float) -> tuple[float, str | None]:
+        """``clip(level, L, U)``, and the note where the rails clip the vibration-off reading."""
+        from vrelab.models import memoryless
+
+        low, high = self.rails_g
+        return (memoryless.vibration_off_reading(level_g, rail_low_g=low, rail_high_g=high),
+                memoryless.reference_note(level_g, rail_low_g=low, rail_high_g=high))
+
+    def mean_shift(self, site: Site) -> Shift:
+        """What the rails add to the mean of what reaches them, each rail alone and both (SPEC 1.1),
+        referred to the vibration-off reading at the rails ``c0`` (``site.vibration_off_g``).
+
+        * Nothing linear between the :class:`Polynomial` before them (if any) and the rails:
+          polynomial, offsets and rails are one memoryless map whose mean
+          :func:`vrelab.models.memoryless.poly_clip_vre` gives in closed form (Gaussian, sine, or
+          the tones' phase average); the rails' share is that mean less the polynomial's own.
+          No approximation (``model_error_g`` 0).
+        * Filters between (an output clip after the anti-alias and digital low-pass): the rails
+          see the polynomial's mean ``c0 + share`` and its linear part through the filters
+          (:func:`vrelab.models.memoryless.linear_part`, gain × the rms at the rails) as a
+          Gaussian (or the sine); the rest (the higher Hermite terms, the harmonics, rms ``r``
+          through the filters) is bounded in ``model_error_g``: for Gaussian drive each Hermite
+          component's correlation with the rails' indicator (Cauchy-Schwarz within its Wiener
+          chaos) plus ``r²·(pdf at the rails)``; with tones ``r·sqrt(P_out·(1 - P_out)) +
+          r²·(pdf at the rails)``; for a sine ``2r`` where the widened sine reaches a rail.
+
+        A second set of rails, or a static level at or beyond a rail, makes the level invalid.
+        """
+        from vrelab.models import memoryless
+
+        notes: list[str] = []
+        valid = True
+        mo = site.motion
+        base = site.shape
+        if any(d.shift.saturates for d in site.before):
+            valid = False
+            notes.append("a second set of rails: evaluated as if alone — simulate")
+        low, high = self.rails_g
+        up = site.last(Polynomial)
+        k: tuple[float, float, float] = up.stage.coefficients if up is not None else (0.0, 0.0, 0.0)
+        c0 = site.vibration_off_g
+        if not low < c0 < high:
+            valid = False
+            notes.append(f"the static level {c0:g} g at the rails (field {site.static_g:g} g, offsets, nonlinearity) "
+                         f"is at or beyond a rail [{low:g}, {high:g}] g: the sensor is saturated without vibration "
+                         "— simulate")
+        each = ((low, high), (low, math.inf), (-math.inf, high)) if site.each_rail else ((low, high),)
+        bound = 0.0
+        if up is None or len(site.responses) == len(up.site.responses):
+            # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
+            src = up.site if up is not None else site
+            own = up.shift.shares["nonlinearity_g"] if up is not None else 0.0
+            args = (src.level_g, src.motion.sigma_g, *k, site.offset_g - src.offset_g)
+            parts = [float(memoryless.poly_clip_vre(*args, lo_, hi_, shape=base, kind=site.kind,
+                                                    tone_peaks_g=src.motion.tone_peaks_g)) - own for lo_, hi_ in each]
+        else:
+            # filters between: the rails see the polynomial's mean and its linear part through
+            # them (Gaussian), the rest (harmonics, higher Hermite terms) bounded below
+            p_mo, p_share = up.site.motion, up.shift.shares["nonlinearity_g"]
+            gain, rest = memoryless.linear_part(up.site.level_g, p_mo.sigma_g, *k, shape=base,
+                                                tone_peaks_g=p_mo.tone_peaks_g)
+            m = c0 + p_share
+            sz, pz = abs(gain) * mo.sigma_g, tuple(abs(gain) * a for a in mo.tone_peaks_g)
+            parts = []
+            for lo_, hi_ in each:
+                moved = float(memoryless.poly_clip_vre(m, sz, rail_low_g=lo_, rail_high_g=hi_, shape=base,
+                                                       kind=site.kind, tone_peaks_g=pz))
+                # referred to the vibration-off reading at the rails, clip(c0), not clip(m)
+                parts.append(moved + (float(np.clip(m, lo_, hi_)) - m) - (float(np.clip(c0, lo_, hi_)) - c0))
+            gmax = gain_max(site.responses[len(up.site.responses):])
+            r = rest * gmax
+            if base == "sine":
+                # deterministic: the harmonics (rms r, peak at most 2r for the 2nd and 3rd)
+                # matter only where the sine, so widened, reaches a rail
+                if r > 0 and not (low < m - math.sqrt(2) * sz - 2 * r and m + math.sqrt(2) * sz + 2 * r < high):
+                    bound += 2 * r
+            elif r > 0 and sz > 0 and not pz:
+                # the rest's n-th Hermite component (n >= 2, in the n-th Wiener chaos, through
+                # the filters at most gmax times its rms) correlates only with the n-th chaos
+                # part of 1{L < Z < U}, of norm |He_{n-1}(α)φ(α) - He_{n-1}(β)φ(β)|/sqrt(n!)
+                # (Cauchy-Schwarz within each chaos); plus the rest's second-order effect
+                # across the rails, r²·(pdf at the rails)
+                comps = memoryless.hermite_rms(up.site.level_g, p_mo.sigma_g, *k)[1:]
+                a, b = (low - m) / sz, (high - m) / sz
+                pa, pb = math.exp(-0.5 * a * a) / math.sqrt(2 * math.pi), math.exp(-0.5 * b * b) / math.sqrt(2 * math.pi)
+                for n, cn in enumerate(comps, start=2):
+                    he = np.polynomial.hermite_e.hermeval([a, b], [0.0] * (n - 1) + [1.0])
+                    bound += gmax * cn * abs(he[0] * pa - he[1] * pb) / math.sqrt(math.factorial(n))
+                bound += r * r * (pa + pb) / sz
+            elif r > 0 and sz > 0:
+                from scipy import special
+
+                a, b = (low - m) / sz, (high - m) / sz
+                p_out = float(special.ndtr(a) + special.ndtr(-b))
+                dens = (math.exp(-0.5 * a * a) + math.exp(-0.5 * b * b)) / (math.sqrt(2 * math.pi) * sz)
+                bound += r * math.sqrt(p_out * (1.0 - p_out)) + r * r * dens
+        shares = {"clip_g": parts[0]}
+        if site.each_rail:
+            shares = {"clip_low_g": parts[1], "clip_high_g": parts[2], **shares}
+        return Shift(shares, model_error_g=bound, valid=valid, notes=tuple(notes), sigma_at_clip_g=mo.rms_g,
+                     saturates=True)
+
 
 @dataclass(frozen=True)
 class Quantize(StageBase):
     """Rounding to the output LSB: ``y = lsb·round(x/lsb)`` (ties to even)."""
 
     lsb_g: float
-    analytic: ClassVar[str | None] = "neutral"
+    zero_mean_shift: ClassVar[str] = "rounding to the LSB (mean error 0 for vibration spanning many LSB)"
 
     def __post_init__(self) -> None:
         positive(self, "lsb_g")
@@ -425,7 +565,7 @@ class Decimate(StageBase):
     """
 
     factor: int
-    analytic: ClassVar[str | None] = "neutral"
+    zero_mean_shift: ClassVar[str] = "decimation (keeps the mean)"
 
     def __post_init__(self) -> None:
         positive_int(self, "factor")
@@ -480,7 +620,7 @@ class Noise(StageBase):
     # (about 23 µs), 0.35 ns per sample at this size against 1.4 ns at 2^14.
     frame_size: int = 65536
     is_static: ClassVar[bool] = False
-    analytic: ClassVar[str | None] = "neutral"
+    zero_mean_shift: ClassVar[str] = "zero-mean noise"
 
     def __post_init__(self) -> None:
         non_negative(self, "density_ug_per_rthz")

@@ -5,12 +5,12 @@
   the vibration at the proof mass has rms ``rms_mass = rms_g·|H(freq_hz)|`` for a sine, or
   ``rms_g·sqrt(mean |H|² over [f_lo_hz, f_hi_hz])`` for a flat random band, with
   ``H = 1/(1 - r² + j·r/q)``, ``r = f/fn_hz`` (no resonance when ``fn_hz`` is not given);
-  ``vre_clip_g``, ``vre_poly_g`` = :func:`vrelab.models.design.ideal_vre_shares`: the ideal
-  sensor's chain (polynomial, then ``offset_g``, then rails ±``range_g``), so the rails clip
-  around ``static_g + offset_g`` and the polynomial rectifies around ``static_g``;
-  ``vre_g`` = their sum (first-order superposition: each mechanism's shift is small next to
-  the vibration, so their interaction is second order), all referred to the vibration-off
-  reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (SPEC 1.5, as ``predict``);
+  ``vre_clip_g``, ``vre_poly_g``: the ideal sensor's chain (polynomial, then ``offset_g``,
+  then rails ±``range_g``, none with ``clip_kind = "none"``) as its stages, each one's own
+  mean shift summed as ``predict`` does (:func:`vrelab.predict.memoryless_level`): the
+  polynomial's share rectifies around ``static_g``, the rails' is what they add to it, and
+  ``vre_g`` = their sum is the exact mean of the one memoryless map; all referred to the
+  vibration-off reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (SPEC 1.5);
   ``tilt_error_deg`` = :func:`vrelab.models.design.tilt_error_from_static_deg` for an axis at
   tilt ``asin(static_g)`` (``asin(g0 + δ) - asin(g0)``; NaN where undefined, near ±1 g).
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
@@ -70,9 +70,9 @@ def _tilt_deg(vre_g: float, static_g: float) -> float:
 
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
-    from vrelab.models.design import ideal_vre_shares
-    from vrelab.models.memoryless import vibration_off_reading
-    from vrelab.models.nonlinearity import ug_per_g2_to_per_g, vre_poly
+    from vrelab.models.nonlinearity import ug_per_g2_to_per_g
+    from vrelab.predict import memoryless_level
+    from vrelab.sensor.stages import Clip, Offset, Polynomial
 
     rms = float(params["rms_g"])
     static = float(params.get("static_g", 1.0))
@@ -83,23 +83,19 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     k2 = float(ug_per_g2_to_per_g(float(params.get("k2_ug_per_g2", 0.0))))
     k3 = float(ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))))  # µg/g³ -> 1/g²: same factor
     offset = float(params.get("offset_g", 0.0))
-    if clip_kind == "none":
-        vre_clip, vre_p = 0.0, float(vre_poly(rms_mass, k2, k3, static_g=static, shape=shape))
-        off = vibration_off_reading(static, float(k2), float(k3), offset_g=offset)
-    else:
-        clip, poly = ideal_vre_shares(rms_mass, static, -range_g, range_g, k2, k3, shape, clip_kind,
-                                      offset_g=offset)
-        vre_clip, vre_p = float(clip), float(poly)
-        off = vibration_off_reading(static, float(k2), float(k3), offset_g=offset, rail_low_g=-range_g,
-                                    rail_high_g=range_g)
-    vre = vre_clip + vre_p
+    # the ideal sensor's chain, as vrelab.sensor.Sensor.stages builds it
+    stages: list[Any] = [Polynomial(k2, k3)] if k2 or k3 else []
+    stages += [Offset(offset)] if offset else []
+    stages += [Clip(-range_g, range_g)] if clip_kind != "none" else []
+    level, off = memoryless_level(stages, static, rms_mass, shape,
+                                  DEFAULT_CLIP_KIND if clip_kind == "none" else clip_kind, each_rail=False)
     return {
-        "vre_g": vre,
-        "vre_clip_g": vre_clip,
-        "vre_poly_g": vre_p,
+        "vre_g": level.vre_g,
+        "vre_clip_g": level.shares["clip_g"],
+        "vre_poly_g": level.shares["nonlinearity_g"],
         "rms_mass_g": rms_mass,
         "vibration_off_g": off,
-        "tilt_error_deg": _tilt_deg(vre, static),
+        "tilt_error_deg": level.tilt_error_deg,
     }
 
 

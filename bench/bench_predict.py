@@ -1,0 +1,105 @@
+"""Benchmark predict (and the sweep's analytic ``model`` point) on preset workloads.
+
+Run: ``.venv/bin/python bench/run_all.py predict`` or ``.venv/bin/python bench/bench_predict.py
+[--baseline SRC] [--repeat 5]``.
+
+Workloads (each the best of ``--repeat`` runs, after one warm-up):
+
+* ``adxl355-navmat``: ADXL355 ±2 g Z, navmat-p9492, 3 levels, 1 g field (resonance, polynomial,
+  over-range, filters, output rails; the assumed over-range threshold's u propagated);
+* ``adxl355-sor``: the same under navmat-p9492 + a 120 Hz tone (phase averages);
+* ``adxl355-sine``: sines at 80 and 1500 Hz, 3 levels;
+* ``ideal-flat``: the ideal ±2 g sensor, flat 50-2000 Hz, 3 levels;
+* ``model-point``: one sweep ``model`` point (polynomial and rails), per point.
+
+With ``--baseline SRC`` (a ``src`` directory of another checkout, e.g. ``git archive`` of a
+commit), the same workloads run in a subprocess on that source, interleaved with ours, and the
+ratio ours/baseline is printed: a ratio against a baseline in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from typing import Any, Callable
+
+
+def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
+    import dataclasses
+
+    from vrelab.predict import predict
+    from vrelab.profiles import parse_profile
+    from vrelab.sensor import load_sensor
+    from vrelab.sweep.points import model_point
+
+    adxl = load_sensor("adxl355", range_g=2, axis="z")
+    ideal = dataclasses.replace(load_sensor("ideal"), k2_per_g=1e-3)
+    navmat, sor = parse_profile("navmat-p9492"), parse_profile("navmat-p9492+sine:120:0.5")
+    flat = parse_profile("flat:50-2000")
+    levels = [1.0, 2.0, 3.0]
+    point = {"rms_g": 1.0, "static_g": 1.0, "k2_ug_per_g2": 300.0, "k3_ug_per_g3": -80.0}
+    return {
+        "adxl355-navmat": (lambda: predict(adxl, navmat, levels, 1.0), 1),
+        "adxl355-sor": (lambda: predict(adxl, sor, levels, 1.0), 1),
+        "adxl355-sine": (lambda: predict(adxl, [80.0, 1500.0], levels, 1.0), 1),
+        "ideal-flat": (lambda: predict(ideal, flat, levels, 1.0), 1),
+        "model-point": (lambda: model_point(point, None), 200),  # type: ignore[arg-type]
+    }
+
+
+def _time(fn: Callable[[], Any], number: int, repeat: int) -> float:
+    fn()
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / number)
+    return best
+
+
+def _own(repeat: int) -> dict[str, float]:
+    return {name: _time(fn, number, repeat) for name, (fn, number) in _workloads().items()}
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", help="src directory of the baseline checkout")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)  # the subprocess's mode
+    args = ap.parse_args(argv)
+    if args.own:
+        print(json.dumps(_own(args.repeat)))
+        return {}
+    ours: dict[str, float] = {}
+    base: dict[str, float] = {}
+    # interleaved rounds (ours, baseline, ours, ...), the best of each: load drifts on a shared machine
+    for _ in range(2 if args.baseline else 1):
+        for k, v in _own(args.repeat).items():
+            ours[k] = min(ours.get(k, v), v)
+        if args.baseline:
+            env = {**os.environ, "PYTHONPATH": args.baseline}
+            out = subprocess.run([sys.executable, __file__, "--own", "--repeat", str(args.repeat)], env=env,
+                                 check=True, capture_output=True, text=True).stdout
+            for k, v in json.loads(out).items():
+                base[k] = min(base.get(k, v), v)
+    result = {"ours_s": ours, "baseline_s": base or None,
+              "ratio": {k: ours[k] / base[k] for k in ours if k in base} or None}
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        for k, v in ours.items():
+            line = f"{k:16s} {1e3 * v:9.2f} ms"
+            if k in base:
+                line += f"   baseline {1e3 * base[k]:9.2f} ms   ratio {v / base[k]:.2f}"
+            print(line)
+    return result
+
+
+if __name__ == "__main__":
+    main()
