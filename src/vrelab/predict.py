@@ -50,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -105,7 +105,7 @@ class LevelPrediction:
     u_sources_g: Mapping[str, float] | None = None
     # bound [g] on what the remaining approximation may add (0: exact; see _level)
     model_error_g: float = 0.0
-    # valid apart from the judgement of model_error_g against a u (:func:`_judged`): a caller
+    # valid apart from the judgement of model_error_g against a u (:func:`judged`): a caller
     # with its own u (identify, each level's measured u) judges the bound itself
     valid_otherwise: bool = True
 
@@ -482,7 +482,7 @@ def predict(
                                    valid=lv.valid and not prop.level_notes[i],
                                    notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
         notes += prop.notes
-    out = [_judged(lv) for lv in out]
+    out = [judged(lv) for lv in out]
     why = tilt_note(0.0, g0)[1]
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
@@ -525,7 +525,7 @@ _TOLERANCE_ABS_G = 1e-6
 MODEL_SOURCE = "model approximation (model_error_g, rectangular)"
 
 
-def _judged(lv: LevelPrediction) -> LevelPrediction:
+def judged(lv: LevelPrediction) -> LevelPrediction:
     """``valid`` False where ``model_error_g`` may exceed the stated u (the larger of ``u_vre_g``
     and 1 % of |VRE| or 1 µg), with the reason. Where the level states a u (its parameters'), the
     bound also enters it as a rectangular source (GUM 4.3.7: ``model_error_g/√3``), so that

@@ -151,8 +151,11 @@ class _After:
 def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
     """The front end (the linear stages before the Polynomial; without one, the leading
     resonances: where the model equation's nonlinearity sits) and the sites after it."""
-    from vrelab.sensor.stages import Polynomial, Resonator
+    from vrelab.sensor.overrange import OverRange
+    from vrelab.sensor.stages import Clip, Polynomial, Resonator
 
+    # what each stage is, asked as vrelab.predict asks it (vrelab.sensor.meanshift): a linear
+    # stage has a response, an offset a static_shift_g, the rails and the holds are the sites
     poly = [k for k, s in enumerate(stages) if isinstance(s, Polynomial)]
     if len(poly) > 1:
         raise ValueError("a triaxial axis has at most one Polynomial stage")
@@ -164,21 +167,20 @@ def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
             n += 1
         rest = n
     front = list(stages[:n])
-    if any(getattr(s, "analytic", None) != "linear" for s in front):
+    if any(not hasattr(s, "response") for s in front):
         raise ValueError("the stages before the nonlinearity must be linear (the front end): "
                          + ", ".join(type(s).__name__ for s in front))
     after: list[_After] = []
     filtered, offset = False, 0.0
     between: list[Response] = []
     for s in stages[rest:]:
-        tag = getattr(s, "analytic", None)
-        if tag == "linear":
+        if hasattr(s, "response"):
             filtered = True
             between.append(s.response)
-        elif tag == "offset":
-            offset += float(s.offset_g)
-        elif tag in ("clip", "overrange"):
-            after.append(_After(tag, s, filtered, tuple(between), offset))
+        elif getattr(s, "static_shift_g", None) is not None:
+            offset += float(s.static_shift_g)
+        elif isinstance(s, (Clip, OverRange)):
+            after.append(_After("clip" if isinstance(s, Clip) else "overrange", s, filtered, tuple(between), offset))
     return [s.response for s in front], after
 
 
@@ -323,7 +325,7 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
     them, so they add ``gᵀKg·(dc - 1)``.
     """
     from vrelab.models import memoryless
-    from vrelab.predict import _linear_gain_max  # one rule for sup|H| of the filters between
+    from vrelab.sensor.meanshift import gain_max  # one rule for sup|H| of the filters between
 
     low, high = float(site.stage.low_g), float(site.stage.high_g)
     k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
@@ -368,10 +370,10 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
             # the rest is in the second chaos: only the indicator's second Hermite component, of
             # norm |α·φ(α) - β·φ(β)|/√2, correlates with it (Cauchy-Schwarz within the chaos, as
             # vrelab.predict bounds the polynomial's rest); filters between pass it at most gmax times
-            bound += _linear_gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
+            bound += gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
         # second order across a rail: ½·E[Q²|Z = z_r]·pdf(z_r)/s at each rail, with E[Q²|Z] at most
         # (|means| + |c2|·|He2(z)|)² + Var(rest); taken twice
-        gmax = _linear_gain_max(site.responses)
+        gmax = gain_max(site.responses)
         bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * r_fluct) ** 2) * _phi(z) / s
                      for z in (a, b))
     else:
@@ -520,9 +522,9 @@ def predict_triaxial(
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
     .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.predict.predict`.
     """
-    from vrelab.predict import _judged  # one rule: a bound judged against the stated u as predict judges
+    from vrelab.predict import judged  # one rule: a bound judged against the stated u as predict judges
 
-    return _predict(sensor, excitation, levels, static_g, kind, _judged)
+    return _predict(sensor, excitation, levels, static_g, kind, judged)
 
 
 def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
