@@ -65,6 +65,7 @@ from vrelab.predict import LevelPrediction, Prediction, predict, propagation, ti
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
+from vrelab.units import to_ug
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -91,6 +92,9 @@ _DENSE_STEP = 2e-3
 _MIN_PER_SEGMENT = 8
 _MAX_POINTS = 40000
 
+
+# the rails/holds pass the cross terms' mean unchanged to this (relative): below it no note
+_PASS_TOL = 1e-6
 
 @dataclass(frozen=True)
 class TriaxialLevelPrediction(LevelPrediction):
@@ -668,7 +672,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
         if why and tilt_note(0.0, u0)[1] is None:  # the static field's own case is one note of the prediction
             lv_notes.append(why)
         interp_bound = 2.0 * interp_err * abs(float(slope[n]))
-        if abs(through - 1.0) > 1e-6:
+        if abs(through - 1.0) > _PASS_TOL:
             lv_notes.append(f"the cross terms' mean ({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
                             f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
                             "model_error_g)")
@@ -704,7 +708,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
              "sensed_static_g": u0,
              "triad": {"input": AXES[triad[0]], "pendulous": AXES[triad[1]], "output": AXES[triad[2]]},
              "sensitivity_row": [float(x) for x in w],
-             "cross_coupling_ug_per_g2": {attr[:3]: float(getattr(sensor, attr)) * 1e6 for _, attr, _, _ in CROSS_SHARES},
+             "cross_coupling_ug_per_g2": {attr[:3]: to_ug(float(getattr(sensor, attr))) for _, attr, _, _ in CROSS_SHARES},
              "excitation": _excitation_summary(excitation)}
     cond = Conditions(sensor=base_cond.sensor, model=base_cond.model, profile=base_cond.profile,
                       static_g=base_cond.static_g, range_g=base_cond.range_g, bandwidth_hz=base_cond.bandwidth_hz,
