@@ -38,9 +38,16 @@ _EXAMPLE = """example MANIFEST (paths relative to it):
   dut = ["sn1_z", "sn2_z"]          # the file's names are the campaign's
   static_g = -1.0
 
+  [[run]]                           # IEEE 1293 mount angle (SPEC 1.6): input axis at 45° to the
+  file = "runs/ip_plus45.csv"       # vibration, tilted toward its pendulous axis (io: output axis)
+  dut = ["sn1_z"]
+  mount_deg = 45
+  mount_plane = "ip"
+  static_g = [0.7071, 0.7071, 0]    # the whole static field [i, p, o]: vertical shaker, along it
+
 run keys: file dut reference method static_g label fs_hz time dut_units dut_sensitivity
 reference_units reference_sensitivity schedule profile band settle_s rail_g
-u_reference_pct u_dut_pct u_static_g u_thermal_g
+u_reference_pct u_dut_pct u_static_g u_thermal_g mount_deg mount_plane
 
 file: a recorded test in one of these formats (by magic bytes, else by extension):
   %(formats)s

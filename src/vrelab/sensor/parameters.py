@@ -48,6 +48,10 @@ TABLE: dict[str, Param] = {p.name: p for p in (
     Param("rail_low_g", "g", "g", "rails_g", "rails_g", rail=0),
     Param("rail_high_g", "g", "g", "rails_g", "rails_g", rail=1),
     Param("overrange_threshold_g", "g", "g", "overrange_threshold_g", "overrange_threshold_g"),
+    Param("kip_ug_per_g2", "ug/g^2", "µg/g²", "kip_ug_per_g2", "kip_per_g", UG_PER_G),
+    Param("kpp_ug_per_g2", "ug/g^2", "µg/g²", "kpp_ug_per_g2", "kpp_per_g", UG_PER_G),
+    Param("kio_ug_per_g2", "ug/g^2", "µg/g²", "kio_ug_per_g2", "kio_per_g", UG_PER_G),
+    Param("koo_ug_per_g2", "ug/g^2", "µg/g²", "koo_ug_per_g2", "koo_per_g", UG_PER_G),
 )}  # fmt: skip
 PARAMETERS: tuple[str, ...] = tuple(TABLE)
 # Parameters a sensor file may give an assumed standard uncertainty (``[uncertainty]``, SPEC 6.1)
