@@ -19,7 +19,11 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
   the base sensor's filters (the physical rail where the clip sits, not the effective rail that
   a fit against the reference's rms gives);
 * ``overrange_threshold_g`` — from the random runs, where the data reach it (the base sensor
-  must give the hold time).
+  must give the hold time);
+* ``kip_ug_per_g2``, ``kpp_ug_per_g2``, ``kio_ug_per_g2``, ``koo_ug_per_g2`` — IEEE 1293's
+  cross-coupling coefficients (SPEC 1.6), from the sine runs mounted at an angle (the manifest's
+  ``mount_deg``, ``mount_plane``), by their own linear fit on the model identified from the
+  others (:func:`fit_cross_coupling`); those runs stay out of the fit above.
 
 What the campaign cannot determine is null with its reason: k2 and k3 without a sine run; k3
 with one orientation; k2 too when that orientation is not 0 g (then only ``k2 + 3·k3·g0`` is
@@ -1203,7 +1207,9 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
     even in φ cancels: from one side it would rest on k2, k3 and Kpp being exact at the other
     angles); a coefficient the design does not separate from the others (not estimable: its
     unit vector outside the row space of the design). The sensitivity terms of ``typeb``
-    (reference and DUT, common to every run) are added as for k2 (:func:`vrelab.gum.common_sensitivity_terms`).
+    (reference and DUT, common to every run) are added as for k2
+    (:func:`vrelab.gum.common_sensitivity_terms`, fully correlated across the coefficients); its
+    static-field and thermal terms are not carried (a ±φ pair cancels both in Kip).
     """
     from vrelab.gum import common_sensitivity_terms, weighted_mean
     from vrelab.models.dynamics import vrc_at_frequency

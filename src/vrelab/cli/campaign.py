@@ -139,6 +139,10 @@ def _print(doc: dict[str, Any]) -> None:
         for v in c["vrc_by_freq"]:
             e = v["vrc_ug_per_g2"]
             print(f"  VRC at {v['freq_hz']:8.4g} Hz, {v['static_g']:+.3g} g: {format_value_u(e['value'], e['u'], unit='µg/g²')}")
+        for v in c.get("vrc_by_mount") or ():  # IEEE 1293 mount-angle runs (SPEC 1.6)
+            e = v["vrc_ug_per_g2"]
+            print(f"  VRE/rms² at {v['freq_hz']:8.4g} Hz, mounted {v['mount_deg']:+g}° {v['mount_plane'].upper()}: "
+                  f"{format_value_u(e['value'], e['u'], unit='µg/g²')}")
         for key, unit in (("k2_ug_per_g2", "µg/g²"), ("k3_ug_per_g3", "µg/g³"), ("rail_g", "g")):
             e = c[key]
             text = "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)
