@@ -10,6 +10,13 @@ SPEC section 5::
 ``--seconds`` at level; the record's schedule leaves the ramps out); ``--drift`` adds a slow
 linear drift of the sensor's output [g/s] (both default 0).
 
+A triaxial test (SPEC 1.6, :func:`vrelab.triaxial.simulate.simulate_triaxial`): ``--direction
+X,Y,Z`` runs the random ``--profile`` (or one ``--freq`` sine) along that direction, or
+``--profile`` names a triaxial vibration (``PROFILE@dir=X,Y,Z``, a triaxial TOML file);
+``--axes x,y,z`` are the DUT axes (default ``--axis``), ``--static-vector X,Y,Z`` the static
+acceleration in the part's frame (default ``--static`` along the first DUT axis). It prints,
+and ``--json`` or ``--out`` writes, one result per axis (a several-channel document).
+
 ``--json`` prints :meth:`vrelab.results.VreResult.to_dict` (``levels``: ``rms_g``, ``vre_g``,
 ``u_vre_g``, ``freq_hz`` for sine; ``fit``). ``--out DIR`` writes ``results.json``,
 ``levels.csv``, ``prediction.json`` (the analytic prediction for the same conditions) and, with
@@ -46,6 +53,126 @@ def print_result(result: Any) -> None:
     print_levels(result)
 
 
+def _vector(text: str, name: str) -> list[float]:
+    """Three finite numbers X,Y,Z from an option."""
+    parts = text.split(",")
+    try:
+        values = [float(x) for x in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(math.isfinite(x) for x in values):
+        raise ValueError(f"{name} must be three finite numbers X,Y,Z, got {text!r}")
+    return values
+
+
+def _is_triaxial(args: argparse.Namespace) -> bool:
+    if args.direction is not None or args.axes is not None or args.static_vector is not None:
+        return True
+    return args.profile is not None and _triaxial_profile(args.profile)
+
+
+def _triaxial_profile(spec: str) -> bool:
+    """Whether a --profile names a triaxial vibration (PROFILE@direction, a triaxial file)."""
+    files = _triaxial_files()
+    return "@" in spec if files is None else bool(files.is_triaxial_spec(spec))
+
+
+def _triaxial_files() -> Any:
+    """vrelab.triaxial.files (the triaxial profile strings and files), or None where this
+    installation has none (imported by name: it is newer than this command)."""
+    import importlib
+    import importlib.util
+
+    if importlib.util.find_spec("vrelab.triaxial.files") is None:
+        return None
+    return importlib.import_module("vrelab.triaxial.files")
+
+
+def _run_triaxial(args: argparse.Namespace, levels: list[float], seconds: float, baseline_s: float,
+                  progress: bool) -> int:
+    """``vrelab simulate`` of a triaxial vibration: one result per DUT axis."""
+    from vrelab.profiles import RandomProfile, parse_profile
+    from vrelab.sensor import load_sensor
+    from vrelab.triaxial.profile import TriaxialSine
+    from vrelab.triaxial.simulate import simulate_triaxial
+
+    for opt, bad in (("--drive", args.drive != "gaussian"), ("--clip-sigma", args.clip_sigma is not None),
+                     ("--kurtosis", args.kurtosis is not None), ("--ramp", bool(args.ramp))):
+        if bad:
+            raise ValueError(f"{opt} does not apply to a triaxial test (a Gaussian drive with its CSD, no ramp)")
+    d = _vector(args.direction, "--direction") if args.direction is not None else None
+    excitation: Any
+    if args.freq is not None:
+        freqs = positive_list(args.freq, "--freq")
+        if d is None or len(freqs) != 1:
+            raise ValueError("a triaxial sine is one --freq F along a --direction X,Y,Z")
+        excitation, d = TriaxialSine(freqs[0], (d[0], d[1], d[2])), None
+    elif _triaxial_profile(args.profile):
+        if d is not None:
+            raise ValueError("--direction applies to a single-axis --profile, not to a triaxial one")
+        files = _triaxial_files()
+        if files is None:
+            raise ValueError(f"--profile {args.profile!r}: triaxial profile strings need vrelab.triaxial.files; "
+                             "give a single-axis profile with --direction X,Y,Z")
+        excitation = files.parse_triaxial(args.profile)
+    else:
+        if d is None:
+            raise ValueError("a triaxial test needs --direction X,Y,Z (or a triaxial --profile)")
+        excitation = parse_profile(args.profile)
+        if not isinstance(excitation, RandomProfile):
+            raise ValueError("a sine-on-random --profile along a --direction is not supported (its tones would need "
+                             "a direction of their own)")
+    base = sensor_from_args(args)
+    names = [a.strip() for a in args.axes.split(",")] if args.axes is not None else [base.axis]
+    if not names or any(not a for a in names) or len(set(names)) != len(names):
+        raise ValueError(f"--axes must name distinct axes, e.g. x,y,z; got {args.axes!r}")
+    drift = float(V.finite_scalar("--drift", args.drift))
+    sensors = []
+    for a in names:
+        s = load_sensor(args.sensor, range_g=args.range_g, axis=a, odr_hz=args.odr_hz,
+                        k2_ug_per_g2=args.k2_ug_per_g2, k3_ug_per_g3=args.k3_ug_per_g3)
+        if drift:
+            s = dataclasses.replace(s, drift_g_per_s=drift,
+                                    facts={**dict(s.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"})
+        sensors.append(s)
+    if args.static_vector is not None:
+        g = _vector(args.static_vector, "--static-vector")
+    else:
+        g = [0.0, 0.0, 0.0]
+        g[sensors[0].triad[0]] = float(args.static_g)
+
+    def simulate(record_path: Path | None) -> Any:
+        return simulate_triaxial(sensors, excitation, levels, direction=d, static_g=g, seconds=seconds,
+                                 baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
+                                 record_path=record_path, progress=progress)
+
+    if args.out:
+        from vrelab import folder
+        from vrelab._io import output_dir
+        from vrelab.cli._common import input_paths
+
+        with output_dir(args.out, inputs=input_paths(args.sensor, args.profile)) as stage:
+            result = simulate(stage / folder.RECORD if args.record else None)
+            doc = result.to_dict()
+            if args.record:
+                doc["triaxial"]["record"] = folder.RECORD
+            folder.write_channels(stage, list(result.axes.items()), doc)
+    else:
+        result = simulate(None)
+    if args.json:
+        print_json(result.to_dict())
+        return 0
+    c = next(iter(result.axes.values())).conditions
+    odr = f"ODR {c.odr_hz:g} Hz" if c.odr_hz else "no ODR"
+    print(f"simulated triaxial {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  {odr}  "
+          f"static vector ({', '.join(f'{x:g}' for x in result.static_g)}) g")
+    print(f"vibration: {result.excitation.describe()}; level = {result.conditions['level']}")
+    for a, res in result.axes.items():
+        print(f"axis {a}:")
+        print_levels(res)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from vrelab import shaker
     from vrelab.predict import predict
@@ -63,6 +190,9 @@ def run(args: argparse.Namespace) -> int:
     if args.record and not args.out:
         raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
     ramp_s = float(V.non_negative("--ramp", args.ramp))
+    progress = bool(args.progress or sys.stderr.isatty())
+    if _is_triaxial(args):
+        return _run_triaxial(args, levels, seconds, baseline_s, progress)
     drift = float(V.finite_scalar("--drift", args.drift))
     sensor = sensor_from_args(args)
     if drift:
@@ -70,7 +200,6 @@ def run(args: argparse.Namespace) -> int:
         sensor = dataclasses.replace(sensor, drift_g_per_s=drift, facts=facts)
     profile = parse_profile(args.profile) if args.profile is not None else None
     freqs = V.frequency("--freq", positive_list(args.freq, "--freq")).tolist() if args.freq is not None else None
-    progress = bool(args.progress or sys.stderr.isatty())
     excitation = profile if profile is not None else freqs
     assert excitation is not None  # --profile or --freq: the parser requires one
 
@@ -138,6 +267,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--clip-sigma", type=float, metavar="K",
                    help="clip the random drive at ±K·σ, as shaker controllers do (with tones: the random part)")
     p.add_argument("--kurtosis", type=float, metavar="K", help="non-Gaussian random drive with this kurtosis (> 3)")
+    p.add_argument("--direction", metavar="X,Y,Z",
+                   help="triaxial test: the random --profile (or one --freq sine) along this direction of the part's frame")
+    p.add_argument("--axes", metavar="LIST", help="triaxial test: the DUT axes, e.g. x,y,z (default --axis)")
+    p.add_argument("--static-vector", metavar="X,Y,Z",
+                   help="triaxial test: static acceleration in the part's frame [g] (default --static along the "
+                   "first DUT axis)")
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")

@@ -12,25 +12,37 @@ record.
   :class:`~vrelab.triaxial.profile.TriaxialSine`).
 * :func:`simulate_direction`: that drive plus the static vector through one or more DUT axes,
   block by block: (reference (3, n), {axis: output}).
+* :func:`simulate_triaxial`: a whole simulated test (the single-axis test's plan: baselines,
+  levels, seeds, rates), the drive a :class:`~vrelab.triaxial.profile.TriaxialProfile`
+  (:mod:`vrelab.triaxial.synthesis`) or a sine along a direction, written as an HDF5 record
+  (``reference_x``, ``reference_y``, ``reference_z``, ``dut_<axis>``) and reduced per DUT axis
+  from the file; the level of each is the total rms. Along one axis it is
+  :func:`vrelab.shaker.run_random_test` exactly.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
-from typing import Any, Iterator, Mapping
+from pathlib import Path
+from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
+from vrelab.record import write_record_hdf5
+from vrelab.results import LevelResult, Method, Notice, VreResult
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
-from vrelab.triaxial.profile import AXES, TriaxialSine, _unit
+from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, _unit
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["direction_blocks", "simulate_direction", "DirectionBlock", "static_vector", "axis_runs"]
+__all__ = ["direction_blocks", "simulate_direction", "DirectionBlock", "static_vector", "axis_runs",
+           "simulate_triaxial", "TriaxialTest", "LEVEL_TEXT"]
 
 # Internal samples per simulated block (as vrelab.simulation.record.BLOCK_INTERNAL).
 BLOCK = 1 << 16
@@ -185,3 +197,305 @@ def simulate_direction(
         a = x + g[:, None]
         yield DirectionBlock(x, {ax: r.process(a) for ax, r in runs.items()})
 
+
+
+# --- the simulated triaxial shaker test -------------------------------------------------------
+
+# Level definition of a triaxial test (TRIAXIAL.md): the total rms of the vibration vector.
+LEVEL_TEXT = "total rms of the triaxial reference, sqrt(rms_x² + rms_y² + rms_z²)"
+
+
+def _excitation(excitation: Any, direction: ArrayLike | None) -> TriaxialProfile | TriaxialSine:
+    """The triaxial vibration a test runs: a TriaxialProfile or TriaxialSine as given, or a
+    single-axis RandomProfile along ``direction``."""
+    if isinstance(excitation, (TriaxialProfile, TriaxialSine)):
+        if direction is not None:
+            raise ValueError("direction applies to a single-axis profile; a triaxial one carries its own axes")
+        return excitation
+    if isinstance(excitation, RandomProfile):
+        if direction is None:
+            raise ValueError("a single-axis profile needs a direction (x, y, z) to run on a triaxial table")
+        return TriaxialProfile.along(excitation, direction)
+    if isinstance(excitation, SineOnRandom):
+        raise ValueError("a sine-on-random profile along a direction is not supported by the triaxial test "
+                         "(its tones would need a direction of their own)")
+    raise ValueError(f"excitation must be a TriaxialProfile, TriaxialSine or RandomProfile, got {type(excitation).__name__}")
+
+
+@dataclass(frozen=True)
+class TriaxialTest:
+    """A simulated triaxial shaker test, reduced per DUT axis.
+
+    ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
+    the axis's output against its interpolated vibration-off readings, SPEC 4) with the
+    reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
+    reference (:data:`LEVEL_TEXT`). No fits: the single-axis fits (VRC, effective rail) assume
+    the axis sees the whole level along itself.
+    """
+
+    method: Method
+    excitation: TriaxialProfile | TriaxialSine
+    levels_g: tuple[float, ...]
+    static_g: tuple[float, float, float]
+    axes: Mapping[str, VreResult]
+    conditions: Mapping[str, Any]
+    record_path: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The document of several DUT channels (``channels``: each axis's whole
+        :meth:`VreResult.to_dict` with ``channel`` its axis, as ``vrelab analyze`` writes for a
+        file with several DUTs, so ``vrelab report`` reads it) plus the triaxial conditions."""
+        chans = [{"channel": a, **r.to_dict()} for a, r in self.axes.items()]
+        first = next(iter(self.axes.values()), None)
+        return {"kind": "simulation", "method": self.method, "channels": chans,
+                "triaxial": {"excitation": self.excitation.to_dict(), "level": LEVEL_TEXT,
+                             "levels_g": list(self.levels_g), "static_vector_g": list(self.static_g),
+                             "conditions": dict(self.conditions), "record": self.record_path},
+                "provenance": dict(first.provenance) if first is not None else {}}
+
+
+@dataclass
+class _Counts:
+    """Per segment, what the simulation knows of one DUT axis (the shaker's saturation truth)."""
+
+    schedule: Any
+    _segments: Any
+    saturated: list[int]
+    clipped: list[int]
+    overrange_events: list[int]
+    dut_span: list[float]
+    fs_hz: float
+
+
+def simulate_triaxial(
+    sensors: Any,
+    excitation: TriaxialProfile | TriaxialSine | RandomProfile,
+    levels_g: Sequence[float],
+    *,
+    direction: ArrayLike | None = None,
+    static_g: ArrayLike | None = None,
+    seconds: float | None = None,
+    baseline_s: float = 2.0,
+    settle_s: float | None = None,
+    seed: int = 0,
+    fs_internal_hz: float | None = None,
+    record_path: str | Path | None = None,
+    progress: bool = False,
+) -> TriaxialTest:
+    """Simulate a triaxial shaker test and reduce each DUT axis as a lab record.
+
+    Parameters
+    ----------
+    sensors : Sensor or sequence of Sensors
+        The DUT axes, one Sensor per axis (``load_sensor(..., axis=a)``), sharing one ODR.
+    excitation : TriaxialProfile, TriaxialSine or RandomProfile
+        The vibration (a RandomProfile runs along ``direction``); scaled to each level.
+    levels_g : sequence of float
+        Levels [g], each the total rms of the vibration (its rms along the direction).
+    direction : array_like (3,), optional
+        For a single-axis RandomProfile only.
+    static_g : array_like (3,), optional
+        Static acceleration (x, y, z) [g] in the part's frame; default 1 g along +z.
+    seconds, baseline_s, settle_s, seed, fs_internal_hz :
+        As :class:`vrelab.simulation.plan.TestPlan` (``seconds`` default 4 random, 2 sine):
+        the same baselines, level durations, settling trim, seeds (every draw from
+        ``SeedSequence(seed)``: each level's drive seed and the chains' seed, each axis a child
+        of it, :func:`axis_runs`) and the one rate rule.
+    record_path : path, optional
+        Write the record there (HDF5, channels ``reference_x/y/z`` and ``dut_<axis>``);
+        otherwise it goes to a temporary file, removed afterwards. Either way each axis is
+        reduced from the file, as a lab's recording is.
+
+    Returns
+    -------
+    TriaxialTest
+
+    Notes
+    -----
+    The test is :class:`~vrelab.simulation.plan.TestPlan`'s (a baseline, each level followed
+    by a baseline; the plan is made for the first axis, and its rates serve every axis); the
+    drive is :func:`vrelab.triaxial.synthesis.triaxial_random_blocks` of the profile scaled to
+    each level (a sine: the plan's drive frequency and phase along the sine's direction); each
+    axis sees ``static_g + drive`` through :func:`vrelab.triaxial.chain.triaxial_chain`. Each
+    axis's record is reduced by :func:`vrelab.analysis.reduce` against the reference of the
+    axis that moves most, its saturation flags taken from the simulation's counts and a sine's
+    lattice error added to u, as :func:`vrelab.shaker.run_test` does; the level is then the
+    total rms of the three reference channels, each reduced alone
+    (``u`` of the total: the axes' u summed linearly, the bound for correlated estimates).
+    """
+    import tempfile
+
+    from vrelab import shaker
+    from vrelab.simulation.plan import TestPlan
+
+    axes = _axis_sensors(sensors)
+    g = static_vector(static_g)
+    exc = _excitation(excitation, direction)
+    first = next(iter(axes.values()))
+    # the plan's saturation check (which sine levels need every phase sampled) sees the axis
+    # whose static reading is largest
+    static_plan = max((float(s.sensitivity_row @ g) for s in axes.values()), key=abs)
+    if fs_internal_hz is None:
+        # the one rate rule, for the axis that needs the fastest rate (the plan applies it to the
+        # first axis only; the axes of one part share their ODR, so every rule's rate is a multiple of it)
+        f_max = exc.freq_hz if isinstance(exc, TriaxialSine) else exc.band[1]
+        rates_needed = {float(s.internal_rate_hz(f_max)) for s in axes.values()}
+        if len(rates_needed) > 1:
+            fs_internal_hz = max(rates_needed)
+    common = dict(static_g=static_plan, baseline_s=baseline_s, settle_s=settle_s, seed=seed,
+                  fs_internal_hz=fs_internal_hz)
+    method: Method
+    if isinstance(exc, TriaxialSine):
+        method = "sine"
+        plan = TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds, **common)
+        direction_ref = np.asarray(exc.direction)
+        band_profile = None
+    else:
+        method = "random"
+        proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
+        plan = TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common)
+        direction_ref = np.sqrt(exc.axis_mean_square_g2)
+        band_profile = proxy
+    base = plan.record()
+    rates, segs = base.rates, base._segments
+    runs = axis_runs(axes, rates.fs_internal_hz, base._chain_seed)
+    fs_out = next(iter(runs.values())).fs_out_hz
+    if abs(fs_out * rates.decimation - rates.fs_internal_hz) > 1e-9 * rates.fs_internal_hz:
+        raise ValueError(f"the DUT axes' output rate {fs_out:g} Hz does not divide the internal rate "
+                         f"{rates.fs_internal_hz:g} Hz of the plan")
+    ref_axis = AXES[int(np.argmax(np.abs(direction_ref)))]
+    meta = dict(base.meta)
+    meta["triaxial"] = {"excitation": exc.to_dict(), "static_vector_g": g.tolist(), "axes": list(axes),
+                        "level": LEVEL_TEXT, "reference_channels": [f"reference_{a}" for a in AXES],
+                        "dut_channels": {a: f"dut_{a}" for a in axes}}
+    counts = {a: _Counts(base.schedule, segs, [0] * len(segs), [0] * len(segs), [0] * len(segs),
+                         [0.0] * len(segs), rates.fs_record_hz) for a in axes}
+    blocks = _record_blocks(exc, segs, rates, g, axes, runs, counts)
+    with tempfile.TemporaryDirectory(prefix="vrelab-triaxial-") as tmp:
+        path = Path(record_path) if record_path is not None else Path(tmp) / "record.h5"
+        write_record_hdf5(path, rates.fs_record_hz, blocks, schedule=base.schedule, meta=meta)
+        band: tuple[float, float] | None
+        if method == "random":
+            assert band_profile is not None
+            band = shaker._measurement_band(band_profile)
+        else:
+            band = shaker._sine_band(base)
+        assert plan.settle_s is not None
+        results = _reduce_axes(path, axes, counts, ref_axis, direction_ref, method, band, plan.settle_s, progress)
+    conditions = {"sensor": first.name, "axes": list(axes), "static_vector_g": g.tolist(),
+                  "excitation": exc.describe(), "level": LEVEL_TEXT, **base.meta["simulation"]}
+    out = {}
+    for a, (levels, warnings) in results.items():
+        s = axes[a]
+        cond = shaker._conditions(s, exc.describe(), float(s.sensitivity_row @ g),
+                                  {**base.meta["simulation"], "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
+                                   "triaxial": True, "excitation": exc.to_dict()})
+        warnings.append(Notice("triaxial-no-fit", "no fit: the single-axis fits (VRC, effective rail) assume the "
+                               "axis sees the whole level along itself; a triaxial axis does not"))
+        out[a] = VreResult(method=method, conditions=cond, levels=tuple(levels), fits=(), warnings=tuple(warnings),
+                           provenance=shaker._provenance("vrelab.triaxial.simulate_triaxial", s), kind="simulation")
+    return TriaxialTest(method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out, conditions,
+                        None if record_path is None else str(record_path))
+
+
+def _record_blocks(
+    exc: TriaxialProfile | TriaxialSine,
+    segs: Sequence[Any],
+    rates: Any,
+    g: FloatArray,
+    axes: Mapping[str, Any],
+    runs: Mapping[str, TriaxialRun],
+    counts: Mapping[str, _Counts],
+) -> Iterator[dict[str, FloatArray]]:
+    """The record's channel blocks at the record rate (SimulatedRecord's rule: the reference,
+    band-limited by construction, kept at every step-th internal sample; each DUT output held
+    over its ODR period), counting what the simulation knows per segment and axis."""
+    from vrelab import synthesis
+    from vrelab.simulation.record import BLOCK_INTERNAL, rail_window
+    from vrelab.triaxial.synthesis import triaxial_random_blocks
+
+    fs = rates.fs_internal_hz
+    step, hold = rates.step, rates.hold
+    block = max(1, BLOCK_INTERNAL // rates.decimation) * rates.decimation
+    rails = {a: rail_window(s) for a, s in axes.items()}
+    for k, seg in enumerate(segs):
+        drive: Iterator[FloatArray]
+        if seg.rms_g == 0:
+            drive = (np.zeros((3, min(block, seg.n_internal - i))) for i in range(0, seg.n_internal, block))
+        elif isinstance(exc, TriaxialSine):
+            d = np.asarray(exc.direction)
+            hz = seg.freq_hz if seg.drive_hz is None else seg.drive_hz
+            drive = (d[:, None] * s[None, :] for s in synthesis.sine_blocks(hz, seg.rms_g, fs, seg.n_internal, block,
+                                                                             phase_rad=seg.phase_rad))
+        else:
+            drive = triaxial_random_blocks(exc.scaled_to(seg.rms_g), fs, seg.n_internal, block, seg.seed)
+        before = {a: r.stats for a, r in runs.items()}
+        span = {a: (math.inf, -math.inf) for a in axes}
+        for x in drive:
+            acc = x + g[:, None]
+            out: dict[str, FloatArray] = {f"reference_{c}": x[j, ::step].copy() for j, c in enumerate(AXES)}
+            for a, r in runs.items():
+                y = r.process(acc)
+                low, high = rails[a]
+                counts[a].saturated[k] += int(np.count_nonzero((y <= low) | (y >= high)))
+                if y.size:
+                    span[a] = (min(span[a][0], float(y.min())), max(span[a][1], float(y.max())))
+                out[f"dut_{a}"] = np.repeat(y, hold) if hold > 1 else y
+            yield out
+        for a, r in runs.items():
+            after = r.stats
+            counts[a].clipped[k] = after.clipped_samples - before[a].clipped_samples
+            counts[a].overrange_events[k] = after.overrange_events - before[a].overrange_events
+            counts[a].dut_span[k] = span[a][1] - span[a][0] if span[a][1] >= span[a][0] else 0.0
+
+
+def _reduce_axes(
+    path: Path,
+    axes: Mapping[str, Any],
+    counts: Mapping[str, _Counts],
+    ref_axis: str,
+    direction_ref: FloatArray,
+    method: Method,
+    band: tuple[float, float] | None,
+    settle_s: float,
+    progress: bool,
+) -> dict[str, tuple[list[LevelResult], list[Any]]]:
+    """Each DUT axis reduced from the file (as vrelab.shaker does), its levels' rms the total."""
+    from vrelab import shaker
+    from vrelab.analysis import reduce
+    from vrelab.analysis.readers import open_record
+    from vrelab.analysis.reduction import ACCEPTABLE
+
+    def reduced(dut: str, ref: str) -> Any:
+        with open_record(path, dut=dut, reference=ref) as rec:
+            return reduce(rec, schedule=rec.schedule, method=method, band_hz=band, settle_s=settle_s,
+                          progress=progress, accept=ACCEPTABLE)
+
+    # each DUT axis against the reference of the axis that moves most; the level: each moving
+    # reference channel's rms (a reduction against it, with the first axis as its DUT)
+    duts = {a: reduced(f"dut_{a}", f"reference_{ref_axis}") for a in axes}
+    first = next(iter(axes))
+    rms2: list[float] | None = None
+    urms: list[float] | None = None
+    for j, c in enumerate(AXES):
+        if direction_ref[j] == 0:
+            continue
+        red = duts[first] if c == ref_axis else reduced(f"dut_{first}", f"reference_{c}")
+        r = [lv.rms_g for lv in red.levels]
+        u = [lv.u_rms_g if lv.u_rms_g is not None else math.nan for lv in red.levels]
+        rms2 = [x * x for x in r] if rms2 is None else [a + x * x for a, x in zip(rms2, r)]
+        urms = [x * ux for x, ux in zip(r, u)] if urms is None else [a + x * ux for a, x, ux in zip(urms, r, u)]
+    assert rms2 is not None and urms is not None
+    total = [math.sqrt(x) for x in rms2]
+    u_total = [a / t if t > 0 else math.nan for a, t in zip(urms, total)]
+
+    out: dict[str, tuple[list[LevelResult], list[Any]]] = {}
+    for a in axes:
+        red = duts[a]
+        levels, warnings = shaker._with_simulated_saturation(counts[a], list(red.levels), list(red.warnings))  # type: ignore[arg-type]
+        levels = shaker._with_lattice_u(counts[a], levels)  # type: ignore[arg-type]
+        if len(levels) != len(total):
+            raise ValueError(f"axis {a}: {len(levels)} levels reduced, {len(total)} in the reference")
+        levels = [dataclasses.replace(lv, rms_g=t, u_rms_g=u) for lv, t, u in zip(levels, total, u_total)]
+        out[a] = (levels, warnings)
+    return out

@@ -1,0 +1,170 @@
+"""The simulated triaxial shaker test, reduced per DUT axis (issue 22, SPEC 1.6, TRIAXIAL.md).
+
+Truths: today's single-axis simulated test (a drive along the input axis of a noiseless axis
+must give its levels exactly), SPEC 1.6's VRE of the cross terms, computed here with
+scipy.integrate.quad over the CSD for coherent and incoherent axes, the sine's closed form
+``Kip·r²·sin φ cos φ``, and the coverage of the reduction's u over replicated seeds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from vrelab import shaker
+from vrelab.analysis.readers import open_record
+from vrelab.profiles import RandomProfile
+from vrelab.sensor import load_sensor
+from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, direction
+from vrelab.triaxial.simulate import simulate_triaxial
+
+F = np.array([20.0, 100.0, 400.0])
+P = {"x": RandomProfile(F, [0.01, 0.02, 0.005]), "y": RandomProfile(F, [0.02, 0.02, 0.02]),
+     "z": RandomProfile(F, [0.005, 0.01, 0.02])}
+COHERENT = TriaxialProfile.from_axes(P, {("x", "y"): (1.0, 30.0), ("y", "z"): (1.0, -60.0), ("x", "z"): (1.0, -30.0)})
+INCOHERENT = TriaxialProfile.from_axes(P)
+
+
+def _axis(axis: str, **k) -> object:
+    """An ideal axis (no noise, no filter), unclipped at ±50 g, with a 300 Hz Q 3 proof mass."""
+    return dataclasses.replace(load_sensor("ideal", axis=axis, range_g=50.0), fn_hz=300.0, q=3.0, **k)
+
+
+def _closed_form(profile: TriaxialProfile, sensor, scale: bool = False) -> float:
+    """VRE of an unclipped axis (SPEC 1.2 + 1.6): k2·∫wᵀRe S w |H|² df + Σ K_jk Re ∫ S_jk |H|² df
+    (the static vector's products with the zero-mean vibration average out). ``scale``: the same
+    with every term's magnitude at full coherence (|k2|·σ_u², |K_jk|·∫√(S_jj S_kk)|H|²), the size
+    of what a wrong mechanism would move the result by."""
+    i, p, o = sensor.triad
+    w = sensor.sensitivity_row
+    terms = [(sensor.kip_per_g, i, p), (sensor.kio_per_g, i, o), (sensor.kpp_per_g, p, p),
+             (sensor.koo_per_g, o, o), (sensor.kpo_per_g, p, o)]
+
+    def integrand(f):
+        s = profile.csd(f)[0].real
+        h2 = abs(sensor.response(f, "proof-mass")) ** 2
+        if scale:
+            return (abs(sensor.k2_per_g) * (w @ s @ w)
+                    + sum(abs(k) * math.sqrt(s[a, a] * s[b, b]) for k, a, b in terms)) * h2
+        return (sensor.k2_per_g * (w @ s @ w) + sum(k * s[a, b] for k, a, b in terms)) * h2
+
+    pts = profile.freq_hz
+    return sum(integrate.quad(integrand, pts[m], pts[m + 1], limit=200, epsrel=1e-10)[0] for m in range(pts.size - 1))
+
+
+def test_a_drive_along_the_input_axis_is_todays_single_axis_test_exactly():
+    # noiseless ideal axis, clipped (±2 g, 1 g static): the same plan, drive, chain and reduction
+    sensor = dataclasses.replace(load_sensor("ideal", axis="z", range_g=2.0), k2_per_g=1e-3)
+    prof = RandomProfile.flat(20.0, 500.0, grms=1.0)
+    single = shaker.run_random_test(sensor, prof, [0.5, 1.0], static_g=1.0, seconds=2.0, seed=3)
+    tri = simulate_triaxial(sensor, prof, [0.5, 1.0], direction=(0, 0, 1), static_g=(0, 0, 1), seconds=2.0, seed=3)
+    got = tri.axes["z"].levels
+    assert len(got) == 2
+    for a, b in zip(single.levels, got):
+        assert (a.vre.value, a.vre.u, a.rms_g, a.u_rms_g, a.flags) == (b.vre.value, b.vre.u, b.rms_g, b.u_rms_g, b.flags)
+    assert got[1].vre.value < -0.05  # the clipping really rectified (not two zero results)
+
+
+@pytest.mark.parametrize("profile", [COHERENT, INCOHERENT], ids=["coherent", "incoherent"])
+def test_each_axis_rectifies_as_spec_1_6_closed_form(profile, tmp_path):
+    # coefficients far above a real part's (tens of µg/g²), so that the rectified shift stands
+    # well above the scatter of the axis's own (linear) vibration in a few seconds
+    sensors = [_axis("x", k2_per_g=0.04, kip_per_g=0.2, kio_per_g=-0.16, cross_axis_z=0.05),
+               _axis("y", kpp_per_g=0.12, koo_per_g=-0.08, kpo_per_g=0.2),
+               _axis("z", kip_per_g=-0.24, kpo_per_g=0.12, cross_axis_x=-0.03, k2_per_g=0.02)]
+    path = tmp_path / "record.h5"
+    res = simulate_triaxial(sensors, profile, [1.0, 2.0], static_g=(0.3, 0.0, 0.95), seconds=6.0, seed=11,
+                            record_path=path)
+    for s in sensors:
+        for lv in res.axes[s.axis].levels:
+            truth = _closed_form(profile.scaled_to(lv.rms_g), s)
+            assert abs(lv.vre.value - truth) < 4 * lv.vre.u, (s.axis, lv.rms_g, lv.vre, truth)
+            assert lv.vre.u < 0.1 * _closed_form(profile.scaled_to(lv.rms_g), s, scale=True)
+            assert "saturated" not in lv.flags
+    # the level is the total rms of the reference: within its u of the profile's level
+    for lv, nominal in zip(res.axes["x"].levels, (1.0, 2.0)):
+        assert abs(lv.rms_g - nominal) < 4 * lv.u_rms_g
+    # the recording: one reference channel per axis, one DUT channel per axis, readable by vrelab
+    with open_record(path, dut={a: f"dut_{a}" for a in AXES}, reference="reference_x") as rec:
+        assert set(rec.channels) == {"reference", "dut:x", "dut:y", "dut:z"}
+        assert rec.schedule is not None and len(rec.schedule.segments) == 5
+    with open_record(path, dut="reference_y", reference="reference_z") as rec:
+        assert rec.n_samples > 0
+    json.dumps(res.to_dict())
+
+
+def test_coverage_of_the_reduction_u_over_seeds():
+    # one axis, Kip only, 45° in the IP plane: VRE = Kip·E[b_i b_p]; 12 seeds, z = (vre - truth)/u
+    sensor = _axis("z", kip_per_g=0.05)
+    prof = TriaxialProfile.along(RandomProfile.flat(20.0, 400.0, grms=1.0), direction("z", "x", 45.0))
+    truth = _closed_form(prof, sensor)
+    z = []
+    for seed in range(12):
+        lv = simulate_triaxial(sensor, prof, [1.0], static_g=(0, 0, 1), seconds=2.0, seed=seed).axes["z"].levels[0]
+        z.append((lv.vre.value - truth) / lv.vre.u)
+    m = float(np.mean(np.square(z)))
+    # Σz² ~ χ²(12) when u is right: P(mean z² < 0.3) ≈ 0.01, P(> 2.5) ≈ 0.003
+    assert 0.3 < m < 2.5, z
+
+
+def test_sine_along_a_direction_gives_the_vibropendulous_closed_form():
+    sensor = dataclasses.replace(load_sensor("ideal", axis="x", range_g=20.0), kip_per_g=0.02)
+    sine = TriaxialSine(80.0, direction("x", "y", 45.0))
+    res = simulate_triaxial(sensor, sine, [1.0, 3.0], static_g=(0, 0, 1), seconds=2.0, seed=1)
+    assert res.method == "sine"
+    for lv, r in zip(res.axes["x"].levels, (1.0, 3.0)):
+        want = 0.02 * r**2 * math.sin(math.pi / 4) * math.cos(math.pi / 4)
+        # the reduction's sine lock-in lands 4e-8 (relative) off the closed form while its u says
+        # 2e-16 (noticed, the reduction's own limit, the same in the single-axis test): held to 1e-6
+        assert lv.vre.value == pytest.approx(want, rel=1e-6)
+        assert lv.rms_g == pytest.approx(r, rel=1e-3)
+
+
+def test_bad_input_is_refused():
+    s = load_sensor("ideal", axis="x")
+    prof = RandomProfile.flat(20.0, 400.0)
+    with pytest.raises(ValueError, match="needs a direction"):
+        simulate_triaxial(s, prof, [1.0])
+    with pytest.raises(ValueError, match="carries its own axes"):
+        simulate_triaxial(s, TriaxialProfile.along(prof, (1, 0, 0)), [1.0], direction=(1, 0, 0))
+    with pytest.raises(ValueError, match="given twice"):
+        simulate_triaxial([s, s], prof, [1.0], direction=(1, 0, 0))
+    with pytest.raises(ValueError, match="static vector"):
+        simulate_triaxial(s, prof, [1.0], direction=(1, 0, 0), static_g=(1, 2))
+    with pytest.raises(ValueError, match="levels"):
+        simulate_triaxial(s, prof, [-1.0], direction=(1, 0, 0))
+
+
+def test_cross_axis_sensitivity_feeds_another_axis_vibration_into_the_clipping():
+    # SPEC 1.6: the x axis (rails ±2 g, 1 g static along it) feels 0.3 g/g of a vibration along y
+    # alone: u = 1 + 0.3·a_y, Gaussian with σ = 0.3·rms. Censored clipping, SPEC 1.1's closed form
+    # written out here with scipy.stats.norm: E[clip(X)] - clip(μ).
+    from scipy.stats import norm
+
+    sensor = dataclasses.replace(load_sensor("ideal", axis="x", range_g=2.0), cross_axis_y=0.3)
+    prof = TriaxialProfile.along(RandomProfile.flat(20.0, 400.0), (0.0, 1.0, 0.0))
+    res = simulate_triaxial(sensor, prof, [2.5, 4.0], static_g=(1.0, 0.0, 0.0), seconds=4.0, seed=5)
+    for lv in res.axes["x"].levels:
+        mu, sigma, lo, hi = 1.0, 0.3 * lv.rms_g, -2.0, 2.0
+        a, b = (lo - mu) / sigma, (hi - mu) / sigma
+        mean = lo * norm.cdf(a) + hi * norm.sf(b) + mu * (norm.cdf(b) - norm.cdf(a)) + sigma * (norm.pdf(a) - norm.pdf(b))
+        truth = mean - mu
+        assert abs(lv.vre.value - truth) < 4 * lv.vre.u, (lv.rms_g, lv.vre, truth)
+        assert lv.vre.u < 0.15 * abs(truth)
+        assert "saturated" in lv.flags
+
+
+def test_the_rate_rule_serves_the_axis_that_needs_the_fastest_rate():
+    # the one rate rule (vrelab.rates: 5·fn) for a 1.5 kHz proof mass on z asks 8 kHz, x 4 kHz
+    x = load_sensor("ideal", axis="x", range_g=20.0)
+    z = dataclasses.replace(load_sensor("ideal", axis="z", range_g=20.0), fn_hz=1500.0, q=2.0)
+    want = max(x.internal_rate_hz(400.0), z.internal_rate_hz(400.0))
+    assert want > x.internal_rate_hz(400.0)
+    for axes in ([x, z], [z, x]):
+        res = simulate_triaxial(axes, RandomProfile.flat(20.0, 400.0), [1.0], direction=(1, 0, 1), seconds=2.0)
+        assert res.conditions["fs_internal_hz"] == want
