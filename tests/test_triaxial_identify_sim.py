@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from vrelab.identify import CROSS, identify
-from vrelab.simulation.campaign import campaign_document, mount_truth, write_campaign
+from vrelab.simulation.campaign import campaign_document, mount_run, mount_truth, write_campaign
 
 
 def _part_and_sensor(tmp_path: Path):
@@ -48,6 +48,37 @@ def test_simulated_45_degree_campaign_recovers_kip_within_u(tmp_path: Path):
         assert e.u < 0.1 * abs(getattr(part, n))  # a u that claims something
     k2 = cm.parameters["k2_ug_per_g2"]
     assert abs(k2.value - part.k2_ug_per_g2) <= 3 * k2.u
+
+
+def test_mounted_run_agrees_with_simulate_triaxial_and_the_closed_form(tmp_path: Path):
+    """A +45° IP run simulated as the campaign writes it (the record's drive along the mount
+    direction through the triaxial chain) against vrelab.triaxial.simulate_triaxial (the MIMO
+    test's own drive and record) and SPEC 1.6's closed form
+    ``σ²·[(k2 + 3·k3·g_i)·cos²φ + Kip·sinφcosφ + Kpp·sin²φ]`` (vertical shaker: g_i = cos φ)."""
+    import math
+
+    import numpy as np
+
+    from vrelab.triaxial.profile import TriaxialSine
+    from vrelab.triaxial.simulate import simulate_triaxial
+
+    truth, part, sensor = _part_and_sensor(tmp_path)
+    levels = (0.3, 0.6, 0.9)
+    run = mount_run("csv", 45.0, "ip", 80.0, levels)
+    ours = campaign_document(sensor, [run], seed=3, seconds=1.0, settle_s=0.1)["runs"][0]["channels"][0]["levels"]
+    d, g = np.zeros(3), np.zeros(3)
+    for k, j in enumerate(sensor.triad):  # (i, p, o) into the part's (x, y, z)
+        d[j], g[j] = run.mount.direction[k], run.mount.static_g[k]
+    theirs = simulate_triaxial(sensor, TriaxialSine(80.0, d, levels[0]), levels, static_g=g, seconds=1.0,
+                               settle_s=0.1, seed=5).axes[sensor.axis].to_dict()["levels"]
+    c = s = math.sqrt(0.5)
+    per_ms = (part.k2_ug_per_g2 + 3 * part.k3_ug_per_g3 * c) * c * c + part.kip_ug_per_g2 * s * c \
+        + part.kpp_ug_per_g2 * s * s
+    for a, b, rms in zip(ours, theirs, levels):
+        closed = per_ms * rms**2 * 1e-6
+        assert abs(a["vre_g"] - closed) <= 3 * a["u_vre_g"], (rms, a, closed)
+        assert abs(b["vre_g"] - closed) <= 3 * b["u_vre_g"], (rms, b, closed)
+        assert abs(a["vre_g"] - b["vre_g"]) <= 3 * math.hypot(a["u_vre_g"], b["u_vre_g"])
 
 
 @pytest.mark.slow
