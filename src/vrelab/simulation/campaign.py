@@ -189,33 +189,42 @@ class MountedSensor:
     def chain(self, fs_hz: float) -> Any:
         from vrelab.triaxial.chain import triaxial_chain
 
-        return _MountedChain(triaxial_chain(self._sensor, fs_hz), self._d, self._g, self.static_g)
+        return _MountedChain(triaxial_chain(self._sensor, fs_hz), _Feed(self._d, self._g, self.static_g))
+
+
+@dataclass(frozen=True)
+class _Feed:
+    """The record's scalar input (drive + g0, as SimulatedRecord feeds a chain) as the triaxial
+    acceleration ``d·drive + g`` (3, n)."""
+
+    d: NDArray[np.float64]
+    g: NDArray[np.float64]
+    g0: float
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        drive = np.asarray(x, dtype=np.float64) - self.g0  # the record adds the static along i: the drive alone
+        return self.d[:, None] * drive[None, :] + self.g[:, None]
 
 
 @dataclass
 class _MountedChain:
     chain: Any
-    d: NDArray[np.float64]
-    g: NDArray[np.float64]
-    g0: float
+    feed: _Feed
 
     def fs_out_hz(self, fs_hz: float) -> float:
         return float(self.chain.fs_out_hz(fs_hz))
 
     def start(self, fs_hz: float, seed: Any) -> _MountedRun:
-        return _MountedRun(self.chain.start(fs_hz, seed), self.d, self.g, self.g0)
+        return _MountedRun(self.chain.start(fs_hz, seed), self.feed)
 
 
 @dataclass
 class _MountedRun:
     run: Any
-    d: NDArray[np.float64]
-    g: NDArray[np.float64]
-    g0: float
+    feed: _Feed
 
     def process(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        drive = np.asarray(x, dtype=np.float64) - self.g0  # the record adds the static along i: the drive alone
-        return np.asarray(self.run.process(self.d[:, None] * drive[None, :] + self.g[:, None]))
+        return np.asarray(self.run.process(self.feed(x)))
 
     @property
     def stats(self) -> Any:
