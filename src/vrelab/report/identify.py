@@ -112,6 +112,7 @@ def cross_coupling_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
         ax.plot(x, [p["model_ug_per_g2"] for p in sel], "x", ms=9, color=line[0].get_color(),
                 label=f"identified model, {plane.upper()} plane")
     ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xticks([-90, -45, 0, 45, 90])
     ax.set_xlabel("mount angle φ of the input axis to the vibration (°)")
     ax.set_ylabel("VRE / σ_m² (µg/g²)")
     ax.legend(loc="best", fontsize=8)
