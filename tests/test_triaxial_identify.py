@@ -180,6 +180,10 @@ GOOD = ('[[run]]\nfile = "f.csv"\ndut = "y"\nlabel = "IP +45"\nmount_deg = 45\nm
     (("mount_deg = 45", "mount_deg = nan"), ["run 1", "mount_deg must be a finite number"]),
     (('mount_plane = "ip"\n', ""), ["run 1", "mount_deg without mount_plane"]),
     (("mount_deg = 45\n", ""), ["run 1", "mount_plane without mount_deg"]),
+    (("static_g = [0.70710678, 0.70710678, 0]\n", ""), ["run 1", "'static_g' missing", "[i, p, o]"]),
+    (("static_g = [0.70710678, 0.70710678, 0]", "static_g = {z = [0.70710678, 0.70710678, 0]}"),
+     ["run 1", "'z' is not a DUT channel"]),
+    (("static_g = [0.70710678, 0.70710678, 0]", "static_g = [0.7, true, 0]"), ["run 1", "three numbers"]),
 ])
 def test_bad_mount_key_refused_in_one_line(tmp_path: Path, edit, words):
     (tmp_path / "f.csv").write_text("x,y\n0,0\n")

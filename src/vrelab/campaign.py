@@ -267,6 +267,17 @@ def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str
                          "vibration in degrees (mount_deg = 45)")
     degs = _per_channel(where, "mount_deg", deg_raw, dut, required=True)
     planes = _per_channel_value(where, "mount_plane", plane_raw, dut, _plane)
+    raw = d.get("static_g")
+    if raw is None:
+        raise ValueError(f"{where}: key 'static_g' missing: give the whole static field [i, p, o] of "
+                         f"{', '.join(dut)} (a vector for all, or a table per channel)")
+    if isinstance(raw, dict):
+        for c in raw:
+            if c not in dut:
+                raise ValueError(f"{where}: static_g: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
+        missing = [c for c in dut if c not in raw]
+        if missing:
+            raise ValueError(f"{where}: static_g: no value for channel {missing[0]!r}")
     out: dict[str, Mount] = {}
     for c in dut:
         deg, plane = degs[c], planes[c]
@@ -277,7 +288,6 @@ def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str
         di, dp, do = probe.direction
         hint = (f"on a vertical shaker gravity lies along the vibration, ±[{di:.4g}, {dp:.4g}, {do:.4g}]; on a slip "
                 f"table across it (e.g. [0, 0, 1] for the IP plane)")
-        raw = d.get("static_g")
         vec = raw.get(c) if isinstance(raw, dict) else raw
         if not isinstance(vec, list):
             raise ValueError(f"{where}: static_g of {c!r} must be the whole static field [i, p, o] in g in a mount-angle "
