@@ -221,3 +221,21 @@ def test_cli_refuses_bad_mount_in_one_line(tmp_path: Path):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "mount_deg" in lines[0] and "run 1" in lines[0], r.stderr
+
+
+def test_units_check_reads_a_mounted_run_at_its_cos_phi():
+    """A DUT mounted at φ sees cos φ of the vibration: the campaign's units check judges its
+    DUT/reference ratio divided by |cos φ| (a 9.81 slip at 45° still shows as 9.81), and not at
+    all where |cos φ| < 0.5 (a 90° run reads only the cross-axis feed)."""
+    from vrelab.analysis.plausibility import check_units_over_runs
+    from vrelab.campaign import Mount, _mount_probes
+
+    at45 = Mount(45.0, "ip", (math.sqrt(0.5), math.sqrt(0.5), 0.0))
+    at90 = Mount(90.0, "ip", (0.0, 1.0, 0.0))
+    c = math.sqrt(0.5)
+    fine = _mount_probes(at45, [("sine", 80.0, c * 1.01)] * 3)
+    assert [p[2] for p in fine] == pytest.approx([1.01] * 3)
+    assert check_units_over_runs("dut", fine) is None
+    assert check_units_over_runs("dut", _mount_probes(at45, [("sine", 80.0, c * 9.81)] * 3)) is not None
+    assert _mount_probes(at90, [("sine", 80.0, 0.01)] * 3) == []
+    assert _mount_probes(None, [("sine", 80.0, 0.2)]) == [("sine", 80.0, 0.2)]
