@@ -108,6 +108,22 @@ def test_without_pm45_pair_kip_is_null_with_reason():
     assert cm.parameters["kpp_ug_per_g2"] is not None  # the 90° run still gives it
 
 
+def test_only_90_degrees_leaves_kip_not_excited_and_gives_kpp():
+    cm = _ident(campaign([m for m in FULL if m[0] in (None, 90.0)], seed=8))
+    assert cm.parameters["kip_ug_per_g2"] is None and "not excited" in cm.reasons["kip_ug_per_g2"]
+    kpp = cm.parameters["kpp_ug_per_g2"]
+    assert abs(kpp.value - TRUTH["kpp_ug_per_g2"]) <= 3 * kpp.u
+
+
+def test_pm45_pair_alone_gives_kip_but_not_kpp():
+    """0° at +1 g and ±45°: the pair's difference is Kip alone; their sum is
+    (k2 + 3·k3·cos φ)/2 + Kpp/2, which one orientation at 0° cannot split (not estimable)."""
+    cm = _ident(campaign([(None, "ip", 1.0), (45.0, "ip", 1.0), (-45.0, "ip", 1.0)], seed=9))
+    kip = cm.parameters["kip_ug_per_g2"]
+    assert abs(kip.value - TRUTH["kip_ug_per_g2"]) <= 3 * kip.u
+    assert cm.parameters["kpp_ug_per_g2"] is None and "do not separate Kpp" in cm.reasons["kpp_ug_per_g2"]
+
+
 def test_one_plane_only_leaves_kio_koo_null():
     ip_only = [m for m in FULL if m[1] == "ip"]
     cm = _ident(campaign(ip_only, seed=3))
