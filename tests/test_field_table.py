@@ -22,8 +22,11 @@ from vrelab.sweep.points import sensor_for
 
 # What vrelab identify fits today, and the units its JSON gives them: the hand-written table
 # vrelab.sensor.parameters held before it became a view of FIELDS (commit 8aa9c98).
+# the old hand-written table (sensor/parameters.py at b3d26ac), and the IEEE 1293 terms the
+# mount-angle fit adds (identify.fit_cross_coupling: the IP and IO planes; Kpo needs a p-o mount)
 FITTED_TODAY = {"k2_ug_per_g2": "ug/g^2", "k3_ug_per_g3": "ug/g^3", "fn_hz": "Hz", "q": "1", "rail_low_g": "g",
-                "rail_high_g": "g", "overrange_threshold_g": "g"}
+                "rail_high_g": "g", "overrange_threshold_g": "g", "kip_ug_per_g2": "ug/g^2",
+                "kio_ug_per_g2": "ug/g^2", "kpp_ug_per_g2": "ug/g^2", "koo_ug_per_g2": "ug/g^2"}
 TRIAXIAL_K = ("kip_ug_per_g2", "kio_ug_per_g2", "kpp_ug_per_g2", "koo_ug_per_g2", "kpo_ug_per_g2")
 CROSS_AXIS = ("cross_axis_x", "cross_axis_y", "cross_axis_z")
 
@@ -50,12 +53,13 @@ def test_each_derived_list_is_its_table_column():
 
 
 def test_identify_fits_what_it_fitted_and_the_triaxial_rows_are_marked():
-    """identify's list is the fitted column, unchanged by the triaxial rows (h-ident3 adds Kip/Kio)."""
+    """identify's list is the fitted column: what it fitted, and the four mount-angle terms."""
     assert {n: parameters.TABLE[n].unit for n in parameters.PARAMETERS} == FITTED_TODAY
     assert parameters.TABLE["k2_ug_per_g2"].text_unit == "µg/g²" and parameters.TABLE["q"].text_unit == ""
     sweepable = {f.key for f in FIELDS if f.sweepable}
     for key in TRIAXIAL_K:
-        assert key in parameters.TABLE and key not in parameters.PARAMETERS and key in sweepable
+        assert key in parameters.TABLE and (key in parameters.PARAMETERS) == (key != "kpo_ug_per_g2")
+        assert key in sweepable
     for key in CROSS_AXIS:
         assert key in parameters.ASSUMABLE and key in sweepable and key not in parameters.TABLE
     assert {"bandwidth_hz", "anti_alias_hz"} <= set(parameters.ASSUMABLE)

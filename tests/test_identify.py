@@ -301,7 +301,9 @@ def test_cli_identify_contract(tmp_path: Path, capsys: pytest.CaptureFixture[str
     for ch, part in zip(doc["channels"], truth.parts):
         p = ch["parameters"]
         assert set(p) == {"k2_ug_per_g2", "k3_ug_per_g3", "fn_hz", "q", "rail_low_g", "rail_high_g",
-                          "overrange_threshold_g"}
+                          "overrange_threshold_g", "kip_ug_per_g2", "kpp_ug_per_g2", "kio_ug_per_g2", "koo_ug_per_g2"}
+        # no run mounted at an angle: IEEE 1293's cross-coupling coefficients are null with the reason (SPEC 1.6)
+        assert p["kip_ug_per_g2"] is None and "no run mounted at an angle" in ch["null_reasons"]["kip_ug_per_g2"]
         assert all(v is None or {"value", "u"} <= set(v) for v in p.values())
         assert isinstance(ch["chi2_reduced"], float) and isinstance(ch["notes"], list)
         for name, want in (("k2_ug_per_g2", part.k2_ug_per_g2), ("k3_ug_per_g3", part.k3_ug_per_g3),

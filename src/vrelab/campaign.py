@@ -15,7 +15,11 @@ as failed with its error, the others go on) and :func:`combine` gives per channe
   (``VRC(g0) = k2 + 3·k3·g0``, :func:`vrelab.fits.fit_k2_k3`), combined over those
   frequencies by their covariance-weighted mean (:func:`vrelab.fits.combine_fits`); k2 alone
   from a frequency measured only at g0 = 0 (where VRC = k2); null with the reason otherwise;
-* the effective ``rail`` from every random run (weighted mean).
+* the effective ``rail`` from every random run (weighted mean);
+* ``vrc_by_mount``: the apparent VRC of every sine run mounted at an angle (IEEE 1293's
+  procedure for the cross-coupling coefficients, SPEC 1.6: ``mount_deg``, ``mount_plane`` ip|io
+  and the whole static field ``static_g = [i, p, o]``, :class:`Mount`), kept out of the above
+  and fitted by :func:`vrelab.identify.fit_cross_coupling`.
 
 Data flow: manifest -> :class:`Run` -> record (:func:`vrelab.analysis.readers.open_record`,
 several DUTs) -> :func:`vrelab.analysis.pipeline.analyze_channels` -> per-run results ->
@@ -50,12 +54,54 @@ if TYPE_CHECKING:
 RUN_KEYS = (
     "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
     "dut_sensitivity", "reference_units", "reference_sensitivity", "schedule", "profile", "band",
-    "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g",
+    "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g", "mount_deg", "mount_plane",
 )  # fmt: skip
 BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
 TOP_KEYS = ("name", "description", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1
+# IEEE 1293's mount planes (SPEC 1.6): the input axis i tilted toward the pendulous axis p, or
+# toward the output axis o (the triad of vrelab.sensor.Sensor.triad).
+MOUNT_PLANES = ("ip", "io")
+
+
+@dataclass(frozen=True)
+class Mount:
+    """How one DUT channel sits in an IEEE 1293 mount-angle run (SPEC 1.6, 4.1).
+
+    The part's input axis i is at ``deg`` to the vibration, tilted in the ``plane`` "ip" (toward
+    its pendulous axis p) or "io" (toward its output axis o): the vibration's direction in the
+    part's triad (i, p, o) is ``(cos φ, sin φ, 0)`` or ``(cos φ, 0, sin φ)``
+    (:func:`vrelab.triaxial.direction`). ``static_g`` is the whole static field in that triad
+    [g]: along the vibration on a vertical shaker, across it on a slip table (:func:`_mount`
+    refuses anything else, and a static field given by its input-axis component only).
+    """
+
+    deg: float
+    plane: str  # "ip" | "io"
+    static_g: tuple[float, float, float]  # [i, p, o]
+
+    @property
+    def direction(self) -> tuple[float, float, float]:
+        """The vibration's unit direction in (i, p, o)."""
+        c, s = math.cos(math.radians(self.deg)), math.sin(math.radians(self.deg))
+        c, s = (0.0 if abs(c) < 1e-15 else c), (0.0 if abs(s) < 1e-15 else s)  # cos 90° is 6e-17, not 0
+        return (c, s, 0.0) if self.plane == "ip" else (c, 0.0, s)
+
+    @property
+    def tilted(self) -> bool:
+        """The input axis is off the vibration (φ not 0° or 180°): the run sees the cross terms."""
+        return abs(math.sin(math.radians(self.deg))) > 1e-9
+
+    @property
+    def shaker(self) -> str:
+        """"vertical" (gravity along the vibration) or "slip table" (across it)."""
+        along = sum(g * d for g, d in zip(self.static_g, self.direction))
+        return "vertical" if abs(along) > SAME_ORIENTATION_G else "slip table"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"mount_deg": self.deg, "mount_plane": self.plane, "static_vector_g": list(self.static_g),
+                "shaker": self.shaker}
 
 
 @dataclass(frozen=True)
@@ -81,6 +127,7 @@ class Run:
     settle_s: float | None = None
     rail_g: float | None = None
     budget: Mapping[str, float] = field(default_factory=dict)
+    mount: Mapping[str, Mount] = field(default_factory=dict)  # channel -> its mount (mount-angle runs only)
 
     @property
     def where(self) -> str:
@@ -160,7 +207,10 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
     file = _path(manifest, where, "file", d["file"])
     label = label or file.name
     dut = _duts(where, d.get("dut"))
-    static = _per_channel(where, "static_g", d.get("static_g"), dut, required=True)
+    mount = _mount(where, d, dut)
+    # a mount-angle run's static field along the input axis is its vector's i component
+    static = ({c: m.static_g[0] for c, m in mount.items()} if mount
+              else _per_channel(where, "static_g", _scalar_static(where, d.get("static_g")), dut, required=True))
     sens = _per_channel(where, "dut_sensitivity", d.get("dut_sensitivity"), dut, required=False, positive=True)
     try:
         run = Run(
@@ -180,6 +230,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
             settle_s=_number(where, "settle_s", d.get("settle_s"), positive=False),
             rail_g=_number(where, "rail_g", d.get("rail_g"), positive=True),
             budget={k: _number(where, k, d[k], positive=False) for k in BUDGET_KEYS if k in d},  # type: ignore[misc]
+            mount=mount,
         )  # fmt: skip
         _scales(run)  # units and sensitivities agree
     except ValueError as exc:
@@ -187,6 +238,97 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
         raise ValueError(msg if msg.startswith(manifest.name) else f"{where}: {msg}") from None
     _check_reference(run)
     return run
+
+
+def _scalar_static(where: str, value: Any) -> Any:
+    if isinstance(value, list) or (isinstance(value, dict) and any(isinstance(v, list) for v in value.values())):
+        raise ValueError(f"{where}: static_g {value!r} is a vector: a static field [i, p, o] belongs to a mount-angle "
+                         "run (with mount_deg and mount_plane); otherwise give the static field along the input axis, "
+                         "a number")
+    return value
+
+
+def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str, Mount]:
+    """The run's IEEE 1293 mount per DUT channel (``mount_deg``, ``mount_plane`` and ``static_g``
+    as the vector [i, p, o]: each a value for all or a table per channel); {} without the keys.
+
+    The static vector is the whole static field in the part's triad: a number (its input-axis
+    component) leaves where gravity points ambiguous and is refused, and so is a vector neither
+    along the vibration (a vertical shaker) nor across it (a slip table) within
+    ``SAME_ORIENTATION_G``, or whose size is not 1 g within it (a part at rest)."""
+    deg_raw, plane_raw = d.get("mount_deg"), d.get("mount_plane")
+    if deg_raw is None and plane_raw is None:
+        return {}
+    if plane_raw is None:
+        raise ValueError(f"{where}: mount_deg without mount_plane: give the plane the input axis is tilted in, "
+                         "ip (toward the pendulous axis) or io (toward the output axis)")
+    if deg_raw is None:
+        raise ValueError(f"{where}: mount_plane without mount_deg: give the angle of the DUT's input axis to the "
+                         "vibration in degrees (mount_deg = 45)")
+    degs = _per_channel(where, "mount_deg", deg_raw, dut, required=True)
+    planes = _per_channel_value(where, "mount_plane", plane_raw, dut, _plane)
+    raw = d.get("static_g")
+    if raw is None:
+        raise ValueError(f"{where}: key 'static_g' missing: give the whole static field [i, p, o] of "
+                         f"{', '.join(dut)} (a vector for all, or a table per channel)")
+    if isinstance(raw, dict):
+        for c in raw:
+            if c not in dut:
+                raise ValueError(f"{where}: static_g: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
+        missing = [c for c in dut if c not in raw]
+        if missing:
+            raise ValueError(f"{where}: static_g: no value for channel {missing[0]!r}")
+    out: dict[str, Mount] = {}
+    for c in dut:
+        deg, plane = degs[c], planes[c]
+        assert deg is not None
+        if abs(deg) > 360:
+            raise ValueError(f"{where}: mount_deg of {c!r} must be within ±360°, got {deg:g} (degrees, not radians)")
+        probe = Mount(deg, plane, (1.0, 0.0, 0.0))
+        di, dp, do = probe.direction
+        hint = (f"on a vertical shaker gravity lies along the vibration, ±[{di:.4g}, {dp:.4g}, {do:.4g}]; on a slip "
+                f"table across it (e.g. [0, 0, 1] for the IP plane)")
+        vec = raw.get(c) if isinstance(raw, dict) else raw
+        if not isinstance(vec, list):
+            raise ValueError(f"{where}: static_g of {c!r} must be the whole static field [i, p, o] in g in a mount-angle "
+                             f"run (a number gives its input-axis component only: where gravity points is ambiguous): {hint}")
+        if len(vec) != 3 or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vec):
+            raise ValueError(f"{where}: static_g of {c!r} must be three numbers [i, p, o] in g, got {vec!r}")
+        g = tuple(V.acceleration(f"static_g.{c}", v) for v in vec)
+        size = math.sqrt(sum(x * x for x in g))
+        if abs(size - 1.0) > SAME_ORIENTATION_G:
+            raise ValueError(f"{where}: static_g of {c!r} {vec!r} is {size:.3g} g in size: a part at rest sees 1 g "
+                             "(give the whole static field [i, p, o])")
+        along = g[0] * di + g[1] * dp + g[2] * do
+        across = math.sqrt(max(size * size - along * along, 0.0))
+        if abs(along) > SAME_ORIENTATION_G and across > SAME_ORIENTATION_G:
+            raise ValueError(f"{where}: static_g of {c!r} {vec!r} is neither along the vibration nor across it at "
+                             f"{deg:g}° in the {plane.upper()} plane ({along:+.3g} g along it, {across:.3g} g across): "
+                             f"{hint}; check mount_deg and static_g")
+        out[c] = Mount(deg, plane, (g[0], g[1], g[2]))
+    return out
+
+
+def _plane(where: str, key: str, value: Any) -> str:
+    if not isinstance(value, str) or value.strip().lower() not in MOUNT_PLANES:
+        raise ValueError(f"{where}: {key} must be ip (the input axis tilted toward the pendulous axis) or io "
+                         f"(toward the output axis), got {value!r}")
+    return value.strip().lower()
+
+
+def _per_channel_value(where: str, key: str, value: Any, dut: Mapping[str, str],
+                       parse: Callable[[str, str, Any], str]) -> dict[str, str]:
+    """A value for all the run's DUT channels, or a table name -> value covering each."""
+    if isinstance(value, dict):
+        for c in value:
+            if c not in dut:
+                raise ValueError(f"{where}: {key}: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
+        missing = [c for c in dut if c not in value]
+        if missing:
+            raise ValueError(f"{where}: {key}: no value for channel {missing[0]!r}")
+        return {c: parse(where, f"{key}.{c}", value[c]) for c in dut}
+    x = parse(where, key, value)
+    return {c: x for c in dut}
 
 
 def _path(manifest: Path, where: str, key: str, value: Any) -> Path:
@@ -579,7 +721,7 @@ def judge_units(results: Sequence[RunResult]) -> list[RunResult]:
     for r in results:
         if r.ok:
             for ch, ps in r.unit_probes.items():
-                probes.setdefault(ch, []).extend(ps)
+                probes.setdefault(ch, []).extend(_mount_probes(r.run.mount.get(ch), ps))
     for ch, ps in probes.items():
         msg = check_units_over_runs(ch, ps)
         if msg is None:
@@ -590,6 +732,21 @@ def judge_units(results: Sequence[RunResult]) -> list[RunResult]:
                 r.results = []
                 failed.append(r)
     return failed
+
+
+# A DUT mounted at φ sees cos φ of the vibration along its input axis: its DUT/reference ratio is
+# judged divided by |cos φ| where that is at least this (a 90° run reads the cross-axis feed only).
+_MOUNT_PROBE_COS = 0.5
+
+
+def _mount_probes(mount: Mount | None, probes: Sequence[tuple[str | None, float, float]]
+                  ) -> list[tuple[str | None, float, float]]:
+    """A run's units probes of one channel as the units check reads them: a mount-angle run's
+    DUT/reference ratio divided by its expected |cos φ|; none where |cos φ| < ``_MOUNT_PROBE_COS``."""
+    if mount is None:
+        return list(probes)
+    c = abs(mount.direction[0])
+    return [] if c < _MOUNT_PROBE_COS else [(k, f, ratio / c) for k, f, ratio in probes]
 
 
 def run_folders(manifest: Manifest) -> dict[int, str]:
@@ -616,6 +773,9 @@ class ChannelSummary:
     rail: Estimate | None
     rails_by_run: tuple[dict[str, Any], ...]
     notes: tuple[str, ...]
+    # the apparent VRC (VRE/rms²) of every sine run mounted at an angle (IEEE 1293, SPEC 1.6): not
+    # the input axis's alone, so kept out of k2, k3 and the rail; vrelab.identify fits the cross terms
+    vrc_by_mount: tuple[dict[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         def est(e: Estimate | None) -> dict[str, Any] | None:
@@ -630,6 +790,7 @@ class ChannelSummary:
             "k2_k3_by_freq": [f.to_dict() for f in self.k2_k3_by_freq],
             "rail_g": est(self.rail),
             "rails_by_run": list(self.rails_by_run),
+            **({"vrc_by_mount": list(self.vrc_by_mount)} if self.vrc_by_mount else {}),
             "notes": list(self.notes),
         }
 
@@ -644,12 +805,20 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
 
     vrcs: list[dict[str, Any]] = []
     rails: list[dict[str, Any]] = []
+    mounted: list[dict[str, Any]] = []
     notes: list[str] = []
     for rr in results:
         for name, res in rr.results:
             if name != channel:
                 continue
             g0 = rr.run.static_g[name]
+            mount = rr.run.mount.get(name)
+            if mount is not None and mount.tilted:
+                mounted += _mounted_vrcs(rr, mount, res)
+                notes.append(f"{rr.run.where}: mounted at {mount.deg:+g}° in the {mount.plane.upper()} plane: its VRE is "
+                             "not the input axis's alone (cross-coupling, SPEC 1.6): not used for k2, k3 or the rail "
+                             "(`vrelab identify` fits the cross-coupling coefficients from it)")
+                continue
             for f in res.fits:
                 if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
                     e = _type_a(f, "vrc_ug_per_g2")
@@ -715,7 +884,20 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         notes.append("no random run: rail = null")
     else:
         notes.append("no random run with a rail fit: rail = null")
-    return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes))
+    return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes),
+                          tuple(mounted))
+
+
+def _mounted_vrcs(rr: RunResult, mount: Mount, res: VreResult) -> list[dict[str, Any]]:
+    """The apparent VRC (VRE/rms², Type A u) of each sine frequency of a run mounted at an angle."""
+    out = []
+    for f in res.fits:
+        if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
+            e = _type_a(f, "vrc_ug_per_g2")
+            if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
+                out.append({"freq_hz": f.freq_hz, **mount.to_dict(), "run": rr.run.index, "label": rr.run.label,
+                            "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points})
+    return out
 
 
 # Below this p-value of the χ² of the per-frequency k2 about their mean, they are said to disagree.
@@ -779,8 +961,9 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
         }  # fmt: skip
         for name, res in rr.results:
             rd = res.to_dict()
-            d["channels"].append({"channel": name, "static_g": r.static_g[name], **{k: rd[k] for k in (
-                "levels", "fit", "fits", "warnings", "notices", "conditions")}})
+            d["channels"].append({"channel": name, "static_g": r.static_g[name],
+                                  **(r.mount[name].to_dict() if name in r.mount else {}), **{k: rd[k] for k in (
+                                      "levels", "fit", "fits", "warnings", "notices", "conditions")}})
         runs.append(d)
     n_failed = sum(1 for rr in results if not rr.ok)
     return {

@@ -19,7 +19,11 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
   the base sensor's filters (the physical rail where the clip sits, not the effective rail that
   a fit against the reference's rms gives);
 * ``overrange_threshold_g`` — from the random runs, where the data reach it (the base sensor
-  must give the hold time).
+  must give the hold time);
+* ``kip_ug_per_g2``, ``kpp_ug_per_g2``, ``kio_ug_per_g2``, ``koo_ug_per_g2`` — IEEE 1293's
+  cross-coupling coefficients (SPEC 1.6), from the sine runs mounted at an angle (the manifest's
+  ``mount_deg``, ``mount_plane``), by their own linear fit on the model identified from the
+  others (:func:`fit_cross_coupling`); those runs stay out of the fit above.
 
 What the campaign cannot determine is null with its reason: k2 and k3 without a sine run; k3
 with one orientation; k2 too when that orientation is not 0 g (then only ``k2 + 3·k3·g0`` is
@@ -65,7 +69,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab._format import finite_or_none
-from vrelab.campaign import SAME_ORIENTATION_G  # static fields closer than this are one orientation
+from vrelab.campaign import (
+    MOUNT_PLANES,
+    SAME_ORIENTATION_G,  # static fields closer than this are one orientation
+    Mount,
+)
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile
@@ -104,10 +112,16 @@ class Observation:
     harmonic_g: tuple[tuple[float, float] | None, ...] = ()  # per level: the 2f estimate (value, u)
     # per sine level: the analysis flagged DUT samples at a rail (its own rail, not the identified one)
     saturated: tuple[bool, ...] = ()
+    mount: Mount | None = None  # an IEEE 1293 mount-angle run (SPEC 1.6): its angle, plane and static vector
 
     @property
     def n(self) -> int:
         return int(self.rms_g.size)
+
+    @property
+    def tilted(self) -> bool:
+        """Mounted with the input axis off the vibration: the cross-coupling fit's, not the model's."""
+        return self.mount is not None and self.mount.tilted
 
 
 @dataclass(frozen=True)
@@ -128,6 +142,7 @@ class ChannelModel:
     # parameters written to the sensor file as assumptions (not identified): their standard u
     # (from the base sensor's [uncertainty], or the profile of a resonance only bounded) and why
     assumed: Mapping[str, tuple[float | None, str]] = field(default_factory=dict)
+    cross_coupling: CrossCoupling | None = None  # the mount-angle runs' fit (fit_cross_coupling)
 
     @property
     def chi2_reduced(self) -> float | None:
@@ -152,6 +167,7 @@ class ChannelModel:
             "cross_check_2f": list(self.cross_check_2f),
             "assumed": {n: {"value": finite_or_none(self.values.get(n)), "u": finite_or_none(u), "source": why}
                         for n, (u, why) in self.assumed.items()},
+            "cross_coupling": None if self.cross_coupling is None else self.cross_coupling.to_dict(),
             "notes": list(self.notes),
         }  # fmt: skip
 
@@ -207,6 +223,12 @@ def check_document(doc: Any) -> None:
             need(f"{wc}.static_g", _is_num(ch.get("static_g", missing)), "a finite number [g]",
                  ch.get("static_g", "missing"))
             need(f"{wc}.levels", isinstance(ch.get("levels"), list), "a list", ch.get("levels", "missing"))
+            if ch.get("mount_deg") is not None or ch.get("mount_plane") is not None:
+                need(f"{wc}.mount_deg", _is_num(ch.get("mount_deg")), "a finite number [°]", ch.get("mount_deg"))
+                need(f"{wc}.mount_plane", ch.get("mount_plane") in MOUNT_PLANES, "ip or io", ch.get("mount_plane"))
+                vec = ch.get("static_vector_g")
+                need(f"{wc}.static_vector_g", isinstance(vec, list) and len(vec) == 3 and all(_is_num(v) for v in vec),
+                     "three finite numbers [i, p, o] in g", vec)
             for k, lv in enumerate(ch["levels"]):
                 wl = f"{wc}.levels[{k}]"
                 need(wl, isinstance(lv, Mapping), "an object", lv)
@@ -315,12 +337,16 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         return []
     g0 = float(ch["static_g"])
     index, label = int(run["index"]), str(run.get("label", ""))
+    mount = None
+    if ch.get("mount_deg") is not None:
+        vec = ch["static_vector_g"]
+        mount = Mount(float(ch["mount_deg"]), str(ch["mount_plane"]), (float(vec[0]), float(vec[1]), float(vec[2])))
 
     def make(sel: Sequence[tuple[Any, ...]], freq: float | None, profile: RandomProfile | None) -> Observation:
         rms, vre, u, _, h2f, dof, sat = zip(*sel)
         return Observation(index, label, str(method), g0, freq, profile, np.array(rms), np.array(vre),
                            _pooled(np.array(u), np.array(dof)) if freq is not None else np.array(u), tuple(h2f),
-                           tuple(sat))
+                           tuple(sat), mount)
 
     if method == "sine":
         if any(r[3] is None for r in rows):
@@ -814,9 +840,12 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     analysis flagged saturated (against its own rail) comes back when the identified rails clear
     its peak, and a level the fitted model does not cover goes (:func:`_modelled`)."""
     notes = list(notes)
-    full = list(obs)
+    tilted = [ob for ob in obs if ob.tilted]
+    full = [ob for ob in obs if not ob.tilted]
     if not full:
-        raise ValueError(f"identify: channel {channel!r} has no usable level in any run")
+        raise ValueError(f"identify: channel {channel!r} has no usable level in any run"
+                         + (" with its input axis along the vibration (every run is mounted at an angle: the model "
+                            "needs a 0° run)" if tilted else ""))
     obs = _unsaturated(full) or full
     free, why = _plan(obs, base)
     base_values = {n: parameter(base, n) for n in PARAMETERS}
@@ -891,11 +920,19 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
         i = free.index("k2_ug_per_g2")
         notes.append(f"one orientation: k2 + 3·k3·g0 = {values['k2_ug_per_g2'] + 3 * k3b * g0:.6g} ± "
                      f"{math.sqrt(cov[i, i]):.2g} µg/g² at g0 = {g0:+g} g (valid at that orientation only)")
+    # the cross-coupling coefficients from the runs mounted at an angle, on the model just identified
+    cross = fit_cross_coupling(tilted, [ob for ob in obs if ob.method == "sine"],
+                               with_parameters(base, values), typeb, kind)
+    why.update(cross.reasons)
+    notes += cross.notes
     params: dict[str, Estimate | None] = {}
     used: dict[str, float | None] = {}
     assumed: dict[str, tuple[float | None, str]] = {}
     for n in PARAMETERS:
-        if n in values and n not in why:
+        if n in cross.estimates:
+            params[n] = cross.estimates[n]
+            used[n] = cross.estimates[n].value
+        elif n in values and n not in why:
             i = free.index(n)
             est = params[n] = Estimate(values[n], math.sqrt(max(cov[i, i], 0.0)), TABLE[n].unit)
             used[n] = values[n]
@@ -919,7 +956,8 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
                 u = base.uncertainty.get(n)
                 assumed[n] = (u, f"from base sensor ({why[n]}); "
                               + (f"its stated u {u:.3g}" if u is not None else "the base states no u for it"))
-    no_u = [n for n, (u, _w) in assumed.items() if u is None]
+    # (the cross-coupling terms act only off the input axis: without a mount-angle run they are not news)
+    no_u = [n for n, (u, _w) in assumed.items() if u is None and (tilted or n not in CROSS)]
     if no_u:
         notes.append("taken from the base sensor without a stated u (its file has no [uncertainty] for them): "
                      + ", ".join(f"{n} = {used[n]:.6g}" for n in no_u) + "; predict's u does not include them")
@@ -933,10 +971,19 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
     ident = [n for n in free if params[n] is not None]
     idx = [free.index(n) for n in ident]
     covariance = (tuple(ident), cov[np.ix_(idx, idx)]) if ident else None
+    if cross.covariance is not None:  # its own fit: uncorrelated with the model's parameters (block diagonal)
+        names, block = cross.covariance
+        if covariance is None:
+            covariance = (names, block)
+        else:
+            m = np.zeros((len(covariance[0]) + len(names),) * 2)
+            k = len(covariance[0])
+            m[:k, :k], m[k:, k:] = covariance[1], block
+            covariance = (covariance[0] + names, m)
     runs = _run_table(fit.preds, obs)
     return ChannelModel(channel, params, {n: why[n] for n in PARAMETERS if params[n] is None}, used, covariance,
                         fit.chi2, dof, tuple(runs), tuple(notes), tuple(budget), tuple(cross_check_2f(obs, base)),
-                        assumed)
+                        assumed, cross if tilted else None)
 
 
 def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str], sensor: Any) -> list[Observation] | None:
@@ -1077,6 +1124,235 @@ def cross_check_2f(obs: Sequence[Observation], base: Any = None) -> list[dict[st
                     "filter_gain_2f": gain,
                     "difference_sigma": finite_or_none(z), "agree": bool(abs(z) <= 3) if math.isfinite(z) else None})
     return out
+
+
+# --------------------------------------------------------------------------- cross-coupling (IEEE 1293)
+
+# The cross-coupling coefficients a mount-angle campaign identifies, with the triad positions
+# (0 = input i, 1 = pendulous p, 2 = output o) of the product each multiplies (SPEC 1.6).
+CROSS_TERMS: tuple[tuple[str, int, int], ...] = (
+    ("kip_ug_per_g2", 0, 1), ("kpp_ug_per_g2", 1, 1), ("kio_ug_per_g2", 0, 2), ("koo_ug_per_g2", 2, 2),
+)  # fmt: skip
+CROSS: tuple[str, ...] = tuple(n for n, _, _ in CROSS_TERMS)
+_PLANE_OF = {"kip_ug_per_g2": "ip", "kpp_ug_per_g2": "ip", "kio_ug_per_g2": "io", "koo_ug_per_g2": "io"}
+_LABEL = {"kip_ug_per_g2": "Kip", "kpp_ug_per_g2": "Kpp", "kio_ug_per_g2": "Kio", "koo_ug_per_g2": "Koo"}
+# A tilted run excites a product d_j·d_k when it is at least this (sin φ·cos φ is 0.5 at 45°).
+_EXCITES = 0.05
+# A parameter is estimable when the unit vector along it lies in the design's row space: its
+# diagonal element of the projector onto that space is 1 within this.
+_ESTIMABLE = 1e-6
+
+
+@dataclass(frozen=True)
+class CrossCoupling:
+    """The cross-coupling fit of one channel (:func:`fit_cross_coupling`)."""
+
+    estimates: Mapping[str, Estimate]  # the identified ones of CROSS
+    reasons: Mapping[str, str]  # why each other one of CROSS is null
+    covariance: tuple[tuple[str, ...], NDArray[np.float64]] | None  # over ``estimates``
+    notes: tuple[str, ...]
+    points: tuple[dict[str, Any], ...] = ()  # per run and frequency: angle, plane, VRE/σ² measured and modelled
+    nuisance: Mapping[str, Estimate] = field(default_factory=dict)  # the fit's own k2, k3
+    chi2: float = math.nan
+    dof: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        def est(e: Estimate) -> dict[str, Any]:
+            return {"value": finite_or_none(e.value), "u": finite_or_none(e.u), "unit": e.unit}
+
+        return {
+            "model": "VRE/σ² = (k2 + 3·k3·w·g)·(w·d)² + Kip·d_i·d_p + Kpp·d_p² + Kio·d_i·d_o + Koo·d_o²",
+            "parameters": {n: est(e) for n, e in self.estimates.items()},
+            "null_reasons": dict(self.reasons),
+            "nuisance": {n: est(e) for n, e in self.nuisance.items()},
+            "chi2": finite_or_none(self.chi2), "dof": self.dof,
+            "chi2_reduced": finite_or_none(self.chi2 / self.dof) if self.dof > 0 else None,
+            "points": list(self.points),
+        }  # fmt: skip
+
+
+def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observation], sensor: Any,
+                       typeb: Any = None, kind: ClipKind = DEFAULT_CLIP_KIND) -> CrossCoupling:
+    r"""IEEE 1293's cross-coupling coefficients Kip, Kpp, Kio, Koo of one channel (SPEC 1.6)
+    from its runs mounted at an angle (``tilted``) beside its sine runs along the vibration
+    (``axial``), on the model identified from the latter (``sensor``: its dynamics, rails,
+    cross-axis sensitivity row).
+
+    A sine of rms σ along the unit direction d (in the triad i, p, o: ``(cos φ, sin φ, 0)`` in
+    the IP plane, ``(cos φ, 0, sin φ)`` in the IO plane) with the static field g moves the proof
+    mass by ``b = g + d·x`` with ``E[x²] = σ_m² = σ²·|H(f)|²``; the model equation
+    (:mod:`vrelab.triaxial.chain`) then rectifies, below the rails,
+
+        VRE / σ_m² = (k2 + 3·k3·w·g)·(w·d)² + Kip·d_i·d_p + Kpp·d_p² + Kio·d_i·d_o + Koo·d_o²
+
+    (w the axis's sensitivity row in the triad, 1 along i): in the IP plane with w = (1, 0, 0),
+    ``k2_eff·cos²φ + Kpp·sin²φ + Kip·sinφ·cosφ``. Every level is one equation of a weighted
+    linear least-squares fit (weights 1/u², the levels' Type A u) of (k2, k3, Kip, Kpp, Kio, Koo),
+    k2 and k3 nuisance parameters here (the channel's k2 and k3 are the model's); covariance
+    ``(AᵀWA)⁻¹`` by SVD (:func:`_covariance`), scaled by χ²/dof when that exceeds 1 (the Birge
+    ratio, as identification's other fits). Levels whose sensed peak reaches a rail of the
+    identified model (:func:`vrelab.predict.predict` at ``σ·|w·d|``) are left out; random runs
+    at an angle are not used (their rails rectify too).
+
+    **The cross-axis feed.** ``(w·d)² = cos²φ + 2·w_p·sinφ·cosφ + w_p²·sin²φ``: the p component
+    that the cross-axis sensitivity w_p feeds into the sensed input rectifies through k2 with
+    the same angle dependence as Kip. With w_p in ``sensor`` it is modelled, and Kip is the
+    model equation's own; where the sensor states none (w_p = 0), what is identified is the
+    apparent ``Kip + 2·k2·w_p`` (and ``Kpp + k2·w_p²``), said in the notes; with k3 the static
+    field's p component fed in too adds ``3·k3·w_p·(g_p·cos²φ + 2·g_i·sinφ·cosφ)``, which on a
+    vertical shaker (g = ±d) is ``±9·k3·w_p·cos φ`` more on the apparent Kip. The same holds for
+    w_o, Kio and Koo.
+
+    What the runs cannot determine is null with the reason: no run tilted in the plane; Kip
+    (Kio) from runs tilted one way only (IEEE 1293 takes it from a ±φ pair, where every term
+    even in φ cancels: from one side it would rest on k2, k3 and Kpp being exact at the other
+    angles); a coefficient the design does not separate from the others (not estimable: its
+    unit vector outside the row space of the design). The sensitivity terms of ``typeb``
+    (reference and DUT, common to every run) are added as for k2
+    (:func:`vrelab.gum.common_sensitivity_terms`, fully correlated across the coefficients); its
+    static-field and thermal terms are not carried (a ±φ pair cancels both in Kip).
+    """
+    from vrelab.gum import common_sensitivity_terms, weighted_mean
+    from vrelab.models.dynamics import vrc_at_frequency
+    from vrelab.predict import predict
+    from vrelab.units import UG_PER_G
+
+    notes: list[str] = []
+    reasons: dict[str, str] = {}
+    if not tilted:
+        why = ("no run mounted at an angle (mount_deg, mount_plane): IEEE 1293 measures the cross-coupling "
+               "coefficients with the input axis at 0°, ±45° and 90° to the vibration in the IP and IO planes")
+        return CrossCoupling({}, {n: why for n in CROSS}, None, ())
+    for ob in tilted:
+        if ob.method != "sine":
+            notes.append(f"run {ob.run} ({ob.label!r}): a random run mounted at an angle is not used for the cross-coupling "
+                         "fit (its rails rectify too; the sine runs carry the coefficients)")
+    try:
+        i, p, o = sensor.triad
+        row = sensor.sensitivity_row
+        w = np.array([1.0, row[p], row[o]])
+    except ValueError as exc:  # an axis not named x, y or z: no cross-axis row to read
+        w = np.array([1.0, 0.0, 0.0])
+        notes.append(f"cross-coupling fit: {exc}; the cross-axis sensitivity taken as 0")
+    fn, q = parameter(sensor, "fn_hz"), parameter(sensor, "q")
+    rows: list[NDArray[np.float64]] = []
+    ys: list[float] = []
+    us: list[float] = []
+    groups: list[tuple[Observation, Mount, NDArray[np.bool_], NDArray[np.float64]]] = []
+    sines = [ob for ob in axial if ob.method == "sine"] + [ob for ob in tilted if ob.method == "sine"]
+    for ob in sines:
+        mount = ob.mount if ob.mount is not None else Mount(0.0, "ip", (ob.static_g, 0.0, 0.0))
+        d = np.array(mount.direction)
+        g = np.array(mount.static_g)
+        wd, gs = float(w @ d), float(w @ g)
+        h2 = float(vrc_at_frequency(1.0, float(ob.freq_hz or 0.0), fn, q)) if fn and q else 1.0
+        keep = np.ones(ob.n, dtype=bool)
+        if ob.tilted and abs(wd) > 1e-9:  # the rails see the sensed part of the vibration, σ·|w·d|, about w·g
+            pred = predict(sensor, [float(ob.freq_hz or 0.0)], ob.rms_g * abs(wd), static_g=gs, kind=kind)
+            keep = np.array([lv.valid_otherwise and lv.shares["clip_g"] == 0.0 for lv in pred.levels])
+            for r, k in zip(ob.rms_g, keep):
+                if not k:
+                    notes.append(f"run {ob.run} ({ob.label!r}): level {r:.4g} g rms left out of the cross-coupling fit: "
+                                 "its sensed peak reaches a rail of the identified model")
+        s2 = ob.rms_g**2 * h2
+        col = np.array([wd**2, 3 * gs * wd**2, *(d[a] * d[b] for _, a, b in CROSS_TERMS)])
+        for k in np.flatnonzero(keep):
+            rows.append(s2[k] / UG_PER_G * col)
+            ys.append(float(ob.vre_g[k]))
+            us.append(float(ob.u_g[k]))
+        if keep.any():
+            groups.append((ob, mount, keep, s2))
+    names = ("k2_ug_per_g2", "k3_ug_per_g3", *CROSS)
+    if not rows:
+        why = "no level of the runs mounted at an angle stays clear of the rails (or none is a sine run)"
+        return CrossCoupling({}, {n: why for n in CROSS}, None, tuple(notes))
+    u = np.array(us)
+    a = np.array(rows) / u[:, None]
+    y = np.array(ys) / u
+    theta, *_ = np.linalg.lstsq(a, y, rcond=None)
+    cov, rank = _covariance(a)
+    proj = cov @ (a.T @ a)  # the projector onto the design's row space
+    estimable = [abs(proj[j, j] - 1.0) < _ESTIMABLE for j in range(len(names))]
+    resid = a @ theta - y
+    chi2 = float(resid @ resid)
+    dof = len(ys) - rank
+    if dof > 0 and chi2 / dof > 1.0:
+        cov = cov * (chi2 / dof)
+        notes.append(f"cross-coupling fit: the levels scatter about the model more than their uncertainties "
+                     f"(chi2/dof = {chi2 / dof:.3g}): its covariance is scaled by it")
+    elif dof <= 0:
+        notes.append("cross-coupling fit: as many unknowns as levels: chi2 undefined, u from the levels' uncertainties alone")
+    tilts = {pl: sorted({ob.mount.deg for ob, *_ in groups if ob.mount is not None and ob.tilted and ob.mount.plane == pl})
+             for pl in MOUNT_PLANES}
+    for j, (n, ia, ib) in enumerate(CROSS_TERMS, start=2):
+        plane = _PLANE_OF[n]
+        label, text = _LABEL[n], plane.upper()
+        angles = ", ".join(f"{x:+g}°" for x in tilts[plane])
+        prods = [float(np.prod([m.direction[ia], m.direction[ib]])) for ob, m, *_ in groups if ob.tilted and m.plane == plane]
+        if not prods:
+            reasons[n] = (f"no run mounted in the {text} plane (the input axis tilted toward the "
+                          f"{'pendulous' if plane == 'ip' else 'output'} axis): {label} needs one (IEEE 1293: 0°, ±45°, 90°)")
+        elif ia != ib and not any(abs(x) >= _EXCITES for x in prods):
+            reasons[n] = (f"no {text}-plane run between 0° and 90° (angles {angles}: sin φ·cos φ = 0 at each): {label} is "
+                          "not excited (IEEE 1293: ±45°)")
+        elif ia != ib and not (any(x >= _EXCITES for x in prods) and any(x <= -_EXCITES for x in prods)):
+            reasons[n] = (f"the {text}-plane runs tilt one way only ({angles}): {label} would rest on k2, k3 and "
+                          f"{'Kpp' if plane == 'ip' else 'Koo'} being exact at the other angles; IEEE 1293 takes it from "
+                          "a ±φ pair (+45° and −45°), where every term even in φ cancels: add the other side")
+        elif not estimable[j]:
+            reasons[n] = (f"the runs ({text} plane at {angles}, and along the vibration) do not separate {label} from the "
+                          f"other terms (k2, k3{', Kip' if n == 'kpp_ug_per_g2' else ', Kio' if n == 'koo_ug_per_g2' else ''}): "
+                          f"add a run at 90° in the {text} plane")
+    kept = [n for n in CROSS if n not in reasons]
+    est = {n: Estimate(float(theta[names.index(n)]), math.sqrt(max(float(cov[names.index(n), names.index(n)]), 0.0)),
+                       "ug/g^2") for n in kept}
+    idx = [names.index(n) for n in est]
+    block = cov[np.ix_(idx, idx)].copy()
+    if typeb is not None and est:
+        # the reference and DUT sensitivities scale every VRE/σ² alike: one fully correlated term
+        vals, note = common_sensitivity_terms(list(est.values()), [typeb.to_dict()])
+        shift = np.array([math.copysign(math.sqrt(max(b.u**2 - a_.u**2, 0.0)), a_.value)
+                          for a_, b in zip(est.values(), vals) if b is not None])
+        block = block + np.outer(shift, shift)
+        est = {n: e for n, e in zip(est, vals) if e is not None}
+        if note:
+            notes.append(note.replace("k2, k3", "the cross-coupling coefficients"))
+    nuisance = {n: Estimate(float(theta[j]), math.sqrt(max(float(cov[j, j]), 0.0)), TABLE[n].unit)
+                for j, n in enumerate(names[:2]) if estimable[j]}
+    for plane, (wk, feeds) in (("ip", (w[1], "Kip + 2·k2·w_p and Kpp + k2·w_p²")),
+                               ("io", (w[2], "Kio + 2·k2·w_o and Koo + k2·w_o²"))):
+        if not any(_PLANE_OF[n] == plane for n in kept):
+            continue
+        ax = "w_p" if plane == "ip" else "w_o"
+        if wk == 0.0:
+            notes.append(f"the sensor states no cross-axis sensitivity toward {'p' if plane == 'ip' else 'o'} ({ax} = 0): "
+                         f"the coefficients identified in the {plane.upper()} plane are the apparent {feeds} (the "
+                         "cross-axis feed of that component into the sensed input rectifies through k2 alike; with "
+                         "k3, the static field's share adds ±9·k3·" + ax + "·cos φ on a vertical shaker); a "
+                         f"base sensor with {ax} separates them")
+        else:
+            notes.append(f"the cross-axis sensitivity {ax} = {wk:.4g} of the base sensor is modelled (the k2·(w·d)² term "
+                         f"carries its 2·k2·{ax}·sinφ·cosφ feed); its own u is not carried into the coefficients")
+    if fn and q:
+        notes.append(f"cross-coupling fit: σ_m² = rms²·|H(f)|² with the model's fn = {fn:.4g} Hz, Q = {q:.3g} (their u "
+                     "not carried: small below fn)")
+    if float(getattr(sensor, "k4_per_g3", 0.0) or 0.0):
+        notes.append("cross-coupling fit: the sensor's k4 term is not in its model (VRE/σ² linear in the coefficients)")
+    points = []
+    for ob, m, keep, s2 in groups:
+        d = np.array(m.direction)
+        g = np.array(m.static_g)
+        wd, gs = float(w @ d), float(w @ g)
+        col = np.array([wd**2, 3 * gs * wd**2, *(d[a2] * d[b2] for _, a2, b2 in CROSS_TERMS)])
+        ratio = weighted_mean([Estimate(to_ug(float(v / x)), to_ug(float(uu / x)), "ug/g^2")
+                               for v, uu, x in zip(ob.vre_g[keep], ob.u_g[keep], s2[keep])])
+        points.append({"run": ob.run, "label": ob.label, "freq_hz": ob.freq_hz, "mount_deg": m.deg,
+                       "mount_plane": m.plane, "shaker": m.shaker, "static_vector_g": list(m.static_g),
+                       "axial": not ob.tilted, "n": int(keep.sum()),
+                       "vre_per_ms_ug_per_g2": {"value": ratio.value, "u": ratio.u},
+                       "model_ug_per_g2": finite_or_none(float(col @ theta))})
+    covariance = (tuple(est), block) if est else None
+    return CrossCoupling(est, reasons, covariance, tuple(notes), tuple(points), nuisance, chi2, dof)
 
 
 # --------------------------------------------------------------------------- the whole campaign
@@ -1256,4 +1532,5 @@ def write_sensor_file(path: str | Path, ident: Identification) -> Path:
 
 
 __all__ = ["Observation", "ChannelModel", "Identification", "observations", "identify", "identify_channel",
+           "CrossCoupling", "fit_cross_coupling", "CROSS",
            "model_levels", "apparent_vrc", "cross_check_2f", "sensor_file_document", "write_sensor_file", "REACH_SIGMA", "NEAR_FN"]

@@ -41,9 +41,16 @@ _EXAMPLE = """example MANIFEST (paths relative to it):
   dut = ["sn1_z", "sn2_z"]          # the file's names are the campaign's
   static_g = -1.0
 
+  [[run]]                           # IEEE 1293 mount angle (SPEC 1.6): input axis at 45° to the
+  file = "runs/ip_plus45.csv"       # vibration, tilted toward its pendulous axis (io: output axis)
+  dut = ["sn1_z"]
+  mount_deg = 45
+  mount_plane = "ip"
+  static_g = [0.7071, 0.7071, 0]    # the whole static field [i, p, o]: vertical shaker, along it
+
 run keys: file dut reference method static_g label fs_hz time dut_units dut_sensitivity
 reference_units reference_sensitivity schedule profile band settle_s rail_g
-u_reference_pct u_dut_pct u_static_g u_thermal_g
+u_reference_pct u_dut_pct u_static_g u_thermal_g mount_deg mount_plane
 
 file: a recorded test in one of these formats (by magic bytes, else by extension):
   %(formats)s
@@ -136,6 +143,10 @@ def _print(doc: dict[str, Any]) -> None:
         for v in c["vrc_by_freq"]:
             e = v["vrc_ug_per_g2"]
             print(f"  VRC at {v['freq_hz']:8.4g} Hz, {v['static_g']:+.3g} g: {format_value_u(e['value'], e['u'], unit='µg/g²')}")
+        for v in c.get("vrc_by_mount") or ():  # IEEE 1293 mount-angle runs (SPEC 1.6)
+            e = v["vrc_ug_per_g2"]
+            print(f"  VRE/rms² at {v['freq_hz']:8.4g} Hz, mounted {v['mount_deg']:+g}° {v['mount_plane'].upper()}: "
+                  f"{format_value_u(e['value'], e['u'], unit='µg/g²')}")
         for key, unit in (("k2_ug_per_g2", "µg/g²"), ("k3_ug_per_g3", "µg/g³"), ("rail_g", "g")):
             e = c[key]
             text = "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)

@@ -2,8 +2,9 @@
 
 First what was identified from what (campaign, base sensor, clip model, the sensor file); then
 per channel: the parameters (value ± u, or null with the reason and where the value used comes
-from), the apparent VRC of every sine run against frequency with the identified
-``(k2 + 3·k3·g0)·|H(f)|²`` per orientation, each level's pull (measured − model)/u by run, the
+from; IEEE 1293's cross-coupling Kip, Kpp, Kio, Koo beside k2 and k3), the apparent VRC of every sine run against frequency with the identified
+``(k2 + 3·k3·g0)·|H(f)|²`` per orientation, the mount-angle runs' VRE/σ² against their angle
+with the identified cross-coupling model, each level's pull (measured − model)/u by run, the
 2f cross-check and the notes. It reads ``identification.json`` only: nothing is refitted.
 """
 
@@ -48,7 +49,7 @@ def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     markers = ["o", "s", "^", "D"]
     for i, g0 in enumerate(sorted({round(p[1], 2) for p in pts}, reverse=True)):
         sel = [p for p in pts if round(p[1], 2) == g0]
-        line = ax.plot(grid, (k2 + 3 * k3 * g0) * (vrc_at_frequency(1.0, grid, fn, q) if fn and q else 1.0),
+        line = ax.plot(grid, (k2 + 3 * k3 * g0) * (vrc_at_frequency(1.0, grid, fn, q) if fn and q else np.ones_like(grid)),
                        label=f"model at {g0:+g} g")[0]
         ax.errorbar([p[0] for p in sel], [p[2] for p in sel], yerr=[p[3] for p in sel], fmt=markers[i % 4],
                     color=line.get_color(), capsize=3, label=f"measured at {g0:+g} g")
@@ -88,9 +89,48 @@ def pulls_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
                                     "a run whose points sit beyond ±3 is one the model does not describe.")
 
 
+def cross_coupling_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
+    """IEEE 1293's mount-angle runs (SPEC 1.6): each run's VRE/σ_m² against its mount angle, per
+    plane (1 u error bars), beside the identified model's value at the same run (crosses)."""
+    from vrelab.report.plots import new_figure
+
+    cc = ch.get("cross_coupling") or {}
+    pts = cc.get("points") or []
+    if not pts:
+        return None
+    fig, (ax,) = new_figure()
+    for plane, marker in (("ip", "o"), ("io", "s")):
+        sel = [p for p in pts if p["mount_plane"] == plane and not p.get("axial")]
+        axial = [p for p in pts if p.get("axial")] if plane == "ip" else []
+        sel = axial + sel
+        if not sel:
+            continue
+        x = [p["mount_deg"] for p in sel]
+        line = ax.errorbar(x, [p["vre_per_ms_ug_per_g2"]["value"] for p in sel],
+                           yerr=[p["vre_per_ms_ug_per_g2"]["u"] for p in sel], fmt=marker, capsize=3,
+                           label=f"measured, {plane.upper()} plane" + (" (0°: along the vibration)" if axial else ""))
+        ax.plot(x, [p["model_ug_per_g2"] for p in sel], "x", ms=9, color=line[0].get_color(),
+                label=f"identified model, {plane.upper()} plane")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xticks([-90, -45, 0, 45, 90])
+    ax.set_xlabel("mount angle φ of the input axis to the vibration (°)")
+    ax.set_ylabel("VRE / σ_m² (µg/g²)")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"channel {ch['channel']}: the mount-angle runs (IEEE 1293)")
+    return ReportFigure.from_figure(fig, f"Channel {ch['channel']}: each run's rectification per proof-mass mean square "
+                                    "against its mount angle, and the identified (k2 + 3·k3·w·g)·(w·d)² + Kip·d_i·d_p + "
+                                    "Kpp·d_p² + Kio·d_i·d_o + Koo·d_o² at the same run (SPEC 1.6).")
+
+
+# the parameter table's order: the nonlinearity, then the cross-coupling terms beside it, then the rest
+_FIRST = ("k2_ug_per_g2", "k3_ug_per_g3", "kip_ug_per_g2", "kpp_ug_per_g2", "kio_ug_per_g2", "koo_ug_per_g2")
+
+
 def _parameter_rows(ch: Mapping[str, Any]) -> list[list[str]]:
     rows = []
-    for name, e in (ch.get("parameters") or {}).items():
+    params = ch.get("parameters") or {}
+    order = [n for n in _FIRST if n in params] + [n for n in params if n not in _FIRST]
+    for name, e in ((n, params[n]) for n in order):
         used = (ch.get("values_used") or {}).get(name)
         a = (ch.get("assumed") or {}).get(name)
         if e is None:
@@ -110,13 +150,26 @@ def _parameter_rows(ch: Mapping[str, Any]) -> list[list[str]]:
 
 
 def channel_section(ch: Mapping[str, Any]) -> ReportSection:
-    figs = [f for f in (vrc_model_figure(ch), pulls_figure(ch)) if f is not None]
+    figs = [f for f in (vrc_model_figure(ch), cross_coupling_figure(ch), pulls_figure(ch)) if f is not None]
     tables = [ReportTable("Parameters", ["parameter", "value ± u", "value used", "why null"], _parameter_rows(ch))]
     runs = ch.get("runs") or []
     tables.append(ReportTable("Runs", ["run", "method", "static g", "frequency / profile", "levels", "χ²"],
                               [[f"{r['run']} ({r['label']})", r["method"], f"{r['static_g']:+g}",
                                 f"{r['freq_hz']:.5g} Hz" if r.get("freq_hz") else str(r.get("profile") or ""),
                                 str(r["n"]), f"{r['chi2']:.3g}"] for r in runs], numeric=(4, 5)))
+    cc = ch.get("cross_coupling") or {}
+    if cc.get("points"):
+        tables.append(ReportTable(
+            "Mount-angle runs (IEEE 1293): VRE per proof-mass mean square, measured and identified"
+            + (f" (χ²/dof = {cc['chi2_reduced']:.3g})" if cc.get("chi2_reduced") is not None else ""),
+            ["run", "frequency (Hz)", "mount", "static field [i, p, o] (g)", "levels", "VRE/σ² (µg/g²)",
+             "model (µg/g²)"],
+            [[f"{p['run']} ({p['label']})", f"{p['freq_hz']:.5g}" if p.get("freq_hz") else "",
+              "along the vibration" if p.get("axial") else f"{p['mount_deg']:+g}° {p['mount_plane'].upper()} ({p['shaker']})",
+              ", ".join(f"{g:+.3g}" for g in p["static_vector_g"]), str(p["n"]),
+              format_value_u(p["vre_per_ms_ug_per_g2"]["value"], p["vre_per_ms_ug_per_g2"]["u"]),
+              "" if p.get("model_ug_per_g2") is None else f"{p['model_ug_per_g2']:.4g}"] for p in cc["points"]],
+            numeric=(1, 4, 5, 6)))
     x2f = ch.get("cross_check_2f") or []
     if x2f:
         tables.append(ReportTable(

@@ -205,15 +205,16 @@ FIELDS: tuple[Field, ...] = (
     Field("pendulous_axis", "pendulous_axis", "choice", None,
           "IEEE 1293 pendulous axis p (default: the next axis, x->y->z->x); o is the third",
           choices=("x", "y", "z")),
-    # identifiable (a mount-angle campaign estimates them) but not fitted by vrelab identify yet
+    # fitted by vrelab identify from a campaign's mount-angle runs (IEEE 1293's IP and IO planes);
+    # Kpo needs a p-o plane mount, which those runs do not excite: identifiable, not fitted
     Field("kip_ug_per_g2", "kip_per_g", "finite", 0.0, "cross-coupling Kip, output per a_i·a_p [µg/g²]",
-          scale=UG_PER_G, identifiable=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
+          scale=UG_PER_G, identifiable=True, fitted=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
     Field("kio_ug_per_g2", "kio_per_g", "finite", 0.0, "cross-coupling Kio, output per a_i·a_o [µg/g²]",
-          scale=UG_PER_G, identifiable=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
+          scale=UG_PER_G, identifiable=True, fitted=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
     Field("kpp_ug_per_g2", "kpp_per_g", "finite", 0.0, "cross-axis nonlinearity Kpp, output per a_p² [µg/g²]",
-          scale=UG_PER_G, identifiable=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
+          scale=UG_PER_G, identifiable=True, fitted=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
     Field("koo_ug_per_g2", "koo_per_g", "finite", 0.0, "cross-axis nonlinearity Koo, output per a_o² [µg/g²]",
-          scale=UG_PER_G, identifiable=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
+          scale=UG_PER_G, identifiable=True, fitted=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
     Field("kpo_ug_per_g2", "kpo_per_g", "finite", 0.0, "cross-coupling Kpo, output per a_p·a_o [µg/g²]",
           scale=UG_PER_G, identifiable=True, sweepable=True, assumable=True, default_fact=_NO_COUPLING),
 )

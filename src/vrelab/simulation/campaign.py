@@ -12,6 +12,7 @@ sample and the parts differ only by their own nonlinearity.
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
@@ -28,11 +29,25 @@ RANDOM_PROFILE = f"flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}"  # the same
 
 @dataclass(frozen=True)
 class Part:
-    """One DUT of the fixture: its truth."""
+    """One DUT of the fixture: its truth (the cross-coupling coefficients, IEEE 1293's model
+    equation, SPEC 1.6, act only in the runs mounted at an angle)."""
 
     name: str
     k2_ug_per_g2: float
     k3_ug_per_g3: float
+    kip_ug_per_g2: float = 0.0
+    kpp_ug_per_g2: float = 0.0
+    kio_ug_per_g2: float = 0.0
+    koo_ug_per_g2: float = 0.0
+
+    def sensor(self, sensor_file: str | Path) -> Any:
+        """The part: the campaign's sensor file with this part's coefficients."""
+        from vrelab.sensor import load_sensor
+        from vrelab.sensor.parameters import with_parameters
+
+        s = load_sensor(str(sensor_file), k2_ug_per_g2=self.k2_ug_per_g2, k3_ug_per_g3=self.k3_ug_per_g3)
+        cross = {n: getattr(self, n) for n in ("kip_ug_per_g2", "kpp_ug_per_g2", "kio_ug_per_g2", "koo_ug_per_g2")}
+        return with_parameters(s, cross) if any(cross.values()) else s
 
 
 @dataclass(frozen=True)
@@ -44,6 +59,31 @@ class ExampleRun:
     freq_hz: float | None = None
     levels_g: tuple[float, ...] = (0.5, 1.0, 1.5)
     label: str = ""
+    # an IEEE 1293 mount-angle run (SPEC 1.6): the input axis at mount_deg to the vibration in
+    # mount_plane, the whole static field [i, p, o] (static_g is then its i component)
+    mount_deg: float | None = None
+    mount_plane: str = "ip"
+    static_vector_g: tuple[float, float, float] | None = None
+
+    @property
+    def mount(self) -> Any:
+        """The run's :class:`vrelab.campaign.Mount`, or None for a run along the vibration."""
+        from vrelab.campaign import Mount
+
+        if self.mount_deg is None or self.static_vector_g is None:
+            return None
+        return Mount(self.mount_deg, self.mount_plane, self.static_vector_g)
+
+
+def mount_run(fmt: str, deg: float, plane: str, freq_hz: float, levels_g: tuple[float, ...], up: float = 1.0,
+              label: str = "") -> ExampleRun:
+    """A sine run mounted at ``deg`` in ``plane`` on a vertical shaker: gravity along the
+    vibration (``up`` = +1: the vibration's direction points up, the part reads +1 g along it)."""
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    c, s = (0.0 if abs(c) < 1e-15 else c), (0.0 if abs(s) < 1e-15 else s)
+    g = (up * c, up * s, 0.0) if plane == "ip" else (up * c, 0.0, up * s)
+    return ExampleRun(fmt, g[0], freq_hz, levels_g, label or f"{plane.upper()} {deg:+g}°, {freq_hz:g} Hz",
+                      mount_deg=deg, mount_plane=plane, static_vector_g=g)
 
 
 @dataclass(frozen=True)
@@ -56,6 +96,7 @@ class CampaignTruth:
     q: float
     rail_g: float
     runs: tuple[ExampleRun, ...] = field(default_factory=tuple)
+    name: str | None = None  # the manifest's name and header (None: the shipped example's)
 
 
 # The example part: a ±2 g MEMS axis with a low resonance (so a sine sweep shows it), rails at
@@ -96,10 +137,108 @@ def example_truth() -> CampaignTruth:
     return CampaignTruth(EXAMPLE_SENSOR, parts, 1200.0, 4.0, 2.048, runs)
 
 
+def mount_truth() -> CampaignTruth:
+    """A simulated IEEE 1293 mount-angle campaign (SPEC 1.6): one part with known k2, k3, Kip,
+    Kpp, Kio, Koo; 80 Hz sine runs along the vibration at +1 g and -1 g, and at +45°, -45° and
+    90° in the IP and the IO plane on a vertical shaker (gravity along the vibration). The part
+    has no resonance and rails at ±8 g (no level reaches them), a little noise."""
+    sensor = """\
+schema = 1
+name = "mount-part"
+description = "part for vrelab's simulated mount-angle campaign: ±8 g rails, no resonance, a little noise"
+source = "vrelab.simulation.campaign (simulated)"
+default_range_g = 8
+default_axis = "z"
+clip_position = "output"
+noise_ug_per_rthz = 5.0
+k2_ug_per_g2 = 0.0
+k3_ug_per_g3 = 0.0
+"""
+    lv = (0.3, 0.6, 0.9)
+    runs = (ExampleRun("csv", 1.0, 80.0, lv, label="0°, up, 80 Hz"),
+            ExampleRun("csv", -1.0, 80.0, lv, label="0°, down, 80 Hz"),
+            *(mount_run("csv", deg, plane, 80.0, lv) for plane in ("ip", "io") for deg in (45.0, -45.0, 90.0)))
+    part = Part("sn1", 2000.0, 300.0, kip_ug_per_g2=500.0, kpp_ug_per_g2=-300.0, kio_ug_per_g2=-400.0,
+                koo_ug_per_g2=200.0)
+    return CampaignTruth(sensor, (part,), math.inf, 1.0, 8.0, runs, name="simulated mount-angle campaign, part sn1")
+
+
+class MountedSensor:
+    """A sensor axis mounted at an angle on the shaker, as a :class:`TestPlan` simulates it.
+
+    Every attribute is the sensor's, but its chain is the triaxial chain
+    (:func:`vrelab.triaxial.chain.triaxial_chain`: the front end on each component, the model
+    equation's cross-coupling terms) fed ``a = d·x + g`` for the record's drive x along the
+    shaker: ``d`` the vibration's direction and ``g`` the static field, both in the part's
+    frame (x, y, z). The plan's ``static_g`` must be ``g``'s component along the input axis
+    (what the record adds to the drive, taken off again here)."""
+
+    def __init__(self, sensor: Any, mount: Any) -> None:
+        i, p, o = sensor.triad
+        self._sensor = sensor
+        self._d = np.zeros(3)
+        self._g = np.zeros(3)
+        for k, j in enumerate((i, p, o)):
+            self._d[j] = mount.direction[k]
+            self._g[j] = mount.static_g[k]
+        self.static_g = float(mount.static_g[0])
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._sensor, name)
+
+    def chain(self, fs_hz: float) -> Any:
+        from vrelab.triaxial.chain import triaxial_chain
+
+        return _MountedChain(triaxial_chain(self._sensor, fs_hz), _Feed(self._d, self._g, self.static_g))
+
+
+@dataclass(frozen=True)
+class _Feed:
+    """The record's scalar input (drive + g0, as SimulatedRecord feeds a chain) as the triaxial
+    acceleration ``d·drive + g`` (3, n)."""
+
+    d: NDArray[np.float64]
+    g: NDArray[np.float64]
+    g0: float
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        drive = np.asarray(x, dtype=np.float64) - self.g0  # the record adds the static along i: the drive alone
+        return self.d[:, None] * drive[None, :] + self.g[:, None]
+
+
+@dataclass
+class _MountedChain:
+    chain: Any
+    feed: _Feed
+
+    def fs_out_hz(self, fs_hz: float) -> float:
+        return float(self.chain.fs_out_hz(fs_hz))
+
+    def start(self, fs_hz: float, seed: Any) -> _MountedRun:
+        return _MountedRun(self.chain.start(fs_hz, seed), self.feed)
+
+
+@dataclass
+class _MountedRun:
+    run: Any
+    feed: _Feed
+
+    def process(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(self.run.process(self.feed(x)))
+
+    @property
+    def stats(self) -> Any:
+        return self.run.stats
+
+
 def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: float | None = None) -> Any:
-    """The run's TestPlan: sine at its frequency, or random flat over RANDOM_BAND_HZ."""
+    """The run's TestPlan: sine at its frequency, or random flat over RANDOM_BAND_HZ; a run
+    mounted at an angle through the part's triaxial chain (:class:`MountedSensor`)."""
     from vrelab.profiles import RandomProfile
     from vrelab.simulation.plan import TestPlan
+
+    if run.mount is not None:
+        sensor = MountedSensor(sensor, run.mount)
 
     # the rate rule's rate (vrelab.rates): at a lower rate the discretised resonance departs from
     # H(f) near fn (at 4 kHz, |H(1 kHz)|² comes out 7 % high)
@@ -112,10 +251,7 @@ def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: flo
 def simulate_run(truth: CampaignTruth, run: ExampleRun, seed: int, seconds: float,
                  sensor_file: Path) -> tuple[float, int, Iterator[dict[str, NDArray[np.float64]]]]:
     """(fs, n, blocks) of one run: ``reference`` [mV] and one channel per part [LSB]."""
-    from vrelab.sensor import load_sensor
-
-    records = [_plan(load_sensor(str(sensor_file), k2_ug_per_g2=p.k2_ug_per_g2, k3_ug_per_g3=p.k3_ug_per_g3),
-                     run, seed, seconds).record() for p in truth.parts]
+    records = [_plan(p.sensor(sensor_file), run, seed, seconds).record() for p in truth.parts]
     first = records[0]
 
     def blocks() -> Iterator[dict[str, NDArray[np.float64]]]:
@@ -154,6 +290,8 @@ def _run_file(index: int, run: ExampleRun) -> str:
     kind = f"{run.freq_hz:g}hz" if run.freq_hz else "random"
     orient = "up" if run.static_g > 0 else "down"
     ext = {"uffb": "uff"}.get(run.fmt, run.fmt)
+    if run.mount is not None:
+        return f"runs/{index:02d}_{run.mount_plane}{run.mount_deg:+g}_{kind}.{ext}"
     return f"runs/{index:02d}_z_{orient}_{kind}.{ext}"
 
 
@@ -189,10 +327,17 @@ def ensure_campaign(folder: str | Path, truth: CampaignTruth | None = None, seco
 
 
 def _manifest_text(truth: CampaignTruth, entries: Sequence[tuple[Path, Mapping[str, str], ExampleRun]]) -> str:
-    lines = [
+    head = [
         "# A simulated shaker campaign (vrelab.simulation.campaign; its recordings are generated by",
         "# `make examples` or `python examples/make_campaign.py`). Two parts on one fixture, z along the shaker.",
         'name = "example parts sn1, sn2: ±2 g, z axis"',
+    ] if truth.name is None else [
+        "# A simulated IEEE 1293 mount-angle campaign (vrelab.simulation.campaign): the input axis at 0°, ±45° and",
+        "# 90° to the vibration in the IP and IO planes, on a vertical shaker (gravity along the vibration).",
+        f'name = "{truth.name}"',
+    ]
+    lines = [
+        *head,
         "[defaults]",
         'reference_units = "mv"',
         f"reference_sensitivity = {REFERENCE_MV_PER_G:g}   # mV/g",
@@ -211,7 +356,9 @@ def _manifest_text(truth: CampaignTruth, entries: Sequence[tuple[Path, Mapping[s
             f'label = "{run.label}"',
             f'reference = "{names["reference"]}"',
             f"dut = {duts}",
-            f"static_g = {run.static_g:g}",
+            *([f"static_g = {run.static_g:g}"] if run.mount is None else [
+                f"mount_deg = {run.mount_deg:g}", f'mount_plane = "{run.mount_plane}"',
+                "static_g = [" + ", ".join(f"{x:.9g}" for x in run.mount.static_g) + "]   # i, p, o: a vertical shaker"]),
             *([f'profile = "{RANDOM_PROFILE}"   # what the controller ran'] if run.freq_hz is None else []),
             "",
         ]
@@ -403,10 +550,11 @@ def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, se
     for i, run in enumerate(runs, 1):
         res = run_test(_plan(sensor, run, seed * 1000 + i, seconds, settle_s))
         d = res.to_dict()
+        mount = {} if run.mount is None else run.mount.to_dict()
         doc["runs"].append({
             "index": i, "label": run.label or f"run {i}", "status": "ok", "method": res.method,
             "profile": profile_document(RANDOM_PROFILE) if run.freq_hz is None else None,
-            "budget": {}, "channels": [{"channel": channel, "static_g": run.static_g, "levels": d["levels"],
+            "budget": {}, "channels": [{"channel": channel, "static_g": run.static_g, **mount, "levels": d["levels"],
                                         "fits": d["fits"]}],
         })  # fmt: skip
     return doc
@@ -426,4 +574,5 @@ def h2(truth: CampaignTruth, freq_hz: float) -> float:
 
 
 __all__ = ["Part", "ExampleRun", "CampaignTruth", "example_truth", "write_campaign", "ensure_campaign",
+           "mount_truth", "mount_run", "MountedSensor",
            "campaign_document", "vrc_truth", "h2"]
