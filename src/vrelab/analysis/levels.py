@@ -1,7 +1,9 @@
 """One level's VRE against the vibration-off baselines that bracket it (SPEC 4, steps 3 and 5).
 
-* DUT mean of a segment (baseline or random level) and its uncertainty: from the Hann-smoothed
-  window series (:func:`dut_mean_estimate`), batch means sized by the autocorrelation time.
+* DUT mean of a segment (baseline or random level), its uncertainty and degrees of freedom: from
+  the Hann-smoothed window series (:func:`dut_mean_estimate`), batch means sized by the
+  autocorrelation time; a short segment's few windows under the kernel's known correlation
+  (:func:`correlated_mean`); a level too short for either is flagged (:func:`few_windows`).
 * Baselines (:func:`find_baselines`): the DUT's vibration-off readings.
 * Level (:func:`reduce_level`). *Random*: level = reference rms in the test band (the window
   FFTs' in-band power). *Sine*: the second pass of :func:`vrelab.analysis.sine.sine_level`.
@@ -24,9 +26,9 @@ from numpy.typing import NDArray
 from vrelab.analysis.segmentation import (
     SMOOTH_WINDOWS,
     WindowStats,
+    kernel_correlation,
     kernel_tau,
     segment_windows,
-    smoothing_kernel,
 )
 from vrelab.analysis.sine import sine_level
 from vrelab.analysis.uncertainty import BATCH_TAUS, MeanEstimate, batch_mean
@@ -190,7 +192,7 @@ FEW_WINDOWS_NOTE = (
     "{n} level(s) hold fewer than "
     f"{MIN_SMOOTHED_WINDOWS} interior averaging windows after the settling trims (flagged 'few-windows'): "
     "their u comes from the raw window means, which hold the vibration's residual over each window, and "
-    "is no calibrated uncertainty (too large, 1-2 degrees of freedom); record longer levels (a window is "
+    "is no calibrated uncertainty (measured: ±u covers about 0.9 for a claim of 0.6); record longer levels (a window is "
     "max(0.1 s, 2/F1), F1 the band's lower edge)"
 )
 
@@ -227,6 +229,16 @@ def correlated_mean(y: NDArray[np.float64], rho: Sequence[float]) -> tuple[float
        variance problems, I", Ann. Math. Statist. 25, 290 (1954).
     """
     n = len(y)
+    A, R, tr, nu = _line_residual_form(n, rho)
+    q = float(y @ A @ y)
+    u = math.sqrt(max(q, 0.0) * float(R.sum()) / (n * n) / tr)
+    return float(y.mean()), u, nu
+
+
+def _line_residual_form(n: int, rho: Sequence[float]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float]:
+    """(A, R, tr(AR), ν) of :func:`correlated_mean` for a series of n values (they do not
+    depend on the data)."""
     lags = np.abs(np.subtract.outer(np.arange(n), np.arange(n)))
     c = np.zeros(n)
     c[: min(n, len(rho))] = np.asarray(rho, dtype=float)[: min(n, len(rho))]
@@ -236,17 +248,7 @@ def correlated_mean(y: NDArray[np.float64], rho: Sequence[float]) -> tuple[float
     A = np.eye(n) - X @ np.linalg.solve(X.T @ X, X.T)
     AR = A @ R
     tr = float(np.trace(AR))
-    q = float(y @ A @ y)
-    u = math.sqrt(max(q, 0.0) * float(R.sum()) / (n * n) / tr)
-    return float(y.mean()), u, tr * tr / float(np.trace(AR @ AR))
-
-
-def kernel_correlation(window: int) -> tuple[float, ...]:
-    """Correlation at lags 0, 1, ... windows that the smoothing kernel puts between the smoothed
-    values of noise white at the sample scale (its sum over ± lags is :func:`kernel_tau`)."""
-    h = smoothing_kernel(window).T.ravel()
-    r0 = float(h @ h)
-    return tuple(float(h[lag * window :] @ h[: len(h) - lag * window]) / r0 for lag in range(SMOOTH_WINDOWS))
+    return A, R, tr, tr * tr / float(np.trace(AR @ AR))
 
 
 def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> DutMean:
@@ -265,7 +267,8 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> DutMean:
       :func:`correlated_mean` at that length scaled by τ_kernel/τ: n − 1 overstated it about
       twice (13 windows: 12 for some 7.6);
     * MIN_SMOOTHED_WINDOWS to BATCH_WINDOWS − 1: :func:`correlated_mean` with the correlation
-      the kernel itself puts between neighbours (:func:`kernel_correlation`), i.e. noise taken
+      the kernel itself puts between neighbours
+      (:func:`~vrelab.analysis.segmentation.kernel_correlation`), i.e. noise taken
       as white at the window scale; ν ≈ 1 (3 windows) to 5 (9 windows), no longer n − 1;
     * fewer: the plain mean, its u from the raw window means (rule "raw"). Over a level those
       hold the vibration's residual over each window, which largely cancels in the segment's
@@ -279,9 +282,7 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> DutMean:
         est = batch_mean(stats.dut_smooth[a:b], tau_min=tau_k)
         dof = float(max(est.n_batches - 2, 1))
         if est.batch < BATCH_TAUS * est.tau:
-            y0 = np.zeros(n)
-            y0[0] = 1.0  # any series: only ν, which does not depend on the data, is used
-            nu_k = correlated_mean(y0, kernel_correlation(stats.window))[2]
+            nu_k = _line_residual_form(n, kernel_correlation(stats.window))[3]
             dof = min(dof, nu_k * tau_k / est.tau)
         return DutMean(est.mean, est.u, est.tau, est.batch, est.n_batches, dof, "batch-means")
     if n >= MIN_SMOOTHED_WINDOWS:
@@ -296,7 +297,8 @@ def few_windows(stats: WindowStats, seg: Segment) -> bool:
     """Whether a random level's VRE u is not calibrated for want of windows: the level holds
     fewer than MIN_SMOOTHED_WINDOWS interior windows, so its DUT mean's u comes from the raw
     window means, which hold the vibration's residual over each window (it largely cancels in
-    the segment's mean): measured ±u covering 0.88 for a claimed 0.61 (2 s levels, 0.2 s windows).
+    the segment's mean): measured ±u covering 0.88 for a claimed 0.61 (2 s levels, 0.2 s windows;
+    tests/test_short_levels_coverage.py).
 
     Not flagged: fewer than BATCH_WINDOWS (:func:`correlated_mean` gives a calibrated u with
     few degrees of freedom, ``dof``, whose coverage is Student's t: use U = k(dof)·u); a
@@ -394,6 +396,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
     fs = record.fs_hz
     freq = None
     vre_2f = None
+    dm: MeanEstimate
     if method == "random":
         dm = dut_mean_estimate(stats, k0, k1)
         power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
@@ -485,7 +488,6 @@ __all__ = [
     "dut_mean_estimate",
     "few_windows",
     "find_baselines",
-    "kernel_correlation",
     "low_frequency",
     "n_windows",
     "reduce_level",
