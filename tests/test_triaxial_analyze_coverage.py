@@ -8,9 +8,10 @@ through the axis's triaxial chain, with the sensor's noise on), held in memory a
 ``analyze_triaxial``; z = (VRE - truth)/u over 24 seeds, two drives (coherent and incoherent
 axes), two levels each: 96 draws. ±u and ±2u must cover within the 99 % binomial limits of
 0.68 and 0.95 (scipy.stats.binom). Levels and baselines of 2.5 s (1.5 s after the settling
-trims: 13 interior windows, the batch-means u); a level of 8 interior windows is flagged
-``few-windows`` (its u covered 62 % / 83 % at ±u / ±2u over 60 such levels: the module
-docstring of vrelab.triaxial.analyze).
+trims: 13 interior windows, the batch-means u). A level of 8 interior windows has the few-window
+estimator's u and its few degrees of freedom (vrelab.analysis.levels.correlated_mean; 1.5 s
+segments, 160 draws: ±u 0.68 for a claim of 0.61, ±2u 0.93 for 0.86, ±U 0.97); one of 2 is
+flagged ``few-windows`` (vrelab.analysis.levels.few_windows).
 """
 
 from __future__ import annotations
@@ -116,12 +117,20 @@ def test_the_vre_u_covers_the_closed_form_over_seeds():
 
 
 def test_a_level_of_a_few_windows_is_flagged():
-    # 1.5 s segments: 1 s after the trims, 10 windows, 8 interior: under the batch-means rule
-    rec = _record(INCOHERENT, (1.0,), 1.5, 0)
+    # 0.8 s segments: 0.4 s after the trims (a quarter per edge at most), 4 windows, 2
+    # interior: the raw window means' u, not calibrated: flagged by the single-axis reduction,
+    # its notice carried
+    rec = _record(INCOHERENT, (1.0,), 0.8, 0)
     res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
     _, result, _ = res.channels[0]
     assert "few-windows" in result.levels[0].flags
-    assert any(getattr(w, "code", None) == "few-windows" for w in result.warnings)
+    assert sum(getattr(w, "code", None) == "few-windows" for w in result.warnings) == 1
+    # 1.5 s segments: 8 interior windows: a calibrated u with few degrees of freedom, not flagged
+    rec = _record(INCOHERENT, (1.0,), 1.5, 0)
+    res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+    _, result, _ = res.channels[0]
+    assert "few-windows" not in result.levels[0].flags
+    assert result.levels[0].dof is not None and result.levels[0].dof < 8
 
 
 def test_the_level_is_one_number_the_total_of_the_single_axis_levels():

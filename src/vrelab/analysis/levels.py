@@ -1,7 +1,9 @@
 """One level's VRE against the vibration-off baselines that bracket it (SPEC 4, steps 3 and 5).
 
-* DUT mean of a segment (baseline or random level) and its uncertainty: from the Hann-smoothed
-  window series (:func:`dut_mean_estimate`), batch means sized by the autocorrelation time.
+* DUT mean of a segment (baseline or random level), its uncertainty and degrees of freedom: from
+  the Hann-smoothed window series (:func:`dut_mean_estimate`), batch means sized by the
+  autocorrelation time; a short segment's few windows under the kernel's known correlation
+  (:func:`correlated_mean`); a level too short for either is flagged (:func:`few_windows`).
 * Baselines (:func:`find_baselines`): the DUT's vibration-off readings.
 * Level (:func:`reduce_level`). *Random*: level = reference rms in the test band (the window
   FFTs' in-band power). *Sine*: the second pass of :func:`vrelab.analysis.sine.sine_level`.
@@ -21,9 +23,15 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.segmentation import SMOOTH_WINDOWS, WindowStats, kernel_tau, segment_windows
+from vrelab.analysis.segmentation import (
+    SMOOTH_WINDOWS,
+    WindowStats,
+    kernel_correlation,
+    kernel_tau,
+    segment_windows,
+)
 from vrelab.analysis.sine import sine_level
-from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
+from vrelab.analysis.uncertainty import BATCH_TAUS, MeanEstimate, batch_mean
 from vrelab.gum import welch_satterthwaite
 from vrelab.record import Record, Schedule, Segment
 from vrelab.results import Estimate, LevelResult, Method, Notice
@@ -39,7 +47,7 @@ class Baseline:
     u_g: float
     segment: Segment
     n_saturated: int = 0  # DUT samples at a rail: the vibration-off reading is off-scale
-    dof: float = math.inf  # degrees of freedom of u_g (batch means: batches - 1)
+    dof: float = math.inf  # degrees of freedom of u_g (DutMean.dof)
     # second difference of the baseline's thirds, m2 - (m1 + m3)/2 (None: too short to split),
     # and its variance were the noise white at the batch scale (4.5·u_g²)
     thirds_g: float | None = None
@@ -172,8 +180,79 @@ def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Base
 
 
 
-def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
-    """DUT mean over windows [k0, k1) with its standard uncertainty.
+# Interior windows a segment needs for the batch-means u of its DUT mean (:func:`batch_mean`);
+# fewer, the u rests on the windows' scatter about a line under the kernel's own correlation
+# (:func:`correlated_mean`).
+BATCH_WINDOWS = 10
+# Interior windows the smoothed estimators need (a line through them leaves a residual); fewer,
+# the DUT mean of a segment falls back on its raw window means.
+MIN_SMOOTHED_WINDOWS = 3
+# The notice of a reduction with levels flagged by :func:`few_windows` (``n`` of them).
+FEW_WINDOWS_NOTE = (
+    "{n} level(s) hold fewer than "
+    f"{MIN_SMOOTHED_WINDOWS} interior averaging windows after the settling trims (flagged 'few-windows'): "
+    "their u comes from the raw window means, which hold the vibration's residual over each window, and "
+    "is no calibrated uncertainty (measured: ±u covers about 0.9 for a claim of 0.6); record longer levels (a window is "
+    "max(0.1 s, 2/F1), F1 the band's lower edge)"
+)
+
+
+@dataclass(frozen=True)
+class DutMean(MeanEstimate):
+    """A segment's DUT mean (:func:`dut_mean_estimate`) with the degrees of freedom of its u and
+    the estimator behind it: "batch-means", "correlated" or "raw" (the raw window means: their
+    scatter holds the vibration's residual over each window when the segment is a level)."""
+
+    dof: float = math.inf
+    rule: str = "batch-means"
+
+
+def correlated_mean(y: NDArray[np.float64], rho: Sequence[float]) -> tuple[float, float, float]:
+    """(mean, u, ν) of a short series whose correlation at lags 0, 1, ... is ``rho`` (known up
+    to the common variance σ²) and whose scatter is measured about a fitted straight line.
+
+    With R the series' correlation matrix, A = I − X(XᵀX)⁻¹Xᵀ the residual projector of the
+    line (X = [1, t]) and Q = yᵀAy the residuals' sum of squares: E[Q] = σ²·tr(AR) and the
+    mean's variance is σ²·1ᵀR1/n² (n²/1ᵀR1 is Bayley and Hammersley's effective number of
+    observations [1]_), so ``u² = Q·(1ᵀR1/n²)/tr(AR)`` is unbiased. Q is a Gaussian quadratic
+    form, approximated by a scaled χ² of ``ν = tr(AR)²/tr((AR)²)`` degrees of freedom
+    (Satterthwaite [2]_; Box [3]_): the ν that u's Student-t coverage factor needs. Written by
+    hand: statsmodels and scipy offer neither for a known correlation of a short series.
+
+    References
+    ----------
+    .. [1] G. V. Bayley and J. M. Hammersley, "The 'effective' number of independent
+       observations in an autocorrelated time series", J. R. Stat. Soc. Suppl. 8, 184 (1946).
+    .. [2] F. E. Satterthwaite, "An approximate distribution of estimates of variance
+       components", Biometrics Bulletin 2, 110 (1946).
+    .. [3] G. E. P. Box, "Some theorems on quadratic forms applied in the study of analysis of
+       variance problems, I", Ann. Math. Statist. 25, 290 (1954).
+    """
+    n = len(y)
+    A, R, tr, nu = _line_residual_form(n, rho)
+    q = float(y @ A @ y)
+    u = math.sqrt(max(q, 0.0) * float(R.sum()) / (n * n) / tr)
+    return float(y.mean()), u, nu
+
+
+def _line_residual_form(n: int, rho: Sequence[float]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float]:
+    """(A, R, tr(AR), ν) of :func:`correlated_mean` for a series of n values (they do not
+    depend on the data)."""
+    lags = np.abs(np.subtract.outer(np.arange(n), np.arange(n)))
+    c = np.zeros(n)
+    c[: min(n, len(rho))] = np.asarray(rho, dtype=float)[: min(n, len(rho))]
+    R = c[lags]
+    t = np.arange(n, dtype=float)
+    X = np.column_stack([np.ones(n), t - t.mean()])
+    A = np.eye(n) - X @ np.linalg.solve(X.T @ X, X.T)
+    AR = A @ R
+    tr = float(np.trace(AR))
+    return A, R, tr, tr * tr / float(np.trace(AR @ AR))
+
+
+def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> DutMean:
+    """DUT mean over windows [k0, k1) with its standard uncertainty and degrees of freedom.
 
     The Hann-smoothed values (see :func:`~vrelab.analysis.segmentation.smoothing_kernel`) of the
     windows whose kernel stays inside the segment ("interior" windows) average the segment's
@@ -182,30 +261,52 @@ def dut_mean_estimate(stats: WindowStats, k0: int, k1: int) -> MeanEstimate:
     σ/(π·f·T): 0.4 mg for 1.5 g of 80-200 Hz noise over 9 s) that no batch-means uncertainty
     accounts for.
 
-    * 10 interior windows or more: batch means (:func:`batch_mean`) of the interior values;
-    * 3 to 9: too few for batch means: ``u = s·√(τ_k/n)`` with ``s²`` their squared residuals
-      about a straight line over ``n - 2·τ_k`` degrees of freedom and ``τ_k`` the correlation
+    * BATCH_WINDOWS interior windows or more: batch means (:func:`batch_mean`) of the interior
+      values; ν = batches − 2 (a line is removed), and when the batches are capped below
+      ``BATCH_TAUS·τ`` (single correlated windows, short segments) at most the ν of
+      :func:`correlated_mean` at that length scaled by τ_kernel/τ: n − 1 overstated it about
+      twice (13 windows: 12 for some 7.6);
+    * MIN_SMOOTHED_WINDOWS to BATCH_WINDOWS − 1: :func:`correlated_mean` with the correlation
       the kernel itself puts between neighbours
-      (:func:`~vrelab.analysis.segmentation.kernel_tau`), i.e. noise taken as white at 0.1 s;
-    * fewer: the plain mean, uncertainty from the raw window means.
+      (:func:`~vrelab.analysis.segmentation.kernel_correlation`), i.e. noise taken
+      as white at the window scale; ν ≈ 1 (3 windows) to 5 (9 windows), no longer n − 1;
+    * fewer: the plain mean, its u from the raw window means (rule "raw"). Over a level those
+      hold the vibration's residual over each window, which largely cancels in the segment's
+      mean: the u is then not calibrated (:func:`few_windows`).
     """
     h = SMOOTH_WINDOWS // 2
     a, b = k0 + h, k1 - h
     n = b - a
-    if n >= 10:
-        return batch_mean(stats.dut_smooth[a:b], tau_min=kernel_tau(stats.window))
-    if n >= 3:
-        y = stats.dut_smooth[a:b]
-        t = np.arange(n, dtype=float)
-        r = y - np.polyval(np.polyfit(t, y, 1), t)
-        tau = kernel_tau(stats.window)
-        # residuals of a correlated series about a fitted line understate its variance: about
-        # 2·τ degrees of freedom go to the line, not 2
-        u = math.sqrt(float(r @ r) / max(n - 2 * tau, 1.0) * tau / n)
-        return MeanEstimate(float(y.mean()), u, tau, 1, n)
+    if n >= BATCH_WINDOWS:
+        tau_k = kernel_tau(stats.window)
+        est = batch_mean(stats.dut_smooth[a:b], tau_min=tau_k)
+        dof = float(max(est.n_batches - 2, 1))
+        if est.batch < BATCH_TAUS * est.tau:
+            nu_k = _line_residual_form(n, kernel_correlation(stats.window))[3]
+            dof = min(dof, nu_k * tau_k / est.tau)
+        return DutMean(est.mean, est.u, est.tau, est.batch, est.n_batches, dof, "batch-means")
+    if n >= MIN_SMOOTHED_WINDOWS:
+        mean, u, nu = correlated_mean(stats.dut_smooth[a:b], kernel_correlation(stats.window))
+        return DutMean(mean, u, kernel_tau(stats.window), 1, n, nu, "correlated")
     raw = batch_mean(stats.dut_mean()[k0:k1])
     mean = float(stats.dut_sum[k0:k1].sum() / stats.count[k0:k1].sum())
-    return MeanEstimate(mean, raw.u, raw.tau, raw.batch, raw.n_batches)
+    return DutMean(mean, raw.u, raw.tau, raw.batch, raw.n_batches, float(max(raw.n_batches - 2, 1)), "raw")
+
+
+def few_windows(stats: WindowStats, seg: Segment) -> bool:
+    """Whether a random level's VRE u is not calibrated for want of windows: the level holds
+    fewer than MIN_SMOOTHED_WINDOWS interior windows, so its DUT mean's u comes from the raw
+    window means, which hold the vibration's residual over each window (it largely cancels in
+    the segment's mean): measured ±u covering 0.88 for a claimed 0.61 (2 s levels, 0.2 s windows;
+    tests/test_short_levels_coverage.py).
+
+    Not flagged: fewer than BATCH_WINDOWS (:func:`correlated_mean` gives a calibrated u with
+    few degrees of freedom, ``dof``, whose coverage is Student's t: use U = k(dof)·u); a
+    baseline of few windows (no vibration in its raw window means: their scatter is honest,
+    measured: 4 s levels between 2 s baselines of 0.2 s windows cover ±u, ±2u, ±U within the
+    binomial limits of their claims)."""
+    k0, k1 = segment_windows(stats, seg)
+    return k1 - k0 - 2 * (SMOOTH_WINDOWS // 2) < MIN_SMOOTHED_WINDOWS
 
 
 # --------------------------------------------------------------------------- bracketing
@@ -267,7 +368,7 @@ def find_baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], 
             # each third holds a third of the samples: variance 3·u² if white; m2 - (m1+m3)/2
             # then has 3·u²·(1 + 1/4 + 1/4)
             thirds, white = m2 - (m1 + m3) / 2, 4.5 * est.u**2
-        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), max(est.n_batches - 1, 1),
+        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), est.dof,
                             thirds, white))
     return out
 
@@ -295,6 +396,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
     fs = record.fs_hz
     freq = None
     vre_2f = None
+    dm: MeanEstimate
     if method == "random":
         dm = dut_mean_estimate(stats, k0, k1)
         power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
@@ -319,6 +421,8 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
     var_lf, dof_lf = _low_frequency_at(ctx.low_frequency, t_c, n_used / fs, baselines)
     vre = Estimate(dm.mean - base, math.sqrt(dm.u**2 + u_base**2 + var_lf), "g")
     dof = _vre_dof(vre.u, dm, t_c, baselines, (math.sqrt(var_lf), dof_lf))
+    if method == "random" and few_windows(stats, seg):
+        flags += ("few-windows",)
     off = _off_scale_baselines(t_c, baselines)
     if off:
         # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
@@ -352,7 +456,9 @@ def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baselin
              lf: tuple[float, float] | None = None) -> float:
     """Welch-Satterthwaite degrees of freedom of a VRE's u: the level's batch means, the
     bracketing baselines' (their weights as in :func:`bracket`) and the low-frequency term's."""
-    parts: list[tuple[float, float]] = [(dm.u, max(dm.n_batches - 1, 1))]
+    # a DUT mean of dut_mean_estimate carries its dof; a sine level's its batches'
+    nu = dm.dof if isinstance(dm, DutMean) else max(dm.n_batches - 1, 1)
+    parts: list[tuple[float, float]] = [(dm.u, nu)]
     before = [b for b in baselines if b.t_s <= t_s]
     after = [b for b in baselines if b.t_s > t_s]
     if before and after:
@@ -369,12 +475,18 @@ def _vre_dof(u: float, dm: MeanEstimate, t_s: float, baselines: Sequence[Baselin
 
 __all__ = [
     "ALPHAS",
+    "BATCH_WINDOWS",
+    "FEW_WINDOWS_NOTE",
     "MIN_SEGMENT_WINDOWS",
+    "MIN_SMOOTHED_WINDOWS",
     "Baseline",
+    "DutMean",
     "LevelContext",
     "LowFrequency",
     "bracket",
+    "correlated_mean",
     "dut_mean_estimate",
+    "few_windows",
     "find_baselines",
     "low_frequency",
     "n_windows",

@@ -31,6 +31,7 @@ from vrelab import _validate as V
 from vrelab._version import __version__
 from vrelab.analysis import plausibility as P
 from vrelab.analysis.levels import (
+    FEW_WINDOWS_NOTE,
     MIN_SEGMENT_WINDOWS,
     Baseline,
     LevelContext,
@@ -187,6 +188,9 @@ def reduce(
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
+    n_few = sum(1 for lv in levels if "few-windows" in lv.flags)
+    if n_few:
+        warnings.append(Notice("few-windows", FEW_WINDOWS_NOTE.format(n=n_few)))
     if opt.profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, opt.profile)
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind,

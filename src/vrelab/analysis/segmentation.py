@@ -137,14 +137,18 @@ def smoothing_kernel(window: int) -> NDArray[np.float64]:
     return np.ascontiguousarray(h.reshape(SMOOTH_WINDOWS, window).T)
 
 
-def kernel_tau(window: int) -> float:
-    """Integrated autocorrelation time (in windows) the kernel gives white noise: Σ_l ρ(l·window)."""
+def kernel_correlation(window: int) -> tuple[float, ...]:
+    """Correlation at lags 0, 1, ... windows that the smoothing kernel puts between the smoothed
+    values of noise white at the sample scale."""
     h = smoothing_kernel(window).T.ravel()
     r0 = float(h @ h)
-    tau = 1.0
-    for lag in range(1, SMOOTH_WINDOWS):
-        tau += 2.0 * float(h[lag * window :] @ h[: len(h) - lag * window]) / r0
-    return tau
+    return tuple(float(h[lag * window :] @ h[: len(h) - lag * window]) / r0 for lag in range(SMOOTH_WINDOWS))
+
+
+def kernel_tau(window: int) -> float:
+    """Integrated autocorrelation time (in windows) the kernel gives white noise: Σ_l ρ(l·window)."""
+    rho = kernel_correlation(window)
+    return 1.0 + 2.0 * sum(rho[1:])
 
 
 def band_weights(

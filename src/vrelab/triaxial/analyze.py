@@ -28,15 +28,14 @@ cross-spectral matrix of each level (PSDs, coherences, phases, their uncertainty
 averages, :mod:`vrelab.triaxial.recording`) is reported.
 
 The VRE of each axis and its u are the single-axis reduction's (:func:`vrelab.analysis.analyze_full`):
-its u is the batch means of the DUT's smoothed window series when a level holds 10 interior
-windows or more (a window is 0.1 s, or ``2/F1`` for a band starting below 20 Hz); a shorter
-level (or baseline) falls back on a few windows' scatter (3 to 9: ~n-4 degrees of freedom;
-under 3: the raw window means), whose u is no longer a 68 % interval: such a level, or one
-whose u takes a tenth of its variance from such a baseline, carries the flag ``few-windows``
-and a warning. The two rules' u differ widely over a short level (2 s levels, a 20-500 Hz
-profile: 0.04 mg over 8 interior 0.1 s windows with the 50-2000 Hz band, 4.4 mg over the raw
-means of 0.2 s windows with the band from 10 Hz); with 13 interior windows or more they agree
-and cover (tests/test_triaxial_analyze_coverage.py: ±u 0.70, ±2u 0.955 over 800 draws).
+its u is the batch means of the DUT's smoothed window series when a level holds
+``BATCH_WINDOWS`` (10) interior windows or more (a window is 0.1 s, or ``2/F1`` for a band
+starting below 20 Hz); a shorter level (or baseline) has the scatter of its few smoothed windows
+under their known correlation, with its few degrees of freedom (``dof``: ~4 for 8 windows), so
+U = k(dof)·u covers (:func:`vrelab.analysis.levels.dut_mean_estimate`); a level of fewer than 3
+interior windows, whose u is not calibrated, carries the single-axis flag ``few-windows`` and
+its notice (:func:`vrelab.analysis.levels.few_windows`). Coverage:
+tests/test_triaxial_analyze_coverage.py (±u 0.70, ±2u 0.955 over 800 draws of 13 interior windows).
 :func:`vrelab.triaxial.simulate.simulate_triaxial` reduces its record through this function.
 
 Fits: the VRC of each DUT axis against the total rms (``VRE = VRC·rms²`` holds for any quadratic
@@ -68,11 +67,6 @@ __all__ = ["TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial"]
 STILL_FRACTION = 0.1
 # Points per octave of the reported cross-spectrum of each level.
 POINTS_PER_OCTAVE = 3.0
-# Interior windows a random level needs for the batch-means u of its DUT mean (the threshold of
-# vrelab.analysis.reduction.dut_mean_estimate, a literal there: kept equal by hand); fewer, its
-# u rests on a few windows' scatter: measured 62 % / 83 % coverage of ±u / ±2u over 60 levels of
-# 8 interior windows (tests/test_triaxial_analyze_coverage.py's drives, 2 s levels).
-BATCH_WINDOWS = 10
 
 
 class _PairView:
@@ -345,49 +339,16 @@ def analyze_triaxial(
     channels: list[tuple[str, VreResult, Any]] = []
     for axis, result, red, levels, warnings, _ in reduced:
         new: list[LevelResult] = []
-        few = 0
-        for seg, t_s, lv in zip(red.level_segments, red.level_times_s, levels):
+        for seg, lv in zip(red.level_segments, levels):
             total, u_total = totals.get((seg.start_s, seg.end_s), (math.nan, None))
-            flags = lv.flags
-            if red.method == "random" and "few-windows" not in flags and _few_windows(red, seg, t_s, lv.vre.u):
-                flags, few = flags + ("few-windows",), few + 1
-            new.append(dataclasses.replace(lv, rms_g=total, u_rms_g=u_total, flags=flags))
+            new.append(dataclasses.replace(lv, rms_g=total, u_rms_g=u_total))
         nominal = [seg.freq_hz for seg in red.level_segments]
         fits, w = fit_levels(new, red.method, None, fit_k4=fit_k4, nominal_freqs_hz=nominal)
         notes = [Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
                         "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")]
-        if few:
-            notes.append(Notice("few-windows", f"{few} level(s) (or a bracketing baseline that weighs in their u) "
-                                f"hold fewer than {BATCH_WINDOWS} averaging windows after the settling trims (flagged "
-                                "'few-windows'): their u rests on a few windows' "
-                                "scatter, with few degrees of freedom (see dof), and ±u, ±2u do not cover 68 %, "
-                                "95 %: use U = t(dof)·u, or record longer levels"))
         extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
                  "level_axis": AXES[dom], "reduced_against": level_axis[axis]}
         cond = dataclasses.replace(result.conditions, extra=extra)
         channels.append((axis, dataclasses.replace(result, levels=tuple(new), fits=tuple(fits), conditions=cond,
                                                    warnings=tuple(warnings) + tuple(w) + tuple(notes)), red))
     return TriaxialAnalysis(tuple(channels), tuple(levels_out.values()), dict(reference), AXES[dom], level_axis)
-
-
-def _few_windows(red: Any, seg: Segment, t_s: float, u_vre: float) -> bool:
-    """Whether a random level's VRE u rests on a few windows' scatter: the level holds fewer
-    than BATCH_WINDOWS interior windows (those whose smoothing kernel stays inside it), or a
-    bracketing baseline does and its share of u (its interpolation weight times its u, as
-    :func:`vrelab.analysis.reduction.bracket`) is over 0.3·u (a tenth of the variance)."""
-    from vrelab.analysis.segmentation import SMOOTH_WINDOWS, segment_windows
-
-    def interior(s: Segment) -> int:
-        k0, k1 = segment_windows(red.stats, s)
-        return k1 - k0 - 2 * (SMOOTH_WINDOWS // 2)
-
-    if interior(seg) < BATCH_WINDOWS:
-        return True
-    before = [b for b in red.baselines if b.t_s <= t_s][-1:]
-    after = [b for b in red.baselines if b.t_s > t_s][:1]
-    if before and after:
-        lam = (t_s - before[0].t_s) / (after[0].t_s - before[0].t_s)
-        shares = [(before[0], 1.0 - lam), (after[0], lam)]
-    else:
-        shares = [(b, 1.0) for b in before + after]
-    return any(interior(b.segment) < BATCH_WINDOWS and not weight * b.u_g <= 0.3 * u_vre for b, weight in shares)
