@@ -64,6 +64,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.predict import LevelPrediction, Prediction, predict, propagation, tilt_note
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
+from vrelab.triaxial.chain import CROSS_TERMS
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 
 if TYPE_CHECKING:
@@ -74,14 +75,10 @@ __all__ = ["CROSS_SHARES", "TriaxialLevelPrediction", "TriaxialPrediction", "pre
 Excitation = TriaxialProfile | TriaxialSine
 Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
 
-# The model equation's cross terms: (share key, Sensor attribute, the two triad positions).
-CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = (
-    ("cross_kip_g", "kip_per_g", 0, 1),
-    ("cross_kio_g", "kio_per_g", 0, 2),
-    ("cross_kpp_g", "kpp_per_g", 1, 1),
-    ("cross_koo_g", "koo_per_g", 2, 2),
-    ("cross_kpo_g", "kpo_per_g", 1, 2),
-)
+# The model equation's cross terms (:data:`vrelab.triaxial.chain.CROSS_TERMS`, their one list),
+# each with its share key: (share key, Sensor attribute, the two triad positions).
+CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = tuple(
+    (f"cross_{attr.removesuffix('_per_g')}_g", attr, a, b) for attr, a, b in CROSS_TERMS)
 # The projected PSD is taken as exact on the profile's own breakpoints where log-log
 # interpolation reproduces it to this (relative) inside every segment.
 _EXACT_REL = 1e-12
