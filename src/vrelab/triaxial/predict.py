@@ -87,6 +87,8 @@ _EXACT_REL = 1e-12
 _DENSE_STEP = 2e-3
 _MIN_PER_SEGMENT = 8
 _MAX_POINTS = 40000
+# A level's note on the cross terms through the rails begins so (:func:`_judged` extends it).
+_PASS_NOTE = "the cross terms' mean "
 
 
 @dataclass(frozen=True)
@@ -101,7 +103,9 @@ class TriaxialLevelPrediction(LevelPrediction):
     senses, before its dynamics; ``w_eff = w + 2Kg``: the static vector across the cross terms
     adds a sensitivity to the other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
     y, z at the proof mass; ``cross_pass``: the factor the rails and over-range pass the cross
-    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them.
+    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``:
+    the cross terms' part of ``model_error_g`` (what their first-order pass through the rails and
+    over-range may miss, and their move of the polynomial's input).
     """
 
     sensed_rms_g: float = 0.0
@@ -109,12 +113,14 @@ class TriaxialLevelPrediction(LevelPrediction):
     proof_mass_cov_g2: tuple[tuple[float, ...], ...] = ()
     cross_pass: float = 1.0
     cross_unpassed_g: float = 0.0
+    cross_error_g: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         d = super().to_dict()
         d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g), axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g],
                  proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2],
-                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g))
+                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g),
+                 cross_error_g=finite_or_none(self.cross_error_g))
         return d
 
 
@@ -517,9 +523,28 @@ def predict_triaxial(
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
     .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.predict.predict`.
     """
-    from vrelab.predict import _judged  # one rule: a bound judged against the stated u as predict judges
-
     return _predict(sensor, excitation, levels, static_g, kind, _judged)
+
+
+def _judged(lv: LevelPrediction) -> LevelPrediction:
+    """:func:`vrelab.predict._judged` (one rule: a bound judged against the stated u), its reason
+    naming the cross terms' part of the bound where they have one: predict's own reason speaks of
+    the single-axis rails after filters, which is not what a cross term's bound is."""
+    from vrelab.predict import _judged as judged
+
+    out = judged(lv)
+    cross = float(getattr(lv, "cross_error_g", 0.0))
+    if out.valid or not lv.valid or not cross > 0 or len(out.notes) != len(lv.notes) + 1:
+        return out
+    reason = out.notes[-1]
+    over = reason[reason.index("more than "):] if "more than " in reason else f"({reason})"
+    passing = [n for n in out.notes[:-1] if n.startswith(_PASS_NOTE)]
+    head = (passing[0].split("; what that misses")[0] if passing
+            else "the cross terms pass the rails/over-range after the nonlinearity to first order")
+    note = (f"{head}; what that misses is bounded by {cross * 1e3:.3g} mg, the rest of the model by "
+            f"{(lv.model_error_g - cross) * 1e3:.3g} mg: model_error_g {lv.model_error_g * 1e3:.3g} mg, {over}")
+    kept = tuple(n for n in out.notes[:-1] if not n.startswith(_PASS_NOTE))
+    return dataclasses.replace(out, notes=(*kept, note))
 
 
 def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
@@ -664,7 +689,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             lv_notes.append(why)
         interp_bound = 2.0 * interp_err * abs(float(slope[n]))
         if abs(through - 1.0) > 1e-6:
-            lv_notes.append(f"the cross terms' mean ({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
+            lv_notes.append(f"{_PASS_NOTE}({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
                             f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
                             "model_error_g)")
         out.append(TriaxialLevelPrediction(
@@ -675,7 +700,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             model_error_g=float(base.model_error_g) + bound + interp_bound, valid_otherwise=base.valid_otherwise,
             sensed_rms_g=float(sensed_rms[n]), axis_rms_g=tuple(float(rms) * float(x) for x in axis_frac),
             proof_mass_cov_g2=tuple(tuple(float(v) for v in row) for row in cov_b),
-            cross_pass=through, cross_unpassed_g=cross_mean))
+            cross_pass=through, cross_unpassed_g=cross_mean, cross_error_g=bound))
     if single is not None:
         notes += [nt for nt in single.notes if not nt.startswith("VRE referred to")]
     if interp_err > 0:
