@@ -35,21 +35,13 @@ from pathlib import Path
 from typing import Any
 
 from vrelab import _validate as V
+from vrelab.cli import _triaxial as tri
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
     print_json,
     print_levels,
     sensor_from_args,
-)
-from vrelab.cli._triaxial import (
-    add_triaxial_arguments,
-    along,
-    direction_of,
-    is_triaxial_profile,
-    static_field,
-    static_vector,
-    triaxial_profile,
 )
 from vrelab.models.clipping import KINDS
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
@@ -65,8 +57,8 @@ def print_result(result: Any) -> None:
 
 
 def _is_triaxial(args: argparse.Namespace, static: list[float] | None) -> bool:
-    directed = along(args)
-    return static is not None or directed or args.axes is not None or is_triaxial_profile(args.profile)
+    directed = tri.along(args)
+    return static is not None or directed or args.axes is not None or tri.is_triaxial_profile(args.profile)
 
 
 def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: list[float], seconds: float,
@@ -94,17 +86,17 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
             s = dataclasses.replace(s, drift_g_per_s=drift,
                                     facts={**dict(s.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"})
         sensors.append(s)
-    d = direction_of(args, sensors[0].triad)  # a mount angle: the first DUT axis's
+    d = tri.direction_of(args, sensors[0].triad)  # a mount angle: the first DUT axis's
     excitation: Any
     if args.freq is not None:
         freqs = positive_list(args.freq, "--freq")
         if d is None or len(freqs) != 1:
             raise ValueError("a triaxial sine is one --freq F along a --direction X,Y,Z (or a --mount-deg)")
         excitation, d = TriaxialSine(freqs[0], (d[0], d[1], d[2])), None
-    elif is_triaxial_profile(args.profile):
+    elif tri.is_triaxial_profile(args.profile):
         if d is not None:
             raise ValueError("--direction and --mount-deg apply to a single-axis --profile, not to a triaxial one")
-        excitation = triaxial_profile(args.profile)
+        excitation = tri.triaxial_profile(args.profile)
     else:
         if d is None:
             raise ValueError("a triaxial test needs --direction X,Y,Z or --mount-deg DEG (or a triaxial --profile)")
@@ -112,7 +104,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
         if not isinstance(excitation, RandomProfile):
             raise ValueError("a sine-on-random --profile along a --direction is not supported (its tones would need "
                              "a direction of their own)")
-    g = static_vector(static, args.static_g, sensors[0].triad[0])
+    g = tri.static_vector(static, args.static_g, sensors[0].triad[0])
 
     def simulate(record_path: Path | None) -> Any:
         return simulate_triaxial(sensors, excitation, levels, direction=d, static_g=g, seconds=seconds,
@@ -164,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
     ramp_s = float(V.non_negative("--ramp", args.ramp))
     progress = bool(args.progress or sys.stderr.isatty())
-    static = static_field(args)  # --static and --static-vector together are refused
+    static = tri.static_field(args)  # --static and --static-vector together are refused
     if _is_triaxial(args, static):
         return _run_triaxial(args, static, levels, seconds, baseline_s, progress)
     drift = float(V.finite_scalar("--drift", args.drift))
@@ -241,7 +233,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--clip-sigma", type=float, metavar="K",
                    help="clip the random drive at ±K·σ, as shaker controllers do (with tones: the random part)")
     p.add_argument("--kurtosis", type=float, metavar="K", help="non-Gaussian random drive with this kurtosis (> 3)")
-    add_triaxial_arguments(p, axes=True)
+    tri.add_triaxial_arguments(p, axes=True)
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")
