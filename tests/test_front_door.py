@@ -86,6 +86,29 @@ def test_the_exports_are_the_modules_objects():
         vrelab.nonsense  # noqa: B018
 
 
+def test_the_triaxial_exports_are_the_modules_objects():
+    """``vrelab.predict_triaxial`` and the rest of SPEC 1.6's front door; ``vrelab.triaxial``
+    exports each module's public names, the heavy ones on first use."""
+    import vrelab.triaxial as tri
+    from vrelab.triaxial.predict import predict_triaxial
+    from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
+    from vrelab.triaxial.simulate import simulate_triaxial
+
+    assert vrelab.predict_triaxial is predict_triaxial and vrelab.simulate_triaxial is simulate_triaxial
+    assert vrelab.TriaxialProfile is TriaxialProfile and vrelab.TriaxialSine is TriaxialSine
+    assert tri.predict_triaxial is predict_triaxial and set(tri.__all__) <= set(dir(tri))
+    for name in tri.__all__:
+        module = getattr(tri, name).__module__ if hasattr(getattr(tri, name), "__module__") else None
+        assert module is None or module.startswith("vrelab.triaxial."), (name, module)
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        tri.nonsense  # noqa: B018
+    script = ("import sys, vrelab.triaxial\nprint([m for m in ('scipy', 'vrelab.triaxial.predict', "
+              "'vrelab.triaxial.simulate') if m in sys.modules])")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+
+
 def test_calling_a_verb_follows_a_patch_of_its_function(monkeypatch):
     """``vrelab.identify(...)`` looks ``vrelab.identify.identify`` up at each call."""
     import vrelab.identify

@@ -399,6 +399,27 @@ def test_heavy_clipping_flags_the_cross_pass_through_as_not_valid() -> None:
     assert lv_ok.valid
 
 
+def test_a_cross_term_bound_over_the_stated_u_is_named_in_the_note() -> None:
+    # the ADXL355 (rails at its output, after the digital low-pass) with an assumed Kip of 5000 µg/g²
+    # at 45°, 1 g rms: the cross terms' first-order pass through those filtered rails is bounded
+    # by more than 1 % of |VRE|; the note says so in the cross terms' words, with their bound, not
+    # predict's single-axis "rails sit after filters" reason
+    sensor = dataclasses.replace(load_sensor("adxl355", range_g=2, axis="z"), kip_per_g=5000 * UG)
+    prof = TriaxialProfile.along(parse_profile("flat:20-2000"), direction("z", "x", 45.0))
+    lv = predict_triaxial(sensor, prof, [1.0], static_g=(0, 0, 1)).levels[0]
+    assert not lv.valid
+    assert 0 < lv.cross_error_g <= lv.model_error_g and lv.cross_error_g > 0.01 * abs(lv.vre_g)
+    assert len(lv.notes) == 1, lv.notes  # one note: the pass, its bound, and why it is not valid
+    note = lv.notes[0]
+    assert note.startswith("the cross terms' mean") and "rails sit after filters" not in note
+    assert f"bounded by {lv.cross_error_g * 1e3:.3g} mg" in note and f"{lv.model_error_g * 1e3:.3g} mg" in note
+    assert "more than 1 % of |VRE|" in note and note.endswith("simulate")
+    assert lv.to_dict()["cross_error_g"] == lv.cross_error_g
+    # without the cross terms the same level is valid: the cross terms' bound is the reason
+    plain = predict_triaxial(dataclasses.replace(sensor, kip_per_g=0.0), prof, [1.0], static_g=(0, 0, 1)).levels[0]
+    assert plain.valid and plain.cross_error_g == 0.0
+
+
 def test_u_vre_g_carries_fn_through_the_cross_terms() -> None:
     # a sine at f below fn on a linear unclipped axis: VRE = (k2·cos²φ + Kip·sinφ·cosφ)·rms²·|H(f)|²,
     # so u = |∂VRE/∂fn|·u_fn with ∂|H|²/∂fn written out (r = f/fn)

@@ -79,13 +79,13 @@ def test_single_axis_output_is_unchanged_without_the_options(capsys: pytest.Capt
 
 
 @pytest.mark.parametrize("extra,words", [
-    (["--direction", "1,0"], "--direction must be three numbers"),
+    (["--direction", "1,0"], "--direction must be three finite numbers"),
     (["--direction", "0,0,0"], "direction must not be the zero vector"),
-    (["--direction", "1,nan,0"], "--direction: value must be finite"),
+    (["--direction", "1,nan,0"], "--direction must be three finite numbers"),
     (["--mount-plane", "io"], "--mount-plane needs --mount-deg"),
     (["--mount-deg", "45", "--direction", "1,0,0"], "--direction or --mount-deg, not both"),
     (["--static", "1", "--static-vector", "0,0,1"], "--static (along the axis) or --static-vector"),
-    (["--static-vector", "0,1"], "--static-vector must be three numbers"),
+    (["--static-vector", "0,1"], "--static-vector must be three finite numbers"),
     (["--mount-deg", "inf"], "--mount-deg"),
 ])
 def test_bad_triaxial_input_is_one_line_exit_2(capsys: pytest.CaptureFixture[str], extra: list[str], words: str) -> None:
@@ -135,7 +135,3 @@ def test_a_triaxial_profile_string_goes_through_vrelab_triaxial_files(capsys: py
     rc, _, err = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500@z45x", "--levels", "0.5",
                       "--direction", "1,0,0")
     assert rc == 2 and "apply to a single-axis --profile" in err
-    # where the module is not installed: one line saying so
-    monkeypatch.setitem(sys.modules, "vrelab.triaxial.files", None)
-    rc, _, err = _run(capsys, "predict", "--sensor", PART, "--profile", "flat:20-500@z45x", "--levels", "0.5")
-    assert rc == 2 and "need vrelab.triaxial.files" in err and len(err.strip().splitlines()) == 1

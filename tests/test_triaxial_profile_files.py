@@ -177,3 +177,22 @@ def test_cli_profile_writes_and_refuses(tmp_path, capsys):
     assert main(["profile", "flat:20-2000@dir=0,0,0"]) == 2  # in-process: a subprocess costs seconds
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "zero vector" in err and "Traceback" not in err
+
+
+def test_a_still_axis_has_no_coherence_in_to_dict_or_describe() -> None:
+    # along x-z at 45° (y still): a still axis's coherence is undefined (0/0), so to_dict says
+    # null and describe names only the moving pair; the internal matrix stays a valid coherency
+    prof = parse_triaxial("flat:20-2000@z45x")
+    d = prof.to_dict()
+    for m in range(len(d["freq_hz"])):
+        for j, k in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1)):
+            assert d["coherence"][m][j][k] is None and d["phase_deg"][m][j][k] is None
+        assert d["coherence"][m][0][2] == pytest.approx(1.0) and d["phase_deg"][m][0][2] == pytest.approx(0.0)
+    text = prof.describe()
+    assert "coherence xz 1" in text and "xy" not in text and "yz" not in text
+    TriaxialProfile(prof.freq_hz, prof.axis_psd_g2_per_hz, prof.coherency)  # still positive semi-definite
+    # per-axis profiles with y still and an x-z coherence of 0.3: the same rule
+    band = RandomProfile(np.array([20.0, 500.0]), np.array([1e-3, 1e-3]))
+    two = TriaxialProfile.from_axes({"x": band, "z": band}, coherence={("x", "z"): (0.3, 20.0)}).to_dict()
+    assert two["coherence"][0][0][1] is None and two["coherence"][0][0][2] == pytest.approx(0.3)
+    assert two["phase_deg"][0][2][0] == pytest.approx(-20.0)

@@ -127,3 +127,38 @@ def test_simulate_and_analyze_give_the_same_numbers_for_the_same_record(tmp_path
         assert a["fit"] == b["fit"]
     # one level per segment for every axis, and the triaxial summary holds the same number
     assert [lv["rms_g"] for lv in ana["triaxial"]["levels"]] == [lv["rms_g"] for lv in ana["channels"][0]["levels"]]
+
+
+@pytest.mark.parametrize("command", [
+    ("predict", "--sensor", "ideal", "--profile", "flat:20-500", "--levels", "1"),
+    ("simulate", "--sensor", "ideal", "--profile", "flat:20-500", "--levels", "1", "--seconds", "2",
+     "--direction", "1,0,1"),
+])
+def test_static_and_static_vector_together_are_refused_by_predict_and_simulate_alike(capsys, command):
+    # one rule for the static field (vrelab.cli._triaxial): --static along the axis or
+    # --static-vector in the part's frame; both at once is ambiguous and refused, the same line
+    rc, out, err = _run(capsys, *command, "--static", "1", "--static-vector", "0,0,1")
+    assert rc == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "give the static field once: --static (along the axis) or --static-vector" in err
+    rc, out, err = _run(capsys, *command, "--static-vector", "0,0,-1", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    vector = (doc["conditions"]["extra"]["static_vector_g"] if command[0] == "predict"
+              else doc["triaxial"]["static_vector_g"])
+    assert vector == [0.0, 0.0, -1.0]
+
+
+def test_simulate_takes_the_mount_angle_as_predict_does(capsys):
+    # --mount-deg 45 on axis z (ideal part: pendulous x) is the direction (sin 45°, 0, cos 45°):
+    # the same drive, the same seed, the same numbers as --direction 1,0,1
+    common = ("simulate", "--sensor", "ideal", "--axis", "z", "--k2", "1000", "--profile", "flat:20-500",
+              "--levels", "0.5", "--seconds", "2", "--seed", "3", "--json")
+    rc, out, err = _run(capsys, *common, "--mount-deg", "45")
+    assert rc == 0, err
+    rc, out2, err = _run(capsys, *common, "--direction", "1,0,1")
+    assert rc == 0, err
+    a, b = json.loads(out)["channels"][0]["levels"][0], json.loads(out2)["channels"][0]["levels"][0]
+    assert a["vre_g"] == pytest.approx(b["vre_g"], rel=1e-9, abs=1e-12) and a["rms_g"] == pytest.approx(b["rms_g"], rel=1e-9)
+    rc, _, err = _run(capsys, "simulate", "--sensor", "ideal", "--profile", "flat:20-500@z45x", "--levels", "1",
+                      "--mount-deg", "45")
+    assert rc == 2 and "apply to a single-axis --profile" in err

@@ -15,6 +15,9 @@ The front door (``import vrelab`` is enough)::
     vrelab.analyze("run.h5", dut="dut", reference="ref")            # a recorded one
     doc = vrelab.campaign("campaign.toml")                          # every run of a manifest
     vrelab.identify(doc, base_spec="ideal", range_g=2.048)          # each channel's model
+    tri = vrelab.TriaxialProfile.along(profile, (1, 0, 1))          # the same at 45° in x-z
+    vrelab.predict_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1)) # the IEEE 1293 cross terms too
+    vrelab.simulate_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1), seconds=4, seed=1)
 
 Every name is imported on first use, so ``import vrelab`` stays as fast as it was (``python
 -X importtime -c "import vrelab"``: about 35 ms; the modules behind ``predict``, ``identify`` and
@@ -68,6 +71,10 @@ if TYPE_CHECKING:
     from vrelab.results import VreResult as VreResult
     from vrelab.sensor import Sensor as Sensor
     from vrelab.sensor import load_sensor as load_sensor
+    from vrelab.triaxial import TriaxialProfile as TriaxialProfile
+    from vrelab.triaxial import TriaxialSine as TriaxialSine
+    from vrelab.triaxial.predict import predict_triaxial as predict_triaxial
+    from vrelab.triaxial.simulate import simulate_triaxial as simulate_triaxial
 
 # name -> (module, attribute), imported on first use
 _LAZY: dict[str, tuple[str, str]] = {
@@ -88,6 +95,10 @@ _LAZY: dict[str, tuple[str, str]] = {
     "Conditions": ("vrelab.results", "Conditions"),
     "Identification": ("vrelab.identify", "Identification"),
     "TypeB": ("vrelab.gum", "TypeB"),
+    "TriaxialProfile": ("vrelab.triaxial.profile", "TriaxialProfile"),
+    "TriaxialSine": ("vrelab.triaxial.profile", "TriaxialSine"),
+    "predict_triaxial": ("vrelab.triaxial.predict", "predict_triaxial"),
+    "simulate_triaxial": ("vrelab.triaxial.simulate", "simulate_triaxial"),
 }
 # submodule name -> (module, function) that calling the submodule calls
 _VERBS: dict[str, tuple[str, str]] = {

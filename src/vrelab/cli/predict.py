@@ -11,10 +11,11 @@ SPEC section 5::
 ``rms_g``, ``vre_g``, ``tilt_error_deg``, shares by mechanism). The sensor options here are
 shared with ``vrelab simulate``. With a direction, a mount angle or a static vector the
 vibration is triaxial (SPEC 1.6): the profile or sine applied along that direction in the
-part's frame (or a triaxial ``--profile``: ``PROFILE@dir=X,Y,Z``, a triaxial TOML file, where
-:mod:`vrelab.triaxial.files` is installed), the levels its total rms, and the prediction
+part's frame (or a triaxial ``--profile``: ``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial
+TOML file: :mod:`vrelab.triaxial.files`), the levels its total rms, and the prediction
 :func:`vrelab.triaxial.predict.predict_triaxial`'s (the IEEE 1293 cross terms' shares
-``cross_kip_g`` ... ``cross_g`` beside the single-axis ones).
+``cross_kip_g`` ... ``cross_g`` beside the single-axis ones). ``--static`` and
+``--static-vector`` together are refused (:mod:`vrelab.cli._triaxial`, as ``vrelab simulate``).
 """
 
 from __future__ import annotations
@@ -24,12 +25,20 @@ from typing import Any
 
 from vrelab import _validate as V
 from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value
-from vrelab._lists import parse_list
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
     print_json,
     sensor_from_args,
+)
+from vrelab.cli._triaxial import (
+    add_triaxial_arguments,
+    along,
+    direction_of,
+    is_triaxial_profile,
+    static_field,
+    static_vector,
+    triaxial_profile,
 )
 from vrelab.models.clipping import KINDS
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
@@ -52,9 +61,12 @@ def print_prediction(pred: Any) -> None:
     with_u = any("u_vre_g" in lv for lv in d["levels"])
     vw = 18 if with_u else 10
     # the cross terms (triaxial): their sum, and each one that is not 0 at some level
-    cross = [k for k in ("cross_kip_g", "cross_kio_g", "cross_kpp_g", "cross_koo_g", "cross_kpo_g")
-             if any(lv["shares"].get(k) for lv in d["levels"])]
     triax = any("cross_g" in lv["shares"] for lv in d["levels"])
+    cross: list[str] = []
+    if triax:
+        from vrelab.triaxial.predict import CROSS_SHARES
+
+        cross = [k for k, _, _, _ in CROSS_SHARES if any(lv["shares"].get(k) for lv in d["levels"])]
     cross_head = "".join(f" {k[6:9].capitalize() + ' mg':>9}" for k in cross) + (f" {'cross mg':>9}" if triax else "")
     head = ("freq_hz " if sine else "") + (f"{'rms_g':>8} {'VRE mg':>{vw}} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} "
                                            f"{'overrange mg':>12}{cross_head}  valid")
@@ -92,32 +104,21 @@ def run(args: argparse.Namespace) -> int:
     from vrelab.profiles import parse_profile
 
     levels = positive_list(args.levels, "--levels")
-    spec = args.profile is not None and _triaxial_spec(args.profile)
-    along = args.direction is not None or args.mount_deg is not None
-    triaxial = along or spec or args.static_vector is not None
-    if spec and along:
+    spec = is_triaxial_profile(args.profile)
+    directed = along(args)
+    if spec and directed:
         raise ValueError("--direction and --mount-deg apply to a single-axis --profile, not to a triaxial one")
-    if args.mount_plane is not None and args.mount_deg is None:
-        raise ValueError("--mount-plane needs --mount-deg (the angle of the input axis to the vibration)")
-    if args.direction is not None and args.mount_deg is not None:
-        raise ValueError("give the vibration's direction once: --direction or --mount-deg, not both")
-    if args.static_vector is not None and args.static_g is not None:
-        raise ValueError("give the static field once: --static (along the axis) or --static-vector (gx,gy,gz), not both")
-    if args.static_g is None:
-        args.static_g = 1.0
+    static = static_field(args)
+    triaxial = directed or spec or static is not None
     sensor = sensor_from_args(args)
     if spec:
-        files = _triaxial_files()
-        if files is None:
-            raise ValueError(f"--profile {args.profile!r}: triaxial profile strings need vrelab.triaxial.files; "
-                             "give a single-axis profile with --direction X,Y,Z")
-        excitation: Any = files.parse_triaxial(args.profile)
+        excitation: Any = triaxial_profile(args.profile)
     elif args.profile is not None:
         excitation = parse_profile(args.profile)
     else:
         excitation = float(V.frequency("--freq", V.positive_scalar("--freq", args.freq)))
     if triaxial:
-        pred: Any = _predict_triaxial(args, sensor, excitation, levels)
+        pred: Any = _predict_triaxial(args, sensor, excitation, levels, static)
     else:
         pred = predict(sensor, excitation, levels, static_g=args.static_g, kind=args.kind)
     if args.out:
@@ -133,51 +134,20 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _triaxial_files() -> Any:
-    """vrelab.triaxial.files (triaxial profile strings ``PROFILE@dir=X,Y,Z`` and TOML files), or
-    None where this installation has none (imported by name, as ``vrelab simulate`` does)."""
-    import importlib
-
-    try:
-        return importlib.import_module("vrelab.triaxial.files")
-    except ModuleNotFoundError as exc:
-        if exc.name != "vrelab.triaxial.files":
-            raise
-        return None
-
-
-def _triaxial_spec(spec: str) -> bool:
-    """Whether a --profile names a triaxial vibration (PROFILE@direction, a triaxial file)."""
-    files = _triaxial_files()
-    return "@" in spec if files is None else bool(files.is_triaxial_spec(spec))
-
-
-def _vector(text: str, name: str) -> list[float]:
-    values = parse_list(text, name)
-    if len(values) != 3:
-        raise ValueError(f"{name} must be three numbers x,y,z (the part's frame), got {text!r}")
-    return values
-
-
-def _predict_triaxial(args: argparse.Namespace, sensor: Any, excitation: Any, levels: list[float]) -> Any:
+def _predict_triaxial(args: argparse.Namespace, sensor: Any, excitation: Any, levels: list[float],
+                      static_g: list[float] | None) -> Any:
     """The vibration along a direction in the part's frame (SPEC 1.6): ``--direction``, or the
-    IEEE 1293 mount angle of the input axis toward its pendulous (ip) or output (io) axis."""
+    IEEE 1293 mount angle of the input axis toward its pendulous (ip) or output (io) axis; along
+    the input axis where neither is given."""
     from vrelab.profiles import RandomProfile
     from vrelab.triaxial.predict import predict_triaxial
-    from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, direction
+    from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 
     if sensor.axis not in AXES:
         raise ValueError(f"a triaxial vibration needs an axis x, y or z of the part, got --axis {sensor.axis!r}")
-    i, p, o = sensor.triad
-    if args.direction is not None:
-        d = _vector(args.direction, "--direction")
-    elif args.mount_deg is not None:
-        toward = AXES[o] if args.mount_plane == "io" else AXES[p]
-        d = list(direction(AXES[i], toward, V.finite_scalar("--mount-deg", args.mount_deg)))
-    else:
-        d = [1.0 if j == i else 0.0 for j in range(3)]
-    static = (_vector(args.static_vector, "--static-vector") if args.static_vector is not None
-              else [args.static_g if j == i else 0.0 for j in range(3)])
+    i = sensor.triad[0]
+    d = direction_of(args, sensor.triad) or [1.0 if j == i else 0.0 for j in range(3)]
+    static = static_vector(static_g, args.static_g, i)
     if isinstance(excitation, (TriaxialProfile, TriaxialSine)):  # a triaxial --profile: its own directions
         tri: Any = excitation
     elif isinstance(excitation, float):
@@ -207,16 +177,7 @@ def register(subparsers: Any) -> None:
                    "(random and tones), reached by scaling the PSD by the ratio squared and each tone by the ratio")
     p.add_argument("--kind", choices=KINDS, default=DEFAULT_CLIP_KIND,
                    help="clipping model: censored (a saturating sensor, default) or truncated (the article's)")
-    t = p.add_argument_group("triaxial vibration (SPEC 1.6, IEEE 1293 cross-coupling)")
-    t.add_argument("--direction", metavar="X,Y,Z",
-                   help="the vibration along this direction in the part's frame (normalised; levels are its rms)")
-    t.add_argument("--mount-deg", type=float, metavar="DEG",
-                   help="IEEE 1293 mount angle: the vibration at DEG from the input axis toward --mount-plane's axis")
-    t.add_argument("--mount-plane", choices=("ip", "io"),
-                   help="with --mount-deg: toward the pendulous (ip, default) or output (io) axis")
-    t.add_argument("--static-vector", metavar="GX,GY,GZ",
-                   help="the static acceleration vector in the part's frame [g] (instead of --static along the axis)")
-    p.set_defaults(static_g=None)  # so that --static and --static-vector together are refused; 1 g if neither
+    add_triaxial_arguments(p)
     p.add_argument("--out", metavar="DIR", help="write DIR/prediction.json")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)

@@ -68,13 +68,17 @@ def run(args: argparse.Namespace) -> int:
         prof = prof.scaled_to(V.positive_scalar("--grms", args.grms))
     if args.write is not None:
         write_profile(prof, args.write)
+    return _show(args, prof.to_dict(), profile_table(prof))
+
+
+def _show(args: argparse.Namespace, doc: dict[str, Any], text: str) -> int:
+    """Print a profile (one JSON object with --json, else its text) and where --write wrote it."""
     if args.json:
-        d = prof.to_dict()
         if args.write is not None:
-            d["written"] = str(args.write)
-        print_json(d)
+            doc["written"] = str(args.write)
+        print_json(doc)
     else:
-        print(profile_table(prof))
+        print(text)
         if args.write is not None:
             print(f"written: {args.write}")
     return 0
@@ -92,16 +96,7 @@ def _triaxial(args: argparse.Namespace) -> int:
         if not isinstance(prof, TriaxialProfile):
             raise ValueError("--write: a sine along a direction has no profile file; give it as sine:F@... where used")
         write_triaxial(prof, args.write)
-    if args.json:
-        d = prof.to_dict()
-        if args.write is not None:
-            d["written"] = str(args.write)
-        print_json(d)
-    else:
-        print(prof.describe())
-        if args.write is not None:
-            print(f"written: {args.write}")
-    return 0
+    return _show(args, prof.to_dict(), prof.describe())
 
 
 def register(subparsers: Any) -> None:

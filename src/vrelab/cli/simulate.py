@@ -11,10 +11,12 @@ SPEC section 5::
 linear drift of the sensor's output [g/s] (both default 0).
 
 A triaxial test (SPEC 1.6, :func:`vrelab.triaxial.simulate.simulate_triaxial`): ``--direction
-X,Y,Z`` runs the random ``--profile`` (or one ``--freq`` sine) along that direction, or
-``--profile`` names a triaxial vibration (``PROFILE@dir=X,Y,Z``, a triaxial TOML file);
-``--axes x,y,z`` are the DUT axes (default ``--axis``), ``--static-vector X,Y,Z`` the static
-acceleration in the part's frame (default ``--static`` along the first DUT axis). It prints,
+X,Y,Z`` (or IEEE 1293's mount angle ``--mount-deg DEG [--mount-plane ip|io]`` of the first DUT
+axis) runs the random ``--profile`` (or one ``--freq`` sine) along that direction, or
+``--profile`` names a triaxial vibration (``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial
+TOML file); ``--axes x,y,z`` are the DUT axes (default ``--axis``), ``--static-vector X,Y,Z``
+the static acceleration in the part's frame (default ``--static`` along the first DUT axis; the
+two together are refused, as by ``vrelab predict``: :mod:`vrelab.cli._triaxial`). It prints,
 and ``--json`` or ``--out`` writes, one result per axis (a several-channel document).
 
 ``--json`` prints :meth:`vrelab.results.VreResult.to_dict` (``levels``: ``rms_g``, ``vre_g``,
@@ -33,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from vrelab import _validate as V
+from vrelab.cli import _triaxial as tri
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
@@ -53,43 +56,13 @@ def print_result(result: Any) -> None:
     print_levels(result)
 
 
-def _vector(text: str, name: str) -> list[float]:
-    """Three finite numbers X,Y,Z from an option."""
-    parts = text.split(",")
-    try:
-        values = [float(x) for x in parts]
-    except ValueError:
-        values = []
-    if len(values) != 3 or not all(math.isfinite(x) for x in values):
-        raise ValueError(f"{name} must be three finite numbers X,Y,Z, got {text!r}")
-    return values
+def _is_triaxial(args: argparse.Namespace, static: list[float] | None) -> bool:
+    directed = tri.along(args)
+    return static is not None or directed or args.axes is not None or tri.is_triaxial_profile(args.profile)
 
 
-def _is_triaxial(args: argparse.Namespace) -> bool:
-    if args.direction is not None or args.axes is not None or args.static_vector is not None:
-        return True
-    return args.profile is not None and _triaxial_profile(args.profile)
-
-
-def _triaxial_profile(spec: str) -> bool:
-    """Whether a --profile names a triaxial vibration (PROFILE@direction, a triaxial file)."""
-    files = _triaxial_files()
-    return "@" in spec if files is None else bool(files.is_triaxial_spec(spec))
-
-
-def _triaxial_files() -> Any:
-    """vrelab.triaxial.files (the triaxial profile strings and files), or None where this
-    installation has none (imported by name: it is newer than this command)."""
-    import importlib
-    import importlib.util
-
-    if importlib.util.find_spec("vrelab.triaxial.files") is None:
-        return None
-    return importlib.import_module("vrelab.triaxial.files")
-
-
-def _run_triaxial(args: argparse.Namespace, levels: list[float], seconds: float, baseline_s: float,
-                  progress: bool) -> int:
+def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: list[float], seconds: float,
+                  baseline_s: float, progress: bool) -> int:
     """``vrelab simulate`` of a triaxial vibration: one result per DUT axis."""
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
@@ -100,28 +73,6 @@ def _run_triaxial(args: argparse.Namespace, levels: list[float], seconds: float,
                      ("--kurtosis", args.kurtosis is not None), ("--ramp", bool(args.ramp))):
         if bad:
             raise ValueError(f"{opt} does not apply to a triaxial test (a Gaussian drive with its CSD, no ramp)")
-    d = _vector(args.direction, "--direction") if args.direction is not None else None
-    excitation: Any
-    if args.freq is not None:
-        freqs = positive_list(args.freq, "--freq")
-        if d is None or len(freqs) != 1:
-            raise ValueError("a triaxial sine is one --freq F along a --direction X,Y,Z")
-        excitation, d = TriaxialSine(freqs[0], (d[0], d[1], d[2])), None
-    elif _triaxial_profile(args.profile):
-        if d is not None:
-            raise ValueError("--direction applies to a single-axis --profile, not to a triaxial one")
-        files = _triaxial_files()
-        if files is None:
-            raise ValueError(f"--profile {args.profile!r}: triaxial profile strings need vrelab.triaxial.files; "
-                             "give a single-axis profile with --direction X,Y,Z")
-        excitation = files.parse_triaxial(args.profile)
-    else:
-        if d is None:
-            raise ValueError("a triaxial test needs --direction X,Y,Z (or a triaxial --profile)")
-        excitation = parse_profile(args.profile)
-        if not isinstance(excitation, RandomProfile):
-            raise ValueError("a sine-on-random --profile along a --direction is not supported (its tones would need "
-                             "a direction of their own)")
     base = sensor_from_args(args)
     names = [a.strip() for a in args.axes.split(",")] if args.axes is not None else [base.axis]
     if not names or any(not a for a in names) or len(set(names)) != len(names):
@@ -135,11 +86,25 @@ def _run_triaxial(args: argparse.Namespace, levels: list[float], seconds: float,
             s = dataclasses.replace(s, drift_g_per_s=drift,
                                     facts={**dict(s.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"})
         sensors.append(s)
-    if args.static_vector is not None:
-        g = _vector(args.static_vector, "--static-vector")
+    d = tri.direction_of(args, sensors[0].triad)  # a mount angle: the first DUT axis's
+    excitation: Any
+    if args.freq is not None:
+        freqs = positive_list(args.freq, "--freq")
+        if d is None or len(freqs) != 1:
+            raise ValueError("a triaxial sine is one --freq F along a --direction X,Y,Z (or a --mount-deg)")
+        excitation, d = TriaxialSine(freqs[0], (d[0], d[1], d[2])), None
+    elif tri.is_triaxial_profile(args.profile):
+        if d is not None:
+            raise ValueError("--direction and --mount-deg apply to a single-axis --profile, not to a triaxial one")
+        excitation = tri.triaxial_profile(args.profile)
     else:
-        g = [0.0, 0.0, 0.0]
-        g[sensors[0].triad[0]] = float(args.static_g)
+        if d is None:
+            raise ValueError("a triaxial test needs --direction X,Y,Z or --mount-deg DEG (or a triaxial --profile)")
+        excitation = parse_profile(args.profile)
+        if not isinstance(excitation, RandomProfile):
+            raise ValueError("a sine-on-random --profile along a --direction is not supported (its tones would need "
+                             "a direction of their own)")
+    g = tri.static_vector(static, args.static_g, sensors[0].triad[0])
 
     def simulate(record_path: Path | None) -> Any:
         return simulate_triaxial(sensors, excitation, levels, direction=d, static_g=g, seconds=seconds,
@@ -191,8 +156,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--record needs --out DIR (the record is written as DIR/record.h5)")
     ramp_s = float(V.non_negative("--ramp", args.ramp))
     progress = bool(args.progress or sys.stderr.isatty())
-    if _is_triaxial(args):
-        return _run_triaxial(args, levels, seconds, baseline_s, progress)
+    static = tri.static_field(args)  # --static and --static-vector together are refused
+    if _is_triaxial(args, static):
+        return _run_triaxial(args, static, levels, seconds, baseline_s, progress)
     drift = float(V.finite_scalar("--drift", args.drift))
     sensor = sensor_from_args(args)
     if drift:
@@ -267,12 +233,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--clip-sigma", type=float, metavar="K",
                    help="clip the random drive at ±K·σ, as shaker controllers do (with tones: the random part)")
     p.add_argument("--kurtosis", type=float, metavar="K", help="non-Gaussian random drive with this kurtosis (> 3)")
-    p.add_argument("--direction", metavar="X,Y,Z",
-                   help="triaxial test: the random --profile (or one --freq sine) along this direction of the part's frame")
-    p.add_argument("--axes", metavar="LIST", help="triaxial test: the DUT axes, e.g. x,y,z (default --axis)")
-    p.add_argument("--static-vector", metavar="X,Y,Z",
-                   help="triaxial test: static acceleration in the part's frame [g] (default --static along the "
-                   "first DUT axis)")
+    tri.add_triaxial_arguments(p, axes=True)
     p.add_argument("--out", metavar="DIR", help="write results.json, levels.csv, prediction.json (and record.h5)")
     p.add_argument("--record", action="store_true", help="with --out: also write the raw record DIR/record.h5")
     p.add_argument("--progress", action="store_true", help="progress bar on stderr even when it is not a terminal")

@@ -1,10 +1,82 @@
 """Beyond one axis (SPEC 1.6): triaxial vibration and the IEEE 1293 cross-coupling terms.
 
-:class:`TriaxialProfile` is random vibration along x, y and z as a 3×3 cross-spectral
-density matrix; :class:`TriaxialSine` a sine along a direction; :func:`direction` the unit
-vector of a mount angle.
+* :mod:`~vrelab.triaxial.profile`: :class:`TriaxialProfile` (random vibration along x, y and z
+  as a 3×3 cross-spectral density matrix), :class:`TriaxialSine` (a sine along a direction),
+  :func:`direction` (the unit vector of an IEEE 1293 mount angle);
+* :mod:`~vrelab.triaxial.files`: triaxial TOML files and the command-line forms
+  (``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``);
+* :mod:`~vrelab.triaxial.recording`: the measured cross-spectral density of a triaxial record;
+* :mod:`~vrelab.triaxial.chain`: one DUT axis's signal chain under a triaxial acceleration
+  (IEEE 1293's model equation);
+* :mod:`~vrelab.triaxial.synthesis`: the MIMO drive of a prescribed cross-spectral density;
+* :mod:`~vrelab.triaxial.predict`: :func:`predict_triaxial`, the analytic VRE by mechanism,
+  cross terms included;
+* :mod:`~vrelab.triaxial.simulate`: :func:`simulate_triaxial`, the simulated triaxial shaker test;
+* :mod:`~vrelab.triaxial.analyze`: :func:`analyze_triaxial`, a triaxial record reduced per axis.
+
+The profile's names are imported with the package; the others on first use (the modules behind
+them bring scipy and the simulator), as :mod:`vrelab` does.
 """
 
-from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, direction
+from __future__ import annotations
 
-__all__ = ["AXES", "TriaxialProfile", "TriaxialSine", "direction"]
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from vrelab.triaxial.profile import AXES, PairCoherence, TriaxialProfile, TriaxialSine, direction
+
+if TYPE_CHECKING:
+    from vrelab.triaxial.analyze import TriaxialAnalysis as TriaxialAnalysis
+    from vrelab.triaxial.analyze import analyze_triaxial as analyze_triaxial
+    from vrelab.triaxial.chain import CROSS_TERMS as CROSS_TERMS
+    from vrelab.triaxial.chain import TriaxialChain as TriaxialChain
+    from vrelab.triaxial.chain import TriaxialPolynomial as TriaxialPolynomial
+    from vrelab.triaxial.chain import triaxial_chain as triaxial_chain
+    from vrelab.triaxial.files import parse_triaxial as parse_triaxial
+    from vrelab.triaxial.files import read_triaxial as read_triaxial
+    from vrelab.triaxial.files import write_triaxial as write_triaxial
+    from vrelab.triaxial.predict import TriaxialLevelPrediction as TriaxialLevelPrediction
+    from vrelab.triaxial.predict import TriaxialPrediction as TriaxialPrediction
+    from vrelab.triaxial.predict import predict_triaxial as predict_triaxial
+    from vrelab.triaxial.recording import MeasuredCsd as MeasuredCsd
+    from vrelab.triaxial.recording import measure_csd as measure_csd
+    from vrelab.triaxial.recording import read_recording_profile as read_recording_profile
+    from vrelab.triaxial.simulate import TriaxialTest as TriaxialTest
+    from vrelab.triaxial.simulate import simulate_triaxial as simulate_triaxial
+    from vrelab.triaxial.synthesis import triaxial_random_signal as triaxial_random_signal
+
+# name -> module, imported on first use
+_LAZY: dict[str, str] = {
+    "read_triaxial": "vrelab.triaxial.files",
+    "write_triaxial": "vrelab.triaxial.files",
+    "parse_triaxial": "vrelab.triaxial.files",
+    "MeasuredCsd": "vrelab.triaxial.recording",
+    "measure_csd": "vrelab.triaxial.recording",
+    "read_recording_profile": "vrelab.triaxial.recording",
+    "CROSS_TERMS": "vrelab.triaxial.chain",
+    "TriaxialPolynomial": "vrelab.triaxial.chain",
+    "TriaxialChain": "vrelab.triaxial.chain",
+    "triaxial_chain": "vrelab.triaxial.chain",
+    "triaxial_random_signal": "vrelab.triaxial.synthesis",
+    "predict_triaxial": "vrelab.triaxial.predict",
+    "TriaxialPrediction": "vrelab.triaxial.predict",
+    "TriaxialLevelPrediction": "vrelab.triaxial.predict",
+    "simulate_triaxial": "vrelab.triaxial.simulate",
+    "TriaxialTest": "vrelab.triaxial.simulate",
+    "analyze_triaxial": "vrelab.triaxial.analyze",
+    "TriaxialAnalysis": "vrelab.triaxial.analyze",
+}
+
+__all__ = ["AXES", "PairCoherence", "TriaxialProfile", "TriaxialSine", "direction", *_LAZY]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

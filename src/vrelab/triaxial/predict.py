@@ -64,6 +64,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.predict import LevelPrediction, Prediction, predict, propagation, tilt_note
 from vrelab.profiles import RandomProfile
 from vrelab.results import Conditions
+from vrelab.triaxial.chain import CROSS_TERMS
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 from vrelab.units import to_ug
 
@@ -75,14 +76,10 @@ __all__ = ["CROSS_SHARES", "TriaxialLevelPrediction", "TriaxialPrediction", "pre
 Excitation = TriaxialProfile | TriaxialSine
 Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
 
-# The model equation's cross terms: (share key, Sensor attribute, the two triad positions).
-CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = (
-    ("cross_kip_g", "kip_per_g", 0, 1),
-    ("cross_kio_g", "kio_per_g", 0, 2),
-    ("cross_kpp_g", "kpp_per_g", 1, 1),
-    ("cross_koo_g", "koo_per_g", 2, 2),
-    ("cross_kpo_g", "kpo_per_g", 1, 2),
-)
+# The model equation's cross terms (:data:`vrelab.triaxial.chain.CROSS_TERMS`, their one list),
+# each with its share key: (share key, Sensor attribute, the two triad positions).
+CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = tuple(
+    (f"cross_{attr.removesuffix('_per_g')}_g", attr, a, b) for attr, a, b in CROSS_TERMS)
 # The projected PSD is taken as exact on the profile's own breakpoints where log-log
 # interpolation reproduces it to this (relative) inside every segment.
 _EXACT_REL = 1e-12
@@ -91,6 +88,8 @@ _EXACT_REL = 1e-12
 _DENSE_STEP = 2e-3
 _MIN_PER_SEGMENT = 8
 _MAX_POINTS = 40000
+# A level's note on the cross terms through the rails begins so (:func:`_judged` extends it).
+_PASS_NOTE = "the cross terms' mean "
 
 
 # the rails/holds pass the cross terms' mean unchanged to this (relative): below it no note
@@ -108,7 +107,9 @@ class TriaxialLevelPrediction(LevelPrediction):
     senses, before its dynamics; ``w_eff = w + 2Kg``: the static vector across the cross terms
     adds a sensitivity to the other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
     y, z at the proof mass; ``cross_pass``: the factor the rails and over-range pass the cross
-    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them.
+    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``:
+    the cross terms' part of ``model_error_g`` (what their first-order pass through the rails and
+    over-range may miss, and their move of the polynomial's input).
     """
 
     sensed_rms_g: float = 0.0
@@ -116,12 +117,14 @@ class TriaxialLevelPrediction(LevelPrediction):
     proof_mass_cov_g2: tuple[tuple[float, ...], ...] = ()
     cross_pass: float = 1.0
     cross_unpassed_g: float = 0.0
+    cross_error_g: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         d = super().to_dict()
         d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g), axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g],
                  proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2],
-                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g))
+                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g),
+                 cross_error_g=finite_or_none(self.cross_error_g))
         return d
 
 
@@ -526,9 +529,28 @@ def predict_triaxial(
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
     .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.predict.predict`.
     """
-    from vrelab.predict import judged  # one rule: a bound judged against the stated u as predict judges
+    return _predict(sensor, excitation, levels, static_g, kind, _judged)
 
-    return _predict(sensor, excitation, levels, static_g, kind, judged)
+
+def _judged(lv: LevelPrediction) -> LevelPrediction:
+    """:func:`vrelab.predict.judged` (one rule: a bound judged against the stated u), its reason
+    naming the cross terms' part of the bound where they have one: predict's own reason speaks of
+    the single-axis rails after filters, which is not what a cross term's bound is."""
+    from vrelab.predict import judged
+
+    out = judged(lv)
+    cross = float(getattr(lv, "cross_error_g", 0.0))
+    if out.valid or not lv.valid or not cross > 0 or len(out.notes) != len(lv.notes) + 1:
+        return out
+    reason = out.notes[-1]
+    over = reason[reason.index("more than "):] if "more than " in reason else f"({reason})"
+    passing = [n for n in out.notes[:-1] if n.startswith(_PASS_NOTE)]
+    head = (passing[0].split("; what that misses")[0] if passing
+            else "the cross terms pass the rails/over-range after the nonlinearity to first order")
+    note = (f"{head}; what that misses is bounded by {cross * 1e3:.3g} mg, the rest of the model by "
+            f"{(lv.model_error_g - cross) * 1e3:.3g} mg: model_error_g {lv.model_error_g * 1e3:.3g} mg, {over}")
+    kept = tuple(n for n in out.notes[:-1] if not n.startswith(_PASS_NOTE))
+    return dataclasses.replace(out, notes=(*kept, note))
 
 
 def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
@@ -673,7 +695,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             lv_notes.append(why)
         interp_bound = 2.0 * interp_err * abs(float(slope[n]))
         if abs(through - 1.0) > _PASS_TOL:
-            lv_notes.append(f"the cross terms' mean ({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
+            lv_notes.append(f"{_PASS_NOTE}({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
                             f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
                             "model_error_g)")
         out.append(TriaxialLevelPrediction(
@@ -684,7 +706,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             model_error_g=float(base.model_error_g) + bound + interp_bound, valid_otherwise=base.valid_otherwise,
             sensed_rms_g=float(sensed_rms[n]), axis_rms_g=tuple(float(rms) * float(x) for x in axis_frac),
             proof_mass_cov_g2=tuple(tuple(float(v) for v in row) for row in cov_b),
-            cross_pass=through, cross_unpassed_g=cross_mean))
+            cross_pass=through, cross_unpassed_g=cross_mean, cross_error_g=bound))
     if single is not None:
         notes += [nt for nt in single.notes if not nt.startswith("VRE referred to")]
     if interp_err > 0:

@@ -329,17 +329,36 @@ class TriaxialProfile:
             raise ValueError(f"weights must be three finite numbers, got {vector!r}")
         return np.asarray(np.einsum("j,mjk,k->m", w, self.csd(f_hz).real, w), dtype=np.float64)
 
+    def _defined(self, j: int, k: int) -> bool:
+        """Whether the pair (j, k) has a coherence: a still axis has none (its entries in
+        :attr:`coherency` only keep the matrix valid)."""
+        return not (self.still[j] or self.still[k])
+
     def describe(self) -> str:
         rms = np.sqrt(self.axis_mean_square_g2)
+        pairs = []
+        for j, k in ((0, 1), (0, 2), (1, 2)):
+            if self._defined(j, k):
+                g2 = np.abs(self.coherency[:, j, k]) ** 2
+                lo, hi = float(g2.min()), float(g2.max())
+                pairs.append(f"{AXES[j]}{AXES[k]} {lo:.3g}" + (f"-{hi:.3g}" if hi - lo > 1e-9 else ""))
+        coh = f"; coherence {', '.join(pairs)}" if pairs else ""
         return (f"{self.name or 'triaxial random'}: {self.grms:.3g} g rms total "
-                f"(x {rms[0]:.3g}, y {rms[1]:.3g}, z {rms[2]:.3g}), {self.band[0]:g}-{self.band[1]:g} Hz")
+                f"(x {rms[0]:.3g}, y {rms[1]:.3g}, z {rms[2]:.3g}), {self.band[0]:g}-{self.band[1]:g} Hz{coh}")
 
     def to_dict(self) -> dict[str, Any]:
+        """The profile as JSON: ``coherence`` (γ²) and ``phase_deg`` per breakpoint as 3×3
+        matrices, null for a pair involving a still axis (it has no coherence)."""
+        defined = [[self._defined(j, k) for k in range(3)] for j in range(3)]
+
+        def pairs(value: Any) -> list[list[list[float | None]]]:
+            return [[[float(value(m[j, k])) if defined[j][k] else None for k in range(3)] for j in range(3)]
+                    for m in self.coherency]
+
         return {"kind": "triaxial-random", "name": self.name, "grms": self.grms,
                 "axis_grms": [float(x) for x in np.sqrt(self.axis_mean_square_g2)],
                 "freq_hz": self.freq_hz.tolist(), "axis_psd_g2_per_hz": self.axis_psd_g2_per_hz.tolist(),
-                "coherence": [[[float(abs(v) ** 2) for v in row] for row in m] for m in self.coherency],
-                "phase_deg": [[[float(np.degrees(np.angle(v))) for v in row] for row in m] for m in self.coherency]}
+                "coherence": pairs(lambda v: abs(v) ** 2), "phase_deg": pairs(lambda v: np.degrees(np.angle(v)))}
 
     def __repr__(self) -> str:
         return f"TriaxialProfile({self.describe()!r})"
