@@ -401,9 +401,9 @@ def window_pass_many(
                 np.multiply(spec, spec, out=spec)
                 np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
                 np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
-                p = spec.reshape(m, -1, 2).sum(axis=2)  # |X|² per bin
-                np.einsum("ij,ij,j->i", p, p, weights4 if L == w else band_variance_weights(L, fs, (f1, f2)),
-                          out=rvar[sl])
+                p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
+                np.multiply(p, p, out=p)
+                np.einsum("ij,j->i", p, weights4 if L == w else band_variance_weights(L, fs, (f1, f2)), out=rvar[sl])
                 kk += m
             for d, acc in accs.items():
                 kd = k_chunk
