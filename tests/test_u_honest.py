@@ -90,6 +90,20 @@ def test_linear_axis_noiseless_the_finding():
     assert abs(lv.vre.value) <= 2 * lv.vre.u
 
 
+def test_linear_adxl355_noiseless_lattice_u_is_not_absurd():
+    """The ADXL355 Z chain (resonance, filters, decimation) made linear and noiseless, at 1 kHz:
+    its 4 kHz output meets 4 phases of the drive, so the drive runs on a lattice
+    (vrelab.simulation.plan.sine_drive); a linear chain's VRE is 0 (filters pass DC at unit gain
+    and make none). The lattice bound of a clipped output (2e-6 g) was claimed here over an
+    error of 1e-15 g; a level the chain neither clipped nor tripped is averaged exactly."""
+    base = load_sensor("adxl355", axis="z")
+    sensor = dataclasses.replace(base, noise_ug_per_rthz=0.0, lsb_g=None, k2_per_g=0.0, k3_per_g2=0.0, k4_per_g3=0.0)
+    (lv,) = shaker.run_sine_test(sensor, [1000.0], [0.8], static_g=1.0, seed=0).levels
+    assert "saturated" not in lv.flags
+    assert abs(lv.vre.value) <= 2 * lv.vre.u
+    assert lv.vre.u < 1e-13, lv.vre.u
+
+
 # --- random: the level's rms over replicated seeds ----------------------------------------------
 
 
