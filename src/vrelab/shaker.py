@@ -144,6 +144,10 @@ def _with_simulated_saturation(
     return levels, warnings
 
 
+# Highest power of the sensor's polynomial nonlinearity (k2..k4, SPEC 1.2; _with_lattice_u).
+_MAX_POLYNOMIAL_DEGREE = 4
+
+
 def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[LevelResult]:
     """Sine levels with the error of their phase lattice in u.
 
@@ -155,6 +159,14 @@ def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[
     (span the output's peak-to-peak over the level: a clipped sine's V is a few spans), so the
     bound is ``2·span/L²``; with over-range events (a held output jumps: |c_h| ~ 1/h) ``span/L``. A rectangular bound, so u = bound/√3; added with
     infinite degrees of freedom (the dof scale by (u_new/u_old)⁴, Welch-Satterthwaite).
+
+    A level the chain neither clipped nor tripped (no clipped or saturated sample, no
+    over-range event) passes the sine through linear filters and a polynomial only: its output
+    is a trigonometric polynomial of the degree of the nonlinearity (4 at most), which a lattice
+    rule of L > degree phases averages exactly; only a quantiser (step q, an error within ±q/2
+    of that smooth output, on the lattice and over the cycle alike) can move the lattice mean,
+    by at most q. The bound is then q (0 without a quantiser), not the clipped output's
+    ``2·span/L²`` (2e-6 g for a linear ADXL355 at 1 kHz, whose error is 1e-15 g).
     """
     if record.dut_span is None:
         return levels
@@ -169,7 +181,11 @@ def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[
             continue
         span, n = record.dut_span[i], stretch.lattice
         jumps = bool(record.overrange_events and record.overrange_events[i])
-        u_l = (span / n if jumps else 2.0 * span / n**2) / math.sqrt(3.0)
+        smooth = not jumps and not (record.clipped and record.clipped[i]) and not (record.saturated and record.saturated[i])
+        if smooth and n > _MAX_POLYNOMIAL_DEGREE:
+            u_l = float(getattr(record.sensor, "lsb_g", None) or 0.0) / math.sqrt(3.0)
+        else:
+            u_l = (span / n if jumps else 2.0 * span / n**2) / math.sqrt(3.0)
         u = math.hypot(lv.vre.u, u_l)
         dof = lv.dof
         if dof is not None and math.isfinite(dof) and lv.vre.u > 0:

@@ -402,7 +402,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
         power = stats.ref_band_sumsq[k0:k1] / stats.count[k0:k1]
         pm = batch_mean(power, detrend=False)
         rms = math.sqrt(max(pm.mean, 0.0))
-        u_rms = pm.u / (2 * rms) if rms > 0 else math.nan
+        u_rms = random_level_u_ms(pm, stats, k0, k1) / (2 * rms) if rms > 0 else math.nan
         t_c = float(np.mean(stats.times_s[k0:k1]))
         n_used = int(stats.count[k0:k1].sum())
     else:
@@ -436,6 +436,47 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
     level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
                         n_saturated=n_sat, flags=flags, dof=dof, vre_2f=vre_2f)
     return level, t_c, warnings
+
+
+# One-sided significance at which the windows' scatter is taken to exceed what a Gaussian
+# process of the measured spectrum allows (random_level_u_ms; why 10 % there).
+GAUSSIAN_SCATTER_ALPHA = 0.1
+
+
+def random_level_u_ms(pm: MeanEstimate, stats: WindowStats, k0: int, k1: int) -> float:
+    """Standard uncertainty of a random level's mean square (windows [k0, k1)) as an estimate
+    of the vibration's: of the profile's grms², not of this record's own sample.
+
+    A band-limited random signal's mean square over T fluctuates by ``1/√(B_e·T)`` (Bendat &
+    Piersol, Random Data, 4th ed., 8.2.2; B_e the equivalent bandwidth): far fewer degrees of
+    freedom than samples. The windows' scatter (batch means, ``pm``) measures it, but from a
+    handful of windows (4 to 20 in a 2 s level): a u with 3 to 19 degrees of freedom, reported
+    as if exact, whose low draws go with low levels (window powers are skewed), so it covered
+    ±1u 0.55-0.6 of the time and ±2u 0.85 (tests/test_u_honest_rms.py). Instead, each window's
+    own spectrum gives the variance of its power were the signal Gaussian
+    (:func:`~vrelab.analysis.segmentation.band_variance_weights`, summed over every bin of every
+    window: hundreds of degrees of freedom), and windows ``T_w ≫ 1/B`` apart are independent,
+    so ``u² = Σ_w var_w / (Σ_w n_w)²``. The windows' scatter stays the check: when it exceeds
+    that Gaussian u at the 10 % level (χ² with the batches' degrees of freedom: a non-Gaussian
+    drive, a level that wanders), the scatter's u is taken instead. (10 %, not 1 %: a drive of
+    kurtosis 6 scatters 2.2× the Gaussian variance, which 9 degrees of freedom show at 10 % two
+    times in three; Gaussian levels then take the scatter's u one time in ten, at little cost.)
+    Domain: many bins in the band (B·T_w ≫ 1); a band of 5 bins (50 Hz in 0.1 s windows)
+    gives a u about 10 % small (the rectangular window's leakage smooths the spectrum's edges).
+    """
+    var = stats.ref_band_var
+    if var is None or pm.n_batches < 2:
+        return pm.u
+    n = k1 - k0
+    u_model = math.sqrt(float(np.sum(var[k0:k1] / stats.count[k0:k1].astype(float) ** 2))) / n
+    if not (math.isfinite(u_model) and u_model > 0):
+        return pm.u
+    from scipy.stats import chi2
+
+    dof = pm.n_batches - 1
+    if math.isfinite(pm.u) and (pm.u / u_model) ** 2 > chi2.ppf(1 - GAUSSIAN_SCATTER_ALPHA, dof) / dof:
+        return pm.u
+    return u_model
 
 
 def _low_frequency_at(lf: LowFrequency | None, t_s: float, length_s: float,

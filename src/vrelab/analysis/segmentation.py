@@ -63,6 +63,9 @@ class WindowStats:
     band_hz: tuple[float, float]
     reference: str  # channel used as reference ("dut" when the record has no reference)
     rail_g: float | None = None  # the given rail n_beyond_rail counts against (None: none given)
+    # variance of ref_band_sumsq were the reference a Gaussian process, from the window's own
+    # spectrum (band_variance_weights); None: not computed
+    ref_band_var: NDArray[np.float64] | None = None
     # what the DUT channels of one pass share beyond these arrays (a sine level's drive frequency)
     shared: SharedCache = field(default_factory=dict, compare=False, repr=False)
 
@@ -168,6 +171,27 @@ def band_weights(
     ac = two / window
     band = np.where((f >= band_hz[0] - 1e-9) & (f <= band_hz[1] + 1e-9), ac, 0.0)
     return ac, band
+
+
+def band_variance_weights(window: int, fs_hz: float, band_hz: tuple[float, float]) -> NDArray[np.float64]:
+    """Weights turning |rfft|⁴ of one window into the variance of its in-band sum of squares
+    (:func:`band_weights`), were the signal a Gaussian process.
+
+    The in-band sum of squares is ``Σ_k w_k·|X_k|²``. For a stationary Gaussian process whose
+    spectrum is smooth over a bin, the bins are nearly independent, complex Gaussian (|X_k|²
+    exponential: variance (E|X_k|²)² = E|X_k|⁴/2), the DC and Nyquist bins real Gaussian
+    (variance 2·(E|X|²)² = (2/3)·E|X|⁴). So ``Σ_k w_k²·c_k·|X_k|⁴`` (c = 1/2, or 2/3) is an
+    unbiased estimate of the sum's variance from the window's own spectrum: the mean-square
+    error ``1/(B_e·T)`` of Bendat & Piersol (Random Data, 4th ed., 8.2.2: B_e the spectrum's
+    equivalent bandwidth (∫S)²/∫S², T the averaging time), measured rather than assumed.
+    """
+    _, band = band_weights(window, fs_hz, band_hz)
+    c = np.full(band.size, 0.5)
+    c[0] = 2.0 / 3.0
+    if window % 2 == 0:
+        c[-1] = 2.0 / 3.0
+    out: NDArray[np.float64] = band * band * c
+    return out
 
 
 def window_length(fs_hz: float, band_hz: tuple[float, float], window_s: float = 0.1) -> int:
@@ -343,14 +367,15 @@ def window_pass_many(
     # a dozen 8-byte numbers per window and DUT, and the smoothing kernel's partial sums: sized
     # before anything is allocated from the record's length
     _budget.check_memory(f"the analysis of {n} samples ({k} windows of {w} samples, {len(duts)} DUT channel(s))",
-                         k * (4 + len(duts) * (9 + SMOOTH_WINDOWS)) * 8.0)
+                         k * (5 + len(duts) * (9 + SMOOTH_WINDOWS)) * 8.0)
     count = np.zeros(k, dtype=np.int64)
-    rac, rband, rsum = np.zeros(k), np.zeros(k), np.zeros(k)
+    rac, rband, rsum, rvar = np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k)
     accs = {d: _DutWindows(k, w, rail_g) for d in duts}
     kern = smoothing_kernel(w)
     kern_rows = np.ascontiguousarray(kern.T)
     # the weights of |X|² repeated for the (re, im) pairs of the spectrum viewed as float64
     weights2 = np.repeat(np.vstack(band_weights(w, fs, (f1, f2))), 2, axis=1)
+    weights4 = band_variance_weights(w, fs, (f1, f2))
     chans = list(dict.fromkeys(duts + [ref_name]))
     labels = channel_labels(record)
     bar = None
@@ -380,6 +405,9 @@ def window_pass_many(
                 np.multiply(spec, spec, out=spec)
                 np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
                 np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
+                p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
+                np.multiply(p, p, out=p)
+                np.einsum("ij,j->i", p, weights4 if L == w else band_variance_weights(L, fs, (f1, f2)), out=rvar[sl])
                 kk += m
             for d, acc in accs.items():
                 kd = k_chunk
@@ -406,7 +434,7 @@ def window_pass_many(
             fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
             dut_max=a.dmax, dut_min=a.dmin, n_at_max=a.nmax, n_at_min=a.nmin, n_beyond_rail=a.nrail,
             ref_ac_sumsq=rac, ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2),
-            reference="dut" if ref_name == d else ref_name, shared=shared, rail_g=rail_g,
+            reference="dut" if ref_name == d else ref_name, shared=shared, rail_g=rail_g, ref_band_var=rvar,
         )
         for d, a in accs.items()
     }  # fmt: skip

@@ -7,7 +7,10 @@ fraction of a sample of whole periods), in each a three-parameter sine fit (IEEE
 offset, cos, sin at the drive frequency) of reference and DUT (:func:`sine_level`): level = rms
 of the reference's fitted sine, DUT mean = the DUT's fitted offset, the drive removed exactly.
 A plain mean over a non-integer number of periods would leave a residual of order A/(2π·f·T)
-(SPEC 4).
+(SPEC 4). The fit's frequency error left in the coefficients is measured from the batches'
+phases and removed (:func:`_frequency_corrected`); u carries what that leaves, the leakage of
+harmonics beyond the fit, and the arithmetic's rounding (:func:`_rounding_u`), so a noiseless
+record does not claim a u of 1e-16 over an error of 1e-10.
 """
 
 from __future__ import annotations
@@ -46,7 +49,8 @@ def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
     For a Hann window the log-magnitude peak is close to a parabola; the interpolated bin is
     good to about 0.01 bin for a clean sine (Gasior & Gonzalez, CERN AB-Note-2004-021). The
     refinement minimises the residual of the least-squares sine over the probe (IEEE Std 1057,
-    four-parameter fit), good to about 1e-6 bin for a clean sine.
+    four-parameter fit), to about 1e-8 bin, then Gauss-Newton steps of the same fit take it to
+    the arithmetic's precision (1e-16 relative for a clean sine).
     """
     x = np.asarray(x, dtype=np.float64)
     n = len(x)
@@ -88,7 +92,27 @@ def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
     bw = fs_hz / n
     bounds = (f0 - 0.2 * bw, f0 + 0.2 * bw)
     res = minimize_scalar(residual, bounds=bounds, method="bounded", options={"xatol": 1e-7 * bw})
-    return float(res.x) if res.success else f0
+    f1 = float(res.x) if res.success else f0
+    # The residual is flat to second order at its minimum, so its arithmetic resolves the
+    # frequency only to about √ε_machine (1e-8 of a bin: a 1e-10 relative error that leaves
+    # 1e-10 of the amplitude in a fitted offset). Finish with Gauss-Newton steps of the same
+    # four-parameter fit (IEEE Std 1057, 4.1.3.3: the linearised frequency column
+    # t·(-a·sin + b·cos) beside offset, cos, sin), which solve a linear system for the step
+    # and so converge to the arithmetic's precision.
+    for _ in range(3):
+        ph = 2 * np.pi * f1 * t
+        c, s = np.cos(ph), np.sin(ph)
+        ab = np.linalg.lstsq(np.stack([np.ones(n), c, s], axis=1), xc, rcond=None)[0]
+        tc = t - t.mean()
+        d = tc * (-ab[1] * s + ab[2] * c)
+        A = np.stack([np.ones(n), c, s, d], axis=1)
+        step = float(np.linalg.lstsq(A, xc, rcond=None)[0][3]) / (2 * np.pi)
+        if not (math.isfinite(step) and abs(step) < 0.1 * bw):
+            break
+        f1 += step
+        if abs(step) < 1e-15 * f1:
+            break
+    return f1
 
 
 def whole_period_batch(freq_hz: float, fs_hz: float, target_s: float = WINDOW_S) -> tuple[int, int]:
@@ -153,7 +177,9 @@ def sine_level(
     two_f = ref != "dut" and 2 * f < 0.5 * fs
     nf = 5 if two_f else 3
     basis_sums = np.zeros((nb, nf, nf))
-    dut_ss = np.zeros(nb)  # Σ dut² per batch: the fit's residual, for the leakage term below
+    # Σ (dut - fit)² per batch, for the leakage term below: summed directly (Σdut² - coefᵀ·Bᵀdut
+    # cancels to ε·Σdut², whose square root, ~1e-8 of the offset, would pose as harmonics)
+    dut_ss = np.zeros(nb)
     rhs = {c: np.zeros((nb, nf)) for c in ("dut", ref)}
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
@@ -179,9 +205,12 @@ def sine_level(
             check_finite(labels[c], x, pos)
             rhs[c][sl] = np.einsum("kij,kj->ki", R, x.reshape(k, L) @ B0.T)
             if c == "dut":
-                dut_ss[sl] = np.einsum("ij,ij->i", x.reshape(k, L), x.reshape(k, L))
+                th = np.linalg.solve(basis_sums[sl], rhs[c][sl][..., None])[..., 0]
+                e = x.reshape(k, L) - np.einsum("kji,kj->ki", R, th) @ B0  # the fit, unrotated
+                dut_ss[sl] = np.einsum("ij,ij->i", e, e)
         pos += nn
-    coef = {c: np.linalg.solve(basis_sums, rhs[c][..., None])[..., 0] for c in chans}
+    raw = {c: np.linalg.solve(basis_sums, rhs[c][..., None])[..., 0] for c in chans}
+    coef, u_df = _frequency_corrected(raw, ref, w, L, n0, B0, G0)
     dut_means = coef["dut"][:, 0]
     ref_ms = (coef[ref][:, 1] ** 2 + coef[ref][:, 2] ** 2) / 2.0  # mean square at the drive frequency
     dm = batch_mean(dut_means)
@@ -189,15 +218,19 @@ def sine_level(
     # drive's f (and 2f) exactly, but what the DUT holds beyond them (harmonics of a clipped or
     # nonlinear output, rms r from the fit's residual) is averaged over ε samples too many or
     # too few, the same in every batch (they start at the same phase), so their scatter cannot
-    # show it: up to ε·√2·r/L in the offset, taken as a rectangular bound (÷√3).
+    # show it: up to (π/2)·ε·√2·r/L in the offset, taken as a rectangular bound (÷√3). (A
+    # harmonic at θ = h·ω rad/sample leaves |sin(h·ω·ε/2)/sin(θ/2)|/L of its amplitude in a
+    # mean over L samples; for θ up to π, i.e. below Nyquist, that is at most (π/2)·ε/L.)
     eps = abs(m * fs / f - L)
-    resid = np.maximum(dut_ss - np.einsum("ki,ki->k", coef["dut"], rhs["dut"]), 0.0) / L
-    u_leak = eps * math.sqrt(2.0 * float(np.mean(resid))) / L / math.sqrt(3.0)
-    if u_leak > 0:
-        dm = MeanEstimate(dm.mean, math.hypot(dm.u, u_leak), dm.tau, dm.batch, dm.n_batches)
+    resid = dut_ss / L
+    u_leak = 0.5 * math.pi * eps * math.sqrt(2.0 * float(np.mean(resid))) / L / math.sqrt(3.0)
+    peak = float(np.max(np.abs(dut_means)) + np.max(np.hypot(coef["dut"][:, 1], coef["dut"][:, 2])))
+    u_extra = math.hypot(u_leak, u_df["dut"], _rounding_u(peak, L))
+    dm = MeanEstimate(dm.mean, math.hypot(dm.u, u_extra), dm.tau, dm.batch, dm.n_batches)
     rm = batch_mean(ref_ms, detrend=False)
     rms = math.sqrt(max(rm.mean, 0.0))
-    u_rms = rm.u / (2 * rms) if rms > 0 else math.nan
+    # the rms's share of the frequency correction's u and the arithmetic's rounding
+    u_rms = math.hypot(rm.u / (2 * rms), u_df["rms"], _rounding_u(rms, L)) if rms > 0 else math.nan
     t_c = (i0 + stop) / 2 / fs
     h2 = None
     if two_f:
@@ -207,6 +240,71 @@ def sine_level(
         if np.all(m2 > 0):
             h2 = batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
     return SineLevel(f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, stop - i0, warnings, h2)
+
+
+def _frequency_corrected(
+    raw: dict[str, NDArray[Any]], ref: str, w: float, L: int, n0: NDArray[Any],
+    B0: NDArray[np.float64], G0: NDArray[np.float64],
+) -> tuple[dict[str, NDArray[Any]], dict[str, float]]:
+    """Per-batch fit coefficients with the first-order error of the fit's frequency removed,
+    and the standard uncertainty that correction leaves (keys ``"dut"``: the offset, ``"rms"``:
+    the reference's rms).
+
+    The fit's frequency ``w`` [rad/sample] is the probe's estimate, good to about 1e-8 of a
+    bin (:func:`estimate_frequency` minimises a residual, which is flat to second order at
+    its minimum, so its arithmetic resolves the frequency only to about √ε_machine). A fit at
+    ``w`` of a drive at ``w + Δ`` leaves every coefficient off by ``Δ·M·θ`` to first order,
+    ``M = G⁻¹·B·Dᵀ`` with ``D = ∂B/∂w`` (rows ``0, -n·sin, n·cos, -2n·sin 2θ, 2n·cos 2θ``
+    over a batch's samples n); for the offset that is the fundamental's amplitude times
+    ``|Σ_n e^{jwn}|/L ≈ Δ/w``: a relative frequency error of 1e-10 puts 1e-10 of the drive's
+    amplitude into the DC, the same in every batch (they start at the same phase of the
+    drive), so no scatter shows it. Δ is measured here to the arithmetic's precision: the
+    fundamental's phase (the reference's; the DUT's without one) advances by ``Δ·L`` from one
+    batch to the next, so Δ is the slope of the batches' phases against their start sample
+    (least squares), and its standard error carries into the coefficients through the same M.
+    The basis of batch b is the first one's rotated by R_b (:func:`_harmonic_rotations`), so
+    is D, and ``M_b = R_b·M₀·R_bᵀ``.
+    """
+    nf = B0.shape[0]
+    D0 = np.zeros_like(B0)
+    for h in range(1, (nf - 1) // 2 + 1):
+        D0[2 * h - 1] = -h * n0 * B0[2 * h]
+        D0[2 * h] = h * n0 * B0[2 * h - 1]
+    M0 = np.linalg.solve(G0, B0 @ D0.T)
+    nb = next(iter(raw.values())).shape[0]
+    R = _harmonic_rotations(w * L * np.arange(nb, dtype=np.float64), nf)
+    M = R @ M0 @ R.transpose(0, 2, 1)
+    src = raw[ref]
+    phase = np.unwrap(np.angle(src[:, 1] - 1j * src[:, 2]))
+    s = L * np.arange(nb, dtype=np.float64)
+    sc = s - s.mean()
+    delta = float(sc @ (phase - phase.mean()) / (sc @ sc))
+    r = phase - phase.mean() - delta * sc
+    u_delta = math.sqrt(float(r @ r) / max(nb - 2, 1) / float(sc @ sc))
+    if not (math.isfinite(delta) and math.isfinite(u_delta) and abs(delta) * L < 0.1):
+        # a phase that wanders by more than 0.1 rad a batch is no drive at one frequency (a
+        # reference without the sine): no correction rather than one made of noise
+        return raw, {"dut": 0.0, "rms": 0.0}
+    out = {c: th - delta * np.einsum("kij,kj->ki", M, th) for c, th in raw.items()}
+    d_off = float(np.mean(np.einsum("kj,kj->k", M[:, 0, :], raw["dut"])))
+    a, b = out[ref][:, 1], out[ref][:, 2]
+    amp = np.hypot(a, b)
+    # ∂(rms)/∂Δ = (a·∂a + b·∂b)/(√2·amp), ∂θ = -M·θ
+    dth = np.einsum("kij,kj->ki", M, raw[ref])
+    d_rms = float(np.mean(np.where(amp > 0, (a * dth[:, 1] + b * dth[:, 2]) / (math.sqrt(2.0) * np.maximum(amp, 1e-300)), 0.0)))
+    return out, {"dut": abs(d_off) * u_delta, "rms": abs(d_rms) * u_delta}
+
+
+def _rounding_u(scale: float, n: int) -> float:
+    """Standard uncertainty of a fitted coefficient of size ``scale`` from float64 arithmetic
+    on ``n`` samples. Each recorded sample is rounded to half an ulp (relative ε/2, ε = 2.2e-16)
+    and the batch's sums (BLAS, blocked) accumulate at most about ε·log₂(n) of their terms'
+    magnitude, for which ``scale`` (the offset plus the fundamental's amplitude) stands; the
+    rotations and the 3×3 or 5×5 solves (condition number ≈ 2: the columns are orthogonal over
+    whole periods, each of norm √(n/2) against √n) add a few ε. A rectangular bound of
+    ``4·ε·(1 + log₂ n)·scale``, ÷√3. It keeps a noiseless record's u from claiming more than
+    the arithmetic can (its scatter alone can be 0)."""
+    return 4.0 * float(np.finfo(np.float64).eps) * (1.0 + math.log2(max(n, 1))) * abs(scale) / math.sqrt(3.0)
 
 
 def _harmonic_rotations(phi: NDArray[np.float64], nf: int) -> NDArray[np.float64]:
