@@ -83,7 +83,32 @@ def _graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
                     edges[m].add(dest)
                 if full not in mods and a.name.startswith("_") and not a.name.startswith("__"):
                     private.append((m, target, a.name))
+        private += _private_attributes(m, path, mods)
     return edges, private
+
+
+def _private_attributes(m: str, path: Path, mods: dict[str, tuple[Path, bool]]) -> list[tuple[str, str, str]]:
+    """``module._name`` in ``m`` where ``module`` is a vrelab module it imported whole
+    (``from vrelab import shaker`` then ``shaker._conditions``): a private name read across
+    modules as surely as by ``from ... import _conditions``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    bound: dict[str, str] = {}
+    for node in _imports(tree):
+        if isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").split(".")[0] == PACKAGE:
+            for a in node.names:
+                full = f"{node.module}.{a.name}"
+                if full in mods:
+                    bound[a.asname or a.name] = full
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.asname and a.name in mods:
+                    bound[a.asname] = a.name
+    found = []
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in bound
+                and node.attr.startswith("_") and not node.attr.startswith("__") and bound[node.value.id] != m):
+            found.append((m, bound[node.value.id], node.attr))
+    return found
 
 
 def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:

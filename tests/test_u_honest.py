@@ -72,7 +72,7 @@ def test_noiseless_sine_vre_within_2u_and_u_not_absurd(freq, level, g0, k2, k3):
     assert abs(err) <= 2 * lv.vre.u, (err, lv.vre.u)
     # not absurdly larger: within 100× of the error, or at the arithmetic's floor (ε·log₂(n)·
     # |output|, ~1e-14 g) where the fit is exact and the error is rounding. The bounds behind u
-    # (the lattice rule of a clipped output, vrelab.shaker._with_lattice_u; the leakage of a
+    # (the lattice rule of a clipped output, vrelab.shaker.with_lattice_u; the leakage of a
     # harmonic beyond the fit over a batch that is not quite whole periods) are within 100× of
     # the error they bound.
     assert lv.vre.u <= max(100 * abs(err), 1e-13), (err, lv.vre.u)

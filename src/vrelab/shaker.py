@@ -51,13 +51,13 @@ __all__ = [
 # --- running a test ---------------------------------------------------------------------------
 
 
-def _conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
+def conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
     """The sensor's conditions (range, axis, ODR, bandwidth, rails) plus the test's."""
     base: Conditions = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
     return dataclasses.replace(base, extra={**dict(base.extra), **dict(extra)})
 
 
-def _provenance(function: str, sensor: Any) -> dict[str, Any]:
+def provenance(function: str, sensor: Any) -> dict[str, Any]:
     prov: dict[str, Any] = {
         "software": f"vrelab {__version__}",
         "function": function,
@@ -110,14 +110,14 @@ def _reduce_and_fit(
         options=ReductionOptions(band_hz=band_hz, settle_s=settle_s, progress=progress and record_path is not None,
                                  accept=frozenset(ACCEPTABLE)),
     )
-    levels, warnings = _with_simulated_saturation(record, list(red.levels), list(red.warnings))
-    levels = _with_lattice_u(record, levels)
+    levels, warnings = with_simulated_saturation(record, list(red.levels), list(red.warnings))
+    levels = with_lattice_u(record, levels)
     nominal = [seg.freq_hz for seg in red.level_segments]
     fits, notes = fit_levels(levels, method, red.static_g, clip_kind, nominal_freqs_hz=nominal)
     return levels, fits, warnings + notes
 
 
-def _with_simulated_saturation(
+def with_simulated_saturation(
     record: SimulatedRecord, levels: list[LevelResult], warnings: list[str]
 ) -> tuple[list[LevelResult], list[str]]:
     # The simulation knows exactly which DUT samples sat on a rail and where the chain clipped
@@ -144,11 +144,11 @@ def _with_simulated_saturation(
     return levels, warnings
 
 
-# Highest power of the sensor's polynomial nonlinearity (k2..k4, SPEC 1.2; _with_lattice_u).
+# Highest power of the sensor's polynomial nonlinearity (k2..k4, SPEC 1.2; with_lattice_u).
 _MAX_POLYNOMIAL_DEGREE = 4
 
 
-def _with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[LevelResult]:
+def with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[LevelResult]:
     """Sine levels with the error of their phase lattice in u.
 
     Every batch of a sine level samples the output on the same L equally spaced phases of the
@@ -280,7 +280,7 @@ def run_test(
     file (writing it to ``record_path`` first when given) and fit it with the one fit policy."""
     record = plan.record(progress)
     assert plan.settle_s is not None  # TestPlan.__post_init__ sets the default
-    band = _measurement_band(plan.profile) if plan.method == "random" else _sine_band(record)  # type: ignore[arg-type]
+    band = measurement_band(plan.profile) if plan.method == "random" else sine_band(record)  # type: ignore[arg-type]
     levels, fits, warnings = _reduce_and_fit(record, plan.method, band, plan.settle_s, record_path, progress,
                                              clip_kind)
     if plan.method == "sine":
@@ -290,11 +290,11 @@ def run_test(
                                 "drive; this one carries sine tones, so a fitted rail is approximate"))
     return VreResult(
         method=plan.method,
-        conditions=_conditions(plan.sensor, plan.profile_text, plan.static_g, record.meta["simulation"]),
+        conditions=conditions(plan.sensor, plan.profile_text, plan.static_g, record.meta["simulation"]),
         levels=tuple(levels),
         fits=tuple(fits),
         warnings=tuple(warnings),
-        provenance=_provenance(f"vrelab.shaker.run_{plan.method}_test", plan.sensor),
+        provenance=provenance(f"vrelab.shaker.run_{plan.method}_test", plan.sensor),
         kind="simulation",
     )
 
@@ -316,7 +316,7 @@ def _sine_drive_notes(plan: TestPlan, record: SimulatedRecord) -> list[Notice]:
     return out
 
 
-def _measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:
+def measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:
     """Band in which the reduction measures the reference rms: the profile's band (its tones
     included) widened by an octave on each side. The drive has no power outside the profile's band (it is
     synthesised that way), so the wider band measures the same rms, but the band-pass edges
@@ -325,7 +325,7 @@ def _measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, flo
     return f_lo / 2, f_hi * 2
 
 
-def _sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
+def sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
     """The reduction's default band (50-2000 Hz) unless the record rate cannot hold it; then
     an octave around the drive frequencies, below the record's Nyquist frequency. (For the
     sine method the band only serves the window statistics: levels come from the lock-in.)"""

@@ -255,7 +255,7 @@ class TestPlan:
             for g in self.levels_g:
                 # a random phase per level (a lab's drive starts where it starts); with a
                 # lattice, every batch of L samples falls on the same L phases, whose error
-                # the shaker adds to u (vrelab.shaker._with_lattice_u). Phase
+                # the shaker adds to u (vrelab.shaker.with_lattice_u). Phase
                 # steps between batches would shift the lattice at random instead, but a step
                 # rings a resonance and moves the mean by more than the lattice's error.
                 phase0 = float(rng.uniform(0.0, 2 * np.pi))

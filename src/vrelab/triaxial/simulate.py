@@ -330,9 +330,9 @@ def simulate_triaxial(
         band: tuple[float, float] | None
         if method == "random":
             assert band_profile is not None
-            band = shaker._measurement_band(band_profile)
+            band = shaker.measurement_band(band_profile)
         else:
-            band = shaker._sine_band(base)
+            band = shaker.sine_band(base)
         assert plan.settle_s is not None
         analysis = _reduce_axes(path, axes, counts, method, band, plan.settle_s, progress)
     conditions = {"sensor": first.name, "axes": list(axes), "static_vector_g": g.tolist(),
@@ -340,13 +340,13 @@ def simulate_triaxial(
     out = {}
     for a, result, _ in analysis.channels:
         s = axes[a]
-        cond = shaker._conditions(s, exc.describe(), float(s.sensitivity_row @ g),
+        cond = shaker.conditions(s, exc.describe(), float(s.sensitivity_row @ g),
                                   {**base.meta["simulation"], "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
                                    "triaxial": True, "excitation": exc.to_dict(),
                                    "band_hz": result.conditions.extra.get("band_hz"),
                                    "settle_s": plan.settle_s})
         out[a] = dataclasses.replace(result, conditions=cond, kind="simulation",
-                                     provenance=shaker._provenance("vrelab.triaxial.simulate_triaxial", s))
+                                     provenance=shaker.provenance("vrelab.triaxial.simulate_triaxial", s))
     return TriaxialTest(method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out, conditions,
                         None if record_path is None else str(record_path))
 
@@ -421,8 +421,8 @@ def _reduce_axes(
     from vrelab.triaxial.analyze import analyze_triaxial
 
     def known(axis: str, levels: list[LevelResult], warnings: list[Any]) -> tuple[list[LevelResult], list[Any]]:
-        levels, warnings = shaker._with_simulated_saturation(counts[axis], levels, warnings)  # type: ignore[arg-type]
-        return shaker._with_lattice_u(counts[axis], levels), warnings  # type: ignore[arg-type]
+        levels, warnings = shaker.with_simulated_saturation(counts[axis], levels, warnings)  # type: ignore[arg-type]
+        return shaker.with_lattice_u(counts[axis], levels), warnings  # type: ignore[arg-type]
 
     names = {**{a: f"dut_{a}" for a in axes}, **{f"reference-{c}": f"reference_{c}" for c in AXES}}
     with open_record(path, names, None) as rec:
