@@ -472,3 +472,26 @@ def test_bad_input_is_refused(bad: dict[str, object], words: str) -> None:
     args.update(bad)
     with pytest.raises(ValueError, match=words):
         predict_triaxial(**args)  # type: ignore[arg-type]
+
+
+def test_an_assumed_kip_u_is_carried_and_a_bare_kip_is_said_to_be_exact(tmp_path):
+    """The field table lists Kip as assumable: a file's [uncertainty] kip reaches u_vre_g as
+    u_Kip·σ²·sinφ·cosφ (SPEC 1.6, the vibropendulous term, linear in Kip); without one the
+    prediction says Kip is taken as exact."""
+    from vrelab import load_sensor
+    from vrelab.profiles import RandomProfile
+    from vrelab.triaxial import TriaxialProfile, direction
+    from vrelab.triaxial.predict import predict_triaxial
+
+    part = tmp_path / "kpart.toml"
+    part.write_text('schema = 1\nname = "kpart"\nkip_ug_per_g2 = 5000.0\n[uncertainty]\nkip_ug_per_g2 = 500.0\n',
+                    encoding="utf-8")
+    prof = TriaxialProfile.along(RandomProfile.flat(20, 2000, 1.0), direction("z", "x", 30))
+    s = load_sensor(str(part), axis="z", range_g=20)
+    lv = predict_triaxial(s, prof, [1.5], static_g=(0, 0, 1)).levels[0]
+    expect = 500e-6 * 1.5**2 * math.sin(math.radians(30)) * math.cos(math.radians(30))
+    assert lv.u_sources_g["kip_ug_per_g2"] == pytest.approx(expect, rel=1e-6)
+    bare = load_sensor(str(part), axis="z", range_g=20, overrides={"kip_ug_per_g2": 5000.0})
+    pred = predict_triaxial(bare, prof, [1.5], static_g=(0, 0, 1))
+    assert pred.levels[0].u_vre_g is None
+    assert any(n.startswith("Kip carries no stated uncertainty") for n in pred.notes)

@@ -746,9 +746,14 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
                                    valid=lv.valid and not prop.level_notes[i],
                                    notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
         notes += prop.notes
-        if any_cross:
-            notes.append("u_vre_g does not carry the cross-coupling coefficients' own uncertainty: the parameter "
-                         "table (vrelab.sensor.parameters) does not list Kip ... Kpo as propagatable yet")
+    if any_cross:
+        stated = set(dict(getattr(sensor, "uncertainty", None) or {}))
+        stated |= set((getattr(sensor, "covariance", None) or {}).get("params", []))
+        bare_k = [f"{attr[:3].capitalize()}" for _, attr, _, _ in CROSS_SHARES
+                  if getattr(sensor, attr) and f"{attr[:3]}_ug_per_g2" not in stated]
+        if bare_k:
+            notes.append(f"{', '.join(bare_k)} {'carries' if len(bare_k) == 1 else 'carry'} no stated uncertainty (no [uncertainty] entry, not identified): "
+                         "u_vre_g takes them as exact")
     if judged is not None:
         out = [judged(lv) for lv in out]
     why0 = tilt_note(0.0, u0)[1]
