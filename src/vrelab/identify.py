@@ -60,6 +60,7 @@ Data flow: campaign document (``vrelab campaign``'s results.json, or a manifest 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -1404,6 +1405,9 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     V.one_of("kind", kind, KINDS)
     workers = V.integer("workers", workers, 1)
     base = load_sensor(base_spec, range_g=range_g, axis=base_axis, odr_hz=odr_hz)
+    if base_axis in ("x", "y", "z") and base.input_axis is None:
+        # named on purpose: the channels measured the part's base_axis (a default axis says nothing)
+        base = dataclasses.replace(base, input_axis=base_axis)
     obs, notes = observations(doc)
     failed = failed_runs(doc)
     if not obs:
@@ -1502,6 +1506,10 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
                        + f": {base_facts.get(fk, 'unmarked')}")
             f[fk] = f"{f[fk]}; {_side(n)}: {src}" if fk in f else (f"{_side(n)}: {src}" if TABLE[n].rail is not None else src)
         t.update(file_values({n: cm.values[n] for n in PARAMETERS}))
+        # the part's axis the channel measured (the base sensor's): the identified axis is named
+        # by its channel, and a triaxial prediction needs its IEEE 1293 triad
+        if base.input_axis is not None:  # given by --base-axis or the base file, never the default axis
+            t["input_axis"] = base.input_axis
         t["facts"] = f
         if cm.covariance is not None:
             t["covariance"] = {"params": list(cm.covariance[0]), "matrix": [[float(c) for c in row]

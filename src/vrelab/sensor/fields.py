@@ -202,6 +202,9 @@ FIELDS: tuple[Field, ...] = (
           upper=0.5, why_upper=_WHY_CROSS, sweepable=True, assumable=True, default_fact=_NO_CROSS_AXIS),
     Field("cross_axis_z", "cross_axis_z", "finite", 0.0, "cross-axis sensitivity to z [g/g] (0 on the z axis itself)",
           upper=0.5, why_upper=_WHY_CROSS, sweepable=True, assumable=True, default_fact=_NO_CROSS_AXIS),
+    Field("input_axis", "input_axis", "choice", None,
+          "which of the part's x, y, z this axis senses (default: the axis's own name; an identified file "
+          "names its axes by campaign channel)", choices=("x", "y", "z")),
     Field("pendulous_axis", "pendulous_axis", "choice", None,
           "IEEE 1293 pendulous axis p (default: the next axis, x->y->z->x); o is the third",
           choices=("x", "y", "z")),

@@ -127,6 +127,7 @@ class Sensor:
     cross_axis_y: float = 0.0
     cross_axis_z: float = 0.0
     pendulous_axis: str | None = None
+    input_axis: str | None = None  # the part's axis this one senses, when its name is not x, y or z
     kip_per_g: float = 0.0
     kio_per_g: float = 0.0
     kpp_per_g: float = 0.0
@@ -162,13 +163,14 @@ class Sensor:
         if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
             raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
         object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
-        if self.axis in ("x", "y", "z"):
-            if getattr(self, f"cross_axis_{self.axis}") != 0:
-                raise ValueError(f"sensor {self.name}: cross_axis_{self.axis} must be 0 on the {self.axis} axis "
-                                 f"(its own sensitivity is 1 by definition), got {getattr(self, f'cross_axis_{self.axis}')!r}")
-            if self.pendulous_axis == self.axis:
+        own = self.input_axis or (self.axis if self.axis in ("x", "y", "z") else None)
+        if own is not None:
+            if getattr(self, f"cross_axis_{own}") != 0:
+                raise ValueError(f"sensor {self.name}: cross_axis_{own} must be 0 on the {own} axis "
+                                 f"(its own sensitivity is 1 by definition), got {getattr(self, f'cross_axis_{own}')!r}")
+            if self.pendulous_axis == own:
                 raise ValueError(f"sensor {self.name}: pendulous_axis must be another axis than the input axis "
-                                 f"{self.axis}, got {self.pendulous_axis!r}")
+                                 f"{own}, got {self.pendulous_axis!r}")
         for a in ("x", "y", "z"):
             c = getattr(self, f"cross_axis_{a}")
             if c < -0.5:
@@ -189,14 +191,16 @@ class Sensor:
     def triad(self) -> tuple[int, int, int]:
         """IEEE 1293's (input, pendulous, output) axes as indices of (x, y, z).
 
-        The input axis is :attr:`axis`; the pendulous axis is ``pendulous_axis`` or, by default,
-        the next axis in x -> y -> z -> x; the output axis is the third. Raises for an axis not
-        named x, y or z.
+        The input axis is ``input_axis`` or, by default, :attr:`axis`; the pendulous axis is
+        ``pendulous_axis`` or, by default, the next axis in x -> y -> z -> x; the output axis is
+        the third. Raises for an axis that is none of x, y, z and says no ``input_axis``.
         """
         names = ("x", "y", "z")
-        if self.axis not in names:
-            raise ValueError(f"sensor {self.name}: axis {self.axis!r} is not x, y or z: no IEEE 1293 triad")
-        i = names.index(self.axis)
+        own = self.input_axis or self.axis
+        if own not in names:
+            raise ValueError(f"sensor {self.name}: axis {self.axis!r} is not x, y or z and the file gives no "
+                             "input_axis: no IEEE 1293 triad (set input_axis = \"x\", \"y\" or \"z\" in its axis table)")
+        i = names.index(own)
         p = names.index(self.pendulous_axis) if self.pendulous_axis is not None else (i + 1) % 3
         return i, p, 3 - i - p
 
