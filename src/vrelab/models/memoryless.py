@@ -135,7 +135,8 @@ def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
 def _prob(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Φ(b) - Φ(a), from the tail nearer the interval (no 1 - 1 cancellation)."""
     upper = a > 0
-    return np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
+    prob: NDArray[np.float64] = np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
+    return prob
 
 
 def _truncated_moments(a: NDArray[np.float64], b: NDArray[np.float64], n_max: int) -> list[NDArray[np.float64]]:
