@@ -485,7 +485,9 @@ class Clip(StageBase):
             notes.append("a second set of rails: evaluated as if alone — simulate")
         low, high = self.rails_g
         up = site.last(Polynomial)
-        k: tuple[float, float, float] = up.stage.coefficients if up is not None else (0.0, 0.0, 0.0)
+        # (isinstance only narrows the type: last(Polynomial) finds a Polynomial or None)
+        k: tuple[float, float, float] = (up.stage.coefficients if up is not None and isinstance(up.stage, Polynomial)
+                                         else (0.0, 0.0, 0.0))
         c0 = site.vibration_off_g
         if not low < c0 < high:
             valid = False
