@@ -853,7 +853,8 @@ def _fit(base: Sensor, obs: Sequence[Observation], free: Sequence[str], start: M
     x0 = np.array([start[n] for n in free], dtype=np.float64)
     bounds = np.array([_bounds(n, obs) for n in free], dtype=np.float64).T if free else (-np.inf, np.inf)
     if free:
-        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=1e-5, max_nfev=60,
+        # diff_step as a one-element list: scipy-stubs types it 1-D; scipy broadcasts it (the same steps)
+        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=[1e-5], max_nfev=60,
                             ftol=1e-6, xtol=1e-6)  # χ² to 1e-6 (relative) is far below its own scatter
         x = res.x
     else:

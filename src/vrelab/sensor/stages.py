@@ -72,6 +72,8 @@ from vrelab.units import from_ug
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
+# an analog design's zeros: real for scipy's Butterworth and Bessel (none, or all at s = 0), complex in general
+InexactArray = NDArray[np.float64] | NDArray[np.complex128]
 
 __all__ = [
     "Stage",
@@ -96,9 +98,12 @@ __all__ = [
 # ----------------------------------------------------------------------------- dynamics
 
 
-def _analog_response(z: ArrayLike, p: ArrayLike, k: float, f_hz: ArrayLike) -> ComplexArray:
-    """The analog filter ``(z, p, k)`` (rad/s) at the frequencies ``f_hz``, in their shape."""
-    _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
+def _analog_response(z: InexactArray, p: ComplexArray, k: float, f_hz: ArrayLike) -> ComplexArray:
+    """The analog filter ``(z, p, k)`` (rad/s) at the frequencies ``f_hz``, in their shape.
+
+    ``k`` goes in as a one-element array (scipy-stubs types freqs_zpk's gain as 1-D; scipy
+    broadcasts it: the same numbers)."""
+    _, h = signal.freqs_zpk(z, p, np.atleast_1d(k), worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
     response: ComplexArray = h.reshape(np.shape(f_hz))
     return response
 
@@ -188,8 +193,8 @@ class AntiAlias(FilterStage):
         positive(self, "corner_hz")
         positive_int(self, "order")
 
-    def analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
-        zpk: tuple[ComplexArray, ComplexArray, float] = signal.butter(
+    def analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
+        zpk: tuple[InexactArray, ComplexArray, float] = signal.butter(
             self.order, 2 * np.pi * self.corner_hz, analog=True, output="zpk")
         return zpk
 
@@ -234,9 +239,9 @@ class LowPass(FilterStage):
         if self.kind not in ("butterworth", "bessel"):
             raise ValueError(f"LowPass kind must be one of butterworth, bessel; got {self.kind!r}")
 
-    def _analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
+    def _analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
         wn = 2 * np.pi * self.corner_hz
-        zpk: tuple[ComplexArray, ComplexArray, float] = (
+        zpk: tuple[InexactArray, ComplexArray, float] = (
             signal.bessel(self.order, wn, norm="mag", analog=True, output="zpk") if self.kind == "bessel"
             else signal.butter(self.order, wn, analog=True, output="zpk"))
         return zpk
