@@ -240,7 +240,7 @@ def _fit_clip_once(
     if with_vrc:
         p0, lb, ub = p0 + [float(vrc[i0])], lb + [-np.inf], ub + [np.inf]
     sol = least_squares(resid, np.array(p0), bounds=(lb, ub), x_scale="jac")
-    J = sol.jac
+    J = np.asarray(sol.jac)  # dense (no jac_sparsity): the array itself; typed as any Jacobian form
     try:
         cov = np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:

@@ -64,7 +64,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Literal, Mapping, NotRequired, Sequence, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,6 +82,11 @@ from vrelab.results import Estimate, group_by_frequency
 from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_parameters
 from vrelab.sensor.writer import file_values
 from vrelab.units import to_ug
+
+if TYPE_CHECKING:
+    from vrelab.gum import TypeB
+    from vrelab.predict import LevelPrediction, Prediction
+    from vrelab.sensor.loader import Sensor
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
 # quadrature over the levels in units of their standard uncertainty, reaches this.
@@ -125,6 +130,62 @@ class Observation:
         return self.mount is not None and self.mount.tilted
 
 
+class ValueU(TypedDict):
+    value: float
+    u: float
+
+
+class Residual(TypedDict):
+    """One level of a run in :class:`RunFit`: measured, modelled, and the pull between them."""
+
+    rms_g: float
+    vre_g: float
+    u_vre_g: float
+    model_g: float
+    pull: float
+    model_valid: bool
+
+
+class RunFit(TypedDict):
+    """One run of a channel as the fitted model meets it (``ChannelModel.runs``, the JSON's ``runs``)."""
+
+    run: int
+    label: str
+    method: str
+    static_g: float
+    freq_hz: float | None
+    profile: str | None  # the random drive's description
+    n: int
+    chi2: float
+    vrc_ug_per_g2: ValueU | None  # a sine run's apparent VRC
+    residuals: list[Residual]
+
+
+class TypeBTerm(TypedDict):
+    """One Type B source's effect on the fitted parameters (``ChannelModel.budget``): the refit's
+    shifts under its perturbation, or None with a note where the refit failed."""
+
+    source: str
+    type: Literal["B"]
+    shifts: dict[str, float] | None
+    perturbation: NotRequired[dict[str, float]]
+    note: NotRequired[str]
+
+
+class Check2f(TypedDict):
+    """One sine run's 2f cross-check (:func:`cross_check_2f`)."""
+
+    run: int
+    label: str
+    freq_hz: float | None
+    static_g: float
+    vrc_2f_ug_per_g2: ValueU
+    vrc_dc_ug_per_g2: ValueU
+    filter_gain_2f: float
+    difference_sigma: float | None
+    agree: bool | None
+
+
 @dataclass(frozen=True)
 class ChannelModel:
     """The identified model of one channel."""
@@ -136,10 +197,10 @@ class ChannelModel:
     covariance: tuple[tuple[str, ...], NDArray[np.float64]] | None  # over the identified ones
     chi2: float
     dof: int
-    runs: tuple[dict[str, Any], ...]  # per run: chi2, n, residuals
+    runs: tuple[RunFit, ...]  # per run: chi2, n, residuals
     notes: tuple[str, ...]
-    budget: tuple[dict[str, Any], ...] = ()
-    cross_check_2f: tuple[dict[str, Any], ...] = ()
+    budget: tuple[TypeBTerm, ...] = ()
+    cross_check_2f: tuple[Check2f, ...] = ()
     # parameters written to the sensor file as assumptions (not identified): their standard u
     # (from the base sensor's [uncertainty], or the profile of a resonance only bounded) and why
     assumed: Mapping[str, tuple[float | None, str]] = field(default_factory=dict)
@@ -171,6 +232,10 @@ class ChannelModel:
             "cross_coupling": None if self.cross_coupling is None else self.cross_coupling.to_dict(),
             "notes": list(self.notes),
         }  # fmt: skip
+
+
+def _value_u(value: float, u: float) -> ValueU:
+    return {"value": value, "u": u}
 
 
 # --------------------------------------------------------------------------- observations
@@ -306,8 +371,10 @@ def _type_a(level: Mapping[str, Any]) -> float | None:
     """A level's Type A standard uncertainty (its budget's record term when a budget was declared)."""
     for term in level.get("budget") or ():
         if term.get("type") == "A":
-            return term.get("u_g")
-    return level.get("u_vre_g")
+            u_a: float | None = term.get("u_g")
+            return u_a
+    u: float | None = level.get("u_vre_g")
+    return u
 
 
 def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]) -> list[Observation]:
@@ -370,15 +437,23 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
 # --------------------------------------------------------------------------- the model
 
 
-def model_levels(sensor: Any, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Any:
+def model_levels(sensor: Sensor, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Prediction:
     """:func:`vrelab.predict.predict` at the observation's conditions (its levels' rms)."""
     from vrelab.predict import predict
 
-    excitation = ob.profile if ob.method == "random" else [ob.freq_hz]
-    return predict(sensor, excitation, ob.rms_g, static_g=ob.static_g, kind=kind)  # type: ignore[arg-type]
+    excitation: RandomProfile | list[float]
+    if ob.method == "random":
+        if ob.profile is None:
+            raise ValueError(f"a random observation ({ob.label}) without its profile")
+        excitation = ob.profile
+    else:
+        if ob.freq_hz is None:
+            raise ValueError(f"a sine observation ({ob.label}) without its frequency")
+        excitation = [ob.freq_hz]
+    return predict(sensor, excitation, ob.rms_g, static_g=ob.static_g, kind=kind)
 
 
-def _model(sensor: Any, obs: Sequence[Observation], kind: ClipKind) -> list[Any]:
+def _model(sensor: Sensor, obs: Sequence[Observation], kind: ClipKind) -> list[Prediction]:
     return [model_levels(sensor, ob, kind) for ob in obs]
 
 
@@ -398,7 +473,7 @@ def _sine_frequencies(obs: Sequence[Observation]) -> list[float]:
     return [g[0] for g in group_by_frequency(fs, float)]
 
 
-def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, str]]:
+def _plan(obs: Sequence[Observation], base: Sensor) -> tuple[list[str], dict[str, str]]:
     """Which parameters the data can determine before fitting, and why the others cannot."""
     free: list[str] = []
     why: dict[str, str] = {}
@@ -443,7 +518,7 @@ def _plan(obs: Sequence[Observation], base: Any) -> tuple[list[str], dict[str, s
     return free, why
 
 
-def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> float:
+def _reach(preds: Sequence[Prediction], obs: Sequence[Observation], share: str) -> float:
     """Σ (share / u)² over every level, square-rooted: how far a mechanism's share of the VRE
     stands out of the levels' noise (a sine level whose peak stays inside a rail has none)."""
     s = 0.0
@@ -453,8 +528,8 @@ def _reach(preds: Sequence[Any], obs: Sequence[Observation], share: str) -> floa
     return math.sqrt(s)
 
 
-def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Any],
-                 obs: Sequence[Observation], base: Any = None, prefer_base: bool = False,
+def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Prediction],
+                 obs: Sequence[Observation], base: Sensor | None = None, prefer_base: bool = False,
                  bounds: dict[str, tuple[float, str, float | None]] | None = None,
                  widen: dict[str, float] | None = None, loose: dict[str, str] | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
@@ -576,8 +651,10 @@ def _vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixe
     h = 1.0 / ((1 - r * r) ** 2 + (r / q[..., None]) ** 2)
     a1 = h / u
     y = (vrc - (0.0 if k3_free else 3 * k3_fixed * g0 * h)) / u
-    yy = np.sum(y * y, axis=-1)
-    s11, b1 = np.sum(a1 * a1, axis=-1), np.sum(a1 * y, axis=-1)
+    # (numpy's stubs type a sum over an axis as Any: the arrays named here)
+    yy: NDArray[np.float64] = np.sum(y * y, axis=-1)
+    s11: NDArray[np.float64] = np.sum(a1 * a1, axis=-1)
+    b1: NDArray[np.float64] = np.sum(a1 * y, axis=-1)
     if not k3_free:
         return yy - b1 * b1 / s11
     a2 = 3 * g0 * a1
@@ -588,7 +665,7 @@ def _vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixe
     return np.where(ok, two, yy - b1 * b1 / s11)
 
 
-def _resonance_profile(obs: Sequence[Observation], base: Any, free: Sequence[str],
+def _resonance_profile(obs: Sequence[Observation], base: Sensor | None, free: Sequence[str],
                        values: Mapping[str, float] | None = None,
                        local_u: Mapping[str, float] | None = None) -> dict[str, _Profile]:
     """Per fn and Q, the profile likelihood of the sine runs' apparent VRCs (:func:`_vrc_chi2_grid`,
@@ -682,7 +759,7 @@ class _Fit:
     x: NDArray[np.float64]
     cov: NDArray[np.float64]
     chi2: float
-    preds: list[Any]
+    preds: list[Prediction]
     jac_rank: int
     notes: list[str] = field(default_factory=list)
 
@@ -703,7 +780,7 @@ def _bounds(name: str, obs: Sequence[Observation]) -> tuple[float, float]:
     return -math.inf, math.inf
 
 
-def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[str, float]:
+def _start(obs: Sequence[Observation], base: Sensor, free: Sequence[str]) -> dict[str, float]:
     """Starting values: the base sensor's, with k2, k3, fn and Q from the closed form of each
     sine run's apparent VRC, ``VRC(f, g0) = (k2 + 3·k3·g0)·|H(f)|²``: k2 and k3 solved linearly
     at every (fn, Q) of a log grid (fn from a third of the lowest to ten times the highest sine
@@ -729,9 +806,10 @@ def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[s
 
             def resid(p: NDArray[np.float64]) -> NDArray[np.float64]:
                 k = p[:-2]
-                h = np.asarray(vrc_at_frequency(1.0, f, p[-2], p[-1]))
-                k3 = k[1] if k3_free else k3_fixed
-                return ((k[0] + 3 * k3 * g0) * h - vrc) / u
+                h: NDArray[np.float64] = np.asarray(vrc_at_frequency(1.0, f, p[-2], p[-1]))
+                k2: float = k[0]
+                k3: float = k[1] if k3_free else k3_fixed
+                return ((k2 + 3 * k3 * g0) * h - vrc) / u
 
             k0, _ = _vrc_chi2(data, k3_free, k3_fixed, fn0, q0)
             r = least_squares(resid, np.r_[k0, fn0, q0], x_scale="jac",
@@ -749,18 +827,18 @@ def _start(obs: Sequence[Observation], base: Any, free: Sequence[str]) -> dict[s
     return start
 
 
-def _residuals(sensor: Any, obs: Sequence[Observation], kind: ClipKind) -> tuple[NDArray[np.float64], list[Any]]:
+def _residuals(sensor: Sensor, obs: Sequence[Observation], kind: ClipKind) -> tuple[NDArray[np.float64], list[Prediction]]:
     preds = _model(sensor, obs, kind)
     r = np.concatenate([(np.array([lv.vre_g for lv in p.levels]) - ob.vre_g) / ob.u_g for p, ob in zip(preds, obs)])
     return r, preds
 
 
-def _fit(base: Any, obs: Sequence[Observation], free: Sequence[str], start: Mapping[str, float],
+def _fit(base: Sensor, obs: Sequence[Observation], free: Sequence[str], start: Mapping[str, float],
          kind: ClipKind) -> _Fit:
     """Least squares over the ``free`` parameters; the others keep the base sensor's values."""
     from scipy.optimize import least_squares
 
-    def sensor_at(x: NDArray[np.float64]) -> Any:
+    def sensor_at(x: NDArray[np.float64]) -> Sensor:
         return with_parameters(base, dict(zip(free, x)))
 
     n_res = sum(ob.n for ob in obs)
@@ -776,7 +854,8 @@ def _fit(base: Any, obs: Sequence[Observation], free: Sequence[str], start: Mapp
     x0 = np.array([start[n] for n in free], dtype=np.float64)
     bounds = np.array([_bounds(n, obs) for n in free], dtype=np.float64).T if free else (-np.inf, np.inf)
     if free:
-        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=1e-5, max_nfev=60,
+        # diff_step as a one-element list: scipy-stubs types it 1-D; scipy broadcasts it (the same steps)
+        res = least_squares(resid, x0, bounds=(bounds[0], bounds[1]), x_scale="jac", diff_step=[1e-5], max_nfev=60,
                             ftol=1e-6, xtol=1e-6)  # χ² to 1e-6 (relative) is far below its own scatter
         x = res.x
     else:
@@ -832,8 +911,8 @@ def _key(obs: Sequence[Observation]) -> list[tuple[int, float | None, tuple[floa
     return [(ob.run, ob.freq_hz, tuple(ob.rms_g)) for ob in obs]
 
 
-def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: ClipKind = DEFAULT_CLIP_KIND,
-                     campaign: str = "the campaign", typeb: Any = None, notes: Sequence[str] = (),
+def identify_channel(channel: str, obs: Sequence[Observation], base: Sensor, kind: ClipKind = DEFAULT_CLIP_KIND,
+                     campaign: str = "the campaign", typeb: TypeB | None = None, notes: Sequence[str] = (),
                      prefer_base: bool = False) -> ChannelModel:
     """Identify one channel's model from its observations (see the module docstring).
 
@@ -912,7 +991,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
             notes.append(f"{n}: the likelihood is not quadratic over its u (the sine runs' profile Δχ² <= 1 half-width is "
                          f"{factor:.2g}× what its curvature says): its u {before:.2g} widened by that, correlations kept")
     values = dict(zip(free, (float(v) for v in fit.x)))
-    budget: list[dict[str, Any]] = []
+    budget: list[TypeBTerm] = []
     if typeb is not None and typeb.declared and free:
         cov, budget = _type_b(cov, values, base, obs, free, kind, typeb)
     if "k2_ug_per_g2" in why and "k3_ug_per_g3" in why and "k2_ug_per_g2" in values:
@@ -954,9 +1033,9 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
             used[n] = base_values[n]
             why.setdefault(n, "not fitted")
             if used[n] is not None:
-                u = base.uncertainty.get(n)
-                assumed[n] = (u, f"from base sensor ({why[n]}); "
-                              + (f"its stated u {u:.3g}" if u is not None else "the base states no u for it"))
+                u_stated = base.uncertainty.get(n)
+                assumed[n] = (u_stated, f"from base sensor ({why[n]}); "
+                              + (f"its stated u {u_stated:.3g}" if u_stated is not None else "the base states no u for it"))
     # (the cross-coupling terms act only off the input axis: without a mount-angle run they are not news)
     no_u = [n for n, (u, _w) in assumed.items() if u is None and (tilted or n not in CROSS)]
     if no_u:
@@ -987,7 +1066,7 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Any, kind: 
                         assumed, cross if tilted else None)
 
 
-def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str], sensor: Any) -> list[Observation] | None:
+def _modelled(obs: Sequence[Observation], preds: Sequence[Prediction], notes: list[str], sensor: Sensor) -> list[Observation] | None:
     """The observations without the levels the analytic model does not cover well enough to fit
     through; None when every level is covered. Each level left out is said in ``notes``.
 
@@ -998,7 +1077,7 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     (deterministic, u of a few µg: the rails come from the random runs); a random level whose
     ``model_error_g`` exceeds half its u."""
 
-    def covered(lv: Any, ob: Observation, u: float) -> bool:
+    def covered(lv: LevelPrediction, ob: Observation, u: float) -> bool:
         if not lv.valid_otherwise:
             return False
         if ob.method == "sine":
@@ -1031,8 +1110,8 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Any], notes: list[str]
     return out
 
 
-def _run_table(preds: Sequence[Any], obs: Sequence[Observation]) -> list[dict[str, Any]]:
-    out = []
+def _run_table(preds: Sequence[Prediction], obs: Sequence[Observation]) -> list[RunFit]:
+    out: list[RunFit] = []
     for p, ob in zip(preds, obs):
         model = np.array([lv.vre_g for lv in p.levels])
         pulls = (ob.vre_g - model) / ob.u_g
@@ -1040,7 +1119,7 @@ def _run_table(preds: Sequence[Any], obs: Sequence[Observation]) -> list[dict[st
             "run": ob.run, "label": ob.label, "method": ob.method, "static_g": ob.static_g,
             "freq_hz": ob.freq_hz, "profile": None if ob.profile is None else ob.profile.describe().split(",")[0],
             "n": ob.n, "chi2": float(pulls @ pulls),
-            "vrc_ug_per_g2": None if ob.method != "sine" else dict(zip(("value", "u"), apparent_vrc(ob))),
+            "vrc_ug_per_g2": None if ob.method != "sine" else _value_u(*apparent_vrc(ob)),
             "residuals": [{"rms_g": float(r), "vre_g": float(v), "u_vre_g": float(u), "model_g": float(m),
                            "pull": float(z), "model_valid": bool(lv.valid)}
                           for r, v, u, m, z, lv in zip(ob.rms_g, ob.vre_g, ob.u_g, model, pulls, p.levels)],
@@ -1048,8 +1127,8 @@ def _run_table(preds: Sequence[Any], obs: Sequence[Observation]) -> list[dict[st
     return out
 
 
-def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Any, obs: Sequence[Observation],
-            free: Sequence[str], kind: ClipKind, typeb: Any) -> tuple[NDArray[np.float64], list[dict[str, Any]]]:
+def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Sensor, obs: Sequence[Observation],
+            free: Sequence[str], kind: ClipKind, typeb: TypeB) -> tuple[NDArray[np.float64], list[TypeBTerm]]:
     """The Type B terms: refit with each declared input perturbed (:func:`vrelab.gum.type_b_shifts`);
     the covariance gains ``d·dᵀ`` per source."""
     from dataclasses import replace
@@ -1067,7 +1146,7 @@ def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Any, ob
         return dict(zip(free, (float(v) for v in f.x)))
 
     out = cov.copy()
-    terms: list[dict[str, Any]] = []
+    terms: list[TypeBTerm] = []
     for source, delta, shift in type_b_shifts(values, refit, typeb):
         if shift is None:
             terms.append({"source": source, "type": "B", "shifts": None, "note": "not evaluated (the refit failed)"})
@@ -1082,7 +1161,7 @@ def _type_b(cov: NDArray[np.float64], values: Mapping[str, float], base: Any, ob
 # --------------------------------------------------------------------------- 2f cross-check
 
 
-def _post_filter_gain(base: Any, f_hz: float) -> float:
+def _post_filter_gain(base: Sensor | None, f_hz: float) -> float:
     """|H(f)| of the linear stages after the proof mass (anti-alias, low-pass, high-pass: every
     output response but the resonance) relative to DC: what they do to the 2f line that they
     do not do to the mean shift. 1 without a base sensor or without filters; NaN where the
@@ -1094,7 +1173,7 @@ def _post_filter_gain(base: Any, f_hz: float) -> float:
     return float(post[1] / post[0]) if post[0] > 0 else math.nan
 
 
-def cross_check_2f(obs: Sequence[Observation], base: Any = None) -> list[dict[str, Any]]:
+def cross_check_2f(obs: Sequence[Observation], base: Sensor | None = None) -> list[Check2f]:
     """Per sine run whose levels carry a 2f estimate: the apparent VRC from the DUT's 2f line
     (less the reference's own) beside the one from the DC shift, both ``(k2 + 3·k3·g0)·|H|²``
     for a cubic polynomial on the proof mass (SPEC 6.1): x = A·cos θ gives
@@ -1107,7 +1186,7 @@ def cross_check_2f(obs: Sequence[Observation], base: Any = None) -> list[dict[st
     from vrelab.fits import fit_vrc
     from vrelab.results import LevelResult
 
-    out = []
+    out: list[Check2f] = []
     for ob in obs:
         if ob.method != "sine" or ob.freq_hz is None or not ob.harmonic_g or not any(h is not None for h in ob.harmonic_g):
             continue
@@ -1172,8 +1251,8 @@ class CrossCoupling:
         }  # fmt: skip
 
 
-def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observation], sensor: Any,
-                       typeb: Any = None, kind: ClipKind = DEFAULT_CLIP_KIND) -> CrossCoupling:
+def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observation], sensor: Sensor,
+                       typeb: TypeB | None = None, kind: ClipKind = DEFAULT_CLIP_KIND) -> CrossCoupling:
     r"""IEEE 1293's cross-coupling coefficients Kip, Kpp, Kio, Koo of one channel (SPEC 1.6)
     from its runs mounted at an angle (``tilted``) beside its sine runs along the vibration
     (``axial``), on the model identified from the latter (``sensor``: its dynamics, rails,
@@ -1365,7 +1444,7 @@ class Identification:
 
     campaign: str
     base_spec: str
-    base: Any  # the resolved base Sensor
+    base: Sensor  # the resolved base Sensor
     channels: tuple[ChannelModel, ...]
     kind: ClipKind
     provenance: Mapping[str, Any] = field(default_factory=dict)
@@ -1387,7 +1466,7 @@ class Identification:
 
 def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | None = None,
              odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = DEFAULT_CLIP_KIND,
-             typeb: Any = None, workers: int = 1, prefer_base: bool = False) -> Identification:
+             typeb: TypeB | None = None, workers: int = 1, prefer_base: bool = False) -> Identification:
     """Identify every channel of a campaign document on the base sensor ``base_spec``.
 
     ``typeb`` (a :class:`vrelab.gum.TypeB`) overrides the budget the runs declared; without it
@@ -1421,7 +1500,7 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     if empty:
         raise ValueError(f"identify: channel {empty[0]!r} has no usable level in any run "
                          f"({'; '.join(notes.get(empty[0], [])) or 'no levels'})")
-    jobs = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, []), prefer_base) for ch in obs]
+    jobs: list[_Job] = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, []), prefer_base) for ch in obs]
     if workers > 1 and len(jobs) > 1:
         from vrelab._pool import worker_pool  # workers die with this process (Ctrl-C, SIGTERM, SIGKILL)
 
@@ -1432,7 +1511,12 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     return Identification(name, base_spec, base, tuple(models), kind, notes=tuple(failed))
 
 
-def _identify_job(job: tuple[Any, ...]) -> ChannelModel:
+# one channel's identification as a worker process gets it (picklable):
+# (channel, observations, base sensor, clipping kind, campaign name, Type B budget, notes, prefer_base)
+_Job = tuple[str, list["Observation"], "Sensor", ClipKind, str, "TypeB", list[str], bool]
+
+
+def _identify_job(job: _Job) -> ChannelModel:
     ch, ob, base, kind, name, typeb, notes, prefer_base = job
     return identify_channel(ch, ob, base, kind, name, typeb, notes, prefer_base)
 

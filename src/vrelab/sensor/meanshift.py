@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Literal, Mapping, Sequence
+from typing import Callable, Literal, Mapping, Protocol, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, Kind
+from vrelab.sensor.base import Stage
 
 Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
 Drive = Literal["gaussian", "sine", "sine-on-random"]
@@ -90,11 +91,18 @@ class Shift:
     rough_if_large: str | None = None
 
 
+class Shifting(Protocol):
+    """A stage with a change of the mean of its own (Polynomial, Clip, OverRange) or the
+    :class:`Numerical` fallback of a memoryless stage without one."""
+
+    def mean_shift(self, site: Site) -> Shift: ...
+
+
 @dataclass(frozen=True)
 class Done:
     """A stage already walked: the stage, its site and what it said."""
 
-    stage: Any
+    stage: Shifting
     site: Site
     shift: Shift
 
@@ -121,7 +129,7 @@ class Site:
     freq_hz: float | None = None
     kind: Kind = DEFAULT_CLIP_KIND
     before: tuple[Done, ...] = ()
-    after: tuple[tuple[Any, Motion], ...] = ()
+    after: tuple[tuple[Shifting, Motion], ...] = ()
     each_rail: bool = True
 
     @property
@@ -155,12 +163,12 @@ def gain_max(responses: Sequence[Response]) -> float:
     return float(max(1.0, h.max()))
 
 
-def _name(stage: Any) -> str:
+def _name(stage: object) -> str:
     """A stage's class name (a :class:`Numerical` fallback: its stage's)."""
     return stage.name if isinstance(stage, Numerical) else type(stage).__name__
 
 
-def memoryless_map(stage: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+def memoryless_map(stage: Stage) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     """A memoryless stage's map ``y = f(x)``, from its ``process`` (fresh state, rate 1 Hz: a
     memoryless stage keeps no signal state and does not depend on the rate)."""
 
@@ -181,7 +189,7 @@ class Numerical:
     non-Gaussian output as Gaussian, and the level is not valid.
     """
 
-    def __init__(self, stage: Any) -> None:
+    def __init__(self, stage: Stage) -> None:
         self.stage = stage
         self.name = type(stage).__name__
         self._map = memoryless_map(stage)

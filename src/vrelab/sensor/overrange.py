@@ -55,7 +55,8 @@ def _cubic_crossing(z0: FloatArray, z1: FloatArray, z2: FloatArray, z3: FloatArr
     tau = f0 / (z1 - z2)
     lo, hi = np.zeros(z1.size), np.ones(z1.size)
 
-    def newton(t, g0, k1, k2, k3, lo, hi):  # one safeguarded step; updates lo, hi in place
+    def newton(t: FloatArray, g0: FloatArray, k1: FloatArray, k2: FloatArray, k3: FloatArray,
+               lo: FloatArray, hi: FloatArray) -> FloatArray:  # one safeguarded step; updates lo, hi in place
         f = g0 + t * (k1 + t * (k2 + t * k3))
         same = (f > 0) == (g0 > 0)
         np.copyto(lo, t, where=same)

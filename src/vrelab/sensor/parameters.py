@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from vrelab.sensor import fields
 
@@ -99,7 +99,9 @@ def with_parameters(sensor: Sensor, values: Mapping[str, float]) -> Sensor:
     The copy carries no covariance and no assumed uncertainties (it is one point of the
     parameter space, not an estimate).
     """
-    change: dict[str, object] = {}
+    # attributes chosen by name at run time (a float, or the rails pair): Any for replace's
+    # per-field check; Sensor.__post_init__ validates the values (fields.Field.check)
+    change: dict[str, Any] = {}
     rails = list(sensor.rails_g)
     for name, v in values.items():
         p = _param(name)
@@ -112,4 +114,4 @@ def with_parameters(sensor: Sensor, values: Mapping[str, float]) -> Sensor:
         if not rails[0] < rails[1]:
             raise ValueError(f"rails must satisfy low < high, got [{rails[0]:g}, {rails[1]:g}] g")
         change["rails_g"] = (rails[0], rails[1])
-    return dataclasses.replace(sensor, covariance=None, uncertainty={}, **change)  # type: ignore[arg-type]
+    return dataclasses.replace(sensor, covariance=None, uncertainty={}, **change)

@@ -72,6 +72,8 @@ from vrelab.units import from_ug
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
+# an analog design's zeros: real for scipy's Butterworth and Bessel (none, or all at s = 0), complex in general
+InexactArray = NDArray[np.float64] | NDArray[np.complex128]
 
 __all__ = [
     "Stage",
@@ -94,6 +96,16 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- dynamics
+
+
+def _analog_response(z: InexactArray, p: ComplexArray, k: float, f_hz: ArrayLike) -> ComplexArray:
+    """The analog filter ``(z, p, k)`` (rad/s) at the frequencies ``f_hz``, in their shape.
+
+    ``k`` goes in as a one-element array (scipy-stubs types freqs_zpk's gain as 1-D; scipy
+    broadcasts it: the same numbers)."""
+    _, h = signal.freqs_zpk(z, p, np.atleast_1d(k), worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
+    response: ComplexArray = h.reshape(np.shape(f_hz))
+    return response
 
 
 class FilterStage(StageBase):
@@ -181,13 +193,13 @@ class AntiAlias(FilterStage):
         positive(self, "corner_hz")
         positive_int(self, "order")
 
-    def analog_zpk(self) -> tuple[ComplexArray, ComplexArray, float]:
-        return signal.butter(self.order, 2 * np.pi * self.corner_hz, analog=True, output="zpk")
+    def analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
+        zpk: tuple[InexactArray, ComplexArray, float] = signal.butter(
+            self.order, 2 * np.pi * self.corner_hz, analog=True, output="zpk")
+        return zpk
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
-        z, p, k = self.analog_zpk()
-        _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
-        return h.reshape(np.shape(f_hz))
+        return _analog_response(*self.analog_zpk(), f_hz)
 
     def design(self, fs_hz: float) -> FloatArray:
         below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
@@ -227,19 +239,22 @@ class LowPass(FilterStage):
         if self.kind not in ("butterworth", "bessel"):
             raise ValueError(f"LowPass kind must be one of butterworth, bessel; got {self.kind!r}")
 
-    def _design(self, wn: float, **kw: Any) -> Any:
-        if self.kind == "bessel":
-            return signal.bessel(self.order, wn, norm="mag", **kw)
-        return signal.butter(self.order, wn, **kw)
+    def _analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
+        wn = 2 * np.pi * self.corner_hz
+        zpk: tuple[InexactArray, ComplexArray, float] = (
+            signal.bessel(self.order, wn, norm="mag", analog=True, output="zpk") if self.kind == "bessel"
+            else signal.butter(self.order, wn, analog=True, output="zpk"))
+        return zpk
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
-        z, p, k = self._design(2 * np.pi * self.corner_hz, analog=True, output="zpk")
-        _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
-        return h.reshape(np.shape(f_hz))
+        return _analog_response(*self._analog_zpk(), f_hz)
 
     def design(self, fs_hz: float) -> FloatArray:
         below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
-        return self._design(self.corner_hz, fs=fs_hz, output="sos")
+        sos: FloatArray = (
+            signal.bessel(self.order, self.corner_hz, norm="mag", fs=fs_hz, output="sos") if self.kind == "bessel"
+            else signal.butter(self.order, self.corner_hz, fs=fs_hz, output="sos"))
+        return sos
 
 
 
@@ -263,14 +278,14 @@ class HighPass(FilterStage):
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         z, p, k = signal.butter(self.order, 2 * np.pi * self.corner_hz, btype="highpass", analog=True, output="zpk")
-        _, h = signal.freqs_zpk(z, p, k, worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
-        return h.reshape(np.shape(f_hz))
+        return _analog_response(z, p, k, f_hz)
 
     def design(self, fs_hz: float) -> FloatArray:
         below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
         # the steady state of a high-pass for a constant input is zero output, which is what
         # the shared start (sosfilt_zi·x0) gives too
-        return signal.butter(self.order, self.corner_hz, btype="highpass", fs=fs_hz, output="sos")
+        sos: FloatArray = signal.butter(self.order, self.corner_hz, btype="highpass", fs=fs_hz, output="sos")
+        return sos
 
 
 
@@ -328,7 +343,7 @@ class Polynomial(StageBase):
                 "a polynomial after the rails: its input is clipped, not Gaussian — simulate",))
         return Shift({"nonlinearity_g": share})
 
-    def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
+    def process(self, x: FloatArray, state: None, fs_hz: float) -> tuple[FloatArray, None]:
         k2, k3, k4 = self.k2_per_g, self.k3_per_g2, self.k4_per_g3
         # Horner's rule on a buffer this stage owns (x itself is never written): with the
         # higher coefficients zero, as in most presets, the terms that would add 0 are skipped.
@@ -363,7 +378,7 @@ class Offset(StageBase):
         """What it adds to the static level every later stage sees [g] (no VRE of its own)."""
         return float(self.offset_g)
 
-    def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
+    def process(self, x: FloatArray, state: None, fs_hz: float) -> tuple[FloatArray, None]:
         return x + self.offset_g, state
 
 
@@ -475,7 +490,9 @@ class Clip(StageBase):
             notes.append("a second set of rails: evaluated as if alone — simulate")
         low, high = self.rails_g
         up = site.last(Polynomial)
-        k: tuple[float, float, float] = up.stage.coefficients if up is not None else (0.0, 0.0, 0.0)
+        # (isinstance only narrows the type: last(Polynomial) finds a Polynomial or None)
+        k: tuple[float, float, float] = (up.stage.coefficients if up is not None and isinstance(up.stage, Polynomial)
+                                         else (0.0, 0.0, 0.0))
         c0 = site.vibration_off_g
         if not low < c0 < high:
             valid = False
@@ -549,7 +566,7 @@ class Quantize(StageBase):
     def __post_init__(self) -> None:
         positive(self, "lsb_g")
 
-    def process(self, x: FloatArray, state: Any, fs_hz: float) -> tuple[FloatArray, Any]:
+    def process(self, x: FloatArray, state: None, fs_hz: float) -> tuple[FloatArray, None]:
         return np.round(x / self.lsb_g) * self.lsb_g, state
 
 

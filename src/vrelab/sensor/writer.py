@@ -22,13 +22,16 @@ from vrelab.sensor.parameters import identifiable
 if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
+# a value as a sensor file holds it: a number, a rails pair [low, high], an order, a choice or a flag
+FileValue = float | int | str | bool | list[float]
 
-def file_values(values: Mapping[str, float | None]) -> dict[str, Any]:
+
+def file_values(values: Mapping[str, float | None]) -> dict[str, float | list[float]]:
     """Parameter values (by parameter name, in its units: ``k2_ug_per_g2``, ``rail_low_g``, ...)
     as sensor-file keys and values: a rails pair's elements joined into ``[low, high]``; ``None``
     (an absent element) left out. A rails element without its partner raises ``ValueError``."""
     params = identifiable()
-    out: dict[str, Any] = {}
+    out: dict[str, float | list[float]] = {}
     pairs: dict[str, list[float | None]] = {}
     for name, v in values.items():
         if name not in params:
@@ -45,11 +48,12 @@ def file_values(values: Mapping[str, float | None]) -> dict[str, Any]:
     return out
 
 
-def _file_value(f: fields.Field, v: Any) -> Any:
+def _file_value(f: fields.Field, v: Any) -> FileValue:
     if f.kind == "rails":
         return [float(v[0]) * f.scale, float(v[1]) * f.scale]
     if f.kind in ("choice", "bool"):
-        return v
+        as_is: str | bool = v  # the Sensor checked it (fields.Field.check): one of the choices, or a flag
+        return as_is
     if f.kind == "order":
         return int(v)
     return float(v) * f.scale

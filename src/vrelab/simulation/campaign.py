@@ -15,10 +15,18 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from vrelab.campaign import Mount
+    from vrelab.sensor.loader import Sensor
+    from vrelab.simulation.plan import TestPlan
+
+# one block of a run's channels: "reference" [mV] and one per part [LSB]
+Blocks = Iterator[dict[str, NDArray[np.float64]]]
 
 REFERENCE_MV_PER_G = 10.0  # an IEPE reference accelerometer
 DUT_LSB_PER_G = 256000.0  # ADXL355 on ±2 g
@@ -40,7 +48,7 @@ class Part:
     kio_ug_per_g2: float = 0.0
     koo_ug_per_g2: float = 0.0
 
-    def sensor(self, sensor_file: str | Path) -> Any:
+    def sensor(self, sensor_file: str | Path) -> Sensor:
         """The part: the campaign's sensor file with this part's coefficients."""
         from vrelab.sensor import load_sensor
         from vrelab.sensor.parameters import with_parameters
@@ -66,7 +74,7 @@ class ExampleRun:
     static_vector_g: tuple[float, float, float] | None = None
 
     @property
-    def mount(self) -> Any:
+    def mount(self) -> Mount | None:
         """The run's :class:`vrelab.campaign.Mount`, or None for a run along the vibration."""
         from vrelab.campaign import Mount
 
@@ -231,9 +239,12 @@ class _MountedRun:
         return self.run.stats
 
 
-def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: float | None = None) -> Any:
+def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: float | None = None) -> TestPlan:
     """The run's TestPlan: sine at its frequency, or random flat over RANDOM_BAND_HZ; a run
-    mounted at an angle through the part's triaxial chain (:class:`MountedSensor`)."""
+    mounted at an angle through the part's triaxial chain (:class:`MountedSensor`).
+
+    ``sensor``: a Sensor or a triaxial one (both stand in as the plan's sensor by its attributes
+    and ``chain``; typed Any until the triaxial sensor and TestPlan share a Protocol)."""
     from vrelab.profiles import RandomProfile
     from vrelab.simulation.plan import TestPlan
 
@@ -249,12 +260,12 @@ def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: flo
 
 
 def simulate_run(truth: CampaignTruth, run: ExampleRun, seed: int, seconds: float,
-                 sensor_file: Path) -> tuple[float, int, Iterator[dict[str, NDArray[np.float64]]]]:
+                 sensor_file: Path) -> tuple[float, int, Blocks]:
     """(fs, n, blocks) of one run: ``reference`` [mV] and one channel per part [LSB]."""
     records = [_plan(p.sensor(sensor_file), run, seed, seconds).record() for p in truth.parts]
     first = records[0]
 
-    def blocks() -> Iterator[dict[str, NDArray[np.float64]]]:
+    def blocks() -> Blocks:
         streams = [r.blocks(BLOCK, ["reference", "dut"]) for r in records]
         for parts in zip(*streams):
             out = {"reference": parts[0]["reference"] * REFERENCE_MV_PER_G}
@@ -370,7 +381,7 @@ def _manifest_text(truth: CampaignTruth, entries: Sequence[tuple[Path, Mapping[s
 # (with "reference"); each uses its format's own library writer.
 
 
-def _write_tdms(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_tdms(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
     props = {"wf_increment": 1.0 / fs, "wf_start_offset": 0.0}
@@ -384,7 +395,7 @@ def _write_tdms(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]],
     return {"reference": "shaker/ref", **{p: f"shaker/{p}_z" for p in parts}}
 
 
-def _write_csv(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_csv(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["time_s", "ref_mV", *parts])
@@ -400,7 +411,7 @@ def _write_csv(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": "ref_mV", **{p: p for p in parts}}
 
 
-def _write_h5(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_h5(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     import h5py
 
     with h5py.File(path, "w") as f:
@@ -415,7 +426,7 @@ def _write_h5(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], p
     return {"reference": "reference", **{p: p for p in parts}}
 
 
-def _write_uff(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str],
+def _write_uff(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str],
                binary: int = 0) -> dict[str, str]:
     """UFF58 ASCII time records, as a vibration controller exports them: one record per channel,
     the reference at node 1 (+Z), the parts at nodes 101, 201, ... (+Z). pyuff writes whole
@@ -450,7 +461,7 @@ def _write_uff(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": f"{nodes['reference']}:+Z", **{p: f"{nodes[p]}:+Z" for p in parts}}
 
 
-def _collect(blocks: Iterator[dict[str, Any]], names: Sequence[str]) -> dict[str, NDArray[np.float64]]:
+def _collect(blocks: Blocks, names: Sequence[str]) -> dict[str, NDArray[np.float64]]:
     chunks: dict[str, list[NDArray[np.float64]]] = {c: [] for c in names}
     for b in blocks:
         for c in names:
@@ -458,7 +469,7 @@ def _collect(blocks: Iterator[dict[str, Any]], names: Sequence[str]) -> dict[str
     return {c: np.concatenate(v) for c, v in chunks.items()}
 
 
-def _write_mdf(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_mdf(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     """ASAM MDF 4.10 through asammdf (a data logger's file): the DUTs as int32 counts with a
     linear conversion to LSB (identity here: the manifest scales LSB to g), the reference in mV.
     asammdf appends whole signals: the run is held in memory here."""
@@ -474,7 +485,7 @@ def _write_mdf(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": "ref", **{p: f"{p}_z" for p in parts}}
 
 
-def _write_lvm(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_lvm(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     """LabVIEW measurement file (LVM), NI's layout: file header, segment header, X_Value column."""
     names = ["reference", *parts]
     cols = ["ref", *[f"{p}_z" for p in parts]]
@@ -498,7 +509,7 @@ def _write_lvm(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": "ref", **{p: f"{p}_z" for p in parts}}
 
 
-def _write_ide(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_ide(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     """enDAQ IDE, encoded with ebmlite (the EBML library idelib reads with) against idelib's
     schema: one channel (ID 8) of float32 sub-channels in blocks stamped in 1/32768 s ticks.
     float32 holds LSB counts of a 20-bit part exactly, and the reference in mV to 7 digits."""
@@ -526,7 +537,7 @@ def _write_ide(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], 
     return {"reference": "8.0", **{p: f"8.{k}" for k, p in enumerate(parts, 1)}}
 
 
-def _write_uffb(path: Path, fs: float, n: int, blocks: Iterator[dict[str, Any]], parts: Sequence[str]) -> dict[str, str]:
+def _write_uffb(path: Path, fs: float, n: int, blocks: Blocks, parts: Sequence[str]) -> dict[str, str]:
     """UFF58b: binary records (single precision, as the ASCII ones)."""
     return _write_uff(path, fs, n, blocks, parts, binary=1)
 

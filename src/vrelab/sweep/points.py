@@ -31,11 +31,16 @@ from __future__ import annotations
 import functools
 import math
 import os
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
+
+if TYPE_CHECKING:
+    from vrelab.profiles import Profile
+    from vrelab.sensor.base import Stage
+    from vrelab.sensor.loader import Sensor
 
 
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
@@ -84,7 +89,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
     k3 = float(ug_per_g2_to_per_g(float(params.get("k3_ug_per_g3", 0.0))))  # µg/g³ -> 1/g²: same factor
     offset = float(params.get("offset_g", 0.0))
     # the ideal sensor's chain, as vrelab.sensor.Sensor.stages builds it
-    stages: list[Any] = [Polynomial(k2, k3)] if k2 or k3 else []
+    stages: list[Stage] = [Polynomial(k2, k3)] if k2 or k3 else []
     stages += [Offset(offset)] if offset else []
     stages += [Clip(-range_g, range_g)] if clip_kind != "none" else []
     level, off = memoryless_level(stages, static, rms_mass, shape,
@@ -100,7 +105,7 @@ def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict
 
 
 def _base_sensor(name: str, range_g: float | None, axis: str | None, odr_hz: float | None,
-                 overrides: tuple[tuple[str, Any], ...]) -> Any:
+                 overrides: tuple[tuple[str, Any], ...]) -> Sensor:
     # A sensor file's state is part of the cache key: an edited file is read again.
     try:
         st = os.stat(name)
@@ -112,13 +117,13 @@ def _base_sensor(name: str, range_g: float | None, axis: str | None, odr_hz: flo
 
 @functools.lru_cache(maxsize=64)
 def _load_sensor_cached(name: str, version: tuple[int, int] | None, range_g: float | None, axis: str | None,
-                        odr_hz: float | None, overrides: tuple[tuple[str, Any], ...]) -> Any:
+                        odr_hz: float | None, overrides: tuple[tuple[str, Any], ...]) -> Sensor:
     from vrelab.sensor import load_sensor
 
     return load_sensor(name, range_g=range_g, axis=axis, odr_hz=odr_hz, overrides=dict(overrides))
 
 
-def sensor_for(params: Mapping[str, Any]) -> Any:
+def sensor_for(params: Mapping[str, Any]) -> Sensor:
     """The :class:`vrelab.sensor.Sensor` of a point: a preset (or file) as configured, with the
     point's sensor parameters (the field table's sweepable rows, by file key: ``k2_ug_per_g2``,
     ``fn_hz``, ``q``, ``offset_g``, ``kip_ug_per_g2``, ...; a Monte Carlo unit's draws) set as the
@@ -132,25 +137,26 @@ def sensor_for(params: Mapping[str, Any]) -> Any:
 
 
 @functools.lru_cache(maxsize=64)
-def _profile(text: str) -> Any:
+def _profile(text: str) -> Profile:
     from vrelab.profiles import parse_profile
 
     return parse_profile(text)
 
 
-def _excitation(params: Mapping[str, Any]) -> tuple[str, Any]:
+def _excitation(params: Mapping[str, Any]) -> float | Profile:
+    """A sine's frequency [Hz] (a float) or a random profile."""
     if ("profile" in params) == ("freq_hz" in params):
         raise ValueError("give exactly one of profile (random) and freq_hz (sine)")
     if "freq_hz" in params:
-        return "sine", float(params["freq_hz"])
-    return "random", _profile(params["profile"])
+        return float(params["freq_hz"])
+    return _profile(params["profile"])
 
 
 def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """:func:`vrelab.predict.predict` at one level; ``seed`` is unused (no randomness)."""
     from vrelab.predict import predict
 
-    _, excitation = _excitation(params)
+    excitation = _excitation(params)
     pred = predict(sensor_for(params), excitation, [float(params["rms_g"])], static_g=float(params.get("static_g", 1.0)))
     lv = pred.levels[0]
     sh = lv.shares
@@ -171,7 +177,7 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     """One level of the simulated shaker test, its randomness drawn from the point's ``seed``."""
     from vrelab.shaker import run_random_test, run_sine_test
 
-    mode, excitation = _excitation(params)
+    excitation = _excitation(params)
     sensor = sensor_for(params)
     rms = float(params["rms_g"])
     static = float(params.get("static_g", 1.0))
@@ -179,7 +185,7 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     timing: dict[str, Any] = {k: float(params[k]) for k in ("seconds", "baseline_s", "settle_s") if k in params}
     # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
     seed_int = int(seed.generate_state(1, dtype=np.uint64)[0])
-    if mode == "sine":
+    if isinstance(excitation, float):
         res = run_sine_test(sensor, [excitation], [rms], static, seed=seed_int, **timing)
     else:
         res = run_random_test(sensor, excitation, [rms], static, seed=seed_int, **timing)

@@ -71,13 +71,17 @@ class Param:
     type: type  # float or str
     check: Literal["any", "positive", "non-negative"] | tuple[str, ...] = "any"
 
-    def coerce(self, field_name: str, value: Any) -> Any:
+    def coerce(self, field_name: str, value: object) -> float | str:
         if self.type is str:
             if not isinstance(value, str):
                 raise ValueError(f"{field_name} must be a string, got {value!r}")
             if isinstance(self.check, tuple) and value not in self.check:
                 raise ValueError(f"{field_name} must be one of {', '.join(self.check)}; got {value!r}")
             return value
+        return self.number(field_name, value)
+
+    def number(self, field_name: str, value: object) -> float:
+        """A numeric parameter's value as a float, checked (``ValueError`` naming ``field_name``)."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ValueError(f"{field_name} must be a number, got {value!r}")
         x = float(value)
@@ -335,7 +339,7 @@ def _distribution(kind: str, name: str, raw: Any) -> Distribution:
     for a in names:
         if a not in raw:
             raise ValueError(f"{field_name}.{a} is missing")
-        args.append(Param(float).coerce(f"{field_name}.{a}", raw[a]))
+        args.append(Param(float).number(f"{field_name}.{a}", raw[a]))
     if dist in ("normal", "lognormal") and args[1] < 0:
         raise ValueError(f"{field_name}.{names[1]} must be >= 0, got {args[1]!r}")
     if dist == "uniform" and not args[0] < args[1]:
@@ -399,7 +403,7 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
     seconds = doc.get("seconds")
     if kind == "simulate":
         if seconds is not None:  # else the shaker's default
-            seconds = Param(float, "positive").coerce("seconds", seconds)
+            seconds = Param(float, "positive").number("seconds", seconds)
     elif seconds is not None:
         raise ValueError(f"seconds is only for kind 'simulate', got {seconds!r} with kind {kind!r}")
 
