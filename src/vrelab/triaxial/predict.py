@@ -251,7 +251,7 @@ def _scalar_integral(psd: Callable[[NDArray[np.float64]], NDArray[np.float64]], 
         h2 = 1.0
         for r in responses:
             h2 *= float(abs(np.asarray(r(f))[0])) ** 2
-        return float(psd(f)[0]) * f[0] * h2
+        return float(psd(f)[0]) * float(f[0]) * h2
 
     total = 0.0
     for a, b in zip(*(lambda c: (c[:-1], c[1:]))(_cuts(*band, corners, responses))):
