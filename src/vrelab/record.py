@@ -224,20 +224,24 @@ def write_record_hdf5(
 
 
 class ChannelView:
-    """One DUT of a several-DUT record, seen as a record with channels ``dut`` and ``reference``.
+    """One DUT of a several-DUT record, seen as a record with channels ``dut`` and ``reference``
+    (by default the record's ``reference``; ``reference=`` names another channel).
 
     A lab file with several DUT channels opens as one record whose DUTs are ``dut:<name>``
     (:func:`vrelab.analysis.readers.open_record`); the reduction reads one of them through this
     view, so it never needs to know that the file holds others.
     """
 
-    def __init__(self, record: Record, dut: str) -> None:
-        if dut not in record.channels:
-            raise ValueError(f"record has no channel {dut!r}; channels: {', '.join(record.channels)}")
+    def __init__(self, record: Record, dut: str, reference: str | None = None) -> None:
+        for name in (dut, reference):
+            if name is not None and name not in record.channels:
+                raise ValueError(f"record has no channel {name!r}; channels: {', '.join(record.channels)}")
         self.base = record
         self.dut = dut
         self.names = {"dut": dut}
-        if "reference" in record.channels:
+        if reference is not None:  # another channel than "reference" (a triaxial reference's axis)
+            self.names["reference"] = reference
+        elif "reference" in record.channels:
             self.names["reference"] = "reference"
         self.fs_hz = record.fs_hz
         self.n_samples = record.n_samples

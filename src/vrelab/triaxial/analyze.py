@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.analysis.plausibility import MethodRequest
-from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, Schedule, Segment
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, ChannelView, Schedule, Segment
 from vrelab.results import LevelResult, Notice, VreResult, channels_to_dict
 from vrelab.triaxial.profile import AXES
 from vrelab.triaxial.recording import CsdAccumulator, MeasuredCsd, band_csd, default_nperseg, record_blocks
@@ -67,37 +67,6 @@ __all__ = ["TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial"]
 STILL_FRACTION = 0.1
 # Points per octave of the reported cross-spectrum of each level.
 POINTS_PER_OCTAVE = 3.0
-
-
-class _PairView:
-    """One DUT channel and one reference channel of a record, seen as ``dut`` and ``reference``."""
-
-    def __init__(self, record: Any, dut: str, reference: str) -> None:
-        self.base = record
-        self.names = {"dut": dut, "reference": reference}
-        self.fs_hz = record.fs_hz
-        self.n_samples = record.n_samples
-        self.schedule = record.schedule
-        meta = dict(record.meta or {})
-        files = dict(meta.get("channels") or {})
-        meta["channels"] = {k: files.get(v, v) for k, v in self.names.items()}
-        self.meta = meta
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return ("dut", "reference")
-
-    @property
-    def random_access(self) -> bool:
-        return bool(getattr(self.base, "random_access", True))
-
-    def blocks(self, block_size: int, channels: Sequence[str], start: int = 0, stop: int | None = None) -> Any:
-        for c in channels:
-            if c not in self.names:
-                raise ValueError(f"record has no channel {c!r}; channels: dut, reference")
-        raw = [self.names[c] for c in channels]
-        for blk in self.base.blocks(block_size, list(dict.fromkeys(raw)), start, stop):
-            yield {c: blk[r] for c, r in zip(channels, raw)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -289,11 +258,11 @@ def analyze_triaxial(
     dom = int(np.argmax(rms))
     first = next(iter(duts.values()))
     if schedule is None and getattr(record, "schedule", None) is None:
-        stats0 = window_pass(_PairView(record, first, refs[dom]), band, WINDOW_S, int(block_size), rail_g, progress)
+        stats0 = window_pass(ChannelView(record, first, refs[dom]), band, WINDOW_S, int(block_size), rail_g, progress)
         schedule, _ = auto_segment(stats0)
 
     def reduce_pair(dut: str, r: int, acc: Sequence[str]) -> tuple[VreResult, Any]:
-        return analyze_full(_PairView(record, dut, refs[r]), method, schedule, band_hz=band, settle_s=settle_s,
+        return analyze_full(ChannelView(record, dut, refs[r]), method, schedule, band_hz=band, settle_s=settle_s,
                             block_size=block_size, rail_g=rail_g, accept=acc, progress=progress,
                             provenance=provenance)
 
