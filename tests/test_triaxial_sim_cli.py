@@ -162,3 +162,14 @@ def test_simulate_takes_the_mount_angle_as_predict_does(capsys):
     rc, _, err = _run(capsys, "simulate", "--sensor", "ideal", "--profile", "flat:20-500@z45x", "--levels", "1",
                       "--mount-deg", "45")
     assert rc == 2 and "apply to a single-axis --profile" in err
+
+
+def test_the_text_output_shows_the_profile_shape_not_its_unscaled_rms(capsys):
+    """The profile is scaled to each level: the vibration line gives each axis's share of the
+    total and the band, not the rms of the profile as written (21.9 g for flat:20-500 at its
+    default density, which no run of 0.5 and 1 g rms ever saw)."""
+    rc, out, err = _run(capsys, *COMMON[:-1], "--axis", "z", "--direction", "1,0,1")
+    assert rc == 0, err
+    line = next(ln for ln in out.splitlines() if ln.startswith("vibration:"))
+    assert "rms x 0.707, y 0, z 0.707 of the total, 20-500 Hz" in line
+    assert "g rms total" not in line

@@ -66,7 +66,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
     """``vrelab simulate`` of a triaxial vibration: one result per DUT axis."""
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
-    from vrelab.triaxial.profile import TriaxialSine
+    from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
     from vrelab.triaxial.simulate import simulate_triaxial
 
     for opt, bad in (("--drive", args.drive != "gaussian"), ("--clip-sigma", args.clip_sigma is not None),
@@ -131,7 +131,9 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
     odr = f"ODR {c.odr_hz:g} Hz" if c.odr_hz else "no ODR"
     print(f"simulated triaxial {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  {odr}  "
           f"static vector ({', '.join(f'{x:g}' for x in result.static_g)}) g")
-    print(f"vibration: {result.excitation.describe()}; level = {result.conditions['level']}")
+    exc = result.excitation  # a random profile is scaled to each level: its shape, not its own rms
+    shape = exc.describe_shape() if isinstance(exc, TriaxialProfile) else exc.describe()
+    print(f"vibration: {shape}; level = {result.conditions['level']}")
     for a, res in result.axes.items():
         print(f"axis {a}:")
         print_levels(res)

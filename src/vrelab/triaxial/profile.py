@@ -334,17 +334,27 @@ class TriaxialProfile:
         :attr:`coherency` only keep the matrix valid)."""
         return not (self.still[j] or self.still[k])
 
-    def describe(self) -> str:
-        rms = np.sqrt(self.axis_mean_square_g2)
+    def _coherence_text(self) -> str:
         pairs = []
         for j, k in ((0, 1), (0, 2), (1, 2)):
             if self._defined(j, k):
                 g2 = np.abs(self.coherency[:, j, k]) ** 2
                 lo, hi = float(g2.min()), float(g2.max())
                 pairs.append(f"{AXES[j]}{AXES[k]} {lo:.3g}" + (f"-{hi:.3g}" if hi - lo > 1e-9 else ""))
-        coh = f"; coherence {', '.join(pairs)}" if pairs else ""
+        return f"; coherence {', '.join(pairs)}" if pairs else ""
+
+    def describe(self) -> str:
+        rms = np.sqrt(self.axis_mean_square_g2)
         return (f"{self.name or 'triaxial random'}: {self.grms:.3g} g rms total "
-                f"(x {rms[0]:.3g}, y {rms[1]:.3g}, z {rms[2]:.3g}), {self.band[0]:g}-{self.band[1]:g} Hz{coh}")
+                f"(x {rms[0]:.3g}, y {rms[1]:.3g}, z {rms[2]:.3g}), {self.band[0]:g}-{self.band[1]:g} Hz"
+                f"{self._coherence_text()}")
+
+    def describe_shape(self) -> str:
+        """The profile without its level (a run scales it to each level): each axis's share of
+        the total rms, the band and the coherences."""
+        frac = np.sqrt(self.axis_mean_square_g2 / self.mean_square_g2)
+        return (f"{self.name or 'triaxial random'}: rms x {frac[0]:.3g}, y {frac[1]:.3g}, z {frac[2]:.3g} of the "
+                f"total, {self.band[0]:g}-{self.band[1]:g} Hz{self._coherence_text()}")
 
     def to_dict(self) -> dict[str, Any]:
         """The profile as JSON: ``coherence`` (γ²) and ``phase_deg`` per breakpoint as 3×3
