@@ -272,12 +272,7 @@ def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str
         raise ValueError(f"{where}: key 'static_g' missing: give the whole static field [i, p, o] of "
                          f"{', '.join(dut)} (a vector for all, or a table per channel)")
     if isinstance(raw, dict):
-        for c in raw:
-            if c not in dut:
-                raise ValueError(f"{where}: static_g: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
-        missing = [c for c in dut if c not in raw]
-        if missing:
-            raise ValueError(f"{where}: static_g: no value for channel {missing[0]!r}")
+        _covers_the_channels(where, "static_g", raw, dut)
     out: dict[str, Mount] = {}
     for c in dut:
         deg, plane = degs[c], planes[c]
@@ -316,16 +311,21 @@ def _plane(where: str, key: str, value: Any) -> str:
     return value.strip().lower()
 
 
+def _covers_the_channels(where: str, key: str, table: Mapping[str, Any], dut: Mapping[str, str]) -> None:
+    """A per-channel table names the run's DUT channels, each of them and no other."""
+    for c in table:
+        if c not in dut:
+            raise ValueError(f"{where}: {key}: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
+    missing = [c for c in dut if c not in table]
+    if missing:
+        raise ValueError(f"{where}: {key}: no value for channel {missing[0]!r}")
+
+
 def _per_channel_value(where: str, key: str, value: Any, dut: Mapping[str, str],
                        parse: Callable[[str, str, Any], str]) -> dict[str, str]:
     """A value for all the run's DUT channels, or a table name -> value covering each."""
     if isinstance(value, dict):
-        for c in value:
-            if c not in dut:
-                raise ValueError(f"{where}: {key}: {c!r} is not a DUT channel of the run ({', '.join(dut)})")
-        missing = [c for c in dut if c not in value]
-        if missing:
-            raise ValueError(f"{where}: {key}: no value for channel {missing[0]!r}")
+        _covers_the_channels(where, key, value, dut)
         return {c: parse(where, f"{key}.{c}", value[c]) for c in dut}
     x = parse(where, key, value)
     return {c: x for c in dut}
