@@ -76,8 +76,12 @@ class WindowStats:
     @property
     def times_s(self) -> NDArray[np.float64]:
         """Centre time of each window."""
-        start = np.arange(self.n_windows) * self.window
-        return (start + self.count / 2.0) / self.fs_hz
+        return self.window_times_s(0, self.n_windows)
+
+    def window_times_s(self, k0: int, k1: int) -> NDArray[np.float64]:
+        """Centre times of windows ``k0 ... k1-1`` (``times_s[k0:k1]`` without the others)."""
+        start = np.arange(k0, k1) * self.window
+        return (start + self.count[k0:k1] / 2.0) / self.fs_hz
 
     def dut_mean(self) -> NDArray[np.float64]:
         return self.dut_sum / np.maximum(self.count, 1)
