@@ -101,3 +101,15 @@ def test_block_and_chunk_sizes_change_no_number(monkeypatch):
     b = window_pass_many(rec, BAND, ["dut"], block_size=1_000)["dut"]
     for name in ("count", "dut_sum", "dut_smooth", "dut_max", "dut_min", "ref_ac_sumsq", "ref_band_sumsq", "ref_sum"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_window_times_are_window_centres_and_a_range_is_the_slice_of_all():
+    """Window k of w samples (the last partial, 45 of 100) is centred at (k·w + L/2)/fs; the times
+    of a range of windows are those of the whole record's, bit for bit (levels use the range)."""
+    stats = window_pass_many(_record(12_345), BAND, ["dut"])["dut"]
+    w = stats.window
+    lengths = np.minimum(w, 12_345 - np.arange(124) * w)
+    np.testing.assert_allclose(stats.times_s, (np.arange(124) * w + lengths / 2) / FS, rtol=1e-15)
+    assert stats.times_s[-1] == pytest.approx((123 * 100 + 22.5) / FS)
+    for k0, k1 in ((0, 124), (5, 17), (100, 124), (30, 30)):
+        assert stats.window_times_s(k0, k1).tobytes() == stats.times_s[k0:k1].tobytes()

@@ -334,13 +334,14 @@ def fit_rail(
     # the departing levels from pulling the fit toward themselves and masking their departure.
     departure: int | None = None
     for i in range(n_par + 1, len(sel)):
-        *_, z = fit_below(i)
-        tail = z[i:]
+        found = fit_below(i)
+        tail = found[3][i:]
         if (tail > DEPARTURE_SIGMA).all() and (len(tail) > 1 or tail[0] > DEPARTURE_SIGMA_LONE):
             departure = i
             break
     n_fit = len(sel) if departure is None else departure
-    p, covs, chi2, _ = fit_below(n_fit)
+    # the fit below the departure is the scan's last one (the same levels, the same numbers)
+    p, covs, chi2, _ = found if departure is not None else fit_below(n_fit)
     chi2_red = chi2 / (n_fit - n_par) if n_fit > n_par else None
     if chi2_red is None:
         notes.append("as many parameters as points: chi2 undefined")

@@ -361,7 +361,7 @@ def find_baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], 
             warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
         est = dut_mean_estimate(stats, k0, k1)
-        t_c = float(np.mean(stats.times_s[k0:k1]))
+        t_c = float(np.mean(stats.window_times_s(k0, k1)))
         h = SMOOTH_WINDOWS // 2
         y = stats.dut_smooth[k0 + h : k1 - h]
         thirds, white = None, 0.0
@@ -406,7 +406,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
         pm = batch_mean(power, detrend=False)
         rms = math.sqrt(max(pm.mean, 0.0))
         u_rms = random_level_u_ms(pm, stats, k0, k1) / (2 * rms) if rms > 0 else math.nan
-        t_c = float(np.mean(stats.times_s[k0:k1]))
+        t_c = float(np.mean(stats.window_times_s(k0, k1)))
         n_used = int(stats.count[k0:k1].sum())
     else:
         i0, i1 = segment_samples(seg, fs, stats.n_samples)

@@ -76,8 +76,12 @@ class WindowStats:
     @property
     def times_s(self) -> NDArray[np.float64]:
         """Centre time of each window."""
-        start = np.arange(self.n_windows) * self.window
-        return (start + self.count / 2.0) / self.fs_hz
+        return self.window_times_s(0, self.n_windows)
+
+    def window_times_s(self, k0: int, k1: int) -> NDArray[np.float64]:
+        """Centre times of windows ``k0 ... k1-1`` (``times_s[k0:k1]`` without the others)."""
+        start = np.arange(k0, k1) * self.window
+        return (start + self.count[k0:k1] / 2.0) / self.fs_hz
 
     def dut_mean(self) -> NDArray[np.float64]:
         return self.dut_sum / np.maximum(self.count, 1)
@@ -290,13 +294,13 @@ class _DutWindows:
                 self.nrail[kk + cand] = ((dv[cand] >= thr) | (dv[cand] <= -thr)).sum(axis=1)
         # each kernel column's weighted sum per window: einsum's own loop, not BLAS (whose threads,
         # woken for every small product, made this pass 5 to 30 times slower on a busy machine)
-        for q in range(SMOOTH_WINDOWS):
-            col = self.parts[kk : kk + m, q]
-            if L == self.w:
-                np.einsum("ij,j->i", dv, kern[q], out=col)
-            else:  # the record's last, partial window
-                np.einsum("ij,j->i", dv, kern[q, :L], out=col)
-                col *= self.w / L
+        # (all the columns in one call: each is still its own dot product over the window)
+        rows = self.parts[kk : kk + m]
+        if L == self.w:
+            np.einsum("ij,qj->iq", dv, kern, out=rows)
+        else:  # the record's last, partial window
+            np.einsum("ij,qj->iq", dv, kern[:, :L], out=rows)
+            rows *= self.w / L
 
     def smooth(self, kern: NDArray[np.float64]) -> NDArray[np.float64]:
         """value at window j = Σ_q parts[j - h + q, q] / Σ(kernel weights present)"""
