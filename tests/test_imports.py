@@ -63,7 +63,8 @@ def _graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
     private: list[tuple[str, str, str]] = []
     for m, (path, is_pkg) in mods.items():
         pkg = m if is_pkg else m.rsplit(".", 1)[0]
-        for node in _imports(ast.parse(path.read_text(encoding="utf-8"))):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in _imports(tree):
             if isinstance(node, ast.Import):
                 for a in node.names:
                     if a.name.split(".")[0] == PACKAGE and a.name != m:
@@ -83,15 +84,14 @@ def _graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
                     edges[m].add(dest)
                 if full not in mods and a.name.startswith("_") and not a.name.startswith("__"):
                     private.append((m, target, a.name))
-        private += _private_attributes(m, path, mods)
+        private += _private_attributes(m, tree, mods)
     return edges, private
 
 
-def _private_attributes(m: str, path: Path, mods: dict[str, tuple[Path, bool]]) -> list[tuple[str, str, str]]:
+def _private_attributes(m: str, tree: ast.AST, mods: dict[str, tuple[Path, bool]]) -> list[tuple[str, str, str]]:
     """``module._name`` in ``m`` where ``module`` is a vrelab module it imported whole
     (``from vrelab import shaker`` then ``shaker._conditions``): a private name read across
     modules as surely as by ``from ... import _conditions``."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
     bound: dict[str, str] = {}
     for node in _imports(tree):
         if isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").split(".")[0] == PACKAGE:
