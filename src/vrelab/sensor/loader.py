@@ -163,7 +163,7 @@ class Sensor:
         if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
             raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
         object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
-        own = self.input_axis or (self.axis if self.axis in ("x", "y", "z") else None)
+        own = self.sensed_axis
         if own is not None:
             if getattr(self, f"cross_axis_{own}") != 0:
                 raise ValueError(f"sensor {self.name}: cross_axis_{own} must be 0 on the {own} axis "
@@ -196,13 +196,19 @@ class Sensor:
         the third. Raises for an axis that is none of x, y, z and says no ``input_axis``.
         """
         names = ("x", "y", "z")
-        own = self.input_axis or self.axis
-        if own not in names:
+        own = self.sensed_axis
+        if own is None:
             raise ValueError(f"sensor {self.name}: axis {self.axis!r} is not x, y or z and the file gives no "
                              "input_axis: no IEEE 1293 triad (set input_axis = \"x\", \"y\" or \"z\" in its axis table)")
         i = names.index(own)
         p = names.index(self.pendulous_axis) if self.pendulous_axis is not None else (i + 1) % 3
         return i, p, 3 - i - p
+
+    @property
+    def sensed_axis(self) -> str | None:
+        """The part's axis (x, y or z) this one senses: ``input_axis``, else the axis's own name
+        when it is x, y or z; None for an axis named otherwise (a campaign channel) that says none."""
+        return self.input_axis or (self.axis if self.axis in ("x", "y", "z") else None)
 
     @property
     def sensitivity_row(self) -> NDArray[np.float64]:
