@@ -133,7 +133,8 @@ class MdfSource(Source):
                 self.mdf = MDF(str(path))
             except Exception as exc:
                 failure = f"{path.name}: cannot read as MDF: {type(exc).__name__}: {exc}"
-            gc.collect()
+            if failure is not None:  # the half-built object, if a cycle holds it, goes now, under the filter
+                gc.collect()
         if failure is not None:
             raise ValueError(failure)
         self.where: dict[str, tuple[int, int]] = {}
