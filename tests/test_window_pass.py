@@ -67,13 +67,15 @@ def _by_hand(x: np.ndarray, w: int, ref: np.ndarray, rail_g: float) -> dict[str,
     return {key: np.array(v) for key, v in out.items()} | {"smooth": smooth}
 
 
+@pytest.mark.parametrize("cores", [1, 2])
 @pytest.mark.parametrize("block", [1 << 18, 7 * 100 + 3])
-def test_window_sums_match_each_window_computed_alone(block, monkeypatch):
+def test_window_sums_match_each_window_computed_alone(block, cores, monkeypatch):
     n = 12_345  # 123 whole windows of 100 samples and a partial one of 45
     rec = _record(n)
     w = window_length(FS, BAND)
     assert w == 100
     monkeypatch.setattr(segmentation, "CHUNK_SAMPLES", 250)  # chunks of 2 windows inside each block
+    monkeypatch.setattr(segmentation, "_cores", lambda: cores)  # 2: the DUTs' statistics in a second thread
     stats = window_pass_many(rec, BAND, ["dut", "dut:y"], block_size=block, rail_g=2.5)
     for d in ("dut", "dut:y"):
         want = _by_hand(rec.data[d], w, rec.data["reference"], 2.5)
@@ -99,8 +101,34 @@ def test_block_and_chunk_sizes_change_no_number(monkeypatch):
     a = window_pass_many(rec, BAND, ["dut"])["dut"]
     monkeypatch.setattr(segmentation, "CHUNK_SAMPLES", 300)
     b = window_pass_many(rec, BAND, ["dut"], block_size=1_000)["dut"]
+    monkeypatch.setattr(segmentation, "_cores", lambda: 1)  # one thread: the same numbers, bit for bit
+    c = window_pass_many(rec, BAND, ["dut"], block_size=1_000)["dut"]
     for name in ("count", "dut_sum", "dut_smooth", "dut_max", "dut_min", "ref_ac_sumsq", "ref_band_sumsq", "ref_sum"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    # (the counts at the extremes are kept only in windows at the running extreme, which depends
+    # on the blocks; between one and two threads, with the same blocks, nothing may differ)
+    for name in ("count", "dut_sum", "dut_smooth", "dut_max", "dut_min", "ref_ac_sumsq", "ref_band_sumsq", "ref_sum",
+                 "ref_band_var", "n_at_max", "n_at_min", "n_beyond_rail"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(c, name), err_msg=name)
+
+
+def test_an_error_in_the_dut_thread_reaches_the_caller_and_the_thread_ends(monkeypatch):
+    """The DUT statistics run in a second thread: what fails there is raised by the pass, which
+    leaves no thread behind (the reference's work on that block is joined first)."""
+    import threading
+
+    monkeypatch.setattr(segmentation, "_cores", lambda: 2)
+    calls = []
+
+    def boom(self, dv, kk, kern):
+        calls.append(threading.current_thread().name)
+        raise MemoryError("no room for the window sums")
+
+    monkeypatch.setattr(segmentation._DutWindows, "add", boom)
+    with pytest.raises(MemoryError, match="no room"):
+        window_pass_many(_record(20_011, seed=4), BAND, ["dut"], block_size=1_000)
+    assert calls and calls[0].startswith("vrelab-dut")
+    assert not [t for t in threading.enumerate() if t.name.startswith(("vrelab-dut", "vrelab-read"))]
 
 
 def test_window_times_are_window_centres_and_a_range_is_the_slice_of_all():

@@ -19,6 +19,8 @@ where it changes, are left out); a settling time is trimmed at both edges of eve
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Iterator, Sequence
 
@@ -391,43 +393,65 @@ def window_pass_many(
     # a block is worked in cache-sized chunks of whole windows: the FFT, the squares, the sums,
     # the extremes and the kernel then read each chunk from cache rather than from memory
     chunk = max(1, CHUNK_SAMPLES // w) * w
-    for blk in prefetch(exact_blocks(record, block, chans, 0, n)):
-        r = np.asarray(blk[ref_name], dtype=np.float64)
-        xs = {d: np.asarray(blk[d], dtype=np.float64) for d in accs}
-        kk = pos // w
-        for lo in range(0, len(r), chunk):
-            k_chunk = kk
-            for rv in _window_reduce(r[lo : lo + chunk], w):
-                m, L = rv.shape
-                sl = slice(kk, kk + m)
-                count[sl] = L
-                # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square in
-                # place and weigh both halves (no complex temporaries; einsum, not BLAS: see add)
-                spec = sfft.rfft(rv, axis=1).view(np.float64)
-                wts = weights2 if L == w else np.repeat(np.vstack(band_weights(L, fs, (f1, f2))), 2, axis=1)
-                rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
-                np.multiply(spec, spec, out=spec)
-                np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
-                np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
-                p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
-                np.multiply(p, p, out=p)
-                np.einsum("ij,j->i", p, weights4 if L == w else band_variance_weights(L, fs, (f1, f2)), out=rvar[sl])
-                kk += m
+
+    def dut_block(xs: dict[str, NDArray[np.float64]], kk: int) -> None:
+        """Every DUT channel's window statistics of one block (windows ``kk ...``)."""
+        for lo in range(0, len(next(iter(xs.values()))), chunk):
             for d, acc in accs.items():
-                kd = k_chunk
+                kd = kk + lo // w
                 for dv in _window_reduce(xs[d][lo : lo + chunk], w):
                     acc.add(dv, kd, kern_rows)
                     kd += dv.shape[0]
-        # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
-        # a sum): test the small arrays, and scan the samples only to name the first bad one.
-        sl = slice(pos // w, kk)
-        if not (np.isfinite(rac[sl]).all() and np.isfinite(rband[sl]).all()
-                and all(np.isfinite(a.dsum[sl]).all() for a in accs.values())):
-            for c in chans:
-                check_finite(labels.get(c, repr(c)), np.asarray(blk[c]), pos)
-        pos += len(r)
-        if bar is not None:
-            bar.update(len(r))
+
+    # With two cores or more, the DUT statistics of a block run in a second thread while this
+    # one takes the reference's FFTs (pocketfft and numpy's reductions release the GIL): each
+    # thread writes its own arrays and the block is joined before the next, so every number is
+    # the one a single thread computes, in the same order. (A third thread reads ahead.)
+    pool = ThreadPoolExecutor(1, thread_name_prefix="vrelab-dut") if _cores() > 1 else None
+    try:
+        for blk in prefetch(exact_blocks(record, block, chans, 0, n)):
+            r = np.asarray(blk[ref_name], dtype=np.float64)
+            xs = {d: np.asarray(blk[d], dtype=np.float64) for d in accs}
+            kk = pos // w
+            dut_done = pool.submit(dut_block, xs, kk) if pool is not None else None
+            try:
+                for lo in range(0, len(r), chunk):
+                    for rv in _window_reduce(r[lo : lo + chunk], w):
+                        m, L = rv.shape
+                        sl = slice(kk, kk + m)
+                        count[sl] = L
+                        # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square
+                        # in place and weigh both halves (no complex temporaries; einsum, not BLAS: see
+                        # _DutWindows.add)
+                        spec = sfft.rfft(rv, axis=1).view(np.float64)
+                        wts = weights2 if L == w else np.repeat(np.vstack(band_weights(L, fs, (f1, f2))), 2, axis=1)
+                        rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
+                        np.multiply(spec, spec, out=spec)
+                        np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
+                        np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
+                        p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
+                        np.multiply(p, p, out=p)
+                        vw = weights4 if L == w else band_variance_weights(L, fs, (f1, f2))
+                        np.einsum("ij,j->i", p, vw, out=rvar[sl])
+                        kk += m
+            finally:
+                if dut_done is not None:
+                    dut_done.result()  # its error, if any, is raised here; it is joined either way
+            if dut_done is None:
+                dut_block(xs, pos // w)
+            # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
+            # a sum): test the small arrays, and scan the samples only to name the first bad one.
+            sl = slice(pos // w, kk)
+            if not (np.isfinite(rac[sl]).all() and np.isfinite(rband[sl]).all()
+                    and all(np.isfinite(a.dsum[sl]).all() for a in accs.values())):
+                for c in chans:
+                    check_finite(labels.get(c, repr(c)), np.asarray(blk[c]), pos)
+            pos += len(r)
+            if bar is not None:
+                bar.update(len(r))
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True)
     if bar is not None:
         bar.close()
     if pos != n:
@@ -442,6 +466,14 @@ def window_pass_many(
         )
         for d, a in accs.items()
     }  # fmt: skip
+
+
+def _cores() -> int:
+    """CPU cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
