@@ -257,3 +257,37 @@ def test_notices_are_strings_with_a_code_that_survive_json_and_pickle():
     assert d["warnings"] == [str(n), "a plain note"]
     assert d["notices"] == [{"code": "rail-found", "text": str(n)}, {"code": "note", "text": "a plain note"}]
     assert [w.code for w in VreResult.from_dict(d).warnings] == ["rail-found", "note"]
+
+
+@pytest.mark.parametrize("g0,sigma,low,high", [(1.0, 0.5, -2.5, 2.5), (1.0, 2.0, -2.5, 2.5), (-0.3, 1.2, -2.0, 1.0),
+                                               (2.2, 0.7, -2.0, 2.0), (0.0, 3.0, -1.5, 4.0)])
+def test_censored_rail_derivatives_are_the_quadrature_models_slopes(g0, sigma, low, high):
+    """The rail fit's Jacobian (∂VRE/∂L = P(X < L), ∂VRE/∂U = P(X > U), Leibniz's rule on SPEC
+    1.1's integral) against central differences of the independent quadrature model."""
+    from vrelab.models.clipping import censored_rail_derivatives
+
+    d_low, d_high = censored_rail_derivatives(g0, sigma, low, high)
+    h = 1e-4
+    num_low = (censored_vre_quad(g0, sigma, low + h, high) - censored_vre_quad(g0, sigma, low - h, high)) / (2 * h)
+    num_high = (censored_vre_quad(g0, sigma, low, high + h) - censored_vre_quad(g0, sigma, low, high - h)) / (2 * h)
+    np.testing.assert_allclose([d_low, d_high], [num_low, num_high], rtol=2e-5, atol=1e-9)
+    # vibration off: a step where the static field crosses the rail
+    assert censored_rail_derivatives(3.0, 0.0, -1.0, 2.0) == (0.0, 1.0)
+    assert censored_rail_derivatives(-3.0, 0.0, -1.0, 2.0) == (1.0, 0.0)
+
+
+def test_levels_far_inside_the_rails_determine_no_rail_and_make_no_departure():
+    """The departure scan fits the lowest levels alone. At 0.1 g rms and 1 g static the ±2.5 g
+    rails are 15σ and 35σ away: the model's derivatives (1e-51, 1e-268) determine nothing, and
+    (JᵀJ)⁻¹ of them is rounding noise, which once gave a zero model uncertainty and a departure
+    "from 0.2 g rms on" on exact data. Such a fit has an infinite covariance, and no departure."""
+    g0, rail = 1.0, 2.5
+    rms = np.array([0.1, 0.1005, 0.101, 0.2, 0.3, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+    u = np.full(len(rms), 2e-4)
+    y = np.array([censored_vre_quad(g0, s, -rail, rail) for s in rms])
+    for symmetric in (True, False):
+        f = fit_rail(_levels(rms, y, u), g0, "censored", symmetric=symmetric)
+        assert f.departure_rms_g is None, f.notes
+        assert f.n_points == len(rms)
+        for name, est in f.params.items():
+            assert abs(est.value) == pytest.approx(rail, abs=3 * est.u + 1e-6), (name, est)

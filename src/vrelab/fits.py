@@ -200,6 +200,23 @@ def _clip_predict(
     return out + p[-1] * rms**2 if with_vrc else out
 
 
+def _clip_jacobian(
+    p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, kind: ClipKind, symmetric: bool, with_vrc: bool
+) -> NDArray[np.float64] | None:
+    """∂(model)/∂(params) at every level, one column per parameter; None where the model has no
+    closed-form derivative (the truncated model: the fit then differentiates numerically)."""
+    if kind != "censored":
+        return None
+    from vrelab.models.clipping import censored_rail_derivatives
+
+    low, high = (-p[0], p[0]) if symmetric else (p[0], p[1])
+    d_low, d_high = censored_rail_derivatives(static_g, rms, low, high)
+    cols = [d_high - d_low] if symmetric else [d_low, d_high]  # symmetric: L = -r, U = r
+    if with_vrc:
+        cols.append(rms**2)
+    return np.column_stack(np.broadcast_arrays(*cols)).astype(np.float64)
+
+
 def _fit_clip_once(
     rms: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -239,10 +256,21 @@ def _fit_clip_once(
         lb, ub = [-np.inf, static_g], [static_g, np.inf]
     if with_vrc:
         p0, lb, ub = p0 + [float(vrc[i0])], lb + [-np.inf], ub + [np.inf]
-    sol = least_squares(resid, np.array(p0), bounds=(lb, ub), x_scale="jac")
+    def jac(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        J = _clip_jacobian(p, rms, static_g, kind, symmetric, with_vrc)
+        assert J is not None
+        return J * sw[:, None]
+
+    exact = _clip_jacobian(np.array(p0, dtype=np.float64), rms, static_g, kind, symmetric, with_vrc) is not None
+    sol = least_squares(resid, np.array(p0), jac=jac if exact else "2-point", bounds=(lb, ub), x_scale="jac")
     J = np.asarray(sol.jac)  # dense (no jac_sparsity): the array itself; typed as any Jacobian form
+    # The levels determine the parameters only if J's columns are independent to within rounding:
+    # levels far inside the rails give derivatives of 1e-50 or less (the probability beyond a
+    # rail), and (JᵀJ)⁻¹ of such columns is rounding noise of any sign, not a covariance.
+    sv = np.linalg.svd(J, compute_uv=False)
+    determined = bool(np.all(np.isfinite(sv)) and sv[-1] > sv[0] * max(J.shape) * np.finfo(np.float64).eps)
     try:
-        cov = np.linalg.inv(J.T @ J)
+        cov = np.linalg.inv(J.T @ J) if determined else np.full((len(p0), len(p0)), np.inf)
     except np.linalg.LinAlgError:
         cov = np.full((len(p0), len(p0)), np.inf)
     return sol.x, cov, float(np.sum(sol.fun**2))
@@ -317,13 +345,16 @@ def fit_rail(
         scale = chi2 / dof if (dof > 0 and (chi2 / dof > 1 or not absolute)) else 1.0
         covs = cov * scale
         pred = _clip_predict(p, rms, static_g, shift, symmetric, with_vrc)
-        # Model uncertainty at each level by numerical derivative w.r.t. the parameters.
-        grads = []
-        for k in range(len(p)):
-            dp = np.zeros_like(p)
-            dp[k] = 1e-6 * max(abs(p[k]), 1e-3)
-            grads.append((_clip_predict(p + dp, rms, static_g, shift, symmetric, with_vrc) - pred) / dp[k])
-        G = np.array(grads).T
+        # Model uncertainty at each level from its derivative w.r.t. the parameters (closed form
+        # for the censored model, a forward difference for the truncated one).
+        G = _clip_jacobian(p, rms, static_g, kind, symmetric, with_vrc)
+        if G is None:
+            grads = []
+            for k in range(len(p)):
+                dp = np.zeros_like(p)
+                dp[k] = 1e-6 * max(abs(p[k]), 1e-3)
+                grads.append((_clip_predict(p + dp, rms, static_g, shift, symmetric, with_vrc) - pred) / dp[k])
+            G = np.array(grads).T
         with np.errstate(invalid="ignore", over="ignore"):
             u_model = np.sqrt(np.maximum(np.nan_to_num(np.einsum("ij,jk,ik->i", G, covs, G), nan=np.inf), 0.0))
         u_res = np.sqrt(u**2 + u_model**2) if absolute else np.full_like(u, math.sqrt(scale))

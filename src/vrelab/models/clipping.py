@@ -118,7 +118,12 @@ def _mills_gap(t: NDArray[np.float64]) -> NDArray[np.float64]:
     # 1 - tR(t) ~ Σ (-1)^(k+1) (2k-1)!! / t^(2k): the asymptotic series of Mills' ratio [A&S 26.2.12]
     with np.errstate(over="ignore", divide="ignore"):
         u = 1.0 / np.square(t[~small])
-    q[~small] = u * np.polynomial.polynomial.polyval(u, _SERIES_COEF)
+    # Horner by hand: numpy's polyval, in the same order of operations (so the same bits), without
+    # its per-call overhead (this runs in every step of the rail fit)
+    acc = np.full_like(u, _SERIES_COEF[-1])
+    for c in _SERIES_COEF[-2::-1]:
+        acc = c + acc * u
+    q[~small] = u * acc
     return q
 
 
@@ -210,6 +215,35 @@ def censored_mean_shift(
 
     out[r] = res
     return _scalar_or_array(out)
+
+
+def censored_rail_derivatives(
+    mean_g: ArrayLike, sigma_g: ArrayLike, rail_low_g: ArrayLike, rail_high_g: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    r"""Derivatives of :func:`censored_mean_shift` with respect to its rails.
+
+    Returns
+    -------
+    (d_low, d_high) : tuple of numpy.ndarray
+        ``∂VRE/∂L = Φ(α) = P(X < L)`` and ``∂VRE/∂U = 1 - Φ(β) = P(X > U)`` for X ~ N(μ, σ²),
+        α = (L-μ)/σ, β = (U-μ)/σ; at σ = 0 the one-sided limits (1 where μ lies beyond that rail).
+
+    Notes
+    -----
+    Differentiating SPEC 1.1's ``E[clip(X)] = L·Φ(α) + U·(1-Φ(β)) + ∫_L^U x f(x) dx`` under the
+    integral sign: the boundary terms ``±L·f(L)``, ``±U·f(U)`` cancel and leave the probability
+    mass on each rail (Leibniz's rule). Both are tail probabilities from ``scipy.special.ndtr``,
+    exact in relative terms far into the tails. The rail fit (:func:`vrelab.fits.fit_rail`)
+    gives them to its least-squares solver as the model's Jacobian.
+    """
+    mu, sigma, low, high = _inputs(mean_g, sigma_g, "sigma_g", rail_low_g, rail_high_g)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        d_low = special.ndtr((low - mu) / sigma)
+        d_high = special.ndtr((mu - high) / sigma)
+    det = sigma == 0
+    d_low = np.where(det, (mu < low).astype(np.float64), d_low)
+    d_high = np.where(det, (mu > high).astype(np.float64), d_high)
+    return _scalar_or_array(np.asarray(d_low, dtype=np.float64)), _scalar_or_array(np.asarray(d_high, dtype=np.float64))
 
 
 def truncated_mean_shift(
