@@ -235,7 +235,8 @@ def analyze_triaxial(
         fits (a simulation's saturation counts and a sine lattice's error,
         :func:`vrelab.triaxial.simulate.simulate_triaxial`).
     """
-    from vrelab.analysis.reduction import analyze_full, default_band
+    from vrelab.analysis.options import ReductionOptions, default_band
+    from vrelab.analysis.pipeline import analyze_full
     from vrelab.analysis.segmentation import auto_segment, window_pass
     from vrelab.fits import fit_levels
 
@@ -262,8 +263,9 @@ def analyze_triaxial(
         schedule, _ = auto_segment(stats0)
 
     def reduce_pair(dut: str, r: int, acc: Sequence[str]) -> tuple[VreResult, Any]:
-        return analyze_full(ChannelView(record, dut, refs[r]), method, schedule, band_hz=band, settle_s=settle_s,
-                            block_size=block_size, rail_g=rail_g, accept=acc, progress=progress,
+        options = ReductionOptions(band_hz=band, settle_s=settle_s, rail_g=rail_g, accept=frozenset(acc),
+                                   block_size=block_size, progress=progress)
+        return analyze_full(ChannelView(record, dut, refs[r]), method, schedule, options=options,
                             provenance=provenance)
 
     level_axis: dict[str, str] = {}
