@@ -12,7 +12,7 @@ import pytest
 
 from test_analysis_helpers import make_record
 from vrelab._io import sha256_file
-from vrelab.analysis import reduce_record
+from vrelab.analysis import ReductionOptions, reduce_record
 from vrelab.analysis.readers import Scale, detect_format, open_record
 from vrelab.record import write_record_hdf5
 
@@ -137,7 +137,7 @@ def test_every_format_gives_the_same_levels(tmp_path, truth, reference_levels):
             assert rec.fs_hz == pytest.approx(FS, rel=1e-9), path
             assert rec.n_samples == len(d["dut"])
             assert detect_format(Path(path)) == expected_fmt[Path(path).suffix]
-            levels, _ = reduce_record(rec, block_size=4096)
+            levels, _ = reduce_record(rec, options=ReductionOptions(block_size=4096))
         assert len(levels) == 3, path
         float32 = path.endswith(".wav")
         for a, b in zip(levels, reference_levels):

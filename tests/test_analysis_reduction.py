@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from test_analysis_helpers import make_record
-from vrelab.analysis import analyze, reduce_record
+from vrelab.analysis import ReductionOptions, analyze, reduce_record
 from vrelab.analysis.reduction import estimate_frequency, reduce, whole_period_batch
 from vrelab.record import ArrayRecord, Schedule, Segment
 
@@ -99,7 +99,7 @@ def test_saturated_level_is_counted_and_flagged():
 
 def test_rail_given_counts_samples_beyond_it():
     tr = make_record(6, levels_g=(0.2, 1.0), vre_g=(0.0, 0.0))
-    red = reduce(tr.record, schedule=tr.schedule, rail_g=3.5)
+    red = reduce(tr.record, schedule=tr.schedule, options=ReductionOptions(rail_g=3.5))
     d = tr.record.data["dut"]
     seg = [s for s in red.schedule.segments if not s.is_baseline][-1]
     i0, i1 = int(np.ceil(seg.start_s * 500 / 50)) * 50, int(np.floor(seg.end_s * 500 / 50)) * 50
@@ -113,7 +113,7 @@ def test_rail_given_at_the_clip_level_counts_each_saturated_sample_once():
     747 -> 1494 with ``analyze --rail 2``). The truth is counted here with numpy."""
     tr = make_record(6, levels_g=(0.2, 1.0), vre_g=(0.0, 0.0), rail_g=3.0)
     d = tr.record.data["dut"]
-    given = reduce(tr.record, schedule=tr.schedule, rail_g=3.0)
+    given = reduce(tr.record, schedule=tr.schedule, options=ReductionOptions(rail_g=3.0))
     found = reduce(tr.record, schedule=tr.schedule)
     seg = [s for s in given.schedule.segments if not s.is_baseline][-1]
     i0, i1 = int(np.ceil(seg.start_s * 500 / 50)) * 50, int(np.floor(seg.end_s * 500 / 50)) * 50
@@ -148,7 +148,7 @@ def test_sine_whole_period_averaging_beats_the_naive_mean():
     dut = 1.0 + np.where(on, 0.5e-3, 0.0) + ref
     rec = ArrayRecord({"reference": ref, "dut": dut}, fs)
     sched = Schedule((Segment(0, 5.0, 0), Segment(5.0, 15.37, amp / np.sqrt(2), f), Segment(15.37, 20.37, 0)))
-    levels, _ = reduce_record(rec, schedule=sched, method="sine", settle_s=0.2)
+    levels, _ = reduce_record(rec, schedule=sched, method="sine", options=ReductionOptions(settle_s=0.2))
     bound = amp / (2 * np.pi * f * (10.37 - 0.4))
     assert abs(levels[0].vre.value - 0.5e-3) < 0.02 * bound
     naive = dut[n_off : n_off + n_on].mean() - 1.0 - 0.5e-3
@@ -179,8 +179,8 @@ def test_no_reference_uses_dut_ac_part():
 
 def test_block_size_does_not_change_the_result():
     tr = make_record(10)
-    a, _ = reduce_record(tr.record, block_size=1 << 16)
-    b, _ = reduce_record(tr.record, block_size=777)
+    a, _ = reduce_record(tr.record, options=ReductionOptions(block_size=1 << 16))
+    b, _ = reduce_record(tr.record, options=ReductionOptions(block_size=777))
     for x, y in zip(a, b):
         assert x.vre.value == pytest.approx(y.vre.value, abs=1e-12)
         assert x.rms_g == pytest.approx(y.rms_g, rel=1e-9)
@@ -223,7 +223,7 @@ def test_uncertainty_is_honest_on_short_segments():
     hits = []
     for seed in range(120):
         tr = make_record(seed, t_on_s=2.0, t_off_s=2.0, phi=0.9)
-        levels, _ = reduce_record(tr.record, schedule=tr.schedule, settle_s=0.5)
+        levels, _ = reduce_record(tr.record, schedule=tr.schedule, options=ReductionOptions(settle_s=0.5))
         hits += [abs(lv.vre.value - v) <= lv.vre.u for lv, v in zip(levels, tr.vre_g)]
     assert 0.55 <= np.mean(hits) <= 0.80, np.mean(hits)
 
@@ -233,9 +233,9 @@ def test_reference_psd_checked_against_profile():
     from vrelab.profiles import parse_profile
 
     tr = make_record(3)
-    good = reduce(tr.record, schedule=tr.schedule, profile=parse_profile("flat:80-200"))
+    good = reduce(tr.record, schedule=tr.schedule, options=ReductionOptions(profile=parse_profile("flat:80-200")))
     assert all("psd-out-of-tolerance" not in lv.flags for lv in good.levels)
-    bad = reduce(tr.record, schedule=tr.schedule, profile=parse_profile("flat:50-250"))
+    bad = reduce(tr.record, schedule=tr.schedule, options=ReductionOptions(profile=parse_profile("flat:50-250")))
     assert all("psd-out-of-tolerance" in lv.flags for lv in bad.levels)
     assert sum("outside the profile tolerance" in w for w in bad.warnings) == 3
 

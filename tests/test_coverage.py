@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from vrelab.analysis import reduce_record
+from vrelab.analysis import ReductionOptions, reduce_record
 from vrelab.gum import coverage_factor
 from vrelab.record import ArrayRecord, Schedule, Segment
 
@@ -113,7 +113,7 @@ def _analyze_z(replicates: int, **kw) -> tuple[np.ndarray, np.ndarray]:
     z, dof = [], []
     for seed in range(replicates):
         rec, sched, vre = shaker_record(seed, **kw)
-        levels, _ = reduce_record(rec, schedule=sched, band_hz=(50.0, 400.0))
+        levels, _ = reduce_record(rec, schedule=sched, options=ReductionOptions(band_hz=(50.0, 400.0)))
         assert len(levels) == len(vre)
         for lv, v in zip(levels, vre):
             z.append((lv.vre.value - v) / lv.vre.u)

@@ -143,12 +143,15 @@ def test_analyze_of_a_simulated_record_gives_what_the_simulation_reduced(tmp_pat
     """The random method through the front door twice: simulate writes its record, analyze
     reads it back from the file with its default options (the simulation's reduction sets its
     band from the profile's breakpoints, so the rms differ by a fraction of a per cent)."""
+    from vrelab.analysis import FitOptions, ReductionOptions
+
     sensor = vrelab.load_sensor("ideal", range_g=2)
     record = tmp_path / "record.h5"
     simulated = vrelab.simulate(sensor, "flat:50-2000", [1.0, 1.5], static_g=1.0, seconds=2, seed=5,
                                 record_path=record)
-    measured = vrelab.analyze(record, dut="dut", reference="reference", profile=vrelab.parse_profile("flat:50-2000"),
-                              static_g=1.0)
+    measured = vrelab.analyze(record, dut="dut", reference="reference",
+                              options=ReductionOptions(profile=vrelab.parse_profile("flat:50-2000")),
+                              fit=FitOptions(static_g=1.0))
     assert len(measured.levels) == len(simulated.levels) == 2
     for m, s in zip(measured.levels, simulated.levels):
         assert abs(m.rms_g / s.rms_g - 1) < 0.005

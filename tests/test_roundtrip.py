@@ -119,7 +119,7 @@ def test_drift_is_removed_by_bracketing_not_by_the_nearest_baseline(adxl355_rand
     record reduced against its first baseline only (the nearest-baseline fall-back) is biased by
     the drift accumulated since that baseline, drift·Δt, at 0.2 mg/s: 1.5 mg and more, while the
     bracketed VRE of the levels clear of the rails matches the clean run (previous test)."""
-    from vrelab.analysis import open_record, reduce_record
+    from vrelab.analysis import ReductionOptions, open_record, reduce_record
     from vrelab.record import Schedule
 
     path, known, _ = adxl355_random
@@ -128,7 +128,7 @@ def test_drift_is_removed_by_bracketing_not_by_the_nearest_baseline(adxl355_rand
         first_only = Schedule((segs[0],) + tuple(s for s in segs if not s.is_baseline))
         t_base = (segs[0].start_s + segs[0].end_s) / 2
         t_levels = [(s.start_s + s.end_s) / 2 for s in segs if not s.is_baseline]
-        levels, warnings = reduce_record(rec, schedule=first_only, band_hz=(25.0, 4000.0))
+        levels, warnings = reduce_record(rec, schedule=first_only, options=ReductionOptions(band_hz=(25.0, 4000.0)))
     assert any("nearest baseline used" in w for w in warnings)
     for lv, k, t in zip(levels[: len(CLEAR_LEVELS)], known.levels, t_levels):
         bias = lv.vre.value - k.vre.value

@@ -306,7 +306,7 @@ def test_drive_thread_never_outlives_a_pass_and_passes_its_errors():
 def test_record_file_round_trip_gives_the_same_levels(tmp_path):
     """record_path writes reference, dut and schedule; reducing the file gives the same VRE as
     reducing the simulation."""
-    from vrelab.analysis import open_record, reduce_record
+    from vrelab.analysis import ReductionOptions, open_record, reduce_record
 
     sensor = load_sensor("adxl355", range_g=2, axis="z")
     kw = dict(static_g=1.0, seconds=2.0, baseline_s=2.0, seed=12)
@@ -318,7 +318,7 @@ def test_record_file_round_trip_gives_the_same_levels(tmp_path):
         assert a.rms_g == pytest.approx(b.rms_g, rel=1e-9)
     rec = open_record(path, dut="dut", reference="reference")
     assert rec.fs_hz == with_file.conditions.extra["fs_record_hz"]
-    levels, _ = reduce_record(rec, method="random", band_hz=(25.0, 4000.0), settle_s=0.5)
+    levels, _ = reduce_record(rec, method="random", options=ReductionOptions(band_hz=(25.0, 4000.0), settle_s=0.5))
     assert [round(lv.vre.value, 9) for lv in levels] == [round(lv.vre.value, 9) for lv in direct.levels]
 
 

@@ -137,7 +137,7 @@ def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
     # every channel's level and triaxial.levels hold one number: sqrt(Σ_j level_j²) of the three
     # reference axes' single-axis levels (vrelab.analysis.analyze_full against each axis alone),
     # within its u of the drive's nominal total rms
-    from vrelab.analysis.reduction import analyze_full
+    from vrelab.analysis import ReductionOptions, analyze_full
 
     rec = _record(INCOHERENT, (1.0, 2.0), 2.5, 3)
     res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
@@ -145,7 +145,8 @@ def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
     single = []
     for a in AXES:
         pair = ArrayRecord({"dut": rec.data["dut_x"], "reference": rec.data[f"ref_{a}"]}, rec.fs_hz, rec.schedule)
-        r, _ = analyze_full(pair, "random", band_hz=BAND, accept=("unit-ratio", "channels"))
+        r, _ = analyze_full(pair, "random",
+                            options=ReductionOptions(band_hz=BAND, accept=frozenset({"unit-ratio", "channels"})))
         single.append([lv.rms_g for lv in r.levels])
     totals = np.sqrt(np.sum(np.square(single), axis=0))
     for lv, tri, total, nominal in zip(result.levels, res.levels, totals, (1.0, 2.0)):
