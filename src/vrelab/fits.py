@@ -200,12 +200,16 @@ def _clip_predict(
     return out + p[-1] * rms**2 if with_vrc else out
 
 
+# the clipping models whose derivatives with respect to the rails are in closed form
+_CLOSED_FORM_JACOBIAN: tuple[ClipKind, ...] = ("censored",)
+
+
 def _clip_jacobian(
     p: NDArray[np.float64], rms: NDArray[np.float64], static_g: float, kind: ClipKind, symmetric: bool, with_vrc: bool
 ) -> NDArray[np.float64] | None:
     """∂(model)/∂(params) at every level, one column per parameter; None where the model has no
     closed-form derivative (the truncated model: the fit then differentiates numerically)."""
-    if kind != "censored":
+    if kind not in _CLOSED_FORM_JACOBIAN:
         return None
     from vrelab.models.clipping import censored_rail_derivatives
 
@@ -261,7 +265,7 @@ def _fit_clip_once(
         assert J is not None
         return J * sw[:, None]
 
-    exact = _clip_jacobian(np.array(p0, dtype=np.float64), rms, static_g, kind, symmetric, with_vrc) is not None
+    exact = kind in _CLOSED_FORM_JACOBIAN
     sol = least_squares(resid, np.array(p0), jac=jac if exact else "2-point", bounds=(lb, ub), x_scale="jac")
     J = np.asarray(sol.jac)  # dense (no jac_sparsity): the array itself; typed as any Jacobian form
     # The levels determine the parameters only if J's columns are independent to within rounding:
