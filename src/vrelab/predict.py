@@ -508,15 +508,16 @@ def predict(
                          "(standard error 0.2 % of their spread over the phases)")
     else:
         sine_hz = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
-        from vrelab.models.dynamics import rms_through
-
         for f in sine_hz:
             f = float(f)
+            # |H(f)| at each site, the proof mass and the output, once for every level: a sine's
+            # rms there is rms·|H(f)| (vrelab.models.dynamics.rms_through, the same product)
+            gains = [_gain(f, site.responses) for site in reading.sites]
+            gain_m, gain_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
             for rms in levels_arr:
-                sites = [Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
-                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
-                                  float(rms_through(f, float(rms), list(reading.proof_mass))),
-                                  float(rms_through(f, float(rms), list(reading.output)))))
+                sites = [Motion(float(rms) * g, f) for g in gains]
+                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites, float(rms) * gain_m,
+                                  float(rms) * gain_out))
         text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
                  "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "
