@@ -12,8 +12,10 @@ difference per group:
 * ``predict``: ``predict(...).to_dict()`` (every number in it) for the ideal sensor and the
   ADXL355 preset, random, sine and sine-on-random, censored and truncated, rails at the output
   (filters between polynomial and rails) and at the proof mass;
-* ``identify``: each parameter's value and u for two drawn parts of tests/test_identify.py
-  (differences in units of the parameter's u: least squares may end at a different last step).
+* ``identify``: each parameter's value and u for four drawn parts of tests/test_identify.py
+  (differences in units of the parameter's u: least squares may end at a different last step);
+* ``example``: the README's designer path, every number of ``identify --json`` on the example
+  campaign and of ``predict --json`` with the sensor file it writes.
 
     PYTHONPATH=src python bench/check_model_exact.py --baseline /tmp/base/src
 
@@ -138,7 +140,7 @@ def _identify() -> list[Any]:
     from vrelab.sensor import load_sensor
 
     out: list[Any] = []
-    for seed in (1, 6):
+    for seed in (1, 6, 11, 17):
         t = T._draw(seed)
         with tempfile.TemporaryDirectory() as d:
             sensor = load_sensor(str(T._part(t, Path(d))))
@@ -148,8 +150,32 @@ def _identify() -> list[Any]:
     return out
 
 
+def _example() -> list[Any]:
+    """The README's designer path: the example campaign identified, and predict with its sensor file."""
+    import contextlib
+    import io
+
+    from vrelab.cli import main
+
+    out: list[Any] = []
+    with tempfile.TemporaryDirectory() as d:
+        camp, ident = Path(d) / "camp", Path(d) / "ident"
+        example = TESTS.parent / "examples" / "campaign" / "campaign.toml"
+        with contextlib.redirect_stdout(io.StringIO()):
+            main(["campaign", str(example), "--out", str(camp)])
+        for argv in (["identify", str(camp), "--base-sensor", "ideal", "--range", "2.048", "--out", str(ident), "--json"],
+                     ["predict", "--sensor", str(ident / "sensor.toml"), "--axis", "sn1", "--profile", "flat:50-2000",
+                      "--levels", "1,2", "--static", "1", "--json"]):
+            text = io.StringIO()
+            with contextlib.redirect_stdout(text):
+                main(argv)
+            out.append(json.loads(text.getvalue().replace(d, "<tmp>")))  # the paths differ from run to run
+    return out
+
+
 def _own(groups: list[str]) -> dict[str, Any]:
-    run = {"memoryless": _memoryless, "spectral": _spectral, "predict": _predict, "identify": _identify}
+    run = {"memoryless": _memoryless, "spectral": _spectral, "predict": _predict, "identify": _identify,
+           "example": _example}
     return {g: run[g]() for g in groups}
 
 
@@ -196,7 +222,7 @@ def _identify_compare(ours: list[Any], base: list[Any]) -> tuple[float, list[str
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="src directory of the baseline checkout")
-    ap.add_argument("--groups", default="memoryless,spectral,predict,identify")
+    ap.add_argument("--groups", default="memoryless,spectral,predict,identify,example")
     ap.add_argument("--save", help="write this checkout's numbers to this JSON file")
     ap.add_argument("--against", help="compare with numbers saved by --save instead of running a baseline")
     ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)
