@@ -513,11 +513,11 @@ def predict(
             # |H(f)| at each site, the proof mass and the output, once for every level: a sine's
             # rms there is rms·|H(f)| (vrelab.models.dynamics.rms_through, the same product)
             gains = [_gain(f, site.responses) for site in reading.sites]
-            gain_m, gain_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
+            at_mass, at_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
             for rms in levels_arr:
                 sites = [Motion(float(rms) * g, f) for g in gains]
-                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites, float(rms) * gain_m,
-                                  float(rms) * gain_out))
+                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites, float(rms) * at_mass,
+                                  float(rms) * at_out))
         text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
                  "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "

@@ -110,7 +110,8 @@ def _analog_response(z: InexactArray, p: ComplexArray, k: float, f_hz: ArrayLike
 
 
 @functools.lru_cache(maxsize=64)
-def _analog_prototype(kind: str, order: int, wn: float, btype: str = "lowpass") -> tuple[InexactArray, ComplexArray, float]:
+def _analog_prototype(kind: str, order: int, wn: float, btype: Literal["lowpass", "highpass"] = "lowpass"
+                      ) -> tuple[InexactArray, ComplexArray, float]:
     """scipy's analog ``butter`` (or magnitude-normalised ``bessel``) zpk at ``wn`` [rad/s].
 
     A filter's ``response`` is asked at one frequency after another (a spectral integral's
