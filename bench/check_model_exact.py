@@ -101,8 +101,10 @@ def _spectral() -> list[Any]:
 def _predict() -> list[Any]:
     import dataclasses
 
+    import numpy as np
+
     from vrelab.predict import predict
-    from vrelab.profiles import parse_profile
+    from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
 
     ideal = load_sensor("ideal")
@@ -124,6 +126,10 @@ def _predict() -> list[Any]:
     cases += [(s, exc, [0.5, 1.5], 2.5, "censored") for s in (ideal, poly, adxl) for exc in (flat, [80.0])]  # beyond a rail
     cases += [(adxl_x, navmat, [1.0, 4.0], 1.0, "censored"), (nonlin, sor2, [0.5, 1.5], 1.0, "censored"),
               (poly, sor2, [0.5, 1.5], -1.0, "truncated")]
+    # a measured PSD: a dense table (over 64 corners: the vectorised Gauss-Legendre path)
+    f = np.geomspace(20.0, 2000.0, 120)
+    dense = RandomProfile(f, 1e-3 * np.exp(np.random.default_rng(7).normal(0.0, 0.5, f.size)), name="dense")
+    cases += [(s, dense, [0.5, 2.0], 1.0, "censored") for s in (ideal, poly, adxl, nonlin)]
     out: list[Any] = []
     for s, exc, levels, g0, kind in cases:
         try:

@@ -251,8 +251,9 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: 
     step), and the adaptive quadrature is most of a random level's prediction.
     """
     keys = tuple(_response_key(h) for h in responses)
-    freq = tuple(np.asarray(profile.freq_hz, dtype=np.float64).tolist())
-    psd = tuple(np.asarray(profile.psd_g2_per_hz, dtype=np.float64).tolist())
+    # the table as its float64 bytes: an exact key, 8 bytes a point
+    freq = np.ascontiguousarray(profile.freq_hz, dtype=np.float64).tobytes()
+    psd = np.ascontiguousarray(profile.psd_g2_per_hz, dtype=np.float64).tobytes()
     band = tuple(float(b) for b in profile.band)
     points = tuple(float(p) for p in points_hz)
     if all(k is not None for k in keys):
@@ -277,20 +278,20 @@ def _response_key(h: Response) -> tuple[Any, Any] | None:
 
 
 @functools.lru_cache(maxsize=256)
-def _spectral_of(freq: tuple[float, ...], psd: tuple[float, ...], band: tuple[float, ...],
-                 keys: tuple[tuple[Any, Any], ...], points: tuple[float, ...], rate: bool) -> tuple[float, float]:
+def _spectral_of(freq: bytes, psd: bytes, band: tuple[float, ...], keys: tuple[tuple[Any, Any], ...],
+                 points: tuple[float, ...], rate: bool) -> tuple[float, float]:
     """:func:`_spectral_at` with the responses given as :func:`_response_key` values. A pure
     function of its exact inputs: cached, bounded (a fit's few profiles and resonances)."""
     return _spectral_at(freq, psd, band, [f.__get__(owner) for f, owner in keys], points, rate)
 
 
-def _spectral_at(freq: Sequence[float], psd: Sequence[float], band: Sequence[float], responses: Sequence[Response],
+def _spectral_at(freq: bytes, psd: bytes, band: Sequence[float], responses: Sequence[Response],
                  points_hz: Sequence[float], rate: bool) -> tuple[float, float]:
-    """:func:`_spectral` of the profile's table ``(freq, psd)`` over ``band``."""
+    """:func:`_spectral` of the profile's table ``(freq, psd)`` (float64 bytes) over ``band``."""
     from vrelab.models import dynamics
 
     lo, hi = band
-    table = (np.array(freq, dtype=np.float64), np.array(psd, dtype=np.float64))
+    table = (np.frombuffer(freq, dtype=np.float64), np.frombuffer(psd, dtype=np.float64))
     sigma = dynamics.effective_rms(table, list(responses), lo, hi, points_hz=list(points_hz))
     if not rate:
         return sigma**2, math.nan
