@@ -263,11 +263,11 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: 
 
 def _response_key(h: Response) -> tuple[Any, Any] | None:
     """A response as a hashable value: ``(function, stage)`` for the ``response`` method of a
-    frozen dataclass (a stage's response is fixed by its fields, which its equality compares),
-    else None (not remembered)."""
-    owner = getattr(h, "__self__", None)
+    frozen dataclass whose equality compares every field (a stage's response is fixed by its
+    fields), else None (not remembered)."""
+    owner: Any = getattr(h, "__self__", None)
     params = getattr(owner, "__dataclass_params__", None)
-    if params is None or not (params.frozen and params.eq):
+    if params is None or not (params.frozen and params.eq) or not all(f.compare for f in dataclasses.fields(owner)):
         return None
     key = (getattr(h, "__func__", None), owner)
     try:
