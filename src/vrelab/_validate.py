@@ -47,6 +47,14 @@ def non_negative(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
+def non_negative_scalar(name: str, value: Any) -> float:
+    """``float(non_negative(name, value))``; a float that passes is returned without building an
+    array (the closed forms check their rms thousands of times in one fit)."""
+    if isinstance(value, float) and 0.0 <= value < math.inf:
+        return float(value)
+    return float(non_negative(name, value))
+
+
 def positive(name: str, value: ArrayLike) -> NDArray[np.float64]:
     arr = finite(name, value)
     if (arr <= 0).any():

@@ -48,6 +48,7 @@ simulated test within 3u + 10 % (ADXL355 ±2 g Z at 1-2 g rms). Over-range firin
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence
@@ -243,16 +244,75 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: 
     (:func:`vrelab.models.dynamics.zero_crossing_rate_hz`), over the profile's band, split at
     its breakpoints and at the sensor's resonance. Without ``rate`` (a site that needs no
     crossing rate) ν0 is NaN and its two integrals are not computed.
+
+    The integrals are remembered by their exact inputs (:func:`_spectral_of`) where every
+    response is a stage's: an identification or a propagation predicts again and again with
+    parameters that leave the resonance and the filters as they were (a polynomial's or a rail's
+    step), and the adaptive quadrature is most of a random level's prediction.
     """
+    keys = tuple(_response_key(h) for h in responses)
+    # the table as its float64 bytes: an exact key, 8 bytes a point
+    freq = np.ascontiguousarray(profile.freq_hz, dtype=np.float64).tobytes()
+    psd = np.ascontiguousarray(profile.psd_g2_per_hz, dtype=np.float64).tobytes()
+    band = tuple(float(b) for b in profile.band)
+    points = tuple(float(p) for p in points_hz)
+    if all(k is not None for k in keys):
+        return _spectral_of(freq, psd, band, keys, points, rate)
+    return _spectral_at(freq, psd, band, responses, points, rate)
+
+
+def _response_key(h: Response) -> tuple[Any, Any] | None:
+    """A response as a hashable value: ``(function, stage)`` for the ``response`` method of a
+    frozen dataclass whose equality compares every field (a stage's response is fixed by its
+    fields), else None (not remembered)."""
+    owner: Any = getattr(h, "__self__", None)
+    params = getattr(owner, "__dataclass_params__", None)
+    if params is None or not (params.frozen and params.eq) or not all(f.compare for f in dataclasses.fields(owner)):
+        return None
+    key = (getattr(h, "__func__", None), owner)
+    try:
+        hash(key)
+    except TypeError:  # a field that is not hashable (an array)
+        return None
+    return key
+
+
+@functools.lru_cache(maxsize=256)
+def _spectral_of(freq: bytes, psd: bytes, band: tuple[float, ...], keys: tuple[tuple[Any, Any], ...],
+                 points: tuple[float, ...], rate: bool) -> tuple[float, float]:
+    """:func:`_spectral_at` with the responses given as :func:`_response_key` values. A pure
+    function of its exact inputs: cached, bounded (a fit's few profiles and resonances)."""
+    return _spectral_at(freq, psd, band, [f.__get__(owner) for f, owner in keys], points, rate)
+
+
+def _spectral_at(freq: bytes, psd: bytes, band: Sequence[float], responses: Sequence[Response],
+                 points_hz: Sequence[float], rate: bool) -> tuple[float, float]:
+    """:func:`_spectral` of the profile's table ``(freq, psd)`` (float64 bytes) over ``band``."""
     from vrelab.models import dynamics
 
-    lo, hi = profile.band
-    psd = (np.asarray(profile.freq_hz), np.asarray(profile.psd_g2_per_hz))
-    sigma = dynamics.effective_rms(psd, list(responses), lo, hi, points_hz=list(points_hz))
+    lo, hi = band
+    table = (np.frombuffer(freq, dtype=np.float64), np.frombuffer(psd, dtype=np.float64))
+    sigma = dynamics.effective_rms(table, list(responses), lo, hi, points_hz=list(points_hz))
     if not rate:
         return sigma**2, math.nan
-    nu0 = dynamics.zero_crossing_rate_hz(psd, list(responses), lo, hi, points_hz=list(points_hz))
+    nu0 = dynamics.zero_crossing_rate_hz(table, list(responses), lo, hi, points_hz=list(points_hz))
     return sigma**2, nu0
+
+
+@dataclass(frozen=True)
+class _HoldWeight:
+    """The non-negative weight |W(f)| under which the hold's correlation integrals are spectral
+    integrals ∫S·|H·W|² (:func:`_hold_correlation`): ``sqrt(1 - sinc(2f·hold))`` for the
+    correlation averaged over the hold, ``sqrt(2)·|sin(πf·hold)|`` for ``1 - ρ(hold)``. A frozen
+    dataclass, so :func:`_spectral` remembers its integrals as it does a stage's."""
+
+    hold_s: float
+    end: bool
+
+    def response(self, f: NDArray[np.float64]) -> NDArray[np.complex128]:
+        if self.end:
+            return (math.sqrt(2.0) * np.abs(np.sin(np.pi * np.asarray(f) * self.hold_s))).astype(complex)
+        return np.sqrt(np.maximum(1.0 - np.sinc(2.0 * np.asarray(f) * self.hold_s), 0.0)).astype(complex)
 
 
 def _hold_correlation(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
@@ -260,17 +320,12 @@ def _hold_correlation(profile: RandomProfile, responses: Sequence[Response], poi
     """(ρ̄, 1 - ρ(hold)) of the profile seen through ``responses``: the motion's correlation
     averaged over the hold, ``ρ̄ = ∫S·|H|²·sinc(2f·hold)df/σ²``, and ``1 - ρ(hold) =
     ∫S·|H|²·(1 - cos 2πf·hold)df/σ²``, both as ∫S·|H·W|² with a non-negative weight |W|²
-    (1 - sinc and 2·sin²) so the one spectral integral (:func:`_spectral`) computes them."""
-    def w_mean(f: NDArray[np.float64]) -> NDArray[np.complex128]:
-        return np.sqrt(np.maximum(1.0 - np.sinc(2.0 * np.asarray(f) * hold_s), 0.0)).astype(complex)
-
-    def w_end(f: NDArray[np.float64]) -> NDArray[np.complex128]:
-        return (math.sqrt(2.0) * np.abs(np.sin(np.pi * np.asarray(f) * hold_s))).astype(complex)
-
+    (1 - sinc and 2·sin², :class:`_HoldWeight`) so the one spectral integral (:func:`_spectral`)
+    computes them."""
     if not m0 > 0:
         return math.nan, math.nan
-    one_minus_mean, _ = _spectral(profile, [*responses, w_mean], points_hz, rate=False)
-    one_minus_end, _ = _spectral(profile, [*responses, w_end], points_hz, rate=False)
+    one_minus_mean, _ = _spectral(profile, [*responses, _HoldWeight(hold_s, False).response], points_hz, rate=False)
+    one_minus_end, _ = _spectral(profile, [*responses, _HoldWeight(hold_s, True).response], points_hz, rate=False)
     return 1.0 - one_minus_mean / m0, one_minus_end / m0
 
 
@@ -454,15 +509,16 @@ def predict(
                          "(standard error 0.2 % of their spread over the phases)")
     else:
         sine_hz = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
-        from vrelab.models.dynamics import rms_through
-
         for f in sine_hz:
             f = float(f)
+            # |H(f)| at each site, the proof mass and the output, once for every level: a sine's
+            # rms there is rms·|H(f)| (vrelab.models.dynamics.rms_through, the same product)
+            gains = [_gain(f, site.responses) for site in reading.sites]
+            at_mass, at_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
             for rms in levels_arr:
-                sites = [Motion(float(rms_through(f, float(rms), list(site.responses))), f) for site in reading.sites]
-                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites,
-                                  float(rms_through(f, float(rms), list(reading.proof_mass))),
-                                  float(rms_through(f, float(rms), list(reading.output)))))
+                sites = [Motion(float(rms) * g, f) for g in gains]
+                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites, float(rms) * at_mass,
+                                  float(rms) * at_out))
         text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
     notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
                  "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "

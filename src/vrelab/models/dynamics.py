@@ -233,8 +233,11 @@ def zero_crossing_rate_hz(
 
 def rms_through(freq_hz: ArrayLike, rms_g: ArrayLike, responses: Sequence[Response]) -> NDArray[np.float64] | float:
     """rms of a sine at ``freq_hz`` after linear stages: rms·Π|H_i(f)| [g]."""
-    f = _validate.non_negative("freq_hz", freq_hz)
-    out = _validate.non_negative("rms_g", rms_g) * np.sqrt(_magnitude2(responses, np.broadcast_to(f, np.broadcast(f).shape).astype(float)))
+    # a float passes its check without an array (a prediction asks once per site and frequency)
+    f = (_validate.non_negative_scalar("freq_hz", freq_hz) if isinstance(freq_hz, float)
+         else _validate.non_negative("freq_hz", freq_hz))
+    rms = _validate.non_negative_scalar("rms_g", rms_g) if isinstance(rms_g, float) else _validate.non_negative("rms_g", rms_g)
+    out = rms * np.sqrt(_magnitude2(responses, np.broadcast_to(f, np.broadcast(f).shape).astype(float)))
     return out[()] if np.ndim(out) == 0 else out
 
 

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Callable, Literal, Sequence
+from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -59,7 +59,59 @@ _SQRT2PI = math.sqrt(2.0 * math.pi)
 def polynomial(k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
                offset_g: float = 0.0) -> Polynomial:
     """``P(y) = offset + y + k2·y² + k3·y³ + k4·y⁴`` (SPEC 1.2, normalised to g)."""
-    return Polynomial([offset_g, 1.0, k2_per_g, k3_per_g2, k4_per_g3])
+    return Polynomial(_coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g))
+
+
+# The closed forms below run thousands of times in one identification (least squares over the
+# parameters, each residual a prediction of every level): they hold P as a tuple of floats,
+# lowest power first, and do numpy.polynomial's arithmetic on it in the same order (Horner's
+# rule as polyval, derivatives as polyder, trailing zeros trimmed as trimseq, roots by polyroots),
+# so the numbers are those of the Polynomial objects without building one per call.
+Coefficients = tuple[float, ...]
+
+
+def _coefficients(k2_per_g: float, k3_per_g2: float, k4_per_g3: float, offset_g: float) -> Coefficients:
+    """:func:`polynomial`'s coefficients ``(offset, 1, k2, k3, k4)``."""
+    return (float(offset_g), 1.0, float(k2_per_g), float(k3_per_g2), float(k4_per_g3))
+
+
+def _horner(c: Coefficients, x: Any) -> Any:
+    """``Σ c_n·x^n`` at a float or elementwise on an array, as numpy's ``polyval`` computes it."""
+    v = c[-1] + x * 0
+    for a in c[-2::-1]:
+        v = a + v * x
+    return v
+
+
+def _trimmed(c: Coefficients) -> Coefficients:
+    """Trailing zero coefficients dropped, one kept (numpy's ``trimseq``, which ``p - a`` applies)."""
+    n = len(c)
+    while n > 1 and c[n - 1] == 0:
+        n -= 1
+    return c[:n]
+
+
+def _less(c: Coefficients, a: float) -> Coefficients:
+    """``P - a``, trimmed as numpy's ``Polynomial.__sub__`` leaves it."""
+    t = _trimmed(c)
+    return _trimmed((t[0] - a, *t[1:]))
+
+
+@functools.lru_cache(maxsize=64)
+def _derivatives(c: Coefficients) -> tuple[Coefficients, ...]:
+    """``P', P'', ...`` down to the constant, of ``P`` trimmed (numpy's ``polyder``: ``j·c_j``):
+    those of ``P - a`` for every a. A pure function of the floats: cached, bounded."""
+    out: list[Coefficients] = []
+    d = _trimmed(c)
+    while len(d) > 1:
+        d = tuple(j * d[j] for j in range(1, len(d)))
+        out.append(d)
+    return tuple(out)
+
+
+def _clipped(c: Coefficients, y: float, low: float, high: float) -> float:
+    """``clip(P(y), low, high)``."""
+    return min(max(float(_horner(c, y)), low), high)
 
 
 # SPEC 1.5: every VRE the tool states is the mean output with vibration less this reading.
@@ -82,7 +134,7 @@ def vibration_off_reading(static_g: float, k2_per_g: float = 0.0, k3_per_g2: flo
     low, high = float(rail_low_g), float(rail_high_g)
     if not low < high:
         raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
-    return float(np.clip(polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)(g0), low, high))
+    return _clipped(_coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g), g0, low, high)
 
 
 def reference_note(static_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
@@ -97,14 +149,16 @@ def reference_note(static_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.
             f"at {r0:g} g, so the sensor reads {r0:g} g with no vibration and the VRE is referred to that")
 
 
-def _pieces(p: Polynomial, low: float, high: float) -> list[tuple[float, float, str]]:
-    """``clip(p(y), low, high)`` as pieces ``(a, b, what)`` covering the real line, ``what`` one of
-    ``"low"``, ``"high"``, ``"poly"``."""
+@functools.lru_cache(maxsize=256)
+def _pieces(c: Coefficients, low: float, high: float) -> tuple[tuple[float, float, str], ...]:
+    """``clip(P(y), low, high)`` as pieces ``(a, b, what)`` covering the real line, ``what`` one of
+    ``"low"``, ``"high"``, ``"poly"``. A pure function of the floats: cached, bounded (a fit
+    asks for the same polynomial and rails at every level)."""
     kinks: set[float] = set()
     for rail in (low, high):
         if math.isfinite(rail):
-            q = p - rail
-            for r in q.roots() if q.degree() > 0 else ():
+            q = _less(c, rail)
+            for r in np.polynomial.polynomial.polyroots(q) if len(q) > 1 else ():
                 if abs(r.imag) <= 1e-12 * max(1.0, abs(r.real)):
                     kinks.add(float(r.real))
     edges = [-math.inf, *sorted(kinks), math.inf]
@@ -118,13 +172,13 @@ def _pieces(p: Polynomial, low: float, high: float) -> list[tuple[float, float, 
             mid = a + 1.0 + abs(a)
         else:
             mid = 0.5 * (a + b)
-        v = float(p(mid))
+        v = float(_horner(c, mid))
         what = "low" if v < low else "high" if v > high else "poly"
         if out and out[-1][2] == what:
             out[-1] = (out[-1][0], b, what)
         else:
             out.append((a, b, what))
-    return out
+    return tuple(out)
 
 
 def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -143,54 +197,57 @@ def _truncated_moments(a: NDArray[np.float64], b: NDArray[np.float64], n_max: in
     """``M_n = ∫_a^b z^n φ(z) dz`` for n = 0..n_max (a, b may be ±inf)."""
     pa, pb = _phi(a), _phi(b)
     m = [_prob(a, b), pa - pb]
-
-    def edge(z: NDArray[np.float64], pz: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-        with np.errstate(invalid="ignore"):
-            return np.where(np.isfinite(z), np.where(np.isfinite(z), z, 0.0) ** k * pz, 0.0)
-
-    for n in range(2, n_max + 1):
-        m.append((n - 1) * m[n - 2] + edge(a, pa, n - 1) - edge(b, pb, n - 1))
+    fa, fb = np.isfinite(a), np.isfinite(b)
+    a0, b0 = np.where(fa, a, 0.0), np.where(fb, b, 0.0)
+    with np.errstate(invalid="ignore"):
+        for n in range(2, n_max + 1):
+            # the edges' z^(n-1)·φ(z), 0 at an infinite edge
+            m.append((n - 1) * m[n - 2] + np.where(fa, a0 ** (n - 1) * pa, 0.0) - np.where(fb, b0 ** (n - 1) * pb, 0.0))
     return m
 
 
-def _gaussian(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
+def _gaussian(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
               m: NDArray[np.float64], sigma: float, ref: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(E[clip(p(Y)) - ref; kept], P(kept)) for Y ~ N(m, σ²), elementwise in m; kept = the
+    """(E[clip(P(Y)) - ref; kept], P(kept)) for Y ~ N(m, σ²), elementwise in m; kept = the
     polynomial pieces (the rail pieces are in the first term, as the rail)."""
+    # every piece at once, one row each (the same elementwise operations as piece by piece, a
+    # few array calls instead of a few per piece), summed below in the pieces' order
+    a = np.array([p[0] for p in pieces])[:, None]
+    b = np.array([p[1] for p in pieces])[:, None]
+    za, zb = (a - m) / sigma, (b - m) / sigma
+    prob = _prob(za, zb)
+    poly = [i for i, p in enumerate(pieces) if p[2] == "poly"]
+    if poly:
+        derivs = (_less(c, ref), *_derivatives(c))
+        moments = _truncated_moments(za[poly], zb[poly], len(derivs) - 1)
+        part = np.zeros_like(moments[0])
+        # the Taylor coefficients at the mean: at a single mean on floats (the same arithmetic)
+        at = float(m[0]) if m.size == 1 else m
+        for n, d in enumerate(derivs):
+            part += _horner(d, at) / math.factorial(n) * sigma**n * moments[n]
     total = np.zeros_like(m)
     inside = np.zeros_like(m)
-    q = p - ref
-    derivs = [q]
-    for _ in range(q.degree()):
-        derivs.append(derivs[-1].deriv())
-    for a, b, what in pieces:
-        za, zb = (a - m) / sigma, (b - m) / sigma
+    for i, (_, _, what) in enumerate(pieces):
         if what != "poly":
-            total += ((low if what == "low" else high) - ref) * _prob(za, zb)
+            total += ((low if what == "low" else high) - ref) * prob[i]
             continue
-        moments = _truncated_moments(za, zb, len(derivs) - 1)
-        part = np.zeros_like(m)
-        for n, d in enumerate(derivs):
-            part += d(m) / math.factorial(n) * sigma**n * moments[n]
-        total += part
-        inside += moments[0]
+        j = poly.index(i)
+        total += part[j]
+        inside += moments[0][j]
     return total, inside
 
 
-def _sine(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
+def _sine(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: float, high: float,
           m: float, amp: float, ref: float) -> tuple[float, float]:
-    """(E[clip(p(m + A cos θ)) - ref; kept], P(kept)) over θ uniform on [0, π]."""
+    """(E[clip(P(m + A cos θ)) - ref; kept], P(kept)) over θ uniform on [0, π]."""
     touched = [w for a, b, w in pieces if a < m + amp and b > m - amp]
     if touched == ["poly"]:
         # the sine stays on one polynomial piece: its moments, E[(A cos θ)^n] = A^n·C(n, n/2)/2^n
         # for even n (0 for odd), exactly, so a sine clear of the rails adds exactly 0
-        q, total, n = p - ref, 0.0, 0
-        while True:
+        total = 0.0
+        for n, q in enumerate((_less(c, ref), *_derivatives(c))):
             if n % 2 == 0:
-                total += float(q(m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
-            if q.degree() == 0:
-                break
-            q, n = q.deriv(), n + 1
+                total += float(_horner(q, m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
         return total, 1.0
     total = inside = 0.0
     for a, b, what in pieces:
@@ -204,7 +261,7 @@ def _sine(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float,
             total += ((low if what == "low" else high) - ref) * frac
             continue
         th = 0.5 * (t_hi + t_lo) + 0.5 * (t_hi - t_lo) * _GL_X
-        total += 0.5 * frac * float(_GL_W @ (p(m + amp * np.cos(th)) - ref))
+        total += 0.5 * frac * float(_GL_W @ (_horner(c, m + amp * np.cos(th)) - ref))
         inside += frac
     return total, inside
 
@@ -259,14 +316,14 @@ def poly_clip_vre(
     kinks; Gauss-Legendre in θ for a sine; the tones' phase average for sine-on-random).
     """
     g0 = _validate.finite_scalar("static_g", static_g)
-    rms = float(_validate.non_negative("rms_g", rms_g))
+    rms = _validate.non_negative_scalar("rms_g", rms_g)
     low, high = float(rail_low_g), float(rail_high_g)
     if not low < high:
         raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     _validate.one_of("kind", kind, KINDS)
-    p = polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
-    ref = vibration_off_reading(g0, k2_per_g, k3_per_g2, k4_per_g3, offset_g, low, high)
+    p = _coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
+    ref = _clipped(p, g0, low, high)  # vibration_off_reading
     peaks = [float(a) for a in tone_peaks_g if a > 0]
     if rms == 0 and not peaks:
         return 0.0
@@ -295,7 +352,7 @@ def poly_clip_vre(
     return kept / inside
 
 
-def _rail_part(p: Polynomial, pieces: Sequence[tuple[float, float, str]], low: float, high: float, g0: float,
+def _rail_part(p: Coefficients, pieces: Sequence[tuple[float, float, str]], low: float, high: float, g0: float,
                rms: float, ref: float, shape: Shape, peaks: Sequence[float]) -> float:
     """The rail pieces' part of the censored sum (what truncation discards)."""
     only_rails = [(a, b, w) for a, b, w in pieces if w != "poly"]

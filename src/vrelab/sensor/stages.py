@@ -48,6 +48,7 @@ own change of the mean (``mean_shift``, in closed form) and what they make of a 
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal, NamedTuple
@@ -106,6 +107,22 @@ def _analog_response(z: InexactArray, p: ComplexArray, k: float, f_hz: ArrayLike
     _, h = signal.freqs_zpk(z, p, np.atleast_1d(k), worN=2 * np.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)))
     response: ComplexArray = h.reshape(np.shape(f_hz))
     return response
+
+
+@functools.lru_cache(maxsize=64)
+def _analog_prototype(kind: str, order: int, wn: float, btype: Literal["lowpass", "highpass"] = "lowpass"
+                      ) -> tuple[InexactArray, ComplexArray, float]:
+    """scipy's analog ``butter`` (or magnitude-normalised ``bessel``) zpk at ``wn`` [rad/s].
+
+    A filter's ``response`` is asked at one frequency after another (a spectral integral's
+    adaptive quadrature calls it hundreds of times): the design is kept by its exact inputs
+    (cached, bounded), its arrays read-only so no caller can change what the next one gets."""
+    zpk: tuple[InexactArray, ComplexArray, float] = (
+        signal.bessel(order, wn, norm="mag", analog=True, output="zpk") if kind == "bessel"
+        else signal.butter(order, wn, btype=btype, analog=True, output="zpk"))
+    for a in zpk[:2]:
+        a.setflags(write=False)
+    return zpk
 
 
 class FilterStage(StageBase):
@@ -194,12 +211,11 @@ class AntiAlias(FilterStage):
         positive_int(self, "order")
 
     def analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
-        zpk: tuple[InexactArray, ComplexArray, float] = signal.butter(
-            self.order, 2 * np.pi * self.corner_hz, analog=True, output="zpk")
-        return zpk
+        z, p, k = _analog_prototype("butterworth", self.order, 2 * np.pi * self.corner_hz)
+        return z.copy(), p.copy(), k
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
-        return _analog_response(*self.analog_zpk(), f_hz)
+        return _analog_response(*_analog_prototype("butterworth", self.order, 2 * np.pi * self.corner_hz), f_hz)
 
     def design(self, fs_hz: float) -> FloatArray:
         below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
@@ -240,11 +256,7 @@ class LowPass(FilterStage):
             raise ValueError(f"LowPass kind must be one of butterworth, bessel; got {self.kind!r}")
 
     def _analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
-        wn = 2 * np.pi * self.corner_hz
-        zpk: tuple[InexactArray, ComplexArray, float] = (
-            signal.bessel(self.order, wn, norm="mag", analog=True, output="zpk") if self.kind == "bessel"
-            else signal.butter(self.order, wn, analog=True, output="zpk"))
-        return zpk
+        return _analog_prototype(self.kind, self.order, 2 * np.pi * self.corner_hz)
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
         return _analog_response(*self._analog_zpk(), f_hz)
@@ -277,8 +289,8 @@ class HighPass(FilterStage):
         positive_int(self, "order")
 
     def response(self, f_hz: ArrayLike) -> ComplexArray:
-        z, p, k = signal.butter(self.order, 2 * np.pi * self.corner_hz, btype="highpass", analog=True, output="zpk")
-        return _analog_response(z, p, k, f_hz)
+        return _analog_response(*_analog_prototype("butterworth", self.order, 2 * np.pi * self.corner_hz, "highpass"),
+                                f_hz)
 
     def design(self, fs_hz: float) -> FloatArray:
         below_nyquist(self, "corner_hz", self.corner_hz, fs_hz)
