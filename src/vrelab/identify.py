@@ -780,6 +780,11 @@ def _bounds(name: str, obs: Sequence[Observation]) -> tuple[float, float]:
     return -math.inf, math.inf
 
 
+# grid points whose closed-form χ² lies within this fraction of the χ² scale of the least are
+# tied: the exact least squares decides among them
+_GRID_TIE_REL = 1e-6
+
+
 def _grid_best(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float, fns: NDArray[np.float64],
                qs: NDArray[np.float64]) -> tuple[float, float]:
     """The grid point (fn, Q) where :func:`_vrc_chi2` is least, the first such with fn the outer
@@ -789,7 +794,7 @@ def _grid_best(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: f
     the grid's order, settles among them (where the closed form is not finite: every point)."""
     chi = _vrc_chi2_grid(data, k3_free, k3_fixed, fns[:, None], qs[None, :]).ravel()
     vrc, u = data[0], data[1]
-    tol = 1e-6 * (float(np.sum((vrc / u) ** 2)) + float(np.nanmax(np.abs(chi), initial=0.0)))
+    tol = _GRID_TIE_REL * (float(np.sum((vrc / u) ** 2)) + float(np.nanmax(np.abs(chi), initial=0.0)))
     every = [(fn, q) for fn in fns for q in qs]
     if np.isfinite(chi).all():
         every = [every[i] for i in np.flatnonzero(chi <= chi.min() + tol).tolist()]
