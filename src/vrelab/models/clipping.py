@@ -39,6 +39,7 @@ from vrelab import _validate
 from vrelab.models.kinds import DEFAULT_CLIP_KIND as DEFAULT_CLIP_KIND
 from vrelab.models.kinds import KINDS as KINDS
 from vrelab.models.kinds import Kind as Kind
+from vrelab.models.memoryless import horner
 
 Shape = Literal["gaussian", "sine"]
 SHAPES: tuple[str, ...] = ("gaussian", "sine")
@@ -53,7 +54,7 @@ _NARROW = 2.0
 # Above this, 1 - t·R(t) (R the Mills ratio) loses more than t²·eps to cancellation, so the
 # asymptotic series takes over; 9 terms leave < 1e-16 relative at t = 25.
 _SERIES_T = 25.0
-_SERIES_COEF = np.array([1.0, -3.0, 15.0, -105.0, 945.0, -10395.0, 135135.0, -2027025.0, 34459425.0])
+_SERIES_COEF = (1.0, -3.0, 15.0, -105.0, 945.0, -10395.0, 135135.0, -2027025.0, 34459425.0)
 
 
 def _check_rails(rail_low_g: NDArray[np.float64], rail_high_g: NDArray[np.float64]) -> None:
@@ -118,12 +119,7 @@ def _mills_gap(t: NDArray[np.float64]) -> NDArray[np.float64]:
     # 1 - tR(t) ~ Σ (-1)^(k+1) (2k-1)!! / t^(2k): the asymptotic series of Mills' ratio [A&S 26.2.12]
     with np.errstate(over="ignore", divide="ignore"):
         u = 1.0 / np.square(t[~small])
-    # Horner by hand: numpy's polyval, in the same order of operations (so the same bits), without
-    # its per-call overhead (this runs in every step of the rail fit)
-    acc = np.full_like(u, _SERIES_COEF[-1])
-    for c in _SERIES_COEF[-2::-1]:
-        acc = c + acc * u
-    q[~small] = u * acc
+    q[~small] = u * horner(_SERIES_COEF, u)  # numpy's polyval, bit for bit, without its overhead
     return q
 
 

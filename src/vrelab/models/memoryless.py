@@ -75,8 +75,11 @@ def _coefficients(k2_per_g: float, k3_per_g2: float, k4_per_g3: float, offset_g:
     return (float(offset_g), 1.0, float(k2_per_g), float(k3_per_g2), float(k4_per_g3))
 
 
-def _horner(c: Coefficients, x: Any) -> Any:
-    """``Σ c_n·x^n`` at a float or elementwise on an array, as numpy's ``polyval`` computes it."""
+def horner(c: Sequence[float], x: Any) -> Any:
+    """``Σ c_n·x^n`` (``c`` lowest power first) at a float or elementwise on an array, as numpy's
+    ``polyval`` computes it (the same operations in the same order, so the same bits) without its
+    per-call overhead: the closed forms here and the Mills-ratio series of
+    :mod:`vrelab.models.clipping` run it thousands of times in one fit."""
     v = c[-1] + x * 0
     for a in c[-2::-1]:
         v = a + v * x
@@ -111,7 +114,7 @@ def _derivatives(c: Coefficients) -> tuple[Coefficients, ...]:
 
 def _clipped(c: Coefficients, y: float, low: float, high: float) -> float:
     """``clip(P(y), low, high)``."""
-    return min(max(float(_horner(c, y)), low), high)
+    return min(max(float(horner(c, y)), low), high)
 
 
 # SPEC 1.5: every VRE the tool states is the mean output with vibration less this reading.
@@ -172,7 +175,7 @@ def _pieces(c: Coefficients, low: float, high: float) -> tuple[tuple[float, floa
             mid = a + 1.0 + abs(a)
         else:
             mid = 0.5 * (a + b)
-        v = float(_horner(c, mid))
+        v = float(horner(c, mid))
         what = "low" if v < low else "high" if v > high else "poly"
         if out and out[-1][2] == what:
             out[-1] = (out[-1][0], b, what)
@@ -224,7 +227,7 @@ def _gaussian(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: 
         # the Taylor coefficients at the mean: at a single mean on floats (the same arithmetic)
         at = float(m[0]) if m.size == 1 else m
         for n, d in enumerate(derivs):
-            part += _horner(d, at) / math.factorial(n) * sigma**n * moments[n]
+            part += horner(d, at) / math.factorial(n) * sigma**n * moments[n]
     total = np.zeros_like(m)
     inside = np.zeros_like(m)
     for i, (_, _, what) in enumerate(pieces):
@@ -247,7 +250,7 @@ def _sine(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: floa
         total = 0.0
         for n, q in enumerate((_less(c, ref), *_derivatives(c))):
             if n % 2 == 0:
-                total += float(_horner(q, m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
+                total += float(horner(q, m)) / math.factorial(n) * amp**n * math.comb(n, n // 2) / 2**n
         return total, 1.0
     total = inside = 0.0
     for a, b, what in pieces:
@@ -261,7 +264,7 @@ def _sine(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: floa
             total += ((low if what == "low" else high) - ref) * frac
             continue
         th = 0.5 * (t_hi + t_lo) + 0.5 * (t_hi - t_lo) * _GL_X
-        total += 0.5 * frac * float(_GL_W @ (_horner(c, m + amp * np.cos(th)) - ref))
+        total += 0.5 * frac * float(_GL_W @ (horner(c, m + amp * np.cos(th)) - ref))
         inside += frac
     return total, inside
 
