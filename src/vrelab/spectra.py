@@ -21,6 +21,21 @@ from vrelab.profiles import RandomProfile
 # --- tolerance check --------------------------------------------------------------------------
 
 
+def whole_segments(buf: NDArray[Any], x: NDArray[Any], nperseg: int, step: int
+                   ) -> tuple[NDArray[Any] | None, int, NDArray[Any]]:
+    """A streamed Welch estimate's buffering: ``x`` appended to the samples kept (``buf``, along
+    axis 0), returned as ``(run, n_seg, rest)``: the run of ``n_seg`` whole segments of
+    ``nperseg`` samples ``step`` apart (None when there is not one yet), and the samples to keep
+    for the next block (a copy: no view holds the block). Estimating each run and weighting it
+    by ``n_seg`` gives exactly the estimate over the whole record."""
+    joined = np.concatenate((buf, x)) if buf.size else x
+    if joined.shape[0] < nperseg:
+        return None, 0, joined.copy()
+    n_seg = (joined.shape[0] - nperseg) // step + 1
+    used = nperseg + (n_seg - 1) * step
+    return joined[:used], n_seg, joined[n_seg * step :].copy()
+
+
 class WelchAccumulator:
     """Welch PSD of an arbitrarily long record fed in blocks (memory: one segment).
 
@@ -48,17 +63,11 @@ class WelchAccumulator:
         self.n_samples += x.size
         self._sum_sq += float(np.dot(x, x))
         self._sum_x += float(np.sum(x))
-        buf = np.concatenate((self._buf, x)) if self._buf.size else x
-        if buf.size >= self.nperseg:
-            n_seg = (buf.size - self.nperseg) // self.step + 1
-            used = self.nperseg + (n_seg - 1) * self.step
-            _, pxx = scipy.signal.welch(
-                buf[:used], self.fs_hz, nperseg=self.nperseg, noverlap=self.nperseg - self.step
-            )
+        run, n_seg, self._buf = whole_segments(self._buf, x, self.nperseg, self.step)
+        if run is not None:
+            _, pxx = scipy.signal.welch(run, self.fs_hz, nperseg=self.nperseg, noverlap=self.nperseg - self.step)
             self._sum = pxx * n_seg if self._sum is None else self._sum + pxx * n_seg
             self.n_segments += n_seg
-            buf = buf[n_seg * self.step :]
-        self._buf = buf.copy()
 
     @property
     def psd(self) -> NDArray[np.float64]:

@@ -42,6 +42,7 @@ import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as v
+from vrelab.spectra import whole_segments
 from vrelab.triaxial.profile import AXES, TriaxialProfile
 
 __all__ = ["CsdAccumulator", "MeasuredCsd", "band_csd", "measure_csd", "read_recording_profile"]
@@ -81,19 +82,15 @@ class CsdAccumulator:
         if not np.isfinite(x).all():
             raise ValueError("a triaxial block holds a non-finite sample (NaN or inf)")
         self.n_samples += x.shape[0]
-        buf = np.concatenate((self._buf, x)) if self._buf.size else x
-        if buf.shape[0] >= self.nperseg:
-            n_seg = (buf.shape[0] - self.nperseg) // self.step + 1
-            used = self.nperseg + (n_seg - 1) * self.step
-            cols = buf[:used].T
+        run, n_seg, self._buf = whole_segments(self._buf, x, self.nperseg, self.step)
+        if run is not None:
+            cols = run.T
             # scipy's Pxy is conj(X)·Y; S_jk = E[A_j A_k*] is Pxy with x = channel k, y = channel j
             _, pxy = scipy.signal.csd(cols[None, :, :], cols[:, None, :], self.fs_hz, nperseg=self.nperseg,
                                       noverlap=self.nperseg - self.step)
             part = np.moveaxis(pxy, -1, 0) * n_seg
             self._sum = part if self._sum is None else self._sum + part
             self.n_segments += n_seg
-            buf = buf[n_seg * self.step:]
-        self._buf = buf.copy()
 
     @property
     def csd(self) -> NDArray[np.complex128]:
