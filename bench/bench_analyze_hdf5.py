@@ -30,7 +30,7 @@ set of that process, imports included) and, in a separate run, with ``tracemallo
 what the analysis itself allocates, numpy buffers included). ``--hours`` shows that the peak
 does not grow with length.
 
-    python bench/bench_analyze_hdf5.py [--hours 2] [--fs 4000] [--repeat 1]
+    python bench/bench_analyze_hdf5.py [--hours 2] [--fs 4000] [--repeat 1] [--components] [--baseline SRC]
 """
 
 from __future__ import annotations
@@ -162,12 +162,34 @@ print(json.dumps({"seconds": dt, "cpu_seconds": cpu, "maxrss_before_kb": rss0, "
 """
 
 
-def analyze_in_subprocess(path: Path, trace: bool = False, cold: bool = False) -> dict[str, Any]:
+def analyze_in_subprocess(path: Path, trace: bool = False, cold: bool = False, src: str | None = None) -> dict[str, Any]:
+    """The analysis timed in a fresh process; ``src``: run it on another checkout's source."""
+    import os
+
     mode = "trace" if trace else "time"
     if cold:
         drop_from_page_cache(path)
-    out = subprocess.run([sys.executable, "-c", _CHILD, str(path), mode], capture_output=True, text=True, check=True)
+    env = None if src is None else dict(os.environ, PYTHONPATH=src)
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(path), mode], capture_output=True, text=True, check=True,
+                         env=env)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def against_baseline(path: Path, src: str, repeat: int) -> dict[str, float]:
+    """Medians of the analysis on this checkout and on ``src``, warm and cold, in interleaved
+    rounds (this, baseline, this, ...: load and storage drift alike for both), and their ratios."""
+    import statistics
+
+    times: dict[str, list[float]] = {k: [] for k in ("warm", "cold", "warm_base", "cold_base")}
+    for _ in range(repeat):
+        for cold in (False, True):
+            key = "cold" if cold else "warm"
+            times[key].append(analyze_in_subprocess(path, cold=cold)["seconds"])
+            times[key + "_base"].append(analyze_in_subprocess(path, cold=cold, src=src)["seconds"])
+    med = {k: statistics.median(v) for k, v in times.items()}
+    return {"analyze_warm_s": round(med["warm"], 3), "baseline_warm_s": round(med["warm_base"], 3),
+            "ratio_warm": round(med["warm"] / med["warm_base"], 2), "analyze_cold_s": round(med["cold"], 3),
+            "baseline_cold_s": round(med["cold_base"], 3), "ratio_cold": round(med["cold"] / med["cold_base"], 2)}
 
 
 def components(path: Path, repeat: int) -> dict[str, float]:
@@ -226,6 +248,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     p.add_argument("--fs", type=float, default=4000.0)
     p.add_argument("--repeat", type=int, default=1, help="repeat each timing, keep the fastest")
     p.add_argument("--components", action="store_true", help="also time the parts of a warm analysis in-process")
+    p.add_argument("--baseline", metavar="SRC", help="src directory of another checkout (e.g. `git archive` of a "
+                   "commit): its analysis timed in interleaved rounds with this one's, medians and ratios printed")
     args = p.parse_args(argv)
     path = make_record(args.hours, args.fs)
     size_mb = path.stat().st_size / 1e6
@@ -300,6 +324,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         print("warm, in-process, wall (CPU) seconds: " + "; ".join(
             f"{name.replace('_', ' ')} {c[name + '_s']:.3f} ({c[name + '_cpu_s']:.3f})"
             for name in ("read", "read_and_reference_fft", "first_pass", "analysis")))
+    if args.baseline:
+        b = result["against_baseline"] = against_baseline(path, args.baseline, args.repeat)
+        print(f"against {args.baseline} (medians of {args.repeat} interleaved rounds): warm {b['analyze_warm_s']:.3f} s "
+              f"vs {b['baseline_warm_s']:.3f} s, ratio {b['ratio_warm']:.2f}; cold {b['analyze_cold_s']:.3f} s vs "
+              f"{b['baseline_cold_s']:.3f} s, ratio {b['ratio_cold']:.2f}")
     print(json.dumps(result))
     return result
 
