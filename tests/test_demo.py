@@ -13,7 +13,6 @@ from __future__ import annotations
 import base64
 import json
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -35,17 +34,16 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> dict:
     err, std = io.StringIO(), io.StringIO()
     meta = out.parent / "meta.toml"
     meta.write_text(METADATA)
-    t0 = time.monotonic()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(std):
         rc = main(["demo", "--quick", "--out", str(out), "--json", "--metadata", str(meta)])
-    return {"rc": rc, "out": out, "stderr": err.getvalue(), "stdout": std.getvalue(), "elapsed": time.monotonic() - t0}
+    return {"rc": rc, "out": out, "stderr": err.getvalue(), "stdout": std.getvalue()}
 
 
-def test_demo_runs_quickly_and_says_where_the_report_is(demo: dict) -> None:
+def test_demo_runs_and_says_where_the_report_is(demo: dict) -> None:
+    # how long it takes is bench/'s to measure, not a test's (a busy machine took 40 s)
     assert demo["rc"] == 0
     doc = json.loads(demo["stdout"])
     assert Path(doc["report"]) == demo["out"] / "report.html"
-    assert demo["elapsed"] < 20.0  # quick mode: a few seconds of simulation
     lines = demo["stderr"].splitlines()
     assert len(lines) == 6 and all(re.match(r"vrelab demo: \[\d/6\] .+: done in [\d.]+ s$", ln) for ln in lines), lines
 
