@@ -216,3 +216,23 @@ def test_a_dut_that_responds_otherwise_at_2f_is_named(gain_2f: float):
     assert bool(named) == (gain_2f != 1.0), res.warnings
     if named:
         assert "1.3x" in named[0]
+
+
+def test_the_reference_sensitivity_moves_the_vrc_by_minus_2r_through_the_measured_moments():
+    """SPEC 4.3: a reference-sensitivity error r scales E[x²] by (1+r)² (and E[x³] by (1+r)³),
+    so a VRC fitted against E[x²] moves by -2r (to first order): the budget's term for 1 % is
+    2 % of the VRC. (Had the perturbation scaled the rms alone, the VRC fitted against the
+    measured E[x²] would not move at all and the term would read 0.)"""
+    from vrelab.analysis import analyze
+    from vrelab.analysis.options import BudgetOptions
+    from vrelab.gum import TypeB
+    from vrelab.record import ArrayRecord, Schedule, Segment
+
+    data, rows = distorted_run(4, 1.0)
+    sched = Schedule(tuple(Segment(a, b, r, None if math.isnan(f) else f) for a, b, r, f in rows))
+    (fit,) = analyze(ArrayRecord(data, FS), "sine", sched, budget=BudgetOptions(TypeB(u_reference_pct=1.0))).fits
+    (term,) = [n for n in fit.notes if n.startswith("budget: reference")]
+    vrc = fit.params["vrc_ug_per_g2"].value
+    moved = float(term.rsplit(" ", 1)[1])
+    # -2r to first order; (1+r)^-2 - 1 = -1.99 % exactly for r = 1 %
+    assert moved == pytest.approx(((1.01) ** -2 - 1) * vrc, rel=2e-3)

@@ -161,7 +161,7 @@ def fit_vrc(
     shift = None
     if any(lv.drive is not None for lv in sel):
         shift = float(np.sum(w * x2 * x3) / (3.0 * np.sum(w * x2 * x2)))
-        if any(lv.drive is not None and abs(lv.drive.mean_cube_g3.value) > 2 * lv.drive.mean_cube_g3.u for lv in sel):
+        if any(lv.drive is not None and lv.drive.distorted for lv in sel):
             notes.append(f"a distorted drive (SPEC 4.4): VRE fitted against each level's measured E[x²]; its E[x³] "
                          f"makes the cubic term rectify as at g0 {shift:+.3g} g: VRC = k2 + 3*k3*(g0 {shift:+.3g} g)")
     cov = np.linalg.inv(A).astype(np.float64, copy=False)

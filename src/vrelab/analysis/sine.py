@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from vrelab.analysis.segmentation import channel_labels, check_finite, exact_blocks
 from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.record import WINDOW_S, Record
-from vrelab.results import DriveWaveform, Estimate, Notice
+from vrelab.results import NOTABLE_THD, DriveWaveform, Estimate, Notice
 
 # Harmonics of the drive measured on the reference per sine level (SPEC 4.4), at most this many
 # (and only those below Nyquist): a shaker's distortion lives in its first few harmonics, and
@@ -273,23 +273,22 @@ def sine_level(
 
 
 # A distorted drive's moments are the reference's: the DUT is taken to see the same waveform,
-# i.e. its response at 2f relative to f to be 1. Beyond this departure (with a second harmonic
-# of at least DRIVE_H2_NOTABLE of the fundamental) the level says that E[x³] may not be the one
-# the DUT's nonlinearity saw.
+# i.e. its response at 2f relative to f to be 1. Beyond this departure (on a drive whose second
+# harmonic reaches results.NOTABLE_THD of the fundamental) the level says that E[x³] may not be
+# the one the DUT's nonlinearity saw.
 DRIVE_RESPONSE_TOL = 0.05
-DRIVE_H2_NOTABLE = 0.01
 
 
 def _response_at_2f(dut: NDArray[np.float64], ref: NDArray[np.float64], drive: DriveWaveform, f: float) -> str | None:
     """A note when the DUT's output shows a response at 2f, relative to the one at f, that
-    departs from 1 by more than ``DRIVE_RESPONSE_TOL`` while the drive holds a notable second
-    harmonic: ``ρ = (c2_dut/c2_ref)/(c1_dut/c1_ref)`` from the level's mean phasors (columns 1-4
+    departs from 1 by more than ``DRIVE_RESPONSE_TOL`` while the drive's second harmonic reaches
+    ``NOTABLE_THD`` of the fundamental: ``ρ = (c2_dut/c2_ref)/(c1_dut/c1_ref)`` from the level's mean phasors (columns 1-4
     of the pass's fit: cos, sin at f and 2f). The DUT's output at 2f also holds its own k2·A²/2
     line, negligible against a drive's percent-level harmonic at µg/g² nonlinearity; its output
     filter acts after the nonlinearity, so a departure says the assumption *may* fail, not
     that it does."""
     h = drive.harmonics_rms_g
-    if len(h) < 2 or not (h[0].value > 0 and h[1].value >= DRIVE_H2_NOTABLE * h[0].value):
+    if len(h) < 2 or not (h[0].value > 0 and h[1].value >= NOTABLE_THD * h[0].value):
         return None
     d1 = complex(np.mean(dut[:, 1]), -np.mean(dut[:, 2]))
     d2 = complex(np.mean(dut[:, 3]), -np.mean(dut[:, 4]))
