@@ -236,3 +236,32 @@ def test_the_reference_sensitivity_moves_the_vrc_by_minus_2r_through_the_measure
     moved = float(term.rsplit(" ", 1)[1])
     # -2r to first order; (1+r)^-2 - 1 = -1.99 % exactly for r = 1 %
     assert moved == pytest.approx(((1.01) ** -2 - 1) * vrc, rel=2e-3)
+
+
+def test_analyze_json_and_report_show_the_drive_harmonics(tmp_path: Path, capsys):
+    """The user's view: ``vrelab analyze --json`` holds each sine level's drive (harmonics, THD,
+    E[x²], E[x³]) and the fit's static_shift_g; the text table a THD column; the report a
+    drive-waveform table with the harmonics in % of the fundamental."""
+    import json
+
+    from vrelab.cli import main
+    from vrelab.record import Schedule, Segment, write_record_hdf5
+
+    data, rows = distorted_run(2, 1.0, distortion=(0.06, 0.06))
+    sched = Schedule(tuple(Segment(a, b, r, None if math.isnan(f) else f) for a, b, r, f in rows))
+    rec = tmp_path / "run.h5"
+    write_record_hdf5(rec, FS, [data], schedule=sched)
+    args = ["analyze", str(rec), "--dut", "dut", "--reference", "reference", "--method", "sine"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "THD (%)" in text and "a distorted drive" in text
+    assert main([*args, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    drive = doc["levels"][0]["drive"]
+    assert drive["thd"]["value"] == pytest.approx(0.06, rel=1e-3)
+    assert {"mean_square_g2", "mean_cube_g3", "harmonics"} <= set(drive)
+    assert doc["fits"][0]["static_shift_g"] is not None
+    assert main([*args, "--out", str(tmp_path / "out")]) == 0
+    assert main(["report", str(tmp_path / "out")]) == 0
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "Drive waveform (reference)" in html and "h2 (%)" in html and ">6<" in html  # h2 = 6 % of the fundamental
