@@ -61,13 +61,13 @@ def distorted_run(seed: int, g0: float, distortion: tuple[float, float] = (0.05,
     return {"dut": dut, "reference": ref}, rows
 
 
-def write_campaign(folder: Path, seed: int, **kw) -> Path:
-    """Two runs, +1 g and -1 g, as HDF5 records with their schedule, and the manifest."""
+def write_campaign(folder: Path, seed: int, fields: tuple[float, ...] = (1.0, -1.0), **kw) -> Path:
+    """A run per static field (+1 g and -1 g), as HDF5 records with their schedule, and the manifest."""
     from vrelab.record import Schedule, Segment, write_record_hdf5
 
     folder.mkdir(parents=True, exist_ok=True)
     runs = []
-    for i, g0 in enumerate((1.0, -1.0)):
+    for i, g0 in enumerate(fields):
         data, rows = distorted_run(1000 * seed + i, g0, **kw)
         sched = Schedule(tuple(Segment(a, b, r, None if math.isnan(f) else f) for a, b, r, f in rows))
         name = f"run{i}.h5"
@@ -265,3 +265,16 @@ def test_analyze_json_and_report_show_the_drive_harmonics(tmp_path: Path, capsys
     assert main(["report", str(tmp_path / "out")]) == 0
     html = (tmp_path / "out" / "report.html").read_text()
     assert "Drive waveform (reference)" in html and "h2 (%)" in html and ">6<" in html  # h2 = 6 % of the fundamental
+
+
+def test_one_orientation_names_the_bias_it_cannot_remove(tmp_path: Path):
+    """With one orientation k3 is unknown, so the drive's 3·k3·shift stays in the VRC: the
+    campaign says so (and leaves the VRC as measured, with its shift beside it)."""
+    from vrelab.campaign import combine, read_manifest, run_campaign
+
+    man = read_manifest(write_campaign(tmp_path / "c", 0, fields=(1.0,)))
+    (ch,) = combine(run_campaign(man), man.channels)
+    assert ch.k3 is None
+    assert any(n.startswith("a distorted drive") and "unknown bias" in n for n in ch.notes), ch.notes
+    (v,) = ch.vrc_by_freq
+    assert abs(v["static_shift_g"]) > 1e-3 and "vrc_measured_ug_per_g2" not in v

@@ -282,8 +282,8 @@ DRIVE_RESPONSE_TOL = 0.05
 def _response_at_2f(dut: NDArray[np.float64], ref: NDArray[np.float64], drive: DriveWaveform, f: float) -> str | None:
     """A note when the DUT's output shows a response at 2f, relative to the one at f, that
     departs from 1 by more than ``DRIVE_RESPONSE_TOL`` while the drive's second harmonic reaches
-    ``NOTABLE_THD`` of the fundamental: ``ρ = (c2_dut/c2_ref)/(c1_dut/c1_ref)`` from the level's mean phasors (columns 1-4
-    of the pass's fit: cos, sin at f and 2f). The DUT's output at 2f also holds its own k2·A²/2
+    ``NOTABLE_THD`` of the fundamental: ``ρ = (c2_dut/c2_ref)/(c1_dut/c1_ref)`` from the
+    level's mean phasors (columns 1-4 of the pass's fit: cos, sin at f and 2f). The DUT's output at 2f also holds its own k2·A²/2
     line, negligible against a drive's percent-level harmonic at µg/g² nonlinearity; its output
     filter acts after the nonlinearity, so a departure says the assumption *may* fail, not
     that it does."""
@@ -310,7 +310,7 @@ def _drive_waveform(coef: NDArray[np.float64], batch_phase: float, resid_ms: NDA
 
     ``coef``: per batch (rows), the (cos, sin) coefficients of harmonics 1..H in the batch's
     own frame (phase 0 at its first sample); ``batch_phase``: the drive's phase advance from
-    one batch to the next [rad]; ``ref_var``: each batch's mean-removed mean square;
+    one batch to the next [rad]; ``resid_ms``: each batch's mean square about its harmonic fit;
     ``rms``, ``u_rms``: the level's fundamental rms and its u from the pass's own fit.
 
     * Each harmonic's amplitude: its phasors turned to the first batch's frame (harmonic h's
