@@ -157,7 +157,10 @@ def fit_vrc(
     A = X.T @ (w[:, None] * X)
     beta = np.linalg.solve(A, X.T @ (w * y))
     # VRE_i = VRC·E[x²]_i + k3·E[x³]_i: the fitted VRC is k2 + 3·k3·(g0 + shift), shift =
-    # Σw·E[x²]·E[x³] / (3·Σw·E[x²]²) (the normal equation of the one-column fit, exact)
+    # Σw·E[x²]·E[x³] / (3·Σw·E[x²]²) (the normal equation of the one-column fit, exact). The
+    # moments' own u is left out of the VRC's, as the rms's always was: E[x²] is known to 1e-5
+    # of itself and the shift to about 2e-6 g (tests/test_distorted_drive.py's records), i.e.
+    # 3·k3·u(shift) ≈ 6e-4 µg/g² for k3 = 100 µg/g³, against a VRC's u of several µg/g².
     shift = None
     if any(lv.drive is not None for lv in sel):
         shift = float(np.sum(w * x2 * x3) / (3.0 * np.sum(w * x2 * x2)))
