@@ -827,7 +827,8 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                                      "not used for k2/k3")
                         continue
                     vrcs.append({"freq_hz": f.freq_hz, "static_g": g0, "run": rr.run.index, "label": rr.run.label,
-                                 "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points})
+                                 "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points,
+                                 **({} if f.static_shift_g is None else {"static_shift_g": f.static_shift_g})})
                 elif f.model.startswith("clip-") and "rail_g" in f.params:
                     e = _type_a(f, "rail_g")
                     if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
@@ -845,7 +846,10 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         fields = [v["static_g"] for v in grp]
         f0 = grp[0]["freq_hz"]
         if max(fields) - min(fields) >= SAME_ORIENTATION_G:
-            by_freq.append(fit_k2_k3([(v["static_g"], est(v)) for v in grp], freq_hz=f0))
+            # each VRC at the static field its cubic term saw (a distorted drive's E[x³] moves it:
+            # FitResult.static_shift_g), so k2 and k3 are those of the pure polynomial (SPEC 4.4)
+            by_freq.append(fit_k2_k3([(v["static_g"] + v.get("static_shift_g", 0.0), est(v)) for v in grp], freq_hz=f0))
+            _at_nominal_static(grp, by_freq[-1])
         elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
             k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
                                      if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])},
@@ -872,6 +876,13 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                      "k2 and k3 = null")
     else:
         notes.append("no sine run with a VRC fit of two levels or more: k2 and k3 = null")
+    if not by_freq:
+        shifted = [v for v in vrcs if abs(v.get("static_shift_g", 0.0)) > 0]
+        if shifted:
+            worst = max(shifted, key=lambda v: abs(v["static_shift_g"]))
+            notes.append(f"a distorted drive (SPEC 4.4): each VRC is k2 + 3*k3*(g0 + shift) with the shift its drive's "
+                         f"E[x³] gives (up to {worst['static_shift_g']:+.3g} g, run {worst['run']}); without two "
+                         "orientations k3 is unknown, so 3*k3*shift is an unknown bias of these VRCs (and of k2)")
     budgets = [rr.run.budget for rr in results if any(n == channel for n, _ in rr.results)]
     if k2 is not None or k3 is not None:
         (k2, k3), note = common_sensitivity_terms((k2, k3), budgets)
@@ -886,6 +897,29 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         notes.append("no random run with a rail fit: rail = null")
     return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes),
                           tuple(mounted))
+
+
+def _at_nominal_static(group: Sequence[dict[str, Any]], fit: FitResult) -> None:
+    """Each VRC entry of ``group`` (one frequency, fitted by ``fit``, :func:`vrelab.fits.fit_k2_k3`
+    at the static fields g0 + shift) carried to its nominal g0 (SPEC 1.2's VRC = k2 + 3·k3·g0),
+    in place: ``VRC - 3·k3·shift``, its variance ``u² + 9·shift²·u(k3)² - 6·shift·cov(VRC, k3)``
+    with ``cov(VRC_i, k3) = C[1,0] + 3·g_i·C[1,1]`` (C the fit's covariance, g_i the field the
+    point was fitted at: the weighted least squares' k3 is a linear function of the VRCs). The
+    measured VRC stays as ``vrc_measured_ug_per_g2``. Entries without a shift are left as they are."""
+    cov = fit.covariance
+    k3 = fit.params["k3_ug_per_g3"]
+    if cov is None:
+        return
+    for v in group:
+        shift = v.get("static_shift_g", 0.0)
+        if not shift:
+            continue
+        e = v["vrc_ug_per_g2"]
+        g = v["static_g"] + shift
+        c = cov[1][0] + 3.0 * g * cov[1][1]
+        var = e["u"] ** 2 + 9.0 * shift**2 * cov[1][1] - 6.0 * shift * c
+        v["vrc_measured_ug_per_g2"] = dict(e)
+        v["vrc_ug_per_g2"] = {"value": e["value"] - 3.0 * k3.value * shift, "u": math.sqrt(max(var, 0.0))}
 
 
 def _mounted_vrcs(rr: RunResult, mount: Mount, res: VreResult) -> list[dict[str, Any]]:

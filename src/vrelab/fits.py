@@ -152,10 +152,21 @@ def fit_vrc(
         )
     rms, y, u = _arrays(sel)
     w = _weights(u, notes)
-    x2 = rms**2
+    x2, x3 = drive_moments(sel)
     X = np.column_stack([x2, x2**2]) if with_k4 else x2[:, None]
     A = X.T @ (w[:, None] * X)
     beta = np.linalg.solve(A, X.T @ (w * y))
+    # VRE_i = VRC·E[x²]_i + k3·E[x³]_i: the fitted VRC is k2 + 3·k3·(g0 + shift), shift =
+    # Σw·E[x²]·E[x³] / (3·Σw·E[x²]²) (the normal equation of the one-column fit, exact). The
+    # moments' own u is left out of the VRC's, as the rms's always was: E[x²] is known to 1e-5
+    # of itself and the shift to about 2e-6 g (tests/test_distorted_drive.py's records), i.e.
+    # 3·k3·u(shift) ≈ 6e-4 µg/g² for k3 = 100 µg/g³, against a VRC's u of several µg/g².
+    shift = None
+    if any(lv.drive is not None for lv in sel):
+        shift = float(np.sum(w * x2 * x3) / (3.0 * np.sum(w * x2 * x2)))
+        if any(lv.drive is not None and lv.drive.distorted for lv in sel):
+            notes.append(f"a distorted drive (SPEC 4.4): VRE fitted against each level's measured E[x²]; its E[x³] "
+                         f"makes the cubic term rectify as at g0 {shift:+.3g} g: VRC = k2 + 3*k3*(g0 {shift:+.3g} g)")
     cov = np.linalg.inv(A).astype(np.float64, copy=False)
     resid = y - X @ beta
     chi2 = float(np.sum(w * resid**2))
@@ -174,7 +185,18 @@ def fit_vrc(
         levels_used=tuple(float(r) for r in rms),
         notes=tuple(notes),
         covariance=_cov_tuple(cov * UG_PER_G**2),  # both parameters in µg units
+        static_shift_g=shift,
     )
+
+
+def drive_moments(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(E[x²], E[x³]) per level [g², g³]: a sine level's measured from its reference waveform
+    (:class:`~vrelab.results.DriveWaveform`, SPEC 4.4), else those of the level's rms: rms² and 0
+    (a pure sine, or a symmetric random drive)."""
+    x2 = np.array([lv.drive.mean_square_g2.value if lv.drive is not None else lv.rms_g**2 for lv in levels],
+                  dtype=np.float64)
+    x3 = np.array([lv.drive.mean_cube_g3.value if lv.drive is not None else 0.0 for lv in levels], dtype=np.float64)
+    return x2, x3
 
 
 def _cov_tuple(cov: Any) -> tuple[tuple[float, ...], ...]:

@@ -235,7 +235,9 @@ def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | N
 def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel: float = 0.0,
                    offset_g: float = 0.0) -> list[LevelResult]:
     """Levels as they would read with the reference sensitivity off by ``rms_rel`` (every rms
-    scales by 1 + rms_rel), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
+    scales by 1 + rms_rel, a sine level's measured E[x²] and E[x³] by its square and cube: 2r
+    and 3r, SPEC 4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
     return [replace(lv, rms_g=lv.rms_g * (1 + rms_rel),
-                    vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit))
+                    vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit),
+                    drive=None if lv.drive is None else lv.drive.scaled(1 + rms_rel))
             for lv in levels]

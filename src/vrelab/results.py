@@ -52,7 +52,8 @@ class Notice(str):
 
     Codes in use: ``rail-found`` (a DUT rail found in the data), ``saturated-levels``,
     ``schedule``, ``segment``, ``reference``, ``bracket``, ``frequency``, ``tolerance``,
-    ``fit`` (a fit skipped or limited), ``departure`` (data leave the clipping model),
+    ``fit`` (a fit skipped or limited), ``departure`` (data leave the clipping model), ``drive``
+    (a sine level whose DUT may not see the reference's distorted waveform),
     ``simulation`` (the simulated test's own), ``note`` (anything else).
     """
 
@@ -126,6 +127,71 @@ class Conditions:
         return cls(**known, extra=dict(d.get("extra") or {}))
 
 
+# A sine drive whose THD reaches this (1 %) is named as distorted in notes (SPEC 4.4); a pure
+# drive's measured THD is its reference's noise floor, 1e-5 in the tests' records.
+NOTABLE_THD = 0.01
+
+
+@dataclass(frozen=True)
+class DriveWaveform:
+    """The reference's waveform over one sine level (SPEC 4.4): a shaker's drive is not a pure sine.
+
+    ``harmonics_rms_g[h-1]`` is the rms of harmonic h (h = 1 the fundamental), each an
+    :class:`Estimate` in g; ``thd`` the total harmonic distortion √(Σ_{h≥2} A_h²)/A_1 (a ratio,
+    IEC 60050-551-20-13's definition relative to the fundamental); ``mean_square_g2`` = E[x²] and
+    ``mean_cube_g3`` = E[x³] of the mean-removed waveform the harmonics make, the moments a
+    polynomial sensor rectifies (SPEC 1.2: VRE = k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) + ...; for a
+    pure sine E[x²] = rms² and E[x³] = 0). ``residual_rms_g``: the rms the harmonics leave
+    (the reference's noise, motion at other frequencies), which the moments do not hold.
+    """
+
+    harmonics_rms_g: tuple[Estimate, ...]
+    thd: Estimate
+    mean_square_g2: Estimate
+    mean_cube_g3: Estimate
+    residual_rms_g: float
+
+    @property
+    def distorted(self) -> bool:
+        """Whether the drive's THD reaches ``NOTABLE_THD``: what the fits and the DUT-response
+        check name in their notes (the moments are used whatever the THD)."""
+        return math.isfinite(self.thd.value) and self.thd.value >= NOTABLE_THD
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "harmonics": [{"h": i + 1, "rms_g": finite_or_none(e.value), "u": finite_or_none(e.u)}
+                          for i, e in enumerate(self.harmonics_rms_g)],
+            "thd": {"value": finite_or_none(self.thd.value), "u": finite_or_none(self.thd.u)},
+            "mean_square_g2": {"value": finite_or_none(self.mean_square_g2.value),
+                               "u": finite_or_none(self.mean_square_g2.u)},
+            "mean_cube_g3": {"value": finite_or_none(self.mean_cube_g3.value), "u": finite_or_none(self.mean_cube_g3.u)},
+            "residual_rms_g": finite_or_none(self.residual_rms_g),
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> DriveWaveform:
+        def est(e: Mapping[str, Any], unit: str) -> Estimate:
+            return Estimate(_nan(e.get("value")), _nan(e.get("u")), unit)
+
+        return cls(
+            harmonics_rms_g=tuple(Estimate(_nan(h.get("rms_g")), _nan(h.get("u")), "g") for h in d.get("harmonics") or ()),
+            thd=est(d["thd"], "1"),
+            mean_square_g2=est(d["mean_square_g2"], "g^2"),
+            mean_cube_g3=est(d["mean_cube_g3"], "g^3"),
+            residual_rms_g=_nan(d.get("residual_rms_g")),
+        )
+
+    def scaled(self, factor: float) -> DriveWaveform:
+        """The waveform as a reference whose sensitivity is off by ``factor`` would read it: every
+        amplitude times factor, E[x²] times factor², E[x³] times factor³ (the GUM budget's
+        perturbation of the reference sensitivity, :func:`vrelab.gum.perturb_levels`)."""
+        def sc(e: Estimate, p: int) -> Estimate:
+            return Estimate(e.value * factor**p, e.u * abs(factor) ** p, e.unit)
+
+        return DriveWaveform(tuple(sc(e, 1) for e in self.harmonics_rms_g), self.thd, sc(self.mean_square_g2, 2),
+                             sc(self.mean_cube_g3, 3), self.residual_rms_g * abs(factor))
+
+
 @dataclass(frozen=True)
 class LevelResult:
     """VRE measured (or simulated) at one vibration level."""
@@ -148,6 +214,9 @@ class LevelResult:
     # sine: the rectified shift estimated from the DUT's 2f line less the reference's (immune to
     # drift; the analysis's _sine_level says how), beside the DC estimate ``vre``
     vre_2f: Estimate | None = None
+    # sine: the reference's waveform over the level (harmonics, THD, E[x²], E[x³]); None for a
+    # random level or a record without a reference
+    drive: DriveWaveform | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -166,6 +235,8 @@ class LevelResult:
             d["freq_hz"] = finite_or_none(self.freq_hz)
         if self.vre_2f is not None:
             d["vre_2f"] = {"value": finite_or_none(self.vre_2f.value), "u": finite_or_none(self.vre_2f.u)}
+        if self.drive is not None:
+            d["drive"] = self.drive.to_dict()
         d.update(
             u_rms_g=finite_or_none(self.u_rms_g),
             duration_s=finite_or_none(self.duration_s),
@@ -192,6 +263,7 @@ class LevelResult:
             k=d.get("k"),
             decision=d.get("decision"),
             vre_2f=Estimate(_nan(d["vre_2f"]["value"]), _nan(d["vre_2f"]["u"]), "g") if d.get("vre_2f") else None,
+            drive=DriveWaveform.from_dict(d["drive"]) if isinstance(d.get("drive"), Mapping) else None,
         )
 
 
@@ -215,6 +287,9 @@ class FitResult:
     # Covariance of the fitted parameters, in the order and units of ``params`` (each row and
     # column a parameter; its diagonal is each ``u``²): identification and prediction carry it.
     covariance: tuple[tuple[float, ...], ...] | None = None
+    # a sine VRC fit over a distorted drive (SPEC 4.4): the drive's E[x³] makes the cubic term
+    # rectify as at g0 + static_shift_g, so VRC = k2 + 3·k3·(g0 + static_shift_g) (None: a pure drive)
+    static_shift_g: float | None = None
 
     def __str__(self) -> str:
         ps = ", ".join(f"{k} = {v}" for k, v in self.params.items())
@@ -231,6 +306,8 @@ class FitResult:
             departure_rms_g=finite_or_none(self.departure_rms_g),
             notes=list(self.notes),
         )
+        if self.static_shift_g is not None:
+            d["static_shift_g"] = finite_or_none(self.static_shift_g)
         if self.covariance is not None:
             d["covariance"] = {"params": list(self.params),
                                "matrix": [[finite_or_none(c) for c in row] for row in self.covariance]}
@@ -238,7 +315,8 @@ class FitResult:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
-        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes", "covariance"}
+        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes", "covariance",
+                 "static_shift_g"}
         params = {k: Estimate.from_dict(v) for k, v in d.items() if k not in fixed and isinstance(v, Mapping)}
         return cls(
             model=d["model"],
@@ -251,6 +329,7 @@ class FitResult:
             notes=tuple(d.get("notes") or ()),
             covariance=tuple(tuple(math.nan if c is None else float(c) for c in row)
                              for row in d["covariance"]["matrix"]) if d.get("covariance") else None,
+            static_shift_g=d.get("static_shift_g"),
         )
 
 

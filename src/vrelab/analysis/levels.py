@@ -399,6 +399,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
     fs = record.fs_hz
     freq = None
     vre_2f = None
+    drive = None
     dm: MeanEstimate
     if method == "random":
         dm = dut_mean_estimate(stats, k0, k1)
@@ -413,7 +414,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
         sl = sine_level(record, i0, i1, stats.reference, ctx.block_size, seg.freq_hz, stats.shared)
         freq, dm, t_c = sl.freq_hz, sl.dut_mean, sl.t_centre_s
         warnings += sl.warnings
-        rms, u_rms, n_used = sl.ref_rms.mean, sl.ref_rms.u, sl.n_samples
+        rms, u_rms, n_used, drive = sl.ref_rms.mean, sl.ref_rms.u, sl.n_samples, sl.drive
         h2 = sl.shift_2f
         if h2 is not None and math.isfinite(h2.mean) and math.isfinite(h2.u):
             vre_2f = Estimate(h2.mean, h2.u, "g")
@@ -437,7 +438,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method) -> tuple[Level
             f"samples; mean {off[0].mean_g:+.4g} g): VRE undefined, reported as null",
         ))
     level = LevelResult(rms_g=rms, vre=vre, freq_hz=freq, u_rms_g=u_rms, duration_s=n_used / fs, n_samples=n_used,
-                        n_saturated=n_sat, flags=flags, dof=dof, vre_2f=vre_2f)
+                        n_saturated=n_sat, flags=flags, dof=dof, vre_2f=vre_2f, drive=drive)
     return level, t_c, warnings
 
 

@@ -25,7 +25,12 @@ from numpy.typing import NDArray
 from vrelab.analysis.segmentation import channel_labels, check_finite, exact_blocks
 from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.record import WINDOW_S, Record
-from vrelab.results import Notice
+from vrelab.results import NOTABLE_THD, DriveWaveform, Estimate, Notice
+
+# Harmonics of the drive measured on the reference per sine level (SPEC 4.4), at most this many
+# (and only those below Nyquist): a shaker's distortion lives in its first few harmonics, and
+# ten of them (IEC 61000-4-7 goes to 40 for mains) keep the pass's cost at 21 basis functions.
+DRIVE_HARMONICS = 10
 
 
 @dataclass(frozen=True)
@@ -40,6 +45,8 @@ class SineLevel:
     warnings: list[str]
     # the 2f estimate of the rectified shift (None: no reference, or 2f at or above Nyquist)
     shift_2f: MeanEstimate | None
+    # the reference's waveform: harmonics, THD, E[x²], E[x³] (None: no reference)
+    drive: DriveWaveform | None = None
 
 
 def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
@@ -192,6 +199,14 @@ def sine_level(
     rows = [np.ones(L), np.cos(w * n0), np.sin(w * n0)] + ([np.cos(2 * w * n0), np.sin(2 * w * n0)] if two_f else [])
     B0 = np.stack(rows)  # (functions, L)
     G0 = B0 @ B0.T
+    # The reference's harmonics 1..H (SPEC 4.4), fitted per batch in the batch's own phase frame
+    # (amplitudes and moments do not depend on the frame; _drive_waveform turns the phasors to a
+    # common one): the same basis for every batch, so one Gram matrix.
+    n_h = min(DRIVE_HARMONICS, int(math.ceil(0.5 * fs / f)) - 1) if ref != "dut" else 0
+    BH = np.stack([np.ones(L)] + [g(h * w * n0) for h in range(1, n_h + 1) for g in (np.cos, np.sin)]) if n_h else None
+    GH: NDArray[np.float64] | None = BH @ BH.T if BH is not None else None
+    rhs_h = np.zeros((nb, 2 * n_h + 1))
+    ref_ss = np.zeros(nb)  # Σ (ref - its harmonic fit)² per batch: what the harmonics leave
     pos = i0
     for blk in exact_blocks(record, blk_len, chans, i0, stop):
         nn = len(blk["dut"])
@@ -204,6 +219,12 @@ def sine_level(
             x = blk[c]
             check_finite(labels[c], x, pos)
             rhs[c][sl] = np.einsum("kij,kj->ki", R, x.reshape(k, L) @ B0.T)
+            if c == ref and BH is not None and GH is not None:
+                xr = x.reshape(k, L)
+                rhs_h[sl] = xr @ BH.T
+                # summed directly, as dut_ss above: Σx² - coefᵀ·Bᵀx would cancel to ε·Σx²
+                e = xr - np.linalg.solve(GH, rhs_h[sl].T).T @ BH
+                ref_ss[sl] = np.einsum("ij,ij->i", e, e)
             if c == "dut":
                 th = np.linalg.solve(basis_sums[sl], rhs[c][sl][..., None])[..., 0]
                 e = x.reshape(k, L) - np.einsum("kji,kj->ki", R, th) @ B0  # the fit, unrotated
@@ -239,7 +260,100 @@ def sine_level(
         m2 = np.abs(c1) ** 2
         if np.all(m2 > 0):
             h2 = batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
-    return SineLevel(f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, stop - i0, warnings, h2)
+    drive = None
+    if GH is not None:
+        coef_h = np.asarray(np.linalg.solve(GH, rhs_h.T).T, dtype=np.float64)
+        drive = _drive_waveform(coef_h[:, 1:], w * L, ref_ss / L, rms, u_rms)
+        if two_f:
+            note = _response_at_2f(coef["dut"], coef[ref], drive, f)
+            if note:
+                warnings.append(Notice("drive", note))
+    return SineLevel(f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, stop - i0, warnings, h2,
+                     drive)
+
+
+# A distorted drive's moments are the reference's: the DUT is taken to see the same waveform,
+# i.e. its response at 2f relative to f to be 1. Beyond this departure (on a drive whose second
+# harmonic reaches results.NOTABLE_THD of the fundamental) the level says that E[x³] may not be
+# the one the DUT's nonlinearity saw.
+DRIVE_RESPONSE_TOL = 0.05
+
+
+def _response_at_2f(dut: NDArray[np.float64], ref: NDArray[np.float64], drive: DriveWaveform, f: float) -> str | None:
+    """A note when the DUT's output shows a response at 2f, relative to the one at f, that
+    departs from 1 by more than ``DRIVE_RESPONSE_TOL`` while the drive's second harmonic reaches
+    ``NOTABLE_THD`` of the fundamental: ``ρ = (c2_dut/c2_ref)/(c1_dut/c1_ref)`` from the
+    level's mean phasors (columns 1-4 of the pass's fit: cos, sin at f and 2f). The DUT's output at 2f also holds its own k2·A²/2
+    line, negligible against a drive's percent-level harmonic at µg/g² nonlinearity; its output
+    filter acts after the nonlinearity, so a departure says the assumption *may* fail, not
+    that it does."""
+    h = drive.harmonics_rms_g
+    if len(h) < 2 or not (h[0].value > 0 and h[1].value >= NOTABLE_THD * h[0].value):
+        return None
+    d1 = complex(np.mean(dut[:, 1]), -np.mean(dut[:, 2]))
+    d2 = complex(np.mean(dut[:, 3]), -np.mean(dut[:, 4]))
+    r1 = complex(np.mean(ref[:, 1]), -np.mean(ref[:, 2]))
+    r2 = complex(np.mean(ref[:, 3]), -np.mean(ref[:, 4]))
+    if 0 in (d1, r1, r2):
+        return None
+    rho = (d2 / r2) / (d1 / r1)
+    if abs(rho - 1) <= DRIVE_RESPONSE_TOL:
+        return None
+    return (f"sine {f:.4g} Hz: the drive holds {100 * h[1].value / h[0].value:.2g} % of second harmonic and the DUT's "
+            f"output responds at 2f {abs(rho):.3g}x (phase {math.degrees(np.angle(rho)):+.0f}°) as at f: the DUT may not "
+            "see the reference's waveform, so the E[x³] its VRC is corrected with may be off by that much (SPEC 4.4)")
+
+
+def _drive_waveform(coef: NDArray[np.float64], batch_phase: float, resid_ms: NDArray[np.float64],
+                    rms: float, u_rms: float) -> DriveWaveform:
+    """The reference's waveform over a sine level from its per-batch harmonic fits.
+
+    ``coef``: per batch (rows), the (cos, sin) coefficients of harmonics 1..H in the batch's
+    own frame (phase 0 at its first sample); ``batch_phase``: the drive's phase advance from
+    one batch to the next [rad]; ``resid_ms``: each batch's mean square about its harmonic fit;
+    ``rms``, ``u_rms``: the level's fundamental rms and its u from the pass's own fit.
+
+    * Each harmonic's amplitude: its phasors turned to the first batch's frame (harmonic h's
+      turns by h·batch_phase a batch) and projected on their mean's direction, the mean of the
+      projections by batch means (:func:`batch_mean`): coherent, so a harmonic the drive does
+      not hold is not lifted to the noise's Rayleigh mean. The fundamental is the level's rms.
+    * E[x²] = rms² + Σ_{h≥2} A_h²/2 (per batch, batch means for its u): for a pure sine it is the
+      level's rms² to the harmonics' noise power. E[x³]: per batch, the mean of the cube of the
+      fitted waveform on 3H+1 equally spaced phases, which is exact for a trigonometric
+      polynomial of degree H (the cube has degree 3H), batch means for its u.
+    * THD = √(Σ_{h≥2} A_h²)/A_1, its u by first-order propagation of the amplitudes' u.
+    """
+    nb, two_h = coef.shape
+    n_h = two_h // 2
+    a, b = coef[:, 0::2], coef[:, 1::2]
+    h = np.arange(1, n_h + 1)
+    turn = np.exp(-1j * np.outer(np.arange(nb), h) * batch_phase)  # (batch, harmonic)
+    ph = (a - 1j * b) * turn  # x = Re[ph·e^{jhθ}] in the first batch's frame
+    mean = ph.mean(axis=0)
+    unit = np.where(np.abs(mean) > 0, mean / np.where(np.abs(mean) > 0, np.abs(mean), 1.0), 1.0)
+    amps = []
+    for i in range(n_h):
+        est = batch_mean(np.real(ph[:, i] * np.conj(unit[i])) / math.sqrt(2.0), detrend=False)
+        amps.append(Estimate(abs(est.mean), est.u, "g"))
+    amps[0] = Estimate(rms, u_rms, "g")
+    power_h = (a[:, 1:] ** 2 + b[:, 1:] ** 2).sum(axis=1) / 2.0  # Σ_{h≥2} A_h²/2 per batch
+    m2 = batch_mean(rms * rms + power_h, detrend=False)
+    m2 = MeanEstimate(m2.mean, math.hypot(m2.u, 2 * rms * u_rms), m2.tau, m2.batch, m2.n_batches)
+    n_grid = 3 * n_h + 1
+    th = 2 * np.pi * np.arange(n_grid) / n_grid
+    x = a @ np.cos(np.outer(h, th)) + b @ np.sin(np.outer(h, th))  # (batch, phase)
+    m3 = batch_mean((x**3).mean(axis=1), detrend=False)
+    harm = np.array([e.value for e in amps[1:]])
+    total = float(np.sqrt(np.sum(harm**2)))
+    thd = total / rms if rms > 0 else math.nan
+    if total > 0 and rms > 0:
+        u_harm = np.array([e.u for e in amps[1:]])
+        u_thd = math.hypot(float(np.sqrt(np.sum((harm * u_harm) ** 2))) / (total * rms), thd * u_rms / rms)
+    else:
+        u_thd = math.nan
+    resid = math.sqrt(float(np.mean(resid_ms)))
+    return DriveWaveform(tuple(amps), Estimate(thd, u_thd, "1"), Estimate(m2.mean, m2.u, "g^2"),
+                         Estimate(m3.mean, m3.u, "g^3"), resid)
 
 
 def _frequency_corrected(

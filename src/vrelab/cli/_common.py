@@ -179,8 +179,10 @@ def print_levels(result: VreResult) -> None:
     sine = result.method == "sine"
     budget = any(lv.budget for lv in result.levels)
     decided = any(lv.decision for lv in result.levels)
+    # a sine level's drive distortion (SPEC 4.4): the reference's THD, when the record had a reference
+    thd = sine and any(lv.drive is not None for lv in result.levels)
     print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}" + ("   U (mg)     k" if budget else "")
-          + ("  decision     " if decided else "") + "  saturated")
+          + ("  decision     " if decided else "") + ("  THD (%)" if thd else "") + "  saturated")
     for lv in result.levels:
         f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ("        " if sine else "")
         sat = f"{lv.n_saturated}" + (f" ({', '.join(lv.flags)})" if lv.flags else "")
@@ -189,6 +191,8 @@ def print_levels(result: VreResult) -> None:
             more += f"  {format_u(lv.U_vre_g, scale=1e3):>8}  {format_value(lv.k, resolution=0.01):>4}" if lv.U_vre_g is not None and lv.k is not None else " " * 16
         if decided:
             more += f"  {lv.decision or 'undefined':<13}"
+        if thd:
+            more += f"  {format_value(100 * lv.drive.thd.value, digits=2) if lv.drive is not None else '':>7}"
         print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
@@ -198,6 +202,9 @@ def print_levels(result: VreResult) -> None:
         print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
         if fit.departure_rms_g is not None:
             print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
+        for note in fit.notes:
+            if note.startswith("a distorted drive"):  # fits.fit_vrc's note on the drive's E[x³] (SPEC 4.4)
+                print(f"  {note}")
     for w in result.warnings:
         print(f"warning: {w}")
 

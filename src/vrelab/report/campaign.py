@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from vrelab import folder as F
-from vrelab._format import format_value_u
+from vrelab._format import format_value, format_value_u
 from vrelab.folder import ResultsFolder
 from vrelab.report.html import (
     ReportFigure,
@@ -75,15 +75,20 @@ def _est(e: Mapping[str, Any] | None, unit: str) -> str:
 
 def channel_section(channel: Mapping[str, Any]) -> ReportSection:
     fig = vrc_figure(channel)
+    pts = channel.get("vrc_by_freq") or []
+    shifted = any("static_shift_g" in p for p in pts)
     rows = [(f"{p['freq_hz']:.5g}", f"{p['static_g']:+g}", format_value_u(p["vrc_ug_per_g2"]["value"],
              p["vrc_ug_per_g2"]["u"]), str(p.get("n_levels", "")), f"{p['run']} ({p['label']})")
-            for p in channel.get("vrc_by_freq") or []]
+            + ((format_value(p.get("static_shift_g"), digits=3),) if shifted else ())
+            for p in pts]
     per_freq = [(f"{f['freq_hz']:.5g}" if f.get("freq_hz") is not None else "",
                  format_value_u(f["k2_ug_per_g2"]["value"], f["k2_ug_per_g2"]["u"]),
                  format_value_u(f["k3_ug_per_g3"]["value"], f["k3_ug_per_g3"]["u"]), str(f["n_points"]))
                 for f in channel.get("k2_k3_by_freq") or []]
     tables = [ReportTable("VRC by frequency and orientation", ["freq (Hz)", "static field (g)", "VRC ± u (µg/g²)",
-                                                               "levels", "run"], rows, numeric=(0, 1, 2, 3))]
+                                                               "levels", "run"]
+                          + (["drive's shift of g0 (g; SPEC 4.4)"] if shifted else []), rows,
+                          numeric=(0, 1, 2, 3, 5) if shifted else (0, 1, 2, 3))]
     if per_freq:
         tables.append(ReportTable("k2 and k3 per frequency (VRC(g0) = k2 + 3·k3·g0)",
                                   ["freq (Hz)", "k2 ± u (µg/g²)", "k3 ± u (µg/g³)", "orientations"], per_freq,

@@ -489,11 +489,49 @@ def _result_tables(r: VreResult, label: str | None) -> list[str]:
     rule = dict(r.conditions.extra).get("decision_rule")
     if rule:
         parts.append(f'<p class="what">Decision rule: {esc(rule)}; limit {esc(dict(r.conditions.extra).get("limit_g"))} g.</p>')
+    drive = _drive_table(r)
+    if drive:
+        parts.append(f"<h4>{esc(pre)}Drive waveform (reference)</h4>" + drive)
     budget = _budget_table(r, f"{pre}Uncertainty budget (GUM)")
     if budget:
         parts.append(budget)
     parts.append(f"<h4>{esc(pre)}Fits</h4>" + _fits_table(r.fits))
     return parts
+
+
+# Harmonics of the drive a report's table shows (the results hold up to DRIVE_HARMONICS of them).
+REPORT_HARMONICS = 5
+
+
+def _drive_table(result: VreResult) -> str:
+    """Each sine level's reference waveform (SPEC 4.4): the harmonics' rms as % of the
+    fundamental, the THD, E[x²] against the fundamental's rms² and E[x³]: what the VRC was fitted
+    against (the levels' ``drive``)."""
+    lv = [(i, x) for i, x in enumerate(result.levels, 1) if x.drive is not None]
+    if not lv:
+        return ""
+    n_h = min(REPORT_HARMONICS, max(len(x.drive.harmonics_rms_g) for _, x in lv if x.drive is not None))
+    head = ["#", "freq (Hz)", "fundamental (g rms)"] + [f"h{h} (%)" for h in range(2, n_h + 1)]
+    head += ["THD ± u (%)", "E[x²]/rms²", "E[x³] ± u (g³)", "not harmonic (g rms)"]
+    rows = []
+    for i, x in lv:
+        d = x.drive
+        assert d is not None
+        a1 = d.harmonics_rms_g[0].value
+        pct = [format_value(100 * e.value / a1, digits=2) if a1 > 0 else "" for e in d.harmonics_rms_g[1:n_h]]
+        pct += [""] * (n_h - 1 - len(pct))
+        ratio = d.mean_square_g2.value / x.rms_g**2 if x.rms_g > 0 else math.nan
+        rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in (
+            [str(i), _fmt(x.freq_hz, 6), _fmt(a1)] + pct
+            + [format_value_u(100 * d.thd.value, 100 * d.thd.u), format_value(ratio, digits=6),
+               format_value_u(d.mean_cube_g3.value, d.mean_cube_g3.u), format_value(d.residual_rms_g, digits=2)])) + "</tr>")
+    th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
+    note = ('<p class="mute">A shaker\'s drive is not a pure sine: a sine level\'s VRE is k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) '
+            "of the waveform measured on the reference (SPEC 4.4). The VRC is fitted against E[x²]; E[x³] makes the "
+            "cubic term rectify as at a shifted static field (the VRC fit's note), which the campaign's k2/k3 fit "
+            "uses. The DUT is taken to see the reference's waveform: its response is assumed equal at the "
+            "harmonics as at the fundamental.</p>")
+    return f'<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{"".join(rows)}</tbody></table></div>' + note
 
 
 def render_section(sec: ReportSection, anchor: str, number: str = "") -> str:
