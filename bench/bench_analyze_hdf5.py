@@ -1,44 +1,49 @@
-"""Benchmark: ``analyze`` on a long HDF5 record against a bare h5py read of the same channels.
+"""Benchmark: ``vrelab analyze --method random`` on a long HDF5 record against a plain script of
+the same work (issue 29), CPU and wall, warm and cold, and peak memory, in one run.
 
 Writes once (cached under ``bench/out/``) a 2-channel record at 4 kHz (2 h by default: 28.8 M
-samples per channel, about 460 MB of float64) with a schedule of vibration levels, generated in
-blocks; then times
+samples per channel, 461 MB of float64): 120 random levels of 40 s (0.1 to 3 g rms, the DUT
+quadratic and clipped at ±2.5 g) between vibration-off stretches of 15 s, generated in blocks.
+Then times, each in a fresh process (whole processes: interpreter, imports, work):
 
-(a) a bare h5py read of ``reference`` and ``dut`` in blocks (the floor: I/O and decoding), and
-(b) the whole analysis (``open_record`` + ``analyze``: window pass, segmentation, levels, fits),
+* ``analyze``: ``python -m vrelab analyze FILE --dut dut --reference reference --method random
+  --json``, what a user runs;
+* ``plain``: ``bench/plain_random_floor.py FILE``, the same work written plainly with numpy and
+  h5py (the floor, issue 29: read both channels in blocks; per window the reference's band
+  power from its Hann-windowed rfft and the DUT's mean; windows grouped into levels; each
+  level's offset against the vibration-off windows). The goal: analyze at most 1.5x its CPU;
+* ``read``: a bare h5py read of both channels in blocks (for information: no reduction's
+  floor, the analysis must take every reference sample's spectrum for the level's u);
+* ``sha256``: SHA-256 of the file, which ``analyze`` puts in its result's provenance (for
+  information: the part of analyze's CPU that the plain script does not do);
+* with ``--baseline SRC``: the same ``analyze`` on another checkout's ``src`` (e.g.
+  ``git -C /work/main archive HEAD src | tar -x -C /tmp/base``).
 
-each twice: *warm*, the file in the page cache (a read is then a memory copy, about 0.05 s for
-460 MB), and *cold*, the file's pages dropped from this machine's page cache first
-(``posix_fadvise(POSIX_FADV_DONTNEED)``, which needs no root for a file whose pages are clean:
-the read then goes to the storage; on a virtual machine the host may still hold the image in
-its own cache, so "cold" is "not cached here", the read time printed shows what it was). It
-prints both ratios (issue 21's goal: at most 1.5x) and the analysis's peak memory (goal
-< 400 MB).
+Each is run *warm* (the file in the page cache) and *cold* (the file's pages dropped from this
+machine's page cache first, ``posix_fadvise(POSIX_FADV_DONTNEED)``, no root needed; on a virtual
+machine the host may still cache the image, so "cold" is "not cached here"), in ``--repeat``
+interleaved rounds (each round runs every command warm, then every command cold, the order
+rotated from round to round: machine load drifts alike for all), and the medians printed.
+CPU is the child's user + system time from ``os.wait4`` (all its threads; on a shared machine
+far less noisy than wall time); peak memory its ``ru_maxrss`` (peak resident set, imports
+included). The plain script's levels are printed against analyze's (count, rms, VRE in units of
+analyze's u), to show the two did the same work.
 
-Why the warm ratio cannot reach 1.5x: the analysis must compute, per 0.1 s window, the
-reference's FFT (its band power and that power's variance from the window's own spectrum,
-Parseval) and the DUT's sum, extremes and Hann-smoothed mean. On this 2-core machine the
-reference's FFT of 28.8 M samples alone takes 0.057 s of CPU, its weighted sums 0.027 s, the
-DUT's statistics 0.066 s, and the read itself (a memory copy) 0.04-0.05 s: about 0.19 s of CPU
-before segmentation and fits (0.07 s), against a warm read of 0.04-0.05 s. The DUT statistics
-run in a second thread beside the reference's FFTs and a third thread reads ahead, but in a
-fresh process the first pass still takes 0.17-0.19 s (``--components`` times each part in one
-process). A cold analysis costs about max(read, first pass) + segmentation and fits: the
-reader keeps up to 32 MB of blocks ahead so that storage stays busy. Memory is
-measured in a fresh subprocess with ``resource.getrusage(RUSAGE_SELF).ru_maxrss`` (peak resident
-set of that process, imports included) and, in a separate run, with ``tracemalloc`` (peak of
-what the analysis itself allocates, numpy buffers included). ``--hours`` shows that the peak
-does not grow with length.
+    python bench/bench_analyze_hdf5.py [--hours 2] [--fs 4000] [--repeat 3] [--components] [--baseline SRC]
 
-    python bench/bench_analyze_hdf5.py [--hours 2] [--fs 4000] [--repeat 1] [--components] [--baseline SRC]
+``--components`` also times, in this process and warm, the parts of the analysis (bare read,
+read + the reference's window FFTs, the first pass, the whole ``analyze_full``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any, Iterator, Sequence
@@ -48,16 +53,18 @@ import numpy as np
 OUT = Path(__file__).resolve().parent / "out"
 BLOCK = 1 << 18
 LEVELS_G = (0.1, 0.2, 0.3, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
+# Issue 29's record: 120 random levels of 40 s between vibration-off stretches of 15 s (2 s ramps)
+LEVEL_S, OFF_S, RAMP_S, MAX_LEVELS = 40.0, 15.0, 2.0, 120
 
 
-def _schedule(total_s: float):
-    """Off 60 s / level 240 s / ramp 5 s, cycling through LEVELS_G until total_s is filled."""
+def _schedule(total_s: float, on: float = LEVEL_S, off: float = OFF_S, ramp: float = RAMP_S):
+    """Off ``off`` s / level ``on`` s / ramp ``ramp`` s, cycling through LEVELS_G until total_s
+    is filled (at most MAX_LEVELS levels)."""
     from vrelab.record import Schedule, Segment
 
     segs = []
     t, i = 0.0, 0
-    off, on, ramp = 60.0, 240.0, 5.0
-    while t + off + 2 * ramp + on + off <= total_s:
+    while t + off + 2 * ramp + on + off <= total_s and i < MAX_LEVELS:
         segs.append(Segment(t, t + off, 0.0))
         t += off + ramp
         segs.append(Segment(t, t + on, LEVELS_G[i % len(LEVELS_G)]))
@@ -98,7 +105,7 @@ def make_record(hours: float, fs: float, seed: int = 1) -> Path:
     from vrelab.record import write_record_hdf5
 
     OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"record_v2_{hours:g}h_{fs:g}Hz.h5"
+    path = OUT / f"record_v3_{hours:g}h_{fs:g}Hz_{LEVEL_S:g}s_levels.h5"
     if path.exists():
         return path
     total = hours * 3600.0
@@ -138,58 +145,89 @@ def bare_read(path: Path) -> tuple[float, int, float]:
     return time.perf_counter() - t0, total, time.process_time() - c0
 
 
-_CHILD = r"""
-import json, resource, sys, time, tracemalloc
-from vrelab.analysis.readers import open_record
-from vrelab.analysis.pipeline import analyze_full
-import vrelab.fits, vrelab.models.clipping, vrelab.synthesis, scipy.optimize, scipy.signal, scipy.fft, tqdm, h5py  # noqa
-# (h5py too: the bare read's process has imported it before its timing starts)
-trace = sys.argv[2] == "trace"
-rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-if trace:
-    tracemalloc.start()
-t0, c0 = time.perf_counter(), time.process_time()
-with open_record(sys.argv[1], "dut", "reference") as rec:
-    res, red = analyze_full(rec, "random")
-dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-traced = tracemalloc.get_traced_memory()[1] if trace else None
-rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-fit = res.fit_summary()
-print(json.dumps({"seconds": dt, "cpu_seconds": cpu, "maxrss_before_kb": rss0, "maxrss_kb": rss1, "traced_peak_b": traced,
-                  "n_levels": len(res.levels), "vrc": fit.get("vrc_ug_per_g2"), "rail": fit.get("rail_g"),
-                  "n_saturated_levels": sum(1 for lv in res.levels if lv.n_saturated),
-                  "departure": [f.departure_rms_g for f in res.fits if f.departure_rms_g is not None]}))
+HERE = Path(__file__).resolve().parent
+_READ = f"""
+import sys
+sys.path.insert(0, {str(HERE)!r})
+from pathlib import Path
+from bench_analyze_hdf5 import bare_read
+bare_read(Path(sys.argv[1]))
 """
+_SHA256 = "import hashlib, sys; hashlib.file_digest(open(sys.argv[1], 'rb'), 'sha256').hexdigest()"
 
 
-def analyze_in_subprocess(path: Path, trace: bool = False, cold: bool = False, src: str | None = None) -> dict[str, Any]:
-    """The analysis timed in a fresh process; ``src``: run it on another checkout's source."""
-    import os
+def commands(path: Path, baseline: str | None) -> dict[str, tuple[list[str], dict[str, str] | None]]:
+    """name -> (argv, environment or None) of each process timed."""
+    py = sys.executable
+    analyze = [py, "-m", "vrelab", "analyze", str(path), "--dut", "dut", "--reference", "reference",
+               "--method", "random", "--json"]
+    out: dict[str, tuple[list[str], dict[str, str] | None]] = {
+        "analyze": (analyze, None),
+        "plain": ([py, str(HERE / "plain_random_floor.py"), str(path)], None),
+        "read": ([py, "-c", _READ, str(path)], None),
+        "sha256": ([py, "-c", _SHA256, str(path)], None),
+    }
+    if baseline:
+        out["baseline"] = (analyze, dict(os.environ, PYTHONPATH=baseline))
+    return out
 
-    mode = "trace" if trace else "time"
-    if cold:
-        drop_from_page_cache(path)
-    env = None if src is None else dict(os.environ, PYTHONPATH=src)
-    out = subprocess.run([sys.executable, "-c", _CHILD, str(path), mode], capture_output=True, text=True, check=True,
-                         env=env)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+
+def run_child(argv: list[str], env: dict[str, str] | None) -> dict[str, Any]:
+    """Run one process to its end: wall [s], CPU (user + system of all its threads) [s], peak
+    resident set [MB] (``os.wait4``: this child's own figures), and its stdout."""
+    with tempfile.TemporaryFile() as err:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=err, env=env)
+        assert p.stdout is not None
+        out = p.stdout.read()
+        p.stdout.close()
+        _, status, ru = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+        p.returncode = os.waitstatus_to_exitcode(status)
+        if p.returncode != 0:
+            err.seek(0)
+            raise RuntimeError(f"{argv[:4]} exited {p.returncode}: {err.read().decode()[-2000:]}")
+    return {"wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "stdout": out}
 
 
-def against_baseline(path: Path, src: str, repeat: int) -> dict[str, float]:
-    """Medians of the analysis on this checkout and on ``src``, warm and cold, in interleaved
-    rounds (this, baseline, this, ...: load and storage drift alike for both), and their ratios."""
-    import statistics
+def rounds(path: Path, cmds: dict[str, tuple[list[str], dict[str, str] | None]], repeat: int
+           ) -> tuple[dict[str, dict[str, float]], dict[str, bytes]]:
+    """Medians over ``repeat`` interleaved rounds, per command: CPU and wall warm and cold, and
+    the largest peak RSS; and each command's last stdout."""
+    names = list(cmds)
+    runs: dict[str, dict[str, list[float]]] = {n: {"cpu_warm": [], "wall_warm": [], "cpu_cold": [], "wall_cold": [],
+                                                   "peak_mb": []} for n in names}
+    stdout: dict[str, bytes] = {}
+    run_child(*cmds["read"])  # the page cache and the interpreter's files warm before the first warm run
+    for r in range(repeat):
+        order = names[r % len(names):] + names[: r % len(names)]
+        for mode in ("warm", "cold"):
+            for n in order:
+                if mode == "cold":
+                    drop_from_page_cache(path)
+                res = run_child(*cmds[n])
+                runs[n]["cpu_" + mode].append(res["cpu_s"])
+                runs[n]["wall_" + mode].append(res["wall_s"])
+                runs[n]["peak_mb"].append(res["peak_mb"])
+                stdout[n] = res["stdout"]
+            if mode == "cold":
+                run_child(*cmds["read"])  # warm again for the next round
+    med = {n: {k: (max(v) if k == "peak_mb" else statistics.median(v)) for k, v in runs[n].items()} for n in names}
+    return med, stdout
 
-    times: dict[str, list[float]] = {k: [] for k in ("warm", "cold", "warm_base", "cold_base")}
-    for _ in range(repeat):
-        for cold in (False, True):
-            key = "cold" if cold else "warm"
-            times[key].append(analyze_in_subprocess(path, cold=cold)["seconds"])
-            times[key + "_base"].append(analyze_in_subprocess(path, cold=cold, src=src)["seconds"])
-    med = {k: statistics.median(v) for k, v in times.items()}
-    return {"analyze_warm_s": round(med["warm"], 3), "baseline_warm_s": round(med["warm_base"], 3),
-            "ratio_warm": round(med["warm"] / med["warm_base"], 2), "analyze_cold_s": round(med["cold"], 3),
-            "baseline_cold_s": round(med["cold_base"], 3), "ratio_cold": round(med["cold"] / med["cold_base"], 2)}
+
+def same_work(analyze_json: bytes, plain_json: bytes) -> dict[str, float]:
+    """The plain script's levels against analyze's, matched in time order: counts, the largest
+    relative rms difference and the median |ΔVRE|/u (u: analyze's)."""
+    a = json.loads(analyze_json)["levels"]
+    p = json.loads(plain_json)["levels"]
+    if len(a) != len(p):
+        return {"levels_analyze": len(a), "levels_plain": len(p)}
+    d_rms = max(abs(x["rms_g"] / y["rms_g"] - 1) for x, y in zip(a, p))
+    z = [abs(x["vre_g"] - y["vre_g"]) / x["u_vre_g"] for x, y in zip(a, p)
+         if x["vre_g"] is not None and x["u_vre_g"]]
+    return {"levels_analyze": len(a), "levels_plain": len(p), "rms_max_rel_diff": d_rms,
+            "vre_median_abs_diff_in_u": statistics.median(z) if z else float("nan")}
 
 
 def components(path: Path, repeat: int) -> dict[str, float]:
@@ -246,89 +284,61 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--hours", type=float, default=2.0)
     p.add_argument("--fs", type=float, default=4000.0)
-    p.add_argument("--repeat", type=int, default=1, help="repeat each timing, keep the fastest")
+    p.add_argument("--repeat", type=int, default=3, help="interleaved rounds; medians are printed")
     p.add_argument("--components", action="store_true", help="also time the parts of a warm analysis in-process")
     p.add_argument("--baseline", metavar="SRC", help="src directory of another checkout (e.g. `git archive` of a "
-                   "commit): its analysis timed in interleaved rounds with this one's, medians and ratios printed")
+                   "commit): its analyze timed in the same interleaved rounds")
     args = p.parse_args(argv)
     path = make_record(args.hours, args.fs)
     size_mb = path.stat().st_size / 1e6
-    bare_read(path)  # warm the page cache so both timings read from memory
-    warm_reads = [bare_read(path) for _ in range(args.repeat)]
-    t_bare = min(r[0] for r in warm_reads)
-    cpu_bare = min(r[2] for r in warm_reads)
-    runs = [analyze_in_subprocess(path) for _ in range(args.repeat)]
-    best = min(runs, key=lambda r: r["seconds"])
-    # cold: the file's pages dropped before each timing. Storage under a virtual machine is
-    # bimodal (the same cold read takes 0.15 s or 0.3 s as the host happens to hold the image),
-    # so besides the fastest of each, each analysis is paired with a bare read made just before
-    # it, and the median of the pairs' ratios printed: the fastest analysis against the fastest
-    # read compares the slow mode of one with the fast mode of the other when they differ.
-    cold_reads, cold_runs = [], []
-    for _ in range(args.repeat):
-        drop_from_page_cache(path)
-        cold_reads.append(bare_read(path)[0])
-        cold_runs.append(analyze_in_subprocess(path, cold=True))
-    t_bare_cold = min(cold_reads)
-    best_cold = min(cold_runs, key=lambda r: r["seconds"])
-    pair_ratios = sorted(r["seconds"] / b for r, b in zip(cold_runs, cold_reads))
-    bare_read(path)  # warm again for what follows
-    traced = analyze_in_subprocess(path, trace=True)  # separate run: tracing slows numpy
-    peak_mb = max(r["maxrss_kb"] for r in runs + cold_runs) / 1024
-    traced_mb = traced["traced_peak_b"] / 1e6
-    result = {
-        "hours": args.hours,
-        "fs_hz": args.fs,
-        "file_mb": round(size_mb, 1),
-        "bare_read_s": round(t_bare, 3),
-        "analyze_s": round(best["seconds"], 3),
-        "ratio": round(best["seconds"] / t_bare, 2),
-        "bare_read_cold_s": round(t_bare_cold, 3),
-        "analyze_cold_s": round(best_cold["seconds"], 3),
-        "ratio_cold": round(best_cold["seconds"] / t_bare_cold, 2),
-        "ratio_cold_paired_median": round(float(np.median(pair_ratios)), 2),
-        "ratio_cold_paired": [round(x, 2) for x in pair_ratios],
-        "bare_read_cold_all_s": sorted(round(x, 3) for x in cold_reads),
-        "analyze_cold_all_s": sorted(round(r["seconds"], 3) for r in cold_runs),
-        # CPU time of the analysing process (all its threads): on a shared machine less noisy
-        # than wall time, and it shows threads that spin rather than work
-        "analyze_cpu_s": round(min(r["cpu_seconds"] for r in runs), 3),
-        "bare_read_cpu_s": round(cpu_bare, 3),
-        "cpu_ratio": round(min(r["cpu_seconds"] for r in runs) / cpu_bare, 2),
-        "peak_rss_mb": round(peak_mb, 1),
-        "analysis_traced_peak_mb": round(traced_mb, 1),
-        "n_levels": best["n_levels"],
-        "n_saturated_levels": best["n_saturated_levels"],
-        "vrc_ug_per_g2": best["vrc"],
-        "rail_g": best["rail"],
-        "departure_rms_g": best["departure"],
-        "memory_method": "peak_rss_mb: resource.getrusage(RUSAGE_SELF).ru_maxrss of a fresh subprocess "
-        "(whole process, imports included); analysis_traced_peak_mb: tracemalloc peak of the "
-        "analysis alone (numpy buffers included), in a separate run",
-        "cold_method": "the file's pages dropped from this machine's page cache (posix_fadvise DONTNEED) "
-        "before each cold timing; storage below it (a VM host) may still cache them",
+    cmds = commands(path, args.baseline)
+    med, stdout = rounds(path, cmds, args.repeat)
+    work = same_work(stdout["analyze"], stdout["plain"])
+    a, fl, rd = med["analyze"], med["plain"], med["read"]
+    result: dict[str, Any] = {
+        "file": path.name, "file_mb": round(size_mb, 1), "rounds": args.repeat,
+        "medians": {n: {k: round(v, 3) for k, v in m.items()} for n, m in med.items()},
+        "analyze_over_plain": {k: round(a[k] / fl[k], 2) for k in ("cpu_warm", "wall_warm", "cpu_cold", "wall_cold",
+                                                                   "peak_mb")},
+        "analyze_over_read": {k: round(a[k] / rd[k], 2) for k in ("cpu_warm", "wall_warm", "cpu_cold", "wall_cold",
+                                                                  "peak_mb")},
+        "same_work": work,
+        "cpu_method": "user + system time of each child process (os.wait4), whole process: interpreter, imports, work",
+        "cold_method": "the file's pages dropped from this machine's page cache (posix_fadvise DONTNEED) before "
+        "each cold run; storage below it (a VM host) may still cache them",
     }
+    labels = {"analyze": "vrelab analyze --json", "plain": "plain script (floor)", "read": "bare h5py read",
+              "sha256": "sha256 of the file", "baseline": "analyze on --baseline"}
+    print(f"{path.name} ({size_mb:.0f} MB), whole processes, medians of {args.repeat} interleaved rounds:")
+    print(f"  {'':26s}{'CPU warm':>10s}{'wall warm':>11s}{'CPU cold':>10s}{'wall cold':>11s}{'peak RSS':>10s}")
+    for n, m in med.items():
+        print(f"  {labels[n]:26s}{m['cpu_warm']:9.2f}s{m['wall_warm']:10.2f}s{m['cpu_cold']:9.2f}s"
+              f"{m['wall_cold']:10.2f}s{m['peak_mb']:7.0f} MB")
+    for name, ref, goal in (("plain script", fl, " (the goal: CPU <= 1.5x, peak <= 400 MB)"),
+                            ("bare read", rd, " (for information)")):
+        print(f"  analyze / {name + ':':14s}{a['cpu_warm'] / ref['cpu_warm']:8.2f}x{a['wall_warm'] / ref['wall_warm']:10.2f}x"
+              f"{a['cpu_cold'] / ref['cpu_cold']:9.2f}x{a['wall_cold'] / ref['wall_cold']:10.2f}x"
+              f"{a['peak_mb'] / ref['peak_mb']:9.2f}x{goal}")
+    if "baseline" in med:
+        b = med["baseline"]
+        result["analyze_over_baseline"] = {k: round(a[k] / b[k], 2) for k in ("cpu_warm", "wall_warm", "cpu_cold",
+                                                                              "wall_cold", "peak_mb")}
+        print(f"  analyze / baseline:      {a['cpu_warm'] / b['cpu_warm']:8.2f}x{a['wall_warm'] / b['wall_warm']:10.2f}x"
+              f"{a['cpu_cold'] / b['cpu_cold']:9.2f}x{a['wall_cold'] / b['wall_cold']:10.2f}x"
+              f"{a['peak_mb'] / b['peak_mb']:9.2f}x")
+    print(f"  the analysis's CPU less the provenance hash, over the plain script's: "
+          f"{(a['cpu_warm'] - med['sha256']['cpu_warm']) / fl['cpu_warm']:.2f}x warm")
+    if "rms_max_rel_diff" in work:
+        print(f"  same work: {work['levels_analyze']} levels in both, rms within {work['rms_max_rel_diff']:.2%}, "
+              f"VRE median |difference| {work['vre_median_abs_diff_in_u']:.2f} u (the plain script's boxcar DUT "
+              "means and cruder trims)")
+    else:
+        print(f"  NOT the same work: {work['levels_analyze']} levels in analyze, {work['levels_plain']} in the plain script")
     if args.components:
-        result["components_warm"] = {k: round(v, 3) for k, v in components(path, args.repeat).items()}
-    print(
-        f"{path.name} ({size_mb:.0f} MB): warm (page cache): bare h5py read {t_bare:.2f} s, analyze "
-        f"{best['seconds']:.2f} s, ratio {result['ratio']:.2f}x; cold (dropped from the page cache): read "
-        f"{t_bare_cold:.2f} s, analyze {best_cold['seconds']:.2f} s, ratio {result['ratio_cold']:.2f}x, median of "
-        f"{len(pair_ratios)} paired runs {result['ratio_cold_paired_median']:.2f}x "
-        f"({', '.join(f'{x:.2f}' for x in pair_ratios)}) (goal <= 1.5x); "
-        f"CPU: read {cpu_bare:.3f} s, analyze {result['analyze_cpu_s']:.3f} s, ratio {result['cpu_ratio']:.2f}x; peak RSS of the analysing process {peak_mb:.0f} MB, "
-        f"of which the analysis allocates at most {traced_mb:.0f} MB (tracemalloc) (goal < 400 MB)"
-    )
-    if args.components:
-        c = result["components_warm"]
-        print("warm, in-process, wall (CPU) seconds: " + "; ".join(
+        c = result["components_warm"] = {k: round(v, 3) for k, v in components(path, args.repeat).items()}
+        print("  warm, in-process, wall (CPU) seconds: " + "; ".join(
             f"{name.replace('_', ' ')} {c[name + '_s']:.3f} ({c[name + '_cpu_s']:.3f})"
             for name in ("read", "read_and_reference_fft", "first_pass", "analysis")))
-    if args.baseline:
-        b = result["against_baseline"] = against_baseline(path, args.baseline, args.repeat)
-        print(f"against {args.baseline} (medians of {args.repeat} interleaved rounds): warm {b['analyze_warm_s']:.3f} s "
-              f"vs {b['baseline_warm_s']:.3f} s, ratio {b['ratio_warm']:.2f}; cold {b['analyze_cold_s']:.3f} s vs "
-              f"{b['baseline_cold_s']:.3f} s, ratio {b['ratio_cold']:.2f}")
     print(json.dumps(result))
     return result
 

@@ -1,0 +1,181 @@
+"""Same bits from two checkouts: ``vrelab analyze --json`` and ``vrelab campaign`` results.
+
+A speed-up of the analysis must not move its numbers. This runs a varied set of analyses on
+the source first on ``PYTHONPATH`` and, in a subprocess, on ``--baseline SRC`` (a ``src``
+directory of another checkout, e.g. ``git -C /work/main archive HEAD src | tar -x -C /tmp/base``),
+and counts the numbers that differ in any bit (floats compared by ``repr``, which is unique per
+bit pattern: -0.0 and 0.0 differ too) and the other values (strings, nulls, flags) that differ:
+
+* ``bench``: the record of ``bench/bench_analyze_hdf5.py`` (its generator, 1 h: 60 random
+  levels of 40 s between vibration-off stretches, clipped at ±2.5 g), ``--method random`` and
+  ``auto``; ``--big``: the 2 h record as well (120 levels: the issue's);
+* ``synthetic``: records of tests/test_analysis_helpers.make_record written to HDF5: random
+  levels under red (AR(1)) noise and a drift, sine levels, short levels (few windows: the
+  correlated-mean estimator), a rail, and a record of several lengths of level (the
+  per-(n, ρ) forms reused across lengths and records in one process);
+* ``campaign``: the example campaign (examples/campaign, ``make examples``), every
+  ``results.json`` and ``levels.csv`` it writes.
+
+Every case runs in one process per checkout, so a cache that carried one record's numbers into
+another would show here. Prints per group the numbers compared, how many differ and the first
+differences; exit status 1 if any differs.
+
+    PYTHONPATH=src python bench/check_analysis_exact.py --baseline /tmp/base-speed/src [--big]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+TESTS = ROOT / "tests"
+
+
+def _cli_json(argv: list[str]) -> Any:
+    """``vrelab ARGV`` run in this process: its JSON with ``--json``, else its printout (or the
+    exit status and stderr of a refusal)."""
+    from vrelab.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as e:
+            code = e.code
+    if code != 0:
+        return {"exit": code, "stderr": err.getvalue()}
+    return json.loads(out.getvalue()) if "--json" in argv else out.getvalue()
+
+
+def _bench(big: bool) -> list[Any]:
+    sys.path.insert(0, str(HERE))
+    import bench_analyze_hdf5 as B
+
+    out: list[Any] = []
+    for hours in (1.0, 2.0) if big else (1.0,):
+        path = B.make_record(hours, 4000.0)
+        for method in ("random", "auto"):
+            out.append(_cli_json(["analyze", str(path), "--dut", "dut", "--reference", "reference",
+                                  "--method", method, "--json"]))
+    return out
+
+
+# (make_record keywords, analyze options): each a path through the level estimators
+SYNTHETIC: list[tuple[dict[str, Any], list[str]]] = [
+    (dict(seed=11), ["--method", "random"]),
+    (dict(seed=5, drift_g_per_s=1e-3, phi=0.995, t_on_s=40.0, t_off_s=20.0), ["--method", "random"]),
+    (dict(seed=8, sine_hz=80.0, levels_g=(0.5, 1.0, 2.0)), ["--method", "sine"]),
+    (dict(seed=9, sine_hz=120.0, t_off_s=6.0, t_on_s=10.0), ["--method", "auto"]),
+    (dict(seed=3, t_on_s=2.0, t_off_s=2.0, phi=0.9), ["--method", "random"]),
+    (dict(seed=4, t_on_s=1.2, t_off_s=3.0, levels_g=(0.5, 1.0, 1.5, 2.0)), ["--method", "random"]),
+    (dict(seed=6, levels_g=(0.2, 0.4, 1.0, 2.5), vre_g=(0.0, 1e-3, 2e-3, 4e-3), rail_g=3.0), ["--method", "random"]),
+    (dict(seed=12, levels_g=(0.3, 0.6, 0.9, 1.2, 1.5, 1.8), vre_g=(1e-4, 4e-4, 9e-4, 1.6e-3, 2.5e-3, 3.6e-3),
+          t_on_s=7.0, noise_g=2e-4), ["--method", "random"]),
+    (dict(seed=13, fs_hz=2000.0, band_hz=(60.0, 600.0), t_on_s=25.0, t_off_s=12.0, phi=0.999),
+     ["--method", "random", "--band", "50", "800"]),
+]
+
+
+def _synthetic() -> list[Any]:
+    sys.path.insert(0, str(TESTS))
+    from test_analysis_helpers import make_record
+    from vrelab.record import write_record_hdf5
+
+    out: list[Any] = []
+    with tempfile.TemporaryDirectory() as d:
+        for i, (kw, opts) in enumerate(SYNTHETIC):
+            tr = make_record(**kw)
+            rec = tr.record
+            path = Path(d) / f"case{i}.h5"
+            write_record_hdf5(path, rec.fs_hz, [dict(rec.data)])
+            doc = _cli_json(["analyze", str(path), "--dut", "dut", "--reference", "reference", *opts, "--json"])
+            out.append(json.loads(json.dumps(doc).replace(d, "<tmp>")))  # the paths differ from run to run
+    return out
+
+
+def _campaign() -> list[Any]:
+    example = ROOT / "examples" / "campaign" / "campaign.toml"
+    if not (example.parent / "runs").is_dir():
+        raise SystemExit("the example campaign's recordings are missing: run `make examples` first")
+    out: list[Any] = []
+    with tempfile.TemporaryDirectory() as d:
+        camp = Path(d) / "camp"
+        out.append(_cli_json(["campaign", str(example), "--out", str(camp)]).replace(d, "<tmp>"))
+        for p in sorted(camp.rglob("*")):
+            if p.suffix == ".json":
+                out.append([p.relative_to(camp).as_posix(), json.loads(p.read_text().replace(d, "<tmp>"))])
+            elif p.suffix == ".csv":
+                out.append([p.relative_to(camp).as_posix(), p.read_text().replace(d, "<tmp>")])
+    return out
+
+
+def _own(groups: list[str], big: bool) -> dict[str, Any]:
+    run = {"bench": lambda: _bench(big), "synthetic": _synthetic, "campaign": _campaign}
+    return {g: run[g]() for g in groups}
+
+
+def _flat(x: Any, path: str = "") -> list[tuple[str, Any]]:
+    if isinstance(x, dict):
+        return [kv for k in sorted(x) for kv in _flat(x[k], f"{path}.{k}")]
+    if isinstance(x, (list, tuple)):
+        return [kv for i, v in enumerate(x) for kv in _flat(v, f"{path}[{i}]")]
+    return [(path, x)]
+
+
+def _compare(ours: Any, base: Any) -> tuple[int, list[str]]:
+    """(floats compared, every difference: a float in any bit, any other value, the structure)."""
+    a, b = _flat(ours), _flat(base)
+    if [k for k, _ in a] != [k for k, _ in b]:
+        keys_a, keys_b = {k for k, _ in a}, {k for k, _ in b}
+        return 0, [f"the structure differs: only here {sorted(keys_a - keys_b)[:3]}, only there "
+                   f"{sorted(keys_b - keys_a)[:3]}"]
+    n, diff = 0, []
+    for (k, x), (_, y) in zip(a, b):
+        if isinstance(x, float) or isinstance(y, float):
+            n += 1
+            if repr(x) != repr(y):
+                diff.append(f"{k}: {x!r} != {y!r}")
+        elif x != y:
+            diff.append(f"{k}: {x!r} != {y!r}")
+    return n, diff
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", help="src directory of the baseline checkout")
+    ap.add_argument("--groups", default="bench,synthetic,campaign")
+    ap.add_argument("--big", action="store_true", help="also the 2 h record of 120 levels (about 10 s more per checkout)")
+    ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    groups = args.groups.split(",")
+    ours = json.loads(json.dumps(_own(groups, args.big)))
+    if args.own:
+        print(json.dumps(ours))
+        return 0
+    if not args.baseline:
+        return 0
+    env = {**os.environ, "PYTHONPATH": args.baseline}
+    own = [sys.executable, __file__, "--own", "--groups", args.groups] + (["--big"] if args.big else [])
+    base = json.loads(subprocess.run(own, env=env, check=True, capture_output=True, text=True).stdout)
+    ok = True
+    for g in groups:
+        n, diff = _compare(ours[g], base[g])
+        ok = ok and not diff
+        print(f"{g:10s} {len(ours[g]):3d} results, {n:6d} numbers: {len(diff)} differ   {'ok' if not diff else 'DIFFERS'}")
+        for line in diff[:5]:
+            print("    " + line)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
