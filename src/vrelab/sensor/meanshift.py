@@ -29,9 +29,10 @@ model, and a prediction of a chain holding it says so.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
-from typing import Callable, Literal, Mapping, Protocol, Sequence
+from typing import Any, Callable, Literal, Mapping, Protocol, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -153,9 +154,28 @@ class Site:
 
 def gain_max(responses: Sequence[Response]) -> float:
     """sup_f |H(f)| of the linear stages ``responses`` in series (1 for none), on a log grid
-    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band)."""
+    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band).
+
+    The same at every level of a prediction: remembered by the responses' exact identity where
+    each is a frozen stage's (:func:`vrelab.predict._response_key`, the rule the spectral
+    integrals' memory uses), so a prediction of many levels evaluates it once."""
     if not responses:
         return 1.0
+    from vrelab.predict import _response_key
+
+    keys = tuple(_response_key(h) for h in responses)
+    if all(k is not None for k in keys):
+        return _gain_max_of(keys)
+    return _gain_max_at(responses)
+
+
+@functools.lru_cache(maxsize=256)
+def _gain_max_of(keys: tuple[tuple[Any, Any], ...]) -> float:
+    """:func:`_gain_max_at` of the responses given as ``(function, stage)`` keys (cached)."""
+    return _gain_max_at([f.__get__(owner) for f, owner in keys])
+
+
+def _gain_max_at(responses: Sequence[Response]) -> float:
     f = np.geomspace(1e-2, 1e7, 4001)
     h = np.ones(f.size)
     for r in responses:
