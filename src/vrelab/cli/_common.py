@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias
 
 from vrelab import _validate as V
-from vrelab._format import format_mg, format_u, format_value
+from vrelab._format import format_mg, format_u, format_value, format_value_u
 from vrelab._lists import parse_list
 
 if TYPE_CHECKING:  # the commands import these when they run, not when the parser is built
@@ -179,7 +179,8 @@ def print_levels(result: VreResult) -> None:
     sine = result.method == "sine"
     budget = any(lv.budget for lv in result.levels)
     decided = any(lv.decision for lv in result.levels)
-    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}" + ("   U (mg)     k" if budget else "")
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  {'VRC ± u (ug/g^2)':>22}"
+          + ("   U (mg)     k" if budget else "")
           + ("  decision     " if decided else "") + "  saturated")
     for lv in result.levels:
         f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ("        " if sine else "")
@@ -189,7 +190,9 @@ def print_levels(result: VreResult) -> None:
             more += f"  {format_u(lv.U_vre_g, scale=1e3):>8}  {format_value(lv.k, resolution=0.01):>4}" if lv.U_vre_g is not None and lv.k is not None else " " * 16
         if decided:
             more += f"  {lv.decision or 'undefined':<13}"
-        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")
+        vrc = lv.vrc  # VRE / rms² with its u (SPEC 1.2), beside the VRE
+        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}  {format_value_u(vrc.value, vrc.u):>22}"
+              f"{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
         if fit.model == "vrc" and fit.n_points < 2:
