@@ -175,3 +175,18 @@ def test_shares_that_cancel_beyond_float64_are_not_valid():
     # and a plain case keeps its validity: ideal ±2 g, 1 g field, 1 g rms (SPEC 1.1's -83 mg)
     ok = predict(load_sensor("ideal"), parse_profile("flat:50-2000"), [1.0], static_g=1.0).levels[0]
     assert ok.valid and cancellation(ok.shares, ok.vre_g) is None
+
+
+def test_a_prediction_beyond_the_time_budget_is_refused_before_it_starts(monkeypatch, capsys):
+    """Issue 34 'hang': predict with 100 000 levels ran for minutes. The simulation's time budget
+    (VRELAB_TIME_BUDGET_H) now bounds a prediction too, estimated before any level: 1000 ADXL355
+    levels, each with its over-range threshold's u propagated (5 predictions a level), at the
+    budget's 5 ms a level are about 25 s, beyond a budget of 0.001 h (3.6 s; the same rule refuses
+    100 000 levels under a 0.1 h budget)."""
+    monkeypatch.setenv("VRELAB_TIME_BUDGET_H", "0.001")
+    rc = main(["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.005:5:0.005"])
+    out, err = capsys.readouterr()
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "1000 levels" in err and "VRELAB_TIME_BUDGET_H" in err
+    # within the budget it runs (three levels)
+    assert main(["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "1,2,3", "--json"]) == 0

@@ -364,6 +364,20 @@ def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[flo
     return out
 
 
+def _check_time(sensor: Sensor, excitation: Any, n_levels: int) -> None:
+    """Refuse, before any level, a prediction beyond the time budget (:func:`vrelab._budget.check_prediction`,
+    the simulation's budget): its levels, at each sine frequency, times the four predictions each
+    parameter uncertainty costs the propagation (a lower bound: a Monte Carlo where the VRE is
+    not linear costs more)."""
+    from vrelab import _budget
+
+    n_freqs = 1 if isinstance(excitation, (RandomProfile, SineOnRandom)) else int(np.size(excitation))
+    cov = getattr(sensor, "covariance", None)
+    n_u = len(getattr(sensor, "uncertainty", None) or {}) + (len(cov["params"]) if cov else 0)
+    _budget.check_prediction(f"a prediction of {n_levels} levels" + (f" at {n_freqs} frequencies" if n_freqs > 1 else ""),
+                             float(n_levels) * n_freqs * (1 + 4 * n_u))
+
+
 def predict(
     sensor: Sensor,
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
@@ -441,6 +455,7 @@ def predict(
         raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
+    _check_time(sensor, excitation, levels_arr.size)
     reading = _read_stages(sensor.stages(), g0)
     clip_where = _clip_where(sensor)
     notes: list[str] = []
