@@ -196,6 +196,11 @@ def _flat(x: Any, path: str = "") -> list[tuple[str, Any]]:
 def _compare(ours: Any, base: Any) -> tuple[int, float, str, list[str]]:
     """(numbers compared, the largest relative difference, where, what differs otherwise)."""
     a, b = _flat(ours), _flat(base)
+    # a key the baseline does not have (a new result, such as a level's VRC) is no moved number:
+    # compare on the baseline's keys, and say which are new
+    known = {k for k, _ in b}
+    new = sorted({k.rsplit(".", 1)[-1] for k, _ in a if k not in known})
+    a = [(k, x) for k, x in a if k in known]
     if [k for k, _ in a] != [k for k, _ in b]:
         return 0, math.inf, "", ["the structure differs"]
     worst, where, n, other = 0.0, "", 0, []
@@ -209,6 +214,8 @@ def _compare(ours: Any, base: Any) -> tuple[int, float, str, list[str]]:
                 worst, where = d, k
         elif x != y:
             other.append(f"{k}: {x!r} != {y!r}")
+    if new:
+        print(f"    (keys new in this checkout, not compared: {', '.join(new)})")
     return n, worst, where, other
 
 

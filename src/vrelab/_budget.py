@@ -11,7 +11,8 @@ through the environment:
 * ``VRELAB_MEMORY_BUDGET_GB`` (default 4): memory one array or one run's bookkeeping may take.
   The machines vrelab is tested on have 24 GiB; 4 GB leaves room for the libraries and a
   second job.
-* ``VRELAB_TIME_BUDGET_H`` (default 12): estimated compute time of one simulation.
+* ``VRELAB_TIME_BUDGET_H`` (default 12): estimated compute time of one simulation, or of one
+  analytic prediction (its levels times their propagation).
 """
 
 from __future__ import annotations
@@ -25,6 +26,15 @@ import os
 # 0.9 s beyond start-up for 3.4 M internal samples, i.e. 0.27 µs. The estimate takes 0.5 µs
 # so that a slower machine is not promised a time it cannot keep.
 SIMULATION_SECONDS_PER_SAMPLE = 0.5e-6
+
+
+# Measured cost of one analytic prediction of one level (vrelab.predict.predict), the ADXL355
+# ±2 g Z preset (resonance, polynomial, over-range, filters, output rails: the costliest closed
+# forms), flat 50-2000 Hz, 200 levels, CPU time: 1.8 ms a random level, 0.4 ms a sine level
+# (2 cores under load; `bench/bench_predict.py` times the workloads). The estimate takes 5 ms so
+# that a slower machine is not promised a time it cannot keep. Each parameter uncertainty the
+# sensor carries costs four more predictions (GUM 5.1.2's central differences and the ±u check).
+PREDICTION_SECONDS_PER_LEVEL = 5e-3
 
 
 def _env_float(name: str, default: float) -> float:
@@ -88,3 +98,17 @@ def check_simulation(what: str, n_internal_samples: float, n_bytes: float = 0.0)
             + f"), beyond the {human_seconds(budget)} budget (VRELAB_TIME_BUDGET_H raises it)"
         )
     check_memory(what, n_bytes)
+
+
+def check_prediction(what: str, n_level_evaluations: float) -> None:
+    """Refuse an analytic prediction whose estimated compute time is beyond the time budget
+    (the one a simulation has, ``VRELAB_TIME_BUDGET_H``): ``n_level_evaluations`` closed-form
+    levels at ``PREDICTION_SECONDS_PER_LEVEL`` each."""
+    seconds = n_level_evaluations * PREDICTION_SECONDS_PER_LEVEL
+    budget = time_budget_s()
+    if not math.isfinite(seconds) or seconds > budget:
+        raise ValueError(
+            f"{what} would take about {human_seconds(seconds) if math.isfinite(seconds) else 'forever'} "
+            f"({n_level_evaluations:.3g} level evaluations), beyond the {human_seconds(budget)} budget "
+            "(VRELAB_TIME_BUDGET_H raises it)"
+        )

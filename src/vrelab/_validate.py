@@ -124,6 +124,19 @@ def acceleration(name: str, value: Any) -> float:
     return x
 
 
+# A mount angle [deg] lies within one turn either way (IEEE 1293 mounts span 0-360°): beyond, it
+# is a slip (radians for degrees, an exponent), and cos/sin of 1e300° is rounding noise.
+MAX_MOUNT_DEG = 360.0
+
+
+def mount_angle(name: str, value: Any) -> float:
+    """A mount angle [deg]: finite and within ``±MAX_MOUNT_DEG``."""
+    x = finite_scalar(name, value)
+    if abs(x) > MAX_MOUNT_DEG:
+        raise ValueError(f"{name} must be within ±{MAX_MOUNT_DEG:g}° (degrees, not radians), got {value!r}")
+    return x
+
+
 def frequency(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """Frequencies [Hz]: finite, within ``MIN_FREQ_HZ``..``MAX_FREQ_HZ``."""
     arr = positive(name, value)

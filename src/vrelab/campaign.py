@@ -277,8 +277,7 @@ def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str
     for c in dut:
         deg, plane = degs[c], planes[c]
         assert deg is not None
-        if abs(deg) > 360:
-            raise ValueError(f"{where}: mount_deg of {c!r} must be within ±360°, got {deg:g} (degrees, not radians)")
+        V.mount_angle(f"{where}: mount_deg of {c!r}", deg)
         probe = Mount(deg, plane, (1.0, 0.0, 0.0))
         di, dp, do = probe.direction
         hint = (f"on a vertical shaker gravity lies along the vibration, ±[{di:.4g}, {dp:.4g}, {do:.4g}]; on a slip "

@@ -63,8 +63,9 @@ from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.profiles import RandomProfile, SineOnRandom
-from vrelab.results import Conditions
+from vrelab.results import Conditions, level_vrc
 from vrelab.sensor.meanshift import NUMERICAL_SHARE, SHARES, VRE_SHARES, Done, Drive, Motion, Response, Site
+from vrelab.sensor.meanshift import response_key as _response_key
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -110,6 +111,18 @@ class LevelPrediction:
     # with its own u (identify, each level's measured u) judges the bound itself
     valid_otherwise: bool = True
 
+    @property
+    def vrc_ug_per_g2(self) -> float:
+        """The level's VRC, ``vre_g / rms_g²`` [µg/g²] (:func:`vrelab.results.level_vrc`): what a
+        datasheet quotes, beside the VRE."""
+        return level_vrc(self.vre_g, self.rms_g)[0]
+
+    @property
+    def u_vrc_ug_per_g2(self) -> float | None:
+        """The VRC's standard uncertainty [µg/g²], ``u_vre_g / rms_g²`` (the level is exact); None
+        without ``u_vre_g``."""
+        return level_vrc(self.vre_g, self.rms_g, self.u_vre_g)[1]
+
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
             "rms_g": self.rms_g,
@@ -120,6 +133,9 @@ class LevelPrediction:
             d["u_vre_g"] = finite_or_none(self.u_vre_g)
             if self.u_sources_g is not None:
                 d["u_sources_g"] = {k: finite_or_none(v) for k, v in self.u_sources_g.items()}
+        d["vrc_ug_per_g2"] = finite_or_none(self.vrc_ug_per_g2)
+        if self.u_vre_g is not None:
+            d["u_vrc_ug_per_g2"] = finite_or_none(self.u_vrc_ug_per_g2)
         if self.freq_hz is not None:
             d["freq_hz"] = self.freq_hz
         d.update(
@@ -261,22 +277,6 @@ def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: 
     return _spectral_at(freq, psd, band, responses, points, rate)
 
 
-def _response_key(h: Response) -> tuple[Any, Any] | None:
-    """A response as a hashable value: ``(function, stage)`` for the ``response`` method of a
-    frozen dataclass whose equality compares every field (a stage's response is fixed by its
-    fields), else None (not remembered)."""
-    owner: Any = getattr(h, "__self__", None)
-    params = getattr(owner, "__dataclass_params__", None)
-    if params is None or not (params.frozen and params.eq) or not all(f.compare for f in dataclasses.fields(owner)):
-        return None
-    key = (getattr(h, "__func__", None), owner)
-    try:
-        hash(key)
-    except TypeError:  # a field that is not hashable (an array)
-        return None
-    return key
-
-
 @functools.lru_cache(maxsize=256)
 def _spectral_of(freq: bytes, psd: bytes, band: tuple[float, ...], keys: tuple[tuple[Any, Any], ...],
                  points: tuple[float, ...], rate: bool) -> tuple[float, float]:
@@ -364,6 +364,20 @@ def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[flo
     return out
 
 
+def _check_time(sensor: Sensor, excitation: Any, n_levels: int) -> None:
+    """Refuse, before any level, a prediction beyond the time budget (:func:`vrelab._budget.check_prediction`,
+    the simulation's budget): its levels, at each sine frequency, times the four predictions each
+    parameter uncertainty costs the propagation (a lower bound: a Monte Carlo where the VRE is
+    not linear costs more)."""
+    from vrelab import _budget
+
+    n_freqs = 1 if isinstance(excitation, (RandomProfile, SineOnRandom)) else int(np.size(excitation))
+    cov = getattr(sensor, "covariance", None)
+    n_u = len(getattr(sensor, "uncertainty", None) or {}) + (len(cov["params"]) if cov else 0)
+    _budget.check_prediction(f"a prediction of {n_levels} levels" + (f" at {n_freqs} frequencies" if n_freqs > 1 else ""),
+                             float(n_levels) * n_freqs * (1 + 4 * n_u))
+
+
 def predict(
     sensor: Sensor,
     excitation: RandomProfile | SineOnRandom | float | Sequence[float],
@@ -441,6 +455,7 @@ def predict(
         raise ValueError(f"levels must be a non-empty list of rms values, got {levels!r}")
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
+    _check_time(sensor, excitation, levels_arr.size)
     reading = _read_stages(sensor.stages(), g0)
     clip_where = _clip_where(sensor)
     notes: list[str] = []
@@ -799,6 +814,24 @@ def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
         return math.nan, f"tilt error undefined: {err}"
 
 
+# The shares are closed forms good to a few ulps each; their sum may lose this many ulps of the
+# largest share (a generous bound: a handful of terms, each from differences of cdfs and pdfs).
+_ROUNDING_ULPS = 64.0
+
+
+def cancellation(shares: Mapping[str, float], vre_g: float) -> str | None:
+    """Why a level's VRE is rounding noise, or None: where shares of opposite sign cancel
+    (a nonlinearity of 1e23 g clipped back by rails) the sum keeps only ``ulps × eps × max|share|``
+    of precision; beyond the tolerance a prediction is read to (1 % of |VRE| or 1 µg) the
+    number is not valid — float64 arithmetic cannot hold the model there."""
+    big = max((abs(v) for v in shares.values() if math.isfinite(v)), default=0.0)
+    lost = _ROUNDING_ULPS * float(np.finfo(np.float64).eps) * big
+    if not math.isfinite(vre_g) or lost > max(_TOLERANCE_REL * abs(vre_g), _TOLERANCE_ABS_G):
+        return (f"the shares (up to {big:.3g} g) cancel to {vre_g:.3g} g, beyond what float64 arithmetic holds "
+                f"(±{lost:.2g} g): the coefficients or levels are beyond the model's arithmetic")
+    return None
+
+
 def _level(
     reading: _Reading,
     rms_g: float,
@@ -853,6 +886,10 @@ def _level(
             notes.append(d.shift.rough_if_large)
     if reading.unmodelled:
         notes.append(f"stage(s) {', '.join(reading.unmodelled)} have no closed form — simulate")
+    lost = cancellation(totals, total)
+    if lost:
+        valid = False
+        notes.append(lost)
     tilt, why = tilt_note(total, g0)
     if why and tilt_note(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
         notes.append(why)

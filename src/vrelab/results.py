@@ -192,6 +192,25 @@ class DriveWaveform:
                              sc(self.mean_cube_g3, 3), self.residual_rms_g * abs(factor))
 
 
+def level_vrc(vre_g: float, rms_g: float, u_vre_g: float | None = None,
+              u_rms_g: float | None = None) -> tuple[float, float | None]:
+    """The level's VRC [µg/g²]: its VRE per vibration mean square, ``VRE / rms²`` (SPEC 1.2:
+    ``VRE = VRC·vib_rms²``; the datasheets' figure, k2 + 3·k3·g0 where the polynomial alone
+    rectifies), and its standard uncertainty by GUM 5.1.2 with VRE and rms uncorrelated:
+    ``u² = (u_vre/rms²)² + (2·VRE·u_rms/rms³)²`` (``u_rms_g`` None: the rms is exact, as in a
+    prediction). NaN (and u None) where the rms is not > 0 or the VRE is not finite; u None
+    without ``u_vre_g``."""
+    from vrelab.units import UG_PER_G  # (units imports numpy: not at this light module's import)
+
+    if not (math.isfinite(rms_g) and rms_g > 0 and math.isfinite(vre_g)):
+        return math.nan, None
+    vrc = vre_g / rms_g**2 * UG_PER_G
+    if u_vre_g is None or not math.isfinite(u_vre_g):
+        return vrc, None
+    rel_rms = (u_rms_g / rms_g) if u_rms_g is not None and math.isfinite(u_rms_g) else 0.0
+    return vrc, math.hypot(u_vre_g / rms_g**2 * UG_PER_G, 2.0 * vrc * rel_rms)
+
+
 @dataclass(frozen=True)
 class LevelResult:
     """VRE measured (or simulated) at one vibration level."""
@@ -218,11 +237,20 @@ class LevelResult:
     # random level or a record without a reference
     drive: DriveWaveform | None = None
 
+    @property
+    def vrc(self) -> Estimate:
+        """The level's VRC ``VRE / rms²`` [µg/g²] and its u (:func:`level_vrc`, the rms's u included)."""
+        v, u = level_vrc(self.vre.value, self.rms_g, self.vre.u, self.u_rms_g)
+        return Estimate(v, math.nan if u is None else u, "ug/g^2")
+
     def to_dict(self) -> dict[str, Any]:
+        vrc = self.vrc
         d: dict[str, Any] = {
             "rms_g": finite_or_none(self.rms_g),
             "vre_g": finite_or_none(self.vre.value),
             "u_vre_g": finite_or_none(self.vre.u),
+            "vrc_ug_per_g2": finite_or_none(vrc.value),
+            "u_vrc_ug_per_g2": finite_or_none(vrc.u),
         }
         if self.budget:
             d.update(U_vre_g=finite_or_none(self.U_vre_g), k=finite_or_none(self.k),

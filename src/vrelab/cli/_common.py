@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias
 
 from vrelab import _validate as V
-from vrelab._format import format_mg, format_u, format_value
+from vrelab._format import format_mg, format_u, format_value, format_value_u
 from vrelab._lists import parse_list
 
 if TYPE_CHECKING:  # the commands import these when they run, not when the parser is built
@@ -181,7 +181,8 @@ def print_levels(result: VreResult) -> None:
     decided = any(lv.decision for lv in result.levels)
     # a sine level's drive distortion (SPEC 4.4): the reference's THD, when the record had a reference
     thd = sine and any(lv.drive is not None for lv in result.levels)
-    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}" + ("   U (mg)     k" if budget else "")
+    print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  {'VRC ± u (ug/g^2)':>22}"
+          + ("   U (mg)     k" if budget else "")
           + ("  decision     " if decided else "") + ("  THD (%)" if thd else "") + "  saturated")
     for lv in result.levels:
         f = f"{lv.freq_hz:7.4g}  " if sine and lv.freq_hz is not None else ("        " if sine else "")
@@ -193,7 +194,9 @@ def print_levels(result: VreResult) -> None:
             more += f"  {lv.decision or 'undefined':<13}"
         if thd:
             more += f"  {format_value(100 * lv.drive.thd.value, digits=2) if lv.drive is not None else '':>7}"
-        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}{more}  {sat}")
+        vrc = lv.vrc  # VRE / rms² with its u (SPEC 1.2), beside the VRE
+        print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}  {format_value_u(vrc.value, vrc.u):>22}"
+              f"{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
         if fit.model == "vrc" and fit.n_points < 2:

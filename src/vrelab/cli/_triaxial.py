@@ -44,7 +44,11 @@ def static_field(args: argparse.Namespace) -> list[float] | None:
         raise ValueError("give the static field once: --static (along the axis) or --static-vector (gx,gy,gz), not both")
     if args.static_g is None:
         args.static_g = DEFAULT_STATIC_G
-    return vector(args.static_vector, "--static-vector") if args.static_vector is not None else None
+    if args.static_vector is None:
+        return None
+    g = vector(args.static_vector, "--static-vector")
+    V.acceleration("--static-vector's magnitude", math.sqrt(sum(x * x for x in g)))  # the bound --static has
+    return g
 
 
 def static_vector(given: list[float] | None, static_g: float, input_axis: int) -> list[float]:
@@ -86,7 +90,7 @@ def direction_of(args: argparse.Namespace, triad: tuple[int, int, int]) -> list[
         return None
     i, p, o = triad
     toward = AXES[o] if args.mount_plane == "io" else AXES[p]
-    return [float(x) for x in direction(AXES[i], toward, V.finite_scalar("--mount-deg", args.mount_deg))]
+    return [float(x) for x in direction(AXES[i], toward, V.mount_angle("--mount-deg", args.mount_deg))]
 
 
 def is_triaxial_profile(spec: str | None) -> bool:

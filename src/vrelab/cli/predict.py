@@ -24,7 +24,7 @@ import argparse
 from typing import Any
 
 from vrelab import _validate as V
-from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value
+from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value, format_value_u
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
@@ -68,7 +68,8 @@ def print_prediction(pred: Any) -> None:
 
         cross = [k for k, _, _, _ in CROSS_SHARES if any(lv["shares"].get(k) for lv in d["levels"])]
     cross_head = "".join(f" {k[6:9].capitalize() + ' mg':>9}" for k in cross) + (f" {'cross mg':>9}" if triax else "")
-    head = ("freq_hz " if sine else "") + (f"{'rms_g':>8} {'VRE mg':>{vw}} {'tilt deg':>10} {'clip mg':>9} {'nonlin mg':>9} "
+    head = ("freq_hz " if sine else "") + (f"{'rms_g':>8} {'VRE mg':>{vw}} {'VRC ug/g^2':>{vw}} {'tilt deg':>10} "
+                                           f"{'clip mg':>9} {'nonlin mg':>9} "
                                            f"{'overrange mg':>12}{cross_head}  valid")
     print(head)
     res = PREDICTION_RESOLUTION_MG
@@ -80,8 +81,13 @@ def print_prediction(pred: Any) -> None:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
         vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False, resolution_mg=res)
+        # the level's VRC (VRE / rms², SPEC 1.2), what a datasheet quotes, beside its VRE
+        # shown to the VRE's resolution carried over (res mg = 1e3·res µg, per rms²)
+        vrc = format_value_u(lv.get("vrc_ug_per_g2"), lv.get("u_vrc_ug_per_g2"),
+                             resolution=1e3 * res / lv["rms_g"] ** 2)
         print(
-            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {format_value(lv['tilt_error_deg'], resolution=TILT_RESOLUTION_DEG):>10} "
+            f"{f}{lv['rms_g']:8.4g} {vre:>{vw}} {vrc:>{vw}} "
+            f"{format_value(lv['tilt_error_deg'], resolution=TILT_RESOLUTION_DEG):>10} "
             f"{mg(sh.get('clip_g')):>9} {mg(sh.get('nonlinearity_g')):>9} "
             f"{mg(sh.get('overrange_g')):>12}"
             + "".join(f" {mg(sh.get(k)):>9}" for k in cross) + (f" {mg(sh.get('cross_g')):>9}" if triax else "")

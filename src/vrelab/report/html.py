@@ -318,16 +318,19 @@ def _levels_table(result: VreResult) -> str:
     has_dur = any(x.duration_s is not None for x in lv)
     has_b = any(x.budget for x in lv)
     has_d = any(x.decision is not None for x in lv)
-    head = ["#"] + (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE ± u (mg)"]
+    head = ["#"] + (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE ± u (mg)", "VRC ± u (µg/g²)"]
     head += (["U (mg)", "k"] if has_b else []) + (["decision"] if has_d else [])
     head += (["duration (s)"] if has_dur else []) + ["samples", "saturated", "flags"]
-    num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "U (mg)", "k", "duration (s)", "samples", "saturated"}
+    num = {"#", "freq (Hz)", "level (g rms)", "VRE ± u (mg)", "VRC ± u (µg/g²)", "U (mg)", "k", "duration (s)",
+           "samples", "saturated"}
     rows = []
     for i, x in enumerate(lv, 1):
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
         rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g)
-        cells = [str(i)] + ([_fmt(x.freq_hz, 6)] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u)]
+        vrc = x.vrc  # VRE / rms² with its u (SPEC 1.2), beside the VRE
+        cells = [str(i)] + ([_fmt(x.freq_hz, 6)] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u),
+                                                                      format_value_u(vrc.value, vrc.u)]
         if has_b:
             cells += [format_u(x.U_vre_g, scale=1e3), format_value(x.k, resolution=0.01)]
         if has_d:
@@ -384,6 +387,19 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             + f"</tr></thead><tbody>{''.join(rows)}</tbody></table></div>")
 
 
+def _vrc_cell(lv: Mapping[str, Any], res_mg: float) -> str:
+    """A prediction level's VRC (VRE / rms², µg/g²) with its u where it has one, shown to the VRE's
+    resolution carried over (``res_mg`` mg = 1e3·res µg, per rms²); a prediction written before
+    the VRC was a key gets it from its VRE (:func:`vrelab.results.level_vrc`)."""
+    from vrelab.results import level_vrc
+
+    rms, vre = lv.get("rms_g"), lv.get("vre_g")
+    if not isinstance(rms, (int, float)) or not isinstance(vre, (int, float)) or not rms > 0:
+        return format_value(None)
+    value, u = level_vrc(float(vre), float(rms), lv.get("u_vre_g"))
+    return format_value_u(value, u, resolution=1e3 * res_mg / float(rms) ** 2)
+
+
 def _prediction_html(pred: Mapping[str, Any]) -> str:
     """Prediction levels with each mechanism's share (keys found, not assumed)."""
     levels = pred.get("levels") or []
@@ -401,7 +417,7 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
     has_valid = any("valid" in lv for lv in levels)
     # Shown to PREDICTION_RESOLUTION_MG: a clipping share of -8.9e-112 mg is 0, not a number.
     res = PREDICTION_RESOLUTION_MG
-    head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "tilt error (°)"]
+    head = (["freq (Hz)"] if has_f else []) + ["level (g rms)", "VRE (mg)", "VRC (µg/g²)", "tilt error (°)"]
     head += [f"{share_name(k)} (mg)" for k in share_keys] + (["model valid"] if has_valid else [])
     # Per-level notes are sentences: listed under the table, each once with its levels.
     by_note: dict[str, list[str]] = {}
@@ -414,6 +430,7 @@ def _prediction_html(pred: Mapping[str, Any]) -> str:
         cells = ([_fmt(lv.get("freq_hz"), 6)] if has_f else []) + [
             _fmt(lv.get("rms_g")),
             format_mg(lv.get("vre_g"), resolution_mg=res),
+            _vrc_cell(lv, res),
             format_value(lv.get("tilt_error_deg"), resolution=TILT_RESOLUTION_DEG),
         ]
         for k in share_keys:

@@ -8,6 +8,7 @@ same schema) into a :class:`Sensor` that builds its chain.
 
 from vrelab.sensor.chain import ChainRun, ChainStats, SensorChain
 from vrelab.sensor.stages import (
+    AnalogLowPass,
     AntiAlias,
     Clip,
     Decimate,
@@ -25,6 +26,7 @@ from vrelab.sensor.stages import (
 )
 
 __all__ = [
+    "AnalogLowPass",
     "AntiAlias",
     "ChainRun",
     "ChainStats",

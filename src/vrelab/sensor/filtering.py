@@ -100,8 +100,8 @@ def fused_filter_state(stages: tuple[object, ...], states: tuple[object, ...]) -
 
     ``states`` are the stages' fresh states (from ``init_state``, not yet run).
 
-    Stages of exactly the types :class:`Resonator`, :class:`AntiAlias`, :class:`LowPass`,
-    :class:`HighPass` (a subclass may change ``process``) are each one ``sosfilt`` with its
+    Stages of exactly the types :class:`Resonator`, :class:`AntiAlias`, :class:`AnalogLowPass`,
+    :class:`LowPass`, :class:`HighPass` (a subclass may change ``process``) are each one ``sosfilt`` with its
     state; a cascade of them is one ``sosfilt`` over the stacked sections, which costs about
     what a single stage costs (sosfilt's time per sample barely grows with the number of
     sections). Starting in steady state for the first input value, the stacked filter gives

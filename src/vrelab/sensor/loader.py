@@ -13,7 +13,7 @@ Chain built from a description (order is fixed here; write a :class:`SensorChain
 another order)::
 
     Resonator -> Polynomial -> OverRange -> [Clip if clip_position = "proof-mass"] -> Noise
-    -> AntiAlias -> LowPass (ODR/4) -> HighPass -> Offset -> [Drift] -> Decimate (fs/ODR)
+    -> AntiAlias -> LowPass (ODR/4; AnalogLowPass without an ODR) -> HighPass -> Offset -> [Drift] -> Decimate (fs/ODR)
     -> [Clip if clip_position = "output"] -> Quantize
 
 The nonlinearity and the over-range trip act on the proof-mass motion (after the resonance,
@@ -39,8 +39,9 @@ from vrelab.results import Conditions
 from vrelab.sensor import fields
 from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.fields import is_number
-from vrelab.sensor.parameters import assumable, identifiable, parameter
+from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
 from vrelab.sensor.stages import (
+    AnalogLowPass,
     AntiAlias,
     Clip,
     Decimate,
@@ -171,11 +172,6 @@ class Sensor:
             if self.pendulous_axis == own:
                 raise ValueError(f"sensor {self.name}: pendulous_axis must be another axis than the input axis "
                                  f"{own}, got {self.pendulous_axis!r}")
-        for a in ("x", "y", "z"):
-            c = getattr(self, f"cross_axis_{a}")
-            if c < -0.5:
-                raise ValueError(f"sensor {self.name}: cross_axis_{a} must be at least -0.5 (a sensitivity to another "
-                                 f"axis above half the own one is no accelerometer axis), got {c!r}")
         if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
             raise ValueError(
                 f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
@@ -279,8 +275,8 @@ class Sensor:
             stages.append(Noise(self.noise_ug_per_rthz))
         if self.anti_alias_hz is not None:
             stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
-        if self.odr_hz is not None and self.bandwidth_hz is not None:
-            stages.append(LowPass(self.bandwidth_hz, self.lowpass_order or 4, self.lowpass_kind))
+        if self.bandwidth_hz is not None:
+            stages.append(self.output_filter(self.bandwidth_hz))
         if self.highpass_hz is not None:
             stages.append(HighPass(self.highpass_hz))
         if self.offset_g:
@@ -294,6 +290,16 @@ class Sensor:
         if self.lsb_g is not None:
             stages.append(Quantize(self.lsb_g))
         return tuple(stages)
+
+    def output_filter(self, corner_hz: float) -> LowPass | AnalogLowPass:
+        """The band-limit at the output: with an ODR the part's digital low-pass
+        (:class:`LowPass`), without one (an analog part: the ADXL354's overall bandwidth) an
+        analog output filter of the same order and family (:class:`AnalogLowPass`). Either way
+        ``bandwidth_hz`` limits what reaches the output rails (SPEC 1.3)."""
+        order = self.lowpass_order or 4
+        if self.odr_hz is not None:
+            return LowPass(corner_hz, order, self.lowpass_kind)
+        return AnalogLowPass(corner_hz, order, self.lowpass_kind)
 
     def chain(self, fs_hz: float) -> SensorChain:
         """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
@@ -491,8 +497,13 @@ def _choose_odr(data: Mapping[str, Any], odr_hz: float | None, name: str, where:
                 break
         if chosen_odr is None:
             raise ValueError(f"odr_hz must be one of {_fmt(odrs)} Hz for {name}; got {want!r}")
-    elif odr_hz is not None:
-        raise ValueError(f"odr_hz must not be given for {name}: it has no ODR (output at the input rate); got {odr_hz!r}")
+    else:
+        if odr_hz is not None:
+            raise ValueError(f"odr_hz must not be given for {name}: it has no ODR (output at the input rate); got {odr_hz!r}")
+        for key in ("default_odr_hz", "bandwidth_per_odr"):  # a file means what it says: no key read and ignored
+            if key in data:
+                raise ValueError(f"sensor {where}: {key} has no effect without odrs_hz (an analog part has no ODR; "
+                                 "its band-limit is bandwidth_hz): give odrs_hz or leave it out")
     return odrs, chosen_odr
 
 
@@ -532,6 +543,8 @@ def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
         raise ValueError(f"{where}: matrix must be {n}x{n} finite numbers (one row per parameter), got shape {m.shape}")
     if np.any(np.diag(m) < 0) or not np.allclose(m, m.T, rtol=1e-9, atol=0.0):
         raise ValueError(f"{where}: matrix must be symmetric with a non-negative diagonal")
+    for p, var in zip(params, np.diag(m).tolist()):
+        check_u(p, math.sqrt(var), where)
     # a covariance is positive semi-definite: a negative eigenvalue (beyond rounding) would give
     # some combination of the parameters a negative variance, and a propagated u of 0 or NaN
     d = np.sqrt(np.diag(m))
@@ -556,6 +569,7 @@ def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
             raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(allowed)}")
         if not is_number(u) or not math.isfinite(u) or u <= 0:
             raise ValueError(f"sensor {where}: uncertainty.{key} must be a standard uncertainty > 0, got {u!r}")
+        check_u(key, float(u), f"sensor {where}: uncertainty.{key}")
         out[key] = float(u)
     return out
 
@@ -678,7 +692,7 @@ def load_sensor(
 
     description = data.get("description", "")
     source = data.get("source", origin)
-    return Sensor(
+    sensor = Sensor(
         name=name,
         range_g=req,
         full_scale_g=full_scale,
@@ -695,6 +709,12 @@ def load_sensor(
         covariance=_without(covariance, user_params),
         uncertainty=uncertainty,
     )
+    # a sensor file means what it says: no field read and ignored (a hold without a threshold)
+    for f in fields.idle({g.name: getattr(sensor, g.name) for g in fields.FIELDS}, given):
+        need = fields.by_name()[f.needs].key
+        raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
+                         f"give {need} or leave {f.key} out")
+    return sensor
 
 
 def _without(cov: Any, names: set[str]) -> Any:

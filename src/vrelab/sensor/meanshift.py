@@ -29,9 +29,11 @@ model, and a prediction of a chain holding it says so.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from dataclasses import dataclass
-from typing import Callable, Literal, Mapping, Protocol, Sequence
+from typing import Any, Callable, Literal, Mapping, Protocol, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -151,11 +153,44 @@ class Site:
         return None
 
 
+def response_key(h: Response) -> tuple[Any, Any] | None:
+    """A response as a hashable value: ``(function, stage)`` for the ``response`` method of a
+    frozen dataclass whose equality compares every field (a stage's response is fixed by its
+    fields), else None (not remembered)."""
+    owner: Any = getattr(h, "__self__", None)
+    params = getattr(owner, "__dataclass_params__", None)
+    if params is None or not (params.frozen and params.eq) or not all(f.compare for f in dataclasses.fields(owner)):
+        return None
+    key = (getattr(h, "__func__", None), owner)
+    try:
+        hash(key)
+    except TypeError:  # a field that is not hashable (an array)
+        return None
+    return key
+
+
 def gain_max(responses: Sequence[Response]) -> float:
     """sup_f |H(f)| of the linear stages ``responses`` in series (1 for none), on a log grid
-    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band)."""
+    from 0.01 Hz to 10 MHz (the remainder's spectrum reaches several times the band).
+
+    The same at every level of a prediction: remembered by the responses' exact identity where
+    each is a frozen stage's (:func:`response_key`, the rule the prediction's spectral
+    integrals' memory uses too), so a prediction of many levels evaluates it once."""
     if not responses:
         return 1.0
+    keys = tuple(response_key(h) for h in responses)
+    if all(k is not None for k in keys):
+        return _gain_max_of(keys)
+    return _gain_max_at(responses)
+
+
+@functools.lru_cache(maxsize=256)
+def _gain_max_of(keys: tuple[tuple[Any, Any], ...]) -> float:
+    """:func:`_gain_max_at` of the responses given as ``(function, stage)`` keys (cached)."""
+    return _gain_max_at([f.__get__(owner) for f, owner in keys])
+
+
+def _gain_max_at(responses: Sequence[Response]) -> float:
     f = np.geomspace(1e-2, 1e7, 4001)
     h = np.ones(f.size)
     for r in responses:

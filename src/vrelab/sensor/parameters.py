@@ -83,6 +83,18 @@ def _param(name: str) -> Param:
     return known[name]
 
 
+def check_u(name: str, u: float, where: str) -> None:
+    """Refuse a standard uncertainty of ``name`` wider than the parameter's whole physical range
+    (its field's bounds, :meth:`vrelab.sensor.fields.Field.span`): such a u says nothing of the
+    part (a covariance diagonal of 1e300 would give a u_vre_g of 1e128 g), it is a slip."""
+    p = _param(name)
+    span = fields.by_key()[p.file_key].span()
+    if not u <= span:
+        unit = f" {p.text_unit}" if p.text_unit else ""
+        raise ValueError(f"{where}: the standard uncertainty of {name}, {u:g}{unit}, is wider than the parameter's "
+                         f"whole physical range ({span:g}{unit}): outside any physical bound")
+
+
 def parameter(sensor: Sensor, name: str) -> float | None:
     """The value of ``name`` on ``sensor`` in the parameter's units (None: the element is absent)."""
     p = _param(name)

@@ -76,7 +76,9 @@ def sensor_document(sensor: Sensor) -> dict[str, Any]:
         doc["odrs_hz"] = [sensor.odr_hz]
     for f in fields.FIELDS:
         v = getattr(sensor, f.name)
-        if v is not None:
+        # a row that acts only with another (a hold with a threshold) is left out without it: the
+        # loader refuses a field that has no effect (fields.idle)
+        if v is not None and not (f.needs and getattr(sensor, f.needs) is None):
             doc[f.key] = _file_value(f, v)
     if sensor.uncertainty:
         doc["uncertainty"] = dict(sensor.uncertainty)

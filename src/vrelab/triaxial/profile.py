@@ -23,6 +23,7 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, segment_areas
 
 __all__ = ["AXES", "PairCoherence", "TriaxialProfile", "TriaxialSine", "direction"]
@@ -44,9 +45,7 @@ def direction(input_axis: str, toward_axis: str, angle_deg: float) -> NDArray[np
         raise ValueError(f"axes must be x, y or z, got {input_axis!r} and {toward_axis!r}")
     if input_axis == toward_axis:
         raise ValueError(f"a mount plane needs two different axes, got {input_axis!r} twice")
-    phi = float(angle_deg)
-    if not math.isfinite(phi):
-        raise ValueError(f"mount angle must be a finite number of degrees, got {angle_deg!r}")
+    phi = V.mount_angle("mount angle", angle_deg)
     d = np.zeros(3)
     rad = math.radians(phi)
     d[AXES.index(input_axis)] = math.cos(rad)
