@@ -13,8 +13,6 @@ import argparse
 import math
 from typing import Any
 
-from vrelab import _validate as V
-
 DEFAULT_STATIC_G = 1.0
 
 
@@ -77,6 +75,7 @@ def along(args: argparse.Namespace) -> bool:
 def direction_of(args: argparse.Namespace, triad: tuple[int, int, int]) -> list[float] | None:
     """The vibration's direction in the part's frame: ``--direction``, or IEEE 1293's mount angle
     of the input axis toward its pendulous (ip) or output (io) axis; None where neither is given."""
+    from vrelab import _validate as V
     from vrelab.triaxial.profile import AXES, direction
 
     along(args)
