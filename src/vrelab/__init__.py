@@ -19,9 +19,10 @@ The front door (``import vrelab`` is enough)::
     vrelab.predict_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1)) # the IEEE 1293 cross terms too
     vrelab.simulate_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1), seconds=4, seed=1)
 
-Every name is imported on first use, so ``import vrelab`` stays as fast as it was (``python
--X importtime -c "import vrelab"``: about 35 ms; the modules behind ``predict``, ``identify`` and
-``campaign`` take 1 to 3 s more, scipy mostly).
+Every name is imported on first use (``__version__`` too: ``importlib.metadata`` alone costs
+more than the rest), so ``import vrelab`` imports no numpy and costs a few tens of ms beyond
+the interpreter's own start (``python bench/bench_startup.py``); the modules behind
+``predict``, ``identify`` and ``campaign`` take 1 to 3 s more, scipy mostly.
 """
 
 # Design: ``predict``, ``campaign`` and ``identify`` are both submodules of this package and the
@@ -48,12 +49,11 @@ import sys
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-from vrelab._version import __version__
-
 if TYPE_CHECKING:
     from vrelab._api import analyze as analyze
     from vrelab._api import campaign as campaign
     from vrelab._api import simulate as simulate
+    from vrelab._version import __version__ as __version__
     from vrelab.gum import TypeB as TypeB
     from vrelab.identify import Identification as Identification
     from vrelab.identify import identify as identify
@@ -78,6 +78,7 @@ if TYPE_CHECKING:
 
 # name -> (module, attribute), imported on first use
 _LAZY: dict[str, tuple[str, str]] = {
+    "__version__": ("vrelab._version", "__version__"),  # importlib.metadata: 20 ms, for who asks
     "load_sensor": ("vrelab.sensor", "load_sensor"),
     "parse_profile": ("vrelab.profiles", "parse_profile"),
     "simulate": ("vrelab._api", "simulate"),
@@ -107,7 +108,7 @@ _VERBS: dict[str, tuple[str, str]] = {
     "identify": ("vrelab.identify", "identify"),
 }
 
-__all__ = ["__version__", *_LAZY, *_VERBS]
+__all__ = [*_LAZY, *_VERBS]
 
 
 class _CallableModule(ModuleType):

@@ -8,28 +8,42 @@ rail, profile, ...), ``FitOptions`` (static field, clipping model, ...), ``Budge
 (Type B terms, a decision limit), passed as ``options=``, ``fit=``, ``budget=``.
 """
 
-from typing import Any
+from __future__ import annotations
 
-from vrelab.analysis.options import BudgetOptions, FitOptions, ReductionOptions
-from vrelab.analysis.pipeline import analyze, analyze_channels, analyze_full, reduce, reduce_record
+import importlib
+from typing import TYPE_CHECKING, Any
 
-__all__ = [
-    "analyze",
-    "analyze_full",
-    "analyze_channels",
-    "reduce",
-    "reduce_record",
-    "open_record",
-    "ReductionOptions",
-    "FitOptions",
-    "BudgetOptions",
-]
+if TYPE_CHECKING:
+    from vrelab.analysis.options import BudgetOptions as BudgetOptions
+    from vrelab.analysis.options import FitOptions as FitOptions
+    from vrelab.analysis.options import ReductionOptions as ReductionOptions
+    from vrelab.analysis.pipeline import analyze as analyze
+    from vrelab.analysis.pipeline import analyze_channels as analyze_channels
+    from vrelab.analysis.pipeline import analyze_full as analyze_full
+    from vrelab.analysis.pipeline import reduce as reduce
+    from vrelab.analysis.pipeline import reduce_record as reduce_record
+    from vrelab.analysis.readers import open_record as open_record
+
+# name -> module, imported on first use: the pipeline brings scipy, the readers h5py, pyarrow,
+# npTDMS...; a leaf (``vrelab.analysis.options`` for the command line's choices) brings neither
+_LAZY: dict[str, str] = {
+    "analyze": "vrelab.analysis.pipeline",
+    "analyze_full": "vrelab.analysis.pipeline",
+    "analyze_channels": "vrelab.analysis.pipeline",
+    "reduce": "vrelab.analysis.pipeline",
+    "reduce_record": "vrelab.analysis.pipeline",
+    "open_record": "vrelab.analysis.readers",
+    "ReductionOptions": "vrelab.analysis.options",
+    "FitOptions": "vrelab.analysis.options",
+    "BudgetOptions": "vrelab.analysis.options",
+}
+
+__all__ = list(_LAZY)
 
 
 def __getattr__(name: str) -> Any:
-    # Readers pull in h5py/pyarrow/npTDMS: load them only when asked for.
-    if name == "open_record":
-        from vrelab.analysis.readers import open_record
-
-        return open_record
-    raise AttributeError(name)
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -21,9 +21,8 @@ from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING, Any, Mapping
 
 from vrelab import _validate as V
-from vrelab.models.clipping import KINDS
-from vrelab.models.clipping import Kind as ClipKind
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
+from vrelab.models.kinds import Kind as ClipKind
 from vrelab.record import DEFAULT_SETTLE_S
 
 if TYPE_CHECKING:

@@ -2,9 +2,16 @@
 
 Each sub-command lives in its own module of this package and exposes
 ``register(subparsers) -> None``; the parser it adds sets ``func=`` to a callable taking the
-parsed ``argparse.Namespace`` and returning an exit status. Modules are found by discovery, so a
-new command is a new file. Any ``ValueError`` (bad input, by the library's convention) becomes one
-line on stderr and exit status 2, never a traceback.
+parsed ``argparse.Namespace`` and returning an exit status. A new command is a new module and
+its line in :data:`COMMANDS`. Any ``ValueError`` (bad input, by the library's convention)
+becomes one line on stderr and exit status 2, never a traceback.
+
+Start-up: a run imports the module of the command it runs and no other. ``vrelab --help``
+lists every command from :data:`COMMANDS` (each a name and the line ``register`` gives it:
+tests/test_cli_startup.py holds the two the same) and imports none of them; the modules put
+their heavy imports (numpy, scipy, the readers, the report) inside the functions that run.
+:func:`build_parser` with no argument registers every command in full (the CLI reference,
+docs/cli.rst, and the tests read that one).
 """
 
 from __future__ import annotations
@@ -12,39 +19,77 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import pkgutil
 import sys
-from typing import Sequence
+from typing import Any, Collection, Sequence
 
-from vrelab._version import __version__
 from vrelab.cli._common import Parser, UsageError, print_json, printable
 
-__all__ = ["main", "build_parser", "Parser", "UsageError", "print_json"]
+__all__ = ["main", "build_parser", "COMMANDS", "Parser", "UsageError", "print_json"]
 
-# Order in `vrelab --help`; modules not listed come after, alphabetically.
-_ORDER = ("model", "profile", "environment", "predict", "simulate", "channels", "analyze", "campaign", "identify", "report", "demo",
-          "sweep")
+# Every command (its module vrelab.cli.NAME) with its line in `vrelab --help`, in that order.
+COMMANDS: dict[str, str] = {
+    "model": "analytic VRE models: clipping at the rails, polynomial nonlinearity",
+    "profile": "show a random vibration profile: grms and breakpoints",
+    "environment": "the named vibration environments (standards' profiles) with their sources",
+    "predict": "analytic VRE of a sensor in a sine or random vibration, with shares by mechanism",
+    "simulate": "simulated shaker test of a sensor (random or sine method), reduced like a lab record",
+    "channels": "list a recorded file's channels: the names --dut/--reference take, rates, units",
+    "analyze": "reduce a recorded shaker test (a lab file of any format its --help lists) to VRE per level and fit it",
+    "campaign": "reduce every run of a shaker campaign (a TOML manifest): VRC by frequency, k2/k3, rail per channel",
+    "identify": "identify each channel's VRE model (k2, k3, fn, Q, rails, over-range) from a campaign: a sensor file",
+    "report": "write DIR/report.html from a simulate/analyze or sweep output folder",
+    "demo": "the article's ADXL355 case study, simulated, with its report",
+    "sweep": "parameter sweep or Monte Carlo lot from a TOML file (serial, processes or Dask)",
+}
 
 
-def _command_modules() -> list[str]:
-    found = [m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")]
-    return sorted(found, key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
+class _Version(argparse.Action):
+    """``--version``: the installed version (``importlib.metadata``), read only when asked."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="show program's version number and exit", **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        from vrelab._version import __version__
+
+        sys.stdout.write(f"vrelab {__version__}\n")  # stdout, as argparse's own version action
+        parser.exit()
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The ``vrelab`` parser. ``commands``: those registered in full (their modules imported);
+    the others are listed by name and help line only. Default: all of them."""
     parser = Parser(
         prog="vrelab",
         description="Vibration rectification error (VRE) of accelerometers: analytic models, "
         "a simulated shaker test, reduction of recorded shaker tests, reports.",
     )
-    parser.add_argument("--version", action="version", version=f"vrelab {__version__}")
+    parser.add_argument("--version", action=_Version)
     parser.add_argument("--debug", action="store_true",
                         help="on an unexpected error, print the whole traceback (for a bug report)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
-    for name in _command_modules():
-        importlib.import_module(f"{__name__}.{name}").register(sub)
+    for name, summary in COMMANDS.items():
+        if commands is None or name in commands:
+            importlib.import_module(f"{__name__}.{name}").register(sub)
+        else:
+            sub.add_parser(name, help=summary)
     return parser
+
+
+def command_named(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` runs, as argparse will find it: the first argument that is not an
+    option (``vrelab``'s own options, ``--debug``, ``--version``, ``--help``, take no value), or
+    the one after ``--``. None when there is none; a name that is no command is argparse's to
+    refuse, with every command listed."""
+    for i, arg in enumerate(argv):
+        if arg == "--":
+            return argv[i + 1] if i + 1 < len(argv) else None
+        if not arg.startswith("-") or arg == "-":
+            return arg
+    return None
 
 
 # Exit status of a full disk (or quota) while writing: EX_IOERR of sysexits.h. Not 2: the input
@@ -87,21 +132,22 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(argv: list[str], debug: bool) -> int:
-    from vrelab._io import DiskFull, is_disk_full
-
     try:
-        parser = build_parser()
+        command = command_named(argv)
+        parser = build_parser([command] if command in COMMANDS else ())
         args = parser.parse_args(argv)
         return int(args.func(args) or 0)
-    except DiskFull as exc:
-        sys.stderr.write(f"vrelab: error: {exc.strerror}\n")
-        return EXIT_DISK_FULL
     except BrokenPipeError:
         # The reader went away (`vrelab ... | head`): not an error of ours. Point stdout at
         # devnull so the interpreter's final flush does not complain again.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except (ValueError, OSError) as exc:
+        from vrelab._io import DiskFull, is_disk_full  # here: a run that succeeds needs neither
+
+        if isinstance(exc, DiskFull):
+            sys.stderr.write(f"vrelab: error: {exc.strerror}\n")
+            return EXIT_DISK_FULL
         if is_disk_full(exc):
             name = f" writing {exc.filename}" if isinstance(exc, OSError) and exc.filename else ""
             sys.stderr.write(f"vrelab: error: no space left on device{name} (nothing was written; free space and "
@@ -121,6 +167,8 @@ def _run(argv: list[str], debug: bool) -> int:
         sys.stderr.write("vrelab: interrupted\n")
         return 130
     except Exception as exc:  # a bug of ours: one line, the traceback on request
+        from vrelab._io import is_disk_full
+
         if is_disk_full(exc):  # a C library's full disk (HDF5, netCDF) outside an output folder
             sys.stderr.write("vrelab: error: no space left on device (nothing was written; free space and run again)\n")
             return EXIT_DISK_FULL

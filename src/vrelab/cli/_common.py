@@ -11,11 +11,9 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias
 
-from vrelab import _validate as V
-from vrelab._format import format_mg, format_u, format_value, format_value_u
 from vrelab._lists import parse_list
 
-if TYPE_CHECKING:  # the commands import these when they run, not when the parser is built
+if TYPE_CHECKING:  # the commands import these when they run, not when the parser is built (numpy)
     from vrelab.gum import TypeB
     from vrelab.profiles import Profile
     from vrelab.results import VreResult
@@ -125,6 +123,7 @@ def input_paths(*values: object) -> list[Path]:
 
 
 def sensor_from_args(args: argparse.Namespace) -> Sensor:
+    from vrelab import _validate as V
     from vrelab.sensor import load_sensor
 
     V.acceleration("--static", args.static_g)
@@ -176,6 +175,8 @@ def profile_table(profile: Profile) -> str:
 
 def print_levels(result: VreResult) -> None:
     """The levels of a ``VreResult`` as a table, then its fits and warnings (simulate, analyze)."""
+    from vrelab._format import format_mg, format_u, format_value, format_value_u
+
     sine = result.method == "sine"
     budget = any(lv.budget for lv in result.levels)
     decided = any(lv.decision for lv in result.levels)

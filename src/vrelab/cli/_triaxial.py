@@ -13,8 +13,6 @@ import argparse
 import math
 from typing import Any
 
-from vrelab import _validate as V
-
 DEFAULT_STATIC_G = 1.0
 
 
@@ -46,6 +44,8 @@ def static_field(args: argparse.Namespace) -> list[float] | None:
         args.static_g = DEFAULT_STATIC_G
     if args.static_vector is None:
         return None
+    from vrelab import _validate as V
+
     g = vector(args.static_vector, "--static-vector")
     V.acceleration("--static-vector's magnitude", math.sqrt(sum(x * x for x in g)))  # the bound --static has
     return g
@@ -81,6 +81,7 @@ def along(args: argparse.Namespace) -> bool:
 def direction_of(args: argparse.Namespace, triad: tuple[int, int, int]) -> list[float] | None:
     """The vibration's direction in the part's frame: ``--direction``, or IEEE 1293's mount angle
     of the input axis toward its pendulous (ip) or output (io) axis; None where neither is given."""
+    from vrelab import _validate as V
     from vrelab.triaxial.profile import AXES, direction
 
     along(args)

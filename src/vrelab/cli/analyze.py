@@ -52,8 +52,7 @@ from vrelab.cli._common import (
     typeb_from_args,
     with_formats,
 )
-from vrelab.models.clipping import KINDS
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 from vrelab.record import DEFAULT_SETTLE_S
 from vrelab.results import channels_to_dict
 

@@ -20,11 +20,10 @@ import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from vrelab._names import IDENTIFICATION as DOCUMENT  # the names only: vrelab.folder brings numpy
+from vrelab._names import IDENTIFIED_SENSOR as SENSOR_FILE
 from vrelab.cli._common import add_budget_arguments, print_json, printable, typeb_from_args
-from vrelab.folder import IDENTIFICATION as DOCUMENT
-from vrelab.folder import IDENTIFIED_SENSOR as SENSOR_FILE
-from vrelab.models.clipping import KINDS
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 
 if TYPE_CHECKING:
     from vrelab.cli._common import Subparsers

@@ -9,18 +9,12 @@ import argparse
 import math
 from typing import Sequence
 
-import numpy as np
-
-from vrelab import _validate as V
-from vrelab._format import finite_or_none
 from vrelab._lists import number, parse_list
 from vrelab.cli._common import Parser, Subparsers, print_json
-from vrelab.models.clipping import KINDS
-from vrelab.models.design import clip_vre
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
-from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
-from vrelab.models.nonlinearity import vre_poly
-from vrelab.units import from_ug
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
+
+# The models (numpy, scipy.special) are imported by the command that runs them, so that the
+# parser and `vrelab model --help` cost neither.
 
 _CLIP_HELP = """\
 Mean shift (VRE) caused by the sensor's range rails: in a static field the vibration reaches one
@@ -56,6 +50,8 @@ _LIST = "comma-separated values and ranges start:stop:step (inclusive), e.g. 0.5
 
 
 def _levels(text: str) -> list[float]:
+    from vrelab import _validate as V
+
     values = parse_list(text, "--rms")
     bad = [v for v in values if v < 0]
     if bad:
@@ -66,6 +62,8 @@ def _levels(text: str) -> list[float]:
 
 
 def _reference_line(off_g: float) -> str:
+    from vrelab.models.memoryless import REFERENCE
+
     return f"VRE referred to the {REFERENCE} ({off_g:.9g} g): mean output with vibration less that reading"
 
 
@@ -78,6 +76,13 @@ def _table(title: str, rms: Sequence[float], vre_g: Sequence[float]) -> str:
 
 
 def _run_clip(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from vrelab import _validate as V
+    from vrelab._format import finite_or_none
+    from vrelab.models.design import clip_vre
+    from vrelab.models.memoryless import REFERENCE, reference_note, vibration_off_reading
+
     mean = V.acceleration("--mean", number(args.mean, "--mean"))
     rail = number(args.rail, "--rail")
     rail_low = -rail if args.rail_low is None else number(args.rail_low, "--rail-low")
@@ -118,6 +123,14 @@ def _run_clip(args: argparse.Namespace) -> int:
 
 
 def _run_poly(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from vrelab import _validate as V
+    from vrelab._format import finite_or_none
+    from vrelab.models.memoryless import REFERENCE, vibration_off_reading
+    from vrelab.models.nonlinearity import vre_poly
+    from vrelab.units import from_ug
+
     k2 = number(args.k2, "--k2")
     k3 = number(args.k3, "--k3")
     k4 = number(args.k4, "--k4")

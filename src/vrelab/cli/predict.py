@@ -23,8 +23,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from vrelab import _validate as V
-from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value, format_value_u
 from vrelab.cli._common import (
     add_sensor_arguments,
     positive_list,
@@ -40,11 +38,12 @@ from vrelab.cli._triaxial import (
     static_vector,
     triaxial_profile,
 )
-from vrelab.models.clipping import KINDS
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 
 
 def print_prediction(pred: Any) -> None:
+    from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value, format_value_u
+
     d = pred.to_dict()
     c = d["conditions"]
     odr = f"ODR {c['odr_hz']:g} Hz" if c.get("odr_hz") else "no ODR"
@@ -106,6 +105,7 @@ def print_prediction(pred: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from vrelab import _validate as V
     from vrelab.predict import predict
     from vrelab.profiles import parse_profile
 

@@ -19,7 +19,6 @@ import argparse
 from pathlib import Path
 from typing import Any, TypedDict
 
-from vrelab import _validate as V
 from vrelab.cli._common import print_json, profile_table
 
 
@@ -52,6 +51,7 @@ def _list(as_json: bool) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from vrelab import _validate as V
     from vrelab.profiles import parse_profile, write_profile
 
     spec = args.profile
@@ -86,6 +86,7 @@ def _show(args: argparse.Namespace, doc: dict[str, Any], text: str) -> int:
 
 def _triaxial(args: argparse.Namespace) -> int:
     """A triaxial vibration (PROFILE@dir=X,Y,Z, PROFILE@z45x, sine:F@..., a triaxial .toml)."""
+    from vrelab import _validate as V
     from vrelab.triaxial.files import parse_triaxial, write_triaxial
     from vrelab.triaxial.profile import TriaxialProfile
 

@@ -34,7 +34,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vrelab import _validate as V
 from vrelab.cli import _triaxial as tri
 from vrelab.cli._common import (
     add_sensor_arguments,
@@ -43,8 +42,7 @@ from vrelab.cli._common import (
     print_levels,
     sensor_from_args,
 )
-from vrelab.models.clipping import KINDS
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
+from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 
 
 def print_result(result: Any) -> None:
@@ -64,6 +62,7 @@ def _is_triaxial(args: argparse.Namespace, static: list[float] | None) -> bool:
 def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: list[float], seconds: float,
                   baseline_s: float, progress: bool) -> int:
     """``vrelab simulate`` of a triaxial vibration: one result per DUT axis."""
+    from vrelab import _validate as V
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
@@ -141,6 +140,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
 
 
 def run(args: argparse.Namespace) -> int:
+    from vrelab import _validate as V
     from vrelab import shaker
     from vrelab.predict import predict
     from vrelab.profiles import parse_profile

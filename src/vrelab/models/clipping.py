@@ -31,7 +31,7 @@ from typing import Callable, Literal, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import integrate, special
+from scipy import special
 
 from vrelab import _validate
 
@@ -537,6 +537,8 @@ def clip_mean_shift(
 
     assert pdf is not None  # exactly one of pdf and samples, checked above
     lo_x, hi_x = low - mu, high - mu  # rails in vibration coordinates
+
+    from scipy import integrate  # here: scipy.integrate costs 0.3 s to import, the closed forms need none
 
     def quad(f: Callable[[float], float], a: float, b: float) -> float:
         if a >= b:

@@ -14,7 +14,6 @@ from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize
 
 from vrelab import _validate
 from vrelab.models.clipping import Kind, Shape, mean_shift, sine_on_random_mean_shift
@@ -176,6 +175,8 @@ def max_rms_for_budget(
         raise ValueError(f"budget_g={budget_g!r} is never reached for rms up to {top:g} g")
     i = over[0]
     lo = grid[i - 1] if i > 0 else 0.0
+    from scipy import optimize  # here: scipy.optimize costs 0.3 s to import, the other questions need none
+
     return float(optimize.brentq(excess, lo, grid[i], xtol=1e-15, rtol=1e-13))
 
 

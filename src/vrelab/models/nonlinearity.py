@@ -15,14 +15,16 @@ datasheet states it.
 from __future__ import annotations
 
 import math
-from typing import Any, Literal, Mapping, Sequence, overload
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate
-from vrelab.results import Estimate
 from vrelab.units import from_ug, to_ug
+
+if TYPE_CHECKING:  # imported by separate_k2_k3: the closed forms (vrelab model) need no results
+    from vrelab.results import Estimate
 
 Shape = Literal["gaussian", "sine"]
 
@@ -391,6 +393,8 @@ def separate_k2_k3(vrc_plus: Estimate | ArrayLike, vrc_minus: Estimate | ArrayLi
         raise ValueError(f"static_minus_g must be below static_g, got {gm!r} and {gp!r}")
     d = 3.0 * (gp - gm)
     c = gp / (gp - gm)
+    from vrelab.results import Estimate
+
     if isinstance(vrc_plus, Estimate) or isinstance(vrc_minus, Estimate):
         if not (isinstance(vrc_plus, Estimate) and isinstance(vrc_minus, Estimate)):
             raise ValueError("separate_k2_k3: give both VRCs as Estimate, or both as numbers")

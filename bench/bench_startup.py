@@ -1,0 +1,119 @@
+"""Benchmark: start-up of the command line and of ``import vrelab``, each a whole process.
+
+Times, as separate processes of this interpreter (CPU = user + system of the child, from
+``os.wait4``; wall from ``time.perf_counter``), in interleaved rounds so that load drifts alike
+for every case:
+
+* ``python -c pass`` (the interpreter alone: the floor every case pays),
+* ``python -c "import vrelab"``,
+* ``python -m vrelab --help``,
+* ``python -m vrelab model clip --mean 1 --rail 2 --rms 1`` (a small closed-form command),
+* ``python -c "import numpy, scipy.special"``: the floor of that command (its closed forms need
+  ``scipy.special``, whose import alone costs about 0.27 s of CPU: SciPy >= 1.16 rewrites the
+  docstring of every array-API-aware function at import, parsing it with its vendored numpydoc),
+
+and prints each case's median and its ratio to ``python -c pass`` measured in the same run.
+Issue 29's goal: ``--help`` at most 0.3 s and a small command at most 0.5 s of CPU. With
+``--baseline SRC`` (the ``src`` folder of another checkout, e.g. ``git -C /work/main archive
+HEAD src | tar -x -C /tmp/base-startup`` then ``--baseline /tmp/base-startup/src``) every case
+also runs from there (``PYTHONPATH=SRC``) in the same rounds, and the ratio this/baseline is
+printed. A first round is run and discarded (bytecode compiled and written, files cached).
+
+    python bench/bench_startup.py [--repeat 9] [--baseline SRC]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+SRC = str(Path(__file__).resolve().parent.parent / "src")
+
+CASES: dict[str, list[str]] = {
+    "python -c pass": ["-c", "pass"],
+    "import vrelab": ["-c", "import vrelab"],
+    "vrelab --help": ["-m", "vrelab", "--help"],
+    "vrelab model clip": ["-m", "vrelab", "model", "clip", "--mean", "1", "--rail", "2", "--rms", "1"],
+    "numpy+scipy.special": ["-c", "import numpy, scipy.special"],
+}
+GOALS_CPU_S = {"vrelab --help": 0.3, "vrelab model clip": 0.5}
+
+
+def run_once(args: list[str], src: str) -> tuple[float, float]:
+    """CPU (user + system) and wall seconds of one process ``python ARGS`` importing from ``src``.
+
+    Bytecode is written and read (``PYTHONDONTWRITEBYTECODE`` dropped), as for an installed
+    package: otherwise a checkout without ``__pycache__`` compiles every module at every run."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = src
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    if proc.stderr:
+        proc.stderr.close()
+    if proc.returncode != 0:
+        raise RuntimeError(f"python {' '.join(args)} (from {src}) exited {proc.returncode}: {err.strip()}")
+    return usage.ru_utime + usage.ru_stime, wall
+
+
+def measure(repeat: int, sources: dict[str, str]) -> dict[str, dict[str, dict[str, float]]]:
+    """Median CPU and wall of every case from every source, ``repeat`` interleaved rounds."""
+    samples: dict[tuple[str, str], list[tuple[float, float]]] = {(s, c): [] for s in sources for c in CASES}
+    for r in range(repeat + 1):
+        for case, args in CASES.items():
+            for label, src in sources.items():
+                cpu, wall = run_once(args, src)
+                if r:  # round 0 warms up: bytecode compiled, files in the page cache
+                    samples[(label, case)].append((cpu, wall))
+    return {label: {case: {"cpu_s": statistics.median(c for c, _ in samples[(label, case)]),
+                           "wall_s": statistics.median(w for _, w in samples[(label, case)])}
+                    for case in CASES}
+            for label in sources}
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--repeat", type=int, default=9, help="rounds (medians; default 9)")
+    p.add_argument("--baseline", metavar="SRC", help="src folder of another checkout, measured in the same rounds")
+    args = p.parse_args(argv)
+    sources = {"this": SRC}
+    if args.baseline:
+        sources["baseline"] = str(Path(args.baseline).resolve())
+    med = measure(args.repeat, sources)
+    floor = med["this"]["python -c pass"]["cpu_s"]
+    print(f"start-up, medians of {args.repeat} rounds (whole processes; CPU = user + sys; python -c pass: "
+          f"{floor:.3f} s CPU)")
+    head = f"{'case':<20} {'CPU s':>7} {'wall s':>7} {'x pass':>7}"
+    if args.baseline:
+        head += f" {'base CPU s':>10} {'x pass':>7} {'this/base':>9}"
+    print(head + "  goal")
+    result: dict[str, Any] = {"repeat": args.repeat, "python_pass_cpu_s": round(floor, 4), "cases": {}}
+    for case in CASES:
+        this = med["this"][case]
+        row = f"{case:<20} {this['cpu_s']:7.3f} {this['wall_s']:7.3f} {this['cpu_s'] / floor:7.1f}"
+        entry = {"cpu_s": round(this["cpu_s"], 4), "wall_s": round(this["wall_s"], 4),
+                 "ratio_to_python": round(this["cpu_s"] / floor, 2)}
+        if args.baseline:
+            base = med["baseline"][case]
+            base_floor = med["baseline"]["python -c pass"]["cpu_s"]
+            row += f" {base['cpu_s']:10.3f} {base['cpu_s'] / base_floor:7.1f} {this['cpu_s'] / base['cpu_s']:9.2f}"
+            entry.update(baseline_cpu_s=round(base["cpu_s"], 4), ratio_to_baseline=round(this["cpu_s"] / base["cpu_s"], 2))
+        goal = GOALS_CPU_S.get(case)
+        if goal is not None:
+            row += f"  <= {goal} s CPU: {'met' if this['cpu_s'] <= goal else 'NOT met'}"
+        print(row)
+        result["cases"][case] = entry
+    return result
+
+
+if __name__ == "__main__":
+    main()
