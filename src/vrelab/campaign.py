@@ -50,6 +50,7 @@ from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 if TYPE_CHECKING:
     from vrelab.analysis.plausibility import MethodRequest
+    from vrelab.sensor import Sensor
 
 RUN_KEYS = (
     "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
@@ -57,7 +58,7 @@ RUN_KEYS = (
     "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g", "mount_deg", "mount_plane",
 )  # fmt: skip
 BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
-TOP_KEYS = ("name", "description", "defaults", "run")
+TOP_KEYS = ("name", "description", "sensor", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1
 # IEEE 1293's mount planes (SPEC 1.6): the input axis i tilted toward the pendulous axis p, or
@@ -142,6 +143,9 @@ class Manifest:
     name: str
     runs: tuple[Run, ...]
     description: str = ""
+    # campaign channel -> the sensor file (or preset) its DUT is, when the manifest's `sensor` key
+    # names one: the units check then holds each run to that sensor's response (SPEC 4.1)
+    sensors: Mapping[str, Sensor] = field(default_factory=dict, compare=False)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -182,12 +186,57 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     name = doc.get("name", path.stem)
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"{path.name}: name must be a non-empty string")
-    m = Manifest(path.resolve(), name.strip(), runs, str(doc.get("description", "")))
+    description = doc.get("description", "")
+    if not isinstance(description, str):
+        raise ValueError(f"{path.name}: description must be a string, got a {_toml_type(description)}")
+    channels = tuple(dict.fromkeys(c for r in runs for c in r.dut))
+    m = Manifest(path.resolve(), name.strip(), runs, description, _sensors(path, doc.get("sensor"), channels))
     if check_files:
         for run in runs:
             _check_channels(run)
         check_records(runs)
     return m
+
+
+def _toml_type(value: Any) -> str:
+    """What a TOML value is, in TOML's words (a table, an array, ...), for a refusal."""
+    kinds = ((bool, "boolean"), (dict, "table"), (list, "array"), (int, "integer"), (float, "float"), (str, "string"))
+    return next((name for t, name in kinds if isinstance(value, t)), type(value).__name__)
+
+
+def _sensors(manifest: Path, value: Any, channels: Sequence[str]) -> dict[str, Sensor]:
+    """The manifest's ``sensor`` key: a preset name or a sensor file (relative to the manifest)
+    for every DUT channel, or a table channel -> one; each channel's axis is the file's axis of
+    its name when the file has one (an identified file, ``vrelab identify``), else its default."""
+    from vrelab.sensor import load_sensor
+
+    if value is None:
+        return {}
+    where = f"{manifest.name}: sensor"
+    if isinstance(value, dict):
+        for c in value:
+            if c not in channels:
+                raise ValueError(f"{where}: {c!r} is not a DUT channel of the campaign ({', '.join(channels)})")
+        specs = dict(value)
+    elif isinstance(value, str):
+        specs = {c: value for c in channels}
+    else:
+        raise ValueError(f"{where} must be a preset name or a sensor file, or a table channel = one; "
+                         f"got a {_toml_type(value)}")
+    out: dict[str, Sensor] = {}
+    for c, spec in specs.items():
+        if not isinstance(spec, str) or not spec.strip():
+            raise ValueError(f"{where}: {c!r} must be a preset name or a sensor file")
+        p = Path(spec) if Path(spec).is_absolute() else manifest.parent / spec
+        text = str(p.resolve()) if p.is_file() else spec.strip()
+        try:
+            s = load_sensor(text)
+            if c in s.axes and c != s.axis:
+                s = load_sensor(text, axis=c)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {c!r}: {exc}") from None
+        out[c] = s
+    return out
 
 
 def _run(manifest: Path, index: int, d: Any) -> Run:
@@ -609,8 +658,10 @@ class RunResult:
     results: list[tuple[str, VreResult]] = field(default_factory=list)
     error: str | None = None
     folder: str | None = None  # sub-folder of the campaign folder, when written
-    # channel -> (kind, peak_hz, DUT/reference ratio) of each level: the campaign's units check
+    # channel -> (kind, frequency, DUT/reference ratio) of each level: the campaign's units check
     unit_probes: dict[str, list[tuple[str | None, float, float]]] = field(default_factory=dict)
+    # channel -> the DUT's mean vibration-off reading [g]: the units check's range test
+    off_reading_g: dict[str, float | None] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -648,7 +699,8 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
     for name, _, red in reduced:
         check_static(run, name, red.static_g)
     res = RunResult(run, [(name, result) for name, result, _ in reduced],
-                    unit_probes={name: list(red.unit_probes) for name, _, red in reduced})
+                    unit_probes={name: list(red.unit_probes) for name, _, red in reduced},
+                    off_reading_g={name: red.static_g for name, _, red in reduced})
     if out is not None:
         from vrelab import folder as F
         from vrelab.results import channels_to_dict
@@ -701,7 +753,7 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
                 results.append(fut.result())
                 if on_done:
                     on_done(results[-1])
-    slipped = judge_units(results)
+    slipped = judge_units(results, manifest.sensors)
     for r, dest in zip(results, dests):
         if dest is not None and r.ok:
             r.folder = f"runs/{dest.name}"
@@ -710,28 +762,72 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
     return results
 
 
-def judge_units(results: Sequence[RunResult]) -> list[RunResult]:
-    """SPEC 4.2's units check, per DUT channel over all its runs
-    (:func:`vrelab.analysis.plausibility.check_units_over_runs`): a channel whose runs show a
-    unit slip fails every run that holds it, with the reason. Returns the runs it failed."""
-    from vrelab.analysis.plausibility import check_units_over_runs
+def dut_range(run: Run, channel: str, sensor: Sensor | None) -> tuple[float | None, str]:
+    """The DUT's range [g] and where it comes from: the sensor file's full scale, else the run's
+    ``rail_g``, else None (unknown)."""
+    if sensor is not None:
+        return sensor.full_scale_g, f"the sensor file {sensor.name!r}"
+    if run.rail_g is not None:
+        return run.rail_g, "the run's rail_g"
+    return None, ""
 
-    probes: dict[str, list[tuple[str | None, float, float]]] = {}
+
+def judge_units(results: Sequence[RunResult], sensors: Mapping[str, Sensor] | None = None) -> list[RunResult]:
+    """SPEC 4.1/4.2's units check of every DUT channel over its runs; the runs it refuses are
+    failed with the reason (their results dropped) and returned. In order:
+
+    1. a run whose DUT reads, with vibration off, orders of magnitude beyond its range
+       (:func:`vrelab.analysis.plausibility.off_reading_slip`);
+    2. a run whose DUT/reference ratio departs from what the DUT's response allows at its
+       frequency, or from the channel's other runs
+       (:func:`vrelab.analysis.plausibility.judge_runs_units`; ``sensors`` gives a channel's
+       response, else the stated default);
+    3. a slip common to every run of a channel, judged where its response is flat
+       (:func:`vrelab.analysis.plausibility.check_units_over_runs`): every run holding it fails.
+    """
+    from vrelab.analysis.plausibility import check_units_over_runs, judge_runs_units, off_reading_slip
+
+    sensors = sensors or {}
     failed: list[RunResult] = []
+
+    def fail(r: RunResult, msg: str) -> None:
+        r.error = msg
+        r.results = []
+        failed.append(r)
+
     for r in results:
-        if r.ok:
-            for ch, ps in r.unit_probes.items():
-                probes.setdefault(ch, []).extend(_mount_probes(r.run.mount.get(ch), ps))
-    for ch, ps in probes.items():
-        msg = check_units_over_runs(ch, ps)
+        if not r.ok:
+            continue
+        for ch, reading in r.off_reading_g.items():
+            msg = off_reading_slip(ch, reading, *dut_range(r.run, ch, sensors.get(ch)))
+            if msg is not None:
+                fail(r, msg)
+                break
+    channels = list(dict.fromkeys(ch for r in results for ch in r.unit_probes))
+    for ch in channels:
+        sensor = sensors.get(ch)
+        gain = None if sensor is None else _gain(sensor)
+        runs = [(r.run.index, _mount_probes(r.run.mount.get(ch), r.unit_probes[ch]))
+                for r in results if r.ok and ch in r.unit_probes]
+        refused = judge_runs_units(ch, runs, gain)
+        for r in results:
+            if r.ok and r.run.index in refused:
+                fail(r, refused[r.run.index])
+    for ch in channels:
+        probes = [p for r in results if r.ok and ch in r.unit_probes
+                  for p in _mount_probes(r.run.mount.get(ch), r.unit_probes[ch])]
+        msg = check_units_over_runs(ch, probes)
         if msg is None:
             continue
         for r in results:
             if r.ok and ch in r.unit_probes:
-                r.error = msg
-                r.results = []
-                failed.append(r)
+                fail(r, msg)
     return failed
+
+
+def _gain(sensor: Sensor) -> Callable[[float], float]:
+    """|H(f)| of the sensor's output (every linear stage: resonance, filters)."""
+    return lambda f: float(abs(sensor.response(f)))
 
 
 # A DUT mounted at φ sees cos φ of the vibration along its input axis: its DUT/reference ratio is
