@@ -192,8 +192,9 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     channels = tuple(dict.fromkeys(c for r in runs for c in r.dut))
     m = Manifest(path.resolve(), name.strip(), runs, description, _sensors(path, doc.get("sensor"), channels))
     if check_files:
+        listings: dict[Path, _Names] = {}  # a file's channel names are read once, however many runs use it
         for run in runs:
-            _check_channels(run)
+            _check_channels(run, listings)
         check_records(runs)
     return m
 
@@ -208,10 +209,10 @@ def _sensors(manifest: Path, value: Any, channels: Sequence[str]) -> dict[str, S
     """The manifest's ``sensor`` key: a preset name or a sensor file (relative to the manifest)
     for every DUT channel, or a table channel -> one; each channel's axis is the file's axis of
     its name when the file has one (an identified file, ``vrelab identify``), else its default."""
-    from vrelab.sensor import load_sensor
-
     if value is None:
         return {}
+    from vrelab.sensor import load_sensor
+
     where = f"{manifest.name}: sensor"
     if isinstance(value, dict):
         for c in value:
@@ -497,21 +498,25 @@ def _scales(run: Run) -> tuple[dict[str, Any], Any]:
     return dut, ref
 
 
-def _check_channels(run: Run) -> None:
+def _check_channels(run: Run, listings: dict[Path, _Names] | None = None) -> None:
     """The run's file is of a known format and holds its channels (its names only: a text
     format is not parsed, a UFF58 file's headers only)."""
     from vrelab.analysis.readers import resolve_channel
     from vrelab.analysis.readers._base import reader_for
 
-    try:
-        cls = reader_for(run.file)
-        names = cls.channel_names(run.file)
-    except ValueError as exc:
-        raise ValueError(f"{run.where}: file: {exc}") from None
-    except Exception as exc:  # a format library's own error on a corrupt file
-        raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
-                         f"{type(exc).__name__}: {exc}") from None
-    listing = _Names(run.file, names)
+    listing = (listings or {}).get(run.file)
+    if listing is None:
+        try:
+            cls = reader_for(run.file)
+            names = cls.channel_names(run.file)
+        except ValueError as exc:
+            raise ValueError(f"{run.where}: file: {exc}") from None
+        except Exception as exc:  # a format library's own error on a corrupt file
+            raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
+                             f"{type(exc).__name__}: {exc}") from None
+        listing = _Names(run.file, names)
+        if listings is not None:
+            listings[run.file] = listing
     found = {}
     for name, ch in run.dut.items():
         try:
@@ -558,50 +563,70 @@ def _fingerprint(path: Path) -> tuple[int, bytes]:
     return size, h.digest()
 
 
-def _same_records(runs: Sequence[Run]) -> list[tuple[Run, Run, str]]:
-    """Pairs of runs whose files are one recording: the same path once resolved, or copies with
-    identical content (size, first and last MiB, then the whole file's SHA-256)."""
-    pairs: list[tuple[Run, Run, str]] = []
-    by_size: dict[int, list[Run]] = {}
+def _recordings(runs: Sequence[Run]) -> list[list[Run]]:
+    """The runs grouped by recording (two or more per group): files that are the same path once
+    resolved, or copies with identical content (size, first and last MiB, then the whole file's
+    SHA-256). Linear in the runs: a file is fingerprinted once, never compared pair by pair (a
+    manifest of 10 000 runs on one file made 50 million pairs)."""
+    by_size: dict[int, dict[Path, list[Run]]] = {}
     for r in runs:
-        by_size.setdefault(r.file.stat().st_size, []).append(r)
-    for group in by_size.values():
-        prints: dict[Path, Any] = {}
-        whole: dict[Path, str] = {}
-        for i, a in enumerate(group):
-            for b in group[i + 1:]:
-                if a.file == b.file:
-                    pairs.append((a, b, f"the same file {a.file.name}"))
-                    continue
-                for r in (a, b):
-                    if r.file not in prints:
-                        prints[r.file] = _fingerprint(r.file)
-                if prints[a.file] != prints[b.file]:
-                    continue
-                for r in (a, b):
-                    if r.file not in whole:
-                        whole[r.file] = sha256_file(r.file)
-                if whole[a.file] == whole[b.file]:
-                    pairs.append((a, b, f"identical files {a.file.name} and {b.file.name}"))
-    return pairs
+        by_size.setdefault(r.file.stat().st_size, {}).setdefault(r.file, []).append(r)
+    groups: list[list[Run]] = []
+    for files in by_size.values():
+        if len(files) == 1:
+            groups += [g for g in files.values() if len(g) > 1]
+            continue
+        by_print: dict[Any, list[Path]] = {}
+        for f in files:
+            by_print.setdefault(_fingerprint(f), []).append(f)
+        for same_print in by_print.values():
+            by_hash: dict[str, list[Path]] = {}
+            for f in same_print:
+                by_hash.setdefault(sha256_file(f) if len(same_print) > 1 else "", []).append(f)
+            for paths in by_hash.values():
+                group = sorted((r for f in paths for r in files[f]), key=lambda r: r.index)
+                if len(group) > 1:
+                    groups.append(group)
+    return groups
+
+
+def _first_shared(group: Sequence[Run]) -> tuple[Run, Run] | None:
+    """The first two runs of one recording that share a DUT (by campaign name or by the file's
+    channel) and are not each their own part of it (both with a schedule, different ones); in
+    manifest order of the later run, then of the earlier. One pass with a table of the first run
+    per (channel, schedule): linear in the runs."""
+    first: dict[tuple[str, str], Run] = {}  # (name|channel, channel) -> its first run
+    first_in: dict[tuple[str, str, Path | None], Run] = {}  # ... with this schedule (None: none)
+    for b in group:
+        keys = [*(("name", c) for c in b.dut), *(("channel", c) for c in b.dut.values())]
+        # a run without a schedule meets every earlier one; with one, those of no or its schedule
+        hits = ([first[k] for k in keys if k in first] if b.schedule is None else
+                [first_in[k2] for k in keys for k2 in ((*k, None), (*k, b.schedule)) if k2 in first_in])
+        if hits:
+            return min(hits, key=lambda r: r.index), b
+        for k in keys:
+            first.setdefault(k, b)
+            first_in.setdefault((*k, b.schedule), b)
+    return None
 
 
 def check_records(runs: Sequence[Run]) -> None:
     """Refuse a campaign that uses one recording twice for a channel.
 
-    Two runs whose files are one recording (:func:`_same_records`) and that share a DUT (by its
+    Two runs whose files are one recording (:func:`_recordings`) and that share a DUT (by its
     campaign name or by the file's channel) either count that recording's VRC twice, or, declared
     at two static fields, make k2 and k3 from one orientation as if it were two. Runs on one file
     for different DUTs (parts split into runs), or with different schedules (each its own part of
     a long record), are not refused.
     """
-    for a, b, how in _same_records(runs):
-        if a.schedule is not None and b.schedule is not None and a.schedule != b.schedule:
+    for group in _recordings(runs):
+        pair = _first_shared(group)
+        if pair is None:
             continue
+        a, b = pair
+        how = f"the same file {a.file.name}" if a.file == b.file else f"identical files {a.file.name} and {b.file.name}"
         shared = [c for c in a.dut if c in b.dut]
         same_ch = [ch for ch in a.dut.values() if ch in b.dut.values()]
-        if not shared and not same_ch:
-            continue
         both = f"{a.where} and {b.where} are {how}"
         for c in shared:
             ga, gb = a.static_g[c], b.static_g[c]
