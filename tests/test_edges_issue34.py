@@ -80,3 +80,28 @@ def test_a_description_that_is_not_a_string_is_refused(tmp_path: Path, capsys: p
     assert main(["campaign", str(m), "--json"]) == 2
     cap = capsys.readouterr()
     assert cap.out == "" and cap.err == f"vrelab: error: m.toml: description must be a string, got a {kind}\n"
+
+
+@pytest.mark.parametrize("field", ["rms_g", "static_g", "vre_2f.value"])
+def test_identify_refuses_a_number_beyond_physics_by_its_field(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                                field: str) -> None:
+    """Row 'internal error': a campaign document with an rms of 1e308 gave numpy's overflow
+    warning on rms², then `internal error: ZeroDivisionError`; now one line naming the field."""
+    level = {"rms_g": 0.5, "vre_g": 1e-3, "u_vre_g": 1e-5, "freq_hz": 80.0, "vre_2f": {"value": 1e-3, "u": 1e-5}}
+    ch: dict = {"channel": "a", "static_g": 1.0, "levels": [level, {**level, "rms_g": 0.2}]}
+    where = {"rms_g": "levels[0].rms_g", "static_g": "static_g", "vre_2f.value": "levels[0].vre_2f.value"}[field]
+    if field == "static_g":
+        ch["static_g"] = 1e308
+    elif field == "rms_g":
+        level["rms_g"] = 1e308
+    else:
+        level["vre_2f"]["value"] = 1e308
+    camp = tmp_path / "camp"
+    camp.mkdir()
+    (camp / "results.json").write_text(json.dumps({"kind": "campaign", "name": "x", "channels": [], "runs": [
+        {"index": 1, "status": "ok", "method": "sine", "label": "a", "channels": [ch]}]}))
+    assert main(["identify", str(camp), "--out", str(tmp_path / "id"), "--json"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err.count("\n") == 1, cap.err
+    assert cap.err.startswith(f"vrelab: error: identify: campaign document runs[0].channels[0].{where} must be "), cap.err
+    assert "1e+308" in cap.err
