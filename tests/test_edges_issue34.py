@@ -105,3 +105,29 @@ def test_identify_refuses_a_number_beyond_physics_by_its_field(tmp_path: Path, c
     assert cap.out == "" and cap.err.count("\n") == 1, cap.err
     assert cap.err.startswith(f"vrelab: error: identify: campaign document runs[0].channels[0].{where} must be "), cap.err
     assert "1e+308" in cap.err
+
+
+def test_a_simulate_sweep_beyond_the_time_budget_is_refused_before_it_starts(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Row 'hang': a sweep of many `simulate` points with long records started, each point within
+    `simulate`'s own budget; the sweep is now refused by the same owner for the sum of its points."""
+    import vrelab.sweep as S
+    from vrelab._budget import SIMULATION_SECONDS_PER_SAMPLE as per_sample
+    from vrelab.rates import simulation_rate_hz
+    from vrelab.sensor import load_sensor
+
+    monkeypatch.setenv("VRELAB_TIME_BUDGET_H", "0.002")  # 7.2 s of estimated compute
+    monkeypatch.setattr(S, "run_points", lambda *a, **k: pytest.fail("the sweep started"))
+    f = tmp_path / "sweep.toml"
+    f.write_text('kind = "simulate"\nseed = 1\nseconds = 20\n[fixed]\nsensor = "ideal"\nprofile = "flat:50-2000"\n'
+                 '[grid]\nrms_g = "0.1:10:0.1"\n')
+    # a point's record: a 2 s baseline each side of its 20 s level (the shaker's default
+    # baseline_s), at the internal rate the simulator picks for the ideal sensor and a 2 kHz band
+    one = (2 + 20 + 2) * simulation_rate_hz(load_sensor("ideal"), 2000.0)
+    assert one * per_sample < 7.2 < 100 * one * per_sample  # each point alone passes, the 100 do not
+    out = tmp_path / "out"
+    assert main(["sweep", str(f), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("vrelab: error: sweep: 100 simulate point(s) would take about "), err
+    assert f"({100 * one:.3g} samples at the internal rate), beyond the 7.2 s budget" in err, err
+    assert not out.exists()
