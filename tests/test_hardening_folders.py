@@ -481,6 +481,60 @@ def test_a_full_disk_in_any_writer_is_one_line(tmp_path, monkeypatch, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+EXAMPLE_MANIFEST = Path(__file__).resolve().parent.parent / "examples" / "campaign" / "campaign.toml"
+
+
+@pytest.mark.parametrize("fails", ["write", "mkdir"])
+@pytest.mark.parametrize("command", ["analyze", "campaign"])
+def test_no_room_for_the_staging_leaves_no_lock_file(tmp_path, monkeypatch, capsys, fails, command):
+    """Issue 34, row 'leftover': on a disk with no room, `analyze --out` and `campaign --out`
+    said exit 74 in one line but left the staging's `.vrelab-stage-....lock` in the parent (the
+    lock file takes an inode, its pid line or the staging folder a block that is not there)."""
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    if fails == "mkdir":
+        mkdir = Path.mkdir
+        monkeypatch.setattr(Path, "mkdir", lambda self, *a, **k: full() if self.name.startswith(".vrelab-stage-")
+                            else mkdir(self, *a, **k))
+    else:
+        write = os.write
+        monkeypatch.setattr(_io.os, "write", lambda fd, data: full() if os.readlink(f"/proc/self/fd/{fd}").endswith(
+            ".lock") else write(fd, data))
+    out = tmp_path / "out"
+    runs = EXAMPLE_MANIFEST.parent / "runs"
+    args = (["analyze", str(runs / "01_z_up_80hz.tdms"), "--dut", "shaker/sn1_z", "--reference", "shaker/ref",
+             "--reference-units", "mv", "--reference-sensitivity", "10", "--dut-units", "lsb",
+             "--dut-sensitivity", "256000"] if command == "analyze" else ["campaign", str(EXAMPLE_MANIFEST)])
+    assert main([*args, "--out", str(out)]) == EXIT_DISK_FULL
+    assert capsys.readouterr().err == (f"vrelab: error: no space left on device writing {out} "
+                                       "(nothing was written; free space and run again)\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_tmpfs_leaves_no_lock_file(tmp_path):
+    """The same on a real full disk (a tmpfs filled to its last block: root on Linux only)."""
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True).returncode:
+        pytest.skip("cannot mount a tmpfs here (the monkeypatched test above covers the code)")
+    try:
+        fd = os.open(mnt / "fill", os.O_WRONLY | os.O_CREAT)
+        try:  # every block taken
+            while os.write(fd, b"\0" * 4096):
+                pass
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+        r = subprocess.run([*PY, "campaign", str(EXAMPLE_MANIFEST), "--out", str(mnt / "camp")],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == EXIT_DISK_FULL, r.stderr
+        assert sorted(p.name for p in mnt.iterdir()) == ["fill"]
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
 def test_guarded_file_keeps_hdf5_whole_when_there_is_space(tmp_path):
     """The HDF5 writer's file reads back bit for bit (the guard only acts on a full disk)."""
     from vrelab.record import write_record_hdf5

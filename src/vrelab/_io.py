@@ -264,9 +264,13 @@ def _new_stage(where: Path) -> tuple[Path, int]:
         if not _same_file(fd, lock):  # ... and removed it already: this lock guards nothing
             os.close(fd)
             continue
-        os.write(fd, f"vrelab pid {os.getpid()} on {os.uname().nodename}; locked while it writes {name}\n".encode())
         stage = where / name
-        stage.mkdir()
+        try:
+            os.write(fd, f"vrelab pid {os.getpid()} on {os.uname().nodename}; locked while it writes {name}\n".encode())
+            stage.mkdir()
+        except BaseException:  # a full disk (a file takes an inode, its line or a folder a block): nothing left
+            _release(fd, stage)
+            raise
         return stage, fd
 
 

@@ -50,6 +50,7 @@ from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
 
 if TYPE_CHECKING:
     from vrelab.analysis.plausibility import MethodRequest
+    from vrelab.sensor import Sensor
 
 RUN_KEYS = (
     "file", "dut", "reference", "method", "static_g", "label", "fs_hz", "time", "dut_units",
@@ -57,7 +58,7 @@ RUN_KEYS = (
     "settle_s", "rail_g", "u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g", "mount_deg", "mount_plane",
 )  # fmt: skip
 BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
-TOP_KEYS = ("name", "description", "defaults", "run")
+TOP_KEYS = ("name", "description", "sensor", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1
 # IEEE 1293's mount planes (SPEC 1.6): the input axis i tilted toward the pendulous axis p, or
@@ -142,6 +143,9 @@ class Manifest:
     name: str
     runs: tuple[Run, ...]
     description: str = ""
+    # campaign channel -> the sensor file (or preset) its DUT is, when the manifest's `sensor` key
+    # names one: the units check then holds each run to that sensor's response (SPEC 4.1)
+    sensors: Mapping[str, Sensor] = field(default_factory=dict, compare=False)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -182,12 +186,58 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     name = doc.get("name", path.stem)
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"{path.name}: name must be a non-empty string")
-    m = Manifest(path.resolve(), name.strip(), runs, str(doc.get("description", "")))
+    description = doc.get("description", "")
+    if not isinstance(description, str):
+        raise ValueError(f"{path.name}: description must be a string, got a {_toml_type(description)}")
+    channels = tuple(dict.fromkeys(c for r in runs for c in r.dut))
+    m = Manifest(path.resolve(), name.strip(), runs, description, _sensors(path, doc.get("sensor"), channels))
     if check_files:
+        listings: dict[Path, _Names] = {}  # a file's channel names are read once, however many runs use it
         for run in runs:
-            _check_channels(run)
+            _check_channels(run, listings)
         check_records(runs)
     return m
+
+
+def _toml_type(value: Any) -> str:
+    """What a TOML value is, in TOML's words (a table, an array, ...), for a refusal."""
+    kinds = ((bool, "boolean"), (dict, "table"), (list, "array"), (int, "integer"), (float, "float"), (str, "string"))
+    return next((name for t, name in kinds if isinstance(value, t)), type(value).__name__)
+
+
+def _sensors(manifest: Path, value: Any, channels: Sequence[str]) -> dict[str, Sensor]:
+    """The manifest's ``sensor`` key: a preset name or a sensor file (relative to the manifest)
+    for every DUT channel, or a table channel -> one; each channel's axis is the file's axis of
+    its name when the file has one (an identified file, ``vrelab identify``), else its default."""
+    if value is None:
+        return {}
+    from vrelab.sensor import load_sensor
+
+    where = f"{manifest.name}: sensor"
+    if isinstance(value, dict):
+        for c in value:
+            if c not in channels:
+                raise ValueError(f"{where}: {c!r} is not a DUT channel of the campaign ({', '.join(channels)})")
+        specs = dict(value)
+    elif isinstance(value, str):
+        specs = {c: value for c in channels}
+    else:
+        raise ValueError(f"{where} must be a preset name or a sensor file, or a table channel = one; "
+                         f"got a {_toml_type(value)}")
+    out: dict[str, Sensor] = {}
+    for c, spec in specs.items():
+        if not isinstance(spec, str) or not spec.strip():
+            raise ValueError(f"{where}: {c!r} must be a preset name or a sensor file")
+        p = Path(spec) if Path(spec).is_absolute() else manifest.parent / spec
+        text = str(p.resolve()) if p.is_file() else spec.strip()
+        try:
+            s = load_sensor(text)
+            if c in s.axes and c != s.axis:
+                s = load_sensor(text, axis=c)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {c!r}: {exc}") from None
+        out[c] = s
+    return out
 
 
 def _run(manifest: Path, index: int, d: Any) -> Run:
@@ -447,21 +497,25 @@ def _scales(run: Run) -> tuple[dict[str, Any], Any]:
     return dut, ref
 
 
-def _check_channels(run: Run) -> None:
+def _check_channels(run: Run, listings: dict[Path, _Names] | None = None) -> None:
     """The run's file is of a known format and holds its channels (its names only: a text
     format is not parsed, a UFF58 file's headers only)."""
     from vrelab.analysis.readers import resolve_channel
     from vrelab.analysis.readers._base import reader_for
 
-    try:
-        cls = reader_for(run.file)
-        names = cls.channel_names(run.file)
-    except ValueError as exc:
-        raise ValueError(f"{run.where}: file: {exc}") from None
-    except Exception as exc:  # a format library's own error on a corrupt file
-        raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
-                         f"{type(exc).__name__}: {exc}") from None
-    listing = _Names(run.file, names)
+    listing = (listings or {}).get(run.file)
+    if listing is None:
+        try:
+            cls = reader_for(run.file)
+            names = cls.channel_names(run.file)
+        except ValueError as exc:
+            raise ValueError(f"{run.where}: file: {exc}") from None
+        except Exception as exc:  # a format library's own error on a corrupt file
+            raise ValueError(f"{run.where}: file: {run.file.name}: cannot read as {cls.fmt.upper()}: "
+                             f"{type(exc).__name__}: {exc}") from None
+        listing = _Names(run.file, names)
+        if listings is not None:
+            listings[run.file] = listing
     found = {}
     for name, ch in run.dut.items():
         try:
@@ -508,50 +562,70 @@ def _fingerprint(path: Path) -> tuple[int, bytes]:
     return size, h.digest()
 
 
-def _same_records(runs: Sequence[Run]) -> list[tuple[Run, Run, str]]:
-    """Pairs of runs whose files are one recording: the same path once resolved, or copies with
-    identical content (size, first and last MiB, then the whole file's SHA-256)."""
-    pairs: list[tuple[Run, Run, str]] = []
-    by_size: dict[int, list[Run]] = {}
+def _recordings(runs: Sequence[Run]) -> list[list[Run]]:
+    """The runs grouped by recording (two or more per group): files that are the same path once
+    resolved, or copies with identical content (size, first and last MiB, then the whole file's
+    SHA-256). Linear in the runs: a file is fingerprinted once, never compared pair by pair (a
+    manifest of 10 000 runs on one file made 50 million pairs)."""
+    by_size: dict[int, dict[Path, list[Run]]] = {}
     for r in runs:
-        by_size.setdefault(r.file.stat().st_size, []).append(r)
-    for group in by_size.values():
-        prints: dict[Path, Any] = {}
-        whole: dict[Path, str] = {}
-        for i, a in enumerate(group):
-            for b in group[i + 1:]:
-                if a.file == b.file:
-                    pairs.append((a, b, f"the same file {a.file.name}"))
-                    continue
-                for r in (a, b):
-                    if r.file not in prints:
-                        prints[r.file] = _fingerprint(r.file)
-                if prints[a.file] != prints[b.file]:
-                    continue
-                for r in (a, b):
-                    if r.file not in whole:
-                        whole[r.file] = sha256_file(r.file)
-                if whole[a.file] == whole[b.file]:
-                    pairs.append((a, b, f"identical files {a.file.name} and {b.file.name}"))
-    return pairs
+        by_size.setdefault(r.file.stat().st_size, {}).setdefault(r.file, []).append(r)
+    groups: list[list[Run]] = []
+    for files in by_size.values():
+        if len(files) == 1:
+            groups += [g for g in files.values() if len(g) > 1]
+            continue
+        by_print: dict[Any, list[Path]] = {}
+        for f in files:
+            by_print.setdefault(_fingerprint(f), []).append(f)
+        for same_print in by_print.values():
+            by_hash: dict[str, list[Path]] = {}
+            for f in same_print:
+                by_hash.setdefault(sha256_file(f) if len(same_print) > 1 else "", []).append(f)
+            for paths in by_hash.values():
+                group = sorted((r for f in paths for r in files[f]), key=lambda r: r.index)
+                if len(group) > 1:
+                    groups.append(group)
+    return groups
+
+
+def _first_shared(group: Sequence[Run]) -> tuple[Run, Run] | None:
+    """The first two runs of one recording that share a DUT (by campaign name or by the file's
+    channel) and are not each their own part of it (both with a schedule, different ones); in
+    manifest order of the later run, then of the earlier. One pass with a table of the first run
+    per (channel, schedule): linear in the runs."""
+    first: dict[tuple[str, str], Run] = {}  # (name|channel, channel) -> its first run
+    first_in: dict[tuple[str, str, Path | None], Run] = {}  # ... with this schedule (None: none)
+    for b in group:
+        keys = [*(("name", c) for c in b.dut), *(("channel", c) for c in b.dut.values())]
+        # a run without a schedule meets every earlier one; with one, those of no or its schedule
+        hits = ([first[k] for k in keys if k in first] if b.schedule is None else
+                [first_in[k2] for k in keys for k2 in ((*k, None), (*k, b.schedule)) if k2 in first_in])
+        if hits:
+            return min(hits, key=lambda r: r.index), b
+        for k in keys:
+            first.setdefault(k, b)
+            first_in.setdefault((*k, b.schedule), b)
+    return None
 
 
 def check_records(runs: Sequence[Run]) -> None:
     """Refuse a campaign that uses one recording twice for a channel.
 
-    Two runs whose files are one recording (:func:`_same_records`) and that share a DUT (by its
+    Two runs whose files are one recording (:func:`_recordings`) and that share a DUT (by its
     campaign name or by the file's channel) either count that recording's VRC twice, or, declared
     at two static fields, make k2 and k3 from one orientation as if it were two. Runs on one file
     for different DUTs (parts split into runs), or with different schedules (each its own part of
     a long record), are not refused.
     """
-    for a, b, how in _same_records(runs):
-        if a.schedule is not None and b.schedule is not None and a.schedule != b.schedule:
+    for group in _recordings(runs):
+        pair = _first_shared(group)
+        if pair is None:
             continue
+        a, b = pair
+        how = f"the same file {a.file.name}" if a.file == b.file else f"identical files {a.file.name} and {b.file.name}"
         shared = [c for c in a.dut if c in b.dut]
         same_ch = [ch for ch in a.dut.values() if ch in b.dut.values()]
-        if not shared and not same_ch:
-            continue
         both = f"{a.where} and {b.where} are {how}"
         for c in shared:
             ga, gb = a.static_g[c], b.static_g[c]
@@ -608,8 +682,10 @@ class RunResult:
     results: list[tuple[str, VreResult]] = field(default_factory=list)
     error: str | None = None
     folder: str | None = None  # sub-folder of the campaign folder, when written
-    # channel -> (kind, peak_hz, DUT/reference ratio) of each level: the campaign's units check
+    # channel -> (kind, frequency, DUT/reference ratio) of each level: the campaign's units check
     unit_probes: dict[str, list[tuple[str | None, float, float]]] = field(default_factory=dict)
+    # channel -> the DUT's mean vibration-off reading [g]: the units check's range test
+    off_reading_g: dict[str, float | None] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -647,7 +723,8 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
     for name, _, red in reduced:
         check_static(run, name, red.static_g)
     res = RunResult(run, [(name, result) for name, result, _ in reduced],
-                    unit_probes={name: list(red.unit_probes) for name, _, red in reduced})
+                    unit_probes={name: list(red.unit_probes) for name, _, red in reduced},
+                    off_reading_g={name: red.static_g for name, _, red in reduced})
     if out is not None:
         from vrelab import folder as F
         from vrelab.results import channels_to_dict
@@ -700,7 +777,7 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
                 results.append(fut.result())
                 if on_done:
                     on_done(results[-1])
-    slipped = judge_units(results)
+    slipped = judge_units(results, manifest.sensors)
     for r, dest in zip(results, dests):
         if dest is not None and r.ok:
             r.folder = f"runs/{dest.name}"
@@ -709,28 +786,72 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
     return results
 
 
-def judge_units(results: Sequence[RunResult]) -> list[RunResult]:
-    """SPEC 4.2's units check, per DUT channel over all its runs
-    (:func:`vrelab.analysis.plausibility.check_units_over_runs`): a channel whose runs show a
-    unit slip fails every run that holds it, with the reason. Returns the runs it failed."""
-    from vrelab.analysis.plausibility import check_units_over_runs
+def dut_range(run: Run, channel: str, sensor: Sensor | None) -> tuple[float | None, str]:
+    """The DUT's range [g] and where it comes from: the sensor file's full scale, else the run's
+    ``rail_g``, else None (unknown)."""
+    if sensor is not None:
+        return sensor.full_scale_g, f"the sensor file {sensor.name!r}"
+    if run.rail_g is not None:
+        return run.rail_g, "the run's rail_g"
+    return None, ""
 
-    probes: dict[str, list[tuple[str | None, float, float]]] = {}
+
+def judge_units(results: Sequence[RunResult], sensors: Mapping[str, Sensor] | None = None) -> list[RunResult]:
+    """SPEC 4.1/4.2's units check of every DUT channel over its runs; the runs it refuses are
+    failed with the reason (their results dropped) and returned. In order:
+
+    1. a run whose DUT reads, with vibration off, orders of magnitude beyond its range
+       (:func:`vrelab.analysis.plausibility.off_reading_slip`);
+    2. a run whose DUT/reference ratio departs from what the DUT's response allows at its
+       frequency, or from the channel's other runs
+       (:func:`vrelab.analysis.plausibility.judge_runs_units`; ``sensors`` gives a channel's
+       response, else the stated default);
+    3. a slip common to every run of a channel, judged where its response is flat
+       (:func:`vrelab.analysis.plausibility.check_units_over_runs`): every run holding it fails.
+    """
+    from vrelab.analysis.plausibility import check_units_over_runs, judge_runs_units, off_reading_slip
+
+    sensors = sensors or {}
     failed: list[RunResult] = []
+
+    def fail(r: RunResult, msg: str) -> None:
+        r.error = msg
+        r.results = []
+        failed.append(r)
+
     for r in results:
-        if r.ok:
-            for ch, ps in r.unit_probes.items():
-                probes.setdefault(ch, []).extend(_mount_probes(r.run.mount.get(ch), ps))
-    for ch, ps in probes.items():
-        msg = check_units_over_runs(ch, ps)
+        if not r.ok:
+            continue
+        for ch, reading in r.off_reading_g.items():
+            msg = off_reading_slip(ch, reading, *dut_range(r.run, ch, sensors.get(ch)))
+            if msg is not None:
+                fail(r, msg)
+                break
+    channels = list(dict.fromkeys(ch for r in results for ch in r.unit_probes))
+    for ch in channels:
+        sensor = sensors.get(ch)
+        gain = None if sensor is None else _gain(sensor)
+        runs = [(r.run.index, _mount_probes(r.run.mount.get(ch), r.unit_probes[ch]))
+                for r in results if r.ok and ch in r.unit_probes]
+        refused = judge_runs_units(ch, runs, gain)
+        for r in results:
+            if r.ok and r.run.index in refused:
+                fail(r, refused[r.run.index])
+    for ch in channels:
+        probes = [p for r in results if r.ok and ch in r.unit_probes
+                  for p in _mount_probes(r.run.mount.get(ch), r.unit_probes[ch])]
+        msg = check_units_over_runs(ch, probes)
         if msg is None:
             continue
         for r in results:
             if r.ok and ch in r.unit_probes:
-                r.error = msg
-                r.results = []
-                failed.append(r)
+                fail(r, msg)
     return failed
+
+
+def _gain(sensor: Sensor) -> Callable[[float], float]:
+    """|H(f)| of the sensor's output (every linear stage: resonance, filters)."""
+    return lambda f: float(abs(sensor.response(f)))
 
 
 # A DUT mounted at φ sees cos φ of the vibration along its input axis: its DUT/reference ratio is

@@ -69,6 +69,7 @@ from typing import TYPE_CHECKING, Any, Literal, Mapping, NotRequired, Sequence, 
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.campaign import (
     MOUNT_PLANES,
@@ -245,6 +246,17 @@ def _is_num(v: Any, finite: bool = True) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and (not finite or math.isfinite(v))
 
 
+# A level's numbers within physical bounds (vrelab._validate's: beyond any shaker, centrifuge or
+# shock test), so that a hand-edited document's 1e308 is refused by name instead of overflowing
+# in its square deep in the fit.
+_LEVEL_BOUNDS = {
+    "rms_g": (0.0, V.MAX_LEVEL_G_RMS, f"a vibration rms within 0..{V.MAX_LEVEL_G_RMS:g} g"),
+    "vre_g": (-V.MAX_ACCELERATION_G, V.MAX_ACCELERATION_G, f"a VRE within ±{V.MAX_ACCELERATION_G:g} g"),
+    "u_vre_g": (0.0, V.MAX_ACCELERATION_G, f"an uncertainty within 0..{V.MAX_ACCELERATION_G:g} g"),
+    "freq_hz": (V.MIN_FREQ_HZ, V.MAX_FREQ_HZ, f"a frequency within {V.MIN_FREQ_HZ:g}..{V.MAX_FREQ_HZ:g} Hz"),
+}
+
+
 def check_document(doc: Any) -> None:
     """The campaign document's schema, as identification reads it (``vrelab campaign``'s
     results.json, :func:`vrelab.campaign.campaign_doc`): a ValueError naming the first field
@@ -288,6 +300,8 @@ def check_document(doc: Any) -> None:
                  ch.get("channel", "missing"))
             need(f"{wc}.static_g", _is_num(ch.get("static_g", missing)), "a finite number [g]",
                  ch.get("static_g", "missing"))
+            need(f"{wc}.static_g", abs(ch["static_g"]) <= V.MAX_ACCELERATION_G,
+                 f"a static field within ±{V.MAX_ACCELERATION_G:g} g", ch["static_g"])
             need(f"{wc}.levels", isinstance(ch.get("levels"), list), "a list", ch.get("levels", "missing"))
             if ch.get("mount_deg") is not None or ch.get("mount_plane") is not None:
                 need(f"{wc}.mount_deg", _is_num(ch.get("mount_deg")), "a finite number [°]", ch.get("mount_deg"))
@@ -301,6 +315,9 @@ def check_document(doc: Any) -> None:
                 for key in ("rms_g", "vre_g", "u_vre_g", "freq_hz", "dof"):
                     v = lv.get(key)
                     need(f"{wl}.{key}", v is None or _is_num(v, finite=False), "a number or null", v)
+                    if v is not None and math.isfinite(v) and key in _LEVEL_BOUNDS:
+                        lo, hi, what = _LEVEL_BOUNDS[key]
+                        need(f"{wl}.{key}", lo <= v <= hi, what, v)
                 need(f"{wl}.flags", isinstance(lv.get("flags", []), list), "a list", lv.get("flags"))
                 b = lv.get("budget")
                 need(f"{wl}.budget", b is None or (isinstance(b, list) and all(isinstance(t, Mapping) for t in b)),
@@ -312,6 +329,11 @@ def check_document(doc: Any) -> None:
                 need(f"{wl}.vre_2f", h is None or (isinstance(h, Mapping) and all(
                     h.get(x) is None or _is_num(h.get(x), finite=False) for x in ("value", "u"))),
                     "an object with value and u", h)
+                for x, key in (("value", "vre_g"), ("u", "u_vre_g")):
+                    v = None if h is None else h.get(x)
+                    if v is not None and math.isfinite(v):
+                        lo, hi, what = _LEVEL_BOUNDS[key]
+                        need(f"{wl}.vre_2f.{x}", lo <= v <= hi, what, v)
 
 
 def failed_runs(doc: Mapping[str, Any]) -> list[str]:

@@ -84,8 +84,9 @@ class Reduction:
     level_times_s: list[float]
     psd: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=list)
     method: Method = "random"  # what the levels were reduced as (auto: what they showed)
-    # (kind, peak_hz, DUT/reference rms ratio) of each level probed: a campaign judges a channel's
-    # units over all its runs with them (plausibility.check_units_over_runs)
+    # (kind, frequency [Hz], DUT/reference rms ratio) of each level probed, the frequency the ratio
+    # was measured at (SegmentProbe.ratio_hz): a campaign judges a channel's units over all its
+    # runs with them (plausibility.judge_runs_units, check_units_over_runs)
     unit_probes: list[tuple[str | None, float, float]] = field(default_factory=list)
 
     @property
@@ -194,7 +195,7 @@ def reduce(
     if opt.profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, opt.profile)
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind,
-                     unit_probes=[(p.kind, p.peak_hz, p.unit_ratio) for p in probes])
+                     unit_probes=[(p.kind, p.ratio_hz, p.unit_ratio) for p in probes])
 
 
 def _plausible_method(

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Callable, Literal, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,6 +70,9 @@ class SegmentProbe:
     dut_rms_g: float  # DUT AC rms over the same frequencies
     ref_dc_g: float
     dut_dc_g: float
+    # the frequency the units ratio was measured at: the line for a sine, the reference-power
+    # weighted mean frequency of the low lines compared for a random level
+    ratio_hz: float = math.nan
 
     @property
     def kind(self) -> Method | None:
@@ -179,6 +182,7 @@ def _probe_arrays(
     line = slice(max(0, k_peak - _LINE_HALF_WIDTH_BINS), k_peak + _LINE_HALF_WIDTH_BINS + 1)
     fraction = float(p_ref[line].sum()) / total_ac
     in_band = ac & (freqs >= f1) & (freqs <= f2)
+    ratio_hz = float(freqs[k_peak])
     if fraction >= SINE_LINE_FRACTION or not in_band.any() or float(p_ref[in_band].sum()) <= 0:
         sel = np.zeros_like(ac)
         sel[line] = True
@@ -190,9 +194,10 @@ def _probe_arrays(
         n_low = max(8, int(np.searchsorted(np.cumsum(p_ref[k_in]), LOW_POWER_SHARE * total)) + 1)
         sel = np.zeros_like(ac)
         sel[k_in[:n_low]] = True
+        ratio_hz = float((freqs[sel] * p_ref[sel]).sum() / p_ref[sel].sum()) if p_ref[sel].sum() > 0 else ratio_hz
     ref_rms = math.sqrt(float(p_ref[sel].sum()))
     dut_rms = math.sqrt(float(p_dut[sel].sum()))
-    return SegmentProbe(start_s, end_s, float(freqs[k_peak]), fraction, ref_rms, dut_rms, ref_dc, dut_dc)
+    return SegmentProbe(start_s, end_s, float(freqs[k_peak]), fraction, ref_rms, dut_rms, ref_dc, dut_dc, ratio_hz)
 
 
 def resolve_methods(requested: MethodRequest, probes: Sequence[SegmentProbe], accept: bool = False) -> list[Method]:
@@ -288,6 +293,123 @@ def check_units_over_runs(channel: str, probes: Sequence[tuple[str | None, float
     return (f"DUT channel '{channel}' and the reference differ by a factor of {med:.3g} {where} over the "
             f"campaign's runs (median of {len(ratios)} level(s); a flat DUT agrees within a few per cent): check "
             "the run's dut_units/dut_sensitivity and reference_units/reference_sensitivity")
+
+
+# How far a DUT's response may depart from flat, as a DUT/reference rms ratio, when no sensor file
+# gives it: a second-order resonance's |H(fn)| is Q (SPEC 1.3; the VRC, a mean of the square, rises
+# by Q²), and the units check allows a resonance of Q up to this (the mounted resonance of an
+# undamped piezoelectric accelerometer rises by about 30 dB; a gas-damped MEMS part's Q is a few),
+# and as much attenuation above a low-pass. A stated default, not a measurement: give the campaign
+# a sensor file (its `sensor` key) and the check holds each run to that sensor's own response.
+DEFAULT_Q_MAX = 30.0
+# A DUT at rest reads its static field (|g0| <= 1 g) plus an offset well inside its range; a
+# vibration-off reading beyond this many times the DUT's range (two orders of magnitude) is a
+# unit slip (LSB read as g: 256 000 g for a ±2 g part at 1 g), whatever the static field declared.
+OFF_READING_RANGE_FACTOR = 100.0
+# The DUT's range when neither a sensor file nor the run's rail_g gives it: the largest of the
+# accelerometers VRE is measured on (navigation to industrial MEMS parts, ±2 g to ±200 g).
+DEFAULT_RANGE_G = 200.0
+
+UnitProbe = tuple[str | None, float, float]  # (kind, frequency [Hz], DUT/reference ratio) of a level
+
+
+def run_units_ratio(probes: Sequence[UnitProbe]) -> tuple[str | None, float, float] | None:
+    """One run's DUT/reference ratio where its DUT should be flattest, (kind, frequency [Hz],
+    ratio): the median over its levels at its lowest sine frequency (every level for a random
+    run, at their mean frequency). None when a level there has no ratio: nothing to judge."""
+    ratios = _flat_ratios(probes)
+    if not ratios:
+        return None
+    sines = [p for p in probes if p[0] == "sine"]
+    kind = "sine" if sines else probes[0][0]
+    freqs = [p[1] for p in (sines or probes) if math.isfinite(p[1])]
+    f = min(freqs) if sines else (float(np.mean(freqs)) if freqs else math.nan)
+    return kind, f, float(np.median(ratios))
+
+
+def judge_runs_units(channel: str, runs: Sequence[tuple[int, Sequence[UnitProbe]]],
+                     gain: Callable[[float], float] | None = None) -> dict[int, str]:
+    """SPEC 4.1's units check of one DUT channel, run by run: {run index: the refusal}.
+
+    A unit or sensitivity slip is a factor on one run's readings (mV read as V: 1000; LSB read as
+    g: the sensitivity); a resonance's gain depends on frequency only. Each run's DUT/reference
+    ratio ρ (:func:`run_units_ratio`) is divided by what the DUT's response gives at that
+    frequency, ``gain(f)`` = |H(f)| from a sensor file, else 1 (flat); of that n = ρ/|H(f)|:
+
+    * **against the response**: n beyond :data:`UNIT_RATIO_LIMIT` (either way) with a sensor
+      file; without one, beyond ``UNIT_RATIO_LIMIT × DEFAULT_Q_MAX`` (a run at a resonance of Q
+      up to :data:`DEFAULT_Q_MAX`, or as far down a low-pass, is no slip);
+    * **against the channel's other runs**: n more than :data:`UNIT_RATIO_LIMIT` times off the
+      median m of the other runs' n (with a sensor file, every other run: n is normalised by
+      the response; without one, the other runs at the same frequency, whose response is the
+      run's own), and further from the response than they are (|ln n| > |ln m|: of two runs
+      that disagree, the one the response does not explain is the slip).
+
+    ``runs`` are (run index, that run's level probes), those of a mount-angle run already
+    divided by its |cos φ|. Without a sensor file, a slip smaller than the resonance allowance
+    on a run whose frequency no other run shares cannot be told from a resonance, and passes
+    (the channel-wide :func:`check_units_over_runs` still sees a slip common to all runs).
+    """
+    from vrelab.results import same_frequency
+
+    limit = UNIT_RATIO_LIMIT
+    allow = limit if gain is not None else limit * DEFAULT_Q_MAX
+    judged: list[tuple[int, str | None, float, float, float]] = []  # (run, kind, f, ratio, n)
+    for index, probes in runs:
+        r = run_units_ratio(probes)
+        if r is None:
+            continue
+        kind, f, ratio = r
+        h = gain(f) if gain is not None and math.isfinite(f) else 1.0
+        if not (math.isfinite(h) and h > 0):
+            continue
+        judged.append((index, kind, f, ratio, ratio / h))
+
+    def where(f: float, kind: str | None) -> str:
+        return f"at {f:.4g} Hz" if kind == "sine" else f"in the bottom of its random band (~{f:.4g} Hz)"
+
+    fix = ("a unit or sensitivity slip (mV read as V, LSB read as g): check this run's dut_units/dut_sensitivity "
+           "and reference_units/reference_sensitivity")
+    out: dict[int, str] = {}
+    for index, kind, f, ratio, n in judged:
+        if n > allow or n < 1.0 / allow:
+            bound = (f"the sensor file's response gives {ratio / n:.3g} there (a run may differ from it by a factor of "
+                     f"{limit:g} either way)" if gain is not None else
+                     f"no response explains a factor beyond {allow:g} either way (a resonance of Q up to "
+                     f"{DEFAULT_Q_MAX:g}, times {limit:g}; a sensor file in the manifest's `sensor` key holds the run "
+                     "to that sensor's own response)")
+            out[index] = (f"units check: DUT channel {channel!r} reads {ratio:.4g} times the reference {where(f, kind)} "
+                          f"in this run, and {bound}: {fix}")
+    kept = [j for j in judged if j[0] not in out]
+    for index, kind, f, ratio, n in kept:
+        peers = [p for p in kept if p[0] != index and (gain is not None or (
+            p[1] == kind == "sine" and same_frequency(p[2], f)))]
+        if not peers:
+            continue
+        m = float(np.median([p[4] for p in peers]))
+        if abs(math.log(n / m)) > math.log(limit) and abs(math.log(n)) > abs(math.log(m)):
+            others = ", ".join(str(p[0]) for p in peers)
+            what = ("the channel's other runs (run(s) " + others + "), each divided by the sensor file's response"
+                    if gain is not None else f"the channel's other run(s) at that frequency (run(s) {others})")
+            out[index] = (f"units check: DUT channel {channel!r} reads {ratio:.4g} times the reference {where(f, kind)} "
+                          f"in this run, {n / m:.4g} times the median of {what}: {fix}")
+    return out
+
+
+def off_reading_slip(channel: str, reading_g: float | None, range_g: float | None, range_from: str) -> str | None:
+    """The refusal when a DUT's vibration-off reading [g] lies beyond
+    :data:`OFF_READING_RANGE_FACTOR` times its range (``range_g``, from ``range_from``; None: the
+    :data:`DEFAULT_RANGE_G`): a unit slip whatever the static field declared; else None."""
+    if reading_g is None or not math.isfinite(reading_g):
+        return None
+    if range_g is None:
+        range_g, range_from = DEFAULT_RANGE_G, "the largest range VRE is measured on, no sensor file or rail_g giving it"
+    if abs(reading_g) <= OFF_READING_RANGE_FACTOR * range_g:
+        return None
+    return (f"units check: DUT channel {channel!r} reads {reading_g:+.4g} g with vibration off, "
+            f"{abs(reading_g) / range_g:.3g} times its range of ±{range_g:g} g ({range_from}): a part at rest reads "
+            "its static field within its range, so this is a unit slip (LSB read as g, mV read as V): check this "
+            "run's dut_units and dut_sensitivity")
 
 
 def check_channels(baselines: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:

@@ -25,6 +25,8 @@ if TYPE_CHECKING:
 _EXAMPLE = """example MANIFEST (paths relative to it):
 
   name = "ADXL355 SN 1234, ±2 g, ODR 4 kHz"
+  sensor = "adxl355"                # optional, a preset or sensor file (or a table per channel):
+                                    # the units check holds each run to its response
   [defaults]                        # any run key; a run's own value wins
   reference = "ref"
   reference_units = "mv"

@@ -168,8 +168,9 @@ class TestPlan:
             return f"random {p.band[0]:g}-{p.band[1]:g} Hz" + (f" ({p.name})" if p.name else "")  # type: ignore[union-attr]
         return "sine " + ", ".join(f"{f:g}" for f in dict.fromkeys(self.freqs_hz)) + " Hz"
 
-    def record(self, progress: bool = False) -> SimulatedRecord:
-        """The record of this test, not yet run (its blocks are generated on demand)."""
+    def _layout(self) -> tuple[float, Rates, list[Stretch], np.random.SeedSequence]:
+        """(internal rate [Hz], rates, the record's stretches, the chain's seed): what the record
+        will be, nothing generated yet."""
         fs_int = self.fs_internal_hz if self.fs_internal_hz is not None else simulation_rate_hz(self.sensor, self.f_max_hz)
         if self.method == "sine" and self.f_max_hz >= fs_int / (2 * NYQUIST_MARGIN):
             raise ValueError(f"freqs_hz: {self.f_max_hz:g} Hz is too high for the internal rate {fs_int:g} Hz")
@@ -179,6 +180,16 @@ class TestPlan:
                 fs_int = _lattice_rate(self.sensor, fs_int, needed)
         rates = choose_rates(self.sensor.chain(fs_int), fs_int, self.f_max_hz)
         segs, chain_seed = (self._random_stretches if self.method == "random" else self._sine_stretches)(rates)
+        return fs_int, rates, segs, chain_seed
+
+    def internal_samples(self) -> float:
+        """Samples this test computes at the internal rate: what its compute time grows with
+        (:func:`vrelab._budget.check_simulation`), known before anything runs."""
+        return float(sum(s.n_internal for s in self._layout()[2]))
+
+    def record(self, progress: bool = False) -> SimulatedRecord:
+        """The record of this test, not yet run (its blocks are generated on demand)."""
+        fs_int, rates, segs, chain_seed = self._layout()
         self._check_budget(segs, rates)
         extra: dict[str, Any] = {
             "seed": self.seed,

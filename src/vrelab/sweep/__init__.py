@@ -75,6 +75,33 @@ RESULT_ZARR = "result.zarr"
 SUMMARY = "sweep.json"
 
 
+def check_time_budget(spec: SweepSpec) -> None:
+    """Refuse, before anything starts, a ``simulate`` sweep whose points together are beyond the
+    time budget (:func:`vrelab._budget.check_simulation`, the owner ``vrelab simulate`` refuses
+    by): each point's internal samples from its plan (:func:`vrelab.sweep.points.simulate_plan`),
+    summed over every point (compute time, whatever the workers). A point whose plan is invalid
+    counts nothing here (it fails as a point). Plans are sized once per distinct set of the
+    parameters that change their size (a random test's length does not depend on its level)."""
+    if spec.kind != "simulate":
+        return
+    from vrelab import _budget
+    from vrelab.sweep.points import simulate_plan
+
+    units = [spec.unit_params(u) for u in range(spec.units or 0)]
+    sizes: dict[Any, float] = {}
+    total = 0.0
+    for params in (spec.point_params(i, units) for i in range(spec.n_points)):
+        level_free = "profile" in params  # a random plan's samples: seconds x rate, whatever the level
+        key = tuple(sorted((k, repr(v)) for k, v in params.items() if not (level_free and k in ("rms_g", "static_g"))))
+        if key not in sizes:
+            try:
+                sizes[key] = simulate_plan(params).internal_samples()
+            except ValueError:
+                sizes[key] = 0.0
+        total += sizes[key]
+    _budget.check_simulation(f"sweep: {spec.n_points} simulate point(s)", total)
+
+
 def point_function(spec: SweepSpec) -> str:
     """The importable name of the point function of ``spec`` (checked here, not in a worker)."""
     ref = spec.function if spec.kind == "python" else POINT_FUNCTIONS[spec.kind]
@@ -134,6 +161,7 @@ def run_sweep(
         are added here).
     """
     func = point_function(spec)
+    check_time_budget(spec)
     if "zarr" in spec.formats:  # fail now, not after the last point
         from vrelab.sweep.dataset import require_zarr
 

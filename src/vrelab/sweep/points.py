@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from vrelab.profiles import Profile
     from vrelab.sensor.base import Stage
     from vrelab.sensor.loader import Sensor
+    from vrelab.simulation.plan import TestPlan
 
 
 def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
@@ -173,9 +174,11 @@ def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> di
     }
 
 
-def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
-    """One level of the simulated shaker test, its randomness drawn from the point's ``seed``."""
-    from vrelab.shaker import run_random_test, run_sine_test
+def simulate_plan(params: Mapping[str, Any], seed: np.random.SeedSequence | None = None) -> TestPlan:
+    """The simulated shaker test of one point (one level), as ``vrelab simulate`` runs it: a sine
+    test's duration defaults to 2 s, a random one's to 4 s (:func:`vrelab.shaker.run_sine_test`,
+    :func:`vrelab.shaker.run_random_test`); ``seed`` None: 0 (a plan to size, not to run)."""
+    from vrelab.simulation.plan import TestPlan
 
     excitation = _excitation(params)
     sensor = sensor_for(params)
@@ -184,11 +187,19 @@ def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> d
     # durations the file does not set keep the shaker's own defaults
     timing: dict[str, Any] = {k: float(params[k]) for k in ("seconds", "baseline_s", "settle_s") if k in params}
     # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
-    seed_int = int(seed.generate_state(1, dtype=np.uint64)[0])
+    seed_int = 0 if seed is None else int(seed.generate_state(1, dtype=np.uint64)[0])
     if isinstance(excitation, float):
-        res = run_sine_test(sensor, [excitation], [rms], static, seed=seed_int, **timing)
-    else:
-        res = run_random_test(sensor, excitation, [rms], static, seed=seed_int, **timing)
+        timing.setdefault("seconds", 2.0)
+        return TestPlan.sine(sensor, [excitation], [rms], static_g=static, seed=seed_int, **timing)
+    return TestPlan.random(sensor, excitation, [rms], static_g=static, seed=seed_int, **timing)
+
+
+def simulate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
+    """One level of the simulated shaker test, its randomness drawn from the point's ``seed``."""
+    from vrelab.shaker import run_test
+
+    static = float(params.get("static_g", 1.0))
+    res = run_test(simulate_plan(params, seed))
     lv = res.levels[0]
     return {
         "vre_g": lv.vre.value,
