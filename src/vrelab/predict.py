@@ -641,9 +641,8 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
     (``sensor.uncertainty``: a datasheet tolerance, a base sensor's filter corner), independent
     of each other and of ``Σ``. Linear propagation (GUM 5.1.2): ``u² = J·Σ·Jᵀ + Σ_a (J_a·u_a)²``
     with ``J[i, j] = ∂VRE_i/∂θ_j`` by central differences of :func:`predict` itself, each step a
-    tenth of the parameter's standard uncertainty (an assumed parameter's: the secant over
-    ``θ ± u``, the same two predictions the linearity check needs). The tests hold it against a
-    Monte Carlo over ``Σ`` and one over a preset's assumptions (GUM Supplement 1).
+    tenth of the parameter's standard uncertainty. The tests hold it against a Monte Carlo over
+    ``Σ`` and one over a preset's assumptions (GUM Supplement 1).
 
     A filter order (a whole number: the filter's shape, which a datasheet rarely gives) has a
     span of orders as its u: its share is the larger move of the VRE to an end of the span.
@@ -713,21 +712,14 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
             # orders drawn uniformly over the span (what the tests' Monte Carlo draws)
             sources[name] = np.max([np.abs(e - f0) for e in ends_k if e is not None], axis=0)
             continue
-        # an assumed parameter: the VRE at ±u first; its secant is the slope where it is in the domain
-        # (two predictions, not four: a preset carries a dozen assumptions)
-        wide = [] if identified else [vre_at({name: x + s}) for s in (u, -u)]
-        if not identified and wide[0] is not None and wide[1] is not None:
-            d = (wide[0] - wide[1]) / (2 * u)
+        ends = [vre_at({name: x + s}) for s in (0.1 * u, -0.1 * u)]
+        if ends[0] is None or ends[1] is None:
+            d = np.zeros(n_out)
+            for i in range(n_out):
+                level_notes[i].append(f"the VRE cannot be evaluated at {name} ± 0.1·u: u_vre_g is not a claim")
         else:
-            ends = [vre_at({name: x + s}) for s in (0.1 * u, -0.1 * u)]
-            if ends[0] is None or ends[1] is None:
-                d = np.zeros(n_out)
-                for i in range(n_out):
-                    level_notes[i].append(f"the VRE cannot be evaluated at {name} ± 0.1·u: u_vre_g is not a claim")
-            else:
-                d = (ends[0] - ends[1]) / (0.2 * u)
-            if identified:
-                wide = [vre_at({name: x + s}) for s in (u, -u)]
+            d = (ends[0] - ends[1]) / (0.2 * u)
+        wide = [vre_at({name: x + s}) for s in (u, -u)]
         step = np.abs(d) * u
         if wide[0] is None or wide[1] is None:
             bent = np.ones(n_out, dtype=bool)
