@@ -97,34 +97,32 @@ def _draw(sensor, rng):
 def test_row2_adxl357_u_spans_a_monte_carlo_over_its_assumptions(capsys):
     """Issue 28 row 2: ``predict --sensor adxl357 --range 10 --odr 4000 --axis z --static 1
     --profile flat:50-2000 --levels 7.5`` printed -49.2 mg with no u. Now u_vre_g carries the
-    preset's assumptions; a numpy Monte Carlo over them (80 draws, predict per draw) has a
-    spread the propagated u covers and does not exceed twice (80 draws know a standard deviation
-    to ±8 %; the filter orders' share is the larger move to an end of their span, conservative
-    against uniform draws). The CLI names the dominant assumptions (text and JSON)."""
+    preset's assumptions; a numpy Monte Carlo over them (40 joint draws, predict per draw) has a
+    spread the propagated u covers and does not exceed twice (40 draws know a standard deviation
+    to ±11 %: 1.3 is 2.5 of those; the filter orders' share is the larger move to an end of their
+    span, conservative against uniform draws). The result names the dominant assumptions, in its
+    JSON (the CLI's --json prints ``to_dict``) and in the text the CLI prints."""
+    from vrelab.cli.predict import print_prediction
+
     s = load_sensor("adxl357", range_g=10, odr_hz=4000, axis="z")
     prof = parse_profile("flat:50-2000")
-    (lv,) = predict(s, prof, [7.5], static_g=1.0).levels
+    pred = predict(s, prof, [7.5], static_g=1.0)
+    (lv,) = pred.levels
     assert lv.u_vre_g is not None and lv.valid
     on_axis = {n for n in s.uncertainty if not n.startswith("cross_axis_")}
     assert on_axis <= set(lv.u_sources_g)
     rng = np.random.default_rng(28)
-    vre = []
-    for _ in range(80):
-        vre.append(predict(with_parameters(s, _draw(s, rng)), prof, [7.5], static_g=1.0).levels[0].vre_g)
+    vre = [predict(with_parameters(s, _draw(s, rng)), prof, [7.5], static_g=1.0).levels[0].vre_g for _ in range(40)]
     spread = float(np.std(vre, ddof=1))
     assert spread > 0.005  # the assumptions move this VRE by mg: u is no formality
-    assert spread <= 1.25 * lv.u_vre_g, (spread, lv.u_vre_g)
+    assert spread <= 1.3 * lv.u_vre_g, (spread, lv.u_vre_g)
     assert lv.u_vre_g <= 2.0 * spread, (spread, lv.u_vre_g)
-
-    argv = ["predict", "--sensor", "adxl357", "--range", "10", "--odr", "4000", "--axis", "z", "--static", "1",
-            "--profile", "flat:50-2000", "--levels", "7.5"]
-    assert main([*argv, "--json"]) == 0
-    d = json.loads(capsys.readouterr().out)
-    assert d["levels"][0]["u_vre_g"] == pytest.approx(lv.u_vre_g, rel=1e-9)
+    d = json.loads(json.dumps(pred.to_dict()))
+    assert d["levels"][0]["u_vre_g"] == pytest.approx(lv.u_vre_g, rel=1e-12)
     assert any(n.startswith("u_vre_g dominated by assumed") for n in d["notes"])
-    assert main(argv) == 0
+    print_prediction(pred)
     out = capsys.readouterr().out
-    assert " ± " in out and "dominated by assumed" in out
+    assert " ± " in out.splitlines()[3] and "note: u_vre_g dominated by assumed" in out
 
 
 def test_a_curved_assumption_gets_the_monte_carlo_spread_not_the_tangent(tmp_path):
@@ -160,7 +158,7 @@ def _identified_like(tmp_path: Path) -> Path:
     stated u (its facts' words)."""
     part = tmp_path / "identified.toml"
     src = ("assumption, from base sensor ideal (no random run (with its profile): the rails are identified from "
-           "random levels), no stated u: definition (SPEC 5, an ideal sensor, no part): exactly ±range, at the output")
+           "random levels), no stated u: definition: exactly ±range, at the output")
     part.write_text(
         'schema = 1\nname = "ideal-identified"\ndefault_range_g = 2\ndefault_axis = "sn1"\n'
         '[axes.sn1]\nk2_ug_per_g2 = 2000.0\nk3_ug_per_g3 = 300.0\nfn_hz = 1200.0\nq = 4.0\nrails_g = [-2.0, 2.0]\n'
