@@ -12,6 +12,7 @@ quadrature of E[clip(P(x))] split at the kinks (scipy.integrate.quad, reproduced
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -152,7 +153,9 @@ def test_filtered_clip_against_numpy_monte_carlo_of_the_chain(k2_ug):
     not (bound 3 mg; a longer Monte Carlo, 6 × 2^20 samples, differs by 0.72 ± 0.14 mg of 45,
     more than 1 %)."""
     k2 = k2_ug * 1e-6
-    sensor = load_sensor("adxl355", range_g=2, axis="z", k2_ug_per_g2=k2_ug)
+    # without the preset's assumed u (issue 28): its k3 and filters' u would widen the u the bound is
+    # judged against; here the approximation alone, against 1 % of |VRE|
+    sensor = dataclasses.replace(load_sensor("adxl355", range_g=2, axis="z", k2_ug_per_g2=k2_ug), uncertainty={})
     (lv,) = predict(sensor, parse_profile("flat:50-2000"), [1.2], static_g=1.0).levels
     fs, n, reps = 32768.0, 1 << 19, 8
     f = np.fft.rfftfreq(n, 1 / fs)

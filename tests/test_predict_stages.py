@@ -68,6 +68,11 @@ def test_the_reference_covers_the_grid_and_every_branch():
     pytest.param(s[0], marks=pytest.mark.slow) if s[4] else s[0] for s in ref.SENSORS])
 def test_predict_reproduces_the_tag_dispatch_results_of_b3d26ac(sensor):
     notes = RECORDED["notes"]
+    # a sensor that keeps its assumed u: that u's propagation changed on purpose with issue 28 (the
+    # secant over ± u, a Monte Carlo where the VRE is curved in the assumption), and the notes and
+    # validity with it; its physics (VRE, shares, rms) is still held here, its u by
+    # tests/test_assumptions_u.py and tests/test_identify_honest.py
+    keeps_u = next(s for s in ref.SENSORS if s[0] == sensor)[4]
     for case in (c for c in RECORDED["cases"] if c["sensor"] == sensor):
         spec = {k: case[k] for k in ("sensor", "excitation", "kind", "static_g")}
         if "error" in case:
@@ -78,23 +83,24 @@ def test_predict_reproduces_the_tag_dispatch_results_of_b3d26ac(sensor):
         got = ref.run(spec, table)
         want = case["result"]
         _same(got["vibration_off_g"], want["vibration_off_g"], (spec, "vibration_off_g"))
-        assert [notes[i] if i < len(notes) else "(new) " + sorted(table, key=table.get)[i]
-                for i in got["notes"]] == [notes[i] for i in want["notes"]], spec
+        assert keeps_u or [notes[i] if i < len(notes) else "(new) " + sorted(table, key=table.get)[i]
+                           for i in got["notes"]] == [notes[i] for i in want["notes"]], spec
         assert len(got["levels"]) == len(want["levels"]), spec
         for lg, lw in zip(got["levels"], want["levels"]):
             where = (spec, lw["rms_g"], lw["freq_hz"])
-            assert (lg["rms_g"], lg["freq_hz"], lg["valid"], lg["valid_otherwise"]) == \
-                   (lw["rms_g"], lw["freq_hz"], lw["valid"], lw["valid_otherwise"]), where
-            assert [notes[i] if i < len(notes) else sorted(table, key=table.get)[i] for i in lg["notes"]] == \
+            assert (lg["rms_g"], lg["freq_hz"], lg["valid_otherwise"]) == \
+                   (lw["rms_g"], lw["freq_hz"], lw["valid_otherwise"]), where
+            assert keeps_u or lg["valid"] == lw["valid"], where
+            assert keeps_u or [notes[i] if i < len(notes) else sorted(table, key=table.get)[i] for i in lg["notes"]] == \
                    [notes[i] for i in lw["notes"]], where
             for key in ("vre_g", "tilt_error_deg", "sigma_proof_mass_g", "sigma_output_g", "sigma_at_clip_g",
-                        "overrange_rate_hz", "model_error_g", "u_vre_g"):
+                        "overrange_rate_hz", "model_error_g") + (() if keeps_u else ("u_vre_g",)):
                 _same(lg[key], lw[key], (where, key))
             assert list(lg["shares"]) == list(lw["shares"]), where
             for key, v in lw["shares"].items():
                 _same(lg["shares"][key], v, (where, key))
             assert (lg["u_sources_g"] is None) == (lw["u_sources_g"] is None), where
-            if lw["u_sources_g"] is not None:
+            if lw["u_sources_g"] is not None and not keeps_u:
                 assert list(lg["u_sources_g"]) == list(lw["u_sources_g"]), where
                 for key, v in lw["u_sources_g"].items():
                     _same(lg["u_sources_g"][key], v, (where, key))

@@ -160,7 +160,8 @@ def test_predict_point_passes_sensor_profile_and_draws_through(tmp_path):
     for u in range(2):
         q = float(ds["q"][u])
         for odr in (4000.0, 500.0):
-            sensor = dataclasses.replace(load_sensor("adxl355", odr_hz=odr), q=q)
+            # (a sweep point propagates no u: neither does this prediction)
+            sensor = dataclasses.replace(load_sensor("adxl355", odr_hz=odr), q=q, uncertainty={})
             p = predict(sensor, parse_profile("flat:50-2000"), [1.0, 2.5], static_g=1.0)
             for lv in p.levels:
                 got = ds.sel(unit=u, odr_hz=odr, rms_g=lv.rms_g)

@@ -1084,7 +1084,9 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Sensor, kin
     no_u = [n for n, (u, _w) in assumed.items() if u is None and (tilted or n not in CROSS)]
     if no_u:
         notes.append("taken from the base sensor without a stated u (its file has no [uncertainty] for them): "
-                     + ", ".join(f"{n} = {used[n]:.6g}" for n in no_u) + "; predict's u does not include them")
+                     + ", ".join(f"{n} = {used[n]:.6g}" for n in no_u) + "; the sensor file marks them as assumptions "
+                     "without u: predict names them and is not valid where the VRE moves with them (±10 %) beyond "
+                     "its u")
     nuisance = [n for n in free if n in NUISANCE and params[n] is None]
     if nuisance:
         notes.append("fitted as nuisance parameters, only bounded (null): "

@@ -65,6 +65,8 @@ def sensor(label: str) -> Any:
     s = load_sensor(preset, **kw)
     if not keep_u:
         repl = {**repl, "uncertainty": {}}
+    else:  # the u the preset carried at b3d26ac: its over-range threshold's (the others came with issue 28)
+        repl = {**repl, "uncertainty": {k: v for k, v in s.uncertainty.items() if k == "overrange_threshold_g"}}
     return dataclasses.replace(s, **repl) if repl else s
 
 

@@ -148,6 +148,11 @@ class Sensor:
     # vrelab.sensor.parameters.ASSUMABLE, independent of each other and of the covariance;
     # predict propagates them beside it (the file's [uncertainty] tables).
     uncertainty: Mapping[str, float] = field(default_factory=dict, hash=False, compare=False)
+    # Parameters the file marks as an assumption (their facts start with "assumption") with no
+    # stated u (neither in ``uncertainty`` nor in ``covariance``): never silently exact, predict
+    # probes them (:func:`vrelab.predict.unstated_check`). Set by the loader from the facts
+    # (:func:`unstated_assumptions`); a point of the parameter space (with_parameters) has none.
+    unstated: tuple[str, ...] = field(default=(), hash=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("range_g", "full_scale_g"):
@@ -180,6 +185,11 @@ class Sensor:
         if self.covariance is not None:
             object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
         object.__setattr__(self, "uncertainty", _check_uncertainty(self))
+        known = assumable()
+        bad = [n for n in self.unstated if n not in known]
+        if bad:
+            raise ValueError(f"sensor {self.name}: unstated names unknown parameters {bad!r}; allowed: {', '.join(known)}")
+        object.__setattr__(self, "unstated", tuple(self.unstated))
 
     # ------------------------------------------------------------------ beyond one axis
 
@@ -381,6 +391,37 @@ _FILE_KEYS = {
 }
 # The table of assumed standard uncertainties (top level < [axes.*] < [ranges.*]).
 UNCERTAINTY = "uncertainty"
+# An [uncertainty] key that is no parameter: the u of bandwidth_per_odr (the corner as a
+# fraction of the ODR), bandwidth_hz's u at the chosen ODR.
+PER_ODR = "bandwidth_per_odr"
+# A fact saying a number is assumed starts with this (the presets' and identify's convention).
+ASSUMPTION = "assumption"
+
+
+def _is_assumed(facts: Mapping[str, str], p: Any) -> bool:
+    """Whether the facts mark parameter ``p`` (a :class:`vrelab.sensor.parameters.Param`) as an
+    assumption: its fact starts with "assumption" (a rails pair's per side, ``lower: ...; upper:
+    ...`` as ``vrelab identify`` writes it)."""
+    text = str(facts.get(p.fact_key, "")).strip()
+    if p.rail is not None:
+        side = ("lower", "upper")[p.rail] + ": "
+        if side in text:
+            text = text[text.index(side) + len(side):].strip()
+    return text.lower().startswith(ASSUMPTION)
+
+
+def unstated_assumptions(sensor: Sensor) -> tuple[str, ...]:
+    """The parameters ``sensor``'s facts mark as an assumption that carry no u (neither an
+    assumed standard uncertainty nor a place in the covariance) and that the sensor has (not an
+    absent element). What ``Sensor.unstated`` holds for a loaded file."""
+    cov = set(sensor.covariance["params"]) if sensor.covariance else set()
+    out = []
+    for name, p in assumable().items():
+        if name in sensor.uncertainty or name in cov or not _is_assumed(sensor.facts, p):
+            continue
+        if parameter(sensor, name) is not None:
+            out.append(name)
+    return tuple(out)
 
 
 def _preset_dir() -> Any:
@@ -562,10 +603,12 @@ def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
         return {}
     if not isinstance(table, dict):
         raise ValueError(f"sensor {where}: uncertainty must be a table of parameter = standard uncertainty, got {table!r}")
+    # (bandwidth_per_odr: the u of the corner as a fraction of the ODR, read as bandwidth_hz's u
+    # once the ODR is chosen, :func:`load_sensor`)
     out = {}
     allowed = assumable()
     for key, u in table.items():
-        if key not in allowed:
+        if key not in allowed and key != PER_ODR:
             raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(allowed)}")
         if not is_number(u) or not math.isfinite(u) or u <= 0:
             raise ValueError(f"sensor {where}: uncertainty.{key} must be a standard uncertainty > 0, got {u!r}")
@@ -660,10 +703,13 @@ def load_sensor(
         uncertainty.update(_uncertainty_table(ranges_table[range_key].get(UNCERTAINTY), f"{where} [ranges.{range_key}]"))
         # a value the range's table sets was not the one identified on the axis: not an estimate here
         covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in ranges_table[range_key]})
+    u_per_odr = uncertainty.pop(PER_ODR, None)
     if chosen_odr is not None:
         per_odr = data.get("bandwidth_per_odr")
         if per_odr is not None:
             values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * chosen_odr
+            if u_per_odr is not None and "bandwidth_hz" not in uncertainty:
+                uncertainty["bandwidth_hz"] = u_per_odr * chosen_odr
     # ---- values the user sets (--k2/--k3, a sweep point) win over the file
     user = dict(overrides or {})
     user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
@@ -714,7 +760,7 @@ def load_sensor(
         need = fields.by_name()[f.needs].key
         raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
                          f"give {need} or leave {f.key} out")
-    return sensor
+    return dataclasses.replace(sensor, unstated=unstated_assumptions(sensor))
 
 
 def _without(cov: Any, names: set[str]) -> Any:

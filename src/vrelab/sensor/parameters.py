@@ -34,6 +34,8 @@ class Param:
     attribute: str  # the Sensor attribute
     scale: float = 1.0
     rail: int | None = None  # 0 (low) or 1 (high) of rails_g
+    integer: bool = False  # a filter order: whole numbers only (its u is a span of orders)
+    upper: float | None = None  # the largest value the field allows
 
     @property
     def fact_key(self) -> str:
@@ -50,7 +52,8 @@ def _params(which: str) -> dict[str, Param]:
     hit = _built.get(which)
     if hit is None or hit[0] is not fields.FIELDS:
         hit = _built[which] = (fields.FIELDS, {
-            name: Param(name, f.unit, f.text_unit, f.key, f.name, f.scale, i if f.elements else None)
+            name: Param(name, f.unit, f.text_unit, f.key, f.name, f.scale, i if f.elements else None,
+                        f.kind == "order", f.upper)
             for f in fields.FIELDS if getattr(f, which) for i, name in enumerate(f.parameters)})
     return dict(hit[1])
 
@@ -108,8 +111,8 @@ def with_parameters(sensor: Sensor, values: Mapping[str, float]) -> Sensor:
     """``sensor`` with the parameters in ``values`` set (the Sensor validates the result).
 
     A resonance needs both ``fn_hz`` and ``q``: setting one on a sensor that has none raises.
-    The copy carries no covariance and no assumed uncertainties (it is one point of the
-    parameter space, not an estimate).
+    The copy carries no covariance, no assumed uncertainties and no list of assumptions without
+    one (it is one point of the parameter space, not an estimate: predict does not probe it).
     """
     # attributes chosen by name at run time (a float, or the rails pair): Any for replace's
     # per-field check; Sensor.__post_init__ validates the values (fields.Field.check)
@@ -120,10 +123,12 @@ def with_parameters(sensor: Sensor, values: Mapping[str, float]) -> Sensor:
         if p.rail is not None:
             rails[p.rail] = float(v)
             change["rails_g"] = None  # set below, once both sides are known
+        elif p.integer:  # a filter order: the nearest whole order (the Sensor checks its bounds)
+            change[p.attribute] = int(round(float(v)))
         else:
             change[p.attribute] = float(v) / p.scale
     if "rails_g" in change:
         if not rails[0] < rails[1]:
             raise ValueError(f"rails must satisfy low < high, got [{rails[0]:g}, {rails[1]:g}] g")
         change["rails_g"] = (rails[0], rails[1])
-    return dataclasses.replace(sensor, covariance=None, uncertainty={}, **change)
+    return dataclasses.replace(sensor, covariance=None, uncertainty={}, unstated=(), **change)

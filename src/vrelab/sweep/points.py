@@ -28,6 +28,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import os
@@ -158,7 +159,11 @@ def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> di
     from vrelab.predict import predict
 
     excitation = _excitation(params)
-    pred = predict(sensor_for(params), excitation, [float(params["rms_g"])], static_g=float(params.get("static_g", 1.0)))
+    # a point records no u (the dataset has no column for it): the sensor file's assumed u is not
+    # propagated per point (dozens of predictions each), and each level's validity is judged
+    # against 1 % of |VRE| instead, the stricter; an assumption with no u is still probed
+    sensor = dataclasses.replace(sensor_for(params), uncertainty={})
+    pred = predict(sensor, excitation, [float(params["rms_g"])], static_g=float(params.get("static_g", 1.0)))
     lv = pred.levels[0]
     sh = lv.shares
     return {
