@@ -612,7 +612,12 @@ def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
             raise ValueError(f"sensor {where}: uncertainty.{key}: unknown parameter; allowed: {', '.join(allowed)}")
         if not is_number(u) or not math.isfinite(u) or u <= 0:
             raise ValueError(f"sensor {where}: uncertainty.{key} must be a standard uncertainty > 0, got {u!r}")
-        check_u(key, float(u), f"sensor {where}: uncertainty.{key}")
+        if key == PER_ODR:  # a fraction of the ODR whose whole range is (0, 0.5): the corner stays below ODR/2
+            if not u <= 0.5:
+                raise ValueError(f"sensor {where}: uncertainty.{key}: the standard uncertainty {u:g} is wider than "
+                                 f"{key}'s whole physical range (0 to 0.5 of the ODR): outside any physical bound")
+        else:
+            check_u(key, float(u), f"sensor {where}: uncertainty.{key}")
         out[key] = float(u)
     return out
 
