@@ -482,6 +482,18 @@ def random_level_u_ms(pm: MeanEstimate, stats: WindowStats, k0: int, k1: int) ->
     return u_model
 
 
+def off_stretches(stats: WindowStats, baselines: Sequence[Baseline]) -> list[NDArray[np.float64]]:
+    """The DUT's window means over each vibration-off stretch (baselines off-scale left out):
+    what :func:`vrelab.analysis.noise.channel_noise` reads the channel's noise from."""
+    y = stats.dut_mean()
+    out = []
+    for b in baselines:
+        if b.n_saturated == 0:
+            k0, k1 = segment_windows(stats, b.segment)
+            out.append(y[k0:k1])
+    return out
+
+
 def _low_frequency_at(lf: LowFrequency | None, t_s: float, length_s: float,
                       baselines: Sequence[Baseline]) -> tuple[float, float]:
     """(variance [g²], dof) of the low-frequency term for the level at ``t_s`` (0, inf when
@@ -534,6 +546,7 @@ __all__ = [
     "find_baselines",
     "low_frequency",
     "n_windows",
+    "off_stretches",
     "reduce_level",
     "second_difference_var",
     "segment_samples",

@@ -38,9 +38,11 @@ from vrelab.analysis.levels import (
     find_baselines,
     low_frequency,
     n_windows,
+    off_stretches,
     reduce_level,
     segment_samples,
 )
+from vrelab.analysis.noise import channel_noise
 from vrelab.analysis.options import (
     ACCEPTABLE,
     DEFAULT_BLOCK,
@@ -66,6 +68,7 @@ from vrelab.results import (
     FitResult,
     LevelResult,
     Method,
+    NoiseResult,
     Notice,
     VreResult,
 )
@@ -87,6 +90,8 @@ class Reduction:
     # (kind, peak_hz, DUT/reference rms ratio) of each level probed: a campaign judges a channel's
     # units over all its runs with them (plausibility.check_units_over_runs)
     unit_probes: list[tuple[str | None, float, float]] = field(default_factory=list)
+    # the DUT's noise on the vibration-off stretches (SPEC 4.4; None: none to measure)
+    noise: NoiseResult | None = None
 
     @property
     def static_g(self) -> float | None:
@@ -193,8 +198,9 @@ def reduce(
         warnings.append(Notice("few-windows", FEW_WINDOWS_NOTE.format(n=n_few)))
     if opt.profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, opt.profile)
+    noise = channel_noise(off_stretches(stats, baselines), stats.window / stats.fs_hz)
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind,
-                     unit_probes=[(p.kind, p.peak_hz, p.unit_ratio) for p in probes])
+                     unit_probes=[(p.kind, p.peak_hz, p.unit_ratio) for p in probes], noise=noise)
 
 
 def _plausible_method(
@@ -380,6 +386,7 @@ def analyze_full(
         warnings=tuple(list(meta.get("reader_notes") or []) + red.warnings + w),
         provenance=prov,
         kind="measurement",
+        noise=red.noise,
     )
     return result, red
 
