@@ -192,3 +192,25 @@ def test_analyze_reports_the_channels_noise_density_and_bias_instability():
     assert doc["noise"]["density_ug_rthz"]["unit"] == "µg/√Hz"
     back = VreResult.from_dict(doc).noise
     assert back is not None and back.adev_ug == pytest.approx(nz.adev_ug)
+
+
+def test_campaign_reports_each_channels_noise_by_run(tmp_path):
+    """A simulated campaign of two parts with 25 µg/√Hz white noise (vrelab.simulation.campaign's
+    example truth, its sensor file's noise_ug_per_rthz): each channel's summary lists its noise
+    per run, the density within 4 of its u of 25 µg/√Hz, and the run's document carries the curve."""
+    import dataclasses
+
+    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
+
+    truth = dataclasses.replace(example_truth(), runs=(ExampleRun("csv", 1.0, 80.0, (0.2, 0.4, 0.6), label="Z up"),))
+    man = read_manifest(write_campaign(tmp_path / "c", truth, seconds=2.0, seed=1))
+    results = run_campaign(man)
+    summaries = combine(results, man.channels)
+    for s in summaries:
+        (n,) = s.noise_by_run
+        d = n["density_ug_rthz"]
+        assert abs(d["value"] - 25.0) <= 4 * d["u"], (s.channel, d)
+    doc = campaign_doc(man, results, summaries)
+    assert all("noise" in c for c in doc["runs"][0]["channels"])
+    assert doc["channels"][0]["noise_by_run"][0]["allan"]["adev_ug"]
