@@ -33,6 +33,7 @@ from vrelab.analysis import plausibility as P
 from vrelab.analysis.levels import (
     FEW_WINDOWS_NOTE,
     MIN_SEGMENT_WINDOWS,
+    SHORT_BASELINES_NOTE,
     Baseline,
     LevelContext,
     find_baselines,
@@ -41,6 +42,7 @@ from vrelab.analysis.levels import (
     off_stretches,
     reduce_level,
     segment_samples,
+    short_baselines,
 )
 from vrelab.analysis.noise import channel_noise
 from vrelab.analysis.options import (
@@ -193,6 +195,11 @@ def reduce(
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
+    short = [(b, seg.end_s - seg.start_s) for seg, t in zip(level_segs, times)
+             if (b := short_baselines(t, seg.end_s - seg.start_s, baselines)) is not None]
+    if short:
+        warnings.append(Notice("short-baselines", SHORT_BASELINES_NOTE.format(
+            n=len(short), base=max(b for b, _ in short), level=min(d for _, d in short))))
     n_few = sum(1 for lv in levels if "few-windows" in lv.flags)
     if n_few:
         warnings.append(Notice("few-windows", FEW_WINDOWS_NOTE.format(n=n_few)))
