@@ -282,9 +282,12 @@ class NoiseResult:
     def __str__(self) -> str:
         i = int(min(range(len(self.adev_ug)), key=lambda j: self.adev_ug[j])) if self.adev_ug else -1
         low = f"; Allan deviation {self.adev_ug[i]:.3g} µg at {self.tau_s[i]:.3g} s (its minimum)" if i >= 0 else ""
+        bi = self.bias_instability_ug
+        bi_text = (f"{format_value_u(bi.value, bi.u)} µg" if math.isfinite(bi.value) and math.isfinite(bi.u)
+                   else "not resolved (the stretches are too short to tell flicker from white noise)")
         return (f"noise on {self.off_s:.3g} s vibration-off ({self.n_stretches} stretch(es)): density "
                 f"{format_value_u(self.density_ug_rthz.value, self.density_ug_rthz.u)} µg/√Hz, bias instability "
-                f"{format_value_u(self.bias_instability_ug.value, self.bias_instability_ug.u)} µg (IEEE 952){low}")
+                f"{bi_text} (IEEE 952){low}")
 
     def to_dict(self) -> dict[str, Any]:
         return {
