@@ -180,15 +180,14 @@ def fit_noise_model(rows: Sequence[tuple[float, NDArray[np.float64], float]]) ->
         hs, _res = nnls(Ks * w[:, None], o * w)
         e = np.maximum(Ks @ hs, floor)
     # The final h: weighted least squares without the bound (the weights from the bounded fit's
-    # expectations). A term at its bound 0 would otherwise claim to be known exactly, and a
-    # flicker that short stretches cannot tell from white noise would vanish from every level's
-    # u with many degrees of freedom; unbounded, its estimate is unbiased and its covariance
-    # (AᵀA)⁻¹ carries the doubt into each level's degrees of freedom (NoiseModel.contrast).
+    # expectations). A term at its bound 0 would otherwise claim to be known exactly (a bias
+    # instability of 0 ± 0 from stretches that cannot tell flicker from white noise); unbounded,
+    # its estimate is unbiased and its covariance (AᵀA)⁻¹ carries the doubt.
     w = np.sqrt(nu / 2.0) / e
     A = Ks * w[:, None]
     # Terms in the order white, flicker, random walk, as many as leave MIN_RESIDUAL_DOF rows
     # beyond them: an exactly determined fit traded white noise for flicker at will (3 baselines
-    # of 1 s: h₀ < 0 and a flicker share of 4 mg in a u of 5 mg, on white noise alone)
+    # of 1 s of white noise alone: h₀ < 0 and h₋₁ ≈ 3·|h₀| in some records)
     cols = np.flatnonzero(np.linalg.norm(A, axis=0) > 0)
     cols = cols[: max(min(len(cols), len(o) - MIN_RESIDUAL_DOF), 1)]
     ncol = len(cols)
