@@ -896,6 +896,9 @@ class ChannelSummary:
     # the apparent VRC (VRE/rms²) of every sine run mounted at an angle (IEEE 1293, SPEC 1.6): not
     # the input axis's alone, so kept out of k2, k3 and the rail; vrelab.identify fits the cross terms
     vrc_by_mount: tuple[dict[str, Any], ...] = ()
+    # the channel's noise with vibration off in each run (SPEC 4.4: density, bias instability,
+    # the Allan deviation's minimum; the whole curve is in the run's own results)
+    noise_by_run: tuple[dict[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         def est(e: Estimate | None) -> dict[str, Any] | None:
@@ -911,6 +914,7 @@ class ChannelSummary:
             "rail_g": est(self.rail),
             "rails_by_run": list(self.rails_by_run),
             **({"vrc_by_mount": list(self.vrc_by_mount)} if self.vrc_by_mount else {}),
+            "noise_by_run": list(self.noise_by_run),
             "notes": list(self.notes),
         }
 
@@ -927,10 +931,15 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
     rails: list[dict[str, Any]] = []
     mounted: list[dict[str, Any]] = []
     notes: list[str] = []
+    noise: list[dict[str, Any]] = []
     for rr in results:
         for name, res in rr.results:
             if name != channel:
                 continue
+            if res.noise is not None:
+                nd = res.noise.to_dict()
+                noise.append({"run": rr.run.index, "label": rr.run.label, "off_s": nd["off_s"],
+                              **{k: nd[k] for k in ("density_ug_rthz", "bias_instability_ug", "allan")}})
             g0 = rr.run.static_g[name]
             mount = rr.run.mount.get(name)
             if mount is not None and mount.tilted:
@@ -1016,7 +1025,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
     else:
         notes.append("no random run with a rail fit: rail = null")
     return ChannelSummary(channel, tuple(vrcs), tuple(by_freq), k2, k3, both, rail, tuple(rails), tuple(notes),
-                          tuple(mounted))
+                          tuple(mounted), tuple(noise))
 
 
 def _at_nominal_static(group: Sequence[dict[str, Any]], fit: FitResult) -> None:
@@ -1117,7 +1126,8 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
             rd = res.to_dict()
             d["channels"].append({"channel": name, "static_g": r.static_g[name],
                                   **(r.mount[name].to_dict() if name in r.mount else {}), **{k: rd[k] for k in (
-                                      "levels", "fit", "fits", "warnings", "notices", "conditions")}})
+                                      "levels", "fit", "fits", "warnings", "notices", "conditions")},
+                                  **({"noise": rd["noise"]} if "noise" in rd else {})})
         runs.append(d)
     n_failed = sum(1 for rr in results if not rr.ok)
     return {

@@ -365,6 +365,61 @@ Method = Literal["random", "sine"]
 
 
 @dataclass(frozen=True)
+class NoiseResult:
+    """A DUT channel's own noise on the vibration-off stretches of its record (SPEC 4.4): what a
+    metrologist checks first (:func:`vrelab.analysis.noise.channel_noise`).
+
+    ``density`` [µg/√Hz]: the white level √h₀ of the fitted ``S(f) = h₀ + h₋₁/f + h₋₂/f²``,
+    one-sided (as datasheets state it; IEEE Std 952's N is ``density/√2``), at the frequencies
+    the windows resolve (below ``1/(2·window)``); ``bias_instability`` [µg]: ``B = √(π·h₋₁)``
+    (IEEE Std 952-1997 C.3: the Allan deviation's flicker floor is ``0.664·B``); ``adev``: the
+    overlapping Allan deviation [µg] at ``tau_s`` (IEEE Std 1554), pooled over ``n_stretches``
+    stretches, ``off_s`` seconds of record in all; ``n_pairs`` pairs of τ-means per point.
+    """
+
+    density_ug_rthz: Estimate
+    bias_instability_ug: Estimate
+    tau_s: tuple[float, ...]
+    adev_ug: tuple[float, ...]
+    n_pairs: tuple[int, ...]
+    off_s: float
+    n_stretches: int
+    window_s: float
+
+    def __str__(self) -> str:
+        i = int(min(range(len(self.adev_ug)), key=lambda j: self.adev_ug[j])) if self.adev_ug else -1
+        low = f"; Allan deviation {self.adev_ug[i]:.3g} µg at {self.tau_s[i]:.3g} s (its minimum)" if i >= 0 else ""
+        bi = self.bias_instability_ug
+        bi_text = (f"{format_value_u(bi.value, bi.u)} µg" if math.isfinite(bi.value) and math.isfinite(bi.u)
+                   else "not resolved (the stretches are too short to tell flicker from white noise)")
+        return (f"noise on {self.off_s:.3g} s vibration-off ({self.n_stretches} stretch(es)): density "
+                f"{format_value_u(self.density_ug_rthz.value, self.density_ug_rthz.u)} µg/√Hz, bias instability "
+                f"{bi_text} (IEEE 952){low}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "density_ug_rthz": self.density_ug_rthz.to_dict(),
+            "bias_instability_ug": self.bias_instability_ug.to_dict(),
+            "allan": {"tau_s": [finite_or_none(x) for x in self.tau_s],
+                      "adev_ug": [finite_or_none(x) for x in self.adev_ug],
+                      "n_pairs": list(self.n_pairs)},
+            "off_s": finite_or_none(self.off_s),
+            "n_stretches": self.n_stretches,
+            "window_s": finite_or_none(self.window_s),
+            "conventions": "density one-sided (IEEE 952 N = density/√2); bias instability B of IEEE 952 C.3 "
+                           "(flicker floor of the Allan deviation = 0.664·B); overlapping Allan deviation (IEEE 1554)",
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> NoiseResult:
+        a = d.get("allan") or {}
+        return cls(Estimate.from_dict(d["density_ug_rthz"]), Estimate.from_dict(d["bias_instability_ug"]),
+                   tuple(_nan(x) for x in a.get("tau_s") or ()), tuple(_nan(x) for x in a.get("adev_ug") or ()),
+                   tuple(int(x) for x in a.get("n_pairs") or ()), _nan(d.get("off_s")),
+                   int(d.get("n_stretches") or 0), _nan(d.get("window_s")))
+
+
+@dataclass(frozen=True)
 class VreResult:
     """A whole test (simulated or measured): levels, fits, warnings, provenance.
 
@@ -381,6 +436,8 @@ class VreResult:
     warnings: tuple[str, ...] = ()
     provenance: Mapping[str, Any] = field(default_factory=dict)
     kind: Literal["simulation", "measurement"] = "measurement"
+    # the DUT's noise on the record's vibration-off stretches (None: not measured)
+    noise: NoiseResult | None = None
 
     def fit_summary(self) -> dict[str, Any]:
         merged: dict[str, Any] = {}
@@ -393,7 +450,7 @@ class VreResult:
         return merged
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d: dict[str, Any] = {
             "kind": self.kind,
             "method": self.method,
             "conditions": self.conditions.to_dict(),
@@ -404,6 +461,9 @@ class VreResult:
             "notices": [notice(w).to_dict() for w in self.warnings],
             "provenance": dict(self.provenance),
         }
+        if self.noise is not None:
+            d["noise"] = self.noise.to_dict()
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> VreResult:
@@ -416,6 +476,7 @@ class VreResult:
             else tuple(d.get("warnings") or ()),
             provenance=dict(d.get("provenance") or {}),
             kind=d.get("kind", "measurement"),
+            noise=NoiseResult.from_dict(d["noise"]) if d.get("noise") else None,
         )
 
 

@@ -494,6 +494,39 @@ def random_level_u_ms(pm: MeanEstimate, stats: WindowStats, k0: int, k1: int) ->
     return u_model
 
 
+def off_stretches(stats: WindowStats, baselines: Sequence[Baseline]) -> list[NDArray[np.float64]]:
+    """The DUT's window means over each vibration-off stretch (baselines off-scale left out):
+    what :func:`vrelab.analysis.noise.channel_noise` reads the channel's noise from."""
+    y = stats.dut_mean()
+    out = []
+    for b in baselines:
+        if b.n_saturated == 0:
+            k0, k1 = segment_windows(stats, b.segment)
+            out.append(y[k0:k1])
+    return out
+
+
+# A level whose bracketing baselines are all shorter than this fraction of it is flagged in a
+# notice (SHORT_BASELINES_NOTE): its u rests on noise they cannot show at its time scale.
+SHORT_BASELINE_FRACTION = 1 / 3
+SHORT_BASELINES_NOTE = (
+    "{n} level(s) are bracketed by vibration-off baselines shorter than a third of the level "
+    "({base:.3g} s against {level:.3g} s after the trims): the DUT's flicker and drift at the level's time scale "
+    "cannot be measured on them, and under MEMS-typical 1/f noise such levels' u covered ±2u 0.87 instead of 0.95 "
+    "(tests/test_noise.py); record baselines about as long as the levels"
+)
+
+
+def short_baselines(t_s: float, length_s: float, baselines: Sequence[Baseline]) -> float | None:
+    """The longest of the baselines a level (centre ``t_s``, ``length_s`` long) is referred to
+    (:func:`bracket`) when it is shorter than SHORT_BASELINE_FRACTION of the level, else None."""
+    before = [b for b in baselines if b.t_s <= t_s]
+    after = [b for b in baselines if b.t_s > t_s]
+    used = ([before[-1]] if before else []) + ([after[0]] if after else [])
+    longest = max((b.segment.end_s - b.segment.start_s for b in used), default=math.inf)
+    return longest if longest < SHORT_BASELINE_FRACTION * length_s else None
+
+
 def _low_frequency_at(lf: LowFrequency | None, t_s: float, length_s: float,
                       baselines: Sequence[Baseline]) -> tuple[float, float]:
     """(variance [g²], dof) of the low-frequency term for the level at ``t_s`` (0, inf when
@@ -535,6 +568,8 @@ __all__ = [
     "FEW_WINDOWS_NOTE",
     "MIN_SEGMENT_WINDOWS",
     "MIN_SMOOTHED_WINDOWS",
+    "SHORT_BASELINES_NOTE",
+    "SHORT_BASELINE_FRACTION",
     "Baseline",
     "DutMean",
     "LevelContext",
@@ -546,7 +581,9 @@ __all__ = [
     "find_baselines",
     "low_frequency",
     "n_windows",
+    "off_stretches",
     "reduce_level",
     "second_difference_var",
     "segment_samples",
+    "short_baselines",
 ]

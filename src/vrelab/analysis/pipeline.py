@@ -33,14 +33,18 @@ from vrelab.analysis import plausibility as P
 from vrelab.analysis.levels import (
     FEW_WINDOWS_NOTE,
     MIN_SEGMENT_WINDOWS,
+    SHORT_BASELINES_NOTE,
     Baseline,
     LevelContext,
     find_baselines,
     low_frequency,
     n_windows,
+    off_stretches,
     reduce_level,
     segment_samples,
+    short_baselines,
 )
+from vrelab.analysis.noise import channel_noise
 from vrelab.analysis.options import (
     ACCEPTABLE,
     DEFAULT_BLOCK,
@@ -66,6 +70,7 @@ from vrelab.results import (
     FitResult,
     LevelResult,
     Method,
+    NoiseResult,
     Notice,
     VreResult,
 )
@@ -88,6 +93,8 @@ class Reduction:
     # was measured at (SegmentProbe.ratio_hz): a campaign judges a channel's units over all its
     # runs with them (plausibility.judge_runs_units, check_units_over_runs)
     unit_probes: list[tuple[str | None, float, float]] = field(default_factory=list)
+    # the DUT's noise on the vibration-off stretches (SPEC 4.4; None: none to measure)
+    noise: NoiseResult | None = None
 
     @property
     def static_g(self) -> float | None:
@@ -189,13 +196,19 @@ def reduce(
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))
+    short = [(b, seg.end_s - seg.start_s) for seg, t in zip(level_segs, times)
+             if (b := short_baselines(t, seg.end_s - seg.start_s, baselines)) is not None]
+    if short:
+        warnings.append(Notice("short-baselines", SHORT_BASELINES_NOTE.format(
+            n=len(short), base=max(b for b, _ in short), level=min(d for _, d in short))))
     n_few = sum(1 for lv in levels if "few-windows" in lv.flags)
     if n_few:
         warnings.append(Notice("few-windows", FEW_WINDOWS_NOTE.format(n=n_few)))
     if opt.profile is not None and kind == "random":
         warnings += _tolerance_checks(record, level_segs, levels, stats, opt.profile)
+    noise = channel_noise(off_stretches(stats, baselines), stats.window / stats.fs_hz)
     return Reduction(levels, warnings, stats, sched, baselines, level_segs, times, psds, method=kind,
-                     unit_probes=[(p.kind, p.ratio_hz, p.unit_ratio) for p in probes])
+                     unit_probes=[(p.kind, p.ratio_hz, p.unit_ratio) for p in probes], noise=noise)
 
 
 def _plausible_method(
@@ -381,6 +394,7 @@ def analyze_full(
         warnings=tuple(list(meta.get("reader_notes") or []) + red.warnings + w),
         provenance=prov,
         kind="measurement",
+        noise=red.noise,
     )
     return result, red
 

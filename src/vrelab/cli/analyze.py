@@ -293,3 +293,5 @@ def _write_psds(stage: Path, red: Any, profile: Any) -> None:
 def _print_summary(result: Any, path: Path, channel: str | None = None) -> None:
     print(f"{path.name}{f' channel {channel}' if channel else ''}: {result.method} method, {len(result.levels)} level(s)")
     print_levels(result)
+    if result.noise is not None:
+        print(result.noise)

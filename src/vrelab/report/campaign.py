@@ -73,6 +73,22 @@ def _est(e: Mapping[str, Any] | None, unit: str) -> str:
     return "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)
 
 
+def _noise_est(e: Mapping[str, Any], unit: str) -> str:
+    """A noise figure, or why there is none (a flicker term the stretches were too short to fit)."""
+    if e.get("value") is None or e.get("u") is None:
+        return "not resolved (vibration-off stretches too short)"
+    return format_value_u(e["value"], e["u"], unit=unit)
+
+
+def _adev_min(allan: Mapping[str, Any] | None) -> str:
+    pts = [(d, t) for d, t in zip((allan or {}).get("adev_ug") or [], (allan or {}).get("tau_s") or [])
+           if d is not None and t is not None]
+    if not pts:
+        return ""
+    d, t = min(pts)
+    return f"{d:.3g} µg at {t:.3g} s"
+
+
 def channel_section(channel: Mapping[str, Any]) -> ReportSection:
     fig = vrc_figure(channel)
     pts = channel.get("vrc_by_freq") or []
@@ -93,6 +109,14 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
         tables.append(ReportTable("k2 and k3 per frequency (VRC(g0) = k2 + 3·k3·g0)",
                                   ["freq (Hz)", "k2 ± u (µg/g²)", "k3 ± u (µg/g³)", "orientations"], per_freq,
                                   numeric=(0, 1, 2, 3)))
+    noise = [(f"{n['run']} ({n['label']})", f"{n['off_s']:.3g}" if n.get("off_s") is not None else "",
+              _noise_est(n["density_ug_rthz"], "µg/√Hz"), _noise_est(n["bias_instability_ug"], "µg"),
+              _adev_min(n.get("allan")))
+             for n in channel.get("noise_by_run") or []]
+    if noise:
+        tables.append(ReportTable("Noise with vibration off, by run (SPEC 4.4; IEEE 952 conventions, density one-sided)",
+                                  ["run", "off (s)", "density ± u", "bias instability ± u", "Allan deviation minimum"],
+                                  noise, numeric=(1,)))
     return ReportSection(
         title=f"Channel {channel['channel']}",
         what=f"apparent k2 = {_est(channel.get('k2_ug_per_g2'), 'µg/g²')}, k3 = {_est(channel.get('k3_ug_per_g3'), 'µg/g³')}, "

@@ -702,6 +702,12 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
         if sum(1 for f in result.fits if f.freq_hz is not None and "vrc_ug_per_g2" in f.params) > 1:
             fn = _sensor_number(result, "fn_hz")
             figs.append(ReportFigure.from_figure(plots.plot_vrc_vs_freq(result, fn_hz=fn), "VRC against sine frequency: resonance amplifies the nonlinearity."))
+    if result.noise is not None and result.noise.tau_s:
+        figs.append(ReportFigure.from_figure(
+            plots.plot_allan(result.noise),
+            f"DUT noise with vibration off: Allan deviation (IEEE 1554) over {result.noise.n_stretches} baseline(s); "
+            f"{result.noise}.",
+        ))
     if folder is not None:
         rec = folder / F.RECORD
         if rec.is_file():

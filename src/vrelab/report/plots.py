@@ -36,6 +36,7 @@ from vrelab.record import Schedule
 from vrelab.results import (
     FitResult,
     LevelResult,
+    NoiseResult,
     VreResult,
     group_by_frequency,
     same_frequency,
@@ -768,6 +769,37 @@ def plot_psd(
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("PSD (g²/Hz)")
     ax.set_title(title or "Reference PSD against the profile", fontsize=10)
+    ax.legend(fontsize=8, loc="best")
+    return fig
+
+
+def plot_allan(noise: NoiseResult, *, title: str | None = None) -> Figure:
+    """The DUT's overlapping Allan deviation on its vibration-off stretches (IEEE Std 1554),
+    log-log in µg, with the two lines its noise result reads from it (IEEE Std 952 Annex C): the
+    white noise's ``density/√(2τ)`` (one-sided density) and the flicker floor ``0.664·B``."""
+    tau = np.asarray(noise.tau_s, dtype=np.float64)
+    dev = np.asarray(noise.adev_ug, dtype=np.float64)
+    fig, (ax,) = new_figure()
+    ok = np.isfinite(tau) & np.isfinite(dev) & (tau > 0) & (dev > 0)
+    # ±1 standard uncertainty of each point from its pairs (a deviation from n pairs: 1/√(2n)
+    # relative at least; red noise has fewer degrees of freedom than pairs, so the bars are a floor)
+    n = np.maximum(np.asarray(noise.n_pairs, dtype=np.float64), 1.0)
+    ax.errorbar(tau[ok], dev[ok], yerr=dev[ok] / np.sqrt(2 * n[ok]), fmt="o-", color=COLORS[0], ms=4, lw=1,
+                label="Allan deviation (overlapping)")
+    if ok.any():
+        grid = np.geomspace(tau[ok].min(), tau[ok].max(), 50)
+        d, b = noise.density_ug_rthz.value, noise.bias_instability_ug.value
+        if math.isfinite(d) and d > 0:
+            ax.loglog(grid, d / np.sqrt(2 * grid), "--", color=COLORS[1], lw=1,
+                      label=f"white: {d:.3g} µg/√Hz")
+        if math.isfinite(b) and b > 0:
+            ax.loglog(grid, np.full_like(grid, 0.664 * b), ":", color=COLORS[2], lw=1.3,
+                      label=f"flicker floor 0.664·B, B = {b:.3g} µg")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("averaging time τ (s)")
+    ax.set_ylabel("Allan deviation (µg)")
+    ax.set_title(title or f"DUT noise on {noise.off_s:.3g} s with vibration off", fontsize=10)
     ax.legend(fontsize=8, loc="best")
     return fig
 
