@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vrelab.analysis.readers import list_channels
+from vrelab.analysis.readers import list_channels, open_record
 from vrelab.cli import main
 
 FS = 1000.0
@@ -26,6 +26,89 @@ def _sine(seed: int = 0) -> np.ndarray:
     rng = np.random.default_rng(seed)
     t = np.arange(N) / FS
     return 0.5 * np.sin(2 * np.pi * 80 * t) + 1e-3 * rng.standard_normal(N)
+
+
+# ----------------------------------------------------------------------------- data in other files
+
+
+def _external(tmp_path: Path, target: Path, dtype: str) -> Path:
+    """An HDF5 file whose ``dut`` keeps its samples in ``target``'s raw bytes (h5py's
+    ``external=``: HDF5 external storage), beside an ordinary ``ref``."""
+    import h5py
+
+    n = target.stat().st_size // np.dtype(dtype).itemsize
+    p = tmp_path / "ext.h5"
+    with h5py.File(p, "w") as f:
+        f.attrs["fs_hz"] = FS
+        f.create_dataset("ref", data=_sine()[:n] if n <= N else np.resize(_sine(), n))
+        f.create_dataset("dut", shape=(n,), dtype=dtype, external=[(str(target), 0, n * np.dtype(dtype).itemsize)])
+    return p
+
+
+@pytest.mark.parametrize("target", ["secret", "/etc/passwd"])
+def test_hdf5_external_storage_is_refused_by_name(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                  target: str) -> None:
+    import h5py
+
+    if target == "secret":
+        t = tmp_path / "secret.bin"
+        _sine(1).tofile(t)
+        dtype = "<f8"
+    else:
+        t = Path(target)
+        if not t.is_file() or t.stat().st_size < 64:
+            pytest.skip("no /etc/passwd here")
+        dtype = "u1"
+    p = _external(tmp_path, t, dtype)
+    # the file is what it claims: h5py alone reads the other file's bytes as the dataset
+    with h5py.File(p, "r") as f:
+        assert f["dut"][:].tobytes() == t.read_bytes()[: f["dut"].size * np.dtype(dtype).itemsize]
+    listing = {c["name"]: c for c in list_channels(p)["channels"]}
+    assert listing["dut"]["data"] == {"kind": "external", "files": [str(t)]}
+    assert listing["ref"]["data"] == {"kind": "file", "files": []}
+    assert any("outside this file" in n and str(t) in n for n in listing["dut"]["notes"])
+    with pytest.raises(ValueError, match=r"'dut' keeps its samples outside this file \(external storage in '.*"
+                                         + t.name):
+        open_record(p, "dut", "ref", dut_scale=1.0 if dtype == "u1" else None)
+    # the reference's role is refused the same way
+    with pytest.raises(ValueError, match="reference channel 'dut' keeps its samples outside"):
+        open_record(p, "ref", "dut")
+    assert main(["analyze", str(p), "--dut", "dut", "--reference", "ref"]) == 2
+    err = _one_line(capsys)
+    assert p.name in err and "'dut'" in err and str(t) in err
+
+
+def test_hdf5_virtual_dataset_mapping_another_file_is_refused(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import h5py
+
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f.create_dataset("x", data=_sine(1))
+    p = tmp_path / "vds.h5"
+    layout = h5py.VirtualLayout(shape=(N,), dtype="f8")
+    layout[:] = h5py.VirtualSource(str(other), "x", shape=(N,))
+    inner = h5py.VirtualLayout(shape=(N,), dtype="f8")
+    with h5py.File(p, "w") as f:
+        f.attrs["fs_hz"] = FS
+        f.create_dataset("ref", data=_sine())
+        f.create_virtual_dataset("dut", layout)
+        inner[:] = h5py.VirtualSource(".", "ref", shape=(N,))  # a virtual view of this file's own data
+        f.create_virtual_dataset("view", inner)
+    with h5py.File(p, "r") as f:  # h5py alone reads the other file's samples through the mapping
+        np.testing.assert_array_equal(f["dut"][:], _sine(1))
+    listing = {c["name"]: c for c in list_channels(p)["channels"]}
+    assert listing["dut"]["data"] == {"kind": "virtual", "files": [str(other)]}
+    assert listing["view"]["data"] == {"kind": "virtual", "files": ["."]}
+    with pytest.raises(ValueError, match=r"'dut' keeps its samples outside this file \(a virtual dataset mapping"):
+        open_record(p, "dut", "ref")
+    # a virtual dataset over this file's own data reads as the data
+    with open_record(p, "view", "ref") as rec:
+        np.testing.assert_array_equal(next(rec.blocks(N, ["dut"]))["dut"], _sine())
+    m = tmp_path / "campaign.toml"
+    m.write_text(f'name = "t"\n[[run]]\nfile = "{p.name}"\nreference = "ref"\ndut = {{a = "dut"}}\nstatic_g = 1\n')
+    assert main(["campaign", str(m), "--out", str(tmp_path / "out"), "--json"]) != 0
+    assert "keeps its samples outside this file" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------------------- names that are escapes
@@ -66,3 +149,67 @@ def test_control_characters_in_channel_names_are_printed_escaped(tmp_path: Path,
     assert main(["channels", str(p), "--json"]) == 0
     out = capsys.readouterr().out
     assert "\x1b" not in out and bad in [c["name"] for c in json.loads(out)["channels"]]
+
+
+# ----------------------------------------------------------------------------- many channels, big chunks
+
+
+def test_a_file_of_many_datasets_is_listed_first_n_and_a_count(tmp_path: Path) -> None:
+    """1050 datasets (h5py) and 1050 TDMS channels (npTDMS): the first MAX_CHANNELS listed, the
+    rest counted, and one beyond them still read by its exact name."""
+    import h5py
+    from nptdms import ChannelObject, TdmsFile, TdmsWriter
+
+    from vrelab.analysis.readers._base import MAX_CHANNELS
+
+    n = MAX_CHANNELS + 50
+    x = _sine()
+    h5 = tmp_path / "many.h5"
+    with h5py.File(h5, "w") as f:
+        f.attrs["fs_hz"] = FS
+        for i in range(n):
+            f.create_dataset(f"c{i:05d}", data=x if i in (3, n - 1) else np.zeros(2))
+    td = tmp_path / "many.tdms"
+    with TdmsWriter(td) as w:
+        w.write_segment([ChannelObject("g", f"c{i:05d}", x if i in (3, n - 1) else np.zeros(2),
+                                       properties={"wf_increment": 1 / FS}) for i in range(n)])
+    with h5py.File(h5, "r") as f:
+        assert len(f) == n
+    assert len(TdmsFile.read_metadata(td)["g"].channels()) == n
+    for p, last in ((h5, f"c{n - 1:05d}"), (td, f"g/c{n - 1:05d}")):
+        listing = list_channels(p)
+        assert len(listing["channels"]) == MAX_CHANNELS and listing["unlisted"] == 50
+        assert any(f"{n}" in note and "50 more not listed" in note for note in listing["notes"]), listing["notes"]
+        with open_record(p, last, last.replace(f"{n - 1:05d}", "00003")) as rec:
+            blk = next(rec.blocks(N, ["dut", "reference"]))
+            np.testing.assert_array_equal(blk["dut"], x)
+            assert rec.fs_hz == FS
+        with pytest.raises(ValueError, match="50 more not listed"):
+            open_record(p, "nope")
+
+
+def test_a_chunk_that_would_inflate_beyond_the_budget_is_refused_before_reading(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A dataset of one gzip chunk of 2^21 float64 (16.8 MB inflated, a few kB on disk) under a
+    budget of 0.064 GB (a chunk may take 1/64 of it: 1 MB): refused naming both sizes; the
+    same samples in 65536-sample chunks (0.5 MB) read. The default budget (4 GB: 62.5 MB a
+    chunk) refuses the 1 GiB chunk of the issue's 2 MB file the same way."""
+    import h5py
+
+    monkeypatch.setenv("VRELAB_MEMORY_BUDGET_GB", "0.064")
+    m = 1 << 21
+    p = tmp_path / "bomb.h5"
+    with h5py.File(p, "w") as f:
+        f.attrs["fs_hz"] = FS
+        f.create_dataset("dut", shape=(m,), dtype="f8", chunks=(m,), compression="gzip")
+        f["dut"][:N] = _sine()
+        f.create_dataset("ok", data=np.resize(_sine(), m), chunks=(1 << 16,), compression="gzip")
+    assert p.stat().st_size < 2e6
+    with h5py.File(p, "r") as f:  # what the file asks: one chunk of 2^21 samples, 16.8 MB inflated
+        assert f["dut"].chunks == (m,) and f["dut"].compression == "gzip"
+    listing = {c["name"]: c for c in list_channels(p)["channels"]}
+    assert any("16.8 MB" in n and "1 MB" in n for n in listing["dut"]["notes"]), listing["dut"]["notes"]
+    with pytest.raises(ValueError, match=r"'dut' is stored in compressed chunks of 16.8 MB each.*beyond the 1 MB"):
+        open_record(p, "dut", "ok")
+    with open_record(p, "ok") as rec:
+        assert rec.n_samples == m

@@ -96,6 +96,7 @@ from vrelab.analysis.readers import (  # noqa: F401  (they register)
 )
 from vrelab.analysis.readers._base import (
     G0,
+    MAX_CHANNELS,
     PLUGIN_GROUP,
     PLUGIN_NOTES,
     PLUGINS,
@@ -169,7 +170,11 @@ def resolve_channel(name: str, src: Source, role: str) -> str:
     if len(tails) > 1:
         raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: it names "
                          f"{', '.join(repr(c) for c in tails)}; give one of these")
+    if src.unlisted and src.find(name):
+        return name.lstrip("/") if name.lstrip("/") in src.channels else name
     listing = ", ".join(chans) if chans else "none"
+    if src.unlisted:
+        listing += f" and {src.unlisted} more not listed"
     raise ValueError(f"{role} channel {name!r} not found in {src.path.name}; channels: {listing} "
                      f"(vrelab channels {src.path.name} lists each with its rate and unit)")
 
@@ -386,6 +391,10 @@ def open_record(
             tcol = cands[0] if len(cands) == 1 else None
         if tcol is not None:
             lens[f"time {tcol!r}"] = src.lengths[tcol]
+        for role, ch in list(mapping.items()) + ([("time", tcol)] if tcol is not None else []):
+            why = src.refusal(ch, "DUT channel" if role.startswith("dut") else f"{role} channel")
+            if why:
+                raise ValueError(why)
         if len(set(lens.values())) > 1:
             raise ValueError(
                 f"{path.name}: channels have mismatched lengths: "
@@ -467,6 +476,8 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             if key != name:
                 aliases.setdefault(name, []).append(key)
         names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
+        unlisted = src.unlisted + max(len(names) - MAX_CHANNELS, 0)
+        names = names[:MAX_CHANNELS]
         # a file-level time column times the others; where each channel has its own stamps, none does
         tcols = [] if src.own_stamps else [c for c in names
                                            if c.lower().split("/")[-1] in TIME_NAMES or time_unit(c) is not None]
@@ -501,15 +512,21 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             n = int(src.lengths[name])
             if src.is_integer(name) and not src.unit_of(name):
                 notes.append("integer samples (ADC counts): give --dut-units lsb --dut-sensitivity S")
+            why = src.refusal(name, "channel")
+            if why:
+                notes.append("not read: " + why.split(f"{name!r} ", 1)[1])
             out.append({
                 "name": name, "rate_hz": fs, "n_samples": n,
                 "duration_s": (n / fs) if fs else None,
-                "unit": src.unit_of(name), "notes": notes,
+                "unit": src.unit_of(name), "notes": notes, "data": src.location(name),
             })
         for name, cands in src.ambiguous.items():
-            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None,
+            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None, "data": None,
                         "notes": [f"ambiguous: names {', '.join(repr(c) for c in cands)}; give one of these"]})
-        return {"file": str(path), "format": src.fmt, "notes": list(src.notes), "channels": out}
+        notes = list(src.notes)
+        if unlisted and not src.unlisted:
+            notes.append(f"{len(names) + unlisted} channels: the first {len(names)} listed, {unlisted} more not listed")
+        return {"file": str(path), "format": src.fmt, "notes": notes, "channels": out, "unlisted": unlisted}
     finally:
         src.close()
 

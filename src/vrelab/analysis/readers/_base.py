@@ -26,6 +26,9 @@ FS_KEYS = ("fs_hz", "fs", "Fs", "sample_rate", "sampling_rate", "sample_rate_hz"
 DT_KEYS = ("wf_increment", "dt", "sample_interval", "sampling_interval")
 TIME_NAMES = ("time", "t", "time_s", "times", "timestamp", "time_sec", "seconds")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+# Channels a reader indexes and `vrelab channels` lists: beyond, they are counted (a file of 10^5
+# datasets is listed in a second, not minutes) and one is read when named exactly (Source.find).
+MAX_CHANNELS = 1000
 
 
 @dataclass(frozen=True)
@@ -132,6 +135,19 @@ class Source:
         self.units: dict[str, str] = {}  # channel -> the unit the file states for it
         self.rates: dict[str, float] = {}  # channel -> its own rate, where channels differ
         self.ambiguous: dict[str, list[str]] = {}  # a name several channels answer to -> their full names
+        # channel -> where its samples live when not in this file's own bytes (HDF5 external
+        # storage, a virtual dataset): ("external" | "virtual", the files named)
+        self.elsewhere: dict[str, tuple[str, tuple[str, ...]]] = {}
+        # channel -> why it is listed but never read (its samples in another file, a chunk that
+        # would inflate beyond the memory budget): "keeps its samples outside this file (...)"
+        self.unreadable: dict[str, str] = {}
+        self.unlisted = 0  # channels beyond the MAX_CHANNELS indexed, counted but not listed
+
+    def find(self, name: str) -> bool:
+        """Index channel ``name`` of a file with more than :data:`MAX_CHANNELS` (``unlisted``),
+        named by its exact name; False when it has none by that name (the default: a format
+        that indexes every channel)."""
+        return False
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -144,6 +160,32 @@ class Source:
     def unit_of(self, name: str) -> str | None:
         """The unit the file states for channel ``name`` (None: none)."""
         return self.units.get(name) or None
+
+    def location(self, name: str) -> dict[str, Any]:
+        """Where channel ``name``'s samples live: ``{"kind": "file", "files": []}`` in this file's
+        own bytes; ``"external"`` (HDF5 external storage: raw bytes of the ``files`` named) or
+        ``"virtual"`` (an HDF5 virtual dataset mapping datasets of ``files``; ``"."`` is this file)."""
+        kind, files = self.elsewhere.get(name, ("file", ()))
+        return {"kind": kind, "files": list(files)}
+
+    def outside(self, name: str) -> tuple[str, ...]:
+        """The other files channel ``name``'s samples would be read from (empty: none)."""
+        return tuple(f for f in self.elsewhere.get(name, ("file", ()))[1] if f != ".")
+
+    def refusal(self, name: str, role: str) -> str | None:
+        """The one-line refusal of channel ``name`` read as ``role`` (``DUT channel``), None when
+        it can be read: its samples in other files (vrelab reads the file it is given and
+        nothing it points to), or a reason the reader gave (:attr:`unreadable`)."""
+        if self.outside(name):
+            what = "external storage in" if self.elsewhere[name][0] == "external" else "a virtual dataset mapping"
+            files = ", ".join(repr(f) for f in self.outside(name))
+            why = (f"keeps its samples outside this file ({what} {files}): vrelab reads only the file it is "
+                   "given; copy the data into the file (h5repack, or h5py) if that is meant")
+        elif name in self.unreadable:
+            why = self.unreadable[name]
+        else:
+            return None
+        return f"{self.path.name}: {role} {name!r} {why}"
 
     def is_integer(self, name: str) -> bool:
         """Whether channel ``name`` holds integer samples (counts of an ADC)."""
@@ -333,6 +375,11 @@ class ArraySource(Source):
                 continue
             self.specs[name] = spec
             self.lengths[name] = spec_length(spec)
+
+    def is_integer(self, name: str) -> bool:
+        arr, how = self.specs[name]  # from the dtype: reading a sample to learn it costs a read per channel
+        is_field = isinstance(how, str) and how != "squeeze"
+        return bool((arr.dtype[how] if is_field else arr.dtype).kind in "iub")
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return spec_slice(self.specs[name], start, stop)
