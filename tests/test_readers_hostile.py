@@ -213,3 +213,54 @@ def test_a_chunk_that_would_inflate_beyond_the_budget_is_refused_before_reading(
         open_record(p, "dut", "ok")
     with open_record(p, "ok") as rec:
         assert rec.n_samples == m
+
+
+# ----------------------------------------------------------------------------- units by channel
+
+LVM_READ = Path(__file__).parent / "data" / "thirdparty" / "lvm_read"
+
+
+def test_lvm_with_an_x_column_per_channel_matches_units_to_their_channels() -> None:
+    """lvm_read's ``multi_time_column.lvm`` (LabVIEW, ``X_Columns Multi``): columns ``X_Value,
+    Voltage, X_Value, Acceleration``; its ``Y_Unit_Label`` row reads ``Volts<tab><tab>g``, each
+    cell over its column (the blank over the second X_Value), as the file's own text shows."""
+    p = LVM_READ / "multi_time_column.lvm"
+    lines = p.read_text().splitlines()
+    cols = next(x for x in lines if x.startswith("X_Value")).split("\t")
+    units = next(x for x in lines if x.startswith("Y_Unit_Label")).split("\t")
+    stated = {c: units[i] for i, c in enumerate(cols) if c in ("Voltage", "Acceleration")}  # same position
+    assert stated == {"Voltage": "Volts", "Acceleration": "g"}
+    listing = {c["name"]: c for c in list_channels(p)["channels"]}
+    assert {n: c["unit"] for n, c in listing.items()} == stated
+    assert {c["rate_hz"] for c in listing.values()} == {51200.0}  # Delta_X 1.953125E-5 over each
+    with pytest.raises(ValueError, match="'Voltage' is in 'Volts'.*give the sensitivity"):
+        open_record(p, "Voltage", fs_hz=None)
+    with open_record(p, "Acceleration") as rec:
+        assert rec.meta["units_assumed"] == []
+        np.testing.assert_array_equal(next(rec.blocks(3, ["dut"]))["dut"], [0.532608, 0.502991, 0.467541])
+
+
+def _ms2_record(tmp_path: Path) -> Path:
+    """A shaker record whose DUT is in m/s² (9.81 at rest in a 1 g field), in a CSV without units."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    ref = np.concatenate([np.zeros(n), rng.normal(0, 1, n), np.zeros(n)])
+    dut = 9.80665 * (1 + ref) + 1e-3 * rng.standard_normal(3 * n)
+    p = tmp_path / "ms2.csv"
+    p.write_text("reference,dut\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(ref, dut)))
+    return p
+
+
+def test_a_unitless_float_channel_is_said_taken_as_g_and_an_ms2_baseline_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    p = _ms2_record(tmp_path)
+    with open_record(p, "dut", "reference", fs_hz=4000.0) as rec:
+        assert rec.meta["units_assumed"] == ["dut", "reference"]
+        assert any("'dut': the file states no unit: taken as g" in n for n in rec.meta["reader_notes"])
+    argv = ["analyze", str(p), "--dut", "dut", "--reference", "reference", "--fs", "4000", "--json"]
+    assert main(argv) == 2
+    err = _one_line(capsys)
+    assert "DUT 'dut' reads +9.8" in err and "taken as g because the file states no unit" in err and "m/s2" in err
+    # said so, it is read: m/s² converted, or g if the user insists it is g
+    assert main(argv + ["--dut-units", "m/s2"]) == 0
+    capsys.readouterr()

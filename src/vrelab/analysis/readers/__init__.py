@@ -112,7 +112,7 @@ from vrelab.analysis.readers._base import (
     reader_for,
     register,
 )
-from vrelab.analysis.readers.units import channel_scale
+from vrelab.analysis.readers.units import ASSUMED_NOTE, channel_scale
 from vrelab.record import Schedule
 
 # SPEC 4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
@@ -426,6 +426,7 @@ def open_record(
                 "give the true rate with --fs"
             )
         scales: dict[str, Scale] = {}
+        assumed: list[str] = []
         for key, ch in mapping.items():
             ref = key == "reference"
             given = _given_scale(reference_scale if ref else dut_scale, key)
@@ -437,6 +438,8 @@ def open_record(
                 raise ValueError(f"{path.name}: {exc}") from None
             if note:
                 src.notes.append(note)
+                if ASSUMED_NOTE in note:
+                    assumed.append(ch)
         meta = dict(src.meta)
         meta.update(
             source=path.name,
@@ -444,6 +447,7 @@ def open_record(
             channels=dict(mapping),
             fs_from=how,
             reader_notes=list(src.notes),
+            units_assumed=assumed,  # file channels read as g for want of any stated unit
         )
         if not isinstance(dut, str):
             meta["duts"] = {key[4:]: ch for key, ch in mapping.items() if key.startswith("dut:")}
