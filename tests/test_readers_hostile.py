@@ -264,3 +264,56 @@ def test_a_unitless_float_channel_is_said_taken_as_g_and_an_ms2_baseline_is_refu
     # said so, it is read: m/s² converted, or g if the user insists it is g
     assert main(argv + ["--dut-units", "m/s2"]) == 0
     capsys.readouterr()
+
+
+# ----------------------------------------------------------------------------- what a header states
+
+
+def test_a_loggers_comment_header_gives_the_rate_and_the_units(tmp_path: Path) -> None:
+    """A PicoQuake export as its documentation lays it out (PLab-SI/PicoQuake, docs "Acquisition
+    CSV File": five comment lines, then count,a_x..g_z; a_* in g, g_* gyro in degrees per
+    second): the header's 2000 Hz used and said, a_x in g from acc_range, g_x refused as a gyro."""
+    x = _sine()
+    p = tmp_path / "picoquake.csv"
+    head = ("# PLab PicoQuake Data\n# Time: 2024-04-21 15:54:46.333682, Device: D4E9 (E6632891E36F2029)\n"
+            f"# Num. samples: {N}, Duration: {N / 2000.0} s\n"
+            "# Config: data_rate = 2000.0 Hz, filter = 488 Hz, acc_range = 4 g, gyro_range = 250.0 dps\n"
+            "# Integrity: True, Skipped samples: 0\ncount,a_x,a_y,a_z,g_x,g_y,g_z\n")
+    p.write_text(head + "".join(f"{i},{v:.6f},0.0,1.0,{100 * v:.4f},0.0,0.0\n" for i, v in enumerate(x)))
+    listing = list_channels(p)
+    by = {c["name"]: c for c in listing["channels"]}
+    assert by["a_x"]["rate_hz"] == 2000.0 and by["a_x"]["unit"] == "g" and by["g_x"]["unit"] == "dps"
+    assert any("2000 Hz from the file's comment header" in n and "data_rate = 2000.0 Hz" in n for n in listing["notes"])
+    with open_record(p, "a_x") as rec:
+        assert rec.fs_hz == 2000.0 and rec.meta["units_assumed"] == []
+        np.testing.assert_allclose(next(rec.blocks(N, ["dut"]))["dut"], np.round(x, 6), rtol=0, atol=0)
+    with pytest.raises(ValueError, match=r"'g_x' is in 'dps' .*not an acceleration"):
+        open_record(p, "g_x")
+
+
+def test_a_pandas_frame_in_hdf5_lists_its_column_names(tmp_path: Path) -> None:
+    """``DataFrame.to_hdf(path, key="run1")`` (fixed format) as pandas/io/pytables.py lays it out:
+    group ``run1`` with ``pandas_type = 'frame'``, ``axis0`` (column names), ``axis1`` (the
+    index), ``block0_items`` and ``block0_values`` stored transposed (one column per item).
+    Written with h5py here (pandas is not a test dependency)."""
+    import h5py
+
+    ax, ay = _sine(), _sine(1)
+    p = tmp_path / "frame.h5"
+    with h5py.File(p, "w") as f:
+        g = f.create_group("run1")
+        g.attrs.update({"pandas_type": b"frame", "pandas_version": b"0.15.2", "encoding": b"UTF-8",
+                        "ndim": 2, "nblocks": 1})
+        g.attrs["fs_hz"] = FS
+        g["axis0"] = np.array([b"ax", b"ay"])
+        g["axis1"] = np.arange(N)
+        g["block0_items"] = np.array([b"ax", b"ay"])
+        g["block0_values"] = np.column_stack([ax, ay])
+        g["block0_values"].attrs["transposed"] = 1
+    names = [c["name"] for c in list_channels(p)["channels"]]
+    assert names == ["run1/ax", "run1/ay"]
+    with open_record(p, "ax", "ay") as rec:
+        blk = next(rec.blocks(N, ["dut", "reference"]))
+        np.testing.assert_array_equal(blk["dut"], ax)
+        np.testing.assert_array_equal(blk["reference"], ay)
+

@@ -133,6 +133,7 @@ class Source:
         self.meta: dict[str, Any] = {}
         self.schedule: Schedule | None = None
         self.units: dict[str, str] = {}  # channel -> the unit the file states for it
+        self.header_units: set[str] = set()  # channels whose unit a text header states (a column name, a comment)
         self.rates: dict[str, float] = {}  # channel -> its own rate, where channels differ
         self.ambiguous: dict[str, list[str]] = {}  # a name several channels answer to -> their full names
         # channel -> where its samples live when not in this file's own bytes (HDF5 external

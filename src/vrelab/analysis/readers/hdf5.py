@@ -74,6 +74,29 @@ def _elsewhere(d: Any) -> tuple[str, tuple[str, ...]] | None:
     return None
 
 
+def _pandas_block(name: str, d: Any) -> dict[str, tuple[Any, Any]] | None:
+    """A pandas DataFrame's block (``DataFrame.to_hdf``, fixed format: the frame's group has
+    ``pandas_type = 'frame'``, ``blockN_values`` holds columns named by ``blockN_items``), as
+    channels ``<group>/<column>``; None for any other dataset. pandas stores a block transposed
+    (``transposed`` attribute: rows are samples, one column per item), pandas/io/pytables.py
+    ``write_array``."""
+    grp, _, leaf = name.rpartition("/")
+    if not (leaf.startswith("block") and leaf.endswith("_values")) or d.ndim != 2:
+        return None
+    parent = d.parent
+    if _text(parent.attrs.get("pandas_type", b"")) != "frame":
+        return None
+    items = parent.get(leaf.replace("_values", "_items"))
+    if items is None or items.ndim != 1:
+        return None
+    names = [_text(x) for x in items[()]]
+    by_col = bool(d.attrs.get("transposed", False))
+    if len(names) != (d.shape[1] if by_col else d.shape[0]) or len(set(names)) != len(names):
+        return None
+    prefix = f"{grp}/" if grp else ""
+    return {f"{prefix}{n}": (d, ("col" if by_col else "row", i)) for i, n in enumerate(names)}
+
+
 def _chunk_refusal(d: Any) -> str | None:
     """Why a dataset in filtered (compressed) chunks is not read: a chunk is inflated whole by
     any read that touches it, so a 2 MB file whose one chunk inflates to 1 GiB asks for 1 GiB
@@ -166,7 +189,10 @@ class Hdf5Source(ArraySource):
             if name.split("/")[-1] in FS_KEYS:
                 self.fs_hz = float(np.asarray(d[()]).ravel()[0])
             return None
-        made = column_channels(name, d)
+        leaf = name.rsplit("/", 1)[-1]
+        if leaf in ("axis0", "axis1") and _text(d.parent.attrs.get("pandas_type", b"")) == "frame":
+            return None  # a pandas frame's column names and index, not signals
+        made = _pandas_block(name, d) or column_channels(name, d)
         self.add(made)
         chans = [c for c in made if c in self.specs]
         if not chans:
