@@ -317,3 +317,128 @@ def test_a_pandas_frame_in_hdf5_lists_its_column_names(tmp_path: Path) -> None:
         np.testing.assert_array_equal(blk["dut"], ax)
         np.testing.assert_array_equal(blk["reference"], ay)
 
+
+# ----------------------------------------------------------------------------- reader plugins
+
+_PLUGINS = '''
+import sys
+
+import numpy as np
+
+from vrelab.analysis.readers import Source
+
+print("hello from a plugin")  # at import: must not reach stdout (--json)
+
+
+class Greedy(Source):
+    """can_open says yes to every file."""
+
+    fmt = "greedy"
+    extensions = (".grd",)
+
+    @classmethod
+    def can_open(cls, head):
+        return not head.startswith(b"BAD1")
+
+    def __init__(self, path):
+        super().__init__(path)
+        self.lengths = {"dut": 10}
+
+    def read(self, name, start, stop):
+        return np.full(stop - start, 7.0)
+
+
+class Bad(Source):
+    """Magic 'BAD1'; channel 'c' complex, 'n' None, 'o' objects, 's' short, 'ok' real."""
+
+    fmt = "bad"
+    extensions = (".bad",)
+
+    @classmethod
+    def can_open(cls, head):
+        return head.startswith(b"BAD1")
+
+    def __init__(self, path):
+        super().__init__(path)
+        self.fs_hz = 1000.0
+        self.lengths = {k: 4000 for k in ("c", "n", "o", "s", "ok")}
+
+    def read(self, name, start, stop):
+        t = np.arange(start, stop) / 1000.0
+        x = 0.5 * np.sin(2 * np.pi * 80 * t)
+        return {"c": x + 1j * x, "n": None, "o": x.astype(object), "s": x[:-1], "ok": x}[name]
+'''
+
+_PLUGIN_EPS = """
+[vrelab.readers]
+greedy = hostile_plugins:Greedy
+bad = hostile_plugins:Bad
+exits = exits_plugin:X
+"""
+
+
+def _plugin_site(tmp_path: Path) -> Path:
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "hostile_plugins.py").write_text(_PLUGINS)
+    (site / "exits_plugin.py").write_text("import sys\nsys.exit(0)\n")
+    info = site / "hostile_plugins-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: hostile-plugins\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(_PLUGIN_EPS)
+    return site
+
+
+def _run(site: Path, *args: str) -> tuple[int, str, str]:
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(root / "src")]))
+    r = subprocess.run([sys.executable, "-m", "vrelab", *args], capture_output=True, text=True, env=env, timeout=120)
+    return r.returncode, r.stdout, r.stderr
+
+
+@pytest.mark.slow
+def test_hostile_plugins_cannot_take_built_in_files_exit_or_print(tmp_path: Path) -> None:
+    import json
+
+    site = _plugin_site(tmp_path)
+    csv = tmp_path / "rec.csv"
+    csv.write_text("time,dut\n" + "".join(f"{i / FS},{v}\n" for i, v in enumerate(_sine())))
+    # built-in CSV read by the built-in reader, --json exactly one object, the exiting plugin skipped in one line
+    rc, out, err = _run(site, "channels", str(csv), "--json")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["format"] == "csv" and [c["name"] for c in d["channels"]] == ["time", "dut"]
+    assert "hello from a plugin" not in out
+    lines = err.strip().splitlines()
+    assert any("exits_plugin:X" in ln and "sys.exit(0)" in ln and "skipped" in ln for ln in lines), err
+    assert any("printed at import" in ln for ln in lines), err
+
+
+def test_a_plugins_samples_are_held_to_a_readers_contract(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """Real, 1-D, the length asked for: complex samples, None, objects and a short read are one
+    line naming the plugin and the channel (the plugin registered in this process as
+    load_plugins registers an entry point's class)."""
+    from vrelab.analysis.readers import _base
+
+    ns: dict[str, object] = {}
+    exec(compile(_PLUGINS.replace('print("hello from a plugin")', ""), "hostile_plugins.py", "exec"), ns)
+    bad_cls = ns["Bad"]
+    monkeypatch.setattr(_base, "READERS", [*_base.READERS, bad_cls])
+    monkeypatch.setitem(_base.PLUGINS, bad_cls, "bad = hostile_plugins:Bad")
+    bad = tmp_path / "rec.bad"
+    bad.write_bytes(b"BAD1" + bytes(100))
+    with open_record(bad, "ok") as rec:  # a good channel reads
+        assert len(next(rec.blocks(N, ["dut"]))["dut"]) == N
+    for ch, words in (("c", "complex128 samples"), ("n", "None"), ("o", "object samples"), ("s", "shape (3999,)")):
+        with pytest.raises(ValueError, match=r"reader plugin bad = hostile_plugins:Bad gave .*") as exc:
+            with open_record(bad, ch, "ok") as rec:
+                list(rec.blocks(N, ["dut", "reference"]))
+        assert words in str(exc.value) and f"channel {ch!r}" in str(exc.value)
+    assert main(["analyze", str(bad), "--dut", "c", "--reference", "ok"]) == 2
+    assert "complex128 samples for channel 'c'" in _one_line(capsys)
+

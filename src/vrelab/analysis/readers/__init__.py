@@ -132,6 +132,7 @@ def _open_source(path: Path) -> Source:
     try:
         src = cls.open(path)
         if cls in PLUGINS:
+            _check_plugin_source(src, PLUGINS[cls])
             src.notes.append(f"read by reader plugin {PLUGINS[cls]}")
         return src
     except ValueError as exc:
@@ -143,6 +144,41 @@ def _open_source(path: Path) -> Source:
     except Exception as exc:  # each format's library raises its own types on a corrupt file
         raise ValueError(f"{path.name}: cannot read as {fmt.upper()} (truncated or corrupt?): "
                          f"{type(exc).__name__}: {exc}") from None
+
+
+def _check_plugin_source(src: Any, where: str) -> None:
+    """A plugin's source is held to what the built-in readers give: a :class:`Source`, channel
+    names as text, lengths as counts, a rate that is a positive finite number or none, units as
+    text. What it gets wrong is one line naming the plugin."""
+    def bad(what: str) -> ValueError:
+        return ValueError(f"reader plugin {where} gave {what}")
+
+    if not isinstance(src, Source):
+        raise bad(f"a {type(src).__name__} from open(), not a Source")
+    if not isinstance(src.lengths, dict) or not all(
+            isinstance(k, str) and isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0
+            for k, v in src.lengths.items()):
+        raise bad("channel lengths that are not {name: samples}")
+    fs = src.fs_hz
+    if fs is not None and not (isinstance(fs, (int, float, np.floating)) and math.isfinite(fs) and fs > 0):
+        raise bad(f"sample rate {fs!r}")
+    if not isinstance(src.units, dict) or not all(isinstance(v, str) for v in src.units.values()):
+        raise bad("units that are not text")
+
+
+def plugin_samples(src: Source, name: str, x: Any, n: int) -> NDArray[Any]:
+    """A plugin's block of channel ``name``, checked as a built-in reader's would be: a 1-D real
+    numeric array of the ``n`` samples asked for (complex samples, None, objects, 2-D arrays or a
+    short read are one line naming the plugin and the channel, never a number)."""
+    where = PLUGINS.get(type(src), type(src).__name__)
+    a = np.asarray(x) if isinstance(x, np.ndarray) or np.isscalar(x) or isinstance(x, (list, tuple)) else None
+    if a is None or a.dtype.kind not in "biuf":
+        what = "None" if x is None else (f"{a.dtype} samples" if a is not None else f"a {type(x).__name__}")
+        raise ValueError(f"reader plugin {where} gave {what} for channel {name!r}: not real numbers")
+    if a.ndim != 1 or len(a) != n:
+        raise ValueError(f"reader plugin {where} gave an array of shape {a.shape} for channel {name!r}, "
+                         f"asked for {n} samples")
+    return a
 
 
 def resolve_channel(name: str, src: Source, role: str) -> str:
@@ -268,10 +304,15 @@ class FileRecord:
         block_size = int(block_size)
         raw = [self.mapping[c] for c in channels]
         blocks = self.source.stream(raw, int(start), stop, block_size)
+        plugin = type(self.source) in PLUGINS
+        pos = int(start)
         while True:
             try:
                 blk = next(blocks)
             except StopIteration:
+                if plugin and pos < stop:
+                    raise ValueError(f"reader plugin {PLUGINS[type(self.source)]} gave {pos - int(start)} samples of "
+                                     f"{', '.join(map(repr, raw))}, asked for {stop - int(start)}") from None
                 return
             except ValueError:
                 raise
@@ -280,6 +321,10 @@ class FileRecord:
             except Exception as exc:  # a decoder's own error on a corrupt file (zlib, struct, h5py, ...)
                 name = self.path.name
                 raise ValueError(f"{name}: cannot read its samples (truncated or corrupt?): {type(exc).__name__}: {exc}") from None
+            if plugin:  # each channel's block as long as asked (Source.stream's contract)
+                n = min(block_size, stop - pos)
+                blk = {r: plugin_samples(self.source, r, blk.get(r) if isinstance(blk, dict) else None, n) for r in raw}
+                pos += n
             yield {c: self.scales[c].to_g(blk[r]) for c, r in zip(channels, raw)}
 
     @property

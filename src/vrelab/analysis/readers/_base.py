@@ -438,8 +438,8 @@ def load_plugins() -> list[str]:
     on the ``vrelab.readers`` logger); vrelab itself keeps working. Returns the notes.
     """
     global _plugins_started, _plugins_loaded
-    if _plugins_loaded:
-        return PLUGIN_NOTES
+    if _plugins_loaded or threading.current_thread().name.startswith("vrelab plugin "):
+        return PLUGIN_NOTES  # (a plugin whose own import reads a file: the loading has started)
     # two threads reading their first files: one loads, the other waits; a plugin whose own
     # import reads a file (the same thread, back here) finds the loading started and goes on
     with _plugins_lock:
@@ -463,10 +463,9 @@ def _load_plugins() -> None:
     for ep in eps:
         dist = getattr(getattr(ep, "dist", None), "name", None)
         where = f"{ep.name} = {ep.value}" + (f" (package {dist})" if dist else "")
-        try:
-            cls = ep.load()
-        except Exception as exc:  # whatever a plugin raises at import, vrelab keeps working
-            _skip(f"reader plugin {where} skipped: {type(exc).__name__}: {exc}")
+        cls, failed = _isolated_load(ep, where)
+        if failed:
+            _skip(f"reader plugin {where} skipped: {failed}")
             continue
         why = _plugin_problem(cls)
         if why:
@@ -474,6 +473,45 @@ def _load_plugins() -> None:
             continue
         PLUGINS[cls] = where
         register(cls)
+
+
+# a plugin's import may take this long [s] (a vendor SDK loading its DLLs takes a second or two);
+# one that takes longer (a hang, a network wait) is skipped and vrelab goes on without it
+PLUGIN_IMPORT_TIMEOUT_S = 10.0
+
+
+def _isolated_load(ep: Any, where: str) -> tuple[Any, str | None]:
+    """Import a plugin's entry point so that nothing it does at import reaches vrelab: what it
+    prints is kept off stdout (``--json`` prints one JSON object and nothing else) and said as
+    a note; ``sys.exit``, any exception, or an import that takes longer than
+    :data:`PLUGIN_IMPORT_TIMEOUT_S` (run in a daemon thread, left behind) make it skipped.
+    Returns (the object, None) or (None, why it is skipped)."""
+    import contextlib
+    import io
+
+    out: dict[str, Any] = {}
+    printed = io.StringIO()
+
+    def load() -> None:
+        try:
+            out["obj"] = ep.load()
+        except BaseException as exc:  # SystemExit and KeyboardInterrupt raised by a plugin included
+            out["exc"] = exc
+
+    with contextlib.redirect_stdout(printed):
+        t = threading.Thread(target=load, name=f"vrelab plugin {ep.name}", daemon=True)
+        t.start()
+        t.join(PLUGIN_IMPORT_TIMEOUT_S)
+    if printed.getvalue().strip():
+        _skip(f"reader plugin {where} printed at import (kept off stdout): {printed.getvalue().strip()[:80]!r}")
+    if t.is_alive():
+        return None, f"its import did not finish in {PLUGIN_IMPORT_TIMEOUT_S:g} s"
+    if "exc" in out:
+        exc = out["exc"]
+        if isinstance(exc, SystemExit):
+            return None, f"it called sys.exit({exc.code!r}) at import"
+        return None, f"{type(exc).__name__}: {exc}"
+    return out.get("obj"), None
 
 
 def _claims(cls: type[Source], head: bytes) -> bool:
@@ -510,15 +548,22 @@ def reader_for(path: Path) -> type[Source]:
         head = fh.read(1024)
     if not head:
         raise ValueError(f"{path.name}: file is empty")
-    found = next((cls for cls in READERS if _claims(cls, head)), None)
-    if found is None:
-        ext = path.suffix.lower()
-        for cls in READERS:
-            if ext in cls.extensions:
-                if cls.has_magic:
-                    raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
-                found = cls
-                break
+    # the built-in formats first, by magic bytes and then by extension (CSV has no magic), and
+    # only then the plugins: a plugin whose can_open says yes to everything cannot take a
+    # built-in format's file
+    found = None
+    ext = path.suffix.lower()
+    for group in ([c for c in READERS if c not in PLUGINS], [c for c in READERS if c in PLUGINS]):
+        found = next((cls for cls in group if _claims(cls, head)), None)
+        if found is None:
+            for cls in group:
+                if ext in cls.extensions:
+                    if cls.has_magic:
+                        raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
+                    found = cls
+                    break
+        if found is not None:
+            break
     if found is None:
         names = ", ".join(dict.fromkeys(c.fmt.split("-")[0].upper() for c in READERS))
         raise ValueError(f"{path.name}: unknown file format (extension {path.suffix or 'none'!r}); supported: {names}")
