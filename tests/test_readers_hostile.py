@@ -407,16 +407,22 @@ def test_hostile_plugins_cannot_take_built_in_files_exit_or_print(tmp_path: Path
     site = _plugin_site(tmp_path)
     csv = tmp_path / "rec.csv"
     csv.write_text("time,dut\n" + "".join(f"{i / FS},{v}\n" for i, v in enumerate(_sine())))
-    # built-in CSV read by the built-in reader, --json exactly one object, the exiting plugin skipped in one line
+    # built-in CSV read by the built-in reader (the plugins not even imported: nothing to wait on)
     rc, out, err = _run(site, "channels", str(csv), "--json")
     assert rc == 0, err
     d = json.loads(out)
     assert d["format"] == "csv" and [c["name"] for c in d["channels"]] == ["time", "dut"]
-    assert "hello from a plugin" not in out
+    assert "plugin" not in err
+    # a file no built-in format claims: the plugins load; --json is still exactly one object,
+    # the exiting plugin is skipped in one line, the printing one's text kept off stdout
+    grd = tmp_path / "rec.grd"
+    grd.write_bytes(b"GRD" + bytes(100))
+    rc, out, err = _run(site, "channels", str(grd), "--json")
+    assert rc == 0, err
+    assert json.loads(out)["format"] == "greedy" and "hello from a plugin" not in out
     lines = err.strip().splitlines()
     assert any("exits_plugin:X" in ln and "sys.exit(0)" in ln and "skipped" in ln for ln in lines), err
-    assert any("printed at import" in ln for ln in lines), err
-
+    assert any("printed at import" in ln and "hello from a plugin" in ln for ln in lines), err
 
 def test_a_plugins_samples_are_held_to_a_readers_contract(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                           capsys: pytest.CaptureFixture[str]) -> None:

@@ -540,10 +540,10 @@ def missing_library(cls: type[Source]) -> str | None:
 def reader_for(path: Path) -> type[Source]:
     """The registered format of ``path``: its magic bytes first, else its extension.
 
-    The built-in formats are asked first, then the plugins (:func:`load_plugins`). A format
-    whose library is not installed is refused with its install hint.
+    The built-in formats are asked first, then the plugins (:func:`load_plugins`, only when no
+    built-in format claims the file: a built-in format's file never waits on a plugin's import).
+    A format whose library is not installed is refused with its install hint.
     """
-    load_plugins()
     with open(path, "rb") as fh:
         head = fh.read(1024)
     if not head:
@@ -553,7 +553,10 @@ def reader_for(path: Path) -> type[Source]:
     # built-in format's file
     found = None
     ext = path.suffix.lower()
-    for group in ([c for c in READERS if c not in PLUGINS], [c for c in READERS if c in PLUGINS]):
+    for plugins in (False, True):
+        if plugins:
+            load_plugins()
+        group = [c for c in READERS if (c in PLUGINS) == plugins]
         found = next((cls for cls in group if _claims(cls, head)), None)
         if found is None:
             for cls in group:
