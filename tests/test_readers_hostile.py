@@ -448,3 +448,40 @@ def test_a_plugins_samples_are_held_to_a_readers_contract(tmp_path: Path, monkey
     assert main(["analyze", str(bad), "--dut", "c", "--reference", "ok"]) == 2
     assert "complex128 samples for channel 'c'" in _one_line(capsys)
 
+
+# ----------------------------------------------------------------------------- where units and data come from
+
+
+def test_channels_json_says_where_each_unit_and_each_channels_data_come_from(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """One HDF5 file (h5py) with a unit attribute, a float dataset without one, integer counts and
+    a dataset in another file; one CSV whose header brackets state a unit."""
+    import json
+
+    import h5py
+
+    other = tmp_path / "other.bin"
+    _sine(1).tofile(other)
+    p = tmp_path / "units.h5"
+    with h5py.File(p, "w") as f:
+        f.attrs["fs_hz"] = FS
+        f.create_dataset("acc", data=_sine())
+        f["acc"].attrs["unit"] = "m/s^2"
+        f.create_dataset("bare", data=_sine())
+        f.create_dataset("counts", data=(_sine() * 1000).astype("i4"))
+        f.create_dataset("away", shape=(N,), dtype="<f8", external=[(str(other), 0, N * 8)])
+    assert main(["channels", str(p), "--json"]) == 0
+    by = {c["name"]: c for c in json.loads(capsys.readouterr().out)["channels"]}
+    assert {n: c["unit_source"] for n, c in by.items()} == {"acc": "file", "bare": "assumed", "counts": "none",
+                                                           "away": "assumed"}
+    assert {n: c["data"]["kind"] for n, c in by.items()} == {"acc": "file", "bare": "file", "counts": "file",
+                                                            "away": "external"}
+    assert by["away"]["data"]["files"] == [str(other)]
+    csv = tmp_path / "h.csv"
+    csv.write_text("time,Acceleration x (m/s^2)\n" + "".join(f"{i / FS},{v}\n" for i, v in enumerate(_sine())))
+    assert main(["channels", str(csv), "--json"]) == 0
+    by = {c["name"]: c for c in json.loads(capsys.readouterr().out)["channels"]}
+    assert by["Acceleration x (m/s^2)"]["unit_source"] == "header" and by["time"]["unit_source"] == "assumed"
+    assert main(["channels", str(p)]) == 0  # the table says it too
+    out = capsys.readouterr().out
+    assert "g (assumed)" in out and "- (counts)" in out

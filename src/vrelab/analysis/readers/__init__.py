@@ -504,12 +504,17 @@ def open_record(
 
 def list_channels(path: str | Path) -> dict[str, Any]:
     """Every channel of a file as a plain dict (``vrelab channels``): ``{"file", "format",
-    "notes", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit", "notes"}]}``.
+    "notes", "unlisted", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit",
+    "unit_source", "notes", "data"}]}``.
 
     ``name`` is what ``--dut``/``--reference`` take; ``rate_hz`` the channel's own rate (null
     with the reason in ``notes`` when the file gives none or its stamps are refused); ``unit``
-    what the file states (null: none); ``notes`` what a reader said of the channel (another
-    name it answers to, integer counts, the time column used, a rate snapped or fitted).
+    what the file states (null: none), ``unit_source`` where that comes from
+    (:func:`unit_source`: ``file``, ``header``, ``assumed`` g, or ``none`` for counts); ``notes``
+    what a reader said of the channel (another name it answers to, integer counts, the time
+    column used, a rate snapped or fitted, why it is not read); ``data`` where its samples live
+    (:meth:`Source.location`: ``{"kind": "file" | "external" | "virtual", "files": [...]}``).
+    At most :data:`MAX_CHANNELS` are listed; ``unlisted`` counts the rest.
     """
     path = Path(path)
     if not path.is_file():
@@ -567,10 +572,12 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             out.append({
                 "name": name, "rate_hz": fs, "n_samples": n,
                 "duration_s": (n / fs) if fs else None,
-                "unit": src.unit_of(name), "notes": notes, "data": src.location(name),
+                "unit": src.unit_of(name), "unit_source": unit_source(src, name), "notes": notes,
+                "data": src.location(name),
             })
         for name, cands in src.ambiguous.items():
-            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None, "data": None,
+            out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None,
+                        "unit_source": None, "data": None,
                         "notes": [f"ambiguous: names {', '.join(repr(c) for c in cands)}; give one of these"]})
         notes = list(src.notes)
         if unlisted and not src.unlisted:
@@ -578,6 +585,17 @@ def list_channels(path: str | Path) -> dict[str, Any]:
         return {"file": str(path), "format": src.fmt, "notes": notes, "channels": out, "unlisted": unlisted}
     finally:
         src.close()
+
+
+def unit_source(src: Source, name: str) -> str:
+    """Where channel ``name``'s unit comes from: ``"file"`` (the format's metadata: TDMS
+    ``unit_string``, an HDF5 attribute, LVM ``Y_Unit_Label``...), ``"header"`` (a text header:
+    a column name's brackets, a logger's comment lines), ``"assumed"`` (none stated, floating
+    samples: read as g unless told, and said), ``"none"`` (none stated, integer samples: counts,
+    refused without a sensitivity)."""
+    if src.unit_of(name):
+        return "header" if name in src.header_units else "file"
+    return "none" if src.is_integer(name) else "assumed"
 
 
 def _given_scale(scale: Any, key: str) -> Scale | None:
