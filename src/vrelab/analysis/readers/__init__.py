@@ -62,12 +62,21 @@ The class is written like the built-in readers (``text.py`` is a short one)::
         def close(self):
             ...
 
-Plugins are loaded on first use (:func:`load_plugins`) and asked after the built-in formats, so a
-plugin cannot change how a built-in format is read. A plugin that fails to import, is not a
-:class:`Source` subclass, reuses a registered format's name, or raises in ``can_open`` is skipped
-with a one-line note (:data:`PLUGIN_NOTES`, and a warning on the ``vrelab.readers`` logger, which
-the CLI prints on stderr); vrelab keeps working. A record read by a plugin says so in its
-``reader_notes``.
+Plugins are loaded (:func:`load_plugins`) only for a file no built-in format claims, and asked
+after the built-in formats, so a plugin cannot change how a built-in format is read nor make one
+wait. A plugin's import runs isolated: one that fails, calls ``sys.exit``, or takes more than
+``PLUGIN_IMPORT_TIMEOUT_S``, is not a :class:`Source` subclass, reuses a registered format's
+name, or raises in ``can_open`` is skipped with a one-line note (:data:`PLUGIN_NOTES`, and a
+warning on the ``vrelab.readers`` logger, which the CLI prints on stderr); what it prints at
+import is kept off stdout; vrelab keeps working. A plugin's samples are checked as they are read
+(real numbers, 1-D, as many as asked). A record read by a plugin says so in its ``reader_notes``.
+
+**Untrusted files.** vrelab reads the file it is given and nothing a file points to: an HDF5
+dataset whose samples live in another file (external storage, a virtual dataset mapping another
+file) is listed, with where its data live, and refused when named. A compressed HDF5 chunk is
+inflated whole by any read: one above 1/64 of the memory budget is refused. At most
+``MAX_CHANNELS`` (1000) channels are indexed and listed; the rest are counted, and one of them
+is read when named exactly.
 """
 
 from __future__ import annotations
