@@ -485,3 +485,30 @@ def test_channels_json_says_where_each_unit_and_each_channels_data_come_from(
     assert main(["channels", str(p)]) == 0  # the table says it too
     out = capsys.readouterr().out
     assert "g (assumed)" in out and "- (counts)" in out
+
+
+def test_a_truncated_tdms_says_so_in_notes_not_in_npTDMS_log_lines(tmp_path: Path,
+                                                                    capfd: pytest.CaptureFixture[str]) -> None:
+    """npTDMS's writer, two segments, the file cut 30000 bytes short: npTDMS alone logs two
+    WARNING lines on stderr; vrelab keeps them as notes, and a refusal is its one line."""
+    import json
+
+    from nptdms import ChannelObject, TdmsFile, TdmsWriter
+
+    full = tmp_path / "full.tdms"
+    with TdmsWriter(full) as w:
+        w.write_segment([ChannelObject("g", "a", np.arange(10000.0), properties={"wf_increment": 1 / FS})])
+        w.write_segment([ChannelObject("g", "a", np.arange(10000.0))])
+    p = tmp_path / "cut.tdms"
+    p.write_bytes(full.read_bytes()[:-30000])
+    with TdmsFile.open(p) as f:  # npTDMS alone: its own log lines
+        f["g"]["a"][:]
+    assert "[nptdms" in capfd.readouterr().err
+    assert main(["channels", str(p), "--json"]) == 0
+    out, err = capfd.readouterr()
+    assert err == "" and any("npTDMS: Last segment of file has less data than expected" in n
+                             for n in json.loads(out)["notes"])
+    assert main(["analyze", str(p), "--dut", "g/a"]) == 2
+    err = capfd.readouterr().err
+    assert "[nptdms" not in err and len(err.strip().splitlines()) == 1, err
+

@@ -5,8 +5,10 @@ Each channel's rate is ``1/wf_increment`` (snapped when stored rounded), its uni
 
 from __future__ import annotations
 
+import contextlib
+import logging
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,6 +19,36 @@ from vrelab.analysis.readers._base import (
     register,
     snap_rate,
 )
+
+
+@contextlib.contextmanager
+def _library_says(notes: list[str]) -> Iterator[None]:
+    """What npTDMS logs while it reads (a truncated file's "Last segment of file has less data
+    than expected"), as the source's notes rather than lines of its own on stderr: npTDMS puts
+    its own console handler on each of its loggers (nptdms.log.LogManager)."""
+    from nptdms.log import log_manager
+
+    said: list[str] = []
+
+    class Collect(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            said.append(record.getMessage())
+
+    h = Collect(logging.WARNING)
+    loggers = list(log_manager.loggers.values())
+    for lg in loggers:
+        lg.removeHandler(log_manager.console_handler)
+        lg.addHandler(h)
+    try:
+        yield
+    finally:
+        for lg in loggers:
+            lg.removeHandler(h)
+            lg.addHandler(log_manager.console_handler)
+        for m in said:
+            note = f"npTDMS: {m}"
+            if note not in notes:
+                notes.append(note)
 
 
 def _rate(inc: float, notes: list[str]) -> float:
@@ -43,7 +75,8 @@ class TdmsSource(Source):
 
         super().__init__(path)
         try:
-            self.f = TdmsFile.open(path)
+            with _library_says(self.notes):
+                self.f = TdmsFile.open(path)
         except Exception as exc:  # npTDMS raises ValueError/EOFError/struct.error on bad files
             raise ValueError(f"{path.name}: cannot read as TDMS (truncated or corrupt file?): {exc}") from None
         self.chans: dict[str, Any] = {}
@@ -89,7 +122,8 @@ class TdmsSource(Source):
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         try:
-            return np.asarray(self.chans[name][start:stop])
+            with _library_says(self.notes):
+                return np.asarray(self.chans[name][start:stop])
         except Exception as exc:
             raise ValueError(f"{self.path.name}: cannot read {name!r} at samples {start}-{stop}: {exc}") from None
 
