@@ -512,3 +512,16 @@ def test_a_truncated_tdms_says_so_in_notes_not_in_npTDMS_log_lines(tmp_path: Pat
     err = capfd.readouterr().err
     assert "[nptdms" not in err and len(err.strip().splitlines()) == 1, err
 
+
+def test_a_400_character_run_label_makes_a_folder_the_file_system_takes(tmp_path: Path) -> None:
+    """A campaign's run folder is NN-<label>: a 400-character label was a name the file system
+    refuses (NAME_MAX, 255 bytes on Linux); two labels alike in their first 100 characters stay apart."""
+    from vrelab.folder import channel_folder_names
+
+    long = "Z up, 80 Hz, " + "x" * 387
+    names = channel_folder_names([f"01-{long}", f"02-{long}", f"03-{long}"[:120], f"03-{long}"[:130]])
+    assert len(set(names.values())) == 4
+    for n in names.values():
+        (tmp_path / n).mkdir()  # ENAMETOOLONG before
+        assert len(n.encode()) <= 255
+
