@@ -525,3 +525,23 @@ def test_a_400_character_run_label_makes_a_folder_the_file_system_takes(tmp_path
         (tmp_path / n).mkdir()  # ENAMETOOLONG before
         assert len(n.encode()) <= 255
 
+
+def test_a_python_sweep_runs_only_with_allow_python(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A sweep file of kind 'python' names a module of the environment to import and call: not
+    without --allow-python (the module, which leaves a marker when imported, is never imported)."""
+    import sys
+
+    (tmp_path / "hf_sweep_mod.py").write_text("import pathlib\npathlib.Path('imported').touch()\n"
+                                              "def f(params, seed):\n    return {'a': float(params['x'])}\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    spec = tmp_path / "s.toml"
+    spec.write_text('kind = "python"\nfunction = "hf_sweep_mod:f"\nseed = 1\n[grid]\nx = [1, 2]\n')
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = _one_line(capsys)
+    assert "hf_sweep_mod:f" in err and "--allow-python" in err
+    assert not (tmp_path / "imported").exists() and "hf_sweep_mod" not in sys.modules
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "o"), "--no-progress", "--allow-python"]) == 0
+    assert (tmp_path / "imported").exists()
+    sys.modules.pop("hf_sweep_mod", None)
