@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from vrelab.cli._common import Subparsers, print_json, with_formats
+from vrelab.cli._common import Subparsers, print_json, printable, with_formats
 
 
 def register(subparsers: Subparsers) -> None:
@@ -54,8 +54,10 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(listing)
         return 0
-    rows = [(c["name"], _num(c["rate_hz"], ".9g"), _num(c["n_samples"], "d"), _num(c["duration_s"], ".6g"),
-             _unit(c), "; ".join(c["notes"])) for c in listing["channels"]]
+    # each cell as it will be shown (escapes and all), so the widths line up
+    rows = [tuple(printable(v) for v in (str(c["name"]), _num(c["rate_hz"], ".9g"), _num(c["n_samples"], "d"),
+                                          _num(c["duration_s"], ".6g"), _unit(c), "; ".join(c["notes"])))
+            for c in listing["channels"]]
     head = ("channel", "rate_hz", "samples", "duration_s", "unit", "notes")
     widths = [max(len(r[i]) for r in rows + [head]) for i in range(5)]
     print(f"{listing['file']} ({listing['format'].upper()})")
