@@ -177,6 +177,9 @@ def test_progress_bar_goes_to_stderr_and_json_stays_clean(csv_file, capsys):
     assert rc == 0, err
     d = json.loads(out)  # stdout holds exactly one JSON object
     assert "reading" in err
+    # the bar redraws with carriage returns, which reach the terminal as such: the escaping of
+    # every printed line (control characters in a file's channel names) is not the bar's
+    assert "\r" in err and "\\r" not in err
     assert [f["model"] for f in d["fits"]] == ["clip-truncated", "vrc+k4"]  # the one fit policy's order
     assert "c4_ug_per_g4" in d["fit"]
     assert "--k4" in d["provenance"]["command"] and "--band 50:250" in d["provenance"]["command"]

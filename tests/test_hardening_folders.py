@@ -330,7 +330,7 @@ def test_a_sweeps_pool_ends_with_it_and_keeps_its_checkpoint(tmp_path, sig):
     spec.write_text('kind = "python"\nfunction = "hf_points:slow"\nseed = 1\n[grid]\nx = "0:199:1"\n')
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
-    proc = subprocess.Popen([*PY, "sweep", str(spec), "--workers", "2", "--out", str(out), "--no-progress"],
+    proc = subprocess.Popen([*PY, "sweep", str(spec), "--workers", "2", "--out", str(out), "--no-progress", "--allow-python"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     ck = out / "checkpoint.jsonl"
     deadline = time.monotonic() + 30

@@ -403,7 +403,7 @@ def test_channels_lists_names_rates_units_and_notes(tmp_path: Path) -> None:
     by = {c["name"]: c for c in d["channels"]}
     assert set(by) == {"g/acc", "g/counts", "g/temp"}
     assert by["g/acc"] == {"name": "g/acc", "rate_hz": 51200.0, "n_samples": 2000, "duration_s": 2000 / 51200,
-                           "unit": "m/s^2", "notes": []}
+                           "unit": "m/s^2", "unit_source": "file", "notes": [], "data": {"kind": "file", "files": []}}
     assert by["g/temp"]["rate_hz"] == 2.0 and by["g/temp"]["duration_s"] == 10.0 and by["g/temp"]["unit"] == "degC"
     assert by["g/counts"]["unit"] is None and any("ADC counts" in n for n in by["g/counts"]["notes"])
     text = _vrelab("channels", str(p))

@@ -307,7 +307,8 @@ def test_sigkill_midway_then_resume_recomputes_nothing_finished(points_module, t
         )
     )
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "vrelab", "sweep", str(sweep), "--out", str(out), "--no-progress", *where]
+    cmd = [sys.executable, "-m", "vrelab", "sweep", str(sweep), "--out", str(out), "--no-progress", "--allow-python",
+           *where]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     ck = out / "checkpoint.jsonl"
     # a generous wait, not a speed check: a loaded machine took over 30 s to start the pool
@@ -383,7 +384,7 @@ def test_cli_writes_netcdf_csv_and_json_that_agree(points_module, tmp_path, caps
         'kind = "python"\nfunction = "sweep_test_points:noisy"\nseed = 3\n'
         '[grid]\nx = [1, 2]\n[montecarlo]\nunits = 3\nk = {dist = "lognormal", mean = 0.0, sigma = 0.1}\n'
     )
-    assert main(["sweep", str(f), "--out", str(tmp_path / "o"), "--json"]) == 0
+    assert main(["sweep", str(f), "--out", str(tmp_path / "o"), "--json", "--allow-python"]) == 0
     captured = capsys.readouterr()
     doc = json.loads(captured.out)  # stdout: one JSON object and nothing else
     assert "sweep" in captured.err and "6/6" in captured.err  # the progress bar, on stderr

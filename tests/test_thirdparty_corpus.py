@@ -169,8 +169,8 @@ def _mdf(path: Path) -> dict[str, LibChannel]:
                     continue
                 s = mdf.get(group=gi, index=ci)
                 x = np.asarray(s.samples)
-                if x.ndim != 1 or x.dtype.kind not in "biuf":
-                    continue
+                if x.ndim != 1 or x.dtype.kind not in "biuf" or len(x) < 2:
+                    continue  # (a logger's bus with no frames holds no record: no rate to compare)
                 rate, rtol, r, drift = _stamped_rate(np.asarray(s.timestamps, dtype=np.float64))
                 name = ch.name if len(mdf.channels_db[ch.name]) == 1 else f"{gi}/{ch.name}"
                 out[name] = LibChannel(x, rate, rtol, str(s.unit or "").strip(), r, drift)
@@ -197,7 +197,13 @@ def _mat(path: Path) -> dict[str, LibChannel]:
     from scipy.io import loadmat
 
     out: dict[str, LibChannel] = {}
-    for k, v in loadmat(str(path), squeeze_me=False, mat_dtype=True).items():
+    data = loadmat(str(path), squeeze_me=False, mat_dtype=True)
+    # a 1x1 struct's fields, named struct.field as the readers document (loaded without mat_dtype,
+    # which casts a complex field to its real part)
+    for k, v in loadmat(str(path), squeeze_me=False).items():
+        if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.names and v.size == 1:
+            data.update({f"{k}.{f}": v[f].item() for f in v.dtype.names})
+    for k, v in data.items():
         if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "biuf" or v.size < 2:
             continue
         out.update({n: LibChannel(x, None, 0.0, "") for n, x in _columns(k, v).items()})
@@ -359,7 +365,8 @@ def check_file(entry: dict[str, Any]) -> list[str]:
     return problems
 
 
-@pytest.mark.parametrize("entry", MANIFEST, ids=[e["file"] for e in MANIFEST])
+@pytest.mark.parametrize("entry", [e for e in MANIFEST if "checked_by" not in e],
+                         ids=[e["file"] for e in MANIFEST if "checked_by" not in e])
 def test_thirdparty_file_reads_as_its_library_reads_it(entry: dict[str, Any]) -> None:
     problems = check_file(entry)
     assert not problems, f"{entry['file']} ({entry['writer']}):\n" + "\n".join(problems)

@@ -21,7 +21,7 @@ that a table cell never holds ``-8.943e-112`` or 20 digits.
 from __future__ import annotations
 
 import math
-from typing import SupportsFloat, TypeGuard
+from typing import SupportsFloat, TextIO, TypeGuard
 
 from vrelab.units import UG_PER_G
 
@@ -228,3 +228,12 @@ def format_field(value: object, unit: str | None = None) -> str:
     if isinstance(value, dict):
         return "; ".join(": ".join(field_text(str(k), v)) for k, v in value.items()) or "none"
     return str(value)
+
+
+def progress_stream() -> TextIO:
+    """Where a progress bar draws: the process's stderr itself, from under :func:`vrelab.cli.main`'s
+    escaping wrapper (``PrintableStream.raw``), whose escapes would print the bar's carriage returns
+    as text. A bar's text is vrelab's own (counts, rates, a fixed description), no file's."""
+    import sys
+
+    return getattr(sys.stderr, "raw", sys.stderr)

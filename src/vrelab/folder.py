@@ -62,13 +62,18 @@ from vrelab.results import VreResult
 FolderKind = Literal["result", "sweep", "channels", "campaign", "identification"]
 
 
+FOLDER_NAME_MAX = 100
+
+
 def channel_folder_names(names: Sequence[str]) -> dict[str, str]:
     """A sub-folder name per channel (or run): its name with anything but letters, digits,
     ``.``, ``_``, ``-`` replaced, made unique."""
     out: dict[str, str] = {}
     used: set[str] = set()
     for name in names:
-        base = re.sub(r"[^A-Za-z0-9._-]+", "_", str(name)).strip("._") or "channel"
+        # at most FOLDER_NAME_MAX characters: a file system takes 255 bytes a name (a 400-character
+        # run label failed the campaign with ENAMETOOLONG); names cut alike are made unique below
+        base = re.sub(r"[^A-Za-z0-9._-]+", "_", str(name))[:FOLDER_NAME_MAX].strip("._") or "channel"
         cand, i = base, 2
         while cand.lower() in used:
             cand, i = f"{base}_{i}", i + 1

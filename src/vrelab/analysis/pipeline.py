@@ -173,6 +173,8 @@ def reduce(
     baselines = find_baselines(stats, sched, sat, warnings)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
+    dut_file = (record.meta or {}).get("channels", {}).get("dut", "dut")
+    P.check_assumed_g([b.mean_g for b in baselines], dut_file, dut_file in (record.meta or {}).get("units_assumed", ()))
     kind, probes = _plausible_method(record, sched, stats, band, method, baselines, opt.accept)
     ctx = LevelContext(record, stats, sat, baselines, low_frequency(baselines), opt.block_size)
 

@@ -29,6 +29,7 @@ from typing import Callable, Literal, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.analysis.readers._base import G0
 from vrelab.record import Record
 from vrelab.results import Method
 
@@ -410,6 +411,26 @@ def off_reading_slip(channel: str, reading_g: float | None, range_g: float | Non
             f"{abs(reading_g) / range_g:.3g} times its range of ±{range_g:g} g ({range_from}): a part at rest reads "
             "its static field within its range, so this is a unit slip (LSB read as g, mV read as V): check this "
             "run's dut_units and dut_sensitivity")
+
+
+# 1 g in m/s²: a channel read as g for want of a stated unit whose vibration-off baseline lies
+# within 10 % of this reads m/s². No static test puts 8.8-10.8 g on an axis: the field is at
+# most 1 g, and a tilt, an offset or a part's zero-g error moves that by a fraction of a g.
+_MS2_BAND = (0.9 * G0, 1.1 * G0)
+
+
+def check_assumed_g(baseline_dc_g: Sequence[float], channel: str, assumed: bool, option: str = "--dut-units") -> None:
+    """Refuse a channel whose unit was assumed (the file states none: read as g) when its
+    vibration-off baselines read 1 g in m/s² (9.81 "g"): a unit slip, never a static field."""
+    if not assumed or not len(baseline_dc_g):
+        return
+    dc = float(np.mean(baseline_dc_g))
+    if _MS2_BAND[0] <= abs(dc) <= _MS2_BAND[1]:
+        raise ValueError(
+            f"DUT {channel!r} reads {dc:+.4g} with vibration off, taken as g because the file states no unit: "
+            f"no static field is {abs(dc):.3g} g, and {dc:+.4g} m/s² is {dc / G0:+.3g} g: give {option} m/s2 "
+            f"(or {option} g if it is g)"
+        )
 
 
 def check_channels(baselines: Sequence[SegmentProbe], dut: str, reference: str, accept: bool = False) -> None:

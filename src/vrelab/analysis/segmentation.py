@@ -388,7 +388,9 @@ def window_pass_many(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False)
+        from vrelab._format import progress_stream
+
+        bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False, file=progress_stream())
     pos = 0
     # a block is worked in cache-sized chunks of whole windows: the FFT, the squares, the sums,
     # the extremes and the kernel then read each chunk from cache rather than from memory

@@ -22,7 +22,7 @@ import os
 import sys
 from typing import Any, Collection, Sequence
 
-from vrelab.cli._common import Parser, UsageError, print_json, printable
+from vrelab.cli._common import Parser, PrintableStream, UsageError, print_json, printable
 
 __all__ = ["main", "build_parser", "COMMANDS", "Parser", "UsageError", "print_json"]
 
@@ -123,9 +123,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         # script's `vrelab ... &`): a `kill -INT` then finished the run and exited 0 with the
         # workers busy (issue 23); now it stops the run, its workers and its staging, exit 130
         before = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, signal.default_int_handler)
+    streams = sys.stdout, sys.stderr
+    # every line printed goes out escaped (a channel name with ESC or BEL is text, not a command
+    # to the terminal): one wrapper for all, rather than a printable() at each print site
+    sys.stdout, sys.stderr = PrintableStream(streams[0]), PrintableStream(streams[1])
     try:
         return _run(argv, debug)
     finally:
+        sys.stdout, sys.stderr = streams
         if on_main:
             signal.signal(signal.SIGTERM, before[0])
             signal.signal(signal.SIGINT, before[1])

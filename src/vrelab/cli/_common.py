@@ -9,7 +9,7 @@ import json
 import re
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeAlias
+from typing import TYPE_CHECKING, Any, Iterable, TextIO, TypeAlias
 
 from vrelab._lists import parse_list
 
@@ -239,8 +239,34 @@ def typeb_from_args(args: argparse.Namespace) -> TypeB:
 def printable(text: str) -> str:
     """``text`` with control characters written as escapes (``\\x1b``): a channel name or a
     path from a file reaches the terminal as text, never as an escape sequence that moves the
-    cursor, retitles the window or hides the rest of the line."""
+    cursor, retitles the window or hides the rest of the line. Newlines and tabs stay."""
     return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+
+
+class PrintableStream:
+    """A text stream that writes through :func:`printable`: :func:`vrelab.cli.main` puts one over
+    stdout and stderr for the command's run, so every line a command prints (a table of a file's
+    channel names, a reader's note, a warning a library logs) reaches the terminal escaped, without
+    each print site having to remember it."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+
+    @property
+    def raw(self) -> TextIO:
+        """The stream underneath (a progress bar's, :func:`vrelab._format.progress_stream`)."""
+        return self._stream
+
+    def write(self, text: str) -> int:
+        self._stream.write(printable(text))
+        return len(text)
+
+    def writelines(self, lines: Iterable[str]) -> None:
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, name: str) -> Any:  # flush, fileno, isatty, encoding...: the stream's own
+        return getattr(self._stream, name)
 
 
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")

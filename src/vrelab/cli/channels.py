@@ -6,15 +6,20 @@
 
 For each channel: the exact name to pass to ``--dut``/``--reference``, its sample rate, number
 of samples, duration, the unit the file states (or none) and what the reader noticed.
-``--json`` prints ``{"file", "format", "notes", "channels": [{"name", "rate_hz", "n_samples",
-"duration_s", "unit", "notes"}]}`` (:func:`vrelab.analysis.readers.list_channels`).
+``--json`` prints ``{"file", "format", "notes", "unlisted", "channels": [{"name", "rate_hz",
+"n_samples", "duration_s", "unit", "unit_source", "notes", "data"}]}``
+(:func:`vrelab.analysis.readers.list_channels`): ``unit_source`` is ``file``, ``header``,
+``assumed`` (no unit stated: read as g) or ``none`` (integer counts); ``data`` says where the
+samples live, ``{"kind": "file" | "external" | "virtual", "files": [...]}`` (samples in other
+files are listed, never read).
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
-from vrelab.cli._common import Subparsers, print_json, with_formats
+from vrelab.cli._common import Subparsers, print_json, printable, with_formats
 
 
 def register(subparsers: Subparsers) -> None:
@@ -34,6 +39,14 @@ def _num(x: float | None, fmt: str) -> str:
     return "-" if x is None else format(x, fmt)
 
 
+def _unit(c: dict[str, Any]) -> str:
+    """The unit as the table shows it, with where it comes from when not the file's metadata."""
+    src = c.get("unit_source")
+    if c["unit"]:
+        return f"{c['unit']} (header)" if src == "header" else str(c["unit"])
+    return {"assumed": "g (assumed)", "none": "- (counts)"}.get(str(src), "-")
+
+
 def run(args: argparse.Namespace) -> int:
     from vrelab.analysis.readers import list_channels
 
@@ -41,8 +54,10 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(listing)
         return 0
-    rows = [(c["name"], _num(c["rate_hz"], ".9g"), _num(c["n_samples"], "d"), _num(c["duration_s"], ".6g"),
-             c["unit"] or "-", "; ".join(c["notes"])) for c in listing["channels"]]
+    # each cell as it will be shown (escapes and all), so the widths line up
+    rows = [tuple(printable(v) for v in (str(c["name"]), _num(c["rate_hz"], ".9g"), _num(c["n_samples"], "d"),
+                                          _num(c["duration_s"], ".6g"), _unit(c), "; ".join(c["notes"])))
+            for c in listing["channels"]]
     head = ("channel", "rate_hz", "samples", "duration_s", "unit", "notes")
     widths = [max(len(r[i]) for r in rows + [head]) for i in range(5)]
     print(f"{listing['file']} ({listing['format'].upper()})")

@@ -60,6 +60,9 @@ def register(subparsers: Subparsers) -> None:
     p.add_argument("--chunk", type=int, metavar="N", help="points per task (default: file, 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--json", action="store_true", help="print the summary and every point as JSON")
+    p.add_argument("--allow-python", action="store_true",
+                   help="run a sweep of kind 'python': it imports the module its 'function' names and calls it "
+                   "(code from the environment, chosen by the file); refused without this option")
     p.set_defaults(func=run)
 
 
@@ -75,6 +78,9 @@ def run(args: argparse.Namespace) -> int:
     from vrelab.sweep.dataset import flat_rows
 
     spec = load_spec(args.file)
+    if spec.kind == "python" and not args.allow_python:
+        raise ValueError(f"{args.file}: kind 'python' imports and calls {spec.function!r}: a sweep file chooses "
+                         "code to run only when you say so, with --allow-python")
     out = Path(args.out) if args.out else Path(f"{Path(args.file).stem}-sweep")
     try:
         res = run_sweep(

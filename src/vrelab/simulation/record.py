@@ -372,4 +372,7 @@ def rail_window(sensor: Any) -> tuple[float, float]:
 def progress_bar(total: int, enabled: bool) -> Any:
     from tqdm import tqdm
 
-    return tqdm(total=total, disable=not enabled, unit="S", unit_scale=True, leave=False, desc="simulating")
+    from vrelab._format import progress_stream
+
+    return tqdm(total=total, disable=not enabled, unit="S", unit_scale=True, leave=False, desc="simulating",
+                file=progress_stream())

@@ -107,7 +107,9 @@ class _Progress:
         if enabled:
             from tqdm import tqdm
 
-            self._bar = tqdm(total=total, initial=initial, desc=desc, unit="pt", file=None, dynamic_ncols=True)
+            from vrelab._format import progress_stream
+
+            self._bar = tqdm(total=total, initial=initial, desc=desc, unit="pt", file=progress_stream(), dynamic_ncols=True)
 
     def update(self, n: int, failed: int) -> None:
         if self._bar is not None:

@@ -62,12 +62,21 @@ The class is written like the built-in readers (``text.py`` is a short one)::
         def close(self):
             ...
 
-Plugins are loaded on first use (:func:`load_plugins`) and asked after the built-in formats, so a
-plugin cannot change how a built-in format is read. A plugin that fails to import, is not a
-:class:`Source` subclass, reuses a registered format's name, or raises in ``can_open`` is skipped
-with a one-line note (:data:`PLUGIN_NOTES`, and a warning on the ``vrelab.readers`` logger, which
-the CLI prints on stderr); vrelab keeps working. A record read by a plugin says so in its
-``reader_notes``.
+Plugins are loaded (:func:`load_plugins`) only for a file no built-in format claims, and asked
+after the built-in formats, so a plugin cannot change how a built-in format is read nor make one
+wait. A plugin's import runs isolated: one that fails, calls ``sys.exit``, or takes more than
+``PLUGIN_IMPORT_TIMEOUT_S``, is not a :class:`Source` subclass, reuses a registered format's
+name, or raises in ``can_open`` is skipped with a one-line note (:data:`PLUGIN_NOTES`, and a
+warning on the ``vrelab.readers`` logger, which the CLI prints on stderr); what it prints at
+import is kept off stdout; vrelab keeps working. A plugin's samples are checked as they are read
+(real numbers, 1-D, as many as asked). A record read by a plugin says so in its ``reader_notes``.
+
+**Untrusted files.** vrelab reads the file it is given and nothing a file points to: an HDF5
+dataset whose samples live in another file (external storage, a virtual dataset mapping another
+file) is listed, with where its data live, and refused when named. A compressed HDF5 chunk is
+inflated whole by any read: one above 1/64 of the memory budget is refused. At most
+``MAX_CHANNELS`` (1000) channels are indexed and listed; the rest are counted, and one of them
+is read when named exactly.
 """
 
 from __future__ import annotations
@@ -96,6 +105,7 @@ from vrelab.analysis.readers import (  # noqa: F401  (they register)
 )
 from vrelab.analysis.readers._base import (
     G0,
+    MAX_CHANNELS,
     PLUGIN_GROUP,
     PLUGIN_NOTES,
     PLUGINS,
@@ -111,7 +121,7 @@ from vrelab.analysis.readers._base import (
     reader_for,
     register,
 )
-from vrelab.analysis.readers.units import channel_scale
+from vrelab.analysis.readers.units import ASSUMED_NOTE, channel_scale
 from vrelab.record import Schedule
 
 # SPEC 4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
@@ -131,6 +141,7 @@ def _open_source(path: Path) -> Source:
     try:
         src = cls.open(path)
         if cls in PLUGINS:
+            _check_plugin_source(src, PLUGINS[cls])
             src.notes.append(f"read by reader plugin {PLUGINS[cls]}")
         return src
     except ValueError as exc:
@@ -142,6 +153,41 @@ def _open_source(path: Path) -> Source:
     except Exception as exc:  # each format's library raises its own types on a corrupt file
         raise ValueError(f"{path.name}: cannot read as {fmt.upper()} (truncated or corrupt?): "
                          f"{type(exc).__name__}: {exc}") from None
+
+
+def _check_plugin_source(src: Any, where: str) -> None:
+    """A plugin's source is held to what the built-in readers give: a :class:`Source`, channel
+    names as text, lengths as counts, a rate that is a positive finite number or none, units as
+    text. What it gets wrong is one line naming the plugin."""
+    def bad(what: str) -> ValueError:
+        return ValueError(f"reader plugin {where} gave {what}")
+
+    if not isinstance(src, Source):
+        raise bad(f"a {type(src).__name__} from open(), not a Source")
+    if not isinstance(src.lengths, dict) or not all(
+            isinstance(k, str) and isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0
+            for k, v in src.lengths.items()):
+        raise bad("channel lengths that are not {name: samples}")
+    fs = src.fs_hz
+    if fs is not None and not (isinstance(fs, (int, float, np.floating)) and math.isfinite(fs) and fs > 0):
+        raise bad(f"sample rate {fs!r}")
+    if not isinstance(src.units, dict) or not all(isinstance(v, str) for v in src.units.values()):
+        raise bad("units that are not text")
+
+
+def plugin_samples(src: Source, name: str, x: Any, n: int) -> NDArray[Any]:
+    """A plugin's block of channel ``name``, checked as a built-in reader's would be: a 1-D real
+    numeric array of the ``n`` samples asked for (complex samples, None, objects, 2-D arrays or a
+    short read are one line naming the plugin and the channel, never a number)."""
+    where = PLUGINS.get(type(src), type(src).__name__)
+    a = np.asarray(x) if isinstance(x, np.ndarray) or np.isscalar(x) or isinstance(x, (list, tuple)) else None
+    if a is None or a.dtype.kind not in "biuf":
+        what = "None" if x is None else (f"{a.dtype} samples" if a is not None else f"a {type(x).__name__}")
+        raise ValueError(f"reader plugin {where} gave {what} for channel {name!r}: not real numbers")
+    if a.ndim != 1 or len(a) != n:
+        raise ValueError(f"reader plugin {where} gave an array of shape {a.shape} for channel {name!r}, "
+                         f"asked for {n} samples")
+    return a
 
 
 def resolve_channel(name: str, src: Source, role: str) -> str:
@@ -169,7 +215,11 @@ def resolve_channel(name: str, src: Source, role: str) -> str:
     if len(tails) > 1:
         raise ValueError(f"{role} channel {name!r} is ambiguous in {src.path.name}: it names "
                          f"{', '.join(repr(c) for c in tails)}; give one of these")
+    if src.unlisted and src.find(name):
+        return name.lstrip("/") if name.lstrip("/") in src.channels else name
     listing = ", ".join(chans) if chans else "none"
+    if src.unlisted:
+        listing += f" and {src.unlisted} more not listed"
     raise ValueError(f"{role} channel {name!r} not found in {src.path.name}; channels: {listing} "
                      f"(vrelab channels {src.path.name} lists each with its rate and unit)")
 
@@ -263,10 +313,15 @@ class FileRecord:
         block_size = int(block_size)
         raw = [self.mapping[c] for c in channels]
         blocks = self.source.stream(raw, int(start), stop, block_size)
+        plugin = type(self.source) in PLUGINS
+        pos = int(start)
         while True:
             try:
                 blk = next(blocks)
             except StopIteration:
+                if plugin and pos < stop:
+                    raise ValueError(f"reader plugin {PLUGINS[type(self.source)]} gave {pos - int(start)} samples of "
+                                     f"{', '.join(map(repr, raw))}, asked for {stop - int(start)}") from None
                 return
             except ValueError:
                 raise
@@ -275,6 +330,10 @@ class FileRecord:
             except Exception as exc:  # a decoder's own error on a corrupt file (zlib, struct, h5py, ...)
                 name = self.path.name
                 raise ValueError(f"{name}: cannot read its samples (truncated or corrupt?): {type(exc).__name__}: {exc}") from None
+            if plugin:  # each channel's block as long as asked (Source.stream's contract)
+                n = min(block_size, stop - pos)
+                blk = {r: plugin_samples(self.source, r, blk.get(r) if isinstance(blk, dict) else None, n) for r in raw}
+                pos += n
             yield {c: self.scales[c].to_g(blk[r]) for c, r in zip(channels, raw)}
 
     @property
@@ -386,6 +445,10 @@ def open_record(
             tcol = cands[0] if len(cands) == 1 else None
         if tcol is not None:
             lens[f"time {tcol!r}"] = src.lengths[tcol]
+        for role, ch in list(mapping.items()) + ([("time", tcol)] if tcol is not None else []):
+            why = src.refusal(ch, "DUT channel" if role.startswith("dut") else f"{role} channel")
+            if why:
+                raise ValueError(why)
         if len(set(lens.values())) > 1:
             raise ValueError(
                 f"{path.name}: channels have mismatched lengths: "
@@ -417,6 +480,7 @@ def open_record(
                 "give the true rate with --fs"
             )
         scales: dict[str, Scale] = {}
+        assumed: list[str] = []
         for key, ch in mapping.items():
             ref = key == "reference"
             given = _given_scale(reference_scale if ref else dut_scale, key)
@@ -428,6 +492,8 @@ def open_record(
                 raise ValueError(f"{path.name}: {exc}") from None
             if note:
                 src.notes.append(note)
+                if ASSUMED_NOTE in note:
+                    assumed.append(ch)
         meta = dict(src.meta)
         meta.update(
             source=path.name,
@@ -435,6 +501,7 @@ def open_record(
             channels=dict(mapping),
             fs_from=how,
             reader_notes=list(src.notes),
+            units_assumed=assumed,  # file channels read as g for want of any stated unit
         )
         if not isinstance(dut, str):
             meta["duts"] = {key[4:]: ch for key, ch in mapping.items() if key.startswith("dut:")}
@@ -446,12 +513,17 @@ def open_record(
 
 def list_channels(path: str | Path) -> dict[str, Any]:
     """Every channel of a file as a plain dict (``vrelab channels``): ``{"file", "format",
-    "notes", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit", "notes"}]}``.
+    "notes", "unlisted", "channels": [{"name", "rate_hz", "n_samples", "duration_s", "unit",
+    "unit_source", "notes", "data"}]}``.
 
     ``name`` is what ``--dut``/``--reference`` take; ``rate_hz`` the channel's own rate (null
     with the reason in ``notes`` when the file gives none or its stamps are refused); ``unit``
-    what the file states (null: none); ``notes`` what a reader said of the channel (another
-    name it answers to, integer counts, the time column used, a rate snapped or fitted).
+    what the file states (null: none), ``unit_source`` where that comes from
+    (:func:`unit_source`: ``file``, ``header``, ``assumed`` g, or ``none`` for counts); ``notes``
+    what a reader said of the channel (another name it answers to, integer counts, the time
+    column used, a rate snapped or fitted, why it is not read); ``data`` where its samples live
+    (:meth:`Source.location`: ``{"kind": "file" | "external" | "virtual", "files": [...]}``).
+    At most :data:`MAX_CHANNELS` are listed; ``unlisted`` counts the rest.
     """
     path = Path(path)
     if not path.is_file():
@@ -467,6 +539,8 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             if key != name:
                 aliases.setdefault(name, []).append(key)
         names = [c for c in src.channels if c not in (getattr(src, "alias", {}) or {}) or c in aliases]
+        unlisted = src.unlisted + max(len(names) - MAX_CHANNELS, 0)
+        names = names[:MAX_CHANNELS]
         # a file-level time column times the others; where each channel has its own stamps, none does
         tcols = [] if src.own_stamps else [c for c in names
                                            if c.lower().split("/")[-1] in TIME_NAMES or time_unit(c) is not None]
@@ -501,17 +575,36 @@ def list_channels(path: str | Path) -> dict[str, Any]:
             n = int(src.lengths[name])
             if src.is_integer(name) and not src.unit_of(name):
                 notes.append("integer samples (ADC counts): give --dut-units lsb --dut-sensitivity S")
+            why = src.refusal(name, "channel")
+            if why:
+                notes.append("not read: " + why.split(f"{name!r} ", 1)[1])
             out.append({
                 "name": name, "rate_hz": fs, "n_samples": n,
                 "duration_s": (n / fs) if fs else None,
-                "unit": src.unit_of(name), "notes": notes,
+                "unit": src.unit_of(name), "unit_source": unit_source(src, name), "notes": notes,
+                "data": src.location(name),
             })
         for name, cands in src.ambiguous.items():
             out.append({"name": name, "rate_hz": None, "n_samples": None, "duration_s": None, "unit": None,
+                        "unit_source": None, "data": None,
                         "notes": [f"ambiguous: names {', '.join(repr(c) for c in cands)}; give one of these"]})
-        return {"file": str(path), "format": src.fmt, "notes": list(src.notes), "channels": out}
+        notes = list(src.notes)
+        if unlisted and not src.unlisted:
+            notes.append(f"{len(names) + unlisted} channels: the first {len(names)} listed, {unlisted} more not listed")
+        return {"file": str(path), "format": src.fmt, "notes": notes, "channels": out, "unlisted": unlisted}
     finally:
         src.close()
+
+
+def unit_source(src: Source, name: str) -> str:
+    """Where channel ``name``'s unit comes from: ``"file"`` (the format's metadata: TDMS
+    ``unit_string``, an HDF5 attribute, LVM ``Y_Unit_Label``...), ``"header"`` (a text header:
+    a column name's brackets, a logger's comment lines), ``"assumed"`` (none stated, floating
+    samples: read as g unless told, and said), ``"none"`` (none stated, integer samples: counts,
+    refused without a sensitivity)."""
+    if src.unit_of(name):
+        return "header" if name in src.header_units else "file"
+    return "none" if src.is_integer(name) else "assumed"
 
 
 def _given_scale(scale: Any, key: str) -> Scale | None:

@@ -26,6 +26,9 @@ FS_KEYS = ("fs_hz", "fs", "Fs", "sample_rate", "sampling_rate", "sample_rate_hz"
 DT_KEYS = ("wf_increment", "dt", "sample_interval", "sampling_interval")
 TIME_NAMES = ("time", "t", "time_s", "times", "timestamp", "time_sec", "seconds")
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+# Channels a reader indexes and `vrelab channels` lists: beyond, they are counted (a file of 10^5
+# datasets is listed in a second, not minutes) and one is read when named exactly (Source.find).
+MAX_CHANNELS = 1000
 
 
 @dataclass(frozen=True)
@@ -130,8 +133,22 @@ class Source:
         self.meta: dict[str, Any] = {}
         self.schedule: Schedule | None = None
         self.units: dict[str, str] = {}  # channel -> the unit the file states for it
+        self.header_units: set[str] = set()  # channels whose unit a text header states (a column name, a comment)
         self.rates: dict[str, float] = {}  # channel -> its own rate, where channels differ
         self.ambiguous: dict[str, list[str]] = {}  # a name several channels answer to -> their full names
+        # channel -> where its samples live when not in this file's own bytes (HDF5 external
+        # storage, a virtual dataset): ("external" | "virtual", the files named)
+        self.elsewhere: dict[str, tuple[str, tuple[str, ...]]] = {}
+        # channel -> why it is listed but never read (its samples in another file, a chunk that
+        # would inflate beyond the memory budget): "keeps its samples outside this file (...)"
+        self.unreadable: dict[str, str] = {}
+        self.unlisted = 0  # channels beyond the MAX_CHANNELS indexed, counted but not listed
+
+    def find(self, name: str) -> bool:
+        """Index channel ``name`` of a file with more than :data:`MAX_CHANNELS` (``unlisted``),
+        named by its exact name; False when it has none by that name (the default: a format
+        that indexes every channel)."""
+        return False
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -144,6 +161,32 @@ class Source:
     def unit_of(self, name: str) -> str | None:
         """The unit the file states for channel ``name`` (None: none)."""
         return self.units.get(name) or None
+
+    def location(self, name: str) -> dict[str, Any]:
+        """Where channel ``name``'s samples live: ``{"kind": "file", "files": []}`` in this file's
+        own bytes; ``"external"`` (HDF5 external storage: raw bytes of the ``files`` named) or
+        ``"virtual"`` (an HDF5 virtual dataset mapping datasets of ``files``; ``"."`` is this file)."""
+        kind, files = self.elsewhere.get(name, ("file", ()))
+        return {"kind": kind, "files": list(files)}
+
+    def outside(self, name: str) -> tuple[str, ...]:
+        """The other files channel ``name``'s samples would be read from (empty: none)."""
+        return tuple(f for f in self.elsewhere.get(name, ("file", ()))[1] if f != ".")
+
+    def refusal(self, name: str, role: str) -> str | None:
+        """The one-line refusal of channel ``name`` read as ``role`` (``DUT channel``), None when
+        it can be read: its samples in other files (vrelab reads the file it is given and
+        nothing it points to), or a reason the reader gave (:attr:`unreadable`)."""
+        if self.outside(name):
+            what = "external storage in" if self.elsewhere[name][0] == "external" else "a virtual dataset mapping"
+            files = ", ".join(repr(f) for f in self.outside(name))
+            why = (f"keeps its samples outside this file ({what} {files}): vrelab reads only the file it is "
+                   "given; copy the data into the file (h5repack, or h5py) if that is meant")
+        elif name in self.unreadable:
+            why = self.unreadable[name]
+        else:
+            return None
+        return f"{self.path.name}: {role} {name!r} {why}"
 
     def is_integer(self, name: str) -> bool:
         """Whether channel ``name`` holds integer samples (counts of an ADC)."""
@@ -334,6 +377,11 @@ class ArraySource(Source):
             self.specs[name] = spec
             self.lengths[name] = spec_length(spec)
 
+    def is_integer(self, name: str) -> bool:
+        arr, how = self.specs[name]  # from the dtype: reading a sample to learn it costs a read per channel
+        is_field = isinstance(how, str) and how != "squeeze"
+        return bool((arr.dtype[how] if is_field else arr.dtype).kind in "iub")
+
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return spec_slice(self.specs[name], start, stop)
 
@@ -390,8 +438,8 @@ def load_plugins() -> list[str]:
     on the ``vrelab.readers`` logger); vrelab itself keeps working. Returns the notes.
     """
     global _plugins_started, _plugins_loaded
-    if _plugins_loaded:
-        return PLUGIN_NOTES
+    if _plugins_loaded or threading.current_thread().name.startswith("vrelab plugin "):
+        return PLUGIN_NOTES  # (a plugin whose own import reads a file: the loading has started)
     # two threads reading their first files: one loads, the other waits; a plugin whose own
     # import reads a file (the same thread, back here) finds the loading started and goes on
     with _plugins_lock:
@@ -415,10 +463,9 @@ def _load_plugins() -> None:
     for ep in eps:
         dist = getattr(getattr(ep, "dist", None), "name", None)
         where = f"{ep.name} = {ep.value}" + (f" (package {dist})" if dist else "")
-        try:
-            cls = ep.load()
-        except Exception as exc:  # whatever a plugin raises at import, vrelab keeps working
-            _skip(f"reader plugin {where} skipped: {type(exc).__name__}: {exc}")
+        cls, failed = _isolated_load(ep, where)
+        if failed:
+            _skip(f"reader plugin {where} skipped: {failed}")
             continue
         why = _plugin_problem(cls)
         if why:
@@ -426,6 +473,45 @@ def _load_plugins() -> None:
             continue
         PLUGINS[cls] = where
         register(cls)
+
+
+# a plugin's import may take this long [s] (a vendor SDK loading its DLLs takes a second or two);
+# one that takes longer (a hang, a network wait) is skipped and vrelab goes on without it
+PLUGIN_IMPORT_TIMEOUT_S = 10.0
+
+
+def _isolated_load(ep: Any, where: str) -> tuple[Any, str | None]:
+    """Import a plugin's entry point so that nothing it does at import reaches vrelab: what it
+    prints is kept off stdout (``--json`` prints one JSON object and nothing else) and said as
+    a note; ``sys.exit``, any exception, or an import that takes longer than
+    :data:`PLUGIN_IMPORT_TIMEOUT_S` (run in a daemon thread, left behind) make it skipped.
+    Returns (the object, None) or (None, why it is skipped)."""
+    import contextlib
+    import io
+
+    out: dict[str, Any] = {}
+    printed = io.StringIO()
+
+    def load() -> None:
+        try:
+            out["obj"] = ep.load()
+        except BaseException as exc:  # SystemExit and KeyboardInterrupt raised by a plugin included
+            out["exc"] = exc
+
+    with contextlib.redirect_stdout(printed):
+        t = threading.Thread(target=load, name=f"vrelab plugin {ep.name}", daemon=True)
+        t.start()
+        t.join(PLUGIN_IMPORT_TIMEOUT_S)
+    if printed.getvalue().strip():
+        _skip(f"reader plugin {where} printed at import (kept off stdout): {printed.getvalue().strip()[:80]!r}")
+    if t.is_alive():
+        return None, f"its import did not finish in {PLUGIN_IMPORT_TIMEOUT_S:g} s"
+    if "exc" in out:
+        exc = out["exc"]
+        if isinstance(exc, SystemExit):
+            return None, f"it called sys.exit({exc.code!r}) at import"
+        return None, f"{type(exc).__name__}: {exc}"
+    return out.get("obj"), None
 
 
 def _claims(cls: type[Source], head: bytes) -> bool:
@@ -454,23 +540,33 @@ def missing_library(cls: type[Source]) -> str | None:
 def reader_for(path: Path) -> type[Source]:
     """The registered format of ``path``: its magic bytes first, else its extension.
 
-    The built-in formats are asked first, then the plugins (:func:`load_plugins`). A format
-    whose library is not installed is refused with its install hint.
+    The built-in formats are asked first, then the plugins (:func:`load_plugins`, only when no
+    built-in format claims the file: a built-in format's file never waits on a plugin's import).
+    A format whose library is not installed is refused with its install hint.
     """
-    load_plugins()
     with open(path, "rb") as fh:
         head = fh.read(1024)
     if not head:
         raise ValueError(f"{path.name}: file is empty")
-    found = next((cls for cls in READERS if _claims(cls, head)), None)
-    if found is None:
-        ext = path.suffix.lower()
-        for cls in READERS:
-            if ext in cls.extensions:
-                if cls.has_magic:
-                    raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
-                found = cls
-                break
+    # the built-in formats first, by magic bytes and then by extension (CSV has no magic), and
+    # only then the plugins: a plugin whose can_open says yes to everything cannot take a
+    # built-in format's file
+    found = None
+    ext = path.suffix.lower()
+    for plugins in (False, True):
+        if plugins:
+            load_plugins()
+        group = [c for c in READERS if (c in PLUGINS) == plugins]
+        found = next((cls for cls in group if _claims(cls, head)), None)
+        if found is None:
+            for cls in group:
+                if ext in cls.extensions:
+                    if cls.has_magic:
+                        raise ValueError(f"{path.name}: not a valid {cls.fmt.upper()} file (wrong header bytes)")
+                    found = cls
+                    break
+        if found is not None:
+            break
     if found is None:
         names = ", ".join(dict.fromkeys(c.fmt.split("-")[0].upper() for c in READERS))
         raise ValueError(f"{path.name}: unknown file format (extension {path.suffix or 'none'!r}); supported: {names}")

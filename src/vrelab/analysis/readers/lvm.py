@@ -89,10 +89,10 @@ class LvmSource(CsvSource):
         rounded: ``0.000977`` is 1/1024 s) and its unit from ``Y_Unit_Label``; one rate for the
         file when every channel shares it, else per channel (a record's channels must share one)."""
         path = self.path
-        cells = [x.strip() for x in seg.get("Delta_X", [])][: len(self.names)]
-        if not any(cells):
+        cells = self._per_channel(seg.get("Delta_X", []))
+        if not any(cells.values()):
             raise ValueError(f"{path.name}: LVM segment header has no Delta_X: no sample rate")
-        for name, text in zip(self.names, cells):
+        for name, text in cells.items():
             if not text:
                 continue
             try:
@@ -108,12 +108,27 @@ class LvmSource(CsvSource):
                 if note not in self.notes:
                     self.notes.append(note)
             self.rates[name] = fs
-        for name, unit in zip(self.names, seg.get("Y_Unit_Label", [])):
-            if unit.strip():
-                self.units[name] = unit.strip()
+        for name, unit in self._per_channel(seg.get("Y_Unit_Label", [])).items():
+            if unit:
+                self.units[name] = unit
         if len(set(self.rates.values())) == 1:
             self.fs_hz = next(iter(self.rates.values()))
             self.rates = {}
+
+    def _per_channel(self, cells: list[str]) -> dict[str, str]:
+        """A segment header row's cells by channel. The row's label stands where the first
+        column's name stands, so cell k lies over column k + 1 when the columns start with
+        ``X_Value`` (``X_Columns`` One or Multi: with Multi, each channel's own ``X_Value``
+        column has a blank cell, ``Volts<tab><tab>g``) and over column k when they do not
+        (``X_Columns`` No). Matched by position among the channels alone, a Multi file's second
+        channel took the blank of the first one's X column (its unit ``g`` dropped)."""
+        shift = 1 if self.columns and self.columns[0].startswith("X_Value") else 0
+        out: dict[str, str] = {}
+        for k, text in enumerate(cells):
+            j = k + shift
+            if j < len(self.columns) and self.columns[j] in self.names:
+                out[self.columns[j]] = text.strip()
+        return out
 
     @staticmethod
     def _table(lines: list[str]) -> dict[str, list[str]]:

@@ -92,6 +92,9 @@ class MatV5Source(Source):
             raise ValueError(f"{path.name}: cannot read as MATLAB {version} file (truncated or corrupt?): {exc}") from None
         self.notes.append(f"MAT {version} file read whole into memory (scipy.io.loadmat); save with -v7.3 for long records")
         self.arrays: dict[str, tuple[Any, Any]] = {}
+        for k, v in list(data.items()):
+            if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.names:
+                data.update(_struct_fields(k, v))
         for k, v in data.items():
             if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "biuf":
                 continue
@@ -108,6 +111,25 @@ class MatV5Source(Source):
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return spec_slice(self.arrays[name], start, stop)
+
+
+def _struct_fields(name: str, v: NDArray[Any], depth: int = 0) -> dict[str, Any]:
+    """The arrays inside a MATLAB struct (DAQ exports keep their signals there:
+    ``data.accel``), named ``struct.field`` (``struct(2).field`` for an element of a struct
+    array, 1-based as MATLAB writes it), nested structs walked up to 8 deep."""
+    out: dict[str, Any] = {}
+    if depth > 8 or not v.dtype.names:
+        return out
+    flat = v.ravel(order="F")  # MATLAB's column-major element order
+    for i, elem in enumerate(flat):
+        base = name if flat.size == 1 else f"{name}({i + 1})"
+        for f in v.dtype.names:
+            x = elem[f]
+            if isinstance(x, np.ndarray) and x.dtype.names:
+                out.update(_struct_fields(f"{base}.{f}", x, depth + 1))
+            elif isinstance(x, np.ndarray):
+                out[f"{base}.{f}"] = x
+    return out
 
 
 class MatV4Source(MatV5Source):

@@ -121,7 +121,8 @@ class MdfSource(Source):
 
     @classmethod
     def can_open(cls, head: bytes) -> bool:
-        return head.startswith(b"MDF     ")
+        # "UnFinMF " is a file a logger has not finalised (CANedge, ...): asammdf finalises it in memory
+        return head.startswith((b"MDF     ", b"UnFinMF "))
 
     def __init__(self, path: Path) -> None:
         from asammdf import MDF

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 from typing import Any, ClassVar, Iterator, Sequence
 
@@ -33,6 +35,31 @@ class CsvSource(Source):
         """The header's column names (no pass over the rows)."""
         return tuple(cls._sniff(path)[1])
 
+    def _comment_header(self) -> None:
+        """What a logger states in its comment lines before the column names (PicoQuake:
+        ``# Config: data_rate = 2000.0 Hz, filter = 488 Hz, acc_range = 4 g, gyro_range = 250.0 dps``):
+        the sample rate (used, and said), the accelerometer's unit from its range (``a_x`` in g)
+        and the gyro's (``g_x`` in dps: not an acceleration, whatever its name suggests)."""
+        with open(self.path, "rb") as fh:
+            head = fh.read(65536).decode("utf-8-sig", errors="replace")
+        comments = [ln.lstrip()[1:].strip() for ln in head.splitlines()[: self.skip_comments]
+                    if ln.lstrip().startswith("#")]
+        text = " ".join(comments)
+        m = _RATE.search(text)
+        if m:
+            fs = float(m.group(2)) * (1000.0 if m.group(3).lower() == "khz" else 1.0)
+            if fs > 0 and math.isfinite(fs):
+                self.fs_hz = fs
+                self.notes.append(f"sample rate {fs:g} Hz from the file's comment header ({m.group(0).strip()!r})")
+        for what, pattern in (("acc", _ACC_COLUMN), ("gyro", _GYRO_COLUMN)):
+            r = re.search(rf"\b{what}\w*_range\s*[=:]\s*[0-9.eE+-]+\s*([A-Za-z/°²^0-9]+)", text, re.IGNORECASE)
+            if not r:
+                continue
+            for name in self.names:
+                if name not in self.units and pattern.fullmatch(name.strip()):
+                    self.units[name] = r.group(1)
+                    self.header_units.add(name)
+
     @staticmethod
     def _sniff(path: Path) -> tuple[str, list[str], bool, int]:
         """(delimiter, names, has_header, lines to skip before the header) from the file's head."""
@@ -59,6 +86,9 @@ class CsvSource(Source):
             unit = header_unit(name)
             if unit:
                 self.units[name] = unit
+                self.header_units.add(name)
+        if self.skip_comments:
+            self._comment_header()
         self._scan()
 
     def _scan(self) -> None:
@@ -132,6 +162,14 @@ class CsvSource(Source):
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         return np.concatenate([b[name] for b in self.stream([name], start, stop, stop - start)] or [np.empty(0)])
+
+
+# a rate stated in a comment line: "data_rate = 2000.0 Hz", "sample rate: 1 kHz", "fs = 512 Hz"
+_RATE = re.compile(r"\b(data[ _]?rate|sample[ _]?rate|sampling[ _]?rate|sampling[ _]?frequency|fs)\s*[=:]\s*"
+                   r"([0-9]+(?:\.[0-9]*)?(?:[eE][+-]?[0-9]+)?)\s*(k?hz)\b", re.IGNORECASE)
+# the columns a stated range is the unit of: accelerometer a_x / acc_x / accel_x, gyro g_x / gyro_x / gyr_x
+_ACC_COLUMN = re.compile(r"(?:a|acc|accel)[ _]?[xyz]", re.IGNORECASE)
+_GYRO_COLUMN = re.compile(r"(?:g|gyr|gyro)[ _]?[xyz]", re.IGNORECASE)
 
 
 def _is_number(s: str) -> bool:

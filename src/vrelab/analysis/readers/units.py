@@ -9,7 +9,9 @@ sub-channel units, a CSV header ``Acceleration x (m/s^2)``); this module says wh
 * anything else (a temperature, a pressure, a quaternion, an angle, a text vrelab does not know):
   not an acceleration, refused as DUT or reference;
 * no unit stated: integer samples are counts and need ``--dut-units lsb --dut-sensitivity``;
-  floating samples are taken as g unless the user says otherwise.
+  floating samples are taken as g unless the user says otherwise, and the record says so (a
+  note, and ``meta["units_assumed"]``: the analysis refuses a baseline reading 9.8 "g", which
+  is 1 g in m/s², :func:`vrelab.analysis.plausibility.check_assumed_g`).
 
 A unit the user gives that contradicts the file's is refused unless ``accept`` (the user says it
 is meant: ``--accept-file-units``).
@@ -95,7 +97,7 @@ def channel_scale(role: str, channel: str, given: Scale | None, stated: str | No
         if integer:
             raise ValueError(f"{role} channel {channel!r} holds integer samples with no unit: they are ADC counts, "
                              f"not g; give {units_option} lsb {sens} S (LSB per g)")
-        return Scale(), None
+        return Scale(), f"{role} channel {channel!r}: the file states no unit: taken as g (give {units_option} if not)"
     if given is not None:
         if norm == given.units or accept:
             note = None if norm == given.units else f"{said}; read as {given.units} as given ({units_option})"
@@ -111,4 +113,7 @@ def channel_scale(role: str, channel: str, given: Scale | None, stated: str | No
                      f"FILE lists them), or if it is one, give {units_option} and --accept-file-units")
 
 
-__all__ = ["normalize", "channel_scale", "header_unit"]
+ASSUMED_NOTE = "the file states no unit: taken as g"
+
+
+__all__ = ["normalize", "channel_scale", "header_unit", "ASSUMED_NOTE"]
