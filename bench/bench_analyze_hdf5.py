@@ -326,8 +326,18 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         print(f"  analyze / baseline:      {a['cpu_warm'] / b['cpu_warm']:8.2f}x{a['wall_warm'] / b['wall_warm']:10.2f}x"
               f"{a['cpu_cold'] / b['cpu_cold']:9.2f}x{a['wall_cold'] / b['wall_cold']:10.2f}x"
               f"{a['peak_mb'] / b['peak_mb']:9.2f}x")
-    print(f"  the analysis's CPU less the provenance hash, over the plain script's: "
-          f"{(a['cpu_warm'] - med['sha256']['cpu_warm']) / fl['cpu_warm']:.2f}x warm")
+    # The provenance SHA-256 is no reduction work (the plain script has none): the goal's ratio
+    # both with it (what a user pays) and without its CPU (the reduction against its floor).
+    h = med["sha256"]
+    # (the sha256 process: the interpreter's 0.02 s start, the file's read, the hash: what
+    # analyze's hashing thread does)
+    hash_cpu = {m: h["cpu_" + m] for m in ("warm", "cold")}
+    result["analyze_over_plain_without_hash_cpu"] = {
+        "cpu_" + m: round((a["cpu_" + m] - hash_cpu[m]) / fl["cpu_" + m], 2) for m in ("warm", "cold")}
+    print(f"  analyze / plain script, CPU with the provenance hash: {a['cpu_warm'] / fl['cpu_warm']:.2f}x warm, "
+          f"{a['cpu_cold'] / fl['cpu_cold']:.2f}x cold; without the hash's CPU ({hash_cpu['warm']:.2f} s warm: the "
+          f"sha256 process): {result['analyze_over_plain_without_hash_cpu']['cpu_warm']:.2f}x warm, "
+          f"{result['analyze_over_plain_without_hash_cpu']['cpu_cold']:.2f}x cold")
     if "rms_max_rel_diff" in work:
         print(f"  same work: {work['levels_analyze']} levels in both, rms within {work['rms_max_rel_diff']:.2%}, "
               f"VRE median |difference| {work['vre_median_abs_diff_in_u']:.2f} u (the plain script's boxcar DUT "

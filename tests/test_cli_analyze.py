@@ -52,6 +52,33 @@ def test_json_has_spec_keys_and_provenance(csv_file, capsys):
     assert "analyze" in prov["command"] and prov["vrelab_version"]
 
 
+def test_file_hashed_once_per_command_in_a_thread(csv_file, tmp_path, capsys, monkeypatch):
+    """The provenance SHA-256 is taken once per command (not again for the written results),
+    off the main thread (it runs beside the reduction), and is the file's (hashlib's own,
+    computed here independently)."""
+    import hashlib
+    import threading
+
+    import vrelab._io
+
+    calls: list[str] = []
+    real = vrelab._io.sha256_file
+
+    def counting(path):
+        calls.append(threading.current_thread().name)
+        return real(path)
+
+    monkeypatch.setattr(vrelab._io, "sha256_file", counting)
+    out_dir = tmp_path / "res"
+    rc = main(["analyze", str(csv_file), "--dut", "adxl", "--reference", "ref", "--json", "--out", str(out_dir)])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert len(calls) == 1 and calls[0] != threading.main_thread().name
+    want = hashlib.sha256(csv_file.read_bytes()).hexdigest()
+    assert json.loads(out)["provenance"]["input_sha256"] == want
+    assert json.loads((out_dir / "results.json").read_text())["provenance"]["input_sha256"] == want
+
+
 def test_human_summary_and_out_dir(csv_file, tmp_path, capsys):
     out_dir = tmp_path / "res"
     rc = main(["analyze", str(csv_file), "--dut", "adxl", "--reference", "ref", "--out", str(out_dir)])

@@ -35,3 +35,25 @@ def test_line_residual_form_is_built_once_per_length(monkeypatch):
     rho = kernel_correlation(red.stats.window)
     for n in set(built):
         assert L._line_residual_dof(n, rho) == fresh(n, rho)[3]
+
+
+def test_second_difference_var_cached_by_exact_inputs():
+    """The low-frequency term's geometry variances are cached by the exact bits of their inputs
+    (the within-baseline geometry repeats at every level): a repeat is a cache hit with the same
+    bits as the computation itself, a caller's copy can be changed without touching the cache,
+    and inputs differing in one bit (-0.0 and 0.0 included) are computed, not looked up."""
+    from vrelab.analysis import levels as L
+
+    boxes = ((0.0, 4.0, 1.0), (-4.0, 4.0, -0.5), (4.0, 4.0, -0.5))
+    direct = L._second_difference_var(boxes, L.ALPHAS)
+    before = L._second_difference_var_cached.cache_info()
+    first = L.second_difference_var(boxes, L.ALPHAS)
+    first[:] = -1.0  # a caller's array: the cache must not see this
+    again = L.second_difference_var(boxes, L.ALPHAS)
+    after = L._second_difference_var_cached.cache_info()
+    assert after.hits >= before.hits + 1
+    assert again.tobytes() == direct.tobytes()
+    shifted = ((-0.0, 4.0, 1.0), (-4.0, 4.0, -0.5), (4.0, 4.0, -0.5))
+    misses = L._second_difference_var_cached.cache_info().misses
+    assert L.second_difference_var(shifted, L.ALPHAS).tobytes() == L._second_difference_var(shifted, L.ALPHAS).tobytes()
+    assert L._second_difference_var_cached.cache_info().misses == misses + 1

@@ -131,6 +131,27 @@ ALPHAS = np.linspace(-2.0, -1.0, 11)
 def second_difference_var(boxes: Sequence[tuple[float, float, float]], alpha: NDArray[np.float64]
                           ) -> NDArray[np.float64]:
     """Variance of ``Σ c·(mean of the offset over [t - T/2, t + T/2])`` over boxes (t, T, c)
+    whose coefficients sum to 0, for noise of one-sided PSD ``f^α`` (unit level), per α (see
+    :func:`_second_difference_var`). Cached by the exact bits of its inputs: a level's
+    low-frequency term asks for the same within-baseline geometry at every level."""
+    key = np.asarray(boxes, dtype=np.float64)
+    a = np.asarray(alpha, dtype=np.float64)
+    return _second_difference_var_cached(key.tobytes(), key.shape, a.tobytes(), a.shape).copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _second_difference_var_cached(boxes: bytes, boxes_shape: tuple[int, ...], alpha: bytes,
+                                  alpha_shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """:func:`_second_difference_var` keyed by its inputs' bytes (-0.0 and 0.0, every NaN
+    payload, apart: the same bits in, the same bits out); callers get a copy."""
+    b = np.frombuffer(boxes, dtype=np.float64).reshape(boxes_shape)
+    return _second_difference_var([(float(t), float(T), float(c)) for t, T, c in b],
+                                  np.frombuffer(alpha, dtype=np.float64).reshape(alpha_shape))
+
+
+def _second_difference_var(boxes: Sequence[tuple[float, float, float]], alpha: NDArray[np.float64]
+                          ) -> NDArray[np.float64]:
+    """Variance of ``Σ c·(mean of the offset over [t - T/2, t + T/2])`` over boxes (t, T, c)
     whose coefficients sum to 0, for noise of one-sided PSD ``f^α`` (unit level), per α:
     ``∫ f^α·|Σ c·e^{-2πift}·sinc(fT)|² df``. Numerical, on a logarithmic grid (no closed form
     for general boxes); the integrand is O(f^(α+4)) at 0 for a second difference, which removes

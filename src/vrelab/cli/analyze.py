@@ -37,7 +37,7 @@ import math
 import shlex
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -125,7 +125,6 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vrelab._io import sha256_file
     from vrelab.analysis.readers import Scale, open_record
     from vrelab.cli._common import input_paths
     from vrelab.record import Schedule
@@ -160,20 +159,29 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("several DUT channels need --reference: their levels and segments come from it")
     dut_arg = duts if several else duts[0]
     dut_scale = dict(zip(duts, scales)) if several else scales[0]
+    # The provenance's SHA-256 of the file (the only hash this command takes) runs in a thread
+    # while the record is reduced: hashlib and file reads release the GIL, so on two cores it
+    # costs CPU but no wall time; the result waits for it when it reads its provenance.
+    digest = _sha256_in_thread(path)
     record = open_record(path, dut_arg, args.reference, args.fs, dut_scale, ref_scale, args.time,
                          accept_file_units=args.accept_file_units)
-    with record:
+    # One BLAS thread for the reduction, as in the pool's workers (vrelab._pool.worker_init): its
+    # solves are small, and OpenBLAS's second thread only spins (the 2 h record of
+    # bench/bench_analyze_hdf5.py: 0.4 s less CPU, the same bits). Imported here: start-up.
+    from threadpoolctl import threadpool_limits
+
+    with record, threadpool_limits(limits=1, user_api="blas"):
         schedule = None
         if args.schedule and args.schedule != "auto":
             schedule = Schedule.read_csv(args.schedule)
         elif args.schedule == "auto":
             record.schedule = None
         progress = bool(args.progress or (sys.stderr.isatty() and record.n_samples > 10_000_000))
-        provenance = {
+        provenance = _Provenance({
             "input_file": path.name,
-            "input_sha256": sha256_file(path),
+            "input_sha256": digest,
             "command": _command_line(args),
-        }
+        })
         options = ReductionOptions(
             band_hz=args.band,
             settle_s=args.settle,
@@ -212,6 +220,55 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {args.out}/results.json, levels.csv" + (" and a folder per channel" if several
                                                                   else ", envelope.csv"))
     return 0
+
+
+class _Pending:
+    """A value computed in a daemon thread; :meth:`get` waits for it (and raises what it raised)."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        import threading
+
+        self._box: dict[str, Any] = {}
+        self._thread = threading.Thread(target=self._work, args=(fn,), name="vrelab-sha256", daemon=True)
+        self._thread.start()
+
+    def _work(self, fn: Callable[[], Any]) -> None:
+        try:
+            self._box["value"] = fn()
+        except BaseException as exc:  # handed to the reader, in its thread
+            self._box["error"] = exc
+
+    def get(self) -> Any:
+        self._thread.join()
+        if "error" in self._box:
+            raise self._box["error"]
+        return self._box["value"]
+
+
+def _sha256_in_thread(path: Path) -> _Pending:
+    from vrelab._io import sha256_file
+
+    return _Pending(lambda: sha256_file(path))
+
+
+class _Provenance(Mapping[str, Any]):
+    """A provenance mapping whose :class:`_Pending` values are waited for when read (the
+    reduction reads its provenance once, at its end); the keys keep their order."""
+
+    def __init__(self, items: dict[str, Any]) -> None:
+        self._items = items
+
+    def __getitem__(self, key: str) -> Any:
+        value = self._items[key]
+        if isinstance(value, _Pending):
+            value = self._items[key] = value.get()
+        return value
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
 
 
 def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool, inputs: Any = ()) -> None:
