@@ -665,10 +665,15 @@ def check_static(run: Run, channel: str, baseline_g: float | None) -> None:
 
 @dataclass(frozen=True)
 class _Names:
-    """What channel lookup needs of a source: its path and channel names."""
+    """What channel lookup (:func:`vrelab.analysis.readers.resolve_channel`) needs of a source:
+    its path and channel names, all of them listed (``unlisted`` 0, nothing more to ``find``)."""
 
     path: Path
     channels: tuple[str, ...]
+    unlisted: int = 0
+
+    def find(self, name: str) -> bool:
+        return False
 
 
 # --------------------------------------------------------------------------- reducing runs
