@@ -517,7 +517,9 @@ def _result_tables(r: VreResult, label: str | None) -> list[str]:
 
 
 # Harmonics of the drive a report's table shows (the results hold up to DRIVE_HARMONICS of them).
-REPORT_HARMONICS = 5
+REPORT_HARMONICS = 3
+# the resolution [%] of the drive table's harmonics and THD
+PCT_RESOLUTION = 1e-3
 
 
 def _drive_table(result: VreResult) -> str:
@@ -528,20 +530,24 @@ def _drive_table(result: VreResult) -> str:
     if not lv:
         return ""
     n_h = min(REPORT_HARMONICS, max(len(x.drive.harmonics_rms_g) for _, x in lv if x.drive is not None))
-    head = ["#", "freq (Hz)", "fundamental (g rms)"] + [f"h{h} (%)" for h in range(2, n_h + 1)]
-    head += ["THD ± u (%)", "E[x²]/rms²", "E[x³] ± u (g³)", "not harmonic (g rms)"]
+    # h2 and h3 (the THD holds the rest; every harmonic and what they leave are in the results):
+    # the table keeps within the page's width on screen and on A4
+    head = ["#", "freq (Hz)", "h1 (g rms)"] + [f"h{h} (% of h1)" for h in range(2, n_h + 1)]
+    head += ["THD ± u (%)", "E[x²]/rms²", "E[x³] ± u (g³)"]
     rows = []
     for i, x in lv:
         d = x.drive
         assert d is not None
         a1 = d.harmonics_rms_g[0].value
-        pct = [format_value(100 * e.value / a1, digits=2) if a1 > 0 else "" for e in d.harmonics_rms_g[1:n_h]]
-        pct += [""] * (n_h - 1 - len(pct))
+        # percentages at 0.001 % (a pure drive's harmonics are its reference's noise, 1e-5 of the
+        # fundamental in the tests' records; shown 0, not as powers of ten that widen the table)
+        pct = [format_value(100 * e.value / a1, resolution=PCT_RESOLUTION) if a1 > 0 else "" for e in d.harmonics_rms_g[1:n_h]]
         ratio = d.mean_square_g2.value / x.rms_g**2 if x.rms_g > 0 else math.nan
         rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in (
-            [str(i), _fmt(x.freq_hz, 6), _fmt(a1)] + pct
-            + [format_value_u(100 * d.thd.value, 100 * d.thd.u), format_value(ratio, digits=6),
-               format_value_u(d.mean_cube_g3.value, d.mean_cube_g3.u), format_value(d.residual_rms_g, digits=2)])) + "</tr>")
+            [str(i), _fmt(x.freq_hz, 6), _fmt(a1)] + pct + [""] * (n_h - 1 - len(pct))
+            + [format_value_u(100 * d.thd.value, 100 * d.thd.u) if 100 * d.thd.value >= PCT_RESOLUTION
+               else format_value(100 * d.thd.value, resolution=PCT_RESOLUTION), format_value(ratio, digits=6),
+               format_value_u(d.mean_cube_g3.value, d.mean_cube_g3.u)])) + "</tr>")
     th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     note = ('<p class="mute">A shaker\'s drive is not a pure sine: a sine level\'s VRE is k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) '
             "of the waveform measured on the reference (SPEC 4.4). The VRC is fitted against E[x²]; E[x³] makes the "
