@@ -313,8 +313,12 @@ def test_cli_identify_contract(tmp_path: Path, capsys: pytest.CaptureFixture[str
         load_sensor(doc["sensor_file"], axis=ch["channel"])
     obs, _ = observations(json.loads((camp / "results.json").read_text()))
     assert set(obs) == {"sn1", "sn2"}
-    # the folder's report: a section per channel with its parameters, the nulls with their reasons
-    assert main(["report", str(out)]) == 0
+    # the folder's report: a section per channel with its parameters, the nulls with their reasons;
+    # with the shipped metadata, whose [items.sn1] and [items.sn2] are this campaign's channels
+    # (issue 30: the identify report knew no channel and refused it: "channels: none named")
+    metadata = EXAMPLE.parent.parent / "report-metadata.toml"
+    assert main(["report", str(out), "--metadata", str(metadata)]) == 0
     html = (out / "report.html").read_text()
+    assert "SN 0001" in html and "SN 0002" in html
     assert "Channel sn1" in html and "Channel sn2" in html and "2f cross-check" in html
     assert "do not reach the lower rail" in html and html.count("<img") >= 4

@@ -3,6 +3,7 @@ NI's documented layout written by hand): values, rates, names, bad files."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -336,3 +337,76 @@ def test_truncated_mdf4_is_one_line_on_stderr(tmp_path: Path) -> None:
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and out.stderr.startswith("vrelab: error: cut.mf4: cannot read as MDF"), out.stderr
+
+
+def _band_noise(rng: np.random.Generator, n: int, fs: float, lo: float, hi: float) -> np.ndarray:
+    """Gaussian noise with a flat spectrum between lo and hi Hz and none outside (FFT mask), unit rms."""
+    spec = np.fft.rfft(rng.standard_normal(n))
+    f = np.fft.rfftfreq(n, 1 / fs)
+    spec[(f < lo) | (f > hi)] = 0.0
+    x = np.fft.irfft(spec, n)
+    return x / np.sqrt(np.mean(x**2))
+
+
+def test_ide_rate_of_idelib_stated_and_judged_against_each_level_u(tmp_path: Path) -> None:
+    """Issue 30 (rates): vrelab fits an IDE channel's rate to every block's stamps, idelib's
+    getSampleRate() takes the first block's alone; both are stated, and the difference is judged
+    level by level. Truth by closed form: the reference is flat from 20 to 1900 Hz, the band
+    50-1000 Hz lies inside it, so at idelib's rate (q = fs_lib/fs) the band holds P/q, the rms
+    reads rms/√q, and a VRE = k2·rms² belongs to a VRC off by q: at
+    the level's rms a VRE shift of |VRE·(q - 1)|. (The DUT is ref + k2·ref² + noise.)"""
+    import idelib
+
+    from vrelab.analysis.options import ReductionOptions
+    from vrelab.analysis.pipeline import analyze
+
+    fs, k2 = 4096.0, 1e-3  # k2: 1000 µg/g²
+    rng = np.random.default_rng(30)
+    parts, rms = [], []
+    for level in (0.0, 1.0, 0.0, 2.0, 0.0):
+        n = int((4.0 if level == 0 else 8.0) * fs)
+        parts.append(level * _band_noise(rng, n, fs, 20.0, 1900.0) if level else np.zeros(n))
+        rms.append(level)
+    ref = np.concatenate(parts)
+    dut = ref + k2 * ref**2 + 2e-3 * rng.standard_normal(len(ref))
+    p = tmp_path / "vib.ide"
+    # the first block's start stamped 5 samples early (its end kept): idelib's first-block rate
+    # is 5 samples in 250 (2 %) slow, the line through all 450 blocks barely moves
+    write_ide(p, {"ref": ref, "dut": dut}, fs, early_first=5.0)
+    doc = idelib.importFile(str(p), quiet=True)
+    lib = float(doc.channels[8].subchannels[0].getSession().getSampleRate())  # idelib itself
+    doc.close()
+    with open_record(p, "8.1", "8.0") as rec:
+        res = analyze(rec, "random", options=ReductionOptions(band_hz=(50.0, 1000.0), settle_s=0.5))
+        fs_used = rec.fs_hz
+    q = lib / fs_used
+    assert q == pytest.approx(0.98, abs=0.005)  # the 2 % the stamps were built with
+    assert res.provenance["fs_library_hz"] == lib
+    text = " ".join(res.warnings)
+    assert f"idelib's getSampleRate() gives {lib:.9g} Hz" in text and f"{fs_used:.9g} Hz" in text
+    rate = next(w for w in res.warnings if getattr(w, "code", "") == "rate")
+    rel = [abs(lv.vre.value * (q - 1)) / lv.vre.u for lv in res.levels]
+    want = max(rel)
+    said = float(re.search(r"up to ([\d.e+-]+) u", rate).group(1))
+    # the PSD's scatter in the ~20 Hz edge slivers of an 8 s level (about 20 Welch averages of
+    # 1 Hz bins, 5 % for 20 bins) and the 2-digit rounding of the notice: 15 %
+    assert said == pytest.approx(want, rel=0.15)
+    # the 1 g level's shift (|VRE| 0.5 mg · 2 %) is inside its u, the 2 g level's (2 mg · 2 %) beyond
+    assert rel[0] < 0.85 and rel[1] > 1.15  # clear of 1 by more than the 15 % above
+    assert f"beyond u at 1 level(s) ({res.levels[1].rms_g:.4g} g rms)" in rate
+
+
+def test_ide_real_file_states_both_rates() -> None:
+    """On an enDAQ recorder's file (SSX70065.IDE, idelib's test data) the record says the rate it
+    uses and idelib's, 0.32 % apart, as idelib itself gives it."""
+    import idelib
+
+    path = Path(__file__).parent / "data" / "thirdparty" / "idelib" / "SSX70065.IDE"
+    doc = idelib.importFile(str(path), quiet=True)
+    lib = float(doc.channels[32].subchannels[0].getSession().getSampleRate())
+    doc.close()
+    with open_record(path, "32.0", "32.1") as rec:
+        notes = " ".join(rec.meta["reader_notes"])
+        assert rec.meta["fs_library_hz"] == lib
+        assert f"getSampleRate() gives {lib:.9g} Hz" in notes and f"{rec.fs_hz:.9g} Hz" in notes
+        assert abs(lib / rec.fs_hz - 1) == pytest.approx(0.0032, abs=0.0001)

@@ -531,7 +531,7 @@ def test_a_lost_executor_stops_the_sweep_without_marking_points_failed(points_mo
 
 def test_two_runs_cannot_share_a_checkpoint(points_module, tmp_path):
     spec = parse_spec(_doc())
-    with Checkpoint(tmp_path, spec.fingerprint(), spec.n_points):
+    with Checkpoint(tmp_path, spec.fingerprint(), spec.n_points, spec.point_key):
         with pytest.raises(ValueError, match="another sweep is running"):
             run_sweep(spec, tmp_path)
 

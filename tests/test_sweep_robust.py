@@ -7,12 +7,13 @@ from __future__ import annotations
 import json
 import socket
 import threading
+from pathlib import Path
 
 import pytest
 
 from vrelab.cli import main
 from vrelab.sweep import load_spec, run_sweep
-from vrelab.sweep.checkpoint import CHECKPOINT_NAME, QUARANTINE_NAME
+from vrelab.sweep.checkpoint import CHECKPOINT_NAME, QUARANTINE_NAME, _line_sum
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -70,7 +71,61 @@ def test_bad_checkpoint_lines_are_quarantined_and_only_their_points_recomputed(t
     assert run_sweep(spec, out).summary["n_quarantined"] == 0  # the checkpoint is clean again
 
 
-def test_lines_of_an_older_version_without_checksums_are_kept(tmp_path):
+def test_a_checkpoint_of_an_older_vrelab_is_refused_in_one_line(tmp_path, capsys):
+    """Issue 30 (integrity): lines of a checkpoint written before lines named their points cannot
+    be checked against the grid; the resume says to start afresh instead of trusting indices."""
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(MODEL)
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec_path), "--out", str(out), "--no-progress"]) == 0
+    ck = out / CHECKPOINT_NAME
+    rows = [json.loads(ln) for ln in ck.read_text().splitlines()]
+    # the previous format: no "format" in the run header, no "point" in the point lines
+    old = [{k: v for k, v in r.items() if k not in ("format", "point", "sum")} for r in rows]
+    for r in old:
+        if r["type"] == "point":
+            r["sum"] = _line_sum(r)
+    ck.write_text("".join(json.dumps(r) + "\n" for r in old))
+    capsys.readouterr()
+    assert main(["sweep", str(spec_path), "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "older vrelab" in err and "--fresh" in err
+    assert main(["sweep", str(spec_path), "--out", str(out), "--no-progress", "--fresh"]) == 0
+
+
+def _rewrite(ck, edit):
+    """Apply ``edit`` to each point line (a dict) of checkpoint ``ck`` and recompute its checksum,
+    as a tool that knows the format would."""
+    rows = [json.loads(ln) for ln in ck.read_text().splitlines()]
+    for r in rows:
+        if r["type"] == "point":
+            edit(r)
+            r["sum"] = _line_sum(r)
+    ck.write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+
+def test_a_line_relabelled_to_another_point_is_quarantined(tmp_path):
+    """Issue 30 (integrity): a point line whose index was changed to another point's, its checksum
+    recomputed, went into result.csv as that other point. Its identity (a digest of the point's
+    parameters and seed, derived from the sweep file) now names the wrong point."""
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(MODEL)
+    spec = load_spec(spec_path)
+    out = tmp_path / "out"
+    truth = run_sweep(spec, out).dataset["vre_g"].values.tolist()
+    ck = out / CHECKPOINT_NAME
+    _rewrite(ck, lambda r: r.update(i=(r["i"] + 1) % 4))  # every line now claims its neighbour's point
+    again = run_sweep(spec, out)
+    s = again.summary
+    assert (s["n_quarantined"], s["n_computed"], s["n_ok"]) == (4, 4, 4)
+    assert {q["why"].split(" (")[0] for q in s["quarantined"]} == {f"not point {i} of this grid" for i in range(4)}
+    # each VRE is its own point's (k2·rms², distinct per rms), as computed the first time
+    assert again.dataset["vre_g"].values.tolist() == truth
+
+
+def test_a_line_without_its_checksum_or_identity_is_quarantined(tmp_path):
+    """Removing the checksum (or the identity) is an edit: a checkpoint of this format always has
+    both, so neither key's absence lets an edited line past the checks."""
     spec_path = tmp_path / "s.toml"
     spec_path.write_text(MODEL)
     spec = load_spec(spec_path)
@@ -78,9 +133,31 @@ def test_lines_of_an_older_version_without_checksums_are_kept(tmp_path):
     run_sweep(spec, out)
     ck = out / CHECKPOINT_NAME
     rows = [json.loads(ln) for ln in ck.read_text().splitlines()]
-    ck.write_text("".join(json.dumps({k: v for k, v in r.items() if k != "sum"}) + "\n" for r in rows))
+    points = [r for r in rows if r["type"] == "point"]
+    points[0]["values"]["vre_g"] = 123.0
+    del points[0]["sum"]
+    del points[1]["point"]
+    points[1]["sum"] = _line_sum(points[1])
+    ck.write_text("".join(json.dumps(r) + "\n" for r in rows))
     s = run_sweep(spec, out).summary
-    assert (s["n_computed"], s["n_quarantined"], s["n_ok"]) == (0, 0, 4)
+    assert (s["n_quarantined"], s["n_computed"]) == (2, 2)
+    whys = sorted(q["why"].split(" (")[0] for q in s["quarantined"])
+    assert whys == ["no checksum", "not point 1 of this grid"]
+
+
+def test_an_edit_with_its_checksum_recomputed_is_tampering_the_readme_names(tmp_path):
+    """The checksum finds damage, not tampering: a value edited by someone who recomputes the
+    checksum and keeps the identity is taken (nothing in the file can tell), and the README's
+    security paragraph says so."""
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(MODEL)
+    spec = load_spec(spec_path)
+    out = tmp_path / "out"
+    run_sweep(spec, out)
+    _rewrite(out / CHECKPOINT_NAME, lambda r: r["values"].update(vre_g=123.0))
+    assert set(run_sweep(spec, out).dataset["vre_g"].values.tolist()) == {123.0}
+    readme = " ".join((Path(__file__).parents[1] / "README.md").read_text().split())
+    assert "The checksum finds damage, not tampering" in readme
 
 
 class _Impostor:

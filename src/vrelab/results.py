@@ -54,6 +54,7 @@ class Notice(str):
     ``schedule``, ``segment``, ``reference``, ``bracket``, ``frequency``, ``tolerance``,
     ``fit`` (a fit skipped or limited), ``departure`` (data leave the clipping model), ``drive``
     (a sine level whose DUT may not see the reference's distorted waveform),
+    ``rate`` (the file library's sample rate differs from the one used: its effect per level),
     ``simulation`` (the simulated test's own), ``note`` (anything else).
     """
 

@@ -274,6 +274,57 @@ def _level_psd(record: Record, seg: Segment, stats: WindowStats) -> tuple[NDArra
     return acc.freq_hz, acc.psd
 
 
+def band_power_ratio(freq_hz: NDArray[np.float64], psd: NDArray[np.float64], band_hz: tuple[float, float],
+                     scale: float) -> float:
+    """P(f1·scale, f2·scale) / P(f1, f2): the band power of a PSD with the band's edges moved by
+    ``scale``, each power the trapezoid integral of the PSD, interpolated linearly between bins
+    at the edges (a shift of 0.3 % moves a 50 Hz edge by 0.15 Hz, well inside a 1 Hz bin)."""
+    cum = np.concatenate(([0.0], np.cumsum(0.5 * (psd[1:] + psd[:-1]) * np.diff(freq_hz))))
+
+    def power(lo: float, hi: float) -> float:
+        return float(np.interp(hi, freq_hz, cum) - np.interp(lo, freq_hz, cum))
+
+    f1, f2 = band_hz
+    base = power(f1, f2)
+    return power(f1 * scale, f2 * scale) / base if base > 0 else math.nan
+
+
+def library_rate_notice(record: Record, red: Reduction, fs_lib_hz: float, band_hz: Any) -> Notice:
+    """What reading the record at the file library's rate ``fs_lib_hz`` instead of the rate used
+    would change, level by level, judged against each level's u.
+
+    All frequencies scale by ``q = fs_lib / fs``: a mean of samples (the VRE, the baselines) and a
+    sine's amplitude hold no time scale, so the VRE and a sine level's rms do not move; only the
+    sine frequencies (by q - 1) and a random level's band do. The band [f1, f2] at the library's
+    rate is [f1/q, f2/q] at the rate used: the level's reference power becomes ``P·ratio``
+    (:func:`band_power_ratio` on the level's reference PSD), its rms ``rms·√ratio``. With VRE ∝ rms²
+    (SPEC 1.2) the same reading then belongs to a VRC off by ``1/ratio``; at the level's rms that is
+    a VRE of ``VRE·(1/ratio - 1)``, the shift compared with the level's u(VRE)."""
+    q = fs_lib_hz / record.fs_hz
+    head = f"the file library's sample rate {fs_lib_hz:.9g} Hz is {100 * (q - 1):+.3g} % off the {record.fs_hz:.9g} Hz used"
+    if red.method == "sine" or not band_hz:
+        return Notice("rate", f"{head}: sine levels' VRE and rms hold no time scale (a mean and an amplitude) and do not "
+                              f"change; their drive frequencies would read {100 * (q - 1):+.3g} %")
+    band = (float(band_hz[0]), float(band_hz[1]))
+    worst, over = 0.0, []
+    for seg, lv in zip(red.level_segments, red.levels):
+        f, p = _level_psd(record, seg, red.stats)
+        if len(f) == 0 or not (math.isfinite(lv.vre.value) and math.isfinite(lv.vre.u)):
+            continue
+        ratio = band_power_ratio(f, p, band, 1.0 / q)
+        shift = abs(lv.vre.value * (1.0 / ratio - 1.0))
+        if not math.isfinite(shift):
+            continue
+        rel = shift / lv.vre.u if lv.vre.u > 0 else math.inf
+        worst = max(worst, rel)
+        if rel > 1.0:
+            over.append(f"{lv.rms_g:.4g}")
+    verdict = (f"beyond u at {len(over)} level(s) ({', '.join(over[:5])} g rms): their VRC depends on which rate is "
+               "right" if over else "within u at every level")
+    return Notice("rate", f"{head}: at that rate each random level's band [{band[0]:g}, {band[1]:g}] Hz would move "
+                          f"by that much, its rms with it; the VRE shift this means is up to {worst:.2g} u: {verdict}")
+
+
 def _tolerance_checks(
     record: Record, segs: Sequence[Segment], levels: list[LevelResult], stats: WindowStats, profile: Any
 ) -> list[str]:
@@ -384,10 +435,13 @@ def analyze_full(
         extra=extra,
     )
     prov: dict[str, Any] = {"vrelab_version": __version__, "fs_hz": record.fs_hz, "n_samples": int(record.n_samples)}
-    for key in ("source", "format", "channels", "fs_from"):
+    for key in ("source", "format", "channels", "fs_from", "fs_library_hz"):
         if key in meta:
             prov[key] = meta[key]
     prov.update(dict(provenance or {}))
+    fs_lib = meta.get("fs_library_hz")
+    if isinstance(fs_lib, (int, float)) and fs_lib > 0 and fs_lib != record.fs_hz:
+        w = w + [library_rate_notice(record, red, float(fs_lib), extra.get("band_hz"))]
     result = VreResult(
         method=method,
         conditions=conditions,

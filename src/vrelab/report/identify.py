@@ -193,7 +193,7 @@ def channel_section(ch: Mapping[str, Any]) -> ReportSection:
         title=f"Channel {ch['channel']}",
         what=f"One weighted fit to every level of every run (χ²/dof = {'–' if chi2 is None else f'{chi2:.3g}'}, "
         f"{ch.get('dof')} dof); each level evaluated by the analytic model `vrelab predict` uses.",
-        figures=figs, tables=tables, notes=list(ch.get("notes") or []))
+        figures=figs, tables=tables, notes=list(ch.get("notes") or []), channel=str(ch["channel"]))
 
 
 def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = None,

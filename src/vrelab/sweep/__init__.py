@@ -185,11 +185,12 @@ def run_sweep(
     # the folder must be new, empty or a vrelab one holding none of the inputs; it is marked
     # vrelab's before the checkpoint is written into it, so an interrupted sweep can resume
     _io.claim(out, reads, entries=[CHECKPOINT_NAME, QUARANTINE_NAME])
-    with Checkpoint(out, spec.fingerprint(), spec.n_points, fresh=fresh, inputs=spec.inputs()) as ck:
+    units = [spec.unit_params(u) for u in range(spec.units or 0)]
+    with Checkpoint(out, spec.fingerprint(), spec.n_points, lambda i: spec.point_key(i, units), fresh=fresh,
+                    inputs=spec.inputs()) as ck:
         quarantined = [{"line": n, "why": why} for n, _, why in ck.quarantined]
         keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
         resumed = len(keep)
-        units = [spec.unit_params(u) for u in range(spec.units or 0)]
         items = [(i, spec.point_params(i, units), spec.point_seed(i)) for i in range(spec.n_points) if i not in keep]
         t0 = time.perf_counter()
         if own:

@@ -5,6 +5,13 @@ a SIGKILL the file holds every finished point; at most the last line is torn, an
 it off. Each start of a sweep appends a header line (``"type": "run"``) carrying the run number
 and the fingerprint of the sweep file, so a resume against a changed file is refused, and every
 point line names the run that computed it: a point computed twice shows up as two lines.
+
+Every point line carries a checksum (finds damage, not tampering: whoever can edit the file can
+recompute it) and its point's identity (:meth:`vrelab.sweep.spec.SweepSpec.point_key`, a digest
+of the point's parameters and seed), checked against the grid on resume: a line relabelled to
+another index names the wrong point and is quarantined. A checkpoint of an older vrelab (run
+headers without ``format``) is refused whole: its lines name no point, and an index alone cannot
+show that a line is the point it claims.
 """
 
 from __future__ import annotations
@@ -17,13 +24,14 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Callable, Literal
 
 from vrelab._load import json_loads
 
 CHECKPOINT_NAME = "checkpoint.jsonl"
 QUARANTINE_NAME = "checkpoint.quarantine.jsonl"
 _STATUSES = ("ok", "failed")
+FORMAT = 2  # run headers carry it from the version whose point lines carry their point's identity
 
 
 def _line_sum(obj: dict[str, Any]) -> str:
@@ -45,13 +53,15 @@ class PointRecord:
     run: int = 0
     cpu_s: float = math.nan  # CPU time of the worker process in it: far below elapsed_s = starved
 
-    def to_line(self) -> str:
+    def to_line(self, point: str) -> str:
+        """The line of this record, ``point`` the identity of its point on the grid."""
         # Python's json writes floats with repr, which round-trips exactly; NaN/inf are written
         # as the (non-standard) tokens that json reads back, since this file is ours alone. The
         # line carries its own checksum, so an edit by hand is found on resume.
         obj: dict[str, Any] = {
             "type": "point",
             "i": self.index,
+            "point": point,
             "status": self.status,
             "values": self.values,
             "error": self.error,
@@ -80,12 +90,15 @@ class PointRecord:
 class Checkpoint:
     """Open (or create) ``DIR/checkpoint.jsonl`` for a sweep with ``fingerprint`` and ``n_points``.
 
-    Holds an exclusive lock on the file while open, so two processes cannot append to the same
-    sweep. ``records`` maps point index to its latest record; ``append`` writes and fsyncs.
+    ``point_key(i)`` is the identity of point ``i`` on the sweep's grid, written into each point
+    line and checked on resume. Holds an exclusive lock on the file while open, so two processes
+    cannot append to the same sweep. ``records`` maps point index to its latest record;
+    ``append`` writes and fsyncs.
     """
 
-    def __init__(self, out_dir: str | Path, fingerprint: str, n_points: int, *, fresh: bool = False,
-                 inputs: dict[str, str] | None = None) -> None:
+    def __init__(self, out_dir: str | Path, fingerprint: str, n_points: int, point_key: Callable[[int], str], *,
+                 fresh: bool = False, inputs: dict[str, str] | None = None) -> None:
+        self.point_key = point_key
         self.path = Path(out_dir) / CHECKPOINT_NAME
         self.path.parent.mkdir(parents=True, exist_ok=True)
         created = not self.path.exists()
@@ -114,6 +127,7 @@ class Checkpoint:
                 json.dumps(
                     {
                         "type": "run",
+                        "format": FORMAT,
                         "run": self.run,
                         "fingerprint": fingerprint,
                         "n_points": n_points,
@@ -130,10 +144,13 @@ class Checkpoint:
     def _load(self, fingerprint: str, n_points: int, inputs: dict[str, str] | None = None) -> None:
         """Read the lines: run headers must match the sweep; a point line that is not one of
         this sweep's (not JSON, not an object, no or a foreign index, an edited value caught by
-        its checksum) is quarantined: moved to ``checkpoint.quarantine.jsonl`` and its point
-        recomputed, while every good line is kept. Lines written before checksums existed
-        (no ``sum``) are accepted: they predate the check, and refusing them would recompute
-        whole sweeps that are almost surely intact."""
+        its checksum, no checksum, a point identity that is not its index's on this grid) is
+        quarantined: moved to ``checkpoint.quarantine.jsonl`` and its point recomputed, while
+        every good line is kept. A checkpoint of an older vrelab (a run header without
+        ``format``) is refused with one line: its lines carry no point identity, so nothing
+        shows that a line is the point its index names (the relabelled line this check exists
+        for passes an index check), and quarantining them all would recompute the whole sweep
+        anyway, less plainly than starting afresh."""
         self._fh.seek(0)
         data = self._fh.read()
         good = data.rfind(b"\n") + 1
@@ -153,11 +170,15 @@ class Checkpoint:
                 if obj.get("fingerprint") != fingerprint or obj.get("n_points") != n_points:
                     raise ValueError(f"checkpoint {self.path} belongs to a different sweep: {_what_changed(obj, inputs)}; "
                                      "rerun with --fresh or another --out")
+                if obj.get("format") != FORMAT:
+                    raise ValueError(f"checkpoint {self.path} was written by an older vrelab: its lines do not name "
+                                     "their points, so a resume cannot check them against the grid; "
+                                     "rerun with --fresh or another --out")
                 self.runs = max(self.runs, int(obj["run"]))
                 kept.append(line)
                 continue
             if why is None:
-                why = _bad_point(obj, n_points)
+                why = _bad_point(obj, n_points, self.point_key)
             if why is not None:
                 bad.append((lineno, line, why))
                 continue
@@ -188,7 +209,7 @@ class Checkpoint:
         """Write finished points (one fsync for the lot: a chunk lands together)."""
         if not records:
             return
-        self._fh.write(b"".join(r.to_line().encode() + b"\n" for r in records))
+        self._fh.write(b"".join(r.to_line(self.point_key(r.index)).encode() + b"\n" for r in records))
         self._fh.flush()
         os.fsync(self._fh.fileno())
         for r in records:
@@ -207,7 +228,7 @@ class Checkpoint:
         self.close()
 
 
-def _bad_point(obj: dict[str, Any], n_points: int) -> str | None:
+def _bad_point(obj: dict[str, Any], n_points: int, point_key: Callable[[int], str]) -> str | None:
     """Why a point line is not one of this sweep's, or None."""
     if obj.get("type") != "point":
         return f"unknown line type {obj.get('type')!r}"
@@ -220,8 +241,12 @@ def _bad_point(obj: dict[str, Any], n_points: int) -> str | None:
         return "no status or values"
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in obj["values"].values()):
         return "a value is not a number"
-    if "sum" in obj and obj["sum"] != _line_sum(obj):
+    if "sum" not in obj:  # a line of this format always has one: removing it is an edit
+        return "no checksum (the line was edited)"
+    if obj["sum"] != _line_sum(obj):
         return "checksum mismatch (the line was edited)"
+    if obj.get("point") != point_key(i):
+        return f"not point {i} of this grid (its point identity is another's: relabelled, or from another grid)"
     return None
 
 

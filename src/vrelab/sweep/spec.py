@@ -213,6 +213,16 @@ class SweepSpec:
             params["seconds"] = self.seconds
         return params
 
+    def point_key(self, index: int, _units: list[dict[str, float]] | None = None) -> str:
+        """The identity of point ``index`` (16 hex): SHA-256 of its every parameter and its seed.
+
+        A checkpoint line carries it, so a resume can check that the line is the point its index
+        names on this grid (a line relabelled to another index, or a unit drawn otherwise by
+        another numpy, no longer matches)."""
+        entropy, key = self.point_seed(index)
+        body = {"params": self.point_params(index, _units), "seed": [entropy, list(key)]}
+        return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
     def all_params(self) -> Iterator[dict[str, Any]]:
         units = [self.unit_params(u) for u in range(self.units or 0)]
         for i in range(self.n_points):

@@ -8,6 +8,9 @@ timestamps each data block, not each sample: the sample rate is fitted to the bl
 (jitter of a clock tick and a slow drift accepted and said in the notes, a jump of several
 samples refused as a gap); channels of different rates cannot form one record (IDE files hold
 several, e.g. a 20 kHz accelerometer and a 100 Hz one), so a record's channels must share one.
+idelib's own ``getSampleRate()`` (the first block's stamps alone) is stated beside it in the
+notes and in the record's ``meta["fs_library_hz"]``; the analysis judges their difference level
+by level (:func:`vrelab.analysis.pipeline.library_rate_notice`).
 
 No code from the file: idelib reads a channel's ``SampleRate`` and ``TimeCodeScale`` (strings)
 with Python's ``eval``; vrelab hands idelib its own channel parser, which lets through only what
@@ -21,6 +24,7 @@ is read by ``arraySlice(start, stop)``, so memory follows the block read, not th
 from __future__ import annotations
 
 import logging
+import math
 import re
 from pathlib import Path
 from typing import Any, Sequence
@@ -254,7 +258,31 @@ class IdeSource(Source):
         if fs is None:
             return
         self.fs_hz = fs
-        self.notes.append(f"IDE: sample rate {self.fs_hz:.9g} Hz fitted to the recorder's block time stamps")
+        lib = self._library_rate(names)
+        if lib is None:
+            self.notes.append(f"IDE: sample rate {self.fs_hz:.9g} Hz fitted to the recorder's block time stamps")
+            return
+        # idelib's own rate: the channel's stated SampleRate, else its first block's stamps alone
+        # (one block: a clock tick of jitter over its span is 0.02-0.4 % on enDAQ files); the
+        # analysis judges the difference level by level against each level's u
+        self.meta["fs_library_hz"] = lib
+        self.notes.append(f"IDE: sample rate {self.fs_hz:.9g} Hz fitted to the recorder's block time stamps over "
+                          f"the record; idelib's getSampleRate() gives {lib:.9g} Hz ({100 * (lib / fs - 1):+.3g} %: "
+                          "the channel's stated rate, else its first block's stamps alone)")
+
+    def _library_rate(self, names: Sequence[str]) -> float | None:
+        """idelib's ``EventArray.getSampleRate()`` of the channels ``names`` (their mean), or None
+        when idelib gives none."""
+        rates = []
+        for n in names:
+            try:
+                r = float(self.events[self.alias.get(n, n)].getSampleRate())
+            except Exception:  # idelib's internals on a file it half understands: no second opinion
+                return None
+            if not (math.isfinite(r) and r > 0):
+                return None
+            rates.append(r)
+        return sum(rates) / len(rates) if rates else None
 
     def read(self, name: str, start: int, stop: int) -> NDArray[Any]:
         name = self.alias.get(name, name)
