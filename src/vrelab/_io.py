@@ -30,6 +30,7 @@ import errno
 import hashlib
 import io
 import json
+import math
 import os
 import secrets
 import shutil
@@ -497,6 +498,7 @@ def write_json(path: str | Path, obj: Any) -> None:
 
 LEVELS_CSV_COLUMNS = (
     "freq_hz", "rms_g", "u_rms_g", "vre_g", "u_vre_g", "duration_s", "n_samples", "n_saturated", "flags",
+    "thd", "u_thd",  # a sine level's drive distortion (SPEC 4.4: DriveWaveform.thd, a ratio); empty otherwise
 )
 
 
@@ -504,7 +506,8 @@ def write_levels_csv(path: str | Path, result: Any) -> None:
     """``levels.csv``: one row per level of a ``VreResult``, the numbers of ``results.json``.
 
     The one layout shared by ``simulate --out``, ``analyze --out`` and the demo. Floats are
-    written with ``repr`` so they read back bit for bit; unknown values are empty cells.
+    written with ``repr`` so they read back bit for bit; unknown values are empty cells (the THD
+    of a random level, or of a sine level whose reference's waveform was not measured).
     """
     write_levels_table(path, [({}, result)])
 
@@ -516,6 +519,10 @@ def write_levels_table(path: str | Path, groups: Sequence[tuple[Mapping[str, Any
 
     def cell(x: Any) -> str:
         return "" if x is None else repr(float(x))
+
+    def thd(lv: Any) -> list[str]:  # a THD not measured (nan) is unknown: empty, as a random level's
+        e = None if lv.drive is None else lv.drive.thd
+        return ["", ""] if e is None or math.isnan(e.value) else [cell(e.value), cell(e.u)]
 
     lead = list(groups[0][0]) if groups else []
     path = Path(path)
@@ -530,5 +537,6 @@ def write_levels_table(path: str | Path, groups: Sequence[tuple[Mapping[str, Any
                     cell(lv.freq_hz), cell(lv.rms_g), cell(lv.u_rms_g), cell(lv.vre.value), cell(lv.vre.u),
                     cell(lv.duration_s), "" if lv.n_samples is None else lv.n_samples, lv.n_saturated,
                     ";".join(lv.flags),
+                    *thd(lv),
                 ])  # fmt: skip
     os.replace(tmp, path)

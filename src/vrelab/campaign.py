@@ -988,6 +988,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
                                      if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])},
                                      n_points=len(grp), freq_hz=f0))
+    notes += _mounted_at_pure_drive(mounted, by_freq)
     k2 = k3 = None
     both = None
     names = ["k2_ug_per_g2", "k3_ug_per_g3"]
@@ -1064,8 +1065,42 @@ def _mounted_vrcs(rr: RunResult, mount: Mount, res: VreResult) -> list[dict[str,
             e = _type_a(f, "vrc_ug_per_g2")
             if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
                 out.append({"freq_hz": f.freq_hz, **mount.to_dict(), "run": rr.run.index, "label": rr.run.label,
-                            "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points})
+                            "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points,
+                            **({} if f.static_shift_g is None else {"static_shift_g": f.static_shift_g})})
     return out
+
+
+def _mounted_at_pure_drive(mounted: Sequence[dict[str, Any]], by_freq: Sequence[FitResult]) -> list[str]:
+    """Each mount-angle VRC of ``mounted`` whose drive was distorted (its fit's
+    ``static_shift_g`` s, along the vibration) carried to a pure drive, in place, as
+    :func:`_at_nominal_static` does the axial ones: the input axis senses cos φ of the vibration,
+    so the drive's E[x³] adds ``3·k3·cos³φ·s`` to VRE/E[x²] (SPEC 1.6's cross terms are quadratic:
+    they see E[x²] only); subtracted with k3 of the axial k2/k3 fit at the same frequency, its
+    variance ``u² + 9·cos⁶φ·s²·u(k3)²`` (independent runs: no covariance). The measured VRC stays
+    as ``vrc_measured_ug_per_g2``. Returns a note for the entries no fit at their frequency
+    corrects (their VRC carries the unknown ``3·k3·cos³φ·s``)."""
+    from vrelab.results import same_frequency
+
+    left = []
+    for v in mounted:
+        shift = v.get("static_shift_g", 0.0)
+        if not shift:
+            continue
+        fit = next((f for f in by_freq if f.freq_hz is not None and same_frequency(f.freq_hz, v["freq_hz"])
+                    and f.covariance is not None), None)
+        c3 = math.cos(math.radians(v["mount_deg"])) ** 3
+        if fit is None or fit.covariance is None:
+            left.append(f"run {v['run']} at {v['freq_hz']:g} Hz")
+            continue
+        k3, var_k3 = fit.params["k3_ug_per_g3"].value, fit.covariance[1][1]
+        e = v["vrc_ug_per_g2"]
+        v["vrc_measured_ug_per_g2"] = dict(e)
+        v["vrc_ug_per_g2"] = {"value": e["value"] - 3.0 * k3 * c3 * shift,
+                              "u": math.sqrt(e["u"] ** 2 + 9.0 * c3 * c3 * shift * shift * var_k3)}
+    if not left:
+        return []
+    return [f"a distorted drive (SPEC 4.4) on mount-angle run(s) {', '.join(left)}: no k2/k3 fit at their "
+            "frequency, so their VRC carries an unknown 3*k3*cos³φ*shift (the fit's static_shift_g)"]
 
 
 # Below this p-value of the χ² of the per-frequency k2 about their mean, they are said to disagree.

@@ -13,7 +13,10 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 
 * ``k2_ug_per_g2``, ``k3_ug_per_g3`` — from the sine runs' orientations: a sine at f in a field
   g0 gives ``VRE = (k2 + 3·k3·g0)·|H(f)|²·rms²`` (SPEC 1.2, 1.3); two static fields separate
-  them (random levels carry k·σ² under the clipping's share, which the rails also shape);
+  them (random levels carry k·σ² under the clipping's share, which the rails also shape). A
+  level whose drive was measured distorted (the document's ``drive``, SPEC 4.4) gives
+  ``k2·E[x²] + k3·(3·g0·E[x²] + E[x³])``, modelled as the pure sine of its E[x²] at
+  g0 + E[x³]/(3·E[x²]) (:func:`drive_equivalent`);
 * ``fn_hz``, ``q`` — from VRC(f) across the sine frequencies, ``|H(f)|² = 1/((1-r²)² + (r/Q)²)``;
 * ``rail_low_g``, ``rail_high_g`` — from the random runs, through the identified dynamics and
   the base sensor's filters (the physical rail where the clip sits, not the effective rail that
@@ -120,6 +123,10 @@ class Observation:
     # per sine level: the analysis flagged DUT samples at a rail (its own rail, not the identified one)
     saturated: tuple[bool, ...] = ()
     mount: Mount | None = None  # an IEEE 1293 mount-angle run (SPEC 1.6): its angle, plane and static vector
+    # per sine level: the reference's measured waveform as (E[x²]/rms², E[x³]/rms³), rms the
+    # fundamental's (SPEC 4.4, :class:`vrelab.results.DriveWaveform`); None: a pure sine. Held
+    # relative to rms so that a Type B scaling of the levels scales the moments with them.
+    drive: tuple[tuple[float, float] | None, ...] = ()
 
     @property
     def n(self) -> int:
@@ -334,6 +341,18 @@ def check_document(doc: Any) -> None:
                     if v is not None and math.isfinite(v):
                         lo, hi, what = _LEVEL_BOUNDS[key]
                         need(f"{wl}.vre_2f.{x}", lo <= v <= hi, what, v)
+                dw = lv.get("drive")
+                need(f"{wl}.drive", dw is None or isinstance(dw, Mapping), "an object (the reference's waveform)", dw)
+                for key, p in (("mean_square_g2", 2), ("mean_cube_g3", 3)):
+                    m = None if dw is None else dw.get(key)
+                    need(f"{wl}.drive.{key}", m is None or (isinstance(m, Mapping) and all(
+                        m.get(x) is None or _is_num(m.get(x), finite=False) for x in ("value", "u"))),
+                        "an object with value and u", m)
+                    v = None if m is None else m.get("value")
+                    if v is not None and math.isfinite(v):
+                        top = V.MAX_LEVEL_G_RMS**p
+                        need(f"{wl}.drive.{key}.value", (0.0 if p == 2 else -top) <= v <= top,
+                             f"within {0 if p == 2 else -top:g}..{top:g} g^{p}", v)
 
 
 def failed_runs(doc: Mapping[str, Any]) -> list[str]:
@@ -383,7 +402,7 @@ def apparent_vrc(ob: Observation) -> tuple[float, float]:
     the Birge ratio when the levels scatter about the line more than their u say."""
     from vrelab.gum import weighted_mean
 
-    x2 = ob.rms_g**2
+    x2 = drive_equivalent(ob)[0] ** 2 if ob.drive else ob.rms_g**2
     e = weighted_mean([Estimate(to_ug(float(v / x)), to_ug(float(u / x)), "ug/g^2")
                        for v, u, x in zip(ob.vre_g, ob.u_g, x2)])
     return e.value, e.u
@@ -397,6 +416,19 @@ def _type_a(level: Mapping[str, Any]) -> float | None:
             return u_a
     u: float | None = level.get("u_vre_g")
     return u
+
+
+def _drive_moments(level: Mapping[str, Any], rms: float) -> tuple[float, float] | None:
+    """A sine level's measured drive moments relative to its fundamental's rms, (E[x²]/rms²,
+    E[x³]/rms³) (the campaign document's ``drive``, SPEC 4.4), or None (a pure sine assumed, as
+    without them) when the level carries none or they are not finite."""
+    d = level.get("drive")
+    if not isinstance(d, Mapping):
+        return None
+    m2, m3 = ((d.get(k) or {}).get("value") for k in ("mean_square_g2", "mean_cube_g3"))
+    if m2 is None or m3 is None or not (math.isfinite(m2) and math.isfinite(m3) and m2 > 0):
+        return None
+    return float(m2) / rms**2, float(m3) / rms**3
 
 
 def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]) -> list[Observation]:
@@ -418,7 +450,8 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
             and h.get("u") else None
         dof = lv.get("dof")
         rows.append((float(rms), float(v), float(u), lv.get("freq_hz"), h2f,
-                     float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf, sat))
+                     float(dof) if dof is not None and math.isfinite(dof) and dof > 0 else math.inf, sat,
+                     _drive_moments(lv, float(rms)) if method == "sine" else None))
     if saturated:
         notes.append(f"{where}: sine level(s) {', '.join(saturated)} g rms flagged saturated by the analysis (DUT "
                      "samples at its rail): left out, unless the identified rails clear their peaks")
@@ -433,10 +466,10 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
         mount = Mount(float(ch["mount_deg"]), str(ch["mount_plane"]), (float(vec[0]), float(vec[1]), float(vec[2])))
 
     def make(sel: Sequence[tuple[Any, ...]], freq: float | None, profile: RandomProfile | None) -> Observation:
-        rms, vre, u, _, h2f, dof, sat = zip(*sel)
+        rms, vre, u, _, h2f, dof, sat, drv = zip(*sel)
         return Observation(index, label, str(method), g0, freq, profile, np.array(rms), np.array(vre),
                            _pooled(np.array(u), np.array(dof)) if freq is not None else np.array(u), tuple(h2f),
-                           tuple(sat), mount)
+                           tuple(sat), mount, tuple(drv) if any(d is not None for d in drv) else ())
 
     if method == "sine":
         if any(r[3] is None for r in rows):
@@ -472,7 +505,57 @@ def model_levels(sensor: Sensor, ob: Observation, kind: ClipKind = DEFAULT_CLIP_
         if ob.freq_hz is None:
             raise ValueError(f"a sine observation ({ob.label}) without its frequency")
         excitation = [ob.freq_hz]
+        if ob.drive:
+            return _model_distorted(sensor, ob, kind)
     return predict(sensor, excitation, ob.rms_g, static_g=ob.static_g, kind=kind)
+
+
+def drive_equivalent(ob: Observation) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per sine level, the pure sine a polynomial sensor rectifies as it does the measured drive
+    (SPEC 4.4): its rms √E[x²] and its static-field shift s = E[x³]/(3·E[x²]) [g].
+
+    For ``f(a) = a + k2·a² + k3·a³`` at ``a = g0 + x``, ``VRE = E[f(g0 + x)] - f(g0) =
+    k2·E[x²] + k3·(3·g0·E[x²] + E[x³])`` (the drive's mean is 0), which a pure sine y with
+    E[y²] = E[x²] gives exactly at the static field g0 + s: ``k2·E[x²] + 3·k3·(g0 + s)·E[x²]``.
+    Exact for the cubic polynomial; assumed, as in the reduction, that the DUT sees the reference's
+    waveform (its response at the harmonics that of the fundamental). Levels without a measured
+    drive: their rms and no shift (a pure sine)."""
+    q = np.array([d if d is not None else (1.0, 0.0) for d in ob.drive] if ob.drive else [(1.0, 0.0)] * ob.n)
+    return ob.rms_g * np.sqrt(q[:, 0]), ob.rms_g * q[:, 1] / (3.0 * q[:, 0])
+
+
+def _model_distorted(sensor: Sensor, ob: Observation, kind: ClipKind) -> Prediction:
+    """:func:`model_levels` for sine levels with a measured drive: each level predicted as the
+    pure sine of :func:`drive_equivalent` at its own static field g0 + s, reported at the
+    level's fundamental rms.
+
+    The VRE is linear in the static field where the cubic polynomial sets it (``3·k3·g0·E[x²]``),
+    so each level's value at g0 + s is interpolated, exactly there, between two predictions of
+    all the levels (at g0 and at g0 plus the largest |s|) rather than one prediction per level
+    (the fit evaluates the model many times). What is curved in g0 (a k4 term, a rail's reach)
+    is interpolated over |s| <= d·A1/2 (0.11 g for 8 % at 2 g rms): its second-order remainder
+    is left, far below a level's u where the rails stay clear."""
+    from vrelab.predict import predict
+
+    rms, shift = drive_equivalent(ob)
+    freq = [float(ob.freq_hz or 0.0)]
+    at = predict(sensor, freq, rms, static_g=ob.static_g, kind=kind)
+    j = int(np.argmax(np.abs(shift)))
+    if shift[j] == 0.0:
+        levels = at.levels
+    else:
+        moved = predict(sensor, freq, rms, static_g=ob.static_g + float(shift[j]), kind=kind)
+        t = shift / shift[j]  # each level's place between the two static fields
+
+        def line(a: float, b: float, tk: float) -> float:
+            return a + tk * (b - a)
+
+        levels = tuple(dataclasses.replace(
+            a, vre_g=line(a.vre_g, b.vre_g, float(tk)),
+            shares={k: line(v, b.shares.get(k, v), float(tk)) for k, v in a.shares.items()})
+            for a, b, tk in zip(at.levels, moved.levels, t))
+    return dataclasses.replace(at, levels=tuple(dataclasses.replace(lv, rms_g=float(r))
+                                                for lv, r in zip(levels, ob.rms_g)))
 
 
 def _model(sensor: Sensor, obs: Sequence[Observation], kind: ClipKind) -> list[Prediction]:
@@ -627,7 +710,19 @@ def _post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Se
 def _vrc_data(sines: Sequence[Observation]) -> tuple[NDArray[np.float64], ...]:
     """The sine runs' apparent VRCs, their u, frequencies and static fields, as arrays."""
     vrc, u = (np.array(a) for a in zip(*(apparent_vrc(ob) for ob in sines)))
-    return vrc, u, np.array([ob.freq_hz for ob in sines]), np.array([ob.static_g for ob in sines])
+    return vrc, u, np.array([ob.freq_hz for ob in sines]), np.array([vrc_static_g(ob) for ob in sines])
+
+
+def vrc_static_g(ob: Observation) -> float:
+    """The static field a sine observation's apparent VRC belongs to: g0, or under a distorted
+    drive g0 + Σ w·E[x²]·s / Σ w·E[x²] (:func:`drive_equivalent`'s s per level, w = 1/u², the
+    weights of :func:`apparent_vrc`), so that VRC = (k2 + 3·k3·that)·|H(f)|² (as
+    :func:`vrelab.fits.fit_vrc`'s ``static_shift_g``)."""
+    if not ob.drive:
+        return ob.static_g
+    rms, shift = drive_equivalent(ob)
+    w = rms**4 / ob.u_g**2
+    return ob.static_g + float(np.sum(w * shift) / np.sum(w))
 
 
 def _vrc_chi2(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
@@ -938,7 +1033,7 @@ def _subset(ob: Observation, keep: NDArray[np.bool_]) -> Observation:
         return tuple(x for x, k in zip(t, keep) if k) if t else ()
 
     return replace(ob, rms_g=ob.rms_g[keep], vre_g=ob.vre_g[keep], u_g=ob.u_g[keep], harmonic_g=pick(ob.harmonic_g),
-                   saturated=pick(ob.saturated))
+                   saturated=pick(ob.saturated), drive=pick(ob.drive))
 
 
 def _unsaturated(obs: Sequence[Observation]) -> list[Observation]:
@@ -1380,9 +1475,11 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
                 if not k:
                     notes.append(f"run {ob.run} ({ob.label!r}): level {r:.4g} g rms left out of the cross-coupling fit: "
                                  "its sensed peak reaches a rail of the identified model")
-        s2 = ob.rms_g**2 * h2
-        col = np.array([wd**2, 3 * gs * wd**2, *(d[a] * d[b] for _, a, b in CROSS_TERMS)])
+        # a distorted drive (SPEC 4.4): E[x²] in place of rms², and its E[x³] as the sensed shift w·d·s
+        rms_eq, shift = drive_equivalent(ob)
+        s2 = rms_eq**2 * h2
         for k in np.flatnonzero(keep):
+            col = np.array([wd**2, 3 * (gs + wd * shift[k]) * wd**2, *(d[a] * d[b] for _, a, b in CROSS_TERMS)])
             rows.append(s2[k] / UG_PER_G * col)
             ys.append(float(ob.vre_g[k]))
             us.append(float(ob.u_g[k]))
