@@ -42,6 +42,7 @@ from vrelab.analysis.levels import (
     off_stretches,
     reduce_level,
     segment_samples,
+    short_baseline_u,
     short_baselines,
 )
 from vrelab.analysis.noise import channel_noise
@@ -181,13 +182,15 @@ def reduce(
     levels: list[LevelResult] = []
     level_segs: list[Segment] = []
     times: list[float] = []
+    thirds: list[tuple[tuple[float, float], ...] | None] = []
     psds: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
     for seg in (g for g in sched.segments if not g.is_baseline):
         if n_windows(stats, seg) < MIN_SEGMENT_WINDOWS:
             warnings.append(Notice("segment", f"level {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
             continue
-        level, t_c, w = reduce_level(ctx, seg, kind)
+        level, t_c, w, th = reduce_level(ctx, seg, kind)
         warnings += w
+        thirds.append(th)
         levels.append(level)
         level_segs.append(seg)
         times.append(t_c)
@@ -195,6 +198,7 @@ def reduce(
             psds.append(_level_psd(record, seg, stats))
     if not levels:
         raise ValueError("no vibration level found in the record (or schedule)")
+    levels = short_baseline_u(levels, times, thirds, baselines, ctx.low_frequency)
     n_sat_levels = sum(1 for lv in levels if lv.n_saturated)
     if n_sat_levels:
         warnings.append(Notice("saturated-levels", f"{n_sat_levels} level(s) with saturated DUT samples (flagged 'saturated')"))

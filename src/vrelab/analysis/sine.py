@@ -47,6 +47,9 @@ class SineLevel:
     shift_2f: MeanEstimate | None
     # the reference's waveform: harmonics, THD, E[x²], E[x³] (None: no reference)
     drive: DriveWaveform | None = None
+    # the DUT's fitted offset per batch (in time order), whose mean is ``dut_mean``: the
+    # level's own low-frequency noise (vrelab.analysis.levels.thirds_difference)
+    batch_offsets: NDArray[np.float64] | None = None
 
 
 def estimate_frequency(x: NDArray[np.float64], fs_hz: float) -> float:
@@ -269,7 +272,7 @@ def sine_level(
             if note:
                 warnings.append(Notice("drive", note))
     return SineLevel(f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, stop - i0, warnings, h2,
-                     drive)
+                     drive, np.asarray(dut_means, dtype=np.float64))
 
 
 # A distorted drive's moments are the reference's: the DUT is taken to see the same waveform,
