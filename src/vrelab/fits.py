@@ -243,6 +243,68 @@ def _clip_jacobian(
     return np.column_stack(np.broadcast_arrays(*cols)).astype(np.float64)
 
 
+# the starting grid of the rail fit: log-spaced rails, and the coarse stride of its exact search
+_GRID_POINTS = 200
+_GRID_STRIDE = 8
+# two grid rails whose chi² agree within this (relative) are a tie the search leaves to the full
+# evaluation: far above the rounding of a sum of squares (~1e-15), far below any real difference
+_GRID_TIE = 1e-9
+
+
+def _monotone_grid_argmin(
+    grid: NDArray[np.float64], rms: NDArray[np.float64], y: NDArray[np.float64], sw: NDArray[np.float64], static_g: float
+) -> int | None:
+    """The best rail of ``grid`` for the symmetric censored model, found without evaluating every
+    rail; None when the search cannot decide (a tie, a non-finite chi²): the caller then
+    evaluates the whole grid.
+
+    It returns what ``argmin`` over the whole grid returns. The censored shift at each level is
+    monotone in the symmetric rail r (its derivative ``P(X > r) - P(X < -r)`` has the sign of the
+    static field g0 for every r, :func:`vrelab.models.clipping.censored_rail_derivatives`), so
+    between two evaluated rails r_a < r_b every level's prediction lies between its values at r_a
+    and r_b, and ``Σ w·dist(y, [f(r_a), f(r_b)])²`` bounds the chi² of every rail in between from
+    below. Every stride-th rail is evaluated; a block between two of them is skipped only when its
+    bound exceeds the best chi² found by more than ``_GRID_TIE`` (relative), its rails evaluated
+    otherwise. The best rail must then beat every other evaluated one by more than ``_GRID_TIE``,
+    which no rounding difference can reverse; else None. The rail fit starts from this rail, so
+    the fit's numbers are the full evaluation's, bit for bit (``bench/check_analysis_exact.py``).
+    This is the costly part of the departure scan: one rail fit per prefix of the levels.
+    """
+    from vrelab.models.clipping import censored_mean_shift
+
+    n = len(grid)
+
+    def chi2_rows(idx: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        g = grid[idx]
+        pred = np.asarray(censored_mean_shift(static_g, rms[None, :], -g[:, None], g[:, None]), dtype=np.float64)
+        return pred, np.sum(((pred - y) * sw) ** 2, axis=1)
+
+    coarse = np.unique(np.r_[np.arange(0, n, _GRID_STRIDE), n - 1])
+    pred, chi2 = chi2_rows(coarse)
+    if not np.all(np.isfinite(chi2)) or not np.all(np.isfinite(pred)):
+        return None
+    best = float(np.min(chi2))
+    if np.count_nonzero(chi2 <= best * (1.0 + _GRID_TIE)) > 1:
+        return None  # a plateau of equal chi² (levels far inside every rail): its first rail is a tie of bits
+    lo_f, hi_f = np.minimum(pred[:-1], pred[1:]), np.maximum(pred[:-1], pred[1:])
+    dist = np.maximum(np.maximum(lo_f - y, y - hi_f), 0.0)
+    bound = np.sum((dist * sw) ** 2, axis=1)  # one per block between consecutive coarse rails
+    open_blocks = np.flatnonzero(bound <= best * (1.0 + _GRID_TIE))
+    inner = [np.arange(coarse[b] + 1, coarse[b + 1]) for b in open_blocks]
+    idx, vals = coarse, chi2
+    if inner and sum(len(x) for x in inner):
+        more = np.concatenate(inner)
+        _, chi2_more = chi2_rows(more)
+        if not np.all(np.isfinite(chi2_more)):
+            return None
+        idx, vals = np.r_[coarse, more], np.r_[chi2, chi2_more]
+    k = int(np.argmin(vals))
+    others = np.delete(vals, k)
+    if others.size and float(np.min(others)) <= float(vals[k]) * (1.0 + _GRID_TIE):
+        return None
+    return int(idx[k])
+
+
 def _fit_clip_once(
     rms: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -265,14 +327,18 @@ def _fit_clip_once(
     # information) and steep near the data: start from the best point of a log grid.
     lo = abs(static_g) + 0.05 * float(np.min(rms))
     hi = abs(static_g) + 12.0 * float(np.max(rms))
-    grid = np.geomspace(max(lo, 1e-6), hi, 200)
-    # all grid rails at once (the model broadcasts): rows = rails, columns = levels
-    pred = np.asarray(shift(static_g, rms[None, :], -grid[:, None], grid[:, None]), dtype=np.float64)
-    if with_vrc:  # the VRC term is linear: its best value for each grid rail in closed form
-        x2 = rms**2
-        vrc = ((y - pred) * w * x2).sum(axis=1) / np.sum(w * x2**2)
-        pred = pred + vrc[:, None] * x2
-    i0 = int(np.argmin(np.sum(((pred - y) * sw) ** 2, axis=1)))
+    grid = np.geomspace(max(lo, 1e-6), hi, _GRID_POINTS)
+    found = _monotone_grid_argmin(grid, rms, y, sw, static_g) if (kind == "censored" and symmetric
+                                                                    and not with_vrc) else None
+    if found is None:
+        # all grid rails at once (the model broadcasts): rows = rails, columns = levels
+        pred = np.asarray(shift(static_g, rms[None, :], -grid[:, None], grid[:, None]), dtype=np.float64)
+        if with_vrc:  # the VRC term is linear: its best value for each grid rail in closed form
+            x2 = rms**2
+            vrc = ((y - pred) * w * x2).sum(axis=1) / np.sum(w * x2**2)
+            pred = pred + vrc[:, None] * x2
+        found = int(np.argmin(np.sum(((pred - y) * sw) ** 2, axis=1)))
+    i0 = found
     r0 = grid[i0]
     if symmetric:
         p0 = [r0]
