@@ -10,8 +10,9 @@ rail, profile, ...), ``FitOptions`` (static field, clipping model, ...), ``Budge
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from vrelab._lazy import lazy_getattr
 
 if TYPE_CHECKING:
     from vrelab.analysis.options import BudgetOptions as BudgetOptions
@@ -41,9 +42,4 @@ _LAZY: dict[str, str] = {
 __all__ = list(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY, globals())

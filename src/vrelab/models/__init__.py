@@ -12,8 +12,9 @@ command line's choices, then costs no scipy.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from vrelab._lazy import lazy_getattr
 
 if TYPE_CHECKING:
     from vrelab.models.clipping import censored_mean_shift as censored_mean_shift
@@ -118,9 +119,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY, globals())

@@ -20,9 +20,9 @@ them bring scipy and the simulator), as :mod:`vrelab` does.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from vrelab._lazy import lazy_getattr
 from vrelab.triaxial.profile import AXES, PairCoherence, TriaxialProfile, TriaxialSine, direction
 
 if TYPE_CHECKING:
@@ -70,12 +70,7 @@ _LAZY: dict[str, str] = {
 __all__ = ["AXES", "PairCoherence", "TriaxialProfile", "TriaxialSine", "direction", *_LAZY]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY, globals())
 
 
 def __dir__() -> list[str]:
