@@ -227,6 +227,15 @@ class AntiAlias(FilterStage):
 LowPassKind = Literal["butterworth", "bessel"]
 
 
+def _check_low_pass(stage: LowPass | AnalogLowPass) -> None:
+    """A low-pass stage's fields (:class:`LowPass`, :class:`AnalogLowPass`): a corner > 0, a whole
+    order >= 1, a known family."""
+    positive(stage, "corner_hz")
+    positive_int(stage, "order")
+    if stage.kind not in ("butterworth", "bessel"):
+        raise ValueError(f"{type(stage).__name__} kind must be one of butterworth, bessel; got {stage.kind!r}")
+
+
 @dataclass(frozen=True)
 class LowPass(FilterStage):
     """Digital low-pass of the sensor (ADXL355: corner = ODR/4), designed once per rate.
@@ -251,10 +260,7 @@ class LowPass(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        positive(self, "corner_hz")
-        positive_int(self, "order")
-        if self.kind not in ("butterworth", "bessel"):
-            raise ValueError(f"LowPass kind must be one of butterworth, bessel; got {self.kind!r}")
+        _check_low_pass(self)
 
     def _analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
         return _analog_prototype(self.kind, self.order, 2 * np.pi * self.corner_hz)
@@ -299,10 +305,7 @@ class AnalogLowPass(FilterStage):
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)
 
     def __post_init__(self) -> None:
-        positive(self, "corner_hz")
-        positive_int(self, "order")
-        if self.kind not in ("butterworth", "bessel"):
-            raise ValueError(f"AnalogLowPass kind must be one of butterworth, bessel; got {self.kind!r}")
+        _check_low_pass(self)
 
     def analog_zpk(self) -> tuple[InexactArray, ComplexArray, float]:
         z, p, k = _analog_prototype(self.kind, self.order, 2 * np.pi * self.corner_hz)
