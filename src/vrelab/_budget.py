@@ -88,15 +88,9 @@ def check_memory(what: str, n_bytes: float) -> None:
 
 def check_simulation(what: str, n_internal_samples: float, n_bytes: float = 0.0) -> None:
     """Refuse a simulation whose estimated compute time or memory is beyond its budget."""
-    seconds = n_internal_samples * SIMULATION_SECONDS_PER_SAMPLE
-    budget = time_budget_s()
-    if not math.isfinite(seconds) or seconds > budget:
-        raise ValueError(
-            f"{what} would take about {human_seconds(seconds) if math.isfinite(seconds) else 'forever'} "
-            f"({n_internal_samples:.3g} samples at the internal rate"
-            + (f", {human_bytes(n_bytes)} of memory" if n_bytes else "")
-            + f"), beyond the {human_seconds(budget)} budget (VRELAB_TIME_BUDGET_H raises it)"
-        )
+    _check_time(what, n_internal_samples * SIMULATION_SECONDS_PER_SAMPLE,
+                f"{n_internal_samples:.3g} samples at the internal rate"
+                + (f", {human_bytes(n_bytes)} of memory" if n_bytes else ""))
     check_memory(what, n_bytes)
 
 
@@ -104,11 +98,16 @@ def check_prediction(what: str, n_level_evaluations: float) -> None:
     """Refuse an analytic prediction whose estimated compute time is beyond the time budget
     (the one a simulation has, ``VRELAB_TIME_BUDGET_H``): ``n_level_evaluations`` closed-form
     levels at ``PREDICTION_SECONDS_PER_LEVEL`` each."""
-    seconds = n_level_evaluations * PREDICTION_SECONDS_PER_LEVEL
+    _check_time(what, n_level_evaluations * PREDICTION_SECONDS_PER_LEVEL,
+                f"{n_level_evaluations:.3g} level evaluations")
+
+
+def _check_time(what: str, seconds: float, detail: str) -> None:
+    """The time budget's refusal (simulation and prediction): ``what`` would take ``seconds``,
+    estimated from ``detail``."""
     budget = time_budget_s()
     if not math.isfinite(seconds) or seconds > budget:
         raise ValueError(
             f"{what} would take about {human_seconds(seconds) if math.isfinite(seconds) else 'forever'} "
-            f"({n_level_evaluations:.3g} level evaluations), beyond the {human_seconds(budget)} budget "
-            "(VRELAB_TIME_BUDGET_H raises it)"
+            f"({detail}), beyond the {human_seconds(budget)} budget (VRELAB_TIME_BUDGET_H raises it)"
         )
