@@ -124,17 +124,11 @@ def _own(groups: list[str], big: bool) -> dict[str, Any]:
     return {g: run[g]() for g in groups}
 
 
-def _flat(x: Any, path: str = "") -> list[tuple[str, Any]]:
-    if isinstance(x, dict):
-        return [kv for k in sorted(x) for kv in _flat(x[k], f"{path}.{k}")]
-    if isinstance(x, (list, tuple)):
-        return [kv for i, v in enumerate(x) for kv in _flat(v, f"{path}[{i}]")]
-    return [(path, x)]
-
-
 def _compare(ours: Any, base: Any) -> tuple[int, list[str]]:
     """(floats compared, every difference: a float in any bit, any other value, the structure)."""
-    a, b = _flat(ours), _flat(base)
+    from check_model_exact import flatten  # bench/ is the script's folder, on sys.path
+
+    a, b = flatten(ours), flatten(base)
     if [k for k, _ in a] != [k for k, _ in b]:
         keys_a, keys_b = {k for k, _ in a}, {k for k, _ in b}
         return 0, [f"the structure differs: only here {sorted(keys_a - keys_b)[:3]}, only there "

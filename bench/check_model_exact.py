@@ -185,17 +185,18 @@ def _own(groups: list[str]) -> dict[str, Any]:
     return {g: run[g]() for g in groups}
 
 
-def _flat(x: Any, path: str = "") -> list[tuple[str, Any]]:
+def flatten(x: Any, path: str = "") -> list[tuple[str, Any]]:
+    """A nested result as (path, leaf) pairs in a fixed order (also check_analysis_exact's)."""
     if isinstance(x, dict):
-        return [kv for k in sorted(x) for kv in _flat(x[k], f"{path}.{k}")]
+        return [kv for k in sorted(x) for kv in flatten(x[k], f"{path}.{k}")]
     if isinstance(x, (list, tuple)):
-        return [kv for i, v in enumerate(x) for kv in _flat(v, f"{path}[{i}]")]
+        return [kv for i, v in enumerate(x) for kv in flatten(v, f"{path}[{i}]")]
     return [(path, x)]
 
 
 def _compare(ours: Any, base: Any) -> tuple[int, float, str, list[str]]:
     """(numbers compared, the largest relative difference, where, what differs otherwise)."""
-    a, b = _flat(ours), _flat(base)
+    a, b = flatten(ours), flatten(base)
     # a key the baseline does not have (a new result, such as a level's VRC) is no moved number:
     # compare on the baseline's keys, and say which are new
     known = {k for k, _ in b}
