@@ -26,7 +26,7 @@ def _escape(text: str | None) -> str | None:
 def _literal(text: str | None) -> str | None:
     if text is None or not text.strip():
         return text
-    return "::\n\n" + textwrap.indent(textwrap.dedent(text).strip("\n"), "    ")
+    return ".. code-block:: text\n\n" + textwrap.indent(textwrap.dedent(text).strip("\n"), "    ")
 
 
 def _prepare(parser: argparse.ArgumentParser) -> None:

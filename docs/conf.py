@@ -3,6 +3,7 @@ with warnings as errors)."""
 
 import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -50,11 +51,44 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "abort_on_example_error": True,
     "within_subsection_order": "FileNameSortKey",
+    # its execution-times pages load jQuery and DataTables from CDNs; the docs fetch nothing
+    # from another host (tests/test_docs.py)
+    "write_computation_times": False,
 }
 
-html_theme = "alabaster"
+# pydata-sphinx-theme (pvlib's and xarray's): a wide content column and an API sidebar; its
+# assets (Bootstrap, Font Awesome) ship in the package, so a page reads offline.
+html_theme = "pydata_sphinx_theme"
+html_title = f"vrelab {release}"
 html_static_path: list[str] = []
-html_theme_options = {"description": "VRE of accelerometers, end to end", "fixed_sidebar": True}
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+    "footer_start": ["copyright"],
+    "footer_end": [],
+}
+
+# Maths offline: MathJax 3 from a PyPI package (django-static-mathjax, MathJax's own es5 build,
+# no Python dependency) instead of sphinx's default CDN URL. tex-svg.js is one self-contained
+# file (its fonts are paths inside it), copied into _static/mathjax when the build finishes.
+mathjax_path = "mathjax/tex-svg.js"
+
+# the section sidebar only where a section has pages (the API reference, the gallery); the
+# single pages give its width to the text
+html_sidebars = {"index": [], "physics": [], "tutorial-*": [], "cli": []}
+
+
+def _mathjax_file() -> Path:
+    import mathjax  # django-static-mathjax
+
+    return Path(mathjax.__file__).resolve().parent / "static" / "mathjax" / "es5" / "tex-svg.js"
+
+
+def _copy_mathjax(app, exception):
+    if exception is None and app.builder.format == "html":
+        target = Path(app.outdir) / "_static" / "mathjax"
+        target.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(_mathjax_file(), target / "tex-svg.js")
 
 # A docstring's References list is a bibliography: an entry its text does not cite is not an
 # error (numpydoc turns each ``.. [1]`` into a citation unique to its docstring).
@@ -86,4 +120,6 @@ def _escape_absolute_bars(app, what, name, obj, options, lines):
 
 
 def setup(app):
+    _mathjax_file().stat()  # a missing package fails the build here, not a reader's page later
+    app.connect("build-finished", _copy_mathjax)
     app.connect("autodoc-process-docstring", _escape_absolute_bars, priority=600)  # after numpydoc
