@@ -2,9 +2,9 @@
 
 ``make examples``, ``python examples/make_campaign.py`` and the suite's session fixture
 (tests/conftest.py) all call :func:`vrelab.simulation.campaign.ensure_campaign`. These tests hold
-it to what the README relies on: the same files every time (so the numbers the README quotes are
+it to what the docs rely on: the same files every time (so the numbers the docs quote are
 the numbers a fresh clone gets), the committed manifest and sensor file the ones the generator
-writes, nothing present overwritten, and the README's quoted identification what identify says.
+writes, nothing present overwritten, and the designer path's quoted identification what identify says.
 """
 
 from __future__ import annotations
@@ -61,13 +61,13 @@ def test_a_missing_recording_is_the_cli_one_line(tmp_path: Path, capsys: pytest.
 @pytest.mark.slow
 def test_the_readme_quotes_what_identify_gives_on_the_example(tmp_path: Path,
                                                               capsys: pytest.CaptureFixture[str]) -> None:
-    """The designer's path in the README quotes sn1's identified parameters and the prediction
-    with them: the numbers the README's own commands print on the generated example."""
-    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    """The designer's path (docs/designer-path.md) quotes sn1's identified parameters and the
+    prediction with them: the numbers the page's own commands print on the generated example."""
+    text = " ".join((ROOT / "docs" / "designer-path.md").read_text(encoding="utf-8").split())
     pm = r"(-?[\d.]+ ± [\d.]+)"
     m = re.search(rf"\(sn1: k2 {pm} µg/g² for 2000, k3 {pm} for 300, fn {pm} Hz for 1200, Q {pm} for 4, "
                   rf"upper rail {pm} g for 2\.048\), and `predict` with it .*? gives {pm} mg", text)
-    assert m, "the README no longer quotes the identification of the example in the form this test reads"
+    assert m, "the designer's path no longer quotes the identification of the example in the form this test reads"
     camp, ident = tmp_path / "camp", tmp_path / "ident"
     assert main(["campaign", str(EXAMPLE / "campaign.toml"), "--out", str(camp)]) == 0
     capsys.readouterr()

@@ -1,17 +1,21 @@
-"""Every shell command of README.md runs as written, in README order, on a fresh copy of the
-shipped examples: what a new user types works.
+"""Every shell command and Python block of README.md and of the manual's pages runs as written,
+in page order, on a fresh copy of the shipped examples: what a new user types works.
+
+Each page gets its own folder (a reader starts from any page), holding a copy of ``examples/``
+and nothing its own commands did not write, so a command that names a file nobody ships or
+generates, or that leans on another page's output, fails here. Within a page later blocks find
+what earlier ones wrote (``analyze sim/record.h5`` after ``simulate --out sim``) and Python blocks
+share one namespace (a reader pasting them in order). Each command must exit 0, each block run.
 
 Each fenced ``sh`` block is read the way a shell reads it (continuation lines joined, comments
-stripped by shlex); ``vrelab ...`` runs as ``python -m vrelab ...`` in a temporary folder that
-holds a copy of ``examples/`` and nothing the commands did not write, so a command that names a
-file nobody ships or generates fails here. Later commands find what earlier ones wrote
-(``analyze sim/record.h5`` after ``simulate --out sim``). Each must exit 0.
+stripped by shlex); ``vrelab ...`` runs as ``python -m vrelab ...``. README's Python blocks run in
+tests/test_front_door.py (the front door's own test); the pages' here.
 
 Three kinds of line are not run verbatim, each for a stated reason:
-- ``make demo`` / ``make test``: ``make test`` runs this suite (it would recurse) and both build a
-  virtual environment; ``make -n TARGET`` checks that the Makefile has the target and that its
-  recipe is well formed, and the recipe of ``make demo`` (``vrelab demo``) is run by the tour.
-- ``--scheduler tcp://scheduler:8786``: the README's placeholder host; the command runs against a
+- ``make demo`` / ``make test`` / ``make examples``: ``make test`` runs this suite (it would
+  recurse) and both build a virtual environment; ``make -n TARGET`` checks that the Makefile has
+  the target and that its recipe is well formed (the shipped examples are copied in already).
+- ``--scheduler tcp://scheduler:8786``: the page's placeholder host; the command runs against a
   dask.distributed LocalCluster's address instead (marker ``dask``).
 - ``chromium``: whichever Chromium the browser tests find (marker ``browser``).
 """
@@ -30,6 +34,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
+# README first; the manual's pages with commands a reader types (the physics page has none; the
+# gallery's examples run at the docs' build)
+PAGES = ("README.md", "docs/tour.md", "docs/environments.md", "docs/designer-path.md",
+         "docs/tutorial-test-engineer.md", "docs/tutorial-designer.md", "docs/index.md")
 PLACEHOLDER_SCHEDULER = "tcp://scheduler:8786"
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
@@ -56,11 +64,34 @@ def readme_commands(text: str) -> list[list[str]]:
 COMMANDS = readme_commands(README.read_text(encoding="utf-8"))
 
 
+def page_steps(page: str) -> list[tuple[str, object]]:
+    """A page's steps in order: ("sh", argv) per command, ("python", source) per Python block
+    (README's Python runs in test_front_door)."""
+    text = (ROOT / page).read_text(encoding="utf-8")
+    steps: list[tuple[str, object]] = []
+    for m in re.finditer(r"^```(sh|python)\n(.*?)^```", text, flags=re.S | re.M):
+        if m.group(1) == "sh":
+            steps += [("sh", argv) for argv in readme_commands(f"```sh\n{m.group(2)}```\n")]
+        elif page != "README.md":
+            steps.append(("python", m.group(2)))
+    return steps
+
+
+STEPS = [(page, k, kind, what) for page in PAGES for k, (kind, what) in enumerate(page_steps(page))]
+
+
 def _id(argv: list[str]) -> str:
     return " ".join(argv)[:90]
 
 
-def _marks(argv: list[str]) -> list:
+def _step_id(page: str, k: int, kind: str, what: object) -> str:
+    label = _id(what) if kind == "sh" else "python: " + " ".join(str(what).split())[:70]
+    return f"{Path(page).stem}-{k}: {label}"
+
+
+def _marks(argv: object) -> list:
+    if not isinstance(argv, list):
+        return []
     if PLACEHOLDER_SCHEDULER in argv:
         return [pytest.mark.dask]
     if argv[0] == "chromium":
@@ -68,24 +99,40 @@ def _marks(argv: list[str]) -> list:
     return []
 
 
-def test_readme_has_its_tour():
-    """The parser finds the README's commands (a change of fence or layout would silently test
-    nothing): the CLI tour's subcommands are all there."""
-    subcommands = {a[1] for a in COMMANDS if a[0] == "vrelab"}
+def test_readme_and_the_tour_have_their_commands():
+    """The parser finds the commands (a change of fence or layout would silently test nothing):
+    README's five-command tour, and every subcommand in the manual's tour."""
+    assert {a[1] for a in COMMANDS if a[0] == "vrelab"} >= {"model", "predict", "simulate", "campaign", "report"}
+    tour = [what for kind, what in page_steps("docs/tour.md") if kind == "sh"]
     assert {"model", "profile", "environment", "predict", "simulate", "channels", "analyze", "campaign",
-            "identify", "report", "demo", "sweep"} <= subcommands
-    assert len(COMMANDS) >= 30
-    assert {a[0] for a in COMMANDS} <= {"vrelab", "make", "chromium"}, "a README command this test cannot run"
+            "identify", "report", "demo", "sweep"} <= {a[1] for a in tour if a[0] == "vrelab"}
+    assert len(tour) >= 30
+    every = [what for s in STEPS if s[2] == "sh" for what in [s[3]]]
+    assert {a[0] for a in every} <= {"vrelab", "make", "chromium"}, "a command this test cannot run"
+
+
+def test_every_page_with_commands_has_some():
+    """The parser finds each page's blocks (a change of fence would silently test nothing)."""
+    for page in PAGES:
+        assert page_steps(page) or page == "README.md" and COMMANDS, f"{page}: no sh or python block found"
 
 
 @pytest.fixture(scope="module")
-def workspace(tmp_path_factory) -> Path:
-    """A fresh folder holding a copy of the shipped examples and the Makefile, nothing else."""
-    work = tmp_path_factory.mktemp("readme")
-    shutil.copytree(ROOT / "examples", work / "examples", ignore=shutil.ignore_patterns("__pycache__"))
-    for name in ("Makefile", "pyproject.toml"):
-        shutil.copy2(ROOT / name, work / name)
-    return work
+def workspaces(tmp_path_factory) -> dict[str, tuple[Path, dict]]:
+    """Per page, made on its first step: a fresh folder holding a copy of the shipped examples
+    and the Makefile, nothing else, and the namespace its Python blocks share."""
+    made: dict[str, tuple[Path, dict]] = {}
+    return made
+
+
+def _workspace(workspaces: dict[str, tuple[Path, dict]], page: str, tmp_path_factory) -> tuple[Path, dict]:
+    if page not in workspaces:
+        work = tmp_path_factory.mktemp(Path(page).stem)
+        shutil.copytree(ROOT / "examples", work / "examples", ignore=shutil.ignore_patterns("__pycache__"))
+        for name in ("Makefile", "pyproject.toml"):
+            shutil.copy2(ROOT / name, work / name)
+        workspaces[page] = (work, {"__name__": f"page_{Path(page).stem}"})
+    return workspaces[page]
 
 
 @pytest.fixture(scope="module")
@@ -103,8 +150,20 @@ def _environment() -> dict[str, str]:
     return env
 
 
-@pytest.mark.parametrize("argv", [pytest.param(a, id=_id(a), marks=_marks(a)) for a in COMMANDS])
-def test_readme_command_runs(argv: list[str], workspace: Path, request) -> None:
+@pytest.mark.parametrize(("page", "k", "kind", "what"),
+                         [pytest.param(*s, id=_step_id(*s), marks=_marks(s[3])) for s in STEPS])
+def test_page_step_runs(page: str, k: int, kind: str, what: object, workspaces, tmp_path_factory,
+                        request, monkeypatch) -> None:
+    workspace, namespace = _workspace(workspaces, page, tmp_path_factory)
+    if kind == "python":
+        monkeypatch.chdir(workspace)
+        exec(compile(str(what), f"{page} (block {k})", "exec"), namespace)
+        return
+    assert isinstance(what, list)
+    _run_command(what, workspace, request)
+
+
+def _run_command(argv: list[str], workspace: Path, request) -> None:
     if argv[0] == "make":
         run = [shutil.which("make") or "make", "-n", *argv[1:]]
     elif argv[0] == "chromium":
@@ -119,7 +178,7 @@ def test_readme_command_runs(argv: list[str], workspace: Path, request) -> None:
     proc = subprocess.run(run, cwd=workspace, env=_environment(), capture_output=True, text=True, timeout=240,
                           stdin=subprocess.DEVNULL)
     assert proc.returncode == 0, (
-        f"README command `{' '.join(argv)}` exited {proc.returncode}\n"
+        f"command `{' '.join(argv)}` exited {proc.returncode}\n"
         f"stderr: {proc.stderr[-2000:]}\nstdout: {proc.stdout[-1000:]}")
     if argv[0] == "chromium":
         out = next(a.split("=", 1)[1] for a in argv if a.startswith("--print-to-pdf="))
@@ -130,7 +189,7 @@ def test_the_sweep_file_the_readme_shows_is_the_one_it_runs():
     """The README prints examples/sweep.toml and runs it: the two say the same."""
     import tomllib
 
-    text = README.read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "tour.md").read_text(encoding="utf-8")
     block = re.search(r"`examples/sweep\.toml`:\n\n```toml\n(.*?)^```", text, flags=re.S | re.M)
-    assert block, "the README no longer shows examples/sweep.toml"
+    assert block, "the tour no longer shows examples/sweep.toml"
     assert tomllib.loads(block.group(1)) == tomllib.loads((ROOT / "examples" / "sweep.toml").read_text(encoding="utf-8"))

@@ -518,16 +518,16 @@ def test_rms2_plot_pairs_each_measured_frequency_with_its_fit_and_keeps_nine_apa
 
 
 def test_the_metadata_examples_of_the_readme_and_of_examples_are_valid() -> None:
-    """The README's TOML and examples/report-metadata.toml load; the example's [items.*] are the
-    example campaign's parts, so `vrelab report camp --metadata examples/report-metadata.toml`
-    runs as the README writes it."""
+    """The tour's TOML (docs/tour.md) and examples/report-metadata.toml load; the example's
+    [items.*] are the example campaign's parts, so `vrelab report camp --metadata
+    examples/report-metadata.toml` runs as README and the tour write it."""
     import tomllib
 
     from vrelab.report import load_metadata
     from vrelab.report.metadata import parse_metadata
 
     root = Path(__file__).resolve().parent.parent
-    readme = (root / "README.md").read_text(encoding="utf-8")
+    readme = (root / "docs" / "tour.md").read_text(encoding="utf-8")
     block = readme.split("**The test report.**", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
     assert parse_metadata(tomllib.loads(block)).get("", "report_number") == "VRE-2025-014"
     example = load_metadata(root / "examples" / "report-metadata.toml")

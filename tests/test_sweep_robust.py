@@ -147,8 +147,8 @@ def test_a_line_without_its_checksum_or_identity_is_quarantined(tmp_path):
 
 def test_an_edit_with_its_checksum_recomputed_is_tampering_the_readme_names(tmp_path):
     """The checksum finds damage, not tampering: a value edited by someone who recomputes the
-    checksum and keeps the identity is taken (nothing in the file can tell), and the README's
-    security paragraph says so."""
+    checksum and keeps the identity is taken (nothing in the file can tell), and the tour's
+    sweep paragraph (docs/tour.md) says so."""
     spec_path = tmp_path / "s.toml"
     spec_path.write_text(MODEL)
     spec = load_spec(spec_path)
@@ -156,7 +156,7 @@ def test_an_edit_with_its_checksum_recomputed_is_tampering_the_readme_names(tmp_
     run_sweep(spec, out)
     _rewrite(out / CHECKPOINT_NAME, lambda r: r["values"].update(vre_g=123.0))
     assert set(run_sweep(spec, out).dataset["vre_g"].values.tolist()) == {123.0}
-    readme = " ".join((Path(__file__).parents[1] / "README.md").read_text().split())
+    readme = " ".join((Path(__file__).parents[1] / "docs" / "tour.md").read_text().split())
     assert "The checksum finds damage, not tampering" in readme
 
 
