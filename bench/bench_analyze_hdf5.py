@@ -16,6 +16,9 @@ Then times, each in a fresh process (whole processes: interpreter, imports, work
   floor, the analysis must take every reference sample's spectrum for the level's u);
 * ``sha256``: SHA-256 of the file, which ``analyze`` puts in its result's provenance (for
   information: the part of analyze's CPU that the plain script does not do);
+* ``libs`` and ``plain_libs``: importing the libraries analyze needs (numpy, h5py, scipy.fft,
+  scipy.special, scipy.optimize) and those of the plain script (numpy, h5py), for information:
+  the difference is CPU analyze pays before any work;
 * with ``--baseline SRC``: the same ``analyze`` on another checkout's ``src`` (e.g.
   ``git -C /work/main archive HEAD src | tar -x -C /tmp/base``).
 
@@ -154,6 +157,12 @@ from bench_analyze_hdf5 import bare_read
 bare_read(Path(sys.argv[1]))
 """
 _SHA256 = "import hashlib, sys; hashlib.file_digest(open(sys.argv[1], 'rb'), 'sha256').hexdigest()"
+# The libraries analyze needs beyond the plain script's numpy and h5py: scipy.fft (the window
+# FFTs), scipy.special (the clipping model, quantiles), scipy.optimize (the rail fit's least
+# squares); each scipy subpackage also pulls scipy's array-API layer in (it imports numpy.testing,
+# numpy.f2py, numpy.ma...). Timed as processes of their own: what analyze pays before any work.
+_LIBS = "import numpy, h5py, scipy.fft, scipy.special, scipy.optimize"
+_PLAIN_LIBS = "import numpy, h5py"
 
 
 def commands(path: Path, baseline: str | None) -> dict[str, tuple[list[str], dict[str, str] | None]]:
@@ -166,6 +175,8 @@ def commands(path: Path, baseline: str | None) -> dict[str, tuple[list[str], dic
         "plain": ([py, str(HERE / "plain_random_floor.py"), str(path)], None),
         "read": ([py, "-c", _READ, str(path)], None),
         "sha256": ([py, "-c", _SHA256, str(path)], None),
+        "libs": ([py, "-c", _LIBS], None),
+        "plain_libs": ([py, "-c", _PLAIN_LIBS], None),
     }
     if baseline:
         out["baseline"] = (analyze, dict(os.environ, PYTHONPATH=baseline))
@@ -308,7 +319,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "each cold run; storage below it (a VM host) may still cache them",
     }
     labels = {"analyze": "vrelab analyze --json", "plain": "plain script (floor)", "read": "bare h5py read",
-              "sha256": "sha256 of the file", "baseline": "analyze on --baseline"}
+              "sha256": "sha256 of the file", "baseline": "analyze on --baseline",
+              "libs": "import analyze's libraries", "plain_libs": "import plain's libraries"}
     print(f"{path.name} ({size_mb:.0f} MB), whole processes, medians of {args.repeat} interleaved rounds:")
     print(f"  {'':26s}{'CPU warm':>10s}{'wall warm':>11s}{'CPU cold':>10s}{'wall cold':>11s}{'peak RSS':>10s}")
     for n, m in med.items():
@@ -338,6 +350,13 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
           f"{a['cpu_cold'] / fl['cpu_cold']:.2f}x cold; without the hash's CPU ({hash_cpu['warm']:.2f} s warm: the "
           f"sha256 process): {result['analyze_over_plain_without_hash_cpu']['cpu_warm']:.2f}x warm, "
           f"{result['analyze_over_plain_without_hash_cpu']['cpu_cold']:.2f}x cold")
+    # What no reduction can shed: the hash, and the libraries analyze needs beyond numpy and h5py
+    extra = {m: med["libs"]["cpu_" + m] - med["plain_libs"]["cpu_" + m] for m in ("warm", "cold")}
+    result["analyze_over_plain_without_hash_and_libraries_cpu"] = {
+        "cpu_" + m: round((a["cpu_" + m] - hash_cpu[m] - extra[m]) / fl["cpu_" + m], 2) for m in ("warm", "cold")}
+    print(f"  ... and without the hash nor the CPU of importing scipy.fft, .special, .optimize ({extra['warm']:.2f} s "
+          f"warm): {result['analyze_over_plain_without_hash_and_libraries_cpu']['cpu_warm']:.2f}x warm, "
+          f"{result['analyze_over_plain_without_hash_and_libraries_cpu']['cpu_cold']:.2f}x cold")
     if "rms_max_rel_diff" in work:
         print(f"  same work: {work['levels_analyze']} levels in both, rms within {work['rms_max_rel_diff']:.2%}, "
               f"VRE median |difference| {work['vre_median_abs_diff_in_u']:.2f} u (the plain script's boxcar DUT "

@@ -57,3 +57,18 @@ def test_second_difference_var_cached_by_exact_inputs():
     misses = L._second_difference_var_cached.cache_info().misses
     assert L.second_difference_var(shifted, L.ALPHAS).tobytes() == L._second_difference_var(shifted, L.ALPHAS).tobytes()
     assert L._second_difference_var_cached.cache_info().misses == misses + 1
+
+
+def test_second_difference_var_shared_by_the_same_geometry_at_other_times():
+    """A regular schedule repeats a level's geometry (level and baselines) at every level: the
+    variances depend on the boxes' times about their mean, not on the record's clock, so the
+    same geometry later in the record is a cache hit, with the bits of a fresh computation.
+    (Times and lengths here are exact in binary: both geometries' offsets and spans are the
+    same bits.)"""
+    early = ((100.0, 4.0, 1.0), (96.0, 4.0, -0.5), (104.0, 4.0, -0.5))
+    late = ((1000.0, 4.0, 1.0), (996.0, 4.0, -0.5), (1004.0, 4.0, -0.5))
+    first = L.second_difference_var(early, L.ALPHAS)
+    hits = L._second_difference_var_cached.cache_info().hits
+    again = L.second_difference_var(late, L.ALPHAS)
+    assert L._second_difference_var_cached.cache_info().hits == hits + 1
+    assert again.tobytes() == first.tobytes() == L._second_difference_var(late, L.ALPHAS).tobytes()

@@ -18,6 +18,7 @@ where it changes, are left out); a settling time is trimmed at both edges of eve
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -146,9 +147,11 @@ def smoothing_kernel(window: int) -> NDArray[np.float64]:
     return np.ascontiguousarray(h.reshape(SMOOTH_WINDOWS, window).T)
 
 
+@functools.lru_cache(maxsize=32)
 def kernel_correlation(window: int) -> tuple[float, ...]:
     """Correlation at lags 0, 1, ... windows that the smoothing kernel puts between the smoothed
-    values of noise white at the sample scale."""
+    values of noise white at the sample scale. Cached per window length (a tuple: immutable):
+    every level and baseline of a record asks for it (600 kernels of a 2 h record rebuilt)."""
     h = smoothing_kernel(window).T.ravel()
     r0 = float(h @ h)
     return tuple(float(h[lag * window :] @ h[: len(h) - lag * window]) / r0 for lag in range(SMOOTH_WINDOWS))

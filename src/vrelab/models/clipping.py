@@ -70,6 +70,19 @@ def _check_rails(rail_low_g: NDArray[np.float64], rail_high_g: NDArray[np.float6
 def _inputs(
     mean_g: ArrayLike, spread: ArrayLike, spread_name: str, low: ArrayLike, high: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    # The common case checked at once: float arrays with finite μ, finite spread >= 0 and L < U
+    # (False for a NaN or an infinite rail on the wrong side); anything else goes through the
+    # checks below, which name the problem. (A rail fit calls this thousands of times: the
+    # separate checks were a third of the derivatives' time.)
+    try:
+        fast = tuple(np.asarray(x, dtype=np.float64) for x in (mean_g, spread, low, high))
+    except (TypeError, ValueError):
+        fast = ()
+    if fast:
+        mu, s, lo, hi = fast
+        if np.isfinite(mu).all() and np.isfinite(s).all() and (s >= 0).all() and (lo < hi).all():
+            mu_b, s_b, lo_b, hi_b = np.broadcast_arrays(mu, s, lo, hi)
+            return mu_b, s_b, lo_b, hi_b
     mu = _validate.finite("mean_g", mean_g)
     s = _validate.non_negative(spread_name, spread)
     lo = _validate.as_float_array("rail_low_g", low)
