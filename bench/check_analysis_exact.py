@@ -14,7 +14,11 @@ bit pattern: -0.0 and 0.0 differ too) and the other values (strings, nulls, flag
   correlated-mean estimator), a rail, and a record of several lengths of level (the
   per-(n, ρ) forms reused across lengths and records in one process);
 * ``campaign``: the example campaign (examples/campaign, ``make examples``), every
-  ``results.json`` and ``levels.csv`` it writes.
+  ``results.json`` and ``levels.csv`` it writes;
+* ``triaxial``: triaxial ``vrelab simulate`` runs (random along a direction, a sine, a triaxial
+  profile; their JSON and their records' samples) and each record reduced by ``vrelab analyze
+  --triaxial``, plus ``simulate_triaxial`` from Python: the one ``simulate`` / ``analyze``
+  against the former ``simulate_triaxial`` / ``analyze_triaxial``.
 
 Every case runs in one process per checkout, so a cache that carried one record's numbers into
 another would show here. Prints per group the numbers compared, how many differ and the first
@@ -119,8 +123,66 @@ def _campaign() -> list[Any]:
     return out
 
 
+def _no_clock(x: Any) -> Any:
+    """A document without its creation times (a simulation's provenance says when it ran)."""
+    if isinstance(x, dict):
+        return {k: _no_clock(v) for k, v in x.items() if k != "created_utc"}
+    if isinstance(x, list):
+        return [_no_clock(v) for v in x]
+    return x
+
+
+# triaxial tests (issue 31: vrelab simulate / analyze one function for one axis and three):
+# `vrelab simulate` options, its record then reduced by `vrelab analyze --triaxial`
+TRIAXIAL: list[list[str]] = [
+    ["--sensor", "adxl355", "--axes", "x,z", "--profile", "flat:50-800", "--direction", "1,0,1",
+     "--static-vector", "0.2,0,0.98", "--levels", "0.5,1.5", "--seconds", "2", "--seed", "3"],
+    ["--sensor", "adxl355", "--axis", "z", "--freq", "120", "--direction", "0,0.6,0.8", "--levels", "1,2",
+     "--seconds", "2", "--seed", "2"],
+    ["--sensor", "ideal", "--axes", "x,y,z", "--range", "2", "--profile", "flat:20-500@dir=1,1,0",
+     "--levels", "0.8,1.6", "--seconds", "2", "--seed", "7"],
+]
+
+
+def _triaxial() -> list[Any]:
+    """Each triaxial simulation (its JSON and its record's samples, summed per channel) and its
+    record reduced by ``vrelab analyze --triaxial``; and the Python call
+    ``vrelab.triaxial.simulate.simulate_triaxial`` (an alias of ``vrelab.simulate`` here)."""
+    import warnings
+
+    import h5py
+    import numpy as np
+
+    from vrelab.profiles import RandomProfile
+    from vrelab.sensor import load_sensor
+    from vrelab.triaxial.simulate import simulate_triaxial
+
+    out: list[Any] = []
+    with tempfile.TemporaryDirectory() as d:
+        for i, argv in enumerate(TRIAXIAL):
+            folder = Path(d) / f"sim{i}"
+            sim = _cli_json(["simulate", *argv, "--out", str(folder), "--record", "--json"])
+            sim["triaxial"]["record"] = "<staged record>"  # the output folder's staging path, random
+            out.append(_no_clock(sim))
+            rec = folder / "record.h5"
+            with h5py.File(rec, "r") as f:  # the samples: each channel's sum and sum of squares, bit for bit
+                out.append({k: [float(np.sum(v[()])), float(np.sum(np.square(v[()])))]
+                            for k, v in sorted(f.items()) if isinstance(v, h5py.Dataset) and k != "schedule"})
+            duts = ",".join(f"{a}=dut_{a}" for a in sim["triaxial"]["conditions"]["axes"])
+            doc = _cli_json(["analyze", str(rec), "--triaxial", "--reference", "reference_x,reference_y,reference_z",
+                             "--dut", duts, "--band", "10:1000", "--json"])
+            out.append(json.loads(json.dumps(_no_clock(doc)).replace(d, "<tmp>")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        api = simulate_triaxial([load_sensor("adxl355", range_g=2, axis=a) for a in "xz"],
+                                RandomProfile.flat(50.0, 800.0), [0.5, 1.5], direction=(1, 0, 1),
+                                static_g=(0.2, 0, 0.98), seconds=2.0, seed=3)
+    out.append(_no_clock(api.to_dict()))
+    return out
+
+
 def _own(groups: list[str], big: bool) -> dict[str, Any]:
-    run = {"bench": lambda: _bench(big), "synthetic": _synthetic, "campaign": _campaign}
+    run = {"bench": lambda: _bench(big), "synthetic": _synthetic, "campaign": _campaign, "triaxial": _triaxial}
     return {g: run[g]() for g in groups}
 
 
@@ -147,7 +209,7 @@ def _compare(ours: Any, base: Any) -> tuple[int, list[str]]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="src directory of the baseline checkout")
-    ap.add_argument("--groups", default="bench,synthetic,campaign")
+    ap.add_argument("--groups", default="bench,synthetic,campaign,triaxial")
     ap.add_argument("--big", action="store_true", help="also the 2 h record of 120 levels (about 10 s more per checkout)")
     ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()

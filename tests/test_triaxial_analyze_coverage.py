@@ -23,10 +23,11 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
+import vrelab
+from vrelab.analysis.options import ReductionOptions
 from vrelab.profiles import RandomProfile
 from vrelab.record import ArrayRecord, Schedule, Segment
 from vrelab.sensor import load_sensor
-from vrelab.triaxial.analyze import analyze_triaxial
 from vrelab.triaxial.chain import triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile
 from vrelab.triaxial.synthesis import triaxial_random_blocks
@@ -38,6 +39,7 @@ COHERENT = TriaxialProfile.from_axes(P, {("x", "y"): (1.0, 30.0), ("y", "z"): (1
 INCOHERENT = TriaxialProfile.from_axes(P)
 STATIC = np.array([0.3, 0.0, 0.95])
 BAND = (20.0, 400.0)  # windows of 0.1 s (vrelab.analysis.segmentation.window_length)
+OPTIONS = ReductionOptions(band_hz=BAND)
 SENSOR = dataclasses.replace(load_sensor("ideal", axis="x", range_g=50.0), fn_hz=150.0, q=3.0,
                              noise_ug_per_rthz=2000.0, k2_per_g=0.002, cross_axis_z=0.05, kip_per_g=0.01,
                              kio_per_g=-0.008, kpo_per_g=0.01, kpp_per_g=0.004)
@@ -89,7 +91,7 @@ def _z(seconds: float, seeds: range) -> tuple[np.ndarray, np.ndarray, list]:
         k2 = {lv: _closed_form(profile.scaled_to(lv), SENSOR, cross=False) for lv in (1.0, 2.0)}
         for seed in seeds:
             rec = _record(profile, (1.0, 2.0), seconds, seed)
-            res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+            res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
             _, result, _ = res.channels[0]
             for lv, nominal in zip(result.levels, (1.0, 2.0)):
                 z.append((lv.vre.value - truth[nominal]) / lv.vre.u)
@@ -121,13 +123,13 @@ def test_a_level_of_a_few_windows_is_flagged():
     # interior: the raw window means' u, not calibrated: flagged by the single-axis reduction,
     # its notice carried
     rec = _record(INCOHERENT, (1.0,), 0.8, 0)
-    res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+    res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
     _, result, _ = res.channels[0]
     assert "few-windows" in result.levels[0].flags
     assert sum(getattr(w, "code", None) == "few-windows" for w in result.warnings) == 1
     # 1.5 s segments: 8 interior windows: a calibrated u with few degrees of freedom, not flagged
     rec = _record(INCOHERENT, (1.0,), 1.5, 0)
-    res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+    res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
     _, result, _ = res.channels[0]
     assert "few-windows" not in result.levels[0].flags
     assert result.levels[0].dof is not None and result.levels[0].dof < 8
@@ -140,7 +142,7 @@ def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
     from vrelab.analysis import ReductionOptions, analyze_full
 
     rec = _record(INCOHERENT, (1.0, 2.0), 2.5, 3)
-    res = analyze_triaxial(rec, {a: f"ref_{a}" for a in AXES}, {"x": "dut_x"}, "random", band_hz=BAND)
+    res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
     _, result, _ = res.channels[0]
     single = []
     for a in AXES:

@@ -21,8 +21,9 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
+import vrelab
+from vrelab.analysis.options import ReductionOptions
 from vrelab.record import ArrayRecord
-from vrelab.triaxial.analyze import analyze_triaxial
 from vrelab.triaxial.recording import CsdAccumulator, measure_csd, read_recording_profile
 
 FS = 1024.0
@@ -188,8 +189,8 @@ def _shaker_record(seed: int, fs: float = 2048.0, seg_s: float = 6.0) -> dict[st
 
 def test_triaxial_reduction_recovers_the_cross_axis_vrc():
     rec = ArrayRecord(_shaker_record(11), 2048.0)
-    res = analyze_triaxial(rec, {"x": "rx", "y": "ry", "z": "rz"}, {"x": "dx", "y": "dy", "z": "dz"},
-                           band_hz=(20, 800))
+    res = vrelab.analyze(rec, {"x": "dx", "y": "dy", "z": "dz"}, {"x": "rx", "y": "ry", "z": "rz"},
+                         options=ReductionOptions(band_hz=(20, 800)))
     by = {n: r for n, r, _ in res.channels}
     # truth per g² of total mean square (σx² = σz² = L², E[xz] = 0.8 L², σ_total² = 2 L²)
     truth = {"x": (K2 + 0.8 * KXZ) / 2 * 1e6, "y": 0.0, "z": K2 / 2 * 1e6}

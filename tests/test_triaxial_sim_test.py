@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+import vrelab
 from vrelab import shaker
 from vrelab.analysis.readers import open_record
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine, direction
-from vrelab.triaxial.simulate import simulate_triaxial
 
 F = np.array([20.0, 100.0, 400.0])
 P = {"x": RandomProfile(F, [0.01, 0.02, 0.005]), "y": RandomProfile(F, [0.02, 0.02, 0.02]),
@@ -62,7 +62,7 @@ def test_a_drive_along_the_input_axis_is_todays_single_axis_test_exactly():
     sensor = dataclasses.replace(load_sensor("ideal", axis="z", range_g=2.0), k2_per_g=1e-3)
     prof = RandomProfile.flat(20.0, 500.0, grms=1.0)
     single = shaker.run_random_test(sensor, prof, [0.5, 1.0], static_g=1.0, seconds=2.0, seed=3)
-    tri = simulate_triaxial(sensor, prof, [0.5, 1.0], direction=(0, 0, 1), static_g=(0, 0, 1), seconds=2.0, seed=3)
+    tri = vrelab.simulate(sensor, prof, [0.5, 1.0], direction=(0, 0, 1), static_g=(0, 0, 1), seconds=2.0, seed=3)
     got = tri.axes["z"].levels
     assert len(got) == 2
     for a, b in zip(single.levels, got):
@@ -81,7 +81,7 @@ def test_each_axis_rectifies_as_spec_1_6_closed_form(profile, tmp_path):
                _axis("y", kpp_per_g=0.12, koo_per_g=-0.08, kpo_per_g=0.2),
                _axis("z", kip_per_g=-0.24, kpo_per_g=0.12, cross_axis_x=-0.03, k2_per_g=0.02)]
     path = tmp_path / "record.h5"
-    res = simulate_triaxial(sensors, profile, [1.0, 2.0], static_g=(0.3, 0.0, 0.95), seconds=6.0, seed=11,
+    res = vrelab.simulate(sensors, profile, [1.0, 2.0], static_g=(0.3, 0.0, 0.95), seconds=6.0, seed=11,
                             record_path=path)
     for s in sensors:
         for lv in res.axes[s.axis].levels:
@@ -110,7 +110,7 @@ def test_coverage_of_the_reduction_u_over_seeds():
     for seed in range(12):
         # 4 s levels: 3 s after the trims, 13 interior 0.2 s windows (band from 10 Hz): the
         # batch-means u; 2 s levels are flagged few-windows (analysis.levels.few_windows)
-        lv = simulate_triaxial(sensor, prof, [1.0], static_g=(0, 0, 1), seconds=4.0, seed=seed).axes["z"].levels[0]
+        lv = vrelab.simulate(sensor, prof, [1.0], static_g=(0, 0, 1), seconds=4.0, seed=seed).axes["z"].levels[0]
         assert "few-windows" not in lv.flags
         z.append((lv.vre.value - truth) / lv.vre.u)
     m = float(np.mean(np.square(z)))
@@ -121,7 +121,7 @@ def test_coverage_of_the_reduction_u_over_seeds():
 def test_sine_along_a_direction_gives_the_vibropendulous_closed_form():
     sensor = dataclasses.replace(load_sensor("ideal", axis="x", range_g=20.0), kip_per_g=0.02)
     sine = TriaxialSine(80.0, direction("x", "y", 45.0))
-    res = simulate_triaxial(sensor, sine, [1.0, 3.0], static_g=(0, 0, 1), seconds=2.0, seed=1)
+    res = vrelab.simulate(sensor, sine, [1.0, 3.0], static_g=(0, 0, 1), seconds=2.0, seed=1)
     assert res.method == "sine"
     for lv, r in zip(res.axes["x"].levels, (1.0, 3.0)):
         want = 0.02 * r**2 * math.sin(math.pi / 4) * math.cos(math.pi / 4)
@@ -135,15 +135,15 @@ def test_bad_input_is_refused():
     s = load_sensor("ideal", axis="x")
     prof = RandomProfile.flat(20.0, 400.0)
     with pytest.raises(ValueError, match="needs a direction"):
-        simulate_triaxial(s, prof, [1.0])
+        vrelab.simulate(s, prof, [1.0], static_g=(0, 0, 1))
     with pytest.raises(ValueError, match="carries its own axes"):
-        simulate_triaxial(s, TriaxialProfile.along(prof, (1, 0, 0)), [1.0], direction=(1, 0, 0))
+        vrelab.simulate(s, TriaxialProfile.along(prof, (1, 0, 0)), [1.0], direction=(1, 0, 0))
     with pytest.raises(ValueError, match="given twice"):
-        simulate_triaxial([s, s], prof, [1.0], direction=(1, 0, 0))
-    with pytest.raises(ValueError, match="static vector"):
-        simulate_triaxial(s, prof, [1.0], direction=(1, 0, 0), static_g=(1, 2))
+        vrelab.simulate([s, s], prof, [1.0], direction=(1, 0, 0))
+    with pytest.raises(ValueError, match="static_g must be three finite numbers"):
+        vrelab.simulate(s, prof, [1.0], direction=(1, 0, 0), static_g=(1, 2))
     with pytest.raises(ValueError, match="levels"):
-        simulate_triaxial(s, prof, [-1.0], direction=(1, 0, 0))
+        vrelab.simulate(s, prof, [-1.0], direction=(1, 0, 0))
 
 
 def test_cross_axis_sensitivity_feeds_another_axis_vibration_into_the_clipping():
@@ -154,7 +154,7 @@ def test_cross_axis_sensitivity_feeds_another_axis_vibration_into_the_clipping()
 
     sensor = dataclasses.replace(load_sensor("ideal", axis="x", range_g=2.0), cross_axis_y=0.3)
     prof = TriaxialProfile.along(RandomProfile.flat(20.0, 400.0), (0.0, 1.0, 0.0))
-    res = simulate_triaxial(sensor, prof, [2.5, 4.0], static_g=(1.0, 0.0, 0.0), seconds=4.0, seed=5)
+    res = vrelab.simulate(sensor, prof, [2.5, 4.0], static_g=(1.0, 0.0, 0.0), seconds=4.0, seed=5)
     for lv in res.axes["x"].levels:
         mu, sigma, lo, hi = 1.0, 0.3 * lv.rms_g, -2.0, 2.0
         a, b = (lo - mu) / sigma, (hi - mu) / sigma
@@ -172,5 +172,64 @@ def test_the_rate_rule_serves_the_axis_that_needs_the_fastest_rate():
     want = max(x.internal_rate_hz(400.0), z.internal_rate_hz(400.0))
     assert want > x.internal_rate_hz(400.0)
     for axes in ([x, z], [z, x]):
-        res = simulate_triaxial(axes, RandomProfile.flat(20.0, 400.0), [1.0], direction=(1, 0, 1), seconds=2.0)
+        res = vrelab.simulate(axes, RandomProfile.flat(20.0, 400.0), [1.0], direction=(1, 0, 1), seconds=2.0)
         assert res.conditions["fs_internal_hz"] == want
+
+
+def _same_bits(a: dict, b: dict) -> None:
+    """Two documents equal in every value, floats by repr (one per bit pattern), but their
+    creation time (the same seed gives the same samples, so the same numbers)."""
+    def strip(x):
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k != "created_utc"}
+        if isinstance(x, list):
+            return [strip(v) for v in x]
+        return repr(x) if isinstance(x, float) else x
+    assert strip(a) == strip(b)
+
+
+def test_the_deprecated_aliases_warn_and_give_the_one_calls_bits(tmp_path):
+    # simulate_triaxial / analyze_triaxial stay one release (issue 31): each names its new call
+    # and returns what it returns, record samples and results alike
+    from vrelab.analysis.options import ReductionOptions
+    from vrelab.triaxial.analyze import analyze_triaxial
+    from vrelab.triaxial.simulate import simulate_triaxial
+
+    sensor = load_sensor("ideal", axis="z", range_g=2.0)
+    prof = RandomProfile.flat(20.0, 300.0)
+    new = vrelab.simulate(sensor, prof, [0.5, 1.0], direction=(0, 0.6, 0.8), static_g=(0, 0, 1), seconds=2.0,
+                          seed=4, record_path=tmp_path / "new.h5")
+    with pytest.warns(DeprecationWarning, match=r"vrelab\.simulate\("):
+        old = simulate_triaxial(sensor, prof, [0.5, 1.0], direction=(0, 0.6, 0.8), seconds=2.0, seed=4,
+                                record_path=tmp_path / "old.h5")
+    _same_bits(new.to_dict()["channels"], old.to_dict()["channels"])
+    with open_record(tmp_path / "new.h5", "dut_z", "reference_y") as a, \
+            open_record(tmp_path / "old.h5", "dut_z", "reference_y") as b:
+        for x, y in zip(a.blocks(1 << 14, a.channels), b.blocks(1 << 14, b.channels)):
+            for c in a.channels:
+                assert np.array_equal(x[c], y[c])
+    refs = {c: f"reference_{c}" for c in AXES}
+    names = {"z": "dut_z", **{f"reference-{c}": f"reference_{c}" for c in AXES}}
+    with open_record(tmp_path / "new.h5", names, None) as rec:
+        one = vrelab.analyze(tmp_path / "new.h5", {"z": "dut_z"}, refs, method="random",
+                             options=ReductionOptions(band_hz=(10.0, 600.0)))
+        with pytest.warns(DeprecationWarning, match=r"vrelab\.analyze\("):
+            alias = analyze_triaxial(rec, {c: f"dut:reference-{c}" for c in AXES}, {"z": "dut:z"}, "random",
+                                     band_hz=(10.0, 600.0))
+    _same_bits(one.to_dict(), alias.to_dict())
+
+
+def test_one_simulate_reads_a_number_static_field_along_the_axis_and_a_sine_along_a_direction():
+    # vrelab.simulate's triaxial forms (issue 31): static_g a number is that field along the
+    # (first) DUT axis's input axis, as `vrelab simulate --static G` has it; freq_hz with a
+    # direction is the TriaxialSine along it; a triaxial reference needs each DUT's axis named
+    sensor = load_sensor("ideal", axis="x", range_g=2.0)
+    d = (0.6, 0.8, 0.0)
+    by_number = vrelab.simulate(sensor, freq_hz=90.0, levels=[0.5], static_g=1.0, direction=d, seconds=2.0, seed=6)
+    by_vector = vrelab.simulate(sensor, TriaxialSine(90.0, d), [0.5], static_g=(1, 0, 0), seconds=2.0, seed=6)
+    assert by_number.static_g == (1.0, 0.0, 0.0) and by_number.method == "sine"
+    _same_bits(by_number.to_dict()["channels"], by_vector.to_dict()["channels"])
+    with pytest.raises(ValueError, match="one freq_hz along a direction"):
+        vrelab.simulate(sensor, freq_hz=[90.0, 180.0], levels=[0.5], direction=d)
+    with pytest.raises(ValueError, match="name each DUT channel's axis"):
+        vrelab.analyze("any.h5", "dut", ("rx", "ry", "rz"))

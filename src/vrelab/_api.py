@@ -13,110 +13,174 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
     from vrelab.profiles import RandomProfile, SineOnRandom
+    from vrelab.record import Record
     from vrelab.results import VreResult
     from vrelab.sensor import Sensor
+    from vrelab.triaxial.analyze import TriaxialAnalysis
+    from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
+    from vrelab.triaxial.simulate import TriaxialTest
+
+    Vibration = RandomProfile | SineOnRandom | TriaxialProfile | TriaxialSine
 
 __all__ = ["simulate", "analyze", "campaign"]
 
 
 def simulate(
-    sensor: Sensor,
-    profile: RandomProfile | SineOnRandom | str | None = None,
+    sensor: Sensor | Sequence[Sensor],
+    vibration: Vibration | str | None = None,
     levels: Sequence[float] = (),
-    static_g: float = 1.0,
+    static_g: float | ArrayLike = 1.0,
     *,
     freq_hz: float | Sequence[float] | None = None,
-    seconds: float | None = None,
-    seed: int | None = None,
+    direction: ArrayLike | None = None,
     record_path: str | Path | None = None,
     **plan: Any,
-) -> VreResult:
-    """Simulate a shaker test of ``sensor`` and reduce it like a lab record.
+) -> VreResult | TriaxialTest:
+    """Simulate a shaker test of ``sensor`` and reduce it like a lab record: one axis or three.
 
-    Give either ``profile`` (the random method: ``levels`` are the profile's g rms, its shape
-    scaled to each) or ``freq_hz`` (the sine method of IEEE Std 1293: ``levels`` are the sine's
-    g rms at each frequency), not both.
+    Give either ``vibration`` (the random method: ``levels`` are its g rms, its shape scaled to
+    each) or ``freq_hz`` (the sine method of IEEE Std 1293: ``levels`` are the sine's g rms at
+    each frequency), not both.
+
+    The vibration is along any direction of the part's frame (SPEC 1.6). Along the sensed axis
+    (a plain profile or ``freq_hz``, one Sensor, a scalar ``static_g``) this is the single-axis
+    test (:func:`vrelab.shaker.run_random_test`, :func:`~vrelab.shaker.run_sine_test`), reduced
+    to a :class:`~vrelab.results.VreResult`. With a ``direction``, a
+    :class:`~vrelab.triaxial.profile.TriaxialProfile` or
+    :class:`~vrelab.triaxial.profile.TriaxialSine`, a static 3-vector or several DUT axes, it is
+    the triaxial test (:func:`vrelab.triaxial.simulate.run_triaxial_test`): a
+    :class:`~vrelab.triaxial.simulate.TriaxialTest`, whose ``axes`` hold each DUT axis's
+    ``VreResult`` (levels the vibration's total rms).
 
     Parameters
     ----------
-    sensor : Sensor
-        A sensor from :func:`vrelab.load_sensor`.
-    profile : RandomProfile, SineOnRandom or str, optional
-        The random (or sine-on-random) vibration; a string is read by
+    sensor : Sensor or sequence of Sensors
+        A sensor from :func:`vrelab.load_sensor`; several: the DUT axes of one part (one per
+        axis x, y, z, sharing one ODR), a triaxial test.
+    vibration : RandomProfile, SineOnRandom, TriaxialProfile, TriaxialSine or str, optional
+        The random (or sine-on-random) vibration, or a triaxial one; a string is read by
         :func:`vrelab.parse_profile`.
     levels : sequence of float
-        Vibration levels [g rms].
-    static_g : float
-        Static field along the axis [g] (+1: axis up in a 1 g field).
+        Vibration levels [g rms] (a triaxial test: the total rms).
+    static_g : float or array_like (3,)
+        Static field [g]: a number along the (first) sensor's input axis (+1: axis up in a
+        1 g field), or the vector (gx, gy, gz) in the part's frame.
     freq_hz : float or sequence of float, optional
-        Sine frequencies [Hz] (the sine method).
-    seconds : float, optional
-        Duration of each level [s]; default that of :func:`vrelab.shaker.run_random_test`
-        or :func:`vrelab.shaker.run_sine_test`.
-    seed : int, optional
-        Seed of the drive and the sensor's noise (same seed, same bits).
+        Sine frequencies [Hz] (the sine method; along a ``direction``: one frequency).
+    direction : array_like (3,), optional
+        The direction of a single-axis vibration in the part's frame (normalised).
     record_path : str or Path, optional
         Also write the simulated record there (HDF5), as a lab would keep it.
     **plan
-        Other keywords of :class:`vrelab.simulation.plan.TestPlan` (``ramp_s``, ``drift_g_per_s``, ...).
+        ``seconds`` (duration of each level [s]; default 4 random, 2 sine), ``seed`` (of the
+        drive and the sensor's noise: same seed, same bits), ``progress`` and the other keywords
+        of :class:`vrelab.simulation.plan.TestPlan` (``baseline_s``, ``settle_s``, ``ramp_s``,
+        ``drift_g_per_s``, ...; a triaxial test takes ``baseline_s``, ``settle_s``,
+        ``fs_internal_hz``).
 
     Returns
     -------
-    VreResult
+    VreResult or TriaxialTest
         Every level's VRE with its standard uncertainty and conditions, and the fits
         (``to_dict()`` is what ``vrelab simulate --json`` prints).
 
     Raises
     ------
     ValueError
-        Both or neither of ``profile`` and ``freq_hz``, no level, or a bad plan.
+        Both or neither of ``vibration`` and ``freq_hz``, no level, or a bad plan.
     """
     from vrelab.shaker import run_random_test, run_sine_test
 
-    if (profile is None) == (freq_hz is None):
+    if vibration is None and "profile" in plan:  # its former name
+        vibration = plan.pop("profile")
+    # a keyword given as None is its default (the former seconds=None, seed=None)
+    plan = {k: v for k, v in plan.items() if v is not None}
+    if (vibration is None) == (freq_hz is None):
         raise ValueError("simulate: give either profile (random method) or freq_hz (sine method), not both")
     if not len(levels):
         raise ValueError("simulate: levels is empty (give the vibration levels in g rms)")
-    if seconds is not None:
-        plan["seconds"] = seconds
-    if seed is not None:
-        plan["seed"] = seed
+    freqs = None
     if freq_hz is not None:
         freqs = [float(freq_hz)] if isinstance(freq_hz, (int, float)) else [float(f) for f in freq_hz]
-        return run_sine_test(sensor, freqs, list(levels), static_g, record_path=record_path, **plan)
-    if isinstance(profile, str):
+    if isinstance(vibration, str):
         from vrelab.profiles import parse_profile
 
-        profile = parse_profile(profile)
-    assert profile is not None  # checked above: freq_hz is None, so profile is given
-    return run_random_test(sensor, profile, list(levels), static_g, record_path=record_path, **plan)
+        vibration = parse_profile(vibration)
+    if _is_triaxial(sensor, vibration, static_g, direction):
+        return _simulate_triaxial(sensor, vibration, freqs, levels, static_g, direction, record_path, plan)
+    if freqs is not None:
+        return run_sine_test(sensor, freqs, list(levels), static_g, record_path=record_path, **plan)  # type: ignore[arg-type]
+    assert vibration is not None  # checked above: freq_hz is None, so vibration is given
+    return run_random_test(sensor, vibration, list(levels), static_g, record_path=record_path, **plan)  # type: ignore[arg-type]
+
+
+def _is_triaxial(sensor: Any, vibration: Any, static_g: Any, direction: Any) -> bool:
+    """Whether a :func:`simulate` call is a triaxial test (its docstring)."""
+    import numpy as np
+
+    from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
+
+    several = not hasattr(sensor, "stages")
+    return (several or direction is not None or isinstance(vibration, (TriaxialProfile, TriaxialSine))
+            or np.ndim(static_g) > 0)
+
+
+def _simulate_triaxial(sensor: Any, vibration: Any, freqs: list[float] | None, levels: Sequence[float],
+                       static_g: Any, direction: Any, record_path: str | Path | None,
+                       plan: dict[str, Any]) -> TriaxialTest:
+    """The triaxial case of :func:`simulate`: the sine along its direction, a number for the
+    static field along the first DUT axis's input axis."""
+    import numpy as np
+
+    from vrelab.triaxial.profile import TriaxialSine
+    from vrelab.triaxial.simulate import run_triaxial_test
+
+    sensor = sensor if hasattr(sensor, "stages") else list(sensor)
+    first = sensor if hasattr(sensor, "stages") else next(iter(sensor), None)
+    if np.ndim(static_g) == 0 and first is not None and hasattr(first, "triad"):
+        static_g = [float(static_g) if j == first.triad[0] else 0.0 for j in range(3)]
+    if freqs is not None:
+        if direction is None or len(freqs) != 1:
+            raise ValueError("a triaxial sine is one freq_hz along a direction (x, y, z)")
+        vibration, direction = TriaxialSine(freqs[0], tuple(float(x) for x in direction)), None  # type: ignore[arg-type]
+    return run_triaxial_test(sensor, vibration, levels, static_g, direction=direction, record_path=record_path, **plan)
 
 
 def analyze(
-    path: str | Path,
-    dut: str,
-    reference: str | None = None,
+    path_or_record: str | Path | Record,
+    dut: str | Mapping[str, str],
+    reference: str | Sequence[str] | Mapping[str, str] | None = None,
     *,
     fs_hz: float | None = None,
     dut_scale: Any = None,
     reference_scale: Any = None,
     method: str = "auto",
     **options: Any,
-) -> VreResult:
-    """Reduce a recorded shaker test (one DUT channel) to VRE per level and its fits.
+) -> VreResult | TriaxialAnalysis:
+    """Reduce a recorded shaker test to VRE per level and its fits: one reference axis or three.
 
-    Opens ``path`` read-only with :func:`vrelab.analysis.readers.open_record` (any format
-    ``vrelab channels`` lists) and reduces it with :func:`vrelab.analysis.analyze`; the file is
-    closed afterwards. Several DUT channels of one file: ``vrelab analyze --dut A,B`` or
-    :func:`vrelab.analysis.pipeline.analyze_channels`.
+    A file is opened read-only with :func:`vrelab.analysis.readers.open_record` (any format
+    ``vrelab channels`` lists) and closed afterwards; a record already open (the
+    :class:`vrelab.record.Record` protocol) is read as it is. With one reference channel (or
+    none) the DUT channel is reduced by :func:`vrelab.analysis.analyze` to a
+    :class:`~vrelab.results.VreResult`. With a triaxial reference (three channels x, y, z)
+    each DUT axis is reduced against it by :func:`vrelab.triaxial.analyze.reduce_triaxial` to a
+    :class:`~vrelab.triaxial.analyze.TriaxialAnalysis`, whose ``channels`` hold each axis's
+    ``VreResult`` (levels the reference's total rms). Several DUT channels against one
+    reference: ``vrelab analyze --dut A,B`` or :func:`vrelab.analysis.pipeline.analyze_channels`.
 
     Parameters
     ----------
-    path : str or Path
-        The recorded file.
-    dut, reference : str
-        Channel names as the file gives them (``vrelab channels FILE`` lists them).
+    path_or_record : str, Path or Record
+        The recorded file, or a record.
+    dut : str or mapping axis -> str
+        The DUT channel as the file gives it (``vrelab channels FILE`` lists them); with a
+        triaxial reference, a mapping of the DUT axes ("x", "y", "z") to their channels.
+    reference : str, or three channels (x, y, z) as a sequence or mapping, optional
+        The reference channel, or a triaxial reference's three.
     fs_hz : float, optional
         Sample rate [Hz] where the file does not state it (CSV without a time column).
     dut_scale, reference_scale : optional
@@ -124,23 +188,61 @@ def analyze(
     method : {"auto", "sine", "random"}
         How each level is reduced; ``auto`` decides from the reference's spectrum.
     **options
-        Keywords of :func:`vrelab.analysis.analyze`: ``options`` (a
-        :class:`~vrelab.analysis.options.ReductionOptions`: band, settling, rail, profile, ...),
-        ``fit`` (:class:`~vrelab.analysis.options.FitOptions`: static field, clipping model, ...),
-        ``budget`` (:class:`~vrelab.analysis.options.BudgetOptions`), ``conditions``. The former
-        flat keywords (``profile=``, ``static_g=``, ...) work for one more release.
+        ``options`` (a :class:`~vrelab.analysis.options.ReductionOptions`: band, settling, rail,
+        profile, ...), ``fit`` (:class:`~vrelab.analysis.options.FitOptions`: static field,
+        clipping model, ...), ``schedule``, ``provenance``; one axis: also ``budget``
+        (:class:`~vrelab.analysis.options.BudgetOptions`), ``conditions`` and, for one more
+        release, the former flat keywords (``profile=``, ``static_g=``, ...).
 
     Returns
     -------
-    VreResult
-        What ``vrelab analyze --json`` prints, as objects.
+    VreResult or TriaxialAnalysis
+        What ``vrelab analyze --json`` (``--triaxial``) prints, as objects.
     """
     from vrelab.analysis import analyze as _reduce
     from vrelab.analysis import open_record
 
-    with open_record(path, dut=dut, reference=reference, fs_hz=fs_hz, dut_scale=dut_scale,
+    if reference is not None and not isinstance(reference, str):
+        return _analyze_triaxial(path_or_record, dut, reference, (fs_hz, dut_scale, reference_scale), method,
+                                 options)
+    if not isinstance(dut, str):
+        raise ValueError("a DUT axis mapping needs a triaxial reference: reference=(x, y, z channels)")
+    if not isinstance(path_or_record, (str, Path)):
+        from vrelab.record import ChannelView
+
+        return _reduce(ChannelView(path_or_record, dut, reference), method, **options)  # type: ignore[arg-type]
+    with open_record(path_or_record, dut=dut, reference=reference, fs_hz=fs_hz, dut_scale=dut_scale,
                      reference_scale=reference_scale) as record:
         return _reduce(record, method, **options)  # type: ignore[arg-type]
+
+
+def _analyze_triaxial(source: Any, dut: Any, reference: Any, reading: tuple[Any, Any, Any], method: str,
+                      options: dict[str, Any]) -> TriaxialAnalysis:
+    """The triaxial case of :func:`analyze`: the channels by axis, the file opened with a
+    reference channel per axis (``reference-x``, ...) and a DUT per axis (``dut:<axis>``)."""
+    from vrelab.triaxial.analyze import Caller, reduce_triaxial
+    from vrelab.triaxial.profile import AXES
+
+    ref = dict(reference) if isinstance(reference, Mapping) else dict(zip(AXES, reference))
+    if len(ref) != 3 or (not isinstance(reference, Mapping) and len(reference) != 3):
+        raise ValueError(f"a triaxial reference needs three channels x, y, z, got {reference!r}")
+    if not isinstance(dut, Mapping):
+        raise ValueError(f"with a triaxial reference, name each DUT channel's axis: dut={{'z': {dut!r}}}")
+    unknown = sorted(set(options) - {"options", "fit", "schedule", "provenance"})
+    if unknown:
+        raise ValueError(f"analyze with a triaxial reference does not take {', '.join(unknown)} (it takes options, "
+                         "fit, schedule, provenance; the VRC is fitted against the total rms only)")
+    kw = dict(options=options.get("options"), fit=options.get("fit"), caller=Caller(options.get("provenance")))
+    if not isinstance(source, (str, Path)):
+        return reduce_triaxial(source, ref, dict(dut), method, options.get("schedule"), **kw)  # type: ignore[arg-type]
+    from vrelab.analysis.readers import open_record
+
+    fs_hz, dut_scale, reference_scale = reading
+    names = {**dict(dut), **{f"reference-{a}": ref[a] for a in AXES}}
+    scales = {**{a: dut_scale for a in dut}, **{f"reference-{a}": reference_scale for a in AXES}}
+    with open_record(source, names, None, fs_hz, scales) as record:
+        return reduce_triaxial(record, {a: f"dut:reference-{a}" for a in AXES}, {a: f"dut:{a}" for a in dut},
+                               method, options.get("schedule"), **kw)  # type: ignore[arg-type]
 
 
 def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = None) -> Mapping[str, Any]:

@@ -175,3 +175,11 @@ def integer(name: str, value: Any, minimum: int) -> int:
     if n < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
     return n
+
+
+def static_vector(static_g: ArrayLike) -> NDArray[np.float64]:
+    """The static acceleration (gx, gy, gz) [g] in the part's frame: three finite numbers."""
+    g = np.asarray(static_g, dtype=np.float64).ravel()
+    if g.size != 3 or not np.isfinite(g).all():
+        raise ValueError(f"static_g must be three finite numbers (gx, gy, gz) [g], got {static_g!r}")
+    return g

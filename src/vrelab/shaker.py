@@ -175,7 +175,7 @@ def with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[L
         return levels
     out = []
     for lv, i in zip(levels, on):
-        stretch = record._segments[i]
+        stretch = record.stretches[i]
         if not stretch.lattice or not math.isfinite(lv.vre.u):
             out.append(lv)
             continue

@@ -19,6 +19,7 @@ from typing import Any
 
 from vrelab import _io, folder
 from vrelab.cli._common import positive_list, print_json, print_levels, typeb_from_args
+from vrelab.results import VreResult
 from vrelab.triaxial.profile import AXES
 
 CSD_FILE = "reference_csd.csv"
@@ -48,10 +49,11 @@ def _axis_channels(text: str, what: str, exactly_three: bool) -> dict[str, str]:
 
 
 def run_triaxial(args: argparse.Namespace, inputs: Any, command: str) -> int:
+    from vrelab._api import analyze
     from vrelab._io import sha256_file
+    from vrelab.analysis.options import FitOptions, ReductionOptions
     from vrelab.analysis.readers import Scale, open_record
     from vrelab.record import Schedule
-    from vrelab.triaxial.analyze import analyze_triaxial
 
     if not args.reference:
         raise ValueError("--triaxial needs --reference X,Y,Z: the triaxial reference's three channels")
@@ -85,9 +87,12 @@ def run_triaxial(args: argparse.Namespace, inputs: Any, command: str) -> int:
             record.schedule = None
         provenance = {"input_file": path.name, "input_sha256": sha256_file(path), "command": command}
         accept = [name for name in ("unit-ratio", "channels", "method") if getattr(args, "accept_" + name.replace("-", "_"))]
-        res = analyze_triaxial(record, {a: f"dut:reference-{a}" for a in AXES}, {a: f"dut:{a}" for a in duts},
-                               args.method, schedule, args.band, args.settle, rail_g=args.rail, fit_k4=args.k4,
-                               accept=accept, progress=bool(args.progress), provenance=provenance)
+        options = ReductionOptions(band_hz=args.band, settle_s=args.settle, rail_g=args.rail,
+                                   accept=frozenset(accept), progress=bool(args.progress))
+        res = analyze(record, {a: f"dut:{a}" for a in duts}, {a: f"dut:reference-{a}" for a in AXES},
+                      method=args.method, options=options, fit=FitOptions(k4=args.k4), schedule=schedule,
+                      provenance=provenance)
+        assert not isinstance(res, VreResult)  # a triaxial reference: a TriaxialAnalysis
     doc = res.to_dict(provenance)
     doc["triaxial"]["reference_channels"] = dict(ref)
     if args.out:

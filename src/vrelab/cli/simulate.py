@@ -10,7 +10,7 @@ SPEC section 5::
 ``--seconds`` at level; the record's schedule leaves the ramps out); ``--drift`` adds a slow
 linear drift of the sensor's output [g/s] (both default 0).
 
-A triaxial test (SPEC 1.6, :func:`vrelab.triaxial.simulate.simulate_triaxial`): ``--direction
+Both run :func:`vrelab.simulate`. A triaxial test (SPEC 1.6): ``--direction
 X,Y,Z`` (or IEEE 1293's mount angle ``--mount-deg DEG [--mount-plane ip|io]`` of the first DUT
 axis) runs the random ``--profile`` (or one ``--freq`` sine) along that direction, or
 ``--profile`` names a triaxial vibration (``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial
@@ -63,10 +63,10 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
                   baseline_s: float, progress: bool) -> int:
     """``vrelab simulate`` of a triaxial vibration: one result per DUT axis."""
     from vrelab import _validate as V
+    from vrelab._api import simulate as simulate_test
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
-    from vrelab.triaxial.simulate import simulate_triaxial
 
     for opt, bad in (("--drive", args.drive != "gaussian"), ("--clip-sigma", args.clip_sigma is not None),
                      ("--kurtosis", args.kurtosis is not None), ("--ramp", bool(args.ramp))):
@@ -106,9 +106,8 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
     g = tri.static_vector(static, args.static_g, sensors[0].triad[0])
 
     def simulate(record_path: Path | None) -> Any:
-        return simulate_triaxial(sensors, excitation, levels, direction=d, static_g=g, seconds=seconds,
-                                 baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                 record_path=record_path, progress=progress)
+        return simulate_test(sensors, excitation, levels, g, direction=d, seconds=seconds, baseline_s=baseline_s,
+                             settle_s=args.settle, seed=args.seed, record_path=record_path, progress=progress)
 
     if args.out:
         from vrelab import folder
@@ -141,7 +140,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _validate as V
-    from vrelab import shaker
+    from vrelab._api import simulate as simulate_test
     from vrelab.predict import predict
     from vrelab.profiles import parse_profile
 
@@ -172,16 +171,12 @@ def run(args: argparse.Namespace) -> int:
     assert excitation is not None  # --profile or --freq: the parser requires one
 
     def simulate(record_path: Path | None) -> Any:
+        common = dict(seconds=seconds, baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
+                      record_path=record_path, progress=progress, ramp_s=ramp_s)
         if profile is not None:
-            return shaker.run_random_test(sensor, profile, levels, static_g=args.static_g, seconds=seconds,
-                                          baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                          record_path=record_path, progress=progress, clip_kind=args.kind,
-                                          drive_method=args.drive, clip_sigma=args.clip_sigma,
-                                          kurtosis=args.kurtosis, ramp_s=ramp_s)
-        assert freqs is not None  # --profile or --freq: the parser requires one
-        return shaker.run_sine_test(sensor, freqs, levels, static_g=args.static_g, seconds=seconds,
-                                    baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,
-                                    record_path=record_path, progress=progress, ramp_s=ramp_s)
+            return simulate_test(sensor, profile, levels, float(args.static_g), clip_kind=args.kind,
+                                 drive_method=args.drive, clip_sigma=args.clip_sigma, kurtosis=args.kurtosis, **common)
+        return simulate_test(sensor, None, levels, float(args.static_g), freq_hz=freqs, **common)
 
     if args.out:
         from vrelab import folder

@@ -176,6 +176,24 @@ class SimulatedRecord:
         runner0 = sensor.chain(rates.fs_internal_hz).start(rates.fs_internal_hz, chain_seed)
         self._checkpoints: dict[int, Any] = {0: (runner0, ref_zi)}
 
+    @property
+    def stretches(self) -> tuple[Stretch, ...]:
+        """The simulated test's stretches in order (baselines and levels, in internal samples),
+        one per schedule segment."""
+        return self._segments
+
+    @property
+    def chain_seed(self) -> np.random.SeedSequence:
+        """The seed of the sensor chain's random draws (its noise); the drive's are in the stretches."""
+        return self._chain_seed
+
+    @property
+    def block_internal(self) -> int:
+        """Internal samples per simulated block: :data:`BLOCK_INTERNAL` rounded down to whole DUT
+        output samples, so the decimation phase, the reference's sub-sampling and the DUT hold all
+        restart at every block edge."""
+        return max(1, BLOCK_INTERNAL // self.rates.decimation) * self.rates.decimation
+
     def _schedule(self) -> Schedule:
         """One schedule segment per simulated stretch; a level's segment leaves out its ramps
         (the drive is not at its level there), so the schedule has gaps where they are."""
@@ -190,7 +208,7 @@ class SimulatedRecord:
     # -- generation --
 
     def _drive(self, seg: Stretch) -> Iterator[NDArray[np.float64]]:
-        blocks = self._drive_at_level(seg)
+        blocks = self.level_blocks(seg)
         if seg.ramp == 0 or seg.rms_g == 0:
             yield from blocks
             return
@@ -207,13 +225,14 @@ class SimulatedRecord:
             pos += x.size
             yield x * env
 
-    def _drive_at_level(self, seg: Stretch) -> Iterator[NDArray[np.float64]]:
+    def level_blocks(self, seg: Stretch) -> Iterator[NDArray[np.float64]]:
+        """The drive of one stretch at its level, before any ramp, in blocks of
+        :attr:`block_internal` samples (the last may be shorter): zeros for a baseline, the sine
+        at its drive frequency and phase, or the profile's random drive scaled to the level."""
         from vrelab import synthesis
 
         fs = self.rates.fs_internal_hz
-        # Blocks hold whole DUT output samples, so the decimation phase, the reference's
-        # sub-sampling and the DUT hold all restart at every block edge.
-        block = max(1, BLOCK_INTERNAL // self.rates.decimation) * self.rates.decimation
+        block = self.block_internal
         if seg.rms_g == 0:
             left = seg.n_internal
             while left > 0:

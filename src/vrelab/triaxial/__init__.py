@@ -11,8 +11,10 @@
 * :mod:`~vrelab.triaxial.synthesis`: the MIMO drive of a prescribed cross-spectral density;
 * :mod:`~vrelab.triaxial.predict`: :func:`predict_triaxial`, the analytic VRE by mechanism,
   cross terms included;
-* :mod:`~vrelab.triaxial.simulate`: :func:`simulate_triaxial`, the simulated triaxial shaker test;
-* :mod:`~vrelab.triaxial.analyze`: :func:`analyze_triaxial`, a triaxial record reduced per axis.
+* :mod:`~vrelab.triaxial.simulate`: the simulated triaxial shaker test (called as
+  :func:`vrelab.simulate`; :func:`simulate_triaxial` its deprecated alias);
+* :mod:`~vrelab.triaxial.analyze`: a triaxial record reduced per axis (called as
+  :func:`vrelab.analyze`; :func:`analyze_triaxial` its deprecated alias).
 
 The profile's names are imported with the package; the others on first use (the modules behind
 them bring scipy and the simulator), as :mod:`vrelab` does.

@@ -36,7 +36,9 @@ U = k(dof)·u covers (:func:`vrelab.analysis.levels.dut_mean_estimate`); a level
 interior windows, whose u is not calibrated, carries the single-axis flag ``few-windows`` and
 its notice (:func:`vrelab.analysis.levels.few_windows`). Coverage:
 tests/test_triaxial_analyze_coverage.py (±u 0.70, ±2u 0.955 over 800 draws of 13 interior windows).
-:func:`vrelab.triaxial.simulate.simulate_triaxial` reduces its record through this function.
+:func:`vrelab.simulate` reduces a triaxial test's record through this module's
+:func:`reduce_triaxial`, the triaxial case of :func:`vrelab.analyze` (:func:`analyze_triaxial`
+its deprecated alias).
 
 Fits: the VRC of each DUT axis against the total rms (``VRE = VRC·rms²`` holds for any quadratic
 mechanism, cross terms included, when one shape is scaled). The clipping rail is **not** fitted:
@@ -54,13 +56,14 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.analysis.options import FitOptions, ReductionOptions
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, ChannelView, Schedule, Segment
 from vrelab.results import LevelResult, Notice, VreResult, channels_to_dict
 from vrelab.triaxial.profile import AXES
 from vrelab.triaxial.recording import CsdAccumulator, MeasuredCsd, band_csd, default_nperseg, record_blocks
 
-__all__ = ["TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial"]
+__all__ = ["Caller", "TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial", "reduce_triaxial"]
 
 # A reference axis whose rms is under this fraction of the most moving axis's is still: its
 # DUT axis's levels are read from the most moving axis.
@@ -138,12 +141,6 @@ def _ac_rms(record: Any, channels: Sequence[str], block: int) -> NDArray[np.floa
     return np.asarray(np.sqrt(np.maximum(s2 / max(n, 1) - mean * mean, 0.0)), dtype=np.float64)
 
 
-def _segment_range(fs: float, seg: Segment, n: int) -> tuple[int, int]:
-    i0 = int(math.ceil(seg.start_s * fs - 1e-9))
-    i1 = min(int(math.floor(seg.end_s * fs + 1e-9)), n)
-    return i0, i1
-
-
 def _band_power(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
                 block: int) -> NDArray[np.float64]:
     """Each reference axis's mean square [g²] in the band over a level, by the reduction's own
@@ -172,8 +169,10 @@ def _band_power(record: Any, refs: Sequence[str], seg: Segment, band: tuple[floa
 def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple[float, float],
                      freq_hz: float | None, block: int) -> tuple[NDArray[np.float64], TriaxialLevel]:
     """(mean square per axis [g²] in the band or at the line, the level's TriaxialLevel)."""
+    from vrelab.analysis.levels import segment_samples
+
     fs = record.fs_hz
-    i0, i1 = _segment_range(fs, seg, record.n_samples)
+    i0, i1 = segment_samples(seg, fs, record.n_samples)
     if freq_hz is None:
         nper = default_nperseg(fs, band, POINTS_PER_OCTAVE)
     else:  # a sine: about 1 Hz resolution, the line summed over its bins
@@ -201,45 +200,61 @@ def _reference_level(record: Any, refs: Sequence[str], seg: Segment, band: tuple
     return ms, TriaxialLevel(seg.start_s, seg.end_s, total, (*map(float, np.sqrt(ms)),), None, info)  # type: ignore[arg-type]
 
 
-def analyze_triaxial(
-    record: Any,
-    reference: Mapping[str, str],
-    duts: Mapping[str, str],
-    method: MethodRequest = "auto",
-    schedule: Schedule | None = None,
-    band_hz: tuple[float, float] | None = None,
-    settle_s: float = DEFAULT_SETTLE_S,
-    block_size: int = 1 << 18,
-    rail_g: float | None = None,
-    fit_k4: bool = False,
-    accept: Sequence[str] = (),
-    progress: bool = False,
-    provenance: Mapping[str, Any] | None = None,
-    known: Callable[[str, list[LevelResult], list[Any]], tuple[list[LevelResult], list[Any]]] | None = None,
-) -> TriaxialAnalysis:
-    """Reduce each DUT axis of a record with a triaxial reference (the module docstring).
+Known = Callable[[str, list[LevelResult], list[Any]], tuple[list[LevelResult], list[Any]]]
 
-    Parameters
-    ----------
-    record : Record
-        In g, holding the reference's three channels and the DUT axes' channels.
-    reference : mapping "x", "y", "z" -> record channel
-        All three axes.
-    duts : mapping axis ("x", "y" or "z") -> record channel
-        One to three DUT axes, named by the axis of the reference they are reduced against.
-    method, schedule, band_hz, settle_s, block_size, rail_g, fit_k4, accept, progress, provenance
-        As :func:`vrelab.analysis.analyze_full`.
-    known : callable, optional
-        ``known(axis, levels, warnings) -> (levels, warnings)``: what the caller knows better
-        than the record shows, applied to each axis's reduced levels before the level and the
-        fits (a simulation's saturation counts and a sine lattice's error,
-        :func:`vrelab.triaxial.simulate.simulate_triaxial`).
+
+@dataclass(frozen=True)
+class Caller:
+    """What the caller adds to a triaxial reduction.
+
+    ``provenance``: added to every axis's result (as :func:`vrelab.analysis.analyze_full`
+    does). ``known(axis, levels, warnings) -> (levels, warnings)``: what the caller knows better
+    than the record shows, applied to each axis's reduced levels before the level and the fits
+    (a simulation's saturation counts and a sine lattice's error,
+    :func:`vrelab.triaxial.simulate.run_triaxial_test`)."""
+
+    provenance: Mapping[str, Any] | None = None
+    known: Known | None = None
+
+
+# analyze_triaxial's former parameters after (record, reference, duts), in order
+_FORMER = ("method", "schedule", "band_hz", "settle_s", "block_size", "rail_g", "fit_k4", "accept", "progress",
+           "provenance", "known")
+
+
+def analyze_triaxial(record: Any, reference: Mapping[str, str], duts: Mapping[str, str], *args: Any,
+                     **keywords: Any) -> TriaxialAnalysis:
+    """Deprecated alias of :func:`vrelab.analyze` with a triaxial reference (one release), bit for bit.
+
+    ``analyze_triaxial(record, reference, duts, method, schedule, band_hz, settle_s, block_size,
+    rail_g, fit_k4, accept, progress, provenance, known)`` is ``vrelab.analyze(record, dut=duts,
+    reference=reference, method=method, schedule=schedule, options=ReductionOptions(band_hz=...,
+    settle_s=..., rail_g=..., accept=..., block_size=..., progress=...), fit=FitOptions(k4=fit_k4),
+    provenance=provenance)``.
     """
-    from vrelab.analysis.options import ReductionOptions, default_band
-    from vrelab.analysis.pipeline import analyze_full
-    from vrelab.analysis.segmentation import auto_segment, window_pass
-    from vrelab.fits import fit_levels
+    import warnings
 
+    from vrelab.analysis.options import FitOptions, ReductionOptions
+
+    warnings.warn("analyze_triaxial() is deprecated and will be removed in the next release: call "
+                  "vrelab.analyze(record, dut={axis: channel}, reference=(x, y, z), options=ReductionOptions(...))",
+                  DeprecationWarning, stacklevel=2)
+    if len(args) > len(_FORMER):
+        raise TypeError(f"analyze_triaxial() takes at most {len(_FORMER) + 3} positional arguments")
+    given = {**dict(zip(_FORMER, args)), **keywords}
+    unknown = sorted(set(given) - set(_FORMER))
+    if unknown:
+        raise TypeError(f"analyze_triaxial() got an unexpected keyword argument {unknown[0]!r}")
+    k = {"method": "auto", "schedule": None, "band_hz": None, "settle_s": DEFAULT_SETTLE_S, "block_size": 1 << 18,
+         "rail_g": None, "fit_k4": False, "accept": (), "progress": False, **given}
+    options = ReductionOptions(band_hz=k["band_hz"], settle_s=k["settle_s"], rail_g=k["rail_g"],
+                               accept=frozenset(k["accept"]), block_size=k["block_size"], progress=k["progress"])
+    return reduce_triaxial(record, reference, duts, k["method"], k["schedule"], options=options,
+                           fit=FitOptions(k4=k["fit_k4"]), caller=Caller(k.get("provenance"), k.get("known")))
+
+
+def _check_channels(record: Any, reference: Mapping[str, str], duts: Mapping[str, str]) -> list[str]:
+    """The reference's channels in x, y, z order, once the record is seen to hold every channel named."""
     if sorted(reference) != list(AXES):
         raise ValueError(f"a triaxial reference needs three channels x, y, z, got {sorted(reference)!r}")
     if not duts or set(duts) - set(AXES):
@@ -251,31 +266,70 @@ def analyze_triaxial(
     refs = [reference[a] for a in AXES]
     if len(set(refs) | set(duts.values())) != len(refs) + len(duts):
         raise ValueError("the reference's and the DUT's channels must be distinct channels")
-    fs = float(record.fs_hz)
-    band = default_band(fs, band_hz, None)
-    rms = _ac_rms(record, refs, block_size)
+    return refs
+
+
+def reduce_triaxial(
+    record: Any,
+    reference: Mapping[str, str],
+    duts: Mapping[str, str],
+    method: MethodRequest = "auto",
+    schedule: Schedule | None = None,
+    *,
+    options: ReductionOptions | None = None,
+    fit: FitOptions | None = None,
+    caller: Caller | None = None,
+) -> TriaxialAnalysis:
+    """Reduce each DUT axis of a record with a triaxial reference (the module docstring): the
+    triaxial case of :func:`vrelab.analyze`, which is the way to call it.
+
+    Parameters
+    ----------
+    record : Record
+        In g, holding the reference's three channels and the DUT axes' channels.
+    reference : mapping "x", "y", "z" -> record channel
+        All three axes.
+    duts : mapping axis ("x", "y" or "z") -> record channel
+        One to three DUT axes, named by the axis of the reference they are reduced against.
+    method, schedule, options
+        As :func:`vrelab.analysis.analyze_full` (``options``: band, settling trim, rail, checks
+        accepted on purpose, block size, progress).
+    fit : FitOptions, optional
+        ``k4`` only: the VRC is fitted against the total rms; no rail is fitted (the module docstring).
+    caller : Caller, optional
+        The results' provenance and what the caller knows better than the record shows.
+    """
+    from vrelab.analysis.options import FitOptions, ReductionOptions, default_band
+    from vrelab.analysis.segmentation import auto_segment, window_pass
+
+    options = ReductionOptions() if options is None else options
+    fit = FitOptions() if fit is None else fit
+    caller = Caller() if caller is None else caller
+    refs = _check_channels(record, reference, duts)
+    band = default_band(float(record.fs_hz), options.band_hz, None)
+    options = dataclasses.replace(options, band_hz=band)
+    rms = _ac_rms(record, refs, options.block_size)
     if not rms.max() > 0:
         raise ValueError("the triaxial reference does not move (every axis reads a constant)")
     dom = int(np.argmax(rms))
     first = next(iter(duts.values()))
     if schedule is None and getattr(record, "schedule", None) is None:
-        stats0 = window_pass(ChannelView(record, first, refs[dom]), band, WINDOW_S, int(block_size), rail_g, progress)
+        stats0 = window_pass(ChannelView(record, first, refs[dom]), band, WINDOW_S, options.block_size,
+                             options.rail_g, options.progress)
         schedule, _ = auto_segment(stats0)
 
     def reduce_pair(dut: str, r: int, acc: Sequence[str]) -> tuple[VreResult, Any]:
-        options = ReductionOptions(band_hz=band, settle_s=settle_s, rail_g=rail_g, accept=frozenset(acc),
-                                   block_size=block_size, progress=progress)
-        return analyze_full(ChannelView(record, dut, refs[r]), method, schedule, options=options,
-                            provenance=provenance)
+        from vrelab.analysis.pipeline import analyze_full
+
+        return analyze_full(ChannelView(record, dut, refs[r]), method, schedule,
+                            options=dataclasses.replace(options, accept=frozenset(acc)), provenance=caller.provenance)
 
     level_axis: dict[str, str] = {}
     reduced: list[tuple[str, VreResult, Any, list[LevelResult], list[Any], int]] = []
-    for axis in AXES:
-        if axis not in duts:
-            continue
+    for axis in (a for a in AXES if a in duts):
         j = AXES.index(axis)
         r = j if rms[j] >= STILL_FRACTION * rms[dom] else dom
-        acc = list(accept)
+        acc = list(options.accept)
         notes: list[Any] = []
         if r != j:
             acc = sorted(set(acc) | {"unit-ratio"})
@@ -284,8 +338,8 @@ def analyze_triaxial(
                                 "the DUT/reference ratio check skipped (it would compare two axes)"))
         result, red = reduce_pair(duts[axis], r, acc)
         levels, warnings = list(result.levels), list(result.warnings) + notes
-        if known is not None:
-            levels, warnings = known(axis, levels, warnings)
+        if caller.known is not None:
+            levels, warnings = caller.known(axis, levels, warnings)
         reduced.append((axis, result, red, levels, warnings, r))
         level_axis[axis] = AXES[r]
     # the level of each segment, one number for every axis: read from the most moving reference
@@ -293,13 +347,23 @@ def analyze_triaxial(
     # by the axes' in-band mean squares over the same windows (_band_power)
     own = next((red for *_, red, _, _, r in reduced if r == dom), None)
     if own is None:  # read for its levels only: the DUT's own checks ran against its own axis
-        _, own = reduce_pair(first, dom, sorted(set(accept) | {"unit-ratio", "channels"}))
+        _, own = reduce_pair(first, dom, sorted(set(options.accept) | {"unit-ratio", "channels"}))
+    levels_out, totals = _total_levels(record, refs, own, dom, band, options.block_size)
+    channels = [_axis_channel(item[:5], totals, fit.k4, AXES[dom], level_axis[item[0]]) for item in reduced]
+    return TriaxialAnalysis(tuple(channels), tuple(levels_out.values()), dict(reference), AXES[dom], level_axis)
+
+
+def _total_levels(
+    record: Any, refs: Sequence[str], own: Any, dom: int, band: tuple[float, float], block: int,
+) -> tuple[dict[tuple[float, float], TriaxialLevel], dict[tuple[float, float], tuple[float, float | None]]]:
+    """Per level (start, end): its TriaxialLevel and (total rms, its u), from the most moving
+    reference axis's reduction ``own`` made total (the module docstring)."""
     dom_levels = {(seg.start_s, seg.end_s): lv for seg, lv in zip(own.level_segments, own.levels)}
     levels_out: dict[tuple[float, float], TriaxialLevel] = {}
     totals: dict[tuple[float, float], tuple[float, float | None]] = {}
     for key, lv in dom_levels.items():
         seg = next(s for s in own.level_segments if (s.start_s, s.end_s) == key)
-        ms, info = _reference_level(record, refs, seg, band, lv.freq_hz, block_size)
+        ms, info = _reference_level(record, refs, seg, band, lv.freq_hz, block)
         ratio = math.sqrt(float(ms.sum()) / float(ms[dom])) if ms[dom] > 0 else math.nan
         total = lv.rms_g * ratio
         u_total = None if lv.u_rms_g is None else lv.u_rms_g * ratio
@@ -307,19 +371,29 @@ def analyze_triaxial(
         totals[key] = (total, u_total)
         levels_out[key] = dataclasses.replace(info, rms_g=total, u_rms_g=u_total,
                                               axis_rms_g=(*map(float, total * share),))  # type: ignore[arg-type]
-    channels: list[tuple[str, VreResult, Any]] = []
-    for axis, result, red, levels, warnings, _ in reduced:
-        new: list[LevelResult] = []
-        for seg, lv in zip(red.level_segments, levels):
-            total, u_total = totals.get((seg.start_s, seg.end_s), (math.nan, None))
-            new.append(dataclasses.replace(lv, rms_g=total, u_rms_g=u_total))
-        nominal = [seg.freq_hz for seg in red.level_segments]
-        fits, w = fit_levels(new, red.method, None, fit_k4=fit_k4, nominal_freqs_hz=nominal)
-        notes = [Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
-                        "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")]
-        extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
-                 "level_axis": AXES[dom], "reduced_against": level_axis[axis]}
-        cond = dataclasses.replace(result.conditions, extra=extra)
-        channels.append((axis, dataclasses.replace(result, levels=tuple(new), fits=tuple(fits), conditions=cond,
-                                                   warnings=tuple(warnings) + tuple(w) + tuple(notes)), red))
-    return TriaxialAnalysis(tuple(channels), tuple(levels_out.values()), dict(reference), AXES[dom], level_axis)
+    return levels_out, totals
+
+
+def _axis_channel(
+    reduced: tuple[str, VreResult, Any, list[LevelResult], list[Any]],
+    totals: Mapping[tuple[float, float], tuple[float, float | None]], fit_k4: bool, level_axis: str,
+    reduced_against: str,
+) -> tuple[str, VreResult, Any]:
+    """One DUT axis's result from its reduction ``(axis, result, reduction, levels, warnings)``:
+    its levels at the total rms, the VRC fitted against it."""
+    from vrelab.fits import fit_levels
+
+    axis, result, red, levels, warnings = reduced
+    new: list[LevelResult] = []
+    for seg, lv in zip(red.level_segments, levels):
+        total, u_total = totals.get((seg.start_s, seg.end_s), (math.nan, None))
+        new.append(dataclasses.replace(lv, rms_g=total, u_rms_g=u_total))
+    nominal = [seg.freq_hz for seg in red.level_segments]
+    fits, w = fit_levels(new, red.method, None, fit_k4=fit_k4, nominal_freqs_hz=nominal)
+    notes = [Notice("triaxial", "levels are the reference's total rms; the VRC is fitted against it; the "
+                    "clipping rail is not fitted (an axis's rail sees the vibration along it, not the total)")]
+    extra = {**result.conditions.extra, "level": "total rms of the triaxial reference",
+             "level_axis": level_axis, "reduced_against": reduced_against}
+    cond = dataclasses.replace(result.conditions, extra=extra)
+    return (axis, dataclasses.replace(result, levels=tuple(new), fits=tuple(fits), conditions=cond,
+                                      warnings=tuple(warnings) + tuple(w) + tuple(notes)), red)

@@ -12,7 +12,8 @@ record.
   :class:`~vrelab.triaxial.profile.TriaxialSine`).
 * :func:`simulate_direction`: that drive plus the static vector through one or more DUT axes,
   block by block: (reference (3, n), {axis: output}).
-* :func:`simulate_triaxial`: a whole simulated test (the single-axis test's plan: baselines,
+* :func:`run_triaxial_test`: a whole simulated test, the triaxial case of :func:`vrelab.simulate`
+  (:func:`simulate_triaxial` its deprecated alias; the single-axis test's plan: baselines,
   levels, seeds, rates), the drive a :class:`~vrelab.triaxial.profile.TriaxialProfile`
   (:mod:`vrelab.triaxial.synthesis`) or a sine along a direction, written as an HDF5 record
   (``reference_x``, ``reference_y``, ``reference_z``, ``dut_<axis>``) and reduced per DUT axis
@@ -42,22 +43,11 @@ from vrelab.triaxial.synthesis import direction_blocks
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["simulate_direction", "DirectionBlock", "static_vector", "axis_runs",
+__all__ = ["simulate_direction", "DirectionBlock", "axis_runs", "run_triaxial_test",
            "simulate_triaxial", "TriaxialTest", "LEVEL_TEXT"]
 
 # Internal samples per simulated block (as vrelab.simulation.record.BLOCK_INTERNAL).
 BLOCK = 1 << 16
-
-
-def static_vector(value: ArrayLike | None) -> FloatArray:
-    """The static acceleration (x, y, z) [g] in the part's frame; None: 1 g along +z (the part
-    flat on the table, z up)."""
-    if value is None:
-        return np.array([0.0, 0.0, 1.0])
-    g = np.asarray(value, dtype=np.float64).ravel()
-    if g.size != 3 or not np.isfinite(g).all():
-        raise ValueError(f"static vector must be three finite numbers (x, y, z) in g, got {value!r}")
-    return g
 
 
 @dataclass(frozen=True)
@@ -136,7 +126,7 @@ def simulate_direction(
         Blocks of ``block_size`` internal samples (the last may be shorter).
     """
     axes = _axis_sensors(sensors)
-    g = static_vector(static_g)
+    g = np.array([0.0, 0.0, 1.0]) if static_g is None else V.static_vector(static_g)
     n = V.integer("n_samples", n_samples, 0)
     bs = V.integer("block_size", block_size, 1)
     sd = V.integer("seed", seed, 0)
@@ -184,7 +174,7 @@ class TriaxialTest:
     ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
     the axis's output against its interpolated vibration-off readings, SPEC 4) with the
     reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
-    reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.triaxial.analyze.analyze_triaxial`
+    reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.analyze`
     gives them for the record (its VRC fit against the total rms; no rail fit).
     """
 
@@ -211,10 +201,12 @@ class TriaxialTest:
 
 @dataclass
 class _Counts:
-    """Per segment, what the simulation knows of one DUT axis (the shaker's saturation truth)."""
+    """Per segment, what the simulation knows of one DUT axis (the shaker's saturation truth):
+    the fields :func:`vrelab.shaker.with_simulated_saturation` and :func:`~vrelab.shaker.with_lattice_u`
+    read of a :class:`~vrelab.simulation.record.SimulatedRecord`."""
 
     schedule: Any
-    _segments: Any
+    stretches: Any
     saturated: list[int]
     clipped: list[int]
     overrange_events: list[int]
@@ -222,22 +214,43 @@ class _Counts:
     fs_hz: float
 
 
-def simulate_triaxial(
+# TestPlan keywords a triaxial test takes besides seconds and seed (the rest, a drive's
+# distortion or ramps, does not apply to a Gaussian drive of a prescribed CSD)
+PLAN_KEYWORDS = {"baseline_s": 2.0, "settle_s": None, "fs_internal_hz": None, "progress": False}
+
+
+def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
+    """Deprecated alias of :func:`vrelab.simulate` (one release): the same test, bit for bit.
+
+    ``simulate_triaxial(sensors, excitation, levels_g, direction=..., static_g=(gx, gy, gz), ...)``
+    is ``vrelab.simulate(sensors, excitation, levels_g, direction=..., static_g=(gx, gy, gz), ...)``;
+    its default static field (``static_g`` None) is 1 g along +z of the part's frame.
+    """
+    import warnings
+
+    warnings.warn("simulate_triaxial() is deprecated and will be removed in the next release: call "
+                  "vrelab.simulate(sensors, vibration, levels, static_g=(gx, gy, gz), direction=...)",
+                  DeprecationWarning, stacklevel=2)
+    # vrelab.simulate's triaxial case, called here directly (the front door imports this module):
+    # a keyword given as None is its default, as there
+    static_g = keywords.pop("static_g", None)
+    return run_triaxial_test(sensors, excitation, levels_g, static_g,
+                             **{k: v for k, v in keywords.items() if v is not None})
+
+
+def run_triaxial_test(
     sensors: Any,
     excitation: TriaxialProfile | TriaxialSine | RandomProfile,
     levels_g: Sequence[float],
+    static_g: ArrayLike | None = None,
     *,
     direction: ArrayLike | None = None,
-    static_g: ArrayLike | None = None,
     seconds: float | None = None,
-    baseline_s: float = 2.0,
-    settle_s: float | None = None,
-    seed: int = 0,
-    fs_internal_hz: float | None = None,
     record_path: str | Path | None = None,
-    progress: bool = False,
+    **plan: Any,
 ) -> TriaxialTest:
-    """Simulate a triaxial shaker test and reduce each DUT axis as a lab record.
+    """Simulate a triaxial shaker test and reduce each DUT axis as a lab record (the triaxial case
+    of :func:`vrelab.simulate`, which is the way to call it).
 
     Parameters
     ----------
@@ -247,19 +260,21 @@ def simulate_triaxial(
         The vibration (a RandomProfile runs along ``direction``); scaled to each level.
     levels_g : sequence of float
         Levels [g], each the total rms of the vibration (its rms along the direction).
-    direction : array_like (3,), optional
-        For a single-axis RandomProfile only.
     static_g : array_like (3,), optional
         Static acceleration (x, y, z) [g] in the part's frame; default 1 g along +z.
-    seconds, baseline_s, settle_s, seed, fs_internal_hz :
-        As :class:`vrelab.simulation.plan.TestPlan` (``seconds`` default 4 random, 2 sine):
-        the same baselines, level durations, settling trim, seeds (every draw from
-        ``SeedSequence(seed)``: each level's drive seed and the chains' seed, each axis a child
-        of it, :func:`axis_runs`) and the one rate rule.
+    direction : array_like (3,), optional
+        For a single-axis RandomProfile only.
+    seconds : float, optional
+        Duration of each level [s]; default 4 random, 2 sine.
     record_path : path, optional
         Write the record there (HDF5, channels ``reference_x/y/z`` and ``dut_<axis>``);
         otherwise it goes to a temporary file, removed afterwards. Either way each axis is
         reduced from the file, as a lab's recording is.
+    **plan
+        ``seed`` (0), ``baseline_s`` (2), ``settle_s``, ``fs_internal_hz``, ``progress``: as
+        :class:`vrelab.simulation.plan.TestPlan` (the same baselines, settling trim, seeds (every
+        draw from ``SeedSequence(seed)``: each level's drive seed and the chains' seed, each axis
+        a child of it, :func:`axis_runs`) and the one rate rule).
 
     Returns
     -------
@@ -272,7 +287,7 @@ def simulate_triaxial(
     drive is :func:`vrelab.triaxial.synthesis.triaxial_random_blocks` of the profile scaled to
     each level (a sine: the plan's drive frequency and phase along the sine's direction); each
     axis sees ``static_g + drive`` through :func:`vrelab.triaxial.chain.triaxial_chain`. The
-    record is reduced from the file by :func:`vrelab.triaxial.analyze.analyze_triaxial` (what
+    record is reduced from the file by :func:`vrelab.analyze` with a triaxial reference (what
     ``vrelab analyze FILE --triaxial --band F1:F2`` gives for it, ``conditions.extra.band_hz``
     the band: the profile's widened an octave, as :func:`vrelab.shaker.run_test` does), its
     saturation flags taken from the simulation's counts and a sine's lattice error added to u,
@@ -281,38 +296,18 @@ def simulate_triaxial(
     """
     import tempfile
 
-    from vrelab import shaker
-    from vrelab.simulation.plan import TestPlan
-
     axes = _axis_sensors(sensors)
-    g = static_vector(static_g)
+    g = np.array([0.0, 0.0, 1.0]) if static_g is None else V.static_vector(static_g)
     exc = _excitation(excitation, direction)
-    first = next(iter(axes.values()))
-    # the plan's saturation check (which sine levels need every phase sampled) sees the axis
-    # whose static reading is largest
-    static_plan = max((float(s.sensitivity_row @ g) for s in axes.values()), key=abs)
-    if fs_internal_hz is None:
-        # the one rate rule, for the axis that needs the fastest rate (the plan applies it to the
-        # first axis only; the axes of one part share their ODR, so every rule's rate is a multiple of it)
-        f_max = exc.freq_hz if isinstance(exc, TriaxialSine) else exc.band[1]
-        rates_needed = {float(s.internal_rate_hz(f_max)) for s in axes.values()}
-        if len(rates_needed) > 1:
-            fs_internal_hz = max(rates_needed)
-    common = dict(static_g=static_plan, baseline_s=baseline_s, settle_s=settle_s, seed=seed,
-                  fs_internal_hz=fs_internal_hz)
-    method: Method
-    if isinstance(exc, TriaxialSine):
-        method = "sine"
-        plan = TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds, **common)
-        band_profile = None
-    else:
-        method = "random"
-        proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
-        plan = TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common)
-        band_profile = proxy
-    base = plan.record()
-    rates, segs = base.rates, base._segments
-    runs = axis_runs(axes, rates.fs_internal_hz, base._chain_seed)
+    unknown = sorted(set(plan) - set(PLAN_KEYWORDS) - {"seed"})
+    if unknown:
+        raise ValueError(f"a triaxial test does not take {', '.join(unknown)} (a Gaussian drive of a prescribed "
+                         f"CSD, no ramp); it takes seconds, seed, {', '.join(PLAN_KEYWORDS)}")
+    opts = {**PLAN_KEYWORDS, **plan}
+    test_plan, band_profile = _plan(axes, g, exc, levels_g, seconds, opts)
+    base = test_plan.record()
+    rates = base.rates
+    runs = axis_runs(axes, rates.fs_internal_hz, base.chain_seed)
     fs_out = next(iter(runs.values())).fs_out_hz
     if abs(fs_out * rates.decimation - rates.fs_internal_hz) > 1e-9 * rates.fs_internal_hz:
         raise ValueError(f"the DUT axes' output rate {fs_out:g} Hz does not divide the internal rate "
@@ -321,67 +316,100 @@ def simulate_triaxial(
     meta["triaxial"] = {"excitation": exc.to_dict(), "static_vector_g": g.tolist(), "axes": list(axes),
                         "level": LEVEL_TEXT, "reference_channels": [f"reference_{a}" for a in AXES],
                         "dut_channels": {a: f"dut_{a}" for a in axes}}
-    counts = {a: _Counts(base.schedule, segs, [0] * len(segs), [0] * len(segs), [0] * len(segs),
-                         [0.0] * len(segs), rates.fs_record_hz) for a in axes}
-    blocks = _record_blocks(exc, segs, rates, g, axes, runs, counts)
+    n = len(base.stretches)
+    counts = {a: _Counts(base.schedule, base.stretches, [0] * n, [0] * n, [0] * n, [0.0] * n, rates.fs_record_hz)
+              for a in axes}
+    blocks = _record_blocks(exc, base, g, axes, runs, counts)
     with tempfile.TemporaryDirectory(prefix="vrelab-triaxial-") as tmp:
         path = Path(record_path) if record_path is not None else Path(tmp) / "record.h5"
         write_record_hdf5(path, rates.fs_record_hz, blocks, schedule=base.schedule, meta=meta)
-        band: tuple[float, float] | None
-        if method == "random":
-            assert band_profile is not None
-            band = shaker.measurement_band(band_profile)
-        else:
-            band = shaker.sine_band(base)
-        assert plan.settle_s is not None
-        analysis = _reduce_axes(path, axes, counts, method, band, plan.settle_s, progress)
+        from vrelab import shaker
+
+        band = shaker.measurement_band(band_profile) if band_profile is not None else shaker.sine_band(base)
+        assert test_plan.settle_s is not None  # TestPlan.__post_init__ sets the default
+        analysis = _reduce_axes(path, axes, counts, test_plan, band, bool(opts["progress"]))
+    return _test_result(axes, exc, g, test_plan, base.meta["simulation"], analysis,
+                        None if record_path is None else str(record_path))
+
+
+def _plan(axes: Mapping[str, Any], g: FloatArray, exc: TriaxialProfile | TriaxialSine, levels_g: Sequence[float],
+          seconds: float | None, opts: Mapping[str, Any]) -> tuple[Any, RandomProfile | None]:
+    """The single-axis test plan a triaxial test runs (made for the first axis) and, for a random
+    test, the single-axis profile of its total PSD (the measurement band's)."""
+    from vrelab.simulation.plan import TestPlan
+
+    first = next(iter(axes.values()))
+    # the plan's saturation check (which sine levels need every phase sampled) sees the axis
+    # whose static reading is largest
+    static_plan = max((float(s.sensitivity_row @ g) for s in axes.values()), key=abs)
+    fs_internal_hz = opts["fs_internal_hz"]
+    if fs_internal_hz is None:
+        # the one rate rule, for the axis that needs the fastest rate (the plan applies it to the
+        # first axis only; the axes of one part share their ODR, so every rule's rate is a multiple of it)
+        f_max = exc.freq_hz if isinstance(exc, TriaxialSine) else exc.band[1]
+        rates_needed = {float(s.internal_rate_hz(f_max)) for s in axes.values()}
+        if len(rates_needed) > 1:
+            fs_internal_hz = max(rates_needed)
+    common = dict(static_g=static_plan, baseline_s=opts["baseline_s"], settle_s=opts["settle_s"],
+                  seed=opts.get("seed", 0), fs_internal_hz=fs_internal_hz)
+    if isinstance(exc, TriaxialSine):
+        return TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds,
+                             **common), None
+    proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
+    return TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common), proxy
+
+
+def _test_result(axes: Mapping[str, Any], exc: TriaxialProfile | TriaxialSine, g: FloatArray, plan: Any,
+                 simulation: Mapping[str, Any], analysis: Any, record_path: str | None) -> TriaxialTest:
+    """The TriaxialTest of the reduced axes: each axis's result with the simulation's conditions."""
+    from vrelab import shaker
+
+    first = next(iter(axes.values()))
     conditions = {"sensor": first.name, "axes": list(axes), "static_vector_g": g.tolist(),
-                  "excitation": exc.describe(), "level": LEVEL_TEXT, **base.meta["simulation"]}
+                  "excitation": exc.describe(), "level": LEVEL_TEXT, **simulation}
     out = {}
     for a, result, _ in analysis.channels:
         s = axes[a]
         cond = shaker.conditions(s, exc.describe(), float(s.sensitivity_row @ g),
-                                  {**base.meta["simulation"], "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
+                                  {**simulation, "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
                                    "triaxial": True, "excitation": exc.to_dict(),
                                    "band_hz": result.conditions.extra.get("band_hz"),
                                    "settle_s": plan.settle_s})
         out[a] = dataclasses.replace(result, conditions=cond, kind="simulation",
                                      provenance=shaker.provenance("vrelab.triaxial.simulate_triaxial", s))
-    return TriaxialTest(method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out, conditions,
-                        None if record_path is None else str(record_path))
+    return TriaxialTest(plan.method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out,
+                        conditions, record_path)
 
 
 def _record_blocks(
     exc: TriaxialProfile | TriaxialSine,
-    segs: Sequence[Any],
-    rates: Any,
+    base: Any,
     g: FloatArray,
     axes: Mapping[str, Any],
     runs: Mapping[str, TriaxialRun],
     counts: Mapping[str, _Counts],
 ) -> Iterator[dict[str, FloatArray]]:
-    """The record's channel blocks at the record rate (SimulatedRecord's rule: the reference,
-    band-limited by construction, kept at every step-th internal sample; each DUT output held
-    over its ODR period), counting what the simulation knows per segment and axis."""
-    from vrelab import synthesis
-    from vrelab.simulation.record import BLOCK_INTERNAL, rail_window
+    """The record's channel blocks at the record rate, by the block rule of ``base`` (the plan's
+    :class:`~vrelab.simulation.record.SimulatedRecord`: its stretches, block length, a sine's
+    drive; the reference, band-limited by construction, kept at every step-th internal sample;
+    each DUT output held over its ODR period), counting what the simulation knows per segment
+    and axis. The random drive is the triaxial one of the profile's CSD, with each stretch's seed."""
+    from vrelab.simulation.record import rail_window
     from vrelab.triaxial.synthesis import triaxial_random_blocks
 
-    fs = rates.fs_internal_hz
-    step, hold = rates.step, rates.hold
-    block = max(1, BLOCK_INTERNAL // rates.decimation) * rates.decimation
+    rates = base.rates
+    step, hold, block = rates.step, rates.hold, base.block_internal
     rails = {a: rail_window(s) for a, s in axes.items()}
-    for k, seg in enumerate(segs):
+    for k, seg in enumerate(base.stretches):
         drive: Iterator[FloatArray]
         if seg.rms_g == 0:
             drive = (np.zeros((3, min(block, seg.n_internal - i))) for i in range(0, seg.n_internal, block))
         elif isinstance(exc, TriaxialSine):
             d = np.asarray(exc.direction)
-            hz = seg.freq_hz if seg.drive_hz is None else seg.drive_hz
-            drive = (d[:, None] * s[None, :] for s in synthesis.sine_blocks(hz, seg.rms_g, fs, seg.n_internal, block,
-                                                                             phase_rad=seg.phase_rad))
+            drive = (d[:, None] * s[None, :] for s in base.level_blocks(seg))
         else:
-            drive = triaxial_random_blocks(exc.scaled_to(seg.rms_g), fs, seg.n_internal, block, seg.seed)
+            drive = triaxial_random_blocks(exc.scaled_to(seg.rms_g), rates.fs_internal_hz, seg.n_internal, block,
+                                           seg.seed)
         before = {a: r.stats for a, r in runs.items()}
         span = {a: (math.inf, -math.inf) for a in axes}
         for x in drive:
@@ -406,26 +434,25 @@ def _reduce_axes(
     path: Path,
     axes: Mapping[str, Any],
     counts: Mapping[str, _Counts],
-    method: Method,
+    plan: Any,
     band: tuple[float, float] | None,
-    settle_s: float,
     progress: bool,
 ) -> Any:
-    """The record reduced from the file by :func:`vrelab.triaxial.analyze.analyze_triaxial` (the
+    """The record reduced from the file by :func:`vrelab.triaxial.analyze.reduce_triaxial` (the
     reduction ``vrelab analyze FILE --triaxial`` runs: one owner of the VRE, its u and the total
     level), with what the simulation knows better than the record shows: the saturation counts
     and a sine lattice's error (as :func:`vrelab.shaker.run_test` does)."""
     from vrelab import shaker
+    from vrelab.analysis.options import ACCEPTABLE, ReductionOptions
     from vrelab.analysis.readers import open_record
-    from vrelab.analysis.reduction import ACCEPTABLE
-    from vrelab.triaxial.analyze import analyze_triaxial
+    from vrelab.triaxial.analyze import Caller, reduce_triaxial
 
     def known(axis: str, levels: list[LevelResult], warnings: list[Any]) -> tuple[list[LevelResult], list[Any]]:
         levels, warnings = shaker.with_simulated_saturation(counts[axis], levels, warnings)  # type: ignore[arg-type]
         return shaker.with_lattice_u(counts[axis], levels), warnings  # type: ignore[arg-type]
 
     names = {**{a: f"dut_{a}" for a in axes}, **{f"reference-{c}": f"reference_{c}" for c in AXES}}
+    options = ReductionOptions(band_hz=band, settle_s=plan.settle_s, accept=frozenset(ACCEPTABLE), progress=progress)
     with open_record(path, names, None) as rec:
-        return analyze_triaxial(rec, {c: f"dut:reference-{c}" for c in AXES}, {a: f"dut:{a}" for a in axes},
-                                method, rec.schedule, band, settle_s, accept=ACCEPTABLE, progress=progress,
-                                known=known)
+        return reduce_triaxial(rec, {c: f"dut:reference-{c}" for c in AXES}, {a: f"dut:{a}" for a in axes},
+                               plan.method, rec.schedule, options=options, caller=Caller(known=known))
