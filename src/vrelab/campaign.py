@@ -46,7 +46,7 @@ from vrelab.gum import (
     weighted_mean,
     weighted_mean_chi2,
 )
-from vrelab.results import Estimate, FitResult, VreResult, group_by_frequency
+from vrelab.results import Estimate, FitResult, K2K3Model, K2Model, VreResult, group_by_frequency
 
 if TYPE_CHECKING:
     from vrelab.analysis.plausibility import MethodRequest
@@ -954,7 +954,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                              "(`vrelab identify` fits the cross-coupling coefficients from it)")
                 continue
             for f in res.fits:
-                if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
+                if f.model.vrc is not None and res.method == "sine":
                     e = _type_a(f, "vrc_ug_per_g2")
                     if f.n_points < 2 or not (math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0):
                         notes.append(f"{rr.run.where}: the VRC at {f.freq_hz:g} Hz rests on {f.n_points} level(s): "
@@ -963,11 +963,11 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                     vrcs.append({"freq_hz": f.freq_hz, "static_g": g0, "run": rr.run.index, "label": rr.run.label,
                                  "vrc_ug_per_g2": {"value": e.value, "u": e.u}, "n_levels": f.n_points,
                                  **({} if f.static_shift_g is None else {"static_shift_g": f.static_shift_g})})
-                elif f.model.startswith("clip-") and "rail_g" in f.params:
+                elif f.model.rail is not None:
                     e = _type_a(f, "rail_g")
                     if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
                         rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
-                                      "rail_g": {"value": e.value, "u": e.u}, "model": f.model})
+                                      "rail_g": {"value": e.value, "u": e.u}, "model": f.model.name})
     vrcs.sort(key=lambda v: (v["freq_hz"], v["static_g"]))
     groups = group_by_frequency(vrcs, lambda v: v["freq_hz"])
 
@@ -985,22 +985,22 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
             by_freq.append(fit_k2_k3([(v["static_g"] + v.get("static_shift_g", 0.0), est(v)) for v in grp], freq_hz=f0))
             _at_nominal_static(grp, by_freq[-1])
         elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
-            k2_only.append(FitResult("vrc", {"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
-                                     if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])},
+            k2_only.append(FitResult(K2Model({"k2_ug_per_g2": Estimate(est(grp[0]).value, est(grp[0]).u, "ug/g^2")}
+                                             if len(grp) == 1 else {"k2_ug_per_g2": weighted_mean([est(v) for v in grp])}),
                                      n_points=len(grp), freq_hz=f0))
     notes += _mounted_at_pure_drive(mounted, by_freq)
     k2 = k3 = None
     both = None
     names = ["k2_ug_per_g2", "k3_ug_per_g3"]
     if by_freq:
-        both = combine_fits(by_freq, names, "k2-k3")
+        both = combine_fits(by_freq, names, K2K3Model)
         k2, k3 = both.params[names[0]], both.params[names[1]]
         notes += [n for n in both.notes if "scatter" in n]
         notes += _k2_across_frequencies(by_freq)
         if k2_only:
             notes.append("k2 from the orientations' fits; frequencies measured at 0 g only are not combined with them")
     elif k2_only:
-        c = combine_fits(k2_only, names[:1], "k2")
+        c = combine_fits(k2_only, names[:1], K2Model)
         k2 = c.params[names[0]]
         notes.append("k2 from VRC at 0 g (VRC = k2 there); k3 needs two orientations (+g and -g): "
                      "one orientation only, k3 = null")
@@ -1061,7 +1061,7 @@ def _mounted_vrcs(rr: RunResult, mount: Mount, res: VreResult) -> list[dict[str,
     """The apparent VRC (VRE/rms², Type A u) of each sine frequency of a run mounted at an angle."""
     out = []
     for f in res.fits:
-        if f.model == "vrc" and res.method == "sine" and "vrc_ug_per_g2" in f.params:
+        if f.model.vrc is not None and res.method == "sine":
             e = _type_a(f, "vrc_ug_per_g2")
             if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
                 out.append({"freq_hz": f.freq_hz, **mount.to_dict(), "run": rr.run.index, "label": rr.run.label,
