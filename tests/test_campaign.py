@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from vrelab.campaign import combine, read_manifest, run_campaign
+from vrelab.campaigns import combine, read_manifest, run_campaign
 from vrelab.cli import main
 from vrelab.simulation.campaign import example_truth, write_campaign
 
