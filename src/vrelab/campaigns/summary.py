@@ -66,9 +66,12 @@ def combine(results: Sequence[RunResult], channels: Sequence[str]) -> list[Chann
     return [_combine_channel(ch, results) for ch in channels]
 
 
-def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSummary:
-    from vrelab.fits import combine_fits, fit_k2_k3
+_Lists = list[dict[str, Any]]
 
+
+def _collect(channel: str, results: Sequence[RunResult]) -> tuple[_Lists, _Lists, _Lists, list[str], _Lists]:
+    """The channel's entries over the runs: (its sine VRCs along the vibration, its rails, its
+    mounted runs' apparent VRCs, notes on what was left out, its noise by run)."""
     vrcs: list[dict[str, Any]] = []
     rails: list[dict[str, Any]] = []
     mounted: list[dict[str, Any]] = []
@@ -105,6 +108,13 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
                     if math.isfinite(e.value) and math.isfinite(e.u) and e.u > 0:
                         rails.append({"run": rr.run.index, "label": rr.run.label, "static_g": g0,
                                       "rail_g": {"value": e.value, "u": e.u}, "model": f.model.name})
+    return vrcs, rails, mounted, notes, noise
+
+
+def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSummary:
+    from vrelab.fits import combine_fits, fit_k2_k3
+
+    vrcs, rails, mounted, notes, noise = _collect(channel, results)
     vrcs.sort(key=lambda v: (v["freq_hz"], v["static_g"]))
     groups = group_by_frequency(vrcs, lambda v: v["freq_hz"])
 
