@@ -68,7 +68,7 @@ def read_alone(manifest: Path) -> float:
 
 def reduce_campaign(manifest: Path, workers: int) -> tuple[float, int]:
     from vrelab.analysis.readers.uff import _indexed
-    from vrelab.campaign import combine, read_manifest, run_campaign
+    from vrelab.campaigns import combine, read_manifest, run_campaign
 
     _indexed.cache_clear()  # as a fresh process would: no index of a UFF file kept from the last run
     t0 = time.perf_counter()

@@ -44,7 +44,7 @@ def build(seconds: float) -> Path:
 
 
 def main() -> None:
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
     from vrelab.identify import identify
 
     ap = argparse.ArgumentParser()

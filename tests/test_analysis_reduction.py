@@ -209,7 +209,7 @@ def test_analyze_returns_result_with_fits_and_conditions():
     d = res.to_dict()
     assert {"rms_g", "vre_g", "u_vre_g"} <= set(d["levels"][0])
     # random method: the clipping model first, then the VRC (vrelab.fits.fit_levels)
-    assert [f.model for f in res.fits] == ["clip-censored", "vrc"]
+    assert [f.model.name for f in res.fits] == ["clip-censored", "vrc"]
     vrc = res.fits[1].params["vrc_ug_per_g2"]
     assert abs(vrc.value - 500.0) < 3 * vrc.u + 5.0
     assert "rail_g" in d["fit"] and "vrc_ug_per_g2" in d["fit"]
@@ -256,7 +256,7 @@ def test_sine_sweep_gives_one_vrc_fit_per_frequency():
             t += 4.0
     rec = ArrayRecord({"reference": np.concatenate(parts_r), "dut": np.concatenate(parts_d)}, fs)
     res = analyze(rec, "sine", schedule=Schedule(tuple(segs)))
-    fits = [f for f in res.fits if f.model == "vrc"]
+    fits = [f for f in res.fits if f.model.name == "vrc"]
     assert [round(f.freq_hz) for f in fits] == [50, 300]
     for fit, vrc in zip(fits, (200.0, 800.0)):
         est = fit.params["vrc_ug_per_g2"]
@@ -271,7 +271,7 @@ def test_end_to_end_clipped_dut_gives_its_rail():
     tr = make_record(14, levels_g=levels, vre_g=(0.0,) * 5, rail_g=2.0, noise_g=1e-4, drift_g_per_s=0.0,
                      t_on_s=30.0)  # fmt: skip
     res = analyze(tr.record, "random", schedule=tr.schedule)
-    (rail,) = [f for f in res.fits if f.model == "clip-censored"]
+    (rail,) = [f for f in res.fits if f.model.name == "clip-censored"]
     est = rail.params["rail_g"]
     assert abs(est.value - 2.0) < 3 * est.u + 0.005
     assert est.u < 0.02

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vrelab.campaign import combine, read_manifest, run_campaign
+from vrelab.campaigns import combine, read_manifest, run_campaign
 from vrelab.cli import main
 from vrelab.record import Schedule, Segment, write_record_hdf5
 

@@ -17,7 +17,7 @@ import pytest
 
 from vrelab.analysis.readers import open_record
 from vrelab.analysis.reduction import analyze_channels
-from vrelab.campaign import read_manifest, run_campaign
+from vrelab.campaigns import read_manifest, run_campaign
 from vrelab.record import Schedule, Segment, write_record_hdf5
 
 FS = 4000.0

@@ -232,4 +232,4 @@ def test_rail_vrc_option_adds_the_vrc_term_to_the_rail_fit(csv_file, capsys):
     out, err = capsys.readouterr()
     assert rc == 0, err
     (rail,) = [f for f in json.loads(out)["fits"] if f["model"] == "clip-censored"]
-    assert {"rail_g", "vrc_ug_per_g2"} <= set(rail)
+    assert {"rail_g", "vrc_ug_per_g2"} <= set(rail["parameters"])

@@ -10,7 +10,7 @@ import pytest
 from vrelab import _io
 from vrelab.cli import main
 from vrelab.record import ArrayRecord, Schedule, Segment, write_record_hdf5
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+from vrelab.results import ClipModel, Conditions, Estimate, FitResult, LevelResult, VrcModel, VreResult
 
 
 def _result() -> VreResult:
@@ -19,8 +19,8 @@ def _result() -> VreResult:
         LevelResult(rms_g=1.0, vre=Estimate(-0.083, 0.001), n_saturated=12, flags=("saturated",)),
     )
     fits = (
-        FitResult("clip-censored", {"rail_g": Estimate(2.5, 0.05, "g")}, n_points=2, departure_rms_g=None),
-        FitResult("vrc", {"vrc_ug_per_g2": Estimate(-400.0, 80.0, "ug/g^2")}, n_points=1, chi2_reduced=math.nan),
+        FitResult(ClipModel({"rail_g": Estimate(2.5, 0.05, "g")}), n_points=2, departure_rms_g=None),
+        FitResult(VrcModel({"vrc_ug_per_g2": Estimate(-400.0, 80.0, "ug/g^2")}), n_points=1, chi2_reduced=math.nan),
     )
     return VreResult("random", Conditions(sensor="ideal", static_g=1.0, range_g=2.0), lv, fits, ("x",))
 

@@ -239,7 +239,7 @@ def test_campaign_k2_k3_cover_the_parts_truth_over_seeds(tmp_path: Path):
     SPEC 1.2), 16 seeds (~0.5 s each): k2·|H(80)|² and k3·|H(80)|² of each part against the
     campaign's per-frequency fit; the limits are those of 16 independent draws (the two parts
     of a seed share their drive and noise seed, k2 and k3 one fit)."""
-    from vrelab.campaign import combine, read_manifest, run_campaign
+    from vrelab.campaigns import combine, read_manifest, run_campaign
     from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
 
     base = example_truth()

@@ -92,7 +92,7 @@ def write_campaign(folder: Path, seed: int, fields: tuple[float, ...] = (1.0, -1
 def campaign_z(tmp: Path, seeds: range, **kw) -> dict[str, np.ndarray]:
     """z = (estimate - truth)/u of the campaign's VRC per orientation (truth k2 + 3·k3·g0) and of
     its k2 and k3 at the drive frequency, over ``seeds``."""
-    from vrelab.campaign import combine, read_manifest, run_campaign
+    from vrelab.campaigns import combine, read_manifest, run_campaign
 
     z: dict[str, list[float]] = {"vrc": [], "k2": [], "k3": []}
     for seed in seeds:
@@ -281,7 +281,7 @@ def test_analyze_json_and_report_show_the_drive_harmonics(tmp_path: Path, capsys
 def test_one_orientation_names_the_bias_it_cannot_remove(tmp_path: Path):
     """With one orientation k3 is unknown, so the drive's 3·k3·shift stays in the VRC: the
     campaign says so (and leaves the VRC as measured, with its shift beside it)."""
-    from vrelab.campaign import combine, read_manifest, run_campaign
+    from vrelab.campaigns import combine, read_manifest, run_campaign
 
     man = read_manifest(write_campaign(tmp_path / "c", 0, fields=(1.0,)))
     (ch,) = combine(run_campaign(man), man.channels)
@@ -302,7 +302,7 @@ def identify_z(tmp: Path, seeds: range) -> dict[str, np.ndarray]:
     identify then models a pure sine of the fundamental's rms, as before issue 28)."""
     import json
 
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
     from vrelab.identify import identify
 
     z: dict[str, list[float]] = {"k2": [], "k3": [], "k2 pure": [], "k3 pure": []}
@@ -355,7 +355,7 @@ def test_mount_angle_vrc_is_carried_to_a_pure_drive(tmp_path: Path):
     second harmonic, a 0.3 mg DUT noise; ~10 s) the corrected VRC covers its truth cos²φ·(k2 + 3·k3·cos φ) at ±2u at
     least the lower end of the 99 % binomial interval around 0.9545 for 12 trials (0.75); the
     measured one did not (the 3·k3·cos³φ·s left in)."""
-    from vrelab.campaign import combine, read_manifest, run_campaign
+    from vrelab.campaigns import combine, read_manifest, run_campaign
 
     c = math.cos(math.radians(MOUNT_DEG))
     truth = c * c * (K2 + 3 * K3 * c) * 1e6

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vrelab.campaign import read_manifest
+from vrelab.campaigns import read_manifest
 from vrelab.cli import main
 
 

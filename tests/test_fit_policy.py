@@ -21,7 +21,7 @@ def _run(capsys, argv):
 
 
 def _params(fit):
-    return {k: v["value"] for k, v in fit.items() if isinstance(v, dict) and "value" in v}
+    return {k: v["value"] for k, v in fit["parameters"].items()}
 
 
 def _same_fits(sim, ana):

@@ -15,7 +15,7 @@ import pytest
 from scipy import integrate, stats
 
 from vrelab.fits import fit_rail, fit_vrc, separate_k2_k3
-from vrelab.results import Estimate, FitResult, LevelResult
+from vrelab.results import ClipModel, Estimate, FitResult, LevelResult, VrcModel
 
 
 def _levels(rms, vre, u, flags=None):
@@ -57,7 +57,7 @@ def test_fit_vrc_recovers_k2_within_standard_error_and_se_matches_closed_form():
     assert fit.params["vrc_ug_per_g2"].value == pytest.approx(120.0, rel=1e-9)
     assert fit.params["vrc_ug_per_g2"].u == pytest.approx(se0, rel=1e-9)
     assert fit.params["vrc_ug_per_g2"].unit == "ug/g^2"
-    assert fit.model == "vrc" and fit.n_points == 5
+    assert fit.model.name == "vrc" and fit.n_points == 5
     assert 0.60 <= np.mean(np.abs(z) <= 1) <= 0.85  # >= 68 %: errors are never scaled down
     assert any("not scaled" in n for n in fit.notes)
 
@@ -90,7 +90,7 @@ def test_fit_vrc_with_k4_recovers_quartic_term():
     k2, k4 = 80e-6, 5e-6
     y = k2 * rms**2 + 3 * k4 * rms**4
     fit = fit_vrc(_levels(rms, y, np.full(6, 1e-7)), with_k4=True)
-    assert fit.model == "vrc+k4"
+    assert fit.model.name == "vrc+k4"
     assert fit.params["vrc_ug_per_g2"].value == pytest.approx(80.0, rel=1e-6)
     assert fit.params["c4_ug_per_g4"].value == pytest.approx(15.0, rel=1e-6)
 
@@ -126,7 +126,7 @@ def test_fit_rail_recovers_known_rail_from_noisy_data(kind, truth):
     y = np.array([truth(g0, s, -rail, rail) for s in rms]) + rng.standard_normal(len(rms)) * u
     fit = fit_rail(_levels(rms, y, u), g0, kind=kind)
     est = fit.params["rail_g"]
-    assert fit.model == f"clip-{kind}"
+    assert fit.model.name == f"clip-{kind}"
     assert abs(est.value - rail) < 3 * est.u
     assert est.u < 0.05  # precise enough that the check means something
     assert fit.departure_rms_g is None
@@ -169,16 +169,16 @@ def test_fit_rail_asymmetric_rails():
 def test_separate_k2_k3_spec_formula_and_uncertainty():
     """SPEC 1.2: VRC(±1 g) = k2 ± 3·k3: k2 = (V+ + V-)/2, k3 = (V+ - V-)/6."""
     k2, k3 = 40.0, 5.0
-    fp = FitResult("vrc", {"vrc_ug_per_g2": Estimate(k2 + 3 * k3, 3.0, "ug/g^2")}, 5)
-    fm = FitResult("vrc", {"vrc_ug_per_g2": Estimate(k2 - 3 * k3, 4.0, "ug/g^2")}, 5)
+    fp = FitResult(VrcModel({"vrc_ug_per_g2": Estimate(k2 + 3 * k3, 3.0, "ug/g^2")}), 5)
+    fm = FitResult(VrcModel({"vrc_ug_per_g2": Estimate(k2 - 3 * k3, 4.0, "ug/g^2")}), 5)
     out = separate_k2_k3(fp, fm)
-    assert out.model == "k2-k3"
+    assert out.model.name == "k2-k3"
     assert out.params["k2_ug_per_g2"].value == pytest.approx(40.0)
     assert out.params["k3_ug_per_g3"].value == pytest.approx(5.0)
     assert out.params["k2_ug_per_g2"].u == pytest.approx(2.5)  # hypot(3, 4)/2
     assert out.params["k3_ug_per_g3"].u == pytest.approx(5.0 / 6)
     with pytest.raises(ValueError, match="vrc_ug_per_g2"):
-        separate_k2_k3(fp, FitResult("clip-censored", {"rail_g": Estimate(2.5, 0.1)}, 5))
+        separate_k2_k3(fp, FitResult(ClipModel({"rail_g": Estimate(2.5, 0.1)}), 5))
 
 
 def test_fit_rail_with_vrc_term_recovers_rail_and_k2():
@@ -233,8 +233,8 @@ def test_k2_k3_covariance_is_the_linear_map_of_independent_vrcs():
     """k2 = (1-c)·VRC+ + c·VRC-, k3 = (VRC+ - VRC-)/d: cov = J·diag(u+², u-²)·Jᵀ (GUM 5.1)."""
     from vrelab.results import Estimate, FitResult
 
-    fp = FitResult("vrc", {"vrc_ug_per_g2": Estimate(130.0, 3.0, "ug/g^2")}, 4)
-    fm = FitResult("vrc", {"vrc_ug_per_g2": Estimate(70.0, 5.0, "ug/g^2")}, 4)
+    fp = FitResult(VrcModel({"vrc_ug_per_g2": Estimate(130.0, 3.0, "ug/g^2")}), 4)
+    fm = FitResult(VrcModel({"vrc_ug_per_g2": Estimate(70.0, 5.0, "ug/g^2")}), 4)
     out = separate_k2_k3(fp, fm, 1.0, -0.5)
     c, d = 1.0 / 1.5, 3.0 * 1.5
     J = np.array([[1 - c, c], [1 / d, -1 / d]])

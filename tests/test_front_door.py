@@ -49,7 +49,8 @@ ORDERS = {
     "a module importing it before the user does (identify imports predict)": (
         "import vrelab.identify\nimport vrelab\nout = []\n" + _CALL.format("vrelab.predict")
         + "import vrelab.identify as i\nassert i is vrelab.identify and callable(i) and callable(i.identify)\n"
-        "import vrelab.campaign as c\nassert callable(vrelab.campaign) and c.read_manifest\n"),
+        "import vrelab.campaigns as c\nassert callable(vrelab.campaign) and c.read_manifest\n"
+        "assert vrelab.campaign.__module__ == 'vrelab._api'\n"),
 }
 
 
@@ -66,7 +67,7 @@ def test_predict_is_the_verb_and_the_module_in_every_import_order(order):
 def test_import_vrelab_imports_nothing_heavy():
     """Lazy: ``import vrelab`` loads no model module, no numpy (the CLI's start-up pays it once)."""
     script = ("import sys, vrelab\nheavy = [m for m in ('numpy', 'scipy', 'vrelab.predict', 'vrelab.sensor', "
-              "'vrelab.campaign', 'vrelab.identify', 'vrelab.shaker') if m in sys.modules]\nprint(heavy)\n"
+              "'vrelab.campaigns', 'vrelab.identify', 'vrelab.shaker') if m in sys.modules]\nprint(heavy)\n"
               "vrelab.VreResult\nprint('vrelab.results' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=60)
     assert done.returncode == 0, done.stderr

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from vrelab.campaign import ManifestContradiction, check_static, read_manifest
+from vrelab.campaigns import ManifestContradiction, check_static, read_manifest
 from vrelab.cli import main
 from vrelab.simulation.campaign import write_campaign
 

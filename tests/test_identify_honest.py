@@ -365,7 +365,7 @@ def test_sine_levels_flagged_saturated_are_judged_against_the_identified_rails()
     peak is inside them) and the note says so; without them (rails only assumed) it stays out.
     Levels: the closed form of the model (predict on the true part) plus seeded noise of the
     stated u — this checks which levels the fit uses, not the physics."""
-    from vrelab.campaign import profile_document
+    from vrelab.campaigns import profile_document
 
     truth = load_sensor("ideal", range_g=2.09, k2_ug_per_g2=1500.0, k3_ug_per_g3=-250.0)
     rng = np.random.default_rng(7)

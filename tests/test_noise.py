@@ -232,7 +232,7 @@ def test_campaign_reports_each_channels_noise_by_run(tmp_path):
     per run, the density within 4 of its u of 25 µg/√Hz, and the run's document carries the curve."""
     import dataclasses
 
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
     from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
 
     truth = dataclasses.replace(example_truth(), runs=(ExampleRun("csv", 1.0, 80.0, (0.2, 0.4, 0.6), label="Z up"),))

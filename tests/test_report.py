@@ -25,7 +25,7 @@ from vrelab.report.html import (
     collect_warnings,
     write_report,
 )
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+from vrelab.results import ClipModel, Conditions, Estimate, FitResult, LevelResult, VrcModel, VreResult
 
 
 def _random_result(rail_g: float = 2.0, departure: float | None = 3.0) -> VreResult:
@@ -41,8 +41,8 @@ def _random_result(rail_g: float = 2.0, departure: float | None = 3.0) -> VreRes
         for r in rms
     )
     fits = (
-        FitResult("clip-censored", {"rail_g": Estimate(rail_g, 0.02)}, 5, 1.1, levels_used=tuple(rms[:5]), departure_rms_g=departure),
-        FitResult("vrc", {"vrc_ug_per_g2": Estimate(50.0, 2.0)}, 2, 0.9, levels_used=(0.25, 0.5)),
+        FitResult(ClipModel({"rail_g": Estimate(rail_g, 0.02)}), 5, 1.1, levels_used=tuple(rms[:5]), departure_rms_g=departure),
+        FitResult(VrcModel({"vrc_ug_per_g2": Estimate(50.0, 2.0)}), 2, 0.9, levels_used=(0.25, 0.5)),
     )
     cond = Conditions(sensor="adxl355", model="simulation", profile="random flat 50-2000 Hz", static_g=1.0, range_g=2.048, bandwidth_hz=1000.0, axis="z")
     return VreResult("random", cond, levels, fits, ("drive clipped at 5 sigma",), {"input": "run.h5"}, "simulation")
@@ -53,7 +53,7 @@ def _sine_result() -> VreResult:
     for f, vrc in [(100.0, 40.0), (1000.0, 60.0), (2400.0, 2000.0)]:
         for a in (0.5, 1.0, 2.0):
             levels.append(LevelResult(a, Estimate(vrc * 1e-6 * a * a, 1e-6), freq_hz=f))
-        fits.append(FitResult("vrc", {"vrc_ug_per_g2": Estimate(vrc, 1.0)}, 3, 1.0, freq_hz=f, levels_used=(0.5, 1.0, 2.0)))
+        fits.append(FitResult(VrcModel({"vrc_ug_per_g2": Estimate(vrc, 1.0)}), 3, 1.0, freq_hz=f, levels_used=(0.5, 1.0, 2.0)))
     return VreResult("sine", Conditions(sensor="adxl355", static_g=1.0, range_g=8.192, axis="x", extra={"fn_hz": 2400.0}), tuple(levels), tuple(fits))
 
 
@@ -506,7 +506,7 @@ def test_rms2_plot_pairs_each_measured_frequency_with_its_fit_and_keeps_nine_apa
     for k, f in enumerate(freqs):
         for a in (0.5, 1.0):
             levels.append(LevelResult(a, Estimate(10 * (k + 1) * 1e-6 * a * a, 1e-6), freq_hz=f * (1 - 4.5e-9)))
-        fits.append(FitResult("vrc", {"vrc_ug_per_g2": Estimate(10.0 * (k + 1), 1.0)}, 2, 1.0, freq_hz=f, levels_used=(0.5, 1.0)))
+        fits.append(FitResult(VrcModel({"vrc_ug_per_g2": Estimate(10.0 * (k + 1), 1.0)}), 2, 1.0, freq_hz=f, levels_used=(0.5, 1.0)))
     res = VreResult("sine", Conditions(sensor="adxl355", static_g=1.0), tuple(levels), tuple(fits))
     ax = plots.plot_vre_vs_rms2(res).axes[0]
     legend = [t.get_text() for t in ax.get_legend().get_texts()]

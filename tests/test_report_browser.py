@@ -21,7 +21,7 @@ import pytest
 
 from vrelab.record import Schedule, Segment, write_record_hdf5
 from vrelab.report import report_dir
-from vrelab.results import Conditions, Estimate, FitResult, LevelResult, VreResult
+from vrelab.results import ClipModel, Conditions, Estimate, FitResult, LevelResult, VreResult
 
 pytestmark = pytest.mark.browser
 
@@ -138,7 +138,7 @@ def _example_folder(folder: Path) -> None:
         LevelResult(float(r), Estimate(-0.09 * max(0.0, r - 0.5) ** 2 + float(rng.normal(0, 0.002)), 0.002), n_samples=20000, n_saturated=int(400 * max(0.0, r - 0.8)))
         for r in rms
     )
-    fits = (FitResult("clip-censored", {"rail_g": Estimate(2.5, 0.03)}, 6, 1.2, levels_used=tuple(rms)),)
+    fits = (FitResult(ClipModel({"rail_g": Estimate(2.5, 0.03)}), 6, 1.2, levels_used=tuple(rms)),)
     res = VreResult(
         "random",
         Conditions(sensor="adxl355", static_g=1.0, range_g=2.048, axis="z", bandwidth_hz=1000.0, profile="random flat 50-2000 Hz"),

@@ -150,7 +150,7 @@ def test_rail_recovered_from_auto_segmented_record_with_offset_drift_ramps(tmp_p
     got = _analyze(capsys, path, "--band", "25:4000")
     assert len(got["levels"]) == 5
     rail = next(f for f in got["fits"] if f["model"] == "clip-censored")
-    value, se = rail["rail_g"]["value"], rail["rail_g"]["u"]
+    value, se = rail["parameters"]["rail_g"]["value"], rail["parameters"]["rail_g"]["u"]
     assert abs(value - 2.0) < 3 * se, rail
     assert se < 0.02  # the check has teeth
 
@@ -169,7 +169,7 @@ def test_vrc_recovered_from_sine_record_with_offset_drift_ramps_ieee1293(tmp_pat
     got = _analyze(capsys, path, "--method", "sine")
     assert len(got["levels"]) == 4
     vrc = next(f for f in got["fits"] if f["model"] == "vrc")
-    value, se = vrc["vrc_ug_per_g2"]["value"], vrc["vrc_ug_per_g2"]["u"]
+    value, se = vrc["parameters"]["vrc_ug_per_g2"]["value"], vrc["parameters"]["vrc_ug_per_g2"]["u"]
     assert abs(value - k2) < 3 * se, vrc
     assert se < 0.05 * k2  # the check has teeth
 

@@ -52,7 +52,7 @@ def test_ideal_sensor_random_matches_censored_model_spec_1_1():
         if nominal >= 1.0:
             assert lv.vre.u < 0.1 * abs(model)  # the check has teeth
     rail = res.fits[0]
-    assert rail.model == "clip-censored"
+    assert rail.model.name == "clip-censored"
     assert abs(rail.params["rail_g"].value - 2.0) < 3 * rail.params["rail_g"].u + 0.02
 
 
@@ -67,7 +67,7 @@ def test_ideal_sensor_k2_gaussian_gives_k2_rms2_spec_1_2():
     for lv in res.levels:
         expected = quadratic(lv.rms_g)
         assert abs(lv.vre.value - expected) < _tolerance(lv, quadratic), (lv.rms_g, lv.vre, expected)
-    (vrc,) = [f for f in res.fits if f.model == "vrc"]  # every level is clear of the ±40 g rails
+    (vrc,) = [f for f in res.fits if f.model.name == "vrc"]  # every level is clear of the ±40 g rails
     assert abs(vrc.params["vrc_ug_per_g2"].value - k2_ug) < 3 * vrc.params["vrc_ug_per_g2"].u
     assert vrc.params["vrc_ug_per_g2"].u < 0.1 * k2_ug
 
@@ -206,7 +206,7 @@ def test_article_figure2_follows_clipping_then_departs_with_overrange():
     levels = [0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0, 3.5, 4.0]
     res = shaker.run_random_test(sensor, ARTICLE_PROFILE, levels, static_g=1.0, seconds=2.0,
                                  baseline_s=2.0, seed=8)
-    fit = next(f for f in res.fits if f.model == "clip-censored")
+    fit = next(f for f in res.fits if f.model.name == "clip-censored")
     rail = fit.params["rail_g"].value
     assert 2.2 < rail < 2.9  # article: 2.5 g (truncated fit); output low-pass shrinks the clip
     assert fit.departure_rms_g is not None and 2.4 <= fit.departure_rms_g <= 4.0

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vrelab.campaign import read_manifest
+from vrelab.campaigns import read_manifest
 from vrelab.identify import CROSS, identify
 
 TRUTH = {"k2": 2000.0, "k3": 300.0, "kip_ug_per_g2": 500.0, "kpp_ug_per_g2": -300.0,
@@ -244,7 +244,8 @@ def test_units_check_reads_a_mounted_run_at_its_cos_phi():
     DUT/reference ratio divided by |cos φ| (a 9.81 slip at 45° still shows as 9.81), and not at
     all where |cos φ| < 0.5 (a 90° run reads only the cross-axis feed)."""
     from vrelab.analysis.plausibility import check_units_over_runs
-    from vrelab.campaign import Mount, _mount_probes
+    from vrelab.campaigns import Mount
+    from vrelab.campaigns.runs import _mount_probes
 
     at45 = Mount(45.0, "ip", (math.sqrt(0.5), math.sqrt(0.5), 0.0))
     at90 = Mount(90.0, "ip", (0.0, 1.0, 0.0))

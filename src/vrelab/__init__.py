@@ -83,6 +83,7 @@ _LAZY: dict[str, tuple[str, str]] = {
     "parse_profile": ("vrelab.profiles", "parse_profile"),
     "simulate": ("vrelab._api", "simulate"),
     "analyze": ("vrelab._api", "analyze"),
+    "campaign": ("vrelab._api", "campaign"),  # a plain function: the package is vrelab.campaigns
     "Sensor": ("vrelab.sensor", "Sensor"),
     "RandomProfile": ("vrelab.profiles", "RandomProfile"),
     "SineOnRandom": ("vrelab.profiles", "SineOnRandom"),
@@ -104,7 +105,6 @@ _LAZY: dict[str, tuple[str, str]] = {
 # submodule name -> (module, function) that calling the submodule calls
 _VERBS: dict[str, tuple[str, str]] = {
     "predict": ("vrelab.predict", "predict"),
-    "campaign": ("vrelab._api", "campaign"),
     "identify": ("vrelab.identify", "identify"),
 }
 

@@ -265,7 +265,7 @@ def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = Non
         :func:`vrelab.identify` takes. A run that failed is in it with its ``error``. To write
         a results folder (and then a report), use ``vrelab campaign MANIFEST --out DIR``.
     """
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
 
     m = read_manifest(manifest)
     results = run_campaign(m, workers, None, None, limit_g)

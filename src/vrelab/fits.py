@@ -33,11 +33,16 @@ from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.results import (
+    ClipModel,
     Estimate,
+    FitModel,
     FitResult,
+    K2K3Model,
     LevelResult,
     Method,
     Notice,
+    VrcK4Model,
+    VrcModel,
     group_by_frequency,
     same_frequency,
 )
@@ -177,8 +182,7 @@ def fit_vrc(
         params["c4_ug_per_g4"] = Estimate(float(beta[1] * UG_PER_G), float(se[1] * UG_PER_G), "ug/g^4")
         notes.append("c4 = k4*E[x^4]/rms^4: 3*k4 for Gaussian vibration, 1.5*k4 for sine")
     return FitResult(
-        model="vrc+k4" if with_k4 else "vrc",
-        params=params,
+        model=VrcK4Model(params) if with_k4 else VrcModel(params),
         n_points=len(sel),
         chi2_reduced=chi2_red,
         freq_hz=freq_hz,
@@ -494,8 +498,7 @@ def fit_rail(
         )
     notes.append(f"static field {static_g:.4g} g")
     return FitResult(
-        model=f"clip-{kind}",
-        params=params,
+        model=ClipModel(params, kind, static_g),
         n_points=n_fit,
         chi2_reduced=chi2_red,
         levels_used=tuple(float(r) for r in rms[:n_fit]),
@@ -537,18 +540,17 @@ def separate_k2_k3(
         raise ValueError(f"static_plus_g and static_minus_g must differ, got {gp} and {gm}")
     for name, f in (("fit_plus", fit_plus), ("fit_minus", fit_minus)):
         if "vrc_ug_per_g2" not in f.params:
-            raise ValueError(f"{name} has no vrc_ug_per_g2 parameter (model {f.model!r})")
+            raise ValueError(f"{name} has no vrc_ug_per_g2 parameter (model {f.model.name!r})")
     a, b = fit_plus.params["vrc_ug_per_g2"], fit_minus.params["vrc_ug_per_g2"]
     if gp < gm:  # the formula takes the higher orientation first
         a, b, gp, gm = b, a, gm, gp
     k2, k3 = separate(a, b, static_g=gp, static_minus_g=gm)
     cov23 = k2_k3_covariance(a.u, b.u, gp, gm)
     return FitResult(
-        model="k2-k3",
-        params={
+        model=K2K3Model({
             "k2_ug_per_g2": Estimate(k2.value, k2.u, "ug/g^2"),
             "k3_ug_per_g3": Estimate(k3.value, k3.u, "ug/g^3"),
-        },
+        }),
         covariance=((k2.u**2, cov23), (cov23, k3.u**2)),
         n_points=2,
         freq_hz=fit_plus.freq_hz,
@@ -581,11 +583,10 @@ def fit_k2_k3(points: Sequence[tuple[float, Estimate]], freq_hz: float | None = 
     dof = len(y) - 2
     chi2 = float(np.sum(W * resid**2) / dof) if dof > 0 else None
     return FitResult(
-        model="k2-k3",
-        params={
+        model=K2K3Model({
             "k2_ug_per_g2": Estimate(float(beta[0]), math.sqrt(cov[0, 0]), "ug/g^2"),
             "k3_ug_per_g3": Estimate(float(beta[1]), math.sqrt(cov[1, 1]), "ug/g^3"),
-        },
+        }),
         covariance=tuple(tuple(float(c) for c in row) for row in cov),
         n_points=len(y),
         chi2_reduced=chi2,
@@ -595,9 +596,11 @@ def fit_k2_k3(points: Sequence[tuple[float, Estimate]], freq_hz: float | None = 
     )
 
 
-def combine_fits(fits: Sequence[FitResult], names: Sequence[str], model: str) -> FitResult:
+def combine_fits(fits: Sequence[FitResult], names: Sequence[str],
+                 model: Callable[[dict[str, Estimate]], FitModel]) -> FitResult:
     """Weighted mean of the same parameters ``names`` from independent fits, with their
-    covariances (generalised least squares: ``x̄ = (Σ C_i⁻¹)⁻¹ Σ C_i⁻¹ x_i``).
+    covariances (generalised least squares: ``x̄ = (Σ C_i⁻¹)⁻¹ Σ C_i⁻¹ x_i``), as ``model``
+    (a :class:`~vrelab.results.FitModel` class taking those parameters: ``K2K3Model``).
 
     ``chi2_reduced`` = χ²/(p·(n−1)) of the fits about the mean. When it exceeds 1 the fits
     disagree by more than their uncertainties (for k2/k3 across frequencies: the resonance, or
@@ -628,8 +631,7 @@ def combine_fits(fits: Sequence[FitResult], names: Sequence[str], model: str) ->
                          "u scaled by its square root")
     units = {n: fits[0].params[n].unit for n in names}
     return FitResult(
-        model=model,
-        params={n: Estimate(float(mean[i]), math.sqrt(cov[i, i]), units[n]) for i, n in enumerate(names)},
+        model=model({n: Estimate(float(mean[i]), math.sqrt(cov[i, i]), units[n]) for i, n in enumerate(names)}),
         covariance=tuple(tuple(float(c) for c in row) for row in cov),
         n_points=sum(f.n_points for f in fits),
         chi2_reduced=chi2,

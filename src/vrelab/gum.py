@@ -231,7 +231,7 @@ def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | N
         notes.append(f"budget: {source} ({', '.join(f'{k}={v:g}' for k, v in delta.items())}): "
                      + ", ".join(f"{name} {d:+.3g}" for name, d in diffs.items()))
     combined = {name: Estimate(e.value, math.sqrt(e.u**2 + extra[name]), e.unit) for name, e in params.items()}
-    return replace(fit, params=combined, notes=tuple(notes))
+    return replace(fit, model=fit.model.with_params(combined), notes=tuple(notes))
 
 
 def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel: float = 0.0,

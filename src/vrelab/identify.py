@@ -74,7 +74,7 @@ from numpy.typing import NDArray
 
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
-from vrelab.campaign import (
+from vrelab.campaigns import (
     MOUNT_PLANES,
     SAME_ORIENTATION_G,  # static fields closer than this are one orientation
     Mount,

@@ -8,8 +8,8 @@ tuples or ad-hoc dicts travel between modules: bench, analysis, fits and report 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
-from typing import Any, Callable, Iterable, Literal, Mapping, Sequence, TypeVar
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Callable, ClassVar, Iterable, Literal, Mapping, Sequence, TypeVar
 
 from vrelab._format import finite_or_none, format_mg_text, format_value_u
 
@@ -296,17 +296,258 @@ class LevelResult:
         )
 
 
+# --- the fitted models ------------------------------------------------------------------------
+# Each fit model is a small frozen class: its name (what results files and reports call it), its
+# parameters (name -> Estimate, in the order of the fit's covariance), its equation and source,
+# and ``eval(rms_g)``, the VRE it gives at a level. Code asks the model (``vrc``, ``rail``,
+# ``no_fit_reason``, ``static_coefficients``) instead of branching on its name. The classes live
+# here beside FitResult, not in vrelab.fits: results files are read back (FitResult.from_dict)
+# without the fitting code, and fits imports this module (no import cycle, tests/test_imports.py).
+
+
+def _ug(e: Estimate | None) -> float:
+    """An Estimate in µg/g^n (or its absence, 0) as g/g^n."""
+    from vrelab.units import UG_PER_G  # (units imports numpy: not at this light module's import)
+
+    return 0.0 if e is None else e.value / UG_PER_G
+
+
+def _as_rms(rms_g: Any) -> Any:
+    """``rms_g`` [g] as a float array (a scalar stays 0-d), refused unless finite and >= 0."""
+    import numpy as np
+
+    r = np.asarray(rms_g, dtype=np.float64)
+    if not (np.all(np.isfinite(r)) and np.all(r >= 0)):
+        raise ValueError(f"rms_g must be finite and >= 0, got {rms_g!r}")
+    return r
+
+
+def _out(x: Any) -> Any:
+    """A 0-d result as a float, an array as it is."""
+    return float(x) if getattr(x, "ndim", 1) == 0 else x
+
+
+@dataclass(frozen=True)
+class FitModel:
+    """A fitted model: its parameters and the VRE [g] it gives at a vibration level.
+
+    ``params`` maps the parameter names (units in them: ``vrc_ug_per_g2``, ``rail_g``) to
+    estimates, in the order of the fit's covariance. ``PARAMS``: the parameter sets the model
+    accepts (each a tuple of names); a model built with another set is refused.
+    """
+
+    params: Mapping[str, Estimate]
+    NAME: ClassVar[str] = ""
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = ()
+
+    def __post_init__(self) -> None:
+        if self.PARAMS and set(self.params) not in [set(p) for p in self.PARAMS]:
+            need = " or ".join("(" + ", ".join(p) + ")" for p in self.PARAMS)
+            raise ValueError(f"fit model {self.name!r}: parameters {tuple(self.params)} are not {need}")
+
+    @property
+    def name(self) -> str:
+        """What results files, reports and the CLI call the model."""
+        return self.NAME
+
+    def __str__(self) -> str:
+        return self.name
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        """The fitted VRE [g] at vibration level(s) ``rms_g`` [g rms] (a float, or an array like
+        ``rms_g``). ``static_g`` [g]: the static field, for a model fitted across orientations
+        (k2-k3); a model fitted at one field gives the VRE at that field and refuses another."""
+        raise NotImplementedError
+
+    @property
+    def vrc(self) -> Estimate | None:
+        """The VRC [µg/g²] where the model is SPEC 1.2's ``VRE = VRC·rms²`` alone, else None."""
+        return None
+
+    @property
+    def rail(self) -> Estimate | None:
+        """The symmetric effective rail ±r [g] where the model has one, else None."""
+        return None
+
+    def no_fit_reason(self, n_points: int) -> str | None:
+        """Why a fit of this model over ``n_points`` points determines nothing (None: it does)."""
+        return None
+
+    def static_coefficients(self, rms_g: Sequence[float], static_g: float) -> list[float | None] | None:
+        """∂VRE/∂g0 at each level, where the model gives it (None: it does not depend on g0)."""
+        return None
+
+    def with_params(self, params: Mapping[str, Estimate]) -> FitModel:
+        """The same model with other estimates of its parameters (a budget's combined u)."""
+        return replace(self, params=dict(params))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.name, "parameters": {k: v.to_dict() for k, v in self.params.items()}}
+
+
+def _one_field(model: FitModel, static_g: float | None) -> None:
+    if static_g is not None:
+        raise ValueError(f"fit model {model.name!r} holds at the static field it was fitted at: "
+                         "it takes no static_g")
+
+
+@dataclass(frozen=True)
+class VrcModel(FitModel):
+    """SPEC 1.2 and IEEE Std 1293-1998: ``VRE = VRC·rms²`` [g], VRC [µg/g²] = k2 + 3·k3·g0 at the
+    static field g0 the levels were measured at (a sine fit over a distorted drive: at g0 +
+    ``FitResult.static_shift_g``, :func:`vrelab.fits.fit_vrc`)."""
+
+    NAME: ClassVar[str] = "vrc"
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("vrc_ug_per_g2",),)
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        _one_field(self, static_g)
+        r = _as_rms(rms_g)
+        return _out(_ug(self.params["vrc_ug_per_g2"]) * r**2)
+
+    @property
+    def vrc(self) -> Estimate | None:
+        return self.params["vrc_ug_per_g2"]
+
+    def no_fit_reason(self, n_points: int) -> str | None:
+        return "one level only (a VRC needs two levels or more)" if n_points < 2 else None
+
+
+@dataclass(frozen=True)
+class VrcK4Model(FitModel):
+    """SPEC 1.2 with the quartic term: ``VRE = VRC·rms² + c4·rms⁴`` [g], c4 [µg/g⁴] =
+    k4·E[x⁴]/rms⁴ (3·k4 for Gaussian vibration, 1.5·k4 for a sine; :func:`vrelab.fits.fit_vrc`)."""
+
+    NAME: ClassVar[str] = "vrc+k4"
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("vrc_ug_per_g2", "c4_ug_per_g4"),)
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        _one_field(self, static_g)
+        r = _as_rms(rms_g)
+        return _out(_ug(self.params["vrc_ug_per_g2"]) * r**2 + _ug(self.params["c4_ug_per_g4"]) * r**4)
+
+
+@dataclass(frozen=True)
+class ClipModel(FitModel):
+    """SPEC 1.1 (the Analog Devices article): Gaussian vibration of rms σ at static field g0
+    clipped at the rails, ``VRE(σ) = E[clip(g0 + x)] − g0`` (``kind`` "censored": samples beyond
+    a rail read as the rail, :func:`vrelab.models.clipping.censored_mean_shift`; "truncated":
+    they are discarded, ``truncated_mean_shift``), ``+ VRC·σ²`` when fitted with the VRC term.
+    Rails ±``rail_g`` or (``rail_low_g``, ``rail_high_g``) [g]; ``static_g`` the field it was
+    fitted at (None: unknown, in a results file written before it was recorded)."""
+
+    kind: str = "censored"
+    static_g: float | None = None
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (
+        ("rail_g",), ("rail_low_g", "rail_high_g"), ("rail_g", "vrc_ug_per_g2"),
+        ("rail_low_g", "rail_high_g", "vrc_ug_per_g2"))
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.kind not in ("censored", "truncated"):
+            raise ValueError(f"clip model: kind must be censored or truncated, got {self.kind!r}")
+
+    @property
+    def name(self) -> str:
+        return f"clip-{self.kind}"
+
+    def _rails(self) -> tuple[float, float]:
+        p = self.params
+        if "rail_g" in p:
+            return -p["rail_g"].value, p["rail_g"].value
+        return p["rail_low_g"].value, p["rail_high_g"].value
+
+    def _shift(self) -> Callable[..., Any]:
+        from vrelab.models import clipping
+
+        return clipping.censored_mean_shift if self.kind == "censored" else clipping.truncated_mean_shift
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        if self.static_g is None:
+            raise ValueError(f"fit model {self.name!r}: the static field it was fitted at is unknown "
+                             "(a results file written before it was recorded): no VRE")
+        if static_g is not None and static_g != self.static_g:
+            raise ValueError(f"fit model {self.name!r} was fitted at {self.static_g:g} g: it gives no VRE "
+                             f"at {static_g:g} g")
+        r = _as_rms(rms_g)
+        low, high = self._rails()
+        return _out(self._shift()(self.static_g, r, low, high) + _ug(self.params.get("vrc_ug_per_g2")) * r**2)
+
+    @property
+    def rail(self) -> Estimate | None:
+        return self.params.get("rail_g")
+
+    def static_coefficients(self, rms_g: Sequence[float], static_g: float) -> list[float | None] | None:
+        # a central difference of the Gaussian mean shift: the clipping alone moves with g0
+        shift, (lo, hi), h = self._shift(), self._rails(), 1e-4
+        return [float(shift(static_g + h, r, lo, hi) - shift(static_g - h, r, lo, hi)) / (2 * h)
+                if math.isfinite(r) and r > 0 else None for r in rms_g]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**super().to_dict(), "static_g": finite_or_none(self.static_g)}
+
+
+def _static_g(model: FitModel, static_g: float | None) -> float:
+    if static_g is None or not math.isfinite(static_g):
+        raise ValueError(f"fit model {model.name!r}: the VRE depends on the static field: give a finite static_g, "
+                         f"got {static_g!r}")
+    return float(static_g)
+
+
+@dataclass(frozen=True)
+class K2K3Model(FitModel):
+    """SPEC 1.2 across orientations: ``VRE = (k2 + 3·k3·g0)·rms²`` [g] at static field g0 (the k4
+    term ``6·k4·g0²`` folds into k2 at ±g0; :func:`vrelab.fits.fit_k2_k3`)."""
+
+    NAME: ClassVar[str] = "k2-k3"
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("k2_ug_per_g2", "k3_ug_per_g3"),)
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        g0 = _static_g(self, static_g)
+        r = _as_rms(rms_g)
+        return _out((_ug(self.params["k2_ug_per_g2"]) + 3.0 * _ug(self.params["k3_ug_per_g3"]) * g0) * r**2)
+
+
+@dataclass(frozen=True)
+class K2Model(FitModel):
+    """k2 alone, the VRC at 0 g (SPEC 1.2: VRC(0) = k2, a campaign's k2 from runs at 0 g only):
+    ``VRE = k2·rms²`` [g] at 0 g, the field it was measured at (k3 unknown: no other field)."""
+
+    NAME: ClassVar[str] = "k2"
+    PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("k2_ug_per_g2",),)
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        _one_field(self, static_g)
+        r = _as_rms(rms_g)
+        return _out(_ug(self.params["k2_ug_per_g2"]) * r**2)
+
+
+# the models by name, as results files name them
+_MODELS: dict[str, Callable[..., FitModel]] = {
+    "vrc": VrcModel, "vrc+k4": VrcK4Model, "k2-k3": K2K3Model, "k2": K2Model,
+    "clip-censored": lambda params, static_g=None: ClipModel(params, "censored", static_g),
+    "clip-truncated": lambda params, static_g=None: ClipModel(params, "truncated", static_g),
+}
+
+
+def fit_model(name: str, params: Mapping[str, Estimate], static_g: float | None = None) -> FitModel:
+    """The model called ``name`` in a results file, with ``params`` (and, for a clipping model,
+    the static field it was fitted at)."""
+    if name not in _MODELS:
+        raise ValueError(f"unknown fit model {name!r}: one of {', '.join(_MODELS)}")
+    if name.startswith("clip-"):
+        return _MODELS[name](dict(params), static_g)
+    return _MODELS[name](dict(params))
+
+
 @dataclass(frozen=True)
 class FitResult:
-    """A fitted model with standard errors on its parameters.
-
-    ``params`` maps parameter names with units in them (``vrc_ug_per_g2``, ``rail_g``,
-    ``k4_ug_per_g4``) to estimates. ``departure_rms_g`` is the first level at which the data
+    """A fitted model (:class:`FitModel`: its name, its parameters with standard errors, the VRE
+    it gives) and how it was fitted. ``departure_rms_g`` is the first level at which the data
     leave the model (None when they never do).
     """
 
-    model: str  # "vrc", "clip-censored", "clip-truncated", ...
-    params: Mapping[str, Estimate]
+    model: FitModel
     n_points: int
     chi2_reduced: float | None = None
     freq_hz: float | None = None
@@ -320,13 +561,30 @@ class FitResult:
     # rectify as at g0 + static_shift_g, so VRC = k2 + 3·k3·(g0 + static_shift_g) (None: a pure drive)
     static_shift_g: float | None = None
 
+    @property
+    def params(self) -> Mapping[str, Estimate]:
+        """The model's parameters: names with units in them (``vrc_ug_per_g2``, ``rail_g``,
+        ``k3_ug_per_g3``) to estimates."""
+        return self.model.params
+
+    @property
+    def no_fit_reason(self) -> str | None:
+        """Why this fit determines nothing (one level for a VRC), None when it does."""
+        return self.model.no_fit_reason(self.n_points)
+
+    def eval(self, rms_g: Any, static_g: float | None = None) -> Any:
+        """The fitted VRE [g] at ``rms_g`` [g rms] (:meth:`FitModel.eval`)."""
+        return self.model.eval(rms_g, static_g)
+
     def __str__(self) -> str:
         ps = ", ".join(f"{k} = {v}" for k, v in self.params.items())
-        return f"{self.model}: {ps}"
+        return f"{self.model.name}: {ps}"
 
     def to_dict(self) -> dict[str, Any]:
-        d: dict[str, Any] = {"model": self.model}
-        d.update({k: v.to_dict() for k, v in self.params.items()})
+        """``model`` (its name), ``parameters`` {name: {value, u, unit}} (nested; earlier
+        versions wrote them beside ``model``: :meth:`from_dict` reads both forms), the fit's
+        figures; a clipping model adds the ``static_g`` it was fitted at."""
+        d = self.model.to_dict()
         d.update(
             n_points=self.n_points,
             chi2_reduced=finite_or_none(self.chi2_reduced),
@@ -344,12 +602,13 @@ class FitResult:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
-        fixed = {"model", "n_points", "chi2_reduced", "freq_hz", "levels_used", "departure_rms_g", "notes", "covariance",
-                 "static_shift_g"}
-        params = {k: Estimate.from_dict(v) for k, v in d.items() if k not in fixed and isinstance(v, Mapping)}
+        if isinstance(d.get("parameters"), Mapping):
+            raw = d["parameters"]
+        else:  # the flat form of earlier files: every mapping beside the fit's own keys is a parameter
+            raw = {k: v for k, v in d.items() if k not in _FIT_KEYS and isinstance(v, Mapping)}
+        params = {k: Estimate.from_dict(v) for k, v in raw.items()}
         return cls(
-            model=d["model"],
-            params=params,
+            model=fit_model(d["model"], params, d.get("static_g")),
             n_points=int(d["n_points"]),
             chi2_reduced=d.get("chi2_reduced"),
             freq_hz=d.get("freq_hz"),
@@ -360,6 +619,11 @@ class FitResult:
                              for row in d["covariance"]["matrix"]) if d.get("covariance") else None,
             static_shift_g=d.get("static_shift_g"),
         )
+
+
+# a fit's own keys in its dict (the rest of an old, flat one are its parameters)
+_FIT_KEYS = frozenset({"model", "parameters", "static_g", "n_points", "chi2_reduced", "freq_hz", "levels_used",
+                       "departure_rms_g", "notes", "covariance", "static_shift_g"})
 
 
 Method = Literal["random", "sine"]
@@ -447,7 +711,7 @@ class VreResult:
                 continue  # sine sweeps: the summary carries the first frequency; `fits` has all
             for k, v in f.params.items():
                 merged.setdefault(k, v.to_dict())
-            merged.setdefault("model", f.model)
+            merged.setdefault("model", f.model.name)
         return merged
 
     def to_dict(self) -> dict[str, Any]:

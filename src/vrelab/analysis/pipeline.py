@@ -486,7 +486,7 @@ def with_budget(
             g = None if g0 is None else g0 + delta.get("static_g", 0.0)
             again, _ = fit_levels(lv, method, g, fit.clip_kind, fit.k4, fit.rail_with_vrc,
                                   nominal_freqs_hz=nominal_freqs_hz)
-            same = [f for f in again if f.model == f0.model and f.freq_hz == f0.freq_hz]
+            same = [f for f in again if f.model.name == f0.model.name and f.freq_hz == f0.freq_hz]
             return same[0] if same else None
         return refit
 
@@ -497,21 +497,9 @@ def _static_coefficients(levels: Sequence[LevelResult], fits: Sequence[FitResult
                          ) -> list[float | None]:
     """∂VRE/∂g0 per level from the fitted clipping model (central difference of its Gaussian
     mean shift at the level's rms), None where no fitted model gives it."""
-    from vrelab.models.clipping import censored_mean_shift, truncated_mean_shift
-
-    clip = next((f for f in fits if f.model.startswith("clip-")), None)
-    if clip is None or g0 is None:
-        return [None] * len(levels)
-    if "rail_g" in clip.params:
-        lo, hi = -clip.params["rail_g"].value, clip.params["rail_g"].value
-    elif {"rail_low_g", "rail_high_g"} <= set(clip.params):
-        lo, hi = clip.params["rail_low_g"].value, clip.params["rail_high_g"].value
-    else:
-        return [None] * len(levels)
-    shift = censored_mean_shift if clip.model == "clip-censored" else truncated_mean_shift
-    h = 1e-4
-    return [float(shift(g0 + h, lv.rms_g, lo, hi) - shift(g0 - h, lv.rms_g, lo, hi)) / (2 * h)
-            if math.isfinite(lv.rms_g) and lv.rms_g > 0 else None for lv in levels]
+    rms = [lv.rms_g for lv in levels]
+    found = (f.model.static_coefficients(rms, g0) for f in fits) if g0 is not None else iter(())
+    return next((c for c in found if c is not None), [None] * len(levels))
 
 
 def analyze(

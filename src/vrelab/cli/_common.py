@@ -200,8 +200,8 @@ def print_levels(result: VreResult) -> None:
               f"{more}  {sat}")
     for fit in result.fits:
         at = f" at {fit.freq_hz:.4g} Hz" if fit.freq_hz is not None else ""
-        if fit.model == "vrc" and fit.n_points < 2:
-            print(f"fit {fit.model}{at}: no fit (one level only: a VRC needs two levels or more)")
+        if fit.no_fit_reason is not None:
+            print(f"fit {fit.model.name}{at}: no fit: {fit.no_fit_reason}")
             continue
         print(f"fit {fit.model}{at}: " + ", ".join(f"{k} = {v}" for k, v in fit.params.items()))
         if fit.departure_rms_g is not None:

@@ -87,7 +87,7 @@ def register(subparsers: Subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _io
-    from vrelab.campaign import (
+    from vrelab.campaigns import (
         RunResult,
         campaign_doc,
         combine,

@@ -82,7 +82,7 @@ def _campaign_doc(source: str, workers: int) -> dict[str, Any]:
             raise ValueError(f"identify: {path} is not a campaign folder (`vrelab campaign MANIFEST --out {path}` "
                              "writes one)")
         return dict(rf.doc)
-    from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
+    from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
 
     manifest = read_manifest(path)
     results = run_campaign(manifest, workers)
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
 
     source = Path(args.source)
     if source.is_file():  # a manifest: its records are inputs too
-        from vrelab.campaign import read_manifest
+        from vrelab.campaigns import read_manifest
 
         inputs = input_paths(read_manifest(source), args.base_sensor)
     else:  # a campaign folder

@@ -97,10 +97,11 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
              p["vrc_ug_per_g2"]["u"]), str(p.get("n_levels", "")), f"{p['run']} ({p['label']})")
             + ((format_value(p.get("static_shift_g"), digits=3),) if shifted else ())
             for p in pts]
+    # a fit's parameters: nested under "parameters", or beside "model" in a folder of an earlier version
     per_freq = [(f"{f['freq_hz']:.5g}" if f.get("freq_hz") is not None else "",
-                 format_value_u(f["k2_ug_per_g2"]["value"], f["k2_ug_per_g2"]["u"]),
-                 format_value_u(f["k3_ug_per_g3"]["value"], f["k3_ug_per_g3"]["u"]), str(f["n_points"]))
-                for f in channel.get("k2_k3_by_freq") or []]
+                 format_value_u(p["k2_ug_per_g2"]["value"], p["k2_ug_per_g2"]["u"]),
+                 format_value_u(p["k3_ug_per_g3"]["value"], p["k3_ug_per_g3"]["u"]), str(f["n_points"]))
+                for f in channel.get("k2_k3_by_freq") or [] for p in [f.get("parameters") or f]]
     tables = [ReportTable("VRC by frequency and orientation", ["freq (Hz)", "static field (g)", "VRC ± u (µg/g²)",
                                                                "levels", "run"]
                           + (["drive's shift of g0 (g; SPEC 4.4)"] if shifted else []), rows,

@@ -364,8 +364,8 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
         return '<p class="mute">No fits.</p>'
     rows = []
     for f in fits:
-        if f.n_points < 2 and f.model == "vrc":
-            params = "no fit: one level only (a VRC needs two levels or more)"
+        if f.no_fit_reason is not None:
+            params = f"no fit: {f.no_fit_reason}"
         else:
             params = "; ".join(
                 f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u, unit=describe_fit_param(k)[1] or v.unit)}"
@@ -373,7 +373,7 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             )
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
         cells = [
-            f.model,
+            f.model.name,
             _fmt(f.freq_hz, 6) if f.freq_hz is not None else "",
             params,
             used,

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from vrelab.campaign import Mount
+    from vrelab.campaigns import Mount
     from vrelab.sensor.loader import Sensor
     from vrelab.simulation.plan import TestPlan
 
@@ -76,7 +76,7 @@ class ExampleRun:
     @property
     def mount(self) -> Mount | None:
         """The run's :class:`vrelab.campaign.Mount`, or None for a run along the vibration."""
-        from vrelab.campaign import Mount
+        from vrelab.campaigns import Mount
 
         if self.mount_deg is None or self.static_vector_g is None:
             return None
@@ -554,7 +554,7 @@ def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, se
     one :class:`TestPlan` (seed ``seed·1000 + index``) reduced as a lab file by
     :func:`vrelab.shaker.run_test`; ``fmt`` of the runs is ignored. For planning a campaign
     (would it determine Q?) and for the identification's recovery tests."""
-    from vrelab.campaign import profile_document
+    from vrelab.campaigns import profile_document
     from vrelab.shaker import run_test
 
     doc: dict[str, Any] = {"kind": "campaign", "name": f"simulated {sensor.name}", "runs": []}
