@@ -55,7 +55,10 @@ def _bound_holds(reason: str, truth: float) -> bool:
     return lo <= truth <= hi
 
 
+# ~107 s of CPU over two processes (measured: 93.5 s user + 13.6 s sys); at load average 18 on 2
+# cores it ran 854 s and the suite's 600 s timeout failed it at 67a2c6f: a hang guard, 1200 s.
 @pytest.mark.slow
+@pytest.mark.timeout(1200)
 def test_recovery_pulls_over_simulated_campaigns() -> None:
     """24 parts drawn (k2, k3, fn, Q, rails), each campaign simulated and identified: for each
     parameter the pulls (estimate - truth)/u have a standard deviation between 0.7 and 1.4 (the
