@@ -61,3 +61,113 @@ def _example_campaign() -> None:
     with open(folder / "runs" / ".generate.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         ensure_campaign(folder)
+
+
+# Outputs that several test files only read (the example campaign reduced and reported, the quick
+# demo, the README's sweep and its report) are built once per run, not once per file: ~55 s of CPU
+# each time (most of it the reports' matplotlib figures), and the report-layout file built all of
+# them in one fixture, which reached pytest-timeout's 300 s on a loaded machine. With
+# pytest-xdist the workers share one folder (the parent of each worker's basetemp) and a file
+# lock: the first worker to ask builds, the others wait and read. Readers never write into these
+# folders (a test that writes copies first: see copy_shared).
+def _shared_root(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if worker_id != "master" else base) / "shared-outputs"
+
+
+def _built(root, name: str, build):
+    """``build(folder)`` once into ``root/name`` across workers; ``folder/.done`` marks it whole."""
+    import fcntl
+
+    root.mkdir(parents=True, exist_ok=True)
+    folder = root / name
+    with open(root / f".{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / ".done").is_file():
+            import shutil
+
+            shutil.rmtree(folder, ignore_errors=True)  # a build that failed half-way
+            folder.mkdir()
+            build(folder)
+            (folder / ".done").write_text("")
+    return folder
+
+
+def _cli(argv: list[str]) -> tuple[int, str, str]:
+    """``vrelab argv`` in this process (the import is paid once): exit code, stdout, stderr."""
+    import contextlib
+    import io
+
+    from vrelab.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(argv)
+    return rc, out.getvalue(), err.getvalue()
+
+
+def _checked(argv: list[str]) -> str:
+    rc, out, err = _cli(argv)
+    assert rc == 0, f"vrelab {' '.join(argv)}: {err[-1500:]}"
+    return out
+
+
+@pytest.fixture(scope="session")
+def example_campaign_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str, _example_campaign: None):
+    """`vrelab campaign examples/campaign/campaign.toml` (read only): the folder holding its output
+    folder ``camp`` and the command's stdout, ``cli-stdout.txt``."""
+    from pathlib import Path
+
+    manifest = Path(__file__).resolve().parent.parent / "examples" / "campaign" / "campaign.toml"
+
+    def build(folder) -> None:
+        out = _checked(["campaign", str(manifest), "--out", str(folder / "camp")])
+        (folder / "cli-stdout.txt").write_text(out)
+
+    return _built(_shared_root(tmp_path_factory, worker_id), "example-campaign", build)
+
+
+@pytest.fixture(scope="session")
+def example_campaign_report(tmp_path_factory: pytest.TempPathFactory, worker_id: str, example_campaign_out):
+    """`vrelab report` on a copy of example_campaign_out (read only; the report is its own
+    fixture, so that a test that needs the campaign only does not wait for the report's figures)."""
+    import shutil
+
+    def build(folder) -> None:
+        shutil.copytree(example_campaign_out / "camp", folder / "camp")
+        shutil.copy2(example_campaign_out / "cli-stdout.txt", folder / "cli-stdout.txt")
+        _checked(["report", str(folder / "camp")])
+
+    return _built(_shared_root(tmp_path_factory, worker_id), "example-campaign-report", build)
+
+
+@pytest.fixture(scope="session")
+def quick_demo_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str) -> dict:
+    """`vrelab demo --quick --json --metadata` (tests/test_report_browser.METADATA), read only: the
+    folder ``out``, the exit code, stdout and stderr."""
+    import json
+
+    def build(folder) -> None:
+        from test_report_browser import METADATA
+
+        (folder / "meta.toml").write_text(METADATA)
+        rc, out, err = _cli(["demo", "--quick", "--out", str(folder / "demo-out"), "--json", "--metadata",
+                             str(folder / "meta.toml")])
+        (folder / "cli.json").write_text(json.dumps({"rc": rc, "stdout": out, "stderr": err}))
+
+    folder = _built(_shared_root(tmp_path_factory, worker_id), "quick-demo", build)
+    return {"out": folder / "demo-out"} | json.loads((folder / "cli.json").read_text())
+
+
+@pytest.fixture(scope="session")
+def readme_sweep_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
+    """`vrelab sweep examples/sweep.toml` then `vrelab report` on its folder (read only)."""
+    from pathlib import Path
+
+    spec = Path(__file__).resolve().parent.parent / "examples" / "sweep.toml"
+
+    def build(folder) -> None:
+        _checked(["sweep", str(spec), "--out", str(folder / "sweep"), "--no-progress"])
+        _checked(["report", str(folder / "sweep")])
+
+    return _built(_shared_root(tmp_path_factory, worker_id), "readme-sweep", build) / "sweep"

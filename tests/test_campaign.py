@@ -107,18 +107,12 @@ def test_workers_give_the_same_campaign(example: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def campaign_report(example: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    """``vrelab campaign`` of the example then ``vrelab report`` on it: the folder and the CLI's stdout."""
-    import contextlib
-    import io
-
-    out = tmp_path_factory.mktemp("campaign-report") / "c"
-    std = io.StringIO()
-    with contextlib.redirect_stdout(std):
-        assert main(["campaign", str(example), "--out", str(out)]) == 0
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert main(["report", str(out)]) == 0
-    return out, std.getvalue()
+def campaign_report(example_campaign_report: Path) -> tuple[Path, str]:
+    """``vrelab campaign`` of the shipped example (what ``example`` writes: tests/test_examples.py
+    holds the generation bit-identical) then ``vrelab report`` on it: the folder and the CLI's
+    stdout. Built once per run by tests/conftest.py, shared with tests/test_report_layout.py:
+    read only."""
+    return example_campaign_report / "camp", (example_campaign_report / "cli-stdout.txt").read_text()
 
 
 def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:

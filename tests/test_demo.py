@@ -13,12 +13,13 @@ from __future__ import annotations
 import base64
 import json
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from test_report_browser import METADATA, markup_only
+from test_report_browser import markup_only
 from vrelab.cli import main
 from vrelab.models.clipping import censored_mean_shift
 
@@ -26,17 +27,10 @@ N_FIGURES = 11
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    out = tmp_path_factory.mktemp("demo") / "demo-out"
-    import contextlib
-    import io
-
-    err, std = io.StringIO(), io.StringIO()
-    meta = out.parent / "meta.toml"
-    meta.write_text(METADATA)
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(std):
-        rc = main(["demo", "--quick", "--out", str(out), "--json", "--metadata", str(meta)])
-    return {"rc": rc, "out": out, "stderr": err.getvalue(), "stdout": std.getvalue()}
+def demo(quick_demo_out: dict) -> dict:
+    """`vrelab demo --quick --json --metadata` (test_report_browser.METADATA), run once per run by tests/conftest.py and
+    shared with tests/test_report_layout.py: read only (a test that writes copies first)."""
+    return quick_demo_out
 
 
 def test_demo_runs_and_says_where_the_report_is(demo: dict) -> None:
@@ -106,14 +100,15 @@ def test_overrange_window_finder_wants_a_whole_hold_at_zero() -> None:
     assert _overrange_at({"reference": ref, "dut": dut}, 8000.0, 0.0005) == 62
 
 
-def test_each_study_folder_reports_on_its_own(demo: dict, capsys: pytest.CaptureFixture[str]) -> None:
+def test_each_study_folder_reports_on_its_own(demo: dict, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folders = json.loads(demo["stdout"])["folders"]
     assert {"fig1-clipping", "fig2-z-2g", "fig3-x-8g", "fig3-z-8g", "fig4-y-1khz", "fig4-y-125hz", "sine-x-8g"} <= set(folders)
     for f in folders:
         assert (demo["out"] / f / "results.json").is_file() and (demo["out"] / f / "levels.csv").is_file()
     assert (demo["out"] / "fig1-clipping" / "record.h5").is_file()
-    assert main(["report", str(demo["out"] / "fig1-clipping")]) == 0
-    text = (demo["out"] / "fig1-clipping" / "report.html").read_text()
+    study = shutil.copytree(demo["out"] / "fig1-clipping", tmp_path / "fig1-clipping")  # the demo's folder is shared
+    assert main(["report", str(study)]) == 0
+    text = (study / "report.html").read_text()
     assert text.count("<img ") == 2  # VRE vs level, and the record's time series
 
 

@@ -26,6 +26,10 @@ from vrelab.results import ClipModel, Conditions, Estimate, FitResult, LevelResu
 pytestmark = pytest.mark.browser
 
 SCREENSHOT_DIR = Path(os.environ.get("VRELAB_SCREENSHOT_DIR", Path(__file__).resolve().parent.parent / ".pytest_cache" / "report-screenshots"))
+# How long a DevTools answer, the page's load event or a drawn figure is waited for: a hang guard,
+# not a speed claim (speed is bench/'s). A report of plotly figures took over 20 s to load on 2
+# cores under a load average of 18 (8 suites at once); pytest-timeout still bounds each test.
+DEVTOOLS_DEADLINE_S = 120.0
 
 
 def _chromium() -> str:
@@ -92,7 +96,7 @@ class CDP:
         msg, self._buf = self._buf.split(b"\0", 1)
         return json.loads(msg)
 
-    def send(self, method: str, params: dict | None = None, session: str | None = None, timeout: float = 20.0) -> dict:
+    def send(self, method: str, params: dict | None = None, session: str | None = None, timeout: float = DEVTOOLS_DEADLINE_S) -> dict:
         self._id += 1
         msg: dict = {"id": self._id, "method": method, "params": params or {}}
         if session:
@@ -107,7 +111,7 @@ class CDP:
                 return m.get("result", {})
             self.events.append(m)
 
-    def wait_event(self, method: str, timeout: float = 20.0) -> dict:
+    def wait_event(self, method: str, timeout: float = DEVTOOLS_DEADLINE_S) -> dict:
         deadline = time.monotonic() + timeout
         for i, m in enumerate(self.events):
             if m.get("method") == method:
@@ -234,14 +238,14 @@ CONTENT_WIDTH_PX = round(180 / 25.4 * 96)
 FOOTER_PT = 16 / 25.4 * 72  # the bottom @page margin, 16 mm: the running footer lives there
 
 
-def _eval(cdp: CDP, session: str, expression: str, timeout: float = 20.0):
+def _eval(cdp: CDP, session: str, expression: str, timeout: float = DEVTOOLS_DEADLINE_S):
     r = cdp.send("Runtime.evaluate", {"expression": expression, "returnByValue": True}, session=session, timeout=timeout)
     if "exceptionDetails" in r:
         raise AssertionError(f"page script failed: {r['exceptionDetails']}")
     return r["result"].get("value")
 
 
-def _wait_for(cdp: CDP, session: str, expression: str, timeout: float = 10.0):
+def _wait_for(cdp: CDP, session: str, expression: str, timeout: float = DEVTOOLS_DEADLINE_S):
     deadline = time.monotonic() + timeout
     while True:
         value = _eval(cdp, session, expression)
@@ -293,7 +297,7 @@ def _print_checks(cdp: CDP, session: str, pdf: Path) -> dict:
                                                     "mobile": False}, session=session)
     layout = json.loads(_eval(cdp, session, _PRINT_JS))
     cdp.send("Emulation.setEmulatedMedia", {"media": ""}, session=session)
-    printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session, timeout=60)
+    printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session)
     import base64
 
     pdf.parent.mkdir(parents=True, exist_ok=True)
@@ -371,7 +375,7 @@ def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | N
         # JPEG for a long page: PNG-encoding 16000 rows costs a second of the test.
         fmt = "jpeg" if screenshot.suffix.lower() in (".jpg", ".jpeg") else "png"
         shot = cdp.send("Page.captureScreenshot", {"format": fmt, **({"quality": 70} if fmt == "jpeg" else {})},
-                        session=session, timeout=30)
+                        session=session)
         if pdf is not None:
             state["print"] = _print_checks(cdp, session, pdf)
         cdp.send("Runtime.evaluate", {"expression": "1"}, session=session)  # flush pending events

@@ -12,9 +12,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -24,7 +21,6 @@ from test_report_browser import A4_IN, CDP, CONTENT_WIDTH_PX, _chromium, _eval, 
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(300)]
 
-ROOT = Path(__file__).resolve().parent.parent
 SCREEN_PX = 1400
 
 # Every table's, figure's and heading's content inside its box (a table is measured against its
@@ -84,27 +80,6 @@ JSON.stringify((function () {
 """
 
 
-def _run(args: list[str], cwd: Path) -> None:
-    proc = subprocess.run([sys.executable, "-m", "vrelab", *args], cwd=cwd, capture_output=True, text=True, timeout=240)
-    assert proc.returncode == 0, f"vrelab {' '.join(args)}: {proc.stderr[-1500:]}"
-
-
-@pytest.fixture(scope="module")
-def reports(tmp_path_factory) -> dict[str, Path]:
-    """The quick demo's report, the shipped example campaign's and the README's sweep's (a lot:
-    a grid of histogram panels, each with its title under the panel above)."""
-    work = tmp_path_factory.mktemp("layout")
-    shutil.copytree(ROOT / "examples" / "campaign", work / "campaign")
-    shutil.copy2(ROOT / "examples" / "sweep.toml", work / "sweep.toml")
-    _run(["demo", "--quick", "--out", "demo"], work)
-    _run(["campaign", "campaign/campaign.toml", "--out", "camp"], work)
-    _run(["report", "camp"], work)
-    _run(["sweep", "sweep.toml", "--out", "sweep"], work)
-    _run(["report", "sweep"], work)
-    return {"demo": work / "demo" / "report.html", "campaign": work / "camp" / "report.html",
-            "sweep": work / "sweep" / "report.html"}
-
-
 def _layout(report: Path, work: Path) -> dict:
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
@@ -112,7 +87,7 @@ def _layout(report: Path, work: Path) -> dict:
         cdp.send("Emulation.setDeviceMetricsOverride", {"width": SCREEN_PX, "height": 1000, "deviceScaleFactor": 1,
                                                         "mobile": False}, session=session)
         specs = _eval(cdp, session, "document.querySelectorAll('script[type=\"application/json\"]').length")
-        _wait_for(cdp, session, f"document.querySelectorAll('figure.live').length >= {specs}", timeout=30)
+        _wait_for(cdp, session, f"document.querySelectorAll('figure.live').length >= {specs}")
         time.sleep(0.3)  # plotly's responsive relayout after the width change
         out = {"specs": specs, "screen": json.loads(_eval(cdp, session, _OVERFLOW_JS)),
                "figures": json.loads(_eval(cdp, session, _OVERLAP_JS))}
@@ -121,16 +96,30 @@ def _layout(report: Path, work: Path) -> dict:
         cdp.send("Emulation.setDeviceMetricsOverride", {"width": CONTENT_WIDTH_PX, "height": 1000, "deviceScaleFactor": 1,
                                                         "mobile": False}, session=session)
         out["print"] = json.loads(_eval(cdp, session, _OVERFLOW_JS))
-        printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session, timeout=90)
+        printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session)
         out["pdf_bytes"] = len(printed["data"])
     finally:
         cdp.close()
     return out
 
 
-@pytest.fixture(scope="module")
-def layouts(reports: dict[str, Path], tmp_path_factory) -> dict[str, dict]:
-    return {which: _layout(report, tmp_path_factory.mktemp(f"chromium-{which}")) for which, report in reports.items()}
+# The fixture each report is built by (tests/conftest.py: once per run, shared with the files that
+# read the same outputs), and the report in it.
+_REPORTS = {"demo": ("quick_demo_out", lambda got: got["out"] / "report.html"),
+            "campaign": ("example_campaign_report", lambda got: got / "camp" / "report.html"),
+            "sweep": ("readme_sweep_out", lambda got: got / "report.html")}
+
+
+@pytest.fixture(scope="module", params=list(_REPORTS))
+def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict]:
+    """One report's layout: the quick demo's (with tests/test_report_browser.METADATA's header,
+    the demo tests/test_demo.py reads), the shipped example campaign's or the README's sweep's (a
+    lot: a grid of histogram panels, each with its title under the panel above). A module
+    fixture per report, so that pytest builds one report at a time and runs both tests on it
+    (the three built in one set-up reached the 300 s timeout on a loaded machine)."""
+    which = request.param
+    fixture, report = _REPORTS[which]
+    return which, _layout(report(request.getfixturevalue(fixture)), tmp_path_factory.mktemp(f"chromium-{which}"))
 
 
 _SUP = str.maketrans("⁻⁰¹²³⁴⁵⁶⁷⁸⁹", "-0123456789")
@@ -146,9 +135,8 @@ def _tick_value(t: str) -> float:
     return float(m.group(2) or 1) * 10.0 ** int(m.group(3).translate(_SUP))
 
 
-@pytest.mark.parametrize("which", ["demo", "campaign", "sweep"])
-def test_report_fits_its_boxes_on_screen_and_on_a4(which: str, layouts: dict[str, dict]) -> None:
-    got = layouts[which]
+def test_report_fits_its_boxes_on_screen_and_on_a4(layout: tuple[str, dict]) -> None:
+    which, got = layout
     screen, paper = got["screen"], got["print"]
     assert screen["width"] == SCREEN_PX and paper["width"] == CONTENT_WIDTH_PX
     assert screen["tables"] >= 3 and screen["figures"] >= 3, "the report this test measures is not the one expected"
@@ -159,9 +147,8 @@ def test_report_fits_its_boxes_on_screen_and_on_a4(which: str, layouts: dict[str
     assert got["pdf_bytes"] > 10_000
 
 
-@pytest.mark.parametrize("which", ["demo", "campaign", "sweep"])
-def test_figure_texts_do_not_overlap_and_log_axes_say_their_magnitude(which: str, layouts: dict[str, dict]) -> None:
-    got = layouts[which]
+def test_figure_texts_do_not_overlap_and_log_axes_say_their_magnitude(layout: tuple[str, dict]) -> None:
+    which, got = layout
     figures = got["figures"]
     assert len(figures) == got["specs"] >= 3, "an interactive figure was not drawn"
     for f in figures:
