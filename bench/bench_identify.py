@@ -45,7 +45,7 @@ def build(seconds: float) -> Path:
 
 def main() -> None:
     from vrelab.campaign import campaign_doc, combine, read_manifest, run_campaign
-    from vrelab.identify import identify
+    from vrelab.identification import identify
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, default=2.0, help="each level and baseline [s]")

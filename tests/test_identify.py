@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from vrelab.cli import main
-from vrelab.identify import identify, observations, write_sensor_file
+from vrelab.identification import identify, observations, write_sensor_file
 from vrelab.predict import predict, propagated_u
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor

@@ -91,7 +91,7 @@ def _campaign_doc(source: str, workers: int) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _io
-    from vrelab.identify import identify, write_sensor_file
+    from vrelab.identification import identify, write_sensor_file
 
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
