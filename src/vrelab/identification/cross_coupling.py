@@ -17,6 +17,7 @@ from vrelab.campaign import (
 from vrelab.identification.fitting import covariance_of
 from vrelab.identification.observation import Observation, drive_equivalent
 from vrelab.models.clipping import Kind as ClipKind
+from vrelab.models.cross_terms import FITTED, PLANES, TRIAD, CrossTerm
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.results import Estimate
 from vrelab.sensor.parameters import TABLE, parameter
@@ -27,14 +28,11 @@ if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
 
-# The cross-coupling coefficients a mount-angle campaign identifies, with the triad positions
-# (0 = input i, 1 = pendulous p, 2 = output o) of the product each multiplies (SPEC 1.6).
-CROSS_TERMS: tuple[tuple[str, int, int], ...] = (
-    ("kip_ug_per_g2", 0, 1), ("kpp_ug_per_g2", 1, 1), ("kio_ug_per_g2", 0, 2), ("koo_ug_per_g2", 2, 2),
-)  # fmt: skip
-CROSS: tuple[str, ...] = tuple(n for n, _, _ in CROSS_TERMS)
-_PLANE_OF = {"kip_ug_per_g2": "ip", "kpp_ug_per_g2": "ip", "kio_ug_per_g2": "io", "koo_ug_per_g2": "io"}
-_LABEL = {"kip_ug_per_g2": "Kip", "kpp_ug_per_g2": "Kpp", "kio_ug_per_g2": "Kio", "koo_ug_per_g2": "Koo"}
+# The cross-coupling coefficients a mount-angle campaign identifies (SPEC 1.6), in the order of
+# the JSON and the covariance: read off the one table of the model equation's cross terms.
+CROSS: tuple[str, ...] = tuple(t.key for t in FITTED)
+# the axis a plane tilts the input axis toward
+_TOWARD = {"p": "pendulous", "o": "output"}
 # A tilted run excites a product d_j·d_k when it is at least this (sin φ·cos φ is 0.5 at 45°).
 _EXCITES = 0.05
 # A parameter is estimable when the unit vector along it lies in the design's row space: its
@@ -60,7 +58,7 @@ class CrossCoupling:
             return {"value": finite_or_none(e.value), "u": finite_or_none(e.u), "unit": e.unit}
 
         return {
-            "model": "VRE/σ² = (k2 + 3·k3·w·g)·(w·d)² + Kip·d_i·d_p + Kpp·d_p² + Kio·d_i·d_o + Koo·d_o²",
+            "model": "VRE/σ² = (k2 + 3·k3·w·g)·(w·d)² + " + " + ".join(f"{t.label}·{t.product}" for t in FITTED),
             "parameters": {n: est(e) for n, e in self.estimates.items()},
             "null_reasons": dict(self.reasons),
             "nuisance": {n: est(e) for n, e in self.nuisance.items()},
@@ -111,13 +109,7 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
     (:func:`vrelab.gum.common_sensitivity_terms`, fully correlated across the coefficients); its
     static-field and thermal terms are not carried (a ±φ pair cancels both in Kip).
     """
-    from vrelab.gum import common_sensitivity_terms, weighted_mean
-    from vrelab.models.dynamics import vrc_at_frequency
-    from vrelab.predict import predict
-    from vrelab.units import UG_PER_G
-
     notes: list[str] = []
-    reasons: dict[str, str] = {}
     if not tilted:
         why = ("no run mounted at an angle (mount_deg, mount_plane): IEEE 1293 measures the cross-coupling "
                "coefficients with the input axis at 0°, ±45° and 90° to the vibration in the IP and IO planes")
@@ -126,19 +118,69 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
         if ob.method != "sine":
             notes.append(f"run {ob.run} ({ob.label!r}): a random run mounted at an angle is not used for the cross-coupling "
                          "fit (its rails rectify too; the sine runs carry the coefficients)")
+    w = _sensitivity_row(sensor, notes)
+    sines = [ob for ob in axial if ob.method == "sine"] + [ob for ob in tilted if ob.method == "sine"]
+    design = _design(sines, sensor, w, kind, notes)
+    if not design.rows:
+        why = "no level of the runs mounted at an angle stays clear of the rails (or none is a sine run)"
+        return CrossCoupling({}, {n: why for n in CROSS}, None, tuple(notes))
+    names = ("k2_ug_per_g2", "k3_ug_per_g3", *CROSS)
+    solved = _solve(design, len(names), notes)
+    reasons = _null_reasons(design.groups, solved.estimable)
+    kept = [n for n in CROSS if n not in reasons]
+    theta, cov = solved.theta, solved.cov
+    est = {n: Estimate(float(theta[names.index(n)]), math.sqrt(max(float(cov[names.index(n), names.index(n)]), 0.0)),
+                       "ug/g^2") for n in kept}
+    idx = [names.index(n) for n in est]
+    est, block = _with_type_b(est, cov[np.ix_(idx, idx)].copy(), typeb, notes)
+    nuisance = {n: Estimate(float(theta[j]), math.sqrt(max(float(cov[j, j]), 0.0)), TABLE[n].unit)
+                for j, n in enumerate(names[:2]) if solved.estimable[j]}
+    _feed_notes(w, kept, notes)
+    fn, q = parameter(sensor, "fn_hz"), parameter(sensor, "q")
+    if fn and q:
+        notes.append(f"cross-coupling fit: σ_m² = rms²·|H(f)|² with the model's fn = {fn:.4g} Hz, Q = {q:.3g} (their u "
+                     "not carried: small below fn)")
+    if float(getattr(sensor, "k4_per_g3", 0.0) or 0.0):
+        notes.append("cross-coupling fit: the sensor's k4 term is not in its model (VRE/σ² linear in the coefficients)")
+    covariance = (tuple(est), block) if est else None
+    return CrossCoupling(est, reasons, covariance, tuple(notes), _points(design.groups, w, theta), nuisance,
+                         solved.chi2, solved.dof)
+
+
+def _sensitivity_row(sensor: Sensor, notes: list[str]) -> NDArray[np.float64]:
+    """The axis's sensitivity row w in its triad (i, p, o), 1 along i."""
     try:
         i, p, o = sensor.triad
         row = sensor.sensitivity_row
-        w = np.array([1.0, row[p], row[o]])
+        return np.array([1.0, row[p], row[o]])
     except ValueError as exc:  # an axis not named x, y or z: no cross-axis row to read
-        w = np.array([1.0, 0.0, 0.0])
         notes.append(f"cross-coupling fit: {exc}; the cross-axis sensitivity taken as 0")
+        return np.array([1.0, 0.0, 0.0])
+
+
+# one run's levels in the fit: the observation, its mount, the levels kept, and each level's σ_m²
+_Group = tuple[Observation, Mount, NDArray[np.bool_], NDArray[np.float64]]
+
+
+@dataclass
+class _Design:
+    """The weighted linear least squares of :func:`fit_cross_coupling`: one row per level."""
+
+    rows: list[NDArray[np.float64]] = field(default_factory=list)
+    ys: list[float] = field(default_factory=list)
+    us: list[float] = field(default_factory=list)
+    groups: list[_Group] = field(default_factory=list)
+
+
+def _design(sines: Sequence[Observation], sensor: Sensor, w: NDArray[np.float64], kind: ClipKind,
+            notes: list[str]) -> _Design:
+    """Each sine level clear of the rails as one equation ``VRE = σ_m²·(column · θ)``."""
+    from vrelab.models.dynamics import vrc_at_frequency
+    from vrelab.predict import predict
+    from vrelab.units import UG_PER_G
+
     fn, q = parameter(sensor, "fn_hz"), parameter(sensor, "q")
-    rows: list[NDArray[np.float64]] = []
-    ys: list[float] = []
-    us: list[float] = []
-    groups: list[tuple[Observation, Mount, NDArray[np.bool_], NDArray[np.float64]]] = []
-    sines = [ob for ob in axial if ob.method == "sine"] + [ob for ob in tilted if ob.method == "sine"]
+    out = _Design()
     for ob in sines:
         mount = ob.mount if ob.mount is not None else Mount(0.0, "ip", (ob.static_g, 0.0, 0.0))
         d = np.array(mount.direction)
@@ -157,76 +199,107 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
         rms_eq, shift = drive_equivalent(ob)
         s2 = rms_eq**2 * h2
         for k in np.flatnonzero(keep):
-            col = np.array([wd**2, 3 * (gs + wd * shift[k]) * wd**2, *(d[a] * d[b] for _, a, b in CROSS_TERMS)])
-            rows.append(s2[k] / UG_PER_G * col)
-            ys.append(float(ob.vre_g[k]))
-            us.append(float(ob.u_g[k]))
+            col = np.array([wd**2, 3 * (gs + wd * shift[k]) * wd**2, *(d[t.axes[0]] * d[t.axes[1]] for t in FITTED)])
+            out.rows.append(s2[k] / UG_PER_G * col)
+            out.ys.append(float(ob.vre_g[k]))
+            out.us.append(float(ob.u_g[k]))
         if keep.any():
-            groups.append((ob, mount, keep, s2))
-    names = ("k2_ug_per_g2", "k3_ug_per_g3", *CROSS)
-    if not rows:
-        why = "no level of the runs mounted at an angle stays clear of the rails (or none is a sine run)"
-        return CrossCoupling({}, {n: why for n in CROSS}, None, tuple(notes))
-    u = np.array(us)
-    a = np.array(rows) / u[:, None]
-    y = np.array(ys) / u
+            out.groups.append((ob, mount, keep, s2))
+    return out
+
+
+@dataclass(frozen=True)
+class _Solved:
+    theta: NDArray[np.float64]
+    cov: NDArray[np.float64]  # Birge-scaled
+    estimable: list[bool]
+    chi2: float
+    dof: int
+
+
+def _solve(design: _Design, n_params: int, notes: list[str]) -> _Solved:
+    """θ by weighted least squares, its covariance ``(AᵀWA)⁻¹`` (Birge-scaled), and which
+    parameters the design separates."""
+    u = np.array(design.us)
+    a = np.array(design.rows) / u[:, None]
+    y = np.array(design.ys) / u
     theta, *_ = np.linalg.lstsq(a, y, rcond=None)
     cov, rank = covariance_of(a)
     proj = cov @ (a.T @ a)  # the projector onto the design's row space
-    estimable = [abs(proj[j, j] - 1.0) < _ESTIMABLE for j in range(len(names))]
+    estimable = [abs(proj[j, j] - 1.0) < _ESTIMABLE for j in range(n_params)]
     resid = a @ theta - y
     chi2 = float(resid @ resid)
-    dof = len(ys) - rank
+    dof = len(design.ys) - rank
     if dof > 0 and chi2 / dof > 1.0:
         cov = cov * (chi2 / dof)
         notes.append(f"cross-coupling fit: the levels scatter about the model more than their uncertainties "
                      f"(chi2/dof = {chi2 / dof:.3g}): its covariance is scaled by it")
     elif dof <= 0:
         notes.append("cross-coupling fit: as many unknowns as levels: chi2 undefined, u from the levels' uncertainties alone")
+    return _Solved(theta, cov, estimable, chi2, dof)
+
+
+def _partner(t: CrossTerm) -> CrossTerm:
+    """The other term fitted in ``t``'s plane (Kip and Kpp, Kio and Koo)."""
+    return next(o for o in FITTED if o.plane == t.plane and o is not t)
+
+
+def _null_reasons(groups: Sequence[_Group], estimable: Sequence[bool]) -> dict[str, str]:
+    """Why each coefficient the runs cannot determine is null (IEEE 1293's design: 0°, ±45°, 90°)."""
+    reasons: dict[str, str] = {}
     tilts = {pl: sorted({ob.mount.deg for ob, *_ in groups if ob.mount is not None and ob.tilted and ob.mount.plane == pl})
              for pl in MOUNT_PLANES}
-    for j, (n, ia, ib) in enumerate(CROSS_TERMS, start=2):
-        plane = _PLANE_OF[n]
-        label, text = _LABEL[n], plane.upper()
+    for j, t in enumerate(FITTED, start=2):
+        n, (ia, ib), plane = t.key, t.axes, str(t.plane)
+        label, text = t.label, plane.upper()
         angles = ", ".join(f"{x:+g}°" for x in tilts[plane])
         prods = [float(np.prod([m.direction[ia], m.direction[ib]])) for ob, m, *_ in groups if ob.tilted and m.plane == plane]
         if not prods:
             reasons[n] = (f"no run mounted in the {text} plane (the input axis tilted toward the "
-                          f"{'pendulous' if plane == 'ip' else 'output'} axis): {label} needs one (IEEE 1293: 0°, ±45°, 90°)")
+                          f"{_TOWARD[plane[1]]} axis): {label} needs one (IEEE 1293: 0°, ±45°, 90°)")
         elif ia != ib and not any(abs(x) >= _EXCITES for x in prods):
             reasons[n] = (f"no {text}-plane run between 0° and 90° (angles {angles}: sin φ·cos φ = 0 at each): {label} is "
                           "not excited (IEEE 1293: ±45°)")
         elif ia != ib and not (any(x >= _EXCITES for x in prods) and any(x <= -_EXCITES for x in prods)):
             reasons[n] = (f"the {text}-plane runs tilt one way only ({angles}): {label} would rest on k2, k3 and "
-                          f"{'Kpp' if plane == 'ip' else 'Koo'} being exact at the other angles; IEEE 1293 takes it from "
+                          f"{_partner(t).label} being exact at the other angles; IEEE 1293 takes it from "
                           "a ±φ pair (+45° and −45°), where every term even in φ cancels: add the other side")
         elif not estimable[j]:
+            others = f", {_partner(t).label}" if ia == ib else ""
             reasons[n] = (f"the runs ({text} plane at {angles}, and along the vibration) do not separate {label} from the "
-                          f"other terms (k2, k3{', Kip' if n == 'kpp_ug_per_g2' else ', Kio' if n == 'koo_ug_per_g2' else ''}): "
-                          f"add a run at 90° in the {text} plane")
-    kept = [n for n in CROSS if n not in reasons]
-    est = {n: Estimate(float(theta[names.index(n)]), math.sqrt(max(float(cov[names.index(n), names.index(n)]), 0.0)),
-                       "ug/g^2") for n in kept}
-    idx = [names.index(n) for n in est]
-    block = cov[np.ix_(idx, idx)].copy()
-    if typeb is not None and est:
-        # the reference and DUT sensitivities scale every VRE/σ² alike: one fully correlated term
-        vals, note = common_sensitivity_terms(list(est.values()), [typeb.to_dict()])
-        shift = np.array([math.copysign(math.sqrt(max(b.u**2 - a_.u**2, 0.0)), a_.value)
-                          for a_, b in zip(est.values(), vals) if b is not None])
-        block = block + np.outer(shift, shift)
-        est = {n: e for n, e in zip(est, vals) if e is not None}
-        if note:
-            notes.append(note.replace("k2, k3", "the cross-coupling coefficients"))
-    nuisance = {n: Estimate(float(theta[j]), math.sqrt(max(float(cov[j, j]), 0.0)), TABLE[n].unit)
-                for j, n in enumerate(names[:2]) if estimable[j]}
-    for plane, (wk, feeds) in (("ip", (w[1], "Kip + 2·k2·w_p and Kpp + k2·w_p²")),
-                               ("io", (w[2], "Kio + 2·k2·w_o and Koo + k2·w_o²"))):
-        if not any(_PLANE_OF[n] == plane for n in kept):
+                          f"other terms (k2, k3{others}): add a run at 90° in the {text} plane")
+    return reasons
+
+
+def _with_type_b(est: dict[str, Estimate], block: NDArray[np.float64], typeb: TypeB | None,
+                 notes: list[str]) -> tuple[dict[str, Estimate], NDArray[np.float64]]:
+    """The reference and DUT sensitivities scale every VRE/σ² alike: one fully correlated term."""
+    from vrelab.gum import common_sensitivity_terms
+
+    if typeb is None or not est:
+        return est, block
+    vals, note = common_sensitivity_terms(list(est.values()), [typeb.to_dict()])
+    shift = np.array([math.copysign(math.sqrt(max(b.u**2 - a_.u**2, 0.0)), a_.value)
+                      for a_, b in zip(est.values(), vals) if b is not None])
+    block = block + np.outer(shift, shift)
+    est = {n: e for n, e in zip(est, vals) if e is not None}
+    if note:
+        notes.append(note.replace("k2, k3", "the cross-coupling coefficients"))
+    return est, block
+
+
+def _feed_notes(w: NDArray[np.float64], kept: Sequence[str], notes: list[str]) -> None:
+    """Per plane with a coefficient identified: the cross-axis feed it carries, or that it is modelled."""
+    for plane in PLANES:
+        if not any(t.plane == plane and t.key in kept for t in FITTED):
             continue
-        ax = "w_p" if plane == "ip" else "w_o"
+        c = plane[1]  # the axis the plane tilts toward
+        wk = w[TRIAD.index(c)]
+        prod, square = (next(t for t in FITTED if t.plane == plane and (t.axes[0] == t.axes[1]) is sq) for sq in (False, True))
+        feeds = f"{prod.label} + 2·k2·w_{c} and {square.label} + k2·w_{c}²"
+        ax = f"w_{c}"
         if wk == 0.0:
-            notes.append(f"the sensor states no cross-axis sensitivity toward {'p' if plane == 'ip' else 'o'} ({ax} = 0): "
+            notes.append(f"the sensor states no cross-axis sensitivity toward {c} ({ax} = 0): "
                          f"the coefficients identified in the {plane.upper()} plane are the apparent {feeds} (the "
                          "cross-axis feed of that component into the sensed input rectifies through k2 alike; with "
                          "k3, the static field's share adds ±9·k3·" + ax + "·cos φ on a vertical shaker); a "
@@ -234,17 +307,18 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
         else:
             notes.append(f"the cross-axis sensitivity {ax} = {wk:.4g} of the base sensor is modelled (the k2·(w·d)² term "
                          f"carries its 2·k2·{ax}·sinφ·cosφ feed); its own u is not carried into the coefficients")
-    if fn and q:
-        notes.append(f"cross-coupling fit: σ_m² = rms²·|H(f)|² with the model's fn = {fn:.4g} Hz, Q = {q:.3g} (their u "
-                     "not carried: small below fn)")
-    if float(getattr(sensor, "k4_per_g3", 0.0) or 0.0):
-        notes.append("cross-coupling fit: the sensor's k4 term is not in its model (VRE/σ² linear in the coefficients)")
+
+
+def _points(groups: Sequence[_Group], w: NDArray[np.float64], theta: NDArray[np.float64]) -> tuple[dict[str, Any], ...]:
+    """Per run and frequency: its angle, plane, VRE/σ_m² measured (weighted mean) and modelled."""
+    from vrelab.gum import weighted_mean
+
     points = []
     for ob, m, keep, s2 in groups:
         d = np.array(m.direction)
         g = np.array(m.static_g)
         wd, gs = float(w @ d), float(w @ g)
-        col = np.array([wd**2, 3 * gs * wd**2, *(d[a2] * d[b2] for _, a2, b2 in CROSS_TERMS)])
+        col = np.array([wd**2, 3 * gs * wd**2, *(d[t.axes[0]] * d[t.axes[1]] for t in FITTED)])
         ratio = weighted_mean([Estimate(to_ug(float(v / x)), to_ug(float(uu / x)), "ug/g^2")
                                for v, uu, x in zip(ob.vre_g[keep], ob.u_g[keep], s2[keep])])
         points.append({"run": ob.run, "label": ob.label, "freq_hz": ob.freq_hz, "mount_deg": m.deg,
@@ -252,5 +326,4 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
                        "axial": not ob.tilted, "n": int(keep.sum()),
                        "vre_per_ms_ug_per_g2": {"value": ratio.value, "u": ratio.u},
                        "model_ug_per_g2": finite_or_none(float(col @ theta))})
-    covariance = (tuple(est), block) if est else None
-    return CrossCoupling(est, reasons, covariance, tuple(notes), tuple(points), nuisance, chi2, dof)
+    return tuple(points)
