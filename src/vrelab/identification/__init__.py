@@ -70,13 +70,14 @@ Modules, in the order the data flow through them: :mod:`~vrelab.identification.o
 """
 
 from vrelab.identification.api import Identification, identify
-from vrelab.identification.channel import identify_channel
+from vrelab.identification.channel import IdentifyOptions, identify_channel
 from vrelab.identification.check2f import cross_check_2f
 from vrelab.identification.cross_coupling import CROSS, CrossCoupling, fit_cross_coupling
 from vrelab.identification.model import NEAR_FN, REACH_SIGMA, model_levels
 from vrelab.identification.observation import ChannelModel, Observation, apparent_vrc, observations
 from vrelab.identification.sensor_file import sensor_file_document, write_sensor_file
 
-__all__ = ["Observation", "ChannelModel", "Identification", "observations", "identify", "identify_channel",
+__all__ = ["Observation", "ChannelModel", "Identification", "IdentifyOptions", "observations", "identify",
+           "identify_channel",
            "CrossCoupling", "fit_cross_coupling", "CROSS",
            "model_levels", "apparent_vrc", "cross_check_2f", "sensor_file_document", "write_sensor_file", "REACH_SIGMA", "NEAR_FN"]

@@ -7,13 +7,11 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Mapping
 
 from vrelab import _validate as V
-from vrelab.identification.channel import identify_channel
+from vrelab.identification.channel import IdentifyOptions, identify_channel
 from vrelab.identification.observation import ChannelModel, Observation, failed_runs, observations
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.models.kinds import DEFAULT_CLIP_KIND
 
 if TYPE_CHECKING:
-    from vrelab.gum import TypeB
     from vrelab.sensor.loader import Sensor
 
 
@@ -44,23 +42,27 @@ class Identification:
 
 
 def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | None = None,
-             odr_hz: float | None = None, base_axis: str | None = None, kind: ClipKind = DEFAULT_CLIP_KIND,
-             typeb: TypeB | None = None, workers: int = 1, prefer_base: bool = False) -> Identification:
-    """Identify every channel of a campaign document on the base sensor ``base_spec``.
+             odr_hz: float | None = None, base_axis: str | None = None,
+             options: IdentifyOptions | None = None) -> Identification:
+    """Identify every channel of a campaign document on the base sensor ``base_spec``
+    (:func:`vrelab.sensor.load_sensor` at ``range_g``, ``odr_hz``, ``base_axis``).
 
-    ``typeb`` (a :class:`vrelab.gum.TypeB`) overrides the budget the runs declared; without it
-    the largest value each run declared is used (one reference, one DUT: their terms are common
-    to every run). ``workers`` > 1 identifies channels in parallel processes. ``prefer_base``:
-    fn and Q that the runs see but determine poorly (relative u above ``MAX_REL_U``) are
-    replaced by the base sensor's (by default they are kept with their u). Failed runs are
-    listed in ``notes`` and in every channel's notes.
+    ``options`` (:class:`IdentifyOptions`): the clipping model ``kind``; ``typeb`` (a
+    :class:`vrelab.gum.TypeB`) overrides the budget the runs declared; without it the largest
+    value each run declared is used (one reference, one DUT: their terms are common to every
+    run). ``workers`` > 1 identifies channels in parallel processes. ``prefer_base``: fn and Q
+    that the runs see but determine poorly (relative u above ``MAX_REL_U``) are replaced by the
+    base sensor's (by default they are kept with their u). Failed runs are listed in ``notes``
+    and in every channel's notes. The model and its data flow: :mod:`vrelab.identification`.
     """
     from vrelab.gum import TYPE_B_KEYS, TypeB
     from vrelab.models.clipping import KINDS
     from vrelab.sensor import load_sensor
 
+    opts = options or IdentifyOptions()
+    kind, typeb = opts.kind, opts.typeb
     V.one_of("kind", kind, KINDS)
-    workers = V.integer("workers", workers, 1)
+    workers = V.integer("workers", opts.workers, 1)
     base = load_sensor(base_spec, range_g=range_g, axis=base_axis, odr_hz=odr_hz)
     if base_axis in ("x", "y", "z") and base.input_axis is None:
         # named on purpose: the channels measured the part's base_axis (a default axis says nothing)
@@ -78,7 +80,8 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     if empty:
         raise ValueError(f"identify: channel {empty[0]!r} has no usable level in any run "
                          f"({'; '.join(notes.get(empty[0], [])) or 'no levels'})")
-    jobs: list[_Job] = [(ch, obs[ch], base, kind, name, typeb, notes.get(ch, []), prefer_base) for ch in obs]
+    opts = dataclasses.replace(opts, typeb=typeb, workers=workers)
+    jobs: list[_Job] = [(ch, obs[ch], base, opts, name, notes.get(ch, [])) for ch in obs]
     if workers > 1 and len(jobs) > 1:
         from vrelab._pool import worker_pool  # workers die with this process (Ctrl-C, SIGTERM, SIGKILL)
 
@@ -90,10 +93,10 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
 
 
 # one channel's identification as a worker process gets it (picklable):
-# (channel, observations, base sensor, clipping kind, campaign name, Type B budget, notes, prefer_base)
-_Job = tuple[str, list["Observation"], "Sensor", ClipKind, str, "TypeB", list[str], bool]
+# (channel, observations, base sensor, options with the Type B budget resolved, campaign name, notes)
+_Job = tuple[str, list["Observation"], "Sensor", IdentifyOptions, str, list[str]]
 
 
 def _identify_job(job: _Job) -> ChannelModel:
-    ch, ob, base, kind, name, typeb, notes, prefer_base = job
-    return identify_channel(ch, ob, base, kind, name, typeb, notes, prefer_base)
+    ch, ob, base, options, name, notes = job
+    return identify_channel(ch, ob, base, options, name, notes)

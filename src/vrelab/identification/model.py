@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
@@ -165,22 +165,33 @@ def _reach(preds: Sequence[Prediction], obs: Sequence[Observation], share: str) 
     return math.sqrt(s)
 
 
+@dataclass
+class Findings:
+    """What :func:`post_checks` finds about fn and Q beyond the reasons, per parameter."""
+
+    # only bounded: (its standard u from the profile, the reason, the bound's middle or None)
+    bounds: dict[str, tuple[float, str, float | None]] = field(default_factory=dict)
+    # the factor by which its covariance row and column are to be scaled (a non-quadratic likelihood)
+    widen: dict[str, float] = field(default_factory=dict)
+    # a note: its ±1σ interval closes but its 95 % one does not
+    loose: dict[str, str] = field(default_factory=dict)
+
+
 def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Sequence[str], preds: Sequence[Prediction],
-                 obs: Sequence[Observation], base: Sensor | None = None, prefer_base: bool = False,
-                 bounds: dict[str, tuple[float, str, float | None]] | None = None,
-                 widen: dict[str, float] | None = None, loose: dict[str, str] | None = None) -> dict[str, str]:
+                obs: Sequence[Observation], base: Sensor | None = None, prefer_base: bool = False,
+                found: Findings | None = None) -> dict[str, str]:
     """Parameters the fit freed that the fitted model shows the data do not determine.
 
     fn and Q stay in the fit as nuisance parameters when every sine frequency lies on one side
     of the fitted fn (or below ``NEAR_FN``·fn): VRC(f) then shows a flank, not the peak, and
     the local covariance of fn and Q is a confident wrong number (three frequencies below a
     1200 Hz fn gave Q 2.69 ± 0.15 for 4). Their reason gives the bound the data do support
-    (:func:`_resonance_profile`, Δχ² <= 4), and ``bounds`` receives, per parameter, a standard
+    (:func:`_resonance_profile`, Δχ² <= 4), and ``found.bounds`` receives, per parameter, a standard
     uncertainty from the profile (Δχ² <= 1, half its width) for the sensor file. fn and Q seen
     on both flanks but with a relative u above ``MAX_REL_U`` are kept, value and u (a poorly
     known Q is still a resonance near fn), unless ``prefer_base``; where the profile's Δχ² <= 1
     half-width exceeds what the same profile's curvature at its bottom says by ``_WIDER`` (a
-    non-quadratic likelihood), ``widen`` receives that ratio, by which the covariance's row and
+    non-quadratic likelihood), ``found.widen`` receives that ratio, by which the covariance's row and
     column are to be scaled; where the profile does not close, fn and Q are bounded (Q 2.0 ± 0.6
     for a true 6 on three frequencies far from fn was such a case). A rail or the threshold
     that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
@@ -208,16 +219,16 @@ def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Seq
                 if one_sided or prof[n].open:
                     lead = head if one_sided or not head.endswith(" of") else f"{head} {label}"
                     why[n] = f"{lead}; the data bound {label} to {prof[n].text} (Δχ² <= 4), not its value"
-                    if bounds is not None:  # open: the interval's middle; closed (one flank): the fit's value
-                        bounds[n] = (prof[n].u, why[n], prof[n].value)
+                    if found is not None:  # open: the interval's middle; closed (one flank): the fit's value
+                        found.bounds[n] = (prof[n].u, why[n], prof[n].value)
         else:
-            if widen is not None:  # the fit's u read off a curvature where the likelihood is not quadratic
+            if found is not None:  # the fit's u read off a curvature where the likelihood is not quadratic
                 for n in ("fn_hz", "q"):
                     if prof[n].ratio > _WIDER:
-                        widen[n] = prof[n].ratio
+                        found.widen[n] = prof[n].ratio
             for n, label in (("fn_hz", "fn"), ("q", "Q")):
-                if prof[n].open95 and loose is not None:
-                    loose[n] = (f"{n}: its ±1σ interval closes but its 95 % one does not ({prof[n].text}, Δχ² <= 4 on the "
+                if prof[n].open95 and found is not None:
+                    found.loose[n] = (f"{n}: its ±1σ interval closes but its 95 % one does not ({prof[n].text}, Δχ² <= 4 on the "
                                 f"sine runs): u holds at 1σ only, the tail toward large {label} stays open")
             if prefer_base:
                 for n in ("fn_hz", "q"):
