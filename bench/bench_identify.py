@@ -45,7 +45,7 @@ def build(seconds: float) -> Path:
 
 def main() -> None:
     from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
-    from vrelab.identify import identify
+    from vrelab.identification import IdentifyOptions, identify
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, default=2.0, help="each level and baseline [s]")
@@ -60,7 +60,7 @@ def main() -> None:
     times = {}
     for w in (1, args.workers):
         t0 = time.perf_counter()
-        ident = identify(doc, "ideal", workers=w)
+        ident = identify(doc, "ideal", options=IdentifyOptions(workers=w))
         times[w] = time.perf_counter() - t0
     n_levels = sum(len(c["levels"]) for r in doc["runs"] for c in r["channels"])
     print(f"campaign: {len(m.runs)} runs, {len(m.channels)} channels, {n_levels} channel-levels")

@@ -142,7 +142,7 @@ def _predict() -> list[Any]:
 def _identify() -> list[Any]:
     sys.path.insert(0, str(TESTS))
     import test_identify as T
-    from vrelab.identify import identify
+    from vrelab.identification import identify
     from vrelab.sensor import load_sensor
 
     out: list[Any] = []

@@ -303,7 +303,7 @@ def identify_z(tmp: Path, seeds: range) -> dict[str, np.ndarray]:
     import json
 
     from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
-    from vrelab.identify import identify
+    from vrelab.identification import identify
 
     z: dict[str, list[float]] = {"k2": [], "k3": [], "k2 pure": [], "k3 pure": []}
     for seed in seeds:

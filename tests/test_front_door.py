@@ -1,5 +1,5 @@
 """The front door (issue 21): ``import vrelab`` exports the public API lazily; ``predict``,
-``campaign`` and ``identify`` are submodules *and* verbs, correct in every import order
+``campaign`` are submodules *and* verbs, ``identify`` a plain function, correct in every import order
 (each order in a fresh interpreter); ``simulate`` and ``analyze`` are real functions; the
 package is typed (py.typed shipped); the README's Python example runs."""
 
@@ -46,9 +46,9 @@ ORDERS = {
     "the function from the submodule, then the package's verb": (
         "from vrelab.predict import predict as f\nimport vrelab\nout = []\n"
         + _CALL.format("f") + _CALL.format("vrelab.predict")),
-    "a module importing it before the user does (identify imports predict)": (
-        "import vrelab.identify\nimport vrelab\nout = []\n" + _CALL.format("vrelab.predict")
-        + "import vrelab.identify as i\nassert i is vrelab.identify and callable(i) and callable(i.identify)\n"
+    "a module importing it before the user does (identification imports predict)": (
+        "import vrelab.identification\nimport vrelab\nout = []\n" + _CALL.format("vrelab.predict")
+        + "import vrelab.identification as i\nassert vrelab.identify is i.identify and type(vrelab.identify).__name__ == 'function'\n"
         "import vrelab.campaigns as c\nassert callable(vrelab.campaign) and c.read_manifest\n"
         "assert vrelab.campaign.__module__ == 'vrelab._api'\n"),
 }
@@ -67,7 +67,7 @@ def test_predict_is_the_verb_and_the_module_in_every_import_order(order):
 def test_import_vrelab_imports_nothing_heavy():
     """Lazy: ``import vrelab`` loads no model module, no numpy (the CLI's start-up pays it once)."""
     script = ("import sys, vrelab\nheavy = [m for m in ('numpy', 'scipy', 'vrelab.predict', 'vrelab.sensor', "
-              "'vrelab.campaigns', 'vrelab.identify', 'vrelab.shaker') if m in sys.modules]\nprint(heavy)\n"
+              "'vrelab.campaigns', 'vrelab.identification', 'vrelab.shaker') if m in sys.modules]\nprint(heavy)\n"
               "vrelab.VreResult\nprint('vrelab.results' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=60)
     assert done.returncode == 0, done.stderr
@@ -75,13 +75,14 @@ def test_import_vrelab_imports_nothing_heavy():
 
 
 def test_the_exports_are_the_modules_objects():
-    from vrelab import identify as identify_module
+    from vrelab import identify
+    from vrelab.identification import identify as identify_function
     from vrelab.profiles import parse_profile
     from vrelab.results import VreResult
     from vrelab.sensor import load_sensor
 
     assert vrelab.load_sensor is load_sensor and vrelab.parse_profile is parse_profile
-    assert vrelab.VreResult is VreResult and callable(identify_module)
+    assert vrelab.VreResult is VreResult and identify is identify_function
     assert set(vrelab.__all__) <= set(dir(vrelab))
     with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
         vrelab.nonsense  # noqa: B018
@@ -110,14 +111,19 @@ def test_the_triaxial_exports_are_the_modules_objects():
     assert done.stdout.strip() == "[]"
 
 
-def test_calling_a_verb_follows_a_patch_of_its_function(monkeypatch):
-    """``vrelab.identify(...)`` looks ``vrelab.identify.identify`` up at each call."""
-    import vrelab.identify
+def test_identify_is_a_plain_function_whose_help_starts_with_its_signature():
+    """``vrelab.identify`` is :func:`vrelab.identification.identify` itself (issue 31: no module made
+    callable), so ``help()`` shows its signature first, then its own docstring, not a module's."""
+    import inspect
+    import pydoc
 
-    seen = []
-    monkeypatch.setattr(vrelab.identify, "identify", lambda *a, **k: seen.append((a, k)) or "patched")
-    assert vrelab.identify({"runs": []}, base_spec="adxl355") == "patched"
-    assert seen == [(({"runs": []},), {"base_spec": "adxl355"})]
+    import vrelab.identification
+
+    assert inspect.isfunction(vrelab.identify) and vrelab.identify is vrelab.identification.identify
+    text = pydoc.render_doc(vrelab.identify, renderer=pydoc.plaintext)
+    first = [line for line in text.splitlines() if line.strip()][1]  # after pydoc's "Python Library Documentation" line
+    assert first.startswith("identify(doc"), first
+    assert "Identify every channel of a campaign" in text and len(text) < 5000
 
 
 def test_simulate_sine_gives_the_polynomial_vre():

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from vrelab.cli import main
-from vrelab.identify import identify, observations, write_sensor_file
+from vrelab.identification import IdentifyOptions, identify, observations, write_sensor_file
 from vrelab.predict import predict, propagated_u
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
@@ -204,7 +204,7 @@ def test_type_b_terms_enter_the_covariance(drawn: dict) -> None:
     from vrelab.gum import TypeB
 
     plain = drawn["ident"].channels[0]
-    with_b = identify(drawn["doc"], "ideal", typeb=TypeB(u_reference_pct=1.0)).channels[0]
+    with_b = identify(drawn["doc"], "ideal", options=IdentifyOptions(typeb=TypeB(u_reference_pct=1.0))).channels[0]
     (term,) = with_b.budget
     assert term["source"] == "reference sensitivity"
     for n in ("k2_ug_per_g2", "k3_ug_per_g3"):

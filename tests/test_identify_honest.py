@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from vrelab.cli import main
-from vrelab.identify import identify, write_sensor_file
+from vrelab.identification import identify, write_sensor_file
 from vrelab.predict import predict
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
@@ -335,7 +335,8 @@ def test_2f_cross_check_is_corrected_for_the_base_sensors_output_filters() -> No
     identification divides the 2f VRC by it."""
     from scipy import signal
 
-    from vrelab.identify import Observation, _post_filter_gain, cross_check_2f
+    from vrelab.identification import Observation, cross_check_2f
+    from vrelab.identification.check2f import _post_filter_gain
 
     base = load_sensor("adxl355", axis="z")
     f2 = 1200.0

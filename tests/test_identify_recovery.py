@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from test_identify import _design, _draw, _part
-from vrelab.identify import identify
+from vrelab.identification import identify
 from vrelab.sensor import load_sensor
 from vrelab.simulation.campaign import campaign_document
 

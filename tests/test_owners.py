@@ -174,7 +174,7 @@ def test_common_sensitivity_terms_in_closed_form() -> None:
 def _sine_observation(vre_g: list[float]) -> object:
     import numpy as np
 
-    from vrelab.identify import Observation
+    from vrelab.identification import Observation
 
     return Observation(run=1, label="s", method="sine", static_g=1.0, freq_hz=80.0, profile=None,
                        rms_g=np.array([1.0, 2.0]), vre_g=np.array(vre_g), u_g=np.array([1e-6, 4e-6]))
@@ -187,7 +187,7 @@ def test_identify_apparent_vrc_is_the_birge_scaled_weighted_mean() -> None:
     u = √50/√2 = 5 (Birge); the unscaled fit said 1/√2."""
     import math
 
-    from vrelab.identify import apparent_vrc
+    from vrelab.identification import apparent_vrc
 
     v, u = apparent_vrc(_sine_observation([100e-6, 400e-6]))  # type: ignore[arg-type]
     assert math.isclose(v, 100.0, rel_tol=1e-12) and math.isclose(u, math.sqrt(0.5), rel_tol=1e-12)

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from vrelab.campaigns import read_manifest
-from vrelab.identify import CROSS, identify
+from vrelab.identification import CROSS, identify
 
 TRUTH = {"k2": 2000.0, "k3": 300.0, "kip_ug_per_g2": 500.0, "kpp_ug_per_g2": -300.0,
          "kio_ug_per_g2": -400.0, "koo_ug_per_g2": 200.0}

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from vrelab.identify import CROSS, identify
+from vrelab.identification import CROSS, identify
 from vrelab.simulation.campaign import campaign_document, mount_run, mount_truth, write_campaign
 
 
@@ -145,7 +145,7 @@ def test_an_identified_kip_predicts_in_a_triaxial_environment_when_the_axis_is_n
     prediction with the identified Kip. The file names its axis by campaign channel, so the
     part's axis comes from --base-axis (written as input_axis); without it the triad is refused
     in one line rather than guessed from the base sensor's default axis."""
-    from vrelab.identify import write_sensor_file
+    from vrelab.identification import write_sensor_file
     from vrelab.profiles import RandomProfile
     from vrelab.sensor import load_sensor
     from vrelab.triaxial import TriaxialProfile, direction

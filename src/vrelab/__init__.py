@@ -55,8 +55,8 @@ if TYPE_CHECKING:
     from vrelab._api import simulate as simulate
     from vrelab._version import __version__ as __version__
     from vrelab.gum import TypeB as TypeB
-    from vrelab.identify import Identification as Identification
-    from vrelab.identify import identify as identify
+    from vrelab.identification import Identification as Identification
+    from vrelab.identification import identify as identify
     from vrelab.predict import LevelPrediction as LevelPrediction
     from vrelab.predict import Prediction as Prediction
     from vrelab.predict import predict as predict
@@ -95,7 +95,8 @@ _LAZY: dict[str, tuple[str, str]] = {
     "FitResult": ("vrelab.results", "FitResult"),
     "Estimate": ("vrelab.results", "Estimate"),
     "Conditions": ("vrelab.results", "Conditions"),
-    "Identification": ("vrelab.identify", "Identification"),
+    "Identification": ("vrelab.identification", "Identification"),
+    "identify": ("vrelab.identification", "identify"),
     "TypeB": ("vrelab.gum", "TypeB"),
     "TriaxialProfile": ("vrelab.triaxial.profile", "TriaxialProfile"),
     "TriaxialSine": ("vrelab.triaxial.profile", "TriaxialSine"),
@@ -105,7 +106,6 @@ _LAZY: dict[str, tuple[str, str]] = {
 # submodule name -> (module, function) that calling the submodule calls
 _VERBS: dict[str, tuple[str, str]] = {
     "predict": ("vrelab.predict", "predict"),
-    "identify": ("vrelab.identify", "identify"),
 }
 
 __all__ = [*_LAZY, *_VERBS]

@@ -91,7 +91,7 @@ def _campaign_doc(source: str, workers: int) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _io
-    from vrelab.identify import identify, write_sensor_file
+    from vrelab.identification import IdentifyOptions, identify, write_sensor_file
 
     if args.workers < 1:
         raise ValueError(f"--workers must be >= 1, got {args.workers}")
@@ -109,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
     # a bad --out (the campaign folder itself, or one holding it) is refused before any work
     with _io.output_dir(args.out, inputs=inputs) as stage:
         doc = _campaign_doc(args.source, args.workers)
-        ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, args.kind,
-                         typeb if typeb.declared else None, args.workers, args.prefer_base)
+        options = IdentifyOptions(args.kind, typeb if typeb.declared else None, args.workers, args.prefer_base)
+        ident = identify(doc, args.base_sensor, args.range_g, args.odr_hz, args.base_axis, options)
         write_sensor_file(Path(stage) / SENSOR_FILE, ident)
         out = ident.to_dict(sensor_file=str(Path(args.out) / SENSOR_FILE))
         out["provenance"] = {"command": command, "campaign_provenance": doc.get("provenance")}

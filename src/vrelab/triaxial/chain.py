@@ -38,6 +38,7 @@ from typing import Any, ClassVar, Iterable, Iterator, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vrelab.models import cross_terms
 from vrelab.sensor.base import Stage, StageBase, finite
 from vrelab.sensor.chain import ChainRun, ChainStats, SensorChain, seed_sequence
 from vrelab.sensor.stages import FilterStage, Polynomial, Resonator
@@ -47,14 +48,8 @@ FloatArray = NDArray[np.float64]
 __all__ = ["TriaxialPolynomial", "TriaxialChain", "TriaxialRun", "triaxial_chain", "CROSS_TERMS"]
 
 # The model equation's cross-coupling terms: (Sensor attribute, the two triad positions it
-# multiplies; 0 = input i, 1 = pendulous p, 2 = output o).
-CROSS_TERMS: tuple[tuple[str, int, int], ...] = (
-    ("kip_per_g", 0, 1),
-    ("kio_per_g", 0, 2),
-    ("kpp_per_g", 1, 1),
-    ("koo_per_g", 2, 2),
-    ("kpo_per_g", 1, 2),
-)
+# multiplies; 0 = input i, 1 = pendulous p, 2 = output o), read off their one table.
+CROSS_TERMS: tuple[tuple[str, int, int], ...] = tuple((t.attr, t.axes[0], t.axes[1]) for t in cross_terms.CROSS_TERMS)
 
 
 @dataclass(frozen=True)
