@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from vrelab.cli import main
+from vrelab.example_campaign import ExampleRun, campaign_document, example_truth, vrc_truth
 from vrelab.identify import identify, observations, write_sensor_file
 from vrelab.predict import predict, propagated_u
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
-from vrelab.simulation.campaign import ExampleRun, campaign_document, example_truth, vrc_truth
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "campaign" / "campaign.toml"
 
@@ -269,7 +269,7 @@ def test_type_b_terms_enter_the_covariance(drawn: dict) -> None:
 
 def test_2f_cross_check_on_the_example_campaign(tmp_path: Path) -> None:
     """The shipped example: each sine run's VRC from the 2f line agrees with the truth
-    (k2 + 3·k3·g0)·|H(f)|² of vrelab.simulation.campaign.example_truth within 3u, as the DC
+    (k2 + 3·k3·g0)·|H(f)|² of vrelab.example_campaign.example_truth within 3u, as the DC
     estimate does."""
     out = tmp_path / "ident"
     assert main(["identify", str(EXAMPLE), "--out", str(out), "--json"]) == 0

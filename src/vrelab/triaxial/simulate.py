@@ -35,6 +35,7 @@ from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import LevelResult, Method, VreResult
+from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
@@ -230,7 +231,7 @@ def simulate_triaxial(
     direction: ArrayLike | None = None,
     static_g: ArrayLike | None = None,
     seconds: float | None = None,
-    baseline_s: float = 2.0,
+    baseline_s: float = DEFAULT_BASELINE_S,
     settle_s: float | None = None,
     seed: int = 0,
     fs_internal_hz: float | None = None,
@@ -252,7 +253,7 @@ def simulate_triaxial(
     static_g : array_like (3,), optional
         Static acceleration (x, y, z) [g] in the part's frame; default 1 g along +z.
     seconds, baseline_s, settle_s, seed, fs_internal_hz :
-        As :class:`vrelab.simulation.plan.TestPlan` (``seconds`` default 4 random, 2 sine):
+        As :class:`vrelab.simulation.plan.TestPlan` (``seconds`` default 4):
         the same baselines, level durations, settling trim, seeds (every draw from
         ``SeedSequence(seed)``: each level's drive seed and the chains' seed, each axis a child
         of it, :func:`axis_runs`) and the one rate rule.
@@ -303,12 +304,12 @@ def simulate_triaxial(
     method: Method
     if isinstance(exc, TriaxialSine):
         method = "sine"
-        plan = TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds, **common)
+        plan = TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=DEFAULT_LEVEL_S if seconds is None else seconds, **common)
         band_profile = None
     else:
         method = "random"
         proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
-        plan = TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common)
+        plan = TestPlan.random(first, proxy, levels_g, seconds=DEFAULT_LEVEL_S if seconds is None else seconds, **common)
         band_profile = proxy
     base = plan.record()
     rates, segs = base.rates, base._segments
