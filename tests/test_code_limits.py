@@ -83,7 +83,6 @@ RATCHET: dict[str, int] = {
     "params:triaxial/recording.py:read_recording_profile": 9,
     "lines:analysis/readers/__init__.py:open_record": 108,
     "lines:analysis/sine.py:sine_level": 120,
-    "module:report/plots.py": 841,
     "params:sweep/__init__.py:run_sweep": 11,
     "lines:sweep/__init__.py:run_sweep": 113,
     "params:sweep/engine.py:run_points": 10,
