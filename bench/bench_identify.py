@@ -20,7 +20,7 @@ OUT = Path(__file__).resolve().parent / "out"
 
 
 def build(seconds: float) -> Path:
-    from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
+    from vrelab.example_campaign import ExampleRun, example_truth, write_campaign
 
     folder = OUT / f"identify-{seconds:g}s"
     manifest = folder / "campaign.toml"

@@ -9,7 +9,7 @@ The recordings (17 MB) are not committed: they are generated on first use, by th
 seed, same files: the numbers the README quotes come from them.
 
 Two simulated parts (sn1, sn2) on one fixture, their truth in
-vrelab.simulation.campaign.example_truth(): k2, k3, rails ±2.048 g, a resonance at 1.2 kHz (Q 4).
+vrelab.example_campaign.example_truth(): k2, k3, rails ±2.048 g, a resonance at 1.2 kHz (Q 4).
 Seven runs written as a lab's equipment would: TDMS, CSV, UFF58 (ASCII and binary 58b), HDF5,
 the DUTs in LSB and the reference in mV, and the manifest campaign.toml.
 
@@ -22,7 +22,7 @@ import argparse
 import shutil
 from pathlib import Path
 
-from vrelab.simulation.campaign import ensure_campaign
+from vrelab.example_campaign import ensure_campaign
 
 parser = argparse.ArgumentParser(description="generate the example campaign's recordings")
 parser.add_argument("folder", nargs="?", type=Path, default=Path(__file__).parent / "campaign")

@@ -48,13 +48,13 @@ def _memory_cap_for_hardening(request):
 
 # The example campaign's recordings (examples/campaign/runs/) are not committed: `make examples`
 # generates them, and so does this fixture when pytest runs without make. One file lock, so that
-# the pytest-xdist workers generate them once; the one function does it (vrelab.simulation.campaign).
+# the pytest-xdist workers generate them once; the one function does it (vrelab.example_campaign).
 @pytest.fixture(scope="session", autouse=True)
 def _example_campaign() -> None:
     import fcntl
     from pathlib import Path
 
-    from vrelab.simulation.campaign import ensure_campaign
+    from vrelab.example_campaign import ensure_campaign
 
     folder = Path(__file__).resolve().parent.parent / "examples" / "campaign"
     (folder / "runs").mkdir(exist_ok=True)

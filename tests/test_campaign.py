@@ -1,6 +1,6 @@
 """Campaigns (SPEC 4.1, 5.1): manifests, several DUTs per file, lab formats, recovery of the truth.
 
-The campaign is simulated (vrelab.simulation.campaign) with a known truth: k2, k3 per part, rails
+The campaign is simulated (vrelab.example_campaign) with a known truth: k2, k3 per part, rails
 ±2.048 g at the output, a proof-mass resonance fn = 1200 Hz, Q = 4. The expected apparent VRC at
 a sine f and static field g0 is (k2 + 3·k3·g0)·|H(f)|² with H(f) = 1/(1 - r² + j·r/Q) (SPEC 1.2,
 1.3), computed here independently of the reduction.
@@ -20,7 +20,7 @@ from scipy import integrate
 
 from vrelab.campaigns import combine, read_manifest, run_campaign
 from vrelab.cli import main
-from vrelab.simulation.campaign import example_truth, write_campaign
+from vrelab.example_campaign import example_truth, write_campaign
 
 
 @pytest.fixture(scope="module")
@@ -126,7 +126,7 @@ def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
     assert re.search(r"VRC at +1000 Hz, \+1 g: -?\d+0 ± \d\d0 µg/g²", cli)  # u of ~540 shown as two digits
     # The random run stated as its shape and the levels it reached, never the unit shape's grms
     # (21.21 g rms for flat 50-500 Hz at 1 g²/Hz): the example steps 0.3, 0.5, 0.7, 0.9 g rms
-    # (vrelab.simulation.campaign.example_truth, its random run).
+    # (vrelab.example_campaign.example_truth, its random run).
     assert "21.21" not in text and "g rms (flat" not in text
     head = re.search(r"5\.14 Run 6 \(Z up, random 50-500 Hz\), channel sn1: \+1 g field, "
                      r"random 50–500 Hz \(flat-50-500\), ([\d.]+)–([\d.]+) g rms", text)
@@ -285,9 +285,9 @@ def test_several_duts_need_a_reference(example: Path, capsys: pytest.CaptureFixt
 
 
 def test_the_same_record_in_every_format_gives_the_same_levels(tmp_path: Path) -> None:
+    from vrelab import example_campaign as C
     from vrelab.analysis.readers import Scale, open_record
     from vrelab.analysis.reduction import analyze_channels
-    from vrelab.simulation import campaign as C
 
     truth = example_truth()
     run = C.ExampleRun("tdms", 1.0, 80.0, (0.2, 0.4, 0.6))

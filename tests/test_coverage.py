@@ -185,7 +185,7 @@ def test_sine_simulation_of_a_clipped_ideal_sensor_matches_the_closed_form(freq)
     from vrelab.sensor import load_sensor
 
     truth = _sine_clip_closed_form(1.0, math.sqrt(2.0), -2.0, 2.0)
-    res = shaker.run_sine_test(load_sensor("ideal", range_g=2.0), [freq], [1.0], static_g=1.0, seed=0)
+    res = shaker.run_sine_test(load_sensor("ideal", range_g=2.0), [freq], [1.0], static_g=1.0, seconds=2.0, seed=0)
     (lv,) = res.levels
     assert abs(lv.vre.value - truth) <= 2 * lv.vre.u, (lv.vre, truth)
     assert lv.vre.u < 1e-3 * abs(truth)
@@ -240,7 +240,7 @@ def test_campaign_k2_k3_cover_the_parts_truth_over_seeds(tmp_path: Path):
     campaign's per-frequency fit; the limits are those of 16 independent draws (the two parts
     of a seed share their drive and noise seed, k2 and k3 one fit)."""
     from vrelab.campaigns import combine, read_manifest, run_campaign
-    from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
+    from vrelab.example_campaign import ExampleRun, example_truth, write_campaign
 
     base = example_truth()
     truth = dataclasses.replace(base, runs=(

@@ -1,7 +1,7 @@
 """The example campaign's recordings are generated, not committed (issue 20: 17 MB in git).
 
 ``make examples``, ``python examples/make_campaign.py`` and the suite's session fixture
-(tests/conftest.py) all call :func:`vrelab.simulation.campaign.ensure_campaign`. These tests hold
+(tests/conftest.py) all call :func:`vrelab.example_campaign.ensure_campaign`. These tests hold
 it to what the docs rely on: the same files every time (so the numbers the docs quote are
 the numbers a fresh clone gets), the committed manifest and sensor file the ones the generator
 writes, nothing present overwritten, and the designer path's quoted identification what identify says.
@@ -18,7 +18,7 @@ import pytest
 
 from vrelab._format import format_value_u
 from vrelab.cli import main
-from vrelab.simulation.campaign import ensure_campaign
+from vrelab.example_campaign import ensure_campaign
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "campaign"

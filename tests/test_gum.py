@@ -134,7 +134,7 @@ def test_vre_budget_agrees_with_monte_carlo() -> None:
 
 def test_analyze_budget_and_limit(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from vrelab.cli import main
-    from vrelab.simulation.campaign import write_campaign
+    from vrelab.example_campaign import write_campaign
 
     m = write_campaign(tmp_path / "c")
     f = str(m.parent / "runs" / "01_z_up_80hz.tdms")

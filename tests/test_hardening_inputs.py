@@ -1,7 +1,7 @@
 """Input validation rows of issue 23: each case is refused by the CLI with exit status 2 and
 exactly one line on stderr (no traceback, no NumPy warning printed first), in seconds.
 
-The campaign cases use the simulated example campaign (vrelab.simulation.campaign): two parts
+The campaign cases use the simulated example campaign (vrelab.example_campaign): two parts
 z along the shaker, runs at +1 g and -1 g, DUTs with a DC response (their baselines read the
 static field), so each case's truth is known: which runs share a file, which orientation each
 record was taken at.
@@ -24,7 +24,7 @@ import pytest
 
 from vrelab.campaigns import ManifestContradiction, check_static, read_manifest
 from vrelab.cli import main
-from vrelab.simulation.campaign import write_campaign
+from vrelab.example_campaign import write_campaign
 
 RUN1 = """
 [[run]]

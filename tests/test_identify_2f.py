@@ -11,14 +11,14 @@ import json
 from pathlib import Path
 
 from vrelab.cli import main
-from vrelab.simulation.campaign import example_truth, vrc_truth
+from vrelab.example_campaign import example_truth, vrc_truth
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "campaign" / "campaign.toml"
 
 
 def test_2f_cross_check_on_the_example_campaign(tmp_path: Path) -> None:
     """The shipped example: each sine run's VRC from the 2f line agrees with the truth
-    (k2 + 3·k3·g0)·|H(f)|² of vrelab.simulation.campaign.example_truth within 3u, as the DC
+    (k2 + 3·k3·g0)·|H(f)|² of vrelab.example_campaign.example_truth within 3u, as the DC
     estimate does."""
     out = tmp_path / "ident"
     assert main(["identify", str(EXAMPLE), "--out", str(out), "--json"]) == 0

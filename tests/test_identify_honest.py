@@ -26,11 +26,11 @@ import numpy as np
 import pytest
 
 from vrelab.cli import main
+from vrelab.example_campaign import ExampleRun, campaign_document
 from vrelab.identification import identify, write_sensor_file
 from vrelab.predict import predict
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
-from vrelab.simulation.campaign import ExampleRun, campaign_document
 
 PART = """schema = 1
 name = "part"

@@ -215,3 +215,42 @@ def test_the_simulation_does_not_import_the_analysis() -> None:
     sim = {m: sorted(d for d in deps if d.startswith("vrelab.analysis"))
            for m, deps in edges.items() if m.startswith("vrelab.simulation")}
     assert sim and all(v == [] for v in sim.values()), sim
+
+
+def _package_graph() -> dict[str, set[str]]:
+    """Top-level package (or module) of ``vrelab`` -> those its modules import (``vrelab.simulation.plan``
+    counts as ``vrelab.simulation``), at any depth as :func:`_graph` reads them: a function-level
+    import is a dependency all the same, it only runs later. The front door ``vrelab/__init__``
+    (which imports every verb lazily) is left out."""
+    mods = _modules()
+
+    def top(name: str) -> str:
+        return ".".join(name.split(".")[:2])
+
+    edges: dict[str, set[str]] = {}
+    for m, (path, is_pkg) in mods.items():
+        if m == PACKAGE:
+            continue
+        pkg = m if is_pkg else m.rsplit(".", 1)[0]
+        deps = edges.setdefault(top(m), set())
+        for node in _imports(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                if node.level:
+                    base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
+                    targets = [".".join(base + ([node.module] if node.module else []))]
+                else:
+                    targets = [node.module or ""]
+                if targets[0] == PACKAGE:  # from vrelab import shaker: the module named
+                    targets = [f"{PACKAGE}.{a.name}" for a in node.names]
+            deps.update(top(t) for t in targets if t.split(".")[0] == PACKAGE and top(t) != top(m))
+    return edges
+
+
+def test_no_package_cycles() -> None:
+    """Issue 31: the simulator's package imported the shaker and the triaxial test (through the
+    example-campaign generator, now ``vrelab.example_campaign``) while they imported it."""
+    edges = _package_graph()
+    assert {"vrelab.simulation", "vrelab.shaker", "vrelab.analysis"} <= set(edges)  # the walk saw the packages
+    assert _cycles(edges) == []

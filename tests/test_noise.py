@@ -227,13 +227,13 @@ def test_analyze_reports_the_channels_noise_density_and_bias_instability():
 
 
 def test_campaign_reports_each_channels_noise_by_run(tmp_path):
-    """A simulated campaign of two parts with 25 µg/√Hz white noise (vrelab.simulation.campaign's
+    """A simulated campaign of two parts with 25 µg/√Hz white noise (vrelab.example_campaign's
     example truth, its sensor file's noise_ug_per_rthz): each channel's summary lists its noise
     per run, the density within 4 of its u of 25 µg/√Hz, and the run's document carries the curve."""
     import dataclasses
 
     from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
-    from vrelab.simulation.campaign import ExampleRun, example_truth, write_campaign
+    from vrelab.example_campaign import ExampleRun, example_truth, write_campaign
 
     truth = dataclasses.replace(example_truth(), runs=(ExampleRun("csv", 1.0, 80.0, (0.2, 0.4, 0.6), label="Z up"),))
     man = read_manifest(write_campaign(tmp_path / "c", truth, seconds=2.0, seed=1))

@@ -193,3 +193,82 @@ def test_identify_apparent_vrc_is_the_birge_scaled_weighted_mean() -> None:
     assert math.isclose(v, 100.0, rel_tol=1e-12) and math.isclose(u, math.sqrt(0.5), rel_tol=1e-12)
     v, u = apparent_vrc(_sine_observation([100e-6, 440e-6]))  # type: ignore[arg-type]
     assert math.isclose(v, 105.0, rel_tol=1e-12) and math.isclose(u, 5.0, rel_tol=1e-12)
+
+
+# --------------------------------------------------------------------------- a test's durations
+_DURATION_NAMES = {"seconds", "baseline_s", "sine_seconds", "--seconds", "--baseline"}
+
+
+def _duration_defaults() -> list[str]:
+    """Places (but vrelab/simulation/durations.py) that write a level's or a baseline's length as
+    a number where a default goes: a parameter's or a field's default, an argparse ``default=``
+    of ``--seconds``/``--baseline``, a ``.setdefault("seconds", 2.0)``, ``seconds=4.0 if ... else``."""
+    import ast
+    from pathlib import Path
+
+    import vrelab
+
+    src = Path(vrelab.__file__).parent
+
+    def number(node: ast.AST | None) -> bool:
+        return isinstance(node, ast.Constant) and type(node.value) in (int, float)
+
+    hits = []
+    for path in sorted(src.rglob("*.py")):
+        rel = path.relative_to(src).as_posix()
+        if rel == "simulation/durations.py":
+            continue
+        text = path.read_text(encoding="utf-8")
+        lines = text.splitlines()
+        for node in ast.walk(ast.parse(text)):
+            found = False
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                pos = [*a.posonlyargs, *a.args]
+                pairs = [*zip(pos[len(pos) - len(a.defaults):], a.defaults), *zip(a.kwonlyargs, a.kw_defaults)]
+                found = any(p.arg in _DURATION_NAMES and number(d) for p, d in pairs)
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                found = node.target.id in _DURATION_NAMES and number(node.value)
+            elif isinstance(node, ast.Call):
+                first = node.args[0] if node.args else None
+                named = isinstance(first, ast.Constant) and first.value in _DURATION_NAMES
+                found = (named and any(k.arg == "default" and number(k.value) for k in node.keywords)) or (
+                    named and isinstance(node.func, ast.Attribute) and node.func.attr == "setdefault"
+                    and len(node.args) == 2 and number(node.args[1])) or any(
+                    k.arg in _DURATION_NAMES and isinstance(k.value, ast.IfExp)
+                    and (number(k.value.body) or number(k.value.orelse)) for k in node.keywords)
+            if found:
+                hits.append(f"{path.stem}: {lines[node.lineno - 1].strip()}")
+    return hits
+
+
+def test_a_tests_durations_have_one_owner() -> None:
+    """Issue 31: a sine level lasted 2 s from ``run_sine_test`` and 4 s from ``vrelab simulate
+    --freq``; the 2 s baseline was written in four places."""
+    assert _duration_defaults() == [
+        "demo: seconds: float = 16.0  # per vibration level",  # the demo's random level, its own choice
+        # the example campaign's short files (2 s segments), its own choice
+        "example_campaign: def write_campaign(folder: str | Path, truth: CampaignTruth | None = None, seconds: float = 2.0,",
+        "example_campaign: def ensure_campaign(folder: str | Path, truth: CampaignTruth | None = None, seconds: float = 2.0,",
+        "example_campaign: def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, seconds: float = 2.0,",
+    ]
+
+
+def test_the_command_line_and_the_api_run_the_same_sine_test() -> None:
+    """``vrelab simulate --freq`` and ``plan_sine_test`` (``run_sine_test``) with no duration
+    given make the same schedule: each level ``DEFAULT_LEVEL_S`` (rounded to whole periods),
+    each baseline ``DEFAULT_BASELINE_S``."""
+    from vrelab.cli import build_parser
+    from vrelab.sensor import load_sensor
+    from vrelab.shaker import plan_sine_test
+    from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
+    from vrelab.simulation.plan import TestPlan
+
+    args = build_parser().parse_args(["simulate", "--sensor", "ideal", "--freq", "100", "--levels", "1"])
+    assert (args.seconds, args.baseline) == (DEFAULT_LEVEL_S, DEFAULT_BASELINE_S)
+    sensor = load_sensor("ideal", range_g=2.0)
+    cli = TestPlan.sine(sensor, [100.0], [1.0], seconds=args.seconds, baseline_s=args.baseline).record(False)
+    api = plan_sine_test(sensor, [100.0], [1.0])
+    assert api.schedule == cli.schedule
+    level = [s for s in api.schedule.segments if not s.is_baseline]
+    assert len(level) == 1 and abs((level[0].end_s - level[0].start_s) - DEFAULT_LEVEL_S) < 0.01  # 1 period = 0.01 s

@@ -1,7 +1,7 @@
 """A simulated IEEE 1293 mount-angle campaign whose identified cross-coupling coefficients
 recover the truth within their u (issue 22, SPEC 1.6).
 
-The part (``vrelab.simulation.campaign.mount_truth``: k2 2000 µg/g², k3 300 µg/g³, Kip 500,
+The part (``vrelab.example_campaign.mount_truth``: k2 2000 µg/g², k3 300 µg/g³, Kip 500,
 Kpp -300, Kio -400, Koo 200 µg/g²; no resonance, rails ±8 g, 5 µg/√Hz noise) is simulated
 through the triaxial chain (``vrelab.triaxial.chain``: the model equation of IEEE Std 1293-1998
 on the proof-mass motion) at 0° (+1 g, -1 g), ±45° and 90° in the IP and IO planes on a
@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from vrelab.identification import CROSS, identify
-from vrelab.simulation.campaign import campaign_document, mount_run, mount_truth, write_campaign
+from vrelab.example_campaign import campaign_document, mount_run, mount_truth, write_campaign
 
 
 def _part_and_sensor(tmp_path: Path):

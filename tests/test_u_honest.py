@@ -49,7 +49,7 @@ def test_noiseless_sine_vre_within_2u_and_u_not_absurd(freq, level, g0, k2, k3):
     assert not (k2 or k3) or abs(g0) + math.sqrt(2) * level < 8.0  # SPEC 1.2 holds unclipped only
     rng = 2.0 if (k2 == 0 and k3 == 0) else 8.0
     sensor = dataclasses.replace(load_sensor("ideal", range_g=rng), k2_per_g=k2, k3_per_g2=k3)
-    res = shaker.run_sine_test(sensor, [freq], [level], static_g=g0, seed=0)
+    res = shaker.run_sine_test(sensor, [freq], [level], static_g=g0, seconds=2.0, seed=0)
     (lv,) = res.levels
     if clipped:
         truth = _sine_clip_closed_form(g0, math.sqrt(2) * level, -rng, rng)
@@ -73,7 +73,7 @@ def test_noiseless_sine_vre_within_2u_and_u_not_absurd(freq, level, g0, k2, k3):
 def test_linear_axis_noiseless_the_finding():
     """The finding: a linear ideal axis (no nonlinearity, no clipping: truth exactly 0) gave
     -1.2e-10 g ± 4e-15 g. The value is now 0 to the arithmetic's precision."""
-    res = shaker.run_sine_test(load_sensor("ideal", range_g=2.0), [1000.0], [0.3], static_g=1.0, seed=0)
+    res = shaker.run_sine_test(load_sensor("ideal", range_g=2.0), [1000.0], [0.3], static_g=1.0, seconds=2.0, seed=0)
     (lv,) = res.levels
     assert abs(lv.vre.value) < 1e-14
     assert abs(lv.vre.value) <= 2 * lv.vre.u
@@ -87,7 +87,7 @@ def test_linear_adxl355_noiseless_lattice_u_is_not_absurd():
     error of 1e-15 g; a level the chain neither clipped nor tripped is averaged exactly."""
     base = load_sensor("adxl355", axis="z")
     sensor = dataclasses.replace(base, noise_ug_per_rthz=0.0, lsb_g=None, k2_per_g=0.0, k3_per_g2=0.0, k4_per_g3=0.0)
-    (lv,) = shaker.run_sine_test(sensor, [1000.0], [0.8], static_g=1.0, seed=0).levels
+    (lv,) = shaker.run_sine_test(sensor, [1000.0], [0.8], static_g=1.0, seconds=2.0, seed=0).levels
     assert "saturated" not in lv.flags
     assert abs(lv.vre.value) <= 2 * lv.vre.u
     assert lv.vre.u < 1e-13, lv.vre.u

@@ -35,6 +35,7 @@ from vrelab.report import plots
 from vrelab.report.html import ReportFigure, ReportSection, write_report
 from vrelab.report.metadata import ReportMetadata, load_metadata
 from vrelab.results import VreResult
+from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.units import UG_PER_G
 
 # The article's numbers the demo holds itself against (seed article, SPEC 1.1 and 2).
@@ -58,8 +59,8 @@ class DemoConfig:
     """Durations of the simulated test [s] and the root seed."""
 
     seconds: float = 16.0  # per vibration level
-    baseline_s: float = 2.0  # per vibration-off baseline
-    sine_seconds: float = 4.0  # per sine level
+    baseline_s: float = DEFAULT_BASELINE_S  # per vibration-off baseline
+    sine_seconds: float = DEFAULT_LEVEL_S  # per sine level
     seed: int = 2017
     quick: bool = False
 
@@ -74,7 +75,7 @@ class DemoConfig:
             s = seconds or lo
             return cls(seconds=s, baseline_s=lo, sine_seconds=s, seed=seed, quick=True)
         s = seconds or cls.seconds
-        return cls(seconds=s, baseline_s=max(lo, 2.0), sine_seconds=max(lo, s / 2), seed=seed)
+        return cls(seconds=s, baseline_s=max(lo, DEFAULT_BASELINE_S), sine_seconds=max(lo, s / 2), seed=seed)
 
 
 @dataclass(frozen=True)

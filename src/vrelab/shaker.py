@@ -341,7 +341,6 @@ def plan_sine_test(
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
-    plan.setdefault("seconds", 2.0)
     return TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan).record(progress)
 
 
@@ -358,12 +357,11 @@ def run_sine_test(
     """Simulate the sine method (IEEE Std 1293-1998; SPEC 4) and fit VRC at each frequency.
 
     At each frequency in ``freqs_hz`` every level of ``levels_rms_g`` [g rms] runs for
-    ``seconds`` (default 2; rounded to whole periods of the drive after the settling trim),
+    ``seconds`` (default 4; rounded to whole periods of the drive after the settling trim),
     bracketed by vibration-off baselines. ``VRE = VRC·vib_rms²`` is fitted by weighted least
     squares through the origin at each frequency (:func:`vrelab.fits.fit_levels`): ``VRC(f)``
     shows the resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters (``ramp_s`` too) as in
     :func:`run_random_test`; with a ramp the sine's amplitude rises and falls, its phase runs on.
     """
-    plan.setdefault("seconds", 2.0)
     plan_ = TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan)
     return run_test(plan_, record_path=record_path, progress=progress)

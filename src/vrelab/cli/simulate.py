@@ -43,6 +43,7 @@ from vrelab.cli._common import (
     sensor_from_args,
 )
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
+from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 
 
 def print_result(result: Any) -> None:
@@ -213,9 +214,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--levels", required=True, metavar="LIST",
                    help="vibration levels [g rms]; with tones, the overall rms (random and tones), reached by "
                    "scaling the PSD by the ratio squared and each tone by the ratio")
-    p.add_argument("--seconds", type=float, default=4.0, metavar="S", help="duration of each level [s] (default 4)")
-    p.add_argument("--baseline", type=float, default=2.0, metavar="S",
-                   help="duration of each vibration-off baseline [s] (default 2)")
+    p.add_argument("--seconds", type=float, default=DEFAULT_LEVEL_S, metavar="S",
+                   help=f"duration of each level [s] (default {DEFAULT_LEVEL_S:g})")
+    p.add_argument("--baseline", type=float, default=DEFAULT_BASELINE_S, metavar="S",
+                   help=f"duration of each vibration-off baseline [s] (default {DEFAULT_BASELINE_S:g})")
     p.add_argument("--settle", type=float, metavar="S",
                    help="settling time trimmed at each segment edge [s] (default: the reduction's, 0.5)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="random seed (default 0)")

@@ -12,7 +12,6 @@ blocks and keeps a min/max/mean envelope of fixed size.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +32,9 @@ from vrelab._load import json_loads
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.record import Schedule
+from vrelab.report.csvdata import fractional_octave_average as fractional_octave_average
+from vrelab.report.csvdata import pick_column, read_envelope_csv
+from vrelab.report.csvdata import read_psd_csv as read_psd_csv
 from vrelab.results import (
     FitResult,
     LevelResult,
@@ -656,42 +658,12 @@ def plot_time_windows(
     return fig
 
 
-def read_envelope_csv(path: str | Path) -> dict[str, FloatArray | list[str]]:
-    """Read ``envelope.csv`` (analyze's per-window table) into columns; text columns stay text."""
-    path = Path(path)
-    with open(path, newline="") as fh:
-        rows = list(csv.reader(fh))
-    if len(rows) < 2:
-        raise ValueError(f"{path.name} has no data rows")
-    head = [h.strip() for h in rows[0]]
-    cols: dict[str, FloatArray | list[str]] = {}
-    for i, h in enumerate(head):
-        vals = [r[i].strip() if i < len(r) else "" for r in rows[1:]]
-        try:
-            cols[h] = np.array([float(v) if v else np.nan for v in vals])
-        except ValueError:
-            cols[h] = vals
-    return cols
-
-
-def _pick(cols: Mapping[str, object], *cands: str) -> str | None:
-    for c in cands:
-        for k in cols:
-            if k == c:
-                return k
-    for c in cands:
-        for k in cols:
-            if c in k:
-                return k
-    return None
-
-
 def plot_envelope_csv(path: str | Path, *, title: str | None = None) -> Figure:
     """Reference rms and DUT mean per analysis window against time, from ``envelope.csv``."""
     cols = read_envelope_csv(path)
-    tk = _pick(cols, "t_s", "time_s", "start_s", "time", "t")
-    rk = _pick(cols, "reference_rms_g", "ref_rms_g", "rms_g", "rms")
-    mk = _pick(cols, "dut_mean_g", "mean_g", "mean")
+    tk = pick_column(cols, "t_s", "time_s", "start_s", "time", "t")
+    rk = pick_column(cols, "reference_rms_g", "ref_rms_g", "rms_g", "rms")
+    mk = pick_column(cols, "dut_mean_g", "mean_g", "mean")
     if tk is None or mk is None or isinstance(cols[tk], list) or isinstance(cols[mk], list):
         raise ValueError(f"{Path(path).name}: need a time column and a DUT mean column, got {', '.join(cols)}")
     t = np.asarray(cols[tk])
@@ -703,7 +675,7 @@ def plot_envelope_csv(path: str | Path, *, title: str | None = None) -> Figure:
     finite = mean[np.isfinite(mean)]
     base = float(np.median(finite[: max(1, len(finite) // 20)])) if finite.size else 0.0
     ax2.plot(t, 1e3 * (mean - base), color=COLORS[0], lw=1, label="sensor mean per window − initial")
-    lk = _pick(cols, "segment", "label")
+    lk = pick_column(cols, "segment", "label")
     if lk is not None and isinstance(cols[lk], list):
         labels = cols[lk]
         start = 0
@@ -802,40 +774,3 @@ def plot_allan(noise: NoiseResult, *, title: str | None = None) -> Figure:
     ax.set_title(title or f"DUT noise on {noise.off_s:.3g} s with vibration off", fontsize=10)
     ax.legend(fontsize=8, loc="best")
     return fig
-
-
-def fractional_octave_average(
-    freq_hz: ArrayLike, psd: ArrayLike, fraction: int = 24, *others: ArrayLike
-) -> tuple[FloatArray, ...]:
-    """Average PSD lines in 1/``fraction``-octave bands (power average, the way analyzers do).
-
-    A short record's fine-resolution PSD scatters by ±5 dB or more line to line (few averages
-    per line); a band average has the variance of many lines and is what a ±3 dB tolerance is
-    read against. Returns the lines' mean frequency per band, the averaged PSD, and the same
-    average of each array in ``others`` (e.g. the profile). Lines with f <= 0 or NaN PSD are
-    dropped; empty bands are skipped.
-    """
-    f = np.asarray(freq_hz, dtype=np.float64)
-    arrays = [np.asarray(psd, dtype=np.float64)] + [np.asarray(o, dtype=np.float64) for o in others]
-    keep = (f > 0) & np.all([np.isfinite(a) for a in arrays], axis=0)
-    f = f[keep]
-    arrays = [a[keep] for a in arrays]
-    if f.size == 0:
-        return (f, *arrays)
-    band = np.floor(fraction * np.log2(f / f.min()) + 1e-9).astype(np.int64)
-    n = np.bincount(band)
-    used = n > 0
-    out = [np.bincount(band, weights=f)[used] / n[used]]
-    out += [np.bincount(band, weights=a)[used] / n[used] for a in arrays]
-    return tuple(out)
-
-
-def read_psd_csv(path: str | Path) -> dict[str, FloatArray]:
-    """Read ``psd.csv`` into ``freq_hz``, ``psd_measured``, ``psd_profile`` (g²/Hz)."""
-    cols = read_envelope_csv(path)
-    fk = _pick(cols, "freq_hz", "f_hz", "frequency_hz", "freq")
-    mk = _pick(cols, "psd_measured_g2_per_hz", "psd_measured", "measured", "psd_reference", "reference")
-    pk = _pick(cols, "psd_profile_g2_per_hz", "psd_profile", "profile")
-    if fk is None or mk is None or pk is None:
-        raise ValueError(f"{Path(path).name}: need frequency, measured and profile PSD columns, got {', '.join(cols)}")
-    return {"freq_hz": np.asarray(cols[fk]), "psd_measured": np.asarray(cols[mk]), "psd_profile": np.asarray(cols[pk])}

@@ -20,6 +20,7 @@ from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import NYQUIST_MARGIN, simulation_rate_hz
 from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S
 from vrelab.results import Method
+from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.simulation.record import (
     MIN_WINDOWS,
     Rates,
@@ -91,8 +92,8 @@ class TestPlan:
     sensor: Sensor
     levels_g: tuple[float, ...]
     static_g: float = 1.0
-    seconds: float = 4.0
-    baseline_s: float = 2.0
+    seconds: float = DEFAULT_LEVEL_S
+    baseline_s: float = DEFAULT_BASELINE_S
     settle_s: float | None = None  # None: the reduction's default (a float once constructed)
     seed: int = 0
     profile: RandomProfile | SineOnRandom | None = None

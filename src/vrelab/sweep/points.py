@@ -180,9 +180,9 @@ def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> di
 
 
 def simulate_plan(params: Mapping[str, Any], seed: np.random.SeedSequence | None = None) -> TestPlan:
-    """The simulated shaker test of one point (one level), as ``vrelab simulate`` runs it: a sine
-    test's duration defaults to 2 s, a random one's to 4 s (:func:`vrelab.shaker.run_sine_test`,
-    :func:`vrelab.shaker.run_random_test`); ``seed`` None: 0 (a plan to size, not to run)."""
+    """The simulated shaker test of one point (one level), as ``vrelab simulate`` runs it: a level
+    lasts :data:`vrelab.simulation.durations.DEFAULT_LEVEL_S` (4 s) unless the file sets ``seconds``, sine and
+    random alike (:func:`vrelab.shaker.run_sine_test`, :func:`vrelab.shaker.run_random_test`); ``seed`` None: 0 (a plan to size, not to run)."""
     from vrelab.simulation.plan import TestPlan
 
     excitation = _excitation(params)
@@ -194,7 +194,6 @@ def simulate_plan(params: Mapping[str, Any], seed: np.random.SeedSequence | None
     # the shaker takes an integer seed: 64 bits of the point's SeedSequence, itself unique per point
     seed_int = 0 if seed is None else int(seed.generate_state(1, dtype=np.uint64)[0])
     if isinstance(excitation, float):
-        timing.setdefault("seconds", 2.0)
         return TestPlan.sine(sensor, [excitation], [rms], static_g=static, seed=seed_int, **timing)
     return TestPlan.random(sensor, excitation, [rms], static_g=static, seed=seed_int, **timing)
 

@@ -36,6 +36,7 @@ from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import LevelResult, Method, VreResult
+from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
@@ -216,7 +217,7 @@ class _Counts:
 
 # TestPlan keywords a triaxial test takes besides seconds and seed (the rest, a drive's
 # distortion or ramps, does not apply to a Gaussian drive of a prescribed CSD)
-PLAN_KEYWORDS = {"baseline_s": 2.0, "settle_s": None, "fs_internal_hz": None, "progress": False}
+PLAN_KEYWORDS = {"baseline_s": DEFAULT_BASELINE_S, "settle_s": None, "fs_internal_hz": None, "progress": False}
 
 
 def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
@@ -265,13 +266,13 @@ def run_triaxial_test(
     direction : array_like (3,), optional
         For a single-axis RandomProfile only.
     seconds : float, optional
-        Duration of each level [s]; default 4 random, 2 sine.
+        Duration of each level [s]; default 4 (``DEFAULT_LEVEL_S``), random and sine.
     record_path : path, optional
         Write the record there (HDF5, channels ``reference_x/y/z`` and ``dut_<axis>``);
         otherwise it goes to a temporary file, removed afterwards. Either way each axis is
         reduced from the file, as a lab's recording is.
     **plan
-        ``seed`` (0), ``baseline_s`` (2), ``settle_s``, ``fs_internal_hz``, ``progress``: as
+        ``seed`` (0), ``baseline_s`` (2, ``DEFAULT_BASELINE_S``), ``settle_s``, ``fs_internal_hz``, ``progress``: as
         :class:`vrelab.simulation.plan.TestPlan` (the same baselines, settling trim, seeds (every
         draw from ``SeedSequence(seed)``: each level's drive seed and the chains' seed, each axis
         a child of it, :func:`axis_runs`) and the one rate rule).
@@ -353,10 +354,10 @@ def _plan(axes: Mapping[str, Any], g: FloatArray, exc: TriaxialProfile | Triaxia
     common = dict(static_g=static_plan, baseline_s=opts["baseline_s"], settle_s=opts["settle_s"],
                   seed=opts.get("seed", 0), fs_internal_hz=fs_internal_hz)
     if isinstance(exc, TriaxialSine):
-        return TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=2.0 if seconds is None else seconds,
+        return TestPlan.sine(first, [exc.freq_hz], levels_g, seconds=DEFAULT_LEVEL_S if seconds is None else seconds,
                              **common), None
     proxy = RandomProfile(exc.freq_hz, exc.axis_psd_g2_per_hz.sum(axis=1), name=exc.name)
-    return TestPlan.random(first, proxy, levels_g, seconds=4.0 if seconds is None else seconds, **common), proxy
+    return TestPlan.random(first, proxy, levels_g, seconds=DEFAULT_LEVEL_S if seconds is None else seconds, **common), proxy
 
 
 def _test_result(axes: Mapping[str, Any], exc: TriaxialProfile | TriaxialSine, g: FloatArray, plan: Any,

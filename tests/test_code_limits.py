@@ -1,0 +1,221 @@
+"""The limits the code keeps (issue 31, "sizes"), read from the syntax tree of ``src/vrelab``:
+
+* no function takes more than 8 parameters (``self``/``cls`` not counted; ``*args`` and
+  ``**kwargs`` count one each): a call that needs more takes an options dataclass;
+* no function is longer than 100 lines, from its ``def`` to its last line, its docstring not
+  counted (module-level tables are not functions, so they are free);
+* no module is longer than 800 lines;
+* no private attribute is read on another object: ``x._name`` where ``x`` is not ``self``,
+  ``cls`` or ``super()``. Dunder names are public protocol; ``namedtuple``'s documented
+  ``_replace``/``_asdict``/``_fields``/``_make`` and ``os._exit`` are public API spelt with an
+  underscore. Reading a private *name* from another module (``from m import _x``,
+  ``module._x``) is ``tests/test_imports.py``'s rule.
+
+A ratchet holds today's violators in the files other helpers are reshaping this round: each
+entry is the size measured when it was listed. The test fails when a violation appears that is
+not listed, when a listed one grows, and when a listed one is fixed but still listed, so the
+list can only shrink (delete the entry that the failure names).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import vrelab
+
+SRC = Path(vrelab.__file__).parent
+MAX_PARAMS = 8
+MAX_FUNCTION_LINES = 100
+MAX_MODULE_LINES = 800
+# underscore names that are public API: namedtuple's documented methods, os._exit
+PUBLIC_UNDERSCORE = {"_replace", "_asdict", "_fields", "_make", "_field_defaults"}
+PUBLIC_UNDERSCORE_OF = {("os", "_exit")}
+# third-party private state read on purpose, each documented (and guarded) where it is read
+THIRD_PARTY_PRIVATE = {
+    "analysis/readers/ide.py:ev._data",  # idelib's block index: the time stamps without a pass
+    "analysis/readers/uff.py:self.uff._block_ind",  # pyuff's record offsets: a header in 2 KB
+}
+
+# kind:path:qualified name -> size when listed (parameters, lines, or reads for "private")
+RATCHET: dict[str, int] = {
+    # h-simanalyze: _api.py, analysis/pipeline.py's front door, shaker.py, triaxial/simulate.py, analyze.py
+    "params:_api.py:simulate": 9,
+    "params:analysis/pipeline.py:analyze_full": 10,
+    "params:analysis/pipeline.py:analyze": 9,
+    "params:analysis/pipeline.py:analyze_channels": 11,
+    "params:simulation/record.py:SimulatedRecord.__init__": 11,
+    "params:triaxial/analyze.py:analyze_triaxial": 14,
+    "lines:triaxial/analyze.py:analyze_triaxial": 104,
+    "params:triaxial/simulate.py:simulate_direction": 9,
+    "params:triaxial/simulate.py:simulate_triaxial": 12,
+    "private:shaker.py:record._segments": 1,
+    "private:triaxial/simulate.py:base._segments": 1,
+    "private:triaxial/simulate.py:base._chain_seed": 1,
+    # h-speed: analysis/segmentation.py
+    "lines:analysis/segmentation.py:window_pass_many": 126,
+    # h-fitresult: campaign.py -> campaigns/
+    "module:campaign.py": 1219,
+    "lines:campaign.py:_combine_channel": 103,
+    # h-identify: identify.py -> identification/
+    "module:identify.py": 1771,
+    "params:identify.py:_post_checks": 10,
+    "lines:identify.py:identify_channel": 150,
+    "lines:identify.py:fit_cross_coupling": 145,
+    "params:identify.py:identify": 9,
+    # h-predict: predict.py, triaxial/predict.py -> prediction/
+    "module:predict.py": 1082,
+    "lines:predict.py:predict": 126,
+    "lines:predict.py:propagation": 122,
+    "params:predict.py:_assumed_monte_carlo": 10,
+    "params:predict.py:_level": 10,
+    "params:triaxial/predict.py:_rails_pass": 12,
+    "lines:triaxial/predict.py:_predict": 208,
+    # h-stages: sensor/*
+    "lines:sensor/loader.py:load_sensor": 105,
+    # h-limits: not reached this round
+    "params:models/design.py:ideal_vre_shares": 9,
+    "params:models/design.py:total_vre": 9,
+    "params:models/design.py:max_rms_for_budget": 9,
+    "params:models/design.py:overrange_vre": 9,
+    "params:models/memoryless.py:poly_clip_vre": 11,
+    "params:models/memoryless.py:_rail_part": 9,
+    "params:triaxial/recording.py:read_recording_profile": 9,
+    "lines:analysis/readers/__init__.py:open_record": 108,
+    "lines:analysis/sine.py:sine_level": 120,
+    "params:sweep/__init__.py:run_sweep": 11,
+    "lines:sweep/__init__.py:run_sweep": 113,
+    "params:sweep/engine.py:run_points": 10,
+    "lines:sweep/engine.py:run_points": 126,
+    "lines:sweep/spec.py:parse_spec": 109,
+}
+
+
+def _functions(node: ast.AST, prefix: str = "") -> list[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:
+    """Every function at any depth with its qualified name (``Class.method``, ``outer.inner``)."""
+    out: list[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]] = []
+    for child in ast.iter_child_nodes(node):
+        if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            out.append((prefix + child.name, child))
+            out += _functions(child, f"{prefix}{child.name}.")
+        elif isinstance(child, ast.ClassDef):
+            out += _functions(child, f"{prefix}{child.name}.")
+        else:
+            out += _functions(child, prefix)
+    return out
+
+
+def _n_params(f: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    a = f.args
+    names = [x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs, *filter(None, (a.vararg, a.kwarg)))]
+    return len(names) - (1 if names[:1] in (["self"], ["cls"]) and a.args[:1] else 0)
+
+
+def _n_lines(f: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """From the ``def`` line (decorators not counted) to the last line, less the docstring's lines."""
+    first = f.body[0]
+    doc = 0
+    if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+        doc = (first.end_lineno or first.lineno) - first.lineno + 1
+    return (f.end_lineno or f.lineno) - f.lineno + 1 - doc
+
+
+def _private_reads(tree: ast.AST) -> list[str]:
+    """``x._name`` (the attribute's whole expression as written) where ``x`` is not ``self``,
+    ``cls`` or ``super()`` and the name is neither dunder nor public-by-documentation."""
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Attribute) or not node.attr.startswith("_"):
+            continue
+        if (node.attr.startswith("__") and node.attr.endswith("__")) or node.attr in PUBLIC_UNDERSCORE:
+            continue
+        v = node.value
+        if isinstance(v, ast.Name) and (v.id in ("self", "cls") or (v.id, node.attr) in PUBLIC_UNDERSCORE_OF):
+            continue
+        if isinstance(v, ast.Call) and isinstance(v.func, ast.Name) and v.func.id == "super":
+            continue
+        found.append(ast.unparse(node))
+    return found
+
+
+def measure_source(rel: str, text: str) -> dict[str, int]:
+    """The violations in one module's source: ``kind:rel:name`` -> size."""
+    out: dict[str, int] = {}
+    n = len(text.splitlines())
+    if n > MAX_MODULE_LINES:
+        out[f"module:{rel}"] = n
+    tree = ast.parse(text)
+    for name, f in _functions(tree):
+        if (p := _n_params(f)) > MAX_PARAMS:
+            out[f"params:{rel}:{name}"] = p
+        if (k := _n_lines(f)) > MAX_FUNCTION_LINES:
+            out[f"lines:{rel}:{name}"] = k
+    for expr in _private_reads(tree):
+        if f"{rel}:{expr}" not in THIRD_PARTY_PRIVATE:
+            key = f"private:{rel}:{expr}"
+            out[key] = out.get(key, 0) + 1
+    return out
+
+
+def measure() -> dict[str, int]:
+    out: dict[str, int] = {}
+    for path in sorted(SRC.rglob("*.py")):
+        out.update(measure_source(path.relative_to(SRC).as_posix(), path.read_text(encoding="utf-8")))
+    return out
+
+
+def ratchet_failures(found: dict[str, int], ratchet: dict[str, int]) -> list[str]:
+    bad = [f"new: {k} = {v}" for k, v in sorted(found.items()) if k not in ratchet]
+    bad += [f"grew: {k} = {found[k]} (listed {ratchet[k]})" for k in sorted(found) if k in ratchet and found[k] > ratchet[k]]
+    bad += [f"fixed, remove from RATCHET: {k}" for k in sorted(ratchet) if k not in found]
+    return bad
+
+
+def test_the_code_keeps_its_limits() -> None:
+    found = measure()
+    assert len(list(SRC.rglob("*.py"))) > 50  # the walk saw the package
+    assert ratchet_failures(found, RATCHET) == []
+
+
+# planted violations: the measure sees each kind, and the ratchet reacts in each direction
+PLANTED = '''
+import os
+
+
+class A:
+    def m(self, a, b, c, d, e, f, g, h):
+        os._exit(0)
+        return self._x + super()._y + a._replace(x=1)._asdict()
+
+    @classmethod
+    def c(cls, a, b, c, d, e, f, g, *h, **i):
+        return cls._x + other._hidden
+
+
+def long():
+    """A docstring
+    of three lines
+    not counted."""
+''' + "    x = 1\n" * 99
+
+
+def test_a_planted_violation_of_each_kind_is_found() -> None:
+    """By construction: ``A.m`` has 8 parameters (at the limit), ``A.c`` 9 (``*h``/``**i``
+    count); ``long`` has 1 ``def`` line + 99 body lines = 100 (at the limit), one more is 101;
+    a module of 801 lines is over; ``other._hidden`` is the one private read (``self``,
+    ``cls``, ``super()``, ``os._exit`` and namedtuple's methods are not)."""
+    found = measure_source("x.py", PLANTED)
+    assert found == {"params:x.py:A.c": 9, "private:x.py:other._hidden": 1}
+    found = measure_source("x.py", PLANTED + "    x = 1\n")
+    assert found["lines:x.py:long"] == 101
+    assert measure_source("x.py", "x = 1\n" * 801) == {"module:x.py": 801}
+    assert measure_source("x.py", "x = 1\n" * 800) == {}
+
+
+def test_the_ratchet_only_shrinks() -> None:
+    listed = {"params:x.py:f": 10, "lines:x.py:g": 120}
+    assert ratchet_failures({"params:x.py:f": 10, "lines:x.py:g": 110}, listed) == []  # shrinking is fine
+    assert ratchet_failures({"params:x.py:f": 11, "lines:x.py:g": 120}, listed) == [
+        "grew: params:x.py:f = 11 (listed 10)"]
+    assert ratchet_failures({"lines:x.py:g": 120}, listed) == ["fixed, remove from RATCHET: params:x.py:f"]
+    assert ratchet_failures({**listed, "module:y.py": 900}, listed) == ["new: module:y.py = 900"]
