@@ -103,7 +103,7 @@ def _predict() -> list[Any]:
 
     import numpy as np
 
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
 

@@ -20,7 +20,7 @@ import pytest
 
 from vrelab.cli import main
 from vrelab.identify import identify, observations, write_sensor_file
-from vrelab.predict import predict, propagated_u
+from vrelab.prediction import predict, propagated_u
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
 from vrelab.simulation.campaign import ExampleRun, campaign_document, example_truth, vrc_truth

@@ -146,10 +146,10 @@ def test_an_identified_kip_predicts_in_a_triaxial_environment_when_the_axis_is_n
     part's axis comes from --base-axis (written as input_axis); without it the triad is refused
     in one line rather than guessed from the base sensor's default axis."""
     from vrelab.identify import write_sensor_file
+    from vrelab.prediction.triaxial import predict_triaxial
     from vrelab.profiles import RandomProfile
     from vrelab.sensor import load_sensor
     from vrelab.triaxial import TriaxialProfile, direction
-    from vrelab.triaxial.predict import predict_triaxial
 
     truth, part, sensor = _part_and_sensor(tmp_path)
     doc = campaign_document(sensor, truth.runs, seed=0, seconds=1.0, settle_s=0.1)

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from vrelab.predict import predict
+from vrelab.prediction import predict
+from vrelab.prediction.triaxial import predict_triaxial
 from vrelab.profiles import RandomProfile, parse_profile
 from vrelab.sensor import load_sensor
-from vrelab.triaxial.predict import predict_triaxial
 from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
 
 UG = 1e-6
@@ -480,9 +480,9 @@ def test_an_assumed_kip_u_is_carried_and_a_bare_kip_is_said_to_be_exact(tmp_path
     u_Kip·σ²·sinφ·cosφ (SPEC 1.6, the vibropendulous term, linear in Kip); without one the
     prediction says Kip is taken as exact."""
     from vrelab import load_sensor
+    from vrelab.prediction.triaxial import predict_triaxial
     from vrelab.profiles import RandomProfile
     from vrelab.triaxial import TriaxialProfile, direction
-    from vrelab.triaxial.predict import predict_triaxial
 
     part = tmp_path / "kpart.toml"
     part.write_text('schema = 1\nname = "kpart"\nkip_ug_per_g2 = 5000.0\n[uncertainty]\nkip_ug_per_g2 = 500.0\n',

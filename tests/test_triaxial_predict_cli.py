@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from vrelab.cli import main
+from vrelab.prediction.triaxial import predict_triaxial
 from vrelab.profiles import parse_profile
 from vrelab.report.html import ReportSection, render_section
 from vrelab.sensor import load_sensor
-from vrelab.triaxial.predict import predict_triaxial
 from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
 
 PART = str(Path(__file__).resolve().parents[1] / "examples" / "triaxial-part.toml")

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 
 from vrelab import load_sensor
+from vrelab.prediction.triaxial import predict_triaxial
 from vrelab.profiles import RandomProfile
 from vrelab.triaxial import TriaxialProfile
-from vrelab.triaxial.predict import predict_triaxial
 from vrelab.triaxial.simulate import simulate_triaxial
 
 PART = """schema = 1

@@ -25,7 +25,7 @@ the interpreter's own start (``python bench/bench_startup.py``); the modules beh
 ``predict``, ``identify`` and ``campaign`` take 1 to 3 s more, scipy mostly.
 """
 
-# Design: ``predict``, ``campaign`` and ``identify`` are both submodules of this package and the
+# Design: ``campaign`` and ``identify`` (``predict`` too, before it became a plain function) are both submodules of this package and the
 # front door's verbs. The import system binds ``vrelab.predict`` to the submodule whenever it is
 # first imported (``import vrelab.predict``, ``from vrelab.predict import X``, or any vrelab
 # module importing it), and ``import vrelab.predict as m`` reads that attribute back, as do
@@ -57,9 +57,10 @@ if TYPE_CHECKING:
     from vrelab.gum import TypeB as TypeB
     from vrelab.identify import Identification as Identification
     from vrelab.identify import identify as identify
-    from vrelab.predict import LevelPrediction as LevelPrediction
-    from vrelab.predict import Prediction as Prediction
-    from vrelab.predict import predict as predict
+    from vrelab.prediction import LevelPrediction as LevelPrediction
+    from vrelab.prediction import Prediction as Prediction
+    from vrelab.prediction import predict as predict
+    from vrelab.prediction import predict_triaxial as predict_triaxial
     from vrelab.profiles import RandomProfile as RandomProfile
     from vrelab.profiles import SineOnRandom as SineOnRandom
     from vrelab.profiles import SineProfile as SineProfile
@@ -73,7 +74,6 @@ if TYPE_CHECKING:
     from vrelab.sensor import load_sensor as load_sensor
     from vrelab.triaxial import TriaxialProfile as TriaxialProfile
     from vrelab.triaxial import TriaxialSine as TriaxialSine
-    from vrelab.triaxial.predict import predict_triaxial as predict_triaxial
     from vrelab.triaxial.simulate import simulate_triaxial as simulate_triaxial
 
 # name -> (module, attribute), imported on first use
@@ -87,8 +87,9 @@ _LAZY: dict[str, tuple[str, str]] = {
     "RandomProfile": ("vrelab.profiles", "RandomProfile"),
     "SineOnRandom": ("vrelab.profiles", "SineOnRandom"),
     "SineProfile": ("vrelab.profiles", "SineProfile"),
-    "Prediction": ("vrelab.predict", "Prediction"),
-    "LevelPrediction": ("vrelab.predict", "LevelPrediction"),
+    "predict": ("vrelab.prediction", "predict"),  # a plain function (its module: vrelab.prediction)
+    "Prediction": ("vrelab.prediction", "Prediction"),
+    "LevelPrediction": ("vrelab.prediction", "LevelPrediction"),
     "VreResult": ("vrelab.results", "VreResult"),
     "LevelResult": ("vrelab.results", "LevelResult"),
     "FitResult": ("vrelab.results", "FitResult"),
@@ -98,12 +99,11 @@ _LAZY: dict[str, tuple[str, str]] = {
     "TypeB": ("vrelab.gum", "TypeB"),
     "TriaxialProfile": ("vrelab.triaxial.profile", "TriaxialProfile"),
     "TriaxialSine": ("vrelab.triaxial.profile", "TriaxialSine"),
-    "predict_triaxial": ("vrelab.triaxial.predict", "predict_triaxial"),
+    "predict_triaxial": ("vrelab.prediction", "predict_triaxial"),
     "simulate_triaxial": ("vrelab.triaxial.simulate", "simulate_triaxial"),
 }
 # submodule name -> (module, function) that calling the submodule calls
 _VERBS: dict[str, tuple[str, str]] = {
-    "predict": ("vrelab.predict", "predict"),
     "campaign": ("vrelab._api", "campaign"),
     "identify": ("vrelab.identify", "identify"),
 }

@@ -89,7 +89,7 @@ from vrelab.units import to_ug
 
 if TYPE_CHECKING:
     from vrelab.gum import TypeB
-    from vrelab.predict import LevelPrediction, Prediction
+    from vrelab.prediction import LevelPrediction, Prediction
     from vrelab.sensor.loader import Sensor
 
 # A rail or the over-range threshold is determined when its share of the VRE, summed in
@@ -494,7 +494,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
 
 def model_levels(sensor: Sensor, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Prediction:
     """:func:`vrelab.predict.predict` at the observation's conditions (its levels' rms)."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     excitation: RandomProfile | list[float]
     if ob.method == "random":
@@ -535,7 +535,7 @@ def _model_distorted(sensor: Sensor, ob: Observation, kind: ClipKind) -> Predict
     (the fit evaluates the model many times). What is curved in g0 (a k4 term, a rail's reach)
     is interpolated over |s| <= d·A1/2 (0.11 g for 8 % at 2 g rms): its second-order remainder
     is left, far below a level's u where the rails stay clear."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     rms, shift = drive_equivalent(ob)
     freq = [float(ob.freq_hz or 0.0)]
@@ -1435,7 +1435,7 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
     """
     from vrelab.gum import common_sensitivity_terms, weighted_mean
     from vrelab.models.dynamics import vrc_at_frequency
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.units import UG_PER_G
 
     notes: list[str] = []

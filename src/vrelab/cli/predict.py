@@ -63,7 +63,7 @@ def print_prediction(pred: Any) -> None:
     triax = any("cross_g" in lv["shares"] for lv in d["levels"])
     cross: list[str] = []
     if triax:
-        from vrelab.triaxial.predict import CROSS_SHARES
+        from vrelab.prediction.triaxial import CROSS_SHARES
 
         cross = [k for k, _, _, _ in CROSS_SHARES if any(lv["shares"].get(k) for lv in d["levels"])]
     cross_head = "".join(f" {k[6:9].capitalize() + ' mg':>9}" for k in cross) + (f" {'cross mg':>9}" if triax else "")
@@ -106,7 +106,7 @@ def print_prediction(pred: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _validate as V
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
 
     levels = positive_list(args.levels, "--levels")
@@ -145,8 +145,8 @@ def _predict_triaxial(args: argparse.Namespace, sensor: Any, excitation: Any, le
     """The vibration along a direction in the part's frame (SPEC 1.6): ``--direction``, or the
     IEEE 1293 mount angle of the input axis toward its pendulous (ip) or output (io) axis; along
     the input axis where neither is given."""
+    from vrelab.prediction.triaxial import predict_triaxial
     from vrelab.profiles import RandomProfile
-    from vrelab.triaxial.predict import predict_triaxial
     from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 
     if sensor.axis not in AXES:

@@ -70,7 +70,7 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
 def _tilt_deg(vre_g: float, static_g: float) -> float:
     """:func:`vrelab.models.design.tilt_error_from_static_deg` (an axis at tilt ``asin(g0)``), NaN
     where it is undefined (g0 or g0 + δ at or beyond ±1 g): predict's rule, imported."""
-    from vrelab.predict import tilt_note
+    from vrelab.prediction import tilt_note
 
     return tilt_note(vre_g, static_g)[0]
 
@@ -78,7 +78,7 @@ def _tilt_deg(vre_g: float, static_g: float) -> float:
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
     from vrelab.models.nonlinearity import ug_per_g2_to_per_g
-    from vrelab.predict import memoryless_level
+    from vrelab.prediction import memoryless_level
     from vrelab.sensor.stages import Clip, Offset, Polynomial
 
     rms = float(params["rms_g"])
@@ -156,7 +156,7 @@ def _excitation(params: Mapping[str, Any]) -> float | Profile:
 
 def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """:func:`vrelab.predict.predict` at one level; ``seed`` is unused (no randomness)."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     excitation = _excitation(params)
     # a point records no u (the dataset has no column for it): the sensor file's assumed u is not

@@ -15,7 +15,7 @@ filters, offset, ...) on ``y``. So
 
 * the **sensed vibration** ``u`` is Gaussian (random drive) with PSD ``wᵀ Re S(f) w`` and static
   level ``w·g``, or a sine of amplitude ``|w·d|·A`` (sine along ``d``): the polynomial, the rails
-  and the over-range act on it exactly as on one axis, and :func:`vrelab.predict.predict` of
+  and the over-range act on it exactly as on one axis, and :func:`vrelab.prediction.single.predict` of
   that projected vibration gives the clipping, nonlinearity and over-range shares;
 * the **cross terms** rectify in closed form, ``VRE_jk = K_jk · Re ∫ S_jk(f)·|H(f)|² df``
   (sine: ``K_jk·d_j·d_k·rms²·|H(f)|²``): the products of the static vector with the zero-mean
@@ -28,7 +28,7 @@ filters, offset, ...) on ``y``. So
   moving the rails' working point; and times the time not held, ``1 - rate·hold``. What that
   misses (second order across a rail, the rails' input read as Gaussian, a truncated rail's
   correlation with the fluctuation, the over-range rate's change) is bounded in
-  ``model_error_g``, as :mod:`vrelab.predict` bounds its own, and ``valid`` is False where the
+  ``model_error_g``, as :mod:`vrelab.prediction.single` bounds its own, and ``valid`` is False where the
   bound may exceed the stated u.
 
 The projected PSD is a sum of the axes' power laws (and coherences linear in ln f): where it is
@@ -54,40 +54,39 @@ from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence, cas
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import integrate
 
 from vrelab import _validate as V
 from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
-from vrelab.predict import LevelPrediction, Prediction, predict, propagation, tilt_note
-from vrelab.profiles import RandomProfile
+from vrelab.prediction._cross import (
+    CROSS_SHARES,
+    _filtered_he2,
+    _he2_step,
+    _k_matrix,
+    _overrange_pass,
+    _rails_pass,
+    _read,
+)
+from vrelab.prediction._projection import _csd_integral, _projected
+from vrelab.prediction.checks import tilt_note
+from vrelab.prediction.propagation import propagation
+from vrelab.prediction.results import LevelPrediction, Prediction
+from vrelab.prediction.single import predict
 from vrelab.results import Conditions
-from vrelab.triaxial.chain import CROSS_TERMS
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 from vrelab.units import to_ug
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
 
+
 __all__ = ["CROSS_SHARES", "TriaxialLevelPrediction", "TriaxialPrediction", "predict_triaxial"]
 
 Excitation = TriaxialProfile | TriaxialSine
 Response = Callable[[NDArray[np.float64]], NDArray[np.complex128]]
 
-# The model equation's cross terms (:data:`vrelab.triaxial.chain.CROSS_TERMS`, their one list),
-# each with its share key: (share key, Sensor attribute, the two triad positions).
-CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = tuple(
-    (f"cross_{attr.removesuffix('_per_g')}_g", attr, a, b) for attr, a, b in CROSS_TERMS)
-# The projected PSD is taken as exact on the profile's own breakpoints where log-log
-# interpolation reproduces it to this (relative) inside every segment.
-_EXACT_REL = 1e-12
-# Otherwise tabulated with this step in ln f (at least _MIN_PER_SEGMENT points a segment), at
-# most _MAX_POINTS points.
-_DENSE_STEP = 2e-3
-_MIN_PER_SEGMENT = 8
-_MAX_POINTS = 40000
 # A level's note on the cross terms through the rails begins so (:func:`_judged` extends it).
 _PASS_NOTE = "the cross terms' mean "
 
@@ -140,330 +139,6 @@ class TriaxialPrediction(Prediction):
         d["excitation"] = dict(self.excitation or {})
         return d
 
-
-# --- the axis, read as its stages ---------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _After:
-    """A site after the nonlinearity that the cross terms' mean must pass."""
-
-    kind: Literal["clip", "overrange"]
-    stage: Any
-    filtered: bool  # linear stages between the nonlinearity and it
-    responses: tuple[Response, ...]  # those stages' responses
-    offset_g: float  # offsets between the nonlinearity and it
-
-
-def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
-    """The front end (the linear stages before the Polynomial; without one, the leading
-    resonances: where the model equation's nonlinearity sits) and the sites after it."""
-    from vrelab.sensor.overrange import OverRange
-    from vrelab.sensor.stages import Clip, Polynomial, Resonator
-
-    # what each stage is, asked as vrelab.predict asks it (vrelab.sensor.meanshift): a linear
-    # stage has a response, an offset a static_shift_g, the rails and the holds are the sites
-    poly = [k for k, s in enumerate(stages) if isinstance(s, Polynomial)]
-    if len(poly) > 1:
-        raise ValueError("a triaxial axis has at most one Polynomial stage")
-    if poly:
-        n, rest = poly[0], poly[0] + 1
-    else:
-        n = 0
-        while n < len(stages) and isinstance(stages[n], Resonator):
-            n += 1
-        rest = n
-    front = list(stages[:n])
-    if any(not hasattr(s, "response") for s in front):
-        raise ValueError("the stages before the nonlinearity must be linear (the front end): "
-                         + ", ".join(type(s).__name__ for s in front))
-    after: list[_After] = []
-    filtered, offset = False, 0.0
-    between: list[Response] = []
-    for s in stages[rest:]:
-        if hasattr(s, "response"):
-            filtered = True
-            between.append(s.response)
-        elif getattr(s, "static_shift_g", None) is not None:
-            offset += float(s.static_shift_g)
-        elif isinstance(s, (Clip, OverRange)):
-            after.append(_After("clip" if isinstance(s, Clip) else "overrange", s, filtered, tuple(between), offset))
-    return [s.response for s in front], after
-
-
-def _k_matrix(sensor: Sensor) -> NDArray[np.float64]:
-    """The symmetric K over x, y, z with ``bᵀ K b`` the cross terms [1/g]."""
-    triad = sensor.triad
-    k = np.zeros((3, 3))
-    for _, attr, a, b in CROSS_SHARES:
-        v = float(getattr(sensor, attr))
-        j, m = triad[a], triad[b]
-        k[j, m] += v / 2.0
-        k[m, j] += v / 2.0
-    return k
-
-
-def _resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
-    """(fn, Q) of each resonance among the responses (a stage's bound ``response`` method)."""
-    out = []
-    for r in responses:
-        st = getattr(r, "__self__", r)
-        fn, q = getattr(st, "fn_hz", None), getattr(st, "q", None)
-        if fn and q:
-            out.append((float(fn), float(q)))
-    return out
-
-
-def _cuts(lo: float, hi: float, corners: Sequence[float], responses: Sequence[Response]) -> list[float]:
-    peaks = [fn for fn, _ in _resonances(responses)]
-    return sorted({lo, hi, *(c for c in [*corners, *peaks] if lo < c < hi)})
-
-
-def _csd_integral(profile: TriaxialProfile, responses: Sequence[Response]) -> tuple[NDArray[np.float64],
-                                                                                    NDArray[np.float64]]:
-    """(Re ∫S df, Re ∫S·|H|² df) [g²], 3×3, with ``H`` the responses in series.
-
-    Adaptive quadrature (``scipy.integrate.quad_vec``) in ln f, split at the breakpoints and the
-    resonances, to 1e-11 relative: the integrand (power laws times coherencies linear in ln f
-    times |H|²) has no closed form in general.
-    """
-    def integrand(t: float) -> NDArray[np.float64]:
-        f = np.array([math.exp(t)])
-        s = profile.csd(f)[0].real * f[0]
-        h2 = 1.0
-        for r in responses:
-            h2 *= float(abs(np.asarray(r(f))[0])) ** 2
-        return np.stack([s, s * h2])
-
-    cuts = _cuts(*profile.band, profile.freq_hz.tolist(), responses)
-    total = np.zeros((2, 3, 3))
-    for a, b in zip(cuts[:-1], cuts[1:]):
-        val, _ = integrate.quad_vec(integrand, math.log(a), math.log(b), epsabs=0.0, epsrel=1e-11, limit=400)
-        total += val
-    return total[0], total[1]
-
-
-def _scalar_integral(psd: Callable[[NDArray[np.float64]], NDArray[np.float64]], band: tuple[float, float],
-                     corners: Sequence[float], responses: Sequence[Response]) -> float:
-    """∫ psd(f)·|H(f)|² df over ``band``, adaptive quadrature in ln f (see :func:`_csd_integral`)."""
-    def integrand(t: float) -> float:
-        f = np.array([math.exp(t)])
-        h2 = 1.0
-        for r in responses:
-            h2 *= float(abs(np.asarray(r(f))[0])) ** 2
-        return float(psd(f)[0]) * float(f[0]) * h2
-
-    total = 0.0
-    for a, b in zip(*(lambda c: (c[:-1], c[1:]))(_cuts(*band, corners, responses))):
-        total += integrate.quad(integrand, math.log(a), math.log(b), epsabs=0.0, epsrel=1e-11, limit=400)[0]
-    return total
-
-
-def _projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
-               front: Sequence[Response]) -> tuple[RandomProfile | None, float, float]:
-    """The sensed vibration ``w·a`` as a single-axis profile, its mean square per unit of the
-    triaxial one's, and the relative error of the tabulation in what the sites see (0: exact)."""
-    f = profile.freq_hz
-    m_u = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), [])
-    if not m_u > 1e-15 * profile.mean_square_g2:
-        return None, 0.0, 0.0
-    ratio = m_u / profile.mean_square_g2
-    pb = profile.psd_along(w, f)
-    name = f"{profile.name or 'triaxial random'}, sensed along ({w[0]:.4g}, {w[1]:.4g}, {w[2]:.4g})"
-    if (pb > 0).all():
-        frac = np.linspace(0.0, 1.0, 9)[1:-1]
-        lf = np.log(f)
-        inner = np.exp((lf[:-1, None] + np.diff(lf)[:, None] * frac).ravel())
-        exact = profile.psd_along(w, inner)
-        interp = np.exp(np.interp(np.log(inner), lf, np.log(pb)))
-        if np.all(np.abs(interp - exact) <= _EXACT_REL * exact):
-            prof = RandomProfile(f, pb, name=name, source=profile.source)
-            return prof, prof.mean_square_g2 / profile.mean_square_g2, 0.0
-    lf = np.log(f)
-    step = max(_DENSE_STEP, (lf[-1] - lf[0]) / _MAX_POINTS)
-    grid = [np.linspace(a, b, max(_MIN_PER_SEGMENT, math.ceil((b - a) / step)) + 1)[:-1] for a, b in zip(lf[:-1], lf[1:])]
-    fd = np.exp(np.concatenate([*grid, lf[-1:]]))
-    fd[0], fd[-1] = f[0], f[-1]
-    pd = profile.psd_along(w, fd)
-    pd = np.maximum(pd, 1e-12 * pd.max())  # a log-log table cannot reach 0: the floor's error is measured below
-    prof = RandomProfile(fd, pd, name=name, source=profile.source)
-    from vrelab.models.dynamics import effective_rms
-
-    err = 0.0
-    for resp in ([], list(front), sensor.linear_responses("output")):
-        if not resp and err:
-            continue
-        exact_ratio = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), resp) / m_u
-        tab = effective_rms((fd, pd), resp, *profile.band, points_hz=[fn for fn, _ in _resonances(resp)]) ** 2
-        tab /= prof.mean_square_g2
-        err = max(err, abs(tab / exact_ratio - 1.0))
-    return prof, ratio, err
-
-
-# --- the cross terms through what follows the nonlinearity ------------------------------------------
-
-
-def _phi(z: float) -> float:
-    return math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
-
-
-def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
-                kind: ClipKind, cross_mean: float, r_fluct: float, q_peak: float,
-                static_cross: float, sine_hz: float | None = None,
-                c2_total: float = 0.0) -> tuple[float, float, float, float]:
-    """(dc, factor, he2, bound): what the rails make of the cross terms, to first order in them.
-
-    A term ``K·b_j·b_k`` reaches the rails as its mean ``C`` and a zero-mean rest. ``factor``:
-    the rails' response ``∂E[out]/∂s`` to a shift ``s`` of their input, of the model
-    :func:`vrelab.predict.predict` takes for them (the exact memoryless map where no filter sits
-    between the nonlinearity and the rails; else a Gaussian or sine of the polynomial's mean and
-    its linear part through the filters). Memoryless censored rails, Gaussian: the rest's part
-    that the rails see is its second Hermite component in ``Z = u/σ_u``,
-    ``E[b_j b_k | u] = C + c2·He2(Z)``, ``c2 = K·v_j·v_k/σ_u²`` (``v = Cov(b, u)``), and
-    ``E[1_in·He2(Z)] = α·φ(α) - β·φ(β)`` (``he2``): the term passes as ``C·factor + c2·he2``
-    (with filters between, ``c2`` is :func:`_filtered_he2`'s). Sine, censored: the term is
-    ``C·(1 + cos 2θ)``, ``cos 2θ`` through the filters between as ``|H(2f)|·cos(2ψ + Δ)`` in the
-    rails' own phase ψ (``Δ = arg H(2f) - 2·arg H(f)``), and ``E[1_in] = 1 - Σ θ_r/π``,
-    ``E[1_in·cos 2ψ] = -Σ sin 2θ_r/(2π)`` over the arcs ``θ_r`` beyond each rail give
-    ``factor``. Truncated rails: the rest's correlation with them is bounded, not taken. The
-    bound also holds the second-order effect across a rail and the static cross terms' move of
-    the rails' working point: the static cross terms ``gᵀKg`` move the reading with vibration by
-    ``dc`` times them (the rails' response to a static shift) and the vibration-off reading by
-    them, so they add ``gᵀKg·(dc - 1)``.
-    """
-    from vrelab.models import memoryless
-    from vrelab.sensor.meanshift import gain_max  # one rule for sup|H| of the filters between
-
-    low, high = float(site.stage.low_g), float(site.stage.high_g)
-    k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
-    c0 = float(memoryless.polynomial(*k)(u0)) + site.offset_g
-    if lv is None or not lv.sigma_at_clip_g > 0:
-        inside = low < c0 < high
-        near = min(abs(c0 - low), abs(c0 - high))
-        reach = abs(cross_mean) + q_peak + abs(static_cross)
-        return (1.0 if inside else 0.0), (1.0 if inside else 0.0), 0.0, (reach if near <= reach else 0.0)
-    nonlin = float(lv.shares.get("nonlinearity_g", 0.0))
-    gain, rest = memoryless.linear_part(u0, lv.sigma_proof_mass_g, *k, shape=shape)
-    if site.filtered:
-        # the rails see a Gaussian (sine) of the polynomial's mean and its linear part through the filters
-        static, sigma, kk, offset = c0 + nonlin, abs(gain) * lv.sigma_at_clip_g, (0.0, 0.0, 0.0), 0.0
-    else:
-        static, sigma, kk, offset = u0, lv.sigma_at_clip_g, k, site.offset_g
-
-    def mean_out(s: float) -> float:
-        vre = float(memoryless.poly_clip_vre(static, sigma, *kk, offset_g=offset + s, rail_low_g=low,
-                                             rail_high_g=high, shape=shape, kind=kind))
-        ref = float(memoryless.vibration_off_reading(static, *kk, offset_g=offset + s, rail_low_g=low,
-                                                     rail_high_g=high))
-        return vre + ref
-
-    h = 1e-6 * max(sigma, 1e-3)
-    factor = dc = (mean_out(h) - mean_out(-h)) / (2 * h)
-    exact_rest = kind == "censored"
-    # the rails' input, linearised: mean c0 + nonlinearity, rms s (Gaussian) or peak √2·s (sine)
-    m, s = c0 + nonlin, abs(gain) * lv.sigma_at_clip_g
-    a, b = (low - m) / s, (high - m) / s
-    bound = 0.0
-    he2 = 0.0
-    shift = abs(cross_mean) + abs(static_cross)  # the cross terms' means, static and rectified
-    if shape == "gaussian":
-        chaos = a * _phi(a) - b * _phi(b)
-        if exact_rest:
-            he2 = chaos
-            # the indicator read through the linearised polynomial: its rest (rms ``rest``) moves the
-            # rails' crossings by about rest/s standard deviations
-            bound += r_fluct * (abs(a) + abs(b) + 2.0) * (_phi(a) + _phi(b)) * rest / s
-        else:
-            # the rest is in the second chaos: only the indicator's second Hermite component, of
-            # norm |α·φ(α) - β·φ(β)|/√2, correlates with it (Cauchy-Schwarz within the chaos, as
-            # vrelab.predict bounds the polynomial's rest); filters between pass it at most gmax times
-            bound += gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
-        # second order across a rail: ½·E[Q²|Z = z_r]·pdf(z_r)/s at each rail, with E[Q²|Z] at most
-        # (|means| + |c2|·|He2(z)|)² + Var(rest); taken twice
-        gmax = gain_max(site.responses)
-        bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * r_fluct) ** 2) * _phi(z) / s
-                     for z in (a, b))
-    else:
-        amp = math.sqrt(2.0) * s
-
-        def arc(x: float) -> float:  # half-arc θ of the phase beyond a rail x away from the mean
-            return math.acos(max(-1.0, min(1.0, x / amp)))
-
-        tu, tl = arc(high - m), arc(m - low)
-        p_out = (tu + tl) / math.pi
-        if exact_rest:
-            h1 = h2f = complex(1.0)
-            for r in site.responses:
-                h1 *= complex(np.asarray(r(np.array([sine_hz or 0.0])))[0])
-                h2f *= complex(np.asarray(r(np.array([2.0 * (sine_hz or 0.0)])))[0])
-            delta = np.angle(h2f) - 2.0 * np.angle(h1)
-            factor = 1.0 - p_out - abs(h2f) * math.cos(delta) * sum(math.sin(2 * t) for t in (tu, tl)) / (2 * math.pi)
-        else:
-            bound += r_fluct * math.sqrt(max(p_out * (1.0 - p_out), 0.0))
-        q = shift + q_peak
-        near = sum(abs(arc(r - q) - arc(r + q)) / math.pi for r in (high - m, m - low))
-        bound += q * near
-    return dc, factor, he2, bound
-
-
-def _he2_step(profile: TriaxialProfile, responses: Sequence[Response]) -> float:
-    """The grid step of :func:`_filtered_he2` [Hz]: an eighth of the band's lowest frequency and of
-    every resonance's half-power width fn/Q."""
-    return min([profile.band[0], *(fn / q for fn, q in _resonances(responses))]) / 8.0
-
-
-def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Sequence[Response],
-                  between: Sequence[Response], df_hz: float | None = None) -> NDArray[np.float64]:
-    r"""``G`` (3×3, per unit total mean square) with ``c2 = K_jk·G_jk``: the second Hermite
-    coefficient, in ``Z`` (the rails' Gaussian input, unit variance), of the cross terms after
-    the filters between the nonlinearity and the rails.
-
-    ``Z(t) = (h_F * u)(t)/s``; the term ``b_j·b_k`` reaches the rails as ``(h_F * b_j b_k)(t)``,
-    and by Isserlis ``E[(Z² - 1)·b_j(t-τ) b_k(t-τ)] = 2·c_j(τ)·c_k(τ)``, ``c_j(τ) = Cov(b_j(t-τ),
-    Z(t)) = Re ∫ |H|²·(S w)_j·H_F*·e^{-i2πfτ} df / s``, so ``G_jk = ∫ h_F(τ)·c_j(τ)·c_k(τ) dτ``.
-    With no filter (``h_F = δ``) this is ``v_j v_k/σ_u²``. Computed on a uniform frequency grid
-    (FFT): ``c`` by an inverse FFT, ``h_F`` by one of ``H_F``'s exact samples, so the discrete sum
-    is Parseval's of the grid (``c_j c_k`` reaches 2·f_max < the grid's top: no aliasing);
-    ``df`` resolves the band's lowest breakpoint and every resonance's width fn/Q.
-    """
-    lo, hi = profile.band
-    df = df_hz or _he2_step(profile, [*front, *between])
-    n_half = int(math.ceil(2.5 * hi / df))
-    n_half += n_half % 2
-    f = np.arange(n_half + 1) * df
-    s_f = profile.csd(f) / profile.mean_square_g2
-    s_f[(f < lo) | (f > hi)] = 0.0
-    hf = np.ones(f.size, dtype=complex)
-    for r in front:
-        hf = hf * np.asarray(r(f.astype(np.float64)))
-    hb = np.ones(f.size, dtype=complex)
-    for r in between:
-        hb = hb * np.asarray(r(f.astype(np.float64)))
-    sw = np.abs(hf)[:, None] ** 2 * (s_f @ w)  # S_{b_j u}(f)
-    var = float(np.sum(np.abs(hb) ** 2 * (sw @ w).real) * df)  # s² of h_F * u
-    if not var > 0:
-        return np.zeros((3, 3))
-    n = 2 * n_half
-    # c_j[n] = Re Σ_k A_j(f_k) e^{-i2πf_kτ_n} df = (N/2)·irfft(conj(A_j)·df) (A is 0 at DC and the top)
-    a = sw * np.conj(hb)[:, None] / math.sqrt(var)
-    c = 0.5 * n * np.fft.irfft(np.conj(a) * df, n=n, axis=0)  # (n, 3)
-    h = n * np.fft.irfft(hb * df, n=n)  # h_F(τ_n): two-sided ∫H e^{i2πfτ} df on the grid
-    dt = 1.0 / (n * df)
-    return np.asarray(np.einsum("n,nj,nk->jk", h, c, c) * dt, dtype=np.float64)
-
-
-def _overrange_pass(lv: LevelPrediction | None, site: _After, u0: float, cross_mean: float,
-                    r_fluct: float) -> tuple[float, float]:
-    """(factor, bound) of the over-range holds: the cross terms' mean is lost while held
-    (``1 - rate·hold``); bounded: that share again, and the change of Rice's rate a shift of the
-    motion's mean by the cross terms makes (∂ ln rate/∂μ = (threshold - μ)/σ²)."""
-    if lv is None or not lv.sigma_proof_mass_g > 0:
-        return 1.0, 0.0
-    duty = min(1.0, lv.overrange_rate_hz * float(site.stage.hold_s))
-    thr = float(site.stage.threshold_g)
-    over = abs(float(lv.shares.get("overrange_g", 0.0)))
-    bound = abs(cross_mean) * duty + over * (abs(cross_mean) + 2 * r_fluct) * (thr + abs(u0)) / lv.sigma_proof_mass_g**2
-    return 1.0 - duty, bound
 
 
 # --- prediction ---------------------------------------------------------------------------------
@@ -518,25 +193,25 @@ def predict_triaxial(
     Notes
     -----
     ``VRE = VRE_1(u) + pass · Σ_jk K_jk·Re ∫ S_jk(f)|H(f)|² df`` (the module docstring):
-    ``VRE_1`` is :func:`vrelab.predict.predict` of the sensed vibration ``u = w·b`` (PSD
+    ``VRE_1`` is :func:`vrelab.prediction.single.predict` of the sensed vibration ``u = w·b`` (PSD
     ``wᵀ Re S w``, static ``w·g``); ``pass`` the rails' and over-range's response to a shift of
     their input. With the vibration along the input axis and every cross term 0 it is
-    :func:`vrelab.predict.predict` itself. ``u_vre_g``: the sensor's covariance and assumed
-    uncertainties carried by :func:`vrelab.predict.propagation` through this function.
+    :func:`vrelab.prediction.single.predict` itself. ``u_vre_g``: the sensor's covariance and assumed
+    uncertainties carried by :func:`vrelab.prediction.propagation.propagation` through this function.
 
     References
     ----------
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
-    .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.predict.predict`.
+    .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.prediction.single.predict`.
     """
     return _predict(sensor, excitation, levels, static_g, kind, _judged)
 
 
 def _judged(lv: LevelPrediction) -> LevelPrediction:
-    """:func:`vrelab.predict.judged` (one rule: a bound judged against the stated u), its reason
+    """:func:`vrelab.prediction.checks.judged` (one rule: a bound judged against the stated u), its reason
     naming the cross terms' part of the bound where they have one: predict's own reason speaks of
     the single-axis rails after filters, which is not what a cross term's bound is."""
-    from vrelab.predict import judged
+    from vrelab.prediction import judged
 
     out = judged(lv)
     cross = float(getattr(lv, "cross_error_g", 0.0))
