@@ -31,7 +31,7 @@ def test_the_documentation_builds_without_a_warning(tmp_path):
     cli = (html / "cli.html").read_text()
     for command in ("predict", "simulate", "analyze", "campaign", "identify", "report"):  # from the parser
         assert f'id="{command}"' in cli or f"vrelab {command}" in cli, command
-    assert "vrelab.prediction.single.predict" in (html / "api" / "predict.html").read_text()
+    assert "vrelab.prediction.front.predict" in (html / "api" / "predict.html").read_text()
     gallery = (html / "auto_examples" / "plot_clipping_models.html").read_text()
     assert "-82.9 mg" in gallery  # printed by the example at build: SPEC 1.1's -83 mg
     assert (html / "physics.html").is_file() and (html / "tutorial-designer.html").is_file()

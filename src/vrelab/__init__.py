@@ -16,7 +16,7 @@ The front door (``import vrelab`` is enough)::
     doc = vrelab.campaign("campaign.toml")                          # every run of a manifest
     vrelab.identify(doc, base_spec="ideal", range_g=2.048)          # each channel's model
     tri = vrelab.TriaxialProfile.along(profile, (1, 0, 1))          # the same at 45° in x-z
-    vrelab.predict_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1)) # the IEEE 1293 cross terms too
+    vrelab.predict(sensor, tri, [1.0], static_g=(0, 0, 1))          # the IEEE 1293 cross terms too
     vrelab.simulate_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1), seconds=4, seed=1)
 
 Every name is imported on first use (``__version__`` too: ``importlib.metadata`` alone costs

@@ -1,5 +1,8 @@
 """The analytic VRE of a sensor in a vibration environment, without simulating it.
 
+:func:`predict` (:mod:`~vrelab.prediction.front`) is the one front door: a vibration along any
+direction of the part's frame, a static field as a scalar or a vector, one result type.
+
 * :mod:`~vrelab.prediction.single`: the sensor's stages walked in signal order, each one's mean
   shift summed (SPEC 1.1-1.3);
 * :mod:`~vrelab.prediction.triaxial`: one axis under a triaxial vibration, IEEE 1293's cross
@@ -23,6 +26,7 @@ if TYPE_CHECKING:
     from vrelab.prediction.checks import cancellation as cancellation
     from vrelab.prediction.checks import judged as judged
     from vrelab.prediction.checks import tilt_note as tilt_note
+    from vrelab.prediction.front import predict as predict
     from vrelab.prediction.propagation import CURVED_SOURCE as CURVED_SOURCE
     from vrelab.prediction.propagation import IDENTIFIED as IDENTIFIED
     from vrelab.prediction.propagation import Propagation as Propagation
@@ -31,7 +35,6 @@ if TYPE_CHECKING:
     from vrelab.prediction.results import LevelPrediction as LevelPrediction
     from vrelab.prediction.results import Prediction as Prediction
     from vrelab.prediction.single import memoryless_level as memoryless_level
-    from vrelab.prediction.single import predict as predict
     from vrelab.prediction.single import propagated_u as propagated_u
     from vrelab.prediction.triaxial import CROSS_SHARES as CROSS_SHARES
     from vrelab.prediction.triaxial import TriaxialLevelPrediction as TriaxialLevelPrediction
@@ -40,7 +43,7 @@ if TYPE_CHECKING:
 
 # name -> module, imported on first use
 _LAZY: dict[str, str] = {
-    "predict": "vrelab.prediction.single",
+    "predict": "vrelab.prediction.front",
     "Prediction": "vrelab.prediction.results",
     "LevelPrediction": "vrelab.prediction.results",
     "memoryless_level": "vrelab.prediction.single",

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab.models.clipping import Kind as ClipKind
-from vrelab.prediction._projection import _resonances
+from vrelab.prediction._projection import resonances
 from vrelab.prediction.results import LevelPrediction
 from vrelab.sensor.meanshift import Response
 from vrelab.triaxial.chain import CROSS_TERMS
@@ -31,7 +31,7 @@ CROSS_SHARES: tuple[tuple[str, str, int, int], ...] = tuple(
 
 
 @dataclass(frozen=True)
-class _After:
+class After:
     """A site after the nonlinearity that the cross terms' mean must pass."""
 
     kind: Literal["clip", "overrange"]
@@ -41,7 +41,7 @@ class _After:
     offset_g: float  # offsets between the nonlinearity and it
 
 
-def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
+def read_axis(stages: Sequence[Any]) -> tuple[list[Response], list[After]]:
     """The front end (the linear stages before the Polynomial; without one, the leading
     resonances: where the model equation's nonlinearity sits) and the sites after it."""
     from vrelab.sensor.overrange import OverRange
@@ -63,7 +63,7 @@ def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
     if any(not hasattr(s, "response") for s in front):
         raise ValueError("the stages before the nonlinearity must be linear (the front end): "
                          + ", ".join(type(s).__name__ for s in front))
-    after: list[_After] = []
+    after: list[After] = []
     filtered, offset = False, 0.0
     between: list[Response] = []
     for s in stages[rest:]:
@@ -73,11 +73,11 @@ def _read(stages: Sequence[Any]) -> tuple[list[Response], list[_After]]:
         elif getattr(s, "static_shift_g", None) is not None:
             offset += float(s.static_shift_g)
         elif isinstance(s, (Clip, OverRange)):
-            after.append(_After("clip" if isinstance(s, Clip) else "overrange", s, filtered, tuple(between), offset))
+            after.append(After("clip" if isinstance(s, Clip) else "overrange", s, filtered, tuple(between), offset))
     return [s.response for s in front], after
 
 
-def _k_matrix(sensor: Sensor) -> NDArray[np.float64]:
+def k_matrix(sensor: Sensor) -> NDArray[np.float64]:
     """The symmetric K over x, y, z with ``bᵀ K b`` the cross terms [1/g]."""
     triad = sensor.triad
     k = np.zeros((3, 3))
@@ -97,7 +97,7 @@ def _phi(z: float) -> float:
     return math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
 
 
-def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
+def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
                 kind: ClipKind, cross_mean: float, r_fluct: float, q_peak: float,
                 static_cross: float, sine_hz: float | None = None,
                 c2_total: float = 0.0) -> tuple[float, float, float, float]:
@@ -111,7 +111,7 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
     that the rails see is its second Hermite component in ``Z = u/σ_u``,
     ``E[b_j b_k | u] = C + c2·He2(Z)``, ``c2 = K·v_j·v_k/σ_u²`` (``v = Cov(b, u)``), and
     ``E[1_in·He2(Z)] = α·φ(α) - β·φ(β)`` (``he2``): the term passes as ``C·factor + c2·he2``
-    (with filters between, ``c2`` is :func:`_filtered_he2`'s). Sine, censored: the term is
+    (with filters between, ``c2`` is :func:`filtered_he2`'s). Sine, censored: the term is
     ``C·(1 + cos 2θ)``, ``cos 2θ`` through the filters between as ``|H(2f)|·cos(2ψ + Δ)`` in the
     rails' own phase ψ (``Δ = arg H(2f) - 2·arg H(f)``), and ``E[1_in] = 1 - Σ θ_r/π``,
     ``E[1_in·cos 2ψ] = -Σ sin 2θ_r/(2π)`` over the arcs ``θ_r`` beyond each rail give
@@ -196,13 +196,13 @@ def _rails_pass(lv: LevelPrediction | None, site: _After, sensor: Sensor, u0: fl
     return dc, factor, he2, bound
 
 
-def _he2_step(profile: TriaxialProfile, responses: Sequence[Response]) -> float:
-    """The grid step of :func:`_filtered_he2` [Hz]: an eighth of the band's lowest frequency and of
+def he2_step(profile: TriaxialProfile, responses: Sequence[Response]) -> float:
+    """The grid step of :func:`filtered_he2` [Hz]: an eighth of the band's lowest frequency and of
     every resonance's half-power width fn/Q."""
-    return min([profile.band[0], *(fn / q for fn, q in _resonances(responses))]) / 8.0
+    return min([profile.band[0], *(fn / q for fn, q in resonances(responses))]) / 8.0
 
 
-def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Sequence[Response],
+def filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Sequence[Response],
                   between: Sequence[Response], df_hz: float | None = None) -> NDArray[np.float64]:
     r"""``G`` (3×3, per unit total mean square) with ``c2 = K_jk·G_jk``: the second Hermite
     coefficient, in ``Z`` (the rails' Gaussian input, unit variance), of the cross terms after
@@ -217,7 +217,7 @@ def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Seque
     ``df`` resolves the band's lowest breakpoint and every resonance's width fn/Q.
     """
     lo, hi = profile.band
-    df = df_hz or _he2_step(profile, [*front, *between])
+    df = df_hz or he2_step(profile, [*front, *between])
     n_half = int(math.ceil(2.5 * hi / df))
     n_half += n_half % 2
     f = np.arange(n_half + 1) * df
@@ -242,7 +242,7 @@ def _filtered_he2(profile: TriaxialProfile, w: NDArray[np.float64], front: Seque
     return np.asarray(np.einsum("n,nj,nk->jk", h, c, c) * dt, dtype=np.float64)
 
 
-def _overrange_pass(lv: LevelPrediction | None, site: _After, u0: float, cross_mean: float,
+def overrange_pass(lv: LevelPrediction | None, site: After, u0: float, cross_mean: float,
                     r_fluct: float) -> tuple[float, float]:
     """(factor, bound) of the over-range holds: the cross terms' mean is lost while held
     (``1 - rate·hold``); bounded: that share again, and the change of Rice's rate a shift of the

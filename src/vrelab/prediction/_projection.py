@@ -24,7 +24,7 @@ _DENSE_STEP = 2e-3
 _MIN_PER_SEGMENT = 8
 _MAX_POINTS = 40000
 
-def _resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
+def resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
     """(fn, Q) of each resonance among the responses (a stage's bound ``response`` method)."""
     out = []
     for r in responses:
@@ -36,11 +36,11 @@ def _resonances(responses: Sequence[Response]) -> list[tuple[float, float]]:
 
 
 def _cuts(lo: float, hi: float, corners: Sequence[float], responses: Sequence[Response]) -> list[float]:
-    peaks = [fn for fn, _ in _resonances(responses)]
+    peaks = [fn for fn, _ in resonances(responses)]
     return sorted({lo, hi, *(c for c in [*corners, *peaks] if lo < c < hi)})
 
 
-def _csd_integral(profile: TriaxialProfile, responses: Sequence[Response]) -> tuple[NDArray[np.float64],
+def csd_integral(profile: TriaxialProfile, responses: Sequence[Response]) -> tuple[NDArray[np.float64],
                                                                                     NDArray[np.float64]]:
     """(Re ∫S df, Re ∫S·|H|² df) [g²], 3×3, with ``H`` the responses in series.
 
@@ -66,7 +66,7 @@ def _csd_integral(profile: TriaxialProfile, responses: Sequence[Response]) -> tu
 
 def _scalar_integral(psd: Callable[[NDArray[np.float64]], NDArray[np.float64]], band: tuple[float, float],
                      corners: Sequence[float], responses: Sequence[Response]) -> float:
-    """∫ psd(f)·|H(f)|² df over ``band``, adaptive quadrature in ln f (see :func:`_csd_integral`)."""
+    """∫ psd(f)·|H(f)|² df over ``band``, adaptive quadrature in ln f (see :func:`csd_integral`)."""
     def integrand(t: float) -> float:
         f = np.array([math.exp(t)])
         h2 = 1.0
@@ -80,7 +80,7 @@ def _scalar_integral(psd: Callable[[NDArray[np.float64]], NDArray[np.float64]], 
     return total
 
 
-def _projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
+def projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
                front: Sequence[Response]) -> tuple[RandomProfile | None, float, float]:
     """The sensed vibration ``w·a`` as a single-axis profile, its mean square per unit of the
     triaxial one's, and the relative error of the tabulation in what the sites see (0: exact)."""
@@ -115,7 +115,7 @@ def _projected(profile: TriaxialProfile, w: NDArray[np.float64], sensor: Sensor,
         if not resp and err:
             continue
         exact_ratio = _scalar_integral(lambda x: profile.psd_along(w, x), profile.band, f.tolist(), resp) / m_u
-        tab = effective_rms((fd, pd), resp, *profile.band, points_hz=[fn for fn, _ in _resonances(resp)]) ** 2
+        tab = effective_rms((fd, pd), resp, *profile.band, points_hz=[fn for fn, _ in resonances(resp)]) ** 2
         tab /= prof.mean_square_g2
         err = max(err, abs(tab / exact_ratio - 1.0))
     return prof, ratio, err

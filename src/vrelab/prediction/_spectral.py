@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     pass
 
 
-def _spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
+def spectral(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
               rate: bool = True) -> tuple[float, float]:
     """(σ² [g²], ν0 [Hz]) of the profile seen through ``responses``.
 
@@ -54,7 +54,7 @@ def _spectral_of(freq: bytes, psd: bytes, band: tuple[float, ...], keys: tuple[t
 
 def _spectral_at(freq: bytes, psd: bytes, band: Sequence[float], responses: Sequence[Response],
                  points_hz: Sequence[float], rate: bool) -> tuple[float, float]:
-    """:func:`_spectral` of the profile's table ``(freq, psd)`` (float64 bytes) over ``band``."""
+    """:func:`spectral` of the profile's table ``(freq, psd)`` (float64 bytes) over ``band``."""
     from vrelab.models import dynamics
 
     lo, hi = band
@@ -69,9 +69,9 @@ def _spectral_at(freq: bytes, psd: bytes, band: Sequence[float], responses: Sequ
 @dataclass(frozen=True)
 class _HoldWeight:
     """The non-negative weight |W(f)| under which the hold's correlation integrals are spectral
-    integrals ∫S·|H·W|² (:func:`_hold_correlation`): ``sqrt(1 - sinc(2f·hold))`` for the
+    integrals ∫S·|H·W|² (:func:`hold_correlation`): ``sqrt(1 - sinc(2f·hold))`` for the
     correlation averaged over the hold, ``sqrt(2)·|sin(πf·hold)|`` for ``1 - ρ(hold)``. A frozen
-    dataclass, so :func:`_spectral` remembers its integrals as it does a stage's."""
+    dataclass, so :func:`spectral` remembers its integrals as it does a stage's."""
 
     hold_s: float
     end: bool
@@ -82,16 +82,16 @@ class _HoldWeight:
         return np.sqrt(np.maximum(1.0 - np.sinc(2.0 * np.asarray(f) * self.hold_s), 0.0)).astype(complex)
 
 
-def _hold_correlation(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
+def hold_correlation(profile: RandomProfile, responses: Sequence[Response], points_hz: Sequence[float],
                       hold_s: float, m0: float) -> tuple[float, float]:
     """(ρ̄, 1 - ρ(hold)) of the profile seen through ``responses``: the motion's correlation
     averaged over the hold, ``ρ̄ = ∫S·|H|²·sinc(2f·hold)df/σ²``, and ``1 - ρ(hold) =
     ∫S·|H|²·(1 - cos 2πf·hold)df/σ²``, both as ∫S·|H·W|² with a non-negative weight |W|²
-    (1 - sinc and 2·sin², :class:`_HoldWeight`) so the one spectral integral (:func:`_spectral`)
+    (1 - sinc and 2·sin², :class:`_HoldWeight`) so the one spectral integral (:func:`spectral`)
     computes them."""
     if not m0 > 0:
         return math.nan, math.nan
-    one_minus_mean, _ = _spectral(profile, [*responses, _HoldWeight(hold_s, False).response], points_hz, rate=False)
-    one_minus_end, _ = _spectral(profile, [*responses, _HoldWeight(hold_s, True).response], points_hz, rate=False)
+    one_minus_mean, _ = spectral(profile, [*responses, _HoldWeight(hold_s, False).response], points_hz, rate=False)
+    one_minus_end, _ = spectral(profile, [*responses, _HoldWeight(hold_s, True).response], points_hz, rate=False)
     return 1.0 - one_minus_mean / m0, one_minus_end / m0
 

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True)
-class _Site:
+class StageSite:
     """A stage with a mean shift (its own ``mean_shift``, or the numerical fallback), and what
     reaches it: the linear stages before it, the offsets added before it, and the static level
     reaching it with no vibration."""
@@ -27,10 +27,10 @@ class _Site:
 
 
 @dataclass(frozen=True)
-class _Reading:
+class Reading:
     """A sensor's stages, read once for the analytic model at one static field."""
 
-    sites: tuple[_Site, ...]
+    sites: tuple[StageSite, ...]
     proof_mass: tuple[Response, ...]  # the mechanical responses (resonance)
     output: tuple[Response, ...]  # every linear response
     unmodelled: tuple[str, ...]  # stages with memory that say nothing of their mean
@@ -39,7 +39,7 @@ class _Reading:
     reference_note: str | None  # where the rails clip that reading
 
 
-def _read_stages(stages: Sequence[Any], g0: float) -> _Reading:
+def read_stages(stages: Sequence[Any], g0: float) -> Reading:
     """Walk the stages in order, as the signal goes (SPEC 1.3), asking each what it does
     (:mod:`vrelab.sensor.meanshift`): a linear stage (``response``) shapes what every later
     stage sees, an offset (``static_shift_g``) moves the static level of every later stage, a
@@ -55,7 +55,7 @@ def _read_stages(stages: Sequence[Any], g0: float) -> _Reading:
     mechanical: list[Response] = []
     offset = 0.0
     level, note = g0, None
-    sites: list[_Site] = []
+    sites: list[StageSite] = []
     unmodelled: list[str] = []
     numerical: list[str] = []
     for st in stages:
@@ -77,22 +77,22 @@ def _read_stages(stages: Sequence[Any], g0: float) -> _Reading:
                 continue
             numerical.append(type(st).__name__)
             st = Numerical(st)
-        sites.append(_Site(st, tuple(responses), offset, level))
+        sites.append(StageSite(st, tuple(responses), offset, level))
         if hasattr(st, "vibration_off"):
             level, why = st.vibration_off(level)
             note = note or why
-    return _Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled), tuple(numerical),
+    return Reading(tuple(sites), tuple(mechanical), tuple(responses), tuple(unmodelled), tuple(numerical),
                     level, note)
 
 
 
-def _needs_rate(site: _Site) -> bool:
+def needs_rate(site: StageSite) -> bool:
     """Whether the stage at ``site`` needs Rice's crossing rate and the motion's correlation over
     its hold (over-range protection says so)."""
     return bool(getattr(site.stage, "needs_crossing_rate", False))
 
 
-def _clip_where(sensor: Any) -> str:
+def clip_position_of(sensor: Any) -> str:
     pos = str(getattr(sensor, "clip_position", "output") or "output")
     return "output" if pos == "output" else "proof-mass"
 

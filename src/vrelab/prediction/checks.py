@@ -16,8 +16,8 @@ if TYPE_CHECKING:
 
 # a preset's assumed-parameter u that happens to be tiny (the over-range threshold's, far below
 # the threshold: 1e-13 g) would flag every filtered prediction for a sub-µg bound.
-_TOLERANCE_REL = 0.01
-_TOLERANCE_ABS_G = 1e-6
+TOLERANCE_REL = 0.01
+TOLERANCE_ABS_G = 1e-6
 MODEL_SOURCE = "model approximation (model_error_g, rectangular)"
 
 
@@ -33,10 +33,10 @@ def judged(lv: LevelPrediction) -> LevelPrediction:
         lv = dataclasses.replace(lv, u_vre_g=math.hypot(lv.u_vre_g, u_model), u_sources_g=sources)
     else:
         judged_u = lv.u_vre_g
-    stated = max(judged_u or 0.0, _TOLERANCE_REL * abs(lv.vre_g), _TOLERANCE_ABS_G)
+    stated = max(judged_u or 0.0, TOLERANCE_REL * abs(lv.vre_g), TOLERANCE_ABS_G)
     if lv.model_error_g <= stated:
         return lv
-    what = "u_vre_g" if judged_u is not None and judged_u >= _TOLERANCE_REL * abs(lv.vre_g) else "1 % of |VRE|"
+    what = "u_vre_g" if judged_u is not None and judged_u >= TOLERANCE_REL * abs(lv.vre_g) else "1 % of |VRE|"
     return dataclasses.replace(lv, valid=False, notes=(*lv.notes, (
         f"the rails sit after filters that follow the nonlinearity: they see its non-Gaussian output, here "
         f"modelled as Gaussian with an error up to {lv.model_error_g * 1e3:.3g} mg, more than {what} "
@@ -67,7 +67,7 @@ def cancellation(shares: Mapping[str, float], vre_g: float) -> str | None:
     number is not valid — float64 arithmetic cannot hold the model there."""
     big = max((abs(v) for v in shares.values() if math.isfinite(v)), default=0.0)
     lost = _ROUNDING_ULPS * float(np.finfo(np.float64).eps) * big
-    if not math.isfinite(vre_g) or lost > max(_TOLERANCE_REL * abs(vre_g), _TOLERANCE_ABS_G):
+    if not math.isfinite(vre_g) or lost > max(TOLERANCE_REL * abs(vre_g), TOLERANCE_ABS_G):
         return (f"the shares (up to {big:.3g} g) cancel to {vre_g:.3g} g, beyond what float64 arithmetic holds "
                 f"(±{lost:.2g} g): the coefficients or levels are beyond the model's arithmetic")
     return None

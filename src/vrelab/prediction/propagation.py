@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
-from vrelab.prediction.checks import _TOLERANCE_ABS_G, _TOLERANCE_REL
+from vrelab.prediction.checks import TOLERANCE_ABS_G, TOLERANCE_REL
 from vrelab.prediction.results import LevelPrediction, Prediction
 from vrelab.profiles import RandomProfile, SineOnRandom
 
@@ -314,7 +314,7 @@ def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], s
 # spread for a number nobody bounded: a rail's headroom, a corner's convention are of this order).
 PROBE_REL = 0.1
 # The parameters only a vibration off the input axis reaches (SPEC 1.6; the triaxial prediction's).
-_OFF_AXIS = ("cross_axis_", "kip_", "kio_", "kpp_", "koo_", "kpo_")
+OFF_AXIS = ("cross_axis_", "kip_", "kio_", "kpp_", "koo_", "kpo_")
 
 
 def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
@@ -336,7 +336,7 @@ def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64],
         if x is None:
             continue
         if x == 0:
-            if not name.startswith(_OFF_AXIS):  # (off-axis terms: a single-axis vibration does not reach them)
+            if not name.startswith(OFF_AXIS):  # (off-axis terms: a single-axis vibration does not reach them)
                 zero.append(name)
             continue
         probed.append(f"{name} = {x:.6g}")
@@ -348,7 +348,7 @@ def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64],
             except ValueError:  # outside its domain (a rail moved across the static field)
                 moves.append(None)
         for i, lv in enumerate(levels_out):
-            stated = max(lv.u_vre_g or 0.0, _TOLERANCE_REL * abs(lv.vre_g), _TOLERANCE_ABS_G)
+            stated = max(lv.u_vre_g or 0.0, TOLERANCE_REL * abs(lv.vre_g), TOLERANCE_ABS_G)
             ends = [m[i] for m in moves if m is not None]
             move = max((abs(e - lv.vre_g) for e in ends), default=math.inf) if len(ends) == 2 else math.inf
             if move > stated:

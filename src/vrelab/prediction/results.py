@@ -26,6 +26,18 @@ class LevelPrediction:
     :func:`_level`). ``model_error_g`` [g] bounds what the remaining approximation (rails after
     filters that follow the nonlinearity) may add: 0 where polynomial and rails are evaluated
     exactly; ``valid`` is False where it may exceed ``u_vre_g`` (or, without one, 1 % of |VRE|).
+
+    Off the input axis (a vibration along a direction, a triaxial one or a static vector: SPEC
+    1.6; None otherwise): ``shares`` also hold the cross terms after the rails and over-range
+    (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``, in ``vre_g``), ``rms_g`` is the
+    total rms; ``axis_rms_g``: the vibration's rms along x, y, z at this level;
+    ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis senses, before its dynamics;
+    ``w_eff = w + 2Kg``: the static vector across the cross terms adds a sensitivity to the
+    other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x, y, z at the proof mass;
+    ``cross_pass``: the factor the rails and over-range pass the cross terms' mean with;
+    ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``: the cross terms'
+    part of ``model_error_g`` (what their first-order pass through the rails and over-range may
+    miss, and their move of the polynomial's input).
     """
 
     rms_g: float
@@ -49,6 +61,13 @@ class LevelPrediction:
     # valid apart from the judgement of model_error_g against a u (:func:`judged`): a caller
     # with its own u (identify, each level's measured u) judges the bound itself
     valid_otherwise: bool = True
+    # off the input axis only (SPEC 1.6, see above): None for a vibration along it
+    sensed_rms_g: float | None = None
+    axis_rms_g: tuple[float, ...] | None = None
+    proof_mass_cov_g2: tuple[tuple[float, ...], ...] | None = None
+    cross_pass: float | None = None
+    cross_unpassed_g: float | None = None
+    cross_error_g: float | None = None
 
     @property
     def vrc_ug_per_g2(self) -> float:
@@ -87,26 +106,38 @@ class LevelPrediction:
             valid=self.valid,
             notes=list(self.notes),
         )
+        if self.sensed_rms_g is not None:  # off the input axis
+            d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g),
+                     axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g or ()],
+                     proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2 or ()],
+                     cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g),
+                     cross_error_g=finite_or_none(self.cross_error_g))
         return d
 
 
 @dataclass(frozen=True)
 class Prediction:
-    """The analytic VRE of a sensor at each level of one excitation."""
+    """The analytic VRE of a sensor at each level of one excitation.
+
+    ``excitation``: off the input axis (SPEC 1.6), what the conditions carry of the vibration
+    (kind, per-axis rms per unit total rms, coherences and phases, or a sine's direction); None
+    along it. Its ``to_dict`` then has ``kind`` "triaxial-prediction".
+    """
 
     conditions: Conditions
     levels: tuple[LevelPrediction, ...]
     notes: tuple[str, ...] = field(default=())
     # every vre_g is the mean output with vibration less this reading (SPEC 1.5) [g]
     vibration_off_g: float = math.nan
+    excitation: Mapping[str, Any] | None = None
 
     @property
     def valid(self) -> bool:
         return all(lv.valid for lv in self.levels)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "kind": "prediction",
+        d = {
+            "kind": "prediction" if self.excitation is None else "triaxial-prediction",
             "conditions": self.conditions.to_dict(),
             "reference": REFERENCE,
             "vibration_off_g": finite_or_none(self.vibration_off_g),
@@ -114,4 +145,7 @@ class Prediction:
             "valid": self.valid,
             "notes": list(self.notes),
         }
+        if self.excitation is not None:
+            d["excitation"] = dict(self.excitation)
+        return d
 

@@ -59,10 +59,10 @@ from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
-from vrelab.prediction._spectral import _hold_correlation, _spectral
-from vrelab.prediction._stages import _clip_where, _needs_rate, _read_stages, _Reading
+from vrelab.prediction._spectral import hold_correlation, spectral
+from vrelab.prediction._stages import Reading, clip_position_of, needs_rate, read_stages
 from vrelab.prediction.checks import cancellation, judged, tilt_note
-from vrelab.prediction.propagation import _OFF_AXIS, propagation, unstated_check
+from vrelab.prediction.propagation import OFF_AXIS, propagation, unstated_check
 from vrelab.prediction.results import LevelPrediction, Prediction
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.sensor.meanshift import NUMERICAL_SHARE, SHARES, VRE_SHARES, Done, Drive, Motion, Response, Site
@@ -193,8 +193,8 @@ def predict(
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
     _check_time(sensor, excitation, levels_arr.size)
-    reading = _read_stages(sensor.stages(), g0)
-    clip_where = _clip_where(sensor)
+    reading = read_stages(sensor.stages(), g0)
+    clip_where = clip_position_of(sensor)
     notes: list[str] = []
     out: list[LevelPrediction] = []
     fn_hz = getattr(sensor, "fn_hz", None)
@@ -203,13 +203,13 @@ def predict(
         m0_drive = excitation.mean_square_g2
         # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
         # only the over-range site uses Rice's crossing rate
-        seen = [_spectral(excitation, site.responses, points, rate=_needs_rate(site))
+        seen = [spectral(excitation, site.responses, points, rate=needs_rate(site))
                 for site in reading.sites]
-        rho = [_hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
-               if _needs_rate(site) else (math.nan, math.nan)
+        rho = [hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
+               if needs_rate(site) else (math.nan, math.nan)
                for site, (m0, _) in zip(reading.sites, seen)]
-        m0_m, _ = _spectral(excitation, reading.proof_mass, points, rate=False)
-        m0_out, _ = _spectral(excitation, reading.output, points, rate=False)
+        m0_m, _ = spectral(excitation, reading.proof_mass, points, rate=False)
+        m0_out, _ = spectral(excitation, reading.output, points, rate=False)
         for rms in levels_arr:
             scale = float(rms) ** 2 / m0_drive
             sites = [Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
@@ -223,14 +223,14 @@ def predict(
         rand, tones = excitation.random, excitation.tones
         freqs = tuple(t.freq_hz for t in tones)
         # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
-        seen_tones = [(_spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
+        seen_tones = [(spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
                 for site in reading.sites]
         # the held stretches' mean from the random part's correlation (the tones left out of it)
-        rho = [_hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
-               if _needs_rate(site) else (math.nan, math.nan)
+        rho = [hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
+               if needs_rate(site) else (math.nan, math.nan)
                for site, ((m0, _), _) in zip(reading.sites, seen_tones)]
-        m0_m, _ = _spectral(rand, reading.proof_mass, points)
-        m0_out, _ = _spectral(rand, reading.output, points)
+        m0_m, _ = spectral(rand, reading.proof_mass, points)
+        m0_out, _ = spectral(rand, reading.output, points)
         gain_m = [_gain(f, reading.proof_mass) for f in freqs]
         gain_out = [_gain(f, reading.output) for f in freqs]
         motions: list[Motion] = []
@@ -285,7 +285,7 @@ def predict(
     cond = dataclasses.replace(base, extra={**dict(base.extra), "clip_position": clip_where})
     # the off-axis terms' assumed u (cross-axis sensitivity, IEEE 1293 coupling): a vibration along
     # the axis does not reach them (the triaxial prediction carries them)
-    on_axis = {k: v for k, v in (getattr(sensor, "uncertainty", None) or {}).items() if not k.startswith(_OFF_AXIS)}
+    on_axis = {k: v for k, v in (getattr(sensor, "uncertainty", None) or {}).items() if not k.startswith(OFF_AXIS)}
     if getattr(sensor, "covariance", None) or on_axis:
         if len(on_axis) < len(getattr(sensor, "uncertainty", None) or {}):
             sensor = dataclasses.replace(sensor, uncertainty=on_axis)
@@ -331,7 +331,7 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
     rms = float(V.non_negative("rms_g", rms_g))
     V.one_of("shape", shape, ("gaussian", "sine"))
     V.one_of("kind", kind, KINDS)
-    reading = _read_stages(stages, g0)
+    reading = read_stages(stages, g0)
     if reading.output:
         raise ValueError("memoryless_level takes memoryless stages; a chain with linear stages needs predict")
     motions = [Motion(rms, math.nan)] * len(reading.sites)
@@ -345,7 +345,7 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
 
 
 def _level(
-    reading: _Reading,
+    reading: Reading,
     rms_g: float,
     freq_hz: float | None,
     g0: float,

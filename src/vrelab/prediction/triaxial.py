@@ -24,7 +24,7 @@ filters, offset, ...) on ``y``. So
   order: their mean times the rails' response to a shift of their input, ``∂E[out]/∂(shift)``
   (the probability of being inside, for censored rails), plus the part of their fluctuation
   the rails see (its second Hermite component in the rails' Gaussian input, through the filters
-  between: :func:`_rails_pass`, :func:`_filtered_he2`), plus the static cross terms ``K·g_j·g_k``
+  between: :func:`rails_pass`, :func:`filtered_he2`), plus the static cross terms ``K·g_j·g_k``
   moving the rails' working point; and times the time not held, ``1 - rate·hold``. What that
   misses (second order across a rail, the rails' input read as Gaussian, a truncated rail's
   correlation with the fluctuation, the over-range rate's change) is bounded in
@@ -49,27 +49,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, Sequence, cast
+from typing import TYPE_CHECKING, Any, Callable, Literal, Sequence, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _validate as V
-from vrelab._format import finite_or_none
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.prediction._cross import (
     CROSS_SHARES,
-    _filtered_he2,
-    _he2_step,
-    _k_matrix,
-    _overrange_pass,
-    _rails_pass,
-    _read,
+    filtered_he2,
+    he2_step,
+    k_matrix,
+    overrange_pass,
+    rails_pass,
+    read_axis,
 )
-from vrelab.prediction._projection import _csd_integral, _projected
+from vrelab.prediction._projection import csd_integral, projected
 from vrelab.prediction.checks import tilt_note
 from vrelab.prediction.propagation import propagation
 from vrelab.prediction.results import LevelPrediction, Prediction
@@ -94,51 +92,10 @@ _PASS_NOTE = "the cross terms' mean "
 # the rails/holds pass the cross terms' mean unchanged to this (relative): below it no note
 _PASS_TOL = 1e-6
 
-@dataclass(frozen=True)
-class TriaxialLevelPrediction(LevelPrediction):
-    """One level (total rms ``rms_g``) of a triaxial prediction.
-
-    ``shares``: the single-axis mechanisms of the sensed vibration (``clip_g``,
-    ``nonlinearity_g``, ``overrange_g``, each rail alone) and the cross terms after the rails and
-    over-range (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``); ``vre_g`` is
-    ``clip_g + nonlinearity_g + overrange_g + cross_g``. ``axis_rms_g``: the vibration's rms
-    along x, y, z at this level; ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis
-    senses, before its dynamics; ``w_eff = w + 2Kg``: the static vector across the cross terms
-    adds a sensitivity to the other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x,
-    y, z at the proof mass; ``cross_pass``: the factor the rails and over-range pass the cross
-    terms' mean with; ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``:
-    the cross terms' part of ``model_error_g`` (what their first-order pass through the rails and
-    over-range may miss, and their move of the polynomial's input).
-    """
-
-    sensed_rms_g: float = 0.0
-    axis_rms_g: tuple[float, ...] = ()
-    proof_mass_cov_g2: tuple[tuple[float, ...], ...] = ()
-    cross_pass: float = 1.0
-    cross_unpassed_g: float = 0.0
-    cross_error_g: float = 0.0
-
-    def to_dict(self) -> dict[str, Any]:
-        d = super().to_dict()
-        d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g), axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g],
-                 proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2],
-                 cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g),
-                 cross_error_g=finite_or_none(self.cross_error_g))
-        return d
-
-
-@dataclass(frozen=True)
-class TriaxialPrediction(Prediction):
-    """The analytic VRE of one DUT axis at each total level of a triaxial excitation."""
-
-    excitation: Mapping[str, Any] | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        d = super().to_dict()
-        d["kind"] = "triaxial-prediction"
-        d["excitation"] = dict(self.excitation or {})
-        return d
-
+# The result types before issue 31 (one Prediction, its triaxial fields present when they apply):
+# aliases for one release.
+TriaxialLevelPrediction = LevelPrediction
+TriaxialPrediction = Prediction
 
 
 # --- prediction ---------------------------------------------------------------------------------
@@ -157,14 +114,44 @@ def _level_zero(rms: float, freq_hz: float | None, u0: float) -> LevelPrediction
     return LevelPrediction(rms, 0.0, tilt_note(0.0, u0)[0], zero, 0.0, 0.0, 0.0, 0.0, True, freq_hz=freq_hz)
 
 
+def predict_along(sensor: Sensor, vibration: Any, levels: Sequence[float] | NDArray[np.float64],
+                  static_g: float | ArrayLike, kind: ClipKind, direction: ArrayLike | None) -> Prediction:
+    """:func:`vrelab.prediction.predict` off the input axis: a single-axis profile or one sine
+    frequency along ``direction`` (default: the input axis), or a TriaxialProfile/TriaxialSine as
+    given; a scalar ``static_g`` along the input axis, else the vector. Then :func:`_predict`."""
+    from vrelab.profiles import RandomProfile, SineOnRandom
+
+    i = sensor.triad[0]  # refuses an axis that is none of x, y, z (no triad)
+    if isinstance(vibration, (TriaxialProfile, TriaxialSine)):
+        if direction is not None:
+            raise ValueError("direction applies to a single-axis vibration: a TriaxialProfile or TriaxialSine carries "
+                             "its own directions")
+        tri: Excitation = vibration
+    else:
+        # the direction is checked and normalised where the vibration is built (triaxial.profile.unit_vector)
+        d: Any = direction if direction is not None else tuple(1.0 if j == i else 0.0 for j in range(3))
+        if isinstance(vibration, RandomProfile):
+            tri = TriaxialProfile.along(vibration, d)
+        elif not isinstance(vibration, SineOnRandom) and np.size(vibration) == 1:
+            tri = TriaxialSine(float(np.ravel(np.asarray(vibration, dtype=np.float64))[0]), d, 1.0)
+        else:
+            raise ValueError("a vibration off the input axis (a direction or a static vector) takes a random profile "
+                             "(no +sine tones) or one sine frequency: sine-on-random has no triaxial model")
+    static = [float(cast(float, static_g)) if j == i else 0.0 for j in range(3)] if np.ndim(static_g) == 0 else static_g
+    return _predict(sensor, tri, levels, static, kind, _judged)
+
+
 def predict_triaxial(
     sensor: Sensor,
     excitation: TriaxialProfile | TriaxialSine,
     levels: Sequence[float] | NDArray[np.float64],
     static_g: ArrayLike = (0.0, 0.0, 1.0),
     kind: ClipKind = DEFAULT_CLIP_KIND,
-) -> TriaxialPrediction:
-    r"""Predict the VRE of one DUT axis under a triaxial vibration, by mechanism, without simulating.
+) -> Prediction:
+    r"""Deprecated (one release): :func:`vrelab.predict` takes a triaxial vibration and a static
+    vector, ``vrelab.predict(sensor, excitation, levels, static_g=(gx, gy, gz))``.
+
+    Predict the VRE of one DUT axis under a triaxial vibration, by mechanism, without simulating.
 
     Parameters
     ----------
@@ -184,7 +171,7 @@ def predict_triaxial(
 
     Returns
     -------
-    TriaxialPrediction
+    Prediction
         Per level: ``vre_g``, the single-axis shares of the sensed vibration and the cross
         terms' (``cross_kip_g`` ...), ``model_error_g``, ``u_vre_g`` where the sensor carries
         parameter uncertainties, ``valid`` and ``notes``; the conditions (excitation with its
@@ -204,6 +191,11 @@ def predict_triaxial(
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
     .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.prediction.single.predict`.
     """
+    import warnings
+
+    warnings.warn("predict_triaxial() is deprecated and will be removed in the next release: call "
+                  "vrelab.predict(sensor, excitation, levels, static_g=(gx, gy, gz)), one predict for one axis and three",
+                  DeprecationWarning, stacklevel=2)
     return _predict(sensor, excitation, levels, static_g, kind, _judged)
 
 
@@ -214,7 +206,7 @@ def _judged(lv: LevelPrediction) -> LevelPrediction:
     from vrelab.prediction import judged
 
     out = judged(lv)
-    cross = float(getattr(lv, "cross_error_g", 0.0))
+    cross = float(lv.cross_error_g or 0.0)
     if out.valid or not lv.valid or not cross > 0 or len(out.notes) != len(lv.notes) + 1:
         return out
     reason = out.notes[-1]
@@ -229,7 +221,7 @@ def _judged(lv: LevelPrediction) -> LevelPrediction:
 
 
 def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
-             judged: Callable[[LevelPrediction], LevelPrediction] | None) -> TriaxialPrediction:
+             judged: Callable[[LevelPrediction], LevelPrediction] | None) -> Prediction:
     if not isinstance(excitation, (TriaxialProfile, TriaxialSine)):
         raise ValueError(f"a triaxial prediction needs a TriaxialProfile or TriaxialSine, got {type(excitation).__name__}")
     levels_arr = V.vibration_level("levels", np.atleast_1d(np.asarray(levels, dtype=np.float64)))
@@ -238,7 +230,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
     V.one_of("kind", kind, KINDS)
     g = _static_vector(static_g)
     w = sensor.sensitivity_row
-    kmat = _k_matrix(sensor)
+    kmat = k_matrix(sensor)
     # the cross terms' part linear in the vibration, 2gᵀK·x (a static vector across K: a
     # sensitivity to the other axes), joins the sensed vibration: the rails and over-range see it
     # exactly as the rest of u; what the polynomial then makes of it is bounded below
@@ -246,7 +238,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
     triad = sensor.triad
     u0 = float(w @ g)
     static_cross = float(g @ kmat @ g)
-    front, after = _read(sensor.stages())
+    front, after = read_axis(sensor.stages())
     bare = dataclasses.replace(sensor, covariance=None, uncertainty={})  # u below, over the whole prediction
     notes: list[str] = []
     interp_err = 0.0
@@ -255,11 +247,11 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
     if isinstance(excitation, TriaxialProfile):
         shape: Literal["gaussian", "sine"] = "gaussian"
         m_tot = excitation.mean_square_g2
-        m0, mh = _csd_integral(excitation, front)
+        m0, mh = csd_integral(excitation, front)
         if not math.isclose(float(np.trace(m0)), m_tot, rel_tol=1e-8):
             raise AssertionError(f"trace ∫S df by quadrature {np.trace(m0)!r} is not the profile's {m_tot!r}")
         moments = mh / m_tot  # E[b bᵀ] per unit total mean square
-        sensed, ratio, interp_err = _projected(excitation, w_eff, sensor, front)
+        sensed, ratio, interp_err = projected(excitation, w_eff, sensor, front)
         sensed_hz: float | None = None
         frac = np.sqrt(excitation.axis_mean_square_g2 / m_tot)
         cond_profile = (f"{excitation.name or 'triaxial random'}, {excitation.band[0]:g}-{excitation.band[1]:g} Hz: "
@@ -295,9 +287,9 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
     if (any_cross and isinstance(excitation, TriaxialProfile) and clips and clips[-1].filtered
             and sensed is not None):
         # the filtered rails' He2 coefficients, and their grid error: the same on a grid twice as fine
-        g_filtered = _filtered_he2(excitation, w_eff, front, clips[-1].responses)
-        finer = _filtered_he2(excitation, w_eff, front, clips[-1].responses,
-                              df_hz=_he2_step(excitation, [*front, *clips[-1].responses]) / 2.0)
+        g_filtered = filtered_he2(excitation, w_eff, front, clips[-1].responses)
+        finer = filtered_he2(excitation, w_eff, front, clips[-1].responses,
+                              df_hz=he2_step(excitation, [*front, *clips[-1].responses]) / 2.0)
         g_err = 2.0 * np.abs(finer - g_filtered)
     for n, rms in enumerate(levels_arr):
         lv_s = single.levels[n] if single is not None else None
@@ -327,7 +319,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             bound += abs(float(memoryless.poly_clip_vre(u0, s_eff, *k, shape=shape))
                          - float(memoryless.poly_clip_vre(u0, s_true, *k, shape=shape)))
         # each term's He2 coefficient in the rails' Z: K·v_j·v_k/σ_u² (v = Σ_b·w_eff) with nothing
-        # between, else K·G_jk (:func:`_filtered_he2`); with two sets of rails the last one's
+        # between, else K·G_jk (:func:`filtered_he2`); with two sets of rails the last one's
         v = cov_b @ w_eff
         var_u = float(w_eff @ v)
         gmat = (g_filtered * float(rms) ** 2 if g_filtered is not None
@@ -340,12 +332,12 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
         if any_cross:
             for site in after:
                 if site.kind == "clip":
-                    dc_, f_, h_, b_ = _rails_pass(lv_s, site, sensor, u0, shape, kind, cross_mean, r_fluct, q_peak,
+                    dc_, f_, h_, b_ = rails_pass(lv_s, site, sensor, u0, shape, kind, cross_mean, r_fluct, q_peak,
                                                   static_cross, sensed_hz, sum(c2.values()))
                     b_ += c2_err * abs(h_)
                     he2 = he2 * dc_ + h_  # a first set of rails' He2 part, through a second one
                 else:
-                    f_, b_ = _overrange_pass(lv_s, site, u0, cross_mean, r_fluct)
+                    f_, b_ = overrange_pass(lv_s, site, u0, cross_mean, r_fluct)
                     dc_, he2 = f_, he2 * f_
                 factor *= f_
                 dc *= dc_
@@ -373,7 +365,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
             lv_notes.append(f"{_PASS_NOTE}({cross_mean * 1e3:.3g} mg) passes the rails/over-range after the "
                             f"nonlinearity times {through:.4g}; what that misses is bounded ({bound * 1e3:.3g} mg, in "
                             "model_error_g)")
-        out.append(TriaxialLevelPrediction(
+        out.append(LevelPrediction(
             rms_g=float(rms), vre_g=vre, tilt_error_deg=tilt, shares=shares,
             sigma_proof_mass_g=base.sigma_proof_mass_g, sigma_output_g=base.sigma_output_g,
             sigma_at_clip_g=base.sigma_at_clip_g, overrange_rate_hz=base.overrange_rate_hz,
@@ -434,7 +426,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
     why0 = tilt_note(0.0, u0)[1]
     if why0 and single is None:
         notes.append(why0.replace("the static field", "the static field of every level"))
-    return TriaxialPrediction(cond, tuple(out), tuple(notes), vibration_off_g=off,
+    return Prediction(cond, tuple(out), tuple(notes), vibration_off_g=off,
                               excitation=_excitation_summary(excitation))
 
 
