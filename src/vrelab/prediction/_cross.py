@@ -97,10 +97,21 @@ def _phi(z: float) -> float:
     return math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
 
 
+@dataclass(frozen=True)
+class CrossMean:
+    """The cross terms at one level as the rails after the nonlinearity see them: their
+    rectified mean ``mean_g`` [g], the rms of their zero-mean part ``r_fluct`` and (sine) its peak
+    ``q_peak``, the static cross terms ``gᵀKg`` and the sum of their He2 coefficients ``c2_total``."""
+
+    mean_g: float
+    r_fluct: float
+    q_peak: float
+    static_cross: float
+    c2_total: float = 0.0
+
+
 def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
-                kind: ClipKind, cross_mean: float, r_fluct: float, q_peak: float,
-                static_cross: float, sine_hz: float | None = None,
-                c2_total: float = 0.0) -> tuple[float, float, float, float]:
+                kind: ClipKind, cross: CrossMean, sine_hz: float | None = None) -> tuple[float, float, float, float]:
     """(dc, factor, he2, bound): what the rails make of the cross terms, to first order in them.
 
     A term ``K·b_j·b_k`` reaches the rails as its mean ``C`` and a zero-mean rest. ``factor``:
@@ -124,6 +135,8 @@ def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: floa
     from vrelab.models import memoryless
     from vrelab.sensor.meanshift import gain_max  # one rule for sup|H| of the filters between
 
+    cross_mean, r_fluct, q_peak = cross.mean_g, cross.r_fluct, cross.q_peak
+    static_cross, c2_total = cross.static_cross, cross.c2_total
     low, high = float(site.stage.low_g), float(site.stage.high_g)
     k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
     c0 = float(memoryless.polynomial(*k)(u0)) + site.offset_g

@@ -160,40 +160,13 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
     assumed_u2 = sum((v**2 for v in sources.values()), np.zeros(n_out))
     weigh = sum((sources[n] ** 2 for n in curved), np.zeros(n_out))
     if curved and np.any(weigh > _CURVED_SHARE * assumed_u2):
-        _assumed_monte_carlo(sensor, excitation, lv, static_g, kind, curved, sources, level_notes, notes,
-                             predictor)
+        _assumed_monte_carlo(_Problem(sensor, excitation, lv, static_g, kind, predictor), curved, sources, level_notes,
+                             notes)
     if names:
-        u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
-        if nonlinear.any():
-            u_mc, outside, lo95, hi95 = _monte_carlo(sensor, excitation, lv, static_g, kind, names, sigma,
-                                                      predictor)
-            for i in np.flatnonzero(nonlinear).tolist():
-                if outside > _MC_OUTSIDE:
-                    level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
-                                          f"parameters' domain in {100 * outside:.0f} % of draws: u_vre_g is not a claim "
-                                          "(the campaign does not bound these parameters)")
-                else:
-                    u_cov[i] = u_mc[i]
-            if outside <= _MC_OUTSIDE:
-                notes.append(f"u_vre_g of the identified parameters by Monte Carlo over their covariance (GUM S1, "
-                             f"{_MC_DRAWS} seeded draws; {100 * outside:.0f} % outside the parameters' domain dropped) "
-                             f"where the VRE is not linear in them ({'; '.join(bent_why)}); 95 % intervals "
-                             + ", ".join(f"[{1e3 * a:.4g}, {1e3 * b:.4g}] mg" for a, b in zip(lo95, hi95)))
-        sources = {IDENTIFIED: u_cov, **sources}
-    u2 = sum((v**2 for v in sources.values()), np.zeros(n_out))
-    if names:
-        notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(names) + ") carried by linear "
-                     "propagation; the model's own approximations are not in it")
-    if assumed:
-        notes.append("u_vre_g carries the assumed uncertainties of parameters no measurement fixed ("
-                     + ", ".join(f"{n} ± {u:.3g}" for n, u in assumed.items()) + ", the sensor file's [uncertainty])")
-    share = {k: float(np.max(np.where(u2 > 0, v**2 / np.where(u2 > 0, u2, 1.0), 0.0))) for k, v in sources.items()}
-    top = sorted((k for k in share if share[k] >= _DOMINANT), key=lambda k: -share[k])
-    if top:
-        notes.append("u_vre_g dominated by " + ", ".join(f"{'assumed ' if k not in (IDENTIFIED, CURVED_SOURCE) else ''}{k} "
-                                                          f"(up to {100 * share[k]:.0f} % of u²)" for k in top)
-                     + "; per source in u_sources_g")
-    return Propagation(np.sqrt(u2), sources, tuple(tuple(n) for n in level_notes), tuple(notes))
+        problem = _Problem(sensor, excitation, lv, static_g, kind, predictor)
+        sources = {IDENTIFIED: _identified_u(problem, names, sigma, jac, nonlinear, bent_why, level_notes, notes),
+                   **sources}
+    return _propagated(sources, names, assumed, level_notes, notes, n_out)
 
 
 # Monte Carlo propagation where the linear one fails: draws, and the fraction of draws outside the
@@ -224,10 +197,64 @@ def _orders(x: float, span: int, name: str) -> list[int]:
     return sorted({min(max(int(round(x)) + s, 1), top) for s in (-span, span)} - {int(round(x))})
 
 
-def _assumed_monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float,
-                         kind: ClipKind, curved: Mapping[str, float], sources: dict[str, NDArray[np.float64]],
-                         level_notes: list[list[str]], notes: list[str],
-                         predictor: Callable[..., Prediction]) -> None:
+def _identified_u(problem: _Problem, names: Sequence[str], sigma: NDArray[np.float64], jac: NDArray[np.float64],
+                  nonlinear: NDArray[np.bool_], bent_why: list[str], level_notes: list[list[str]],
+                  notes: list[str]) -> NDArray[np.float64]:
+    """The identified block's u per level: ``sqrt(J·Σ·Jᵀ)``, or the Monte Carlo's over ``Σ``
+    (:func:`_monte_carlo`) at the levels where the VRE is not linear in the parameters."""
+    u_cov = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, sigma, jac), 0.0))
+    if nonlinear.any():
+        u_mc, outside, lo95, hi95 = _monte_carlo(problem.sensor, problem.excitation, problem.levels,
+                                                  problem.static_g, problem.kind, names, sigma, problem.predictor)
+        for i in np.flatnonzero(nonlinear).tolist():
+            if outside > _MC_OUTSIDE:
+                level_notes[i].append(f"{'; '.join(bent_why)}; a Monte Carlo over the covariance leaves the "
+                                      f"parameters' domain in {100 * outside:.0f} % of draws: u_vre_g is not a claim "
+                                      "(the campaign does not bound these parameters)")
+            else:
+                u_cov[i] = u_mc[i]
+        if outside <= _MC_OUTSIDE:
+            notes.append(f"u_vre_g of the identified parameters by Monte Carlo over their covariance (GUM S1, "
+                         f"{_MC_DRAWS} seeded draws; {100 * outside:.0f} % outside the parameters' domain dropped) "
+                         f"where the VRE is not linear in them ({'; '.join(bent_why)}); 95 % intervals "
+                         + ", ".join(f"[{1e3 * a:.4g}, {1e3 * b:.4g}] mg" for a, b in zip(lo95, hi95)))
+    return np.asarray(u_cov, dtype=np.float64)
+
+
+def _propagated(sources: dict[str, NDArray[np.float64]], names: Sequence[str], assumed: Mapping[str, float],
+                level_notes: list[list[str]], notes: list[str], n_out: int) -> Propagation:
+    """The sources combined in quadrature, with the notes saying which were carried and which dominate."""
+    u2 = sum((v**2 for v in sources.values()), np.zeros(n_out))
+    if names:
+        notes.append("u_vre_g: the identified parameters' covariance (" + ", ".join(names) + ") carried by linear "
+                     "propagation; the model's own approximations are not in it")
+    if assumed:
+        notes.append("u_vre_g carries the assumed uncertainties of parameters no measurement fixed ("
+                     + ", ".join(f"{n} ± {u:.3g}" for n, u in assumed.items()) + ", the sensor file's [uncertainty])")
+    share = {k: float(np.max(np.where(u2 > 0, v**2 / np.where(u2 > 0, u2, 1.0), 0.0))) for k, v in sources.items()}
+    top = sorted((k for k in share if share[k] >= _DOMINANT), key=lambda k: -share[k])
+    if top:
+        notes.append("u_vre_g dominated by " + ", ".join(f"{'assumed ' if k not in (IDENTIFIED, CURVED_SOURCE) else ''}{k} "
+                                                          f"(up to {100 * share[k]:.0f} % of u²)" for k in top)
+                     + "; per source in u_sources_g")
+    return Propagation(np.sqrt(u2), sources, tuple(tuple(n) for n in level_notes), tuple(notes))
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """What is propagated: ``predictor(sensor, excitation, levels, static_g, kind)``, the
+    prediction whose parameters are moved."""
+
+    sensor: Any
+    excitation: Any
+    levels: NDArray[np.float64]
+    static_g: float
+    kind: ClipKind
+    predictor: Callable[..., Prediction]
+
+
+def _assumed_monte_carlo(problem: _Problem, curved: Mapping[str, float], sources: dict[str, NDArray[np.float64]],
+                         level_notes: list[list[str]], notes: list[str]) -> None:
     """Cross-check the shares of the assumed parameters in which the VRE is curved (GUM
     Supplement 1): ``_MC_ASSUMED_DRAWS`` seeded joint draws, each parameter independent and
     uniform: over the bound ``±√3·u`` its assumed standard uncertainty stands for (an assumption
@@ -240,6 +267,8 @@ def _assumed_monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.flo
     ``_MC_OUTSIDE`` of the draws leave the parameters' domain, the level's u is no claim."""
     from vrelab.sensor.parameters import parameter, with_parameters
 
+    sensor, excitation, levels, static_g, kind = problem.sensor, problem.excitation, problem.levels, problem.static_g, problem.kind
+    predictor = problem.predictor
     rng = np.random.default_rng(20261128)
     names = list(curved)
     centre = {n: float(parameter(sensor, n) or 0.0) for n in names}

@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, Sequence
 
 import numpy as np
@@ -113,6 +114,102 @@ def _check_time(sensor: Sensor, excitation: Any, n_levels: int) -> None:
     n_u = len(getattr(sensor, "uncertainty", None) or {}) + (len(cov["params"]) if cov else 0)
     _budget.check_prediction(f"a prediction of {n_levels} levels" + (f" at {n_freqs} frequencies" if n_freqs > 1 else ""),
                              float(n_levels) * n_freqs * (1 + 4 * n_u))
+
+
+def _random_levels(reading: Reading, excitation: RandomProfile, levels_arr: NDArray[np.float64], g0: float,
+                   kind: ClipKind, points: list[float]) -> tuple[list[LevelPrediction], str, list[str]]:
+    """Each level of a random drive (Gaussian): the spectral integrals at each site once, scaled
+    to each level; the levels, the vibration's text and the notes."""
+    notes: list[str] = []
+    out: list[LevelPrediction] = []
+    m0_drive = excitation.mean_square_g2
+    # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
+    # only the over-range site uses Rice's crossing rate
+    seen = [spectral(excitation, site.responses, points, rate=needs_rate(site))
+            for site in reading.sites]
+    rho = [hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
+           if needs_rate(site) else (math.nan, math.nan)
+           for site, (m0, _) in zip(reading.sites, seen)]
+    m0_m, _ = spectral(excitation, reading.proof_mass, points, rate=False)
+    m0_out, _ = spectral(excitation, reading.output, points, rate=False)
+    for rms in levels_arr:
+        scale = float(rms) ** 2 / m0_drive
+        sites = [Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
+                 for (m0, nu0), r in zip(seen, rho)]
+        out.append(_level(_Walk(reading, g0, kind, "gaussian"), float(rms), None, sites,
+                          math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
+    text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
+    notes.append("random drive assumed Gaussian (a clipped or high-kurtosis drive needs `simulate`)")
+    return out, text, notes
+
+
+def _sine_on_random_levels(reading: Reading, excitation: SineOnRandom, levels_arr: NDArray[np.float64], g0: float,
+                           kind: ClipKind, points: list[float]) -> tuple[list[LevelPrediction], str, list[str]]:
+    """Each level of a sine-on-random drive: the random part as a random drive and each tone
+    through its own gain, scaled together; the levels, the vibration's text and the notes."""
+    notes: list[str] = []
+    out: list[LevelPrediction] = []
+    rand, tones = excitation.random, excitation.tones
+    freqs = tuple(t.freq_hz for t in tones)
+    # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
+    seen_tones = [(spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
+            for site in reading.sites]
+    # the held stretches' mean from the random part's correlation (the tones left out of it)
+    rho = [hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
+           if needs_rate(site) else (math.nan, math.nan)
+           for site, ((m0, _), _) in zip(reading.sites, seen_tones)]
+    m0_m, _ = spectral(rand, reading.proof_mass, points)
+    m0_out, _ = spectral(rand, reading.output, points)
+    gain_m = [_gain(f, reading.proof_mass) for f in freqs]
+    gain_out = [_gain(f, reading.output) for f in freqs]
+    motions: list[Motion] = []
+    for rms in levels_arr:
+        r = float(rms) / excitation.grms  # the scaling rule: PSD × r², tones × r
+
+        def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
+                   ) -> Motion:
+            # noqa below: motion() is called within this iteration only, so r is the current level's
+            return Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
+                           *rh)
+
+        sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen_tones, rho)]
+        motions += sites
+        out.append(_level(_Walk(reading, g0, kind, "sine-on-random"), float(rms), None, sites,
+                          motion(m0_m, 0.0, gain_m).rms_g, motion(m0_out, 0.0, gain_out).rms_g))
+    text = excitation.describe().rsplit(",", 1)[0] + (f" ({excitation.name})" if excitation.name else "")
+    notes.append("random part assumed Gaussian; tones with independent uniform phases (a random-phase "
+                 "ensemble: the prediction is the average over the tones' phases)")
+    for fa, fb, p, q in _commensurate(freqs):
+        notes.append(f"tones at {fa:g} and {fb:g} Hz are harmonics of one frequency ({p}:{q}): a machine holds "
+                     "their relative phase, and a fixed phase can move the clipping and odd-order shares away "
+                     "from this phase average")
+    from vrelab.models.tones import MAX_GRID, MC_DRAWS, nodes_per_tone
+
+    if any(math.prod(nodes_per_tone(m.tone_peaks_g, m.sigma_g)) > MAX_GRID for m in motions):
+        notes.append(f"several strong tones: phase averages by Monte Carlo over {MC_DRAWS} seeded draws "
+                     "(standard error 0.2 % of their spread over the phases)")
+    return out, text, notes
+
+
+def _sine_levels(reading: Reading, excitation: float | Sequence[float], levels_arr: NDArray[np.float64], g0: float,
+                 kind: ClipKind) -> tuple[list[LevelPrediction], str, list[str]]:
+    """Each level at each sine frequency: ``rms·|H(f)|`` at each site; the levels, the
+    vibration's text and the notes (none)."""
+    notes: list[str] = []
+    out: list[LevelPrediction] = []
+    sine_hz = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
+    for f in sine_hz:
+        f = float(f)
+        # |H(f)| at each site, the proof mass and the output, once for every level: a sine's
+        # rms there is rms·|H(f)| (vrelab.models.dynamics.rms_through, the same product)
+        gains = [_gain(f, site.responses) for site in reading.sites]
+        at_mass, at_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
+        for rms in levels_arr:
+            sites = [Motion(float(rms) * g, f) for g in gains]
+            out.append(_level(_Walk(reading, g0, kind, "sine"), float(rms), f, sites, float(rms) * at_mass,
+                              float(rms) * at_out))
+    text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
+    return out, text, notes
 
 
 def predict(
@@ -195,83 +292,14 @@ def predict(
     _check_time(sensor, excitation, levels_arr.size)
     reading = read_stages(sensor.stages(), g0)
     clip_where = clip_position_of(sensor)
-    notes: list[str] = []
-    out: list[LevelPrediction] = []
     fn_hz = getattr(sensor, "fn_hz", None)
+    points = [float(fn_hz)] if fn_hz else []
     if isinstance(excitation, RandomProfile):
-        points = [float(fn_hz)] if fn_hz else []
-        m0_drive = excitation.mean_square_g2
-        # per unit drive mean square: σ²/m0 and ν0 at each site, at the proof mass and output
-        # only the over-range site uses Rice's crossing rate
-        seen = [spectral(excitation, site.responses, points, rate=needs_rate(site))
-                for site in reading.sites]
-        rho = [hold_correlation(excitation, site.responses, points, float(site.stage.hold_s), m0)
-               if needs_rate(site) else (math.nan, math.nan)
-               for site, (m0, _) in zip(reading.sites, seen)]
-        m0_m, _ = spectral(excitation, reading.proof_mass, points, rate=False)
-        m0_out, _ = spectral(excitation, reading.output, points, rate=False)
-        for rms in levels_arr:
-            scale = float(rms) ** 2 / m0_drive
-            sites = [Motion(math.sqrt(m0 * scale), nu0, rho_mean=r[0], one_minus_rho_hold=r[1])
-                     for (m0, nu0), r in zip(seen, rho)]
-            out.append(_level(reading, float(rms), None, g0, kind, "gaussian", sites,
-                              math.sqrt(m0_m * scale), math.sqrt(m0_out * scale)))
-        text = excitation.describe().split(",")[0] + (f" ({excitation.name})" if excitation.name else "")
-        notes.append("random drive assumed Gaussian (a clipped or high-kurtosis drive needs `simulate`)")
+        out, text, notes = _random_levels(reading, excitation, levels_arr, g0, kind, points)
     elif isinstance(excitation, SineOnRandom):
-        points = [float(fn_hz)] if fn_hz else []
-        rand, tones = excitation.random, excitation.tones
-        freqs = tuple(t.freq_hz for t in tones)
-        # per unit of the profile as given: (σ_r², ν0) of its random part and |H(f_i)| at each site
-        seen_tones = [(spectral(rand, site.responses, points), [_gain(f, site.responses) for f in freqs])
-                for site in reading.sites]
-        # the held stretches' mean from the random part's correlation (the tones left out of it)
-        rho = [hold_correlation(rand, site.responses, points, float(site.stage.hold_s), m0)
-               if needs_rate(site) else (math.nan, math.nan)
-               for site, ((m0, _), _) in zip(reading.sites, seen_tones)]
-        m0_m, _ = spectral(rand, reading.proof_mass, points)
-        m0_out, _ = spectral(rand, reading.output, points)
-        gain_m = [_gain(f, reading.proof_mass) for f in freqs]
-        gain_out = [_gain(f, reading.output) for f in freqs]
-        motions: list[Motion] = []
-        for rms in levels_arr:
-            r = float(rms) / excitation.grms  # the scaling rule: PSD × r², tones × r
-
-            def motion(m0: float, nu0: float, gains: Sequence[float], rh: tuple[float, float] = (math.nan, math.nan)
-                       ) -> Motion:
-                # noqa below: motion() is called within this iteration only, so r is the current level's
-                return Motion(r * math.sqrt(m0), nu0, tuple(r * t.peak_g * g for t, g in zip(tones, gains)), freqs,  # noqa: B023
-                               *rh)
-
-            sites = [motion(m0, nu0, gains, rh) for ((m0, nu0), gains), rh in zip(seen_tones, rho)]
-            motions += sites
-            out.append(_level(reading, float(rms), None, g0, kind, "sine-on-random", sites,
-                              motion(m0_m, 0.0, gain_m).rms_g, motion(m0_out, 0.0, gain_out).rms_g))
-        text = excitation.describe().rsplit(",", 1)[0] + (f" ({excitation.name})" if excitation.name else "")
-        notes.append("random part assumed Gaussian; tones with independent uniform phases (a random-phase "
-                     "ensemble: the prediction is the average over the tones' phases)")
-        for fa, fb, p, q in _commensurate(freqs):
-            notes.append(f"tones at {fa:g} and {fb:g} Hz are harmonics of one frequency ({p}:{q}): a machine holds "
-                         "their relative phase, and a fixed phase can move the clipping and odd-order shares away "
-                         "from this phase average")
-        from vrelab.models.tones import MAX_GRID, MC_DRAWS, nodes_per_tone
-
-        if any(math.prod(nodes_per_tone(m.tone_peaks_g, m.sigma_g)) > MAX_GRID for m in motions):
-            notes.append(f"several strong tones: phase averages by Monte Carlo over {MC_DRAWS} seeded draws "
-                         "(standard error 0.2 % of their spread over the phases)")
+        out, text, notes = _sine_on_random_levels(reading, excitation, levels_arr, g0, kind, points)
     else:
-        sine_hz = np.atleast_1d(V.positive("freq_hz", np.asarray(excitation, dtype=np.float64)))
-        for f in sine_hz:
-            f = float(f)
-            # |H(f)| at each site, the proof mass and the output, once for every level: a sine's
-            # rms there is rms·|H(f)| (vrelab.models.dynamics.rms_through, the same product)
-            gains = [_gain(f, site.responses) for site in reading.sites]
-            at_mass, at_out = _gain(f, reading.proof_mass), _gain(f, reading.output)
-            for rms in levels_arr:
-                sites = [Motion(float(rms) * g, f) for g in gains]
-                out.append(_level(reading, float(rms), f, g0, kind, "sine", sites, float(rms) * at_mass,
-                                  float(rms) * at_out))
-        text = "sine " + ", ".join(f"{f:g}" for f in sine_hz) + " Hz"
+        out, text, notes = _sine_levels(reading, excitation, levels_arr, g0, kind)
     notes.append(f"clip modelled at the {clip_where} ({kind}); nonlinearity and rails evaluated together as one "
                  "memoryless map (exact where no filter sits between them; else the rails see the polynomial's "
                  "linear part through the filters, its remainder bounded in model_error_g); shares: the change "
@@ -335,7 +363,7 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
     if reading.output:
         raise ValueError("memoryless_level takes memoryless stages; a chain with linear stages needs predict")
     motions = [Motion(rms, math.nan)] * len(reading.sites)
-    lv = _level(reading, rms, None, g0, kind, shape, motions, rms, rms, each_rail)
+    lv = _level(_Walk(reading, g0, kind, shape, each_rail), rms, None, motions, rms, rms)
     return lv, reading.vibration_off_g
 
 
@@ -344,17 +372,25 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
 
 
 
+@dataclass(frozen=True)
+class _Walk:
+    """How the stages are walked at every level of one excitation: the sensor read at the static
+    level ``g0``, the clipping model, the drive's shape, and whether each rail alone is evaluated."""
+
+    reading: Reading
+    g0: float
+    kind: ClipKind
+    shape: Drive
+    each_rail: bool = True
+
+
 def _level(
-    reading: Reading,
+    walk: _Walk,
     rms_g: float,
     freq_hz: float | None,
-    g0: float,
-    kind: ClipKind,
-    shape: Drive,
     sites: Sequence[Motion],
     sigma_m: float,
     sigma_out: float,
-    each_rail: bool = True,
 ) -> LevelPrediction:
     """One level: the stages walked in order, each one's ``mean_shift`` at its site, summed.
 
@@ -369,6 +405,7 @@ def _level(
     sum of the stages' bounds; a stage whose estimate is rough when large (over-range) makes the
     level invalid where its share is more than a tenth of the largest.
     """
+    reading, g0, kind, shape, each_rail = walk.reading, walk.g0, walk.kind, walk.shape, walk.each_rail
     notes: list[str] = []
     valid = not reading.unmodelled
     totals = dict.fromkeys(SHARES, 0.0)
