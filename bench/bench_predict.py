@@ -35,7 +35,7 @@ from typing import Any, Callable
 def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
     import dataclasses
 
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
     from vrelab.sensor import load_sensor
     from vrelab.sweep.points import model_point

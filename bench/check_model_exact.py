@@ -12,6 +12,12 @@ difference per group:
 * ``predict``: ``predict(...).to_dict()`` (every number in it) for the ideal sensor and the
   ADXL355 preset, random, sine and sine-on-random, censored and truncated, rails at the output
   (filters between polynomial and rails) and at the proof mass;
+* ``triaxial``: one axis under a triaxial vibration (SPEC 1.6): ``to_dict()`` of
+  :func:`vrelab.predict` with a TriaxialProfile/TriaxialSine and a static vector, and with a
+  single-axis profile or sine along a ``direction=`` (on a checkout before issue 31,
+  ``predict_triaxial`` of the same vibration): several directions, static vectors, cross terms
+  and cross-axis rows, random (along a direction and per axis with coherences) and sine,
+  filtered rails and over-range;
 * ``identify``: each parameter's value and u for four drawn parts of tests/test_identify.py
   (differences in units of the parameter's u: least squares may end at a different last step);
 * ``example``: the README's designer path, every number of ``identify --json`` on the example
@@ -103,7 +109,10 @@ def _predict() -> list[Any]:
 
     import numpy as np
 
-    from vrelab.predict import predict
+    try:
+        from vrelab.prediction import predict
+    except ImportError:  # a checkout before issue 31 (the module vrelab.predict)
+        from vrelab.predict import predict  # type: ignore[no-redef]
     from vrelab.profiles import RandomProfile, parse_profile
     from vrelab.sensor import load_sensor
 
@@ -136,6 +145,64 @@ def _predict() -> list[Any]:
             out.append(predict(s, exc, levels, g0, kind).to_dict())
         except ValueError as err:
             out.append(str(err))
+    return out
+
+
+def _triaxial_calls() -> tuple[Any, Any]:
+    """(a triaxial vibration, a profile along a direction) -> the prediction: the one
+    ``vrelab.predict`` of this checkout, or ``predict_triaxial`` on one before issue 31."""
+    try:
+        from vrelab.prediction.front import predict
+    except ImportError:  # before issue 31: predict_triaxial (its static_g a vector, as here)
+        from vrelab.triaxial.predict import predict_triaxial
+        from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
+
+        def along(s: Any, v: Any, d: Any, lv: Any, g: Any, k: Any) -> Any:
+            tri = TriaxialProfile.along(v, d) if hasattr(v, "psd_g2_per_hz") else TriaxialSine(v, tuple(d), 1.0)
+            return predict_triaxial(s, tri, lv, static_g=g, kind=k)
+
+        return (lambda s, tri, lv, g, k: predict_triaxial(s, tri, lv, static_g=g, kind=k)), along
+    return ((lambda s, tri, lv, g, k: predict(s, tri, lv, static_g=g, kind=k)),
+            (lambda s, v, d, lv, g, k: predict(s, v, lv, static_g=g, kind=k, direction=d)))
+
+
+def _triaxial() -> list[Any]:
+    import dataclasses
+
+    from vrelab.profiles import parse_profile
+    from vrelab.sensor import load_sensor
+    from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
+
+    tri_call, along_call = _triaxial_calls()
+    ideal = load_sensor("ideal", range_g=2)
+    cross = dataclasses.replace(ideal, kip_per_g=5e-3, kio_per_g=-2e-3, kpp_per_g=1e-3, koo_per_g=4e-4,
+                                kpo_per_g=-6e-4, k2_per_g=2e-3, cross_axis_x=0.01, cross_axis_y=-0.02)
+    adxl = load_sensor("adxl355", range_g=2, axis="z")
+    adxl_cross = dataclasses.replace(adxl, kip_per_g=3e-3, kpo_per_g=1e-3)
+    adxl_x = dataclasses.replace(load_sensor("adxl355", range_g=8, axis="x"), kio_per_g=2e-3)
+    flat, navmat = parse_profile("flat:20-500"), parse_profile("navmat-p9492")
+    axes = TriaxialProfile.from_axes({"x": parse_profile("flat:20-2000"), "y": parse_profile("flat:20-2000"),
+                                      "z": navmat}, coherence={("x", "z"): (0.6, 30.0), ("x", "y"): (0.3, -90.0)})
+    statics = [(0.0, 0.0, 1.0), (0.0, 0.5, 0.866), (0.3, -0.2, 0.9), (0.0, 0.0, 0.0)]
+    dirs = [(0.0, 0.0, 1.0), tuple(direction("z", "x", 30)), (1.0, 1.0, 1.0), (0.0, 1.0, 0.0)]
+    out: list[Any] = []
+
+    def run(f: Any, *a: Any) -> None:
+        try:
+            out.append(f(*a).to_dict())
+        except ValueError as err:
+            out.append(str(err))
+
+    for s in (ideal, cross, adxl, adxl_cross):
+        for g in statics[:3]:
+            for d in dirs:
+                run(along_call, s, flat, d, [0.5, 1.5], g, "censored")
+            run(along_call, s, 200.0, dirs[1], [0.5, 1.5], g, "censored")
+            run(tri_call, s, axes, [0.5, 1.5], g, "censored")
+            run(tri_call, s, TriaxialSine(2400.0, (0.0, 1.0, 1.0), 1.0), [1.0], g, "truncated")
+    for s in (cross, adxl_x):
+        run(tri_call, s, TriaxialProfile.along(navmat, dirs[2]), [1.0, 4.0], statics[3], "censored")
+        run(along_call, s, navmat, dirs[1], [2.0], statics[0], "truncated")
     return out
 
 
@@ -181,7 +248,7 @@ def _example() -> list[Any]:
 
 def _own(groups: list[str]) -> dict[str, Any]:
     run = {"memoryless": _memoryless, "spectral": _spectral, "predict": _predict, "identify": _identify,
-           "example": _example}
+           "example": _example, "triaxial": _triaxial}
     return {g: run[g]() for g in groups}
 
 
@@ -236,7 +303,7 @@ def _identify_compare(ours: list[Any], base: list[Any]) -> tuple[float, list[str
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="src directory of the baseline checkout")
-    ap.add_argument("--groups", default="memoryless,spectral,predict,identify,example")
+    ap.add_argument("--groups", default="memoryless,spectral,predict,triaxial,identify,example")
     ap.add_argument("--save", help="write this checkout's numbers to this JSON file")
     ap.add_argument("--against", help="compare with numbers saved by --save instead of running a baseline")
     ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)

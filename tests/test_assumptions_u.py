@@ -22,7 +22,7 @@ import pytest
 
 from vrelab import load_sensor
 from vrelab.cli import main
-from vrelab.predict import CURVED_SOURCE, predict
+from vrelab.prediction import CURVED_SOURCE, predict
 from vrelab.profiles import RandomProfile, parse_profile
 from vrelab.sensor.parameters import ASSUMABLE, parameter, with_parameters
 

@@ -329,12 +329,12 @@ def test_json_output_of_report_is_one_object(tmp_path: Path, capsys: pytest.Capt
 def test_an_unexpected_error_is_one_line_exit_1_and_debug_shows_the_traceback(monkeypatch, capsys):
     """Issue 9: only ValueError/OSError were caught, any other exception printed a traceback.
     Bad input stays exit 2; a bug is exit 1 with one line, and --debug gives the traceback."""
-    import vrelab.predict
+    import vrelab.prediction
 
     def broken(*a, **k):
         raise RuntimeError("the model blew up\nsecond line")
 
-    monkeypatch.setattr(vrelab.predict, "predict", broken)
+    monkeypatch.setattr(vrelab.prediction, "predict", broken)
     argv = ["predict", "--sensor", "ideal", "--profile", "flat:50-2000", "--levels", "1"]
     assert main(argv) == 1
     err = capsys.readouterr().err

@@ -198,7 +198,7 @@ def test_sine_simulation_of_the_adxl355_z_matches_its_analytic_chain():
     says where); held against ``vrelab predict`` (the memoryless chain's analytic mean, SPEC
     1.1-1.3) at the frequency the level reports."""
     from vrelab import shaker
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.sensor import load_sensor
 
     sensor = load_sensor("adxl355", axis="z")

@@ -40,7 +40,7 @@ def test_the_documentation_builds_without_a_warning(built):
     for command in ("predict", "simulate", "analyze", "campaign", "identify", "report"):  # from the parser
         assert f'id="{command}"' in cli or f"vrelab {command}" in cli, command
     assert "highlight-text" in cli and "highlight-default" not in cli and "highlight-python" not in cli
-    assert "vrelab.predict.predict" in (html / "api" / "predict.html").read_text()
+    assert "vrelab.prediction.front.predict" in (html / "api" / "predict.html").read_text()
     gallery = (html / "auto_examples" / "plot_clipping_models.html").read_text()
     assert "-82.9 mg" in gallery  # printed by the example at build: SPEC 1.1's -83 mg
     assert (html / "physics.html").is_file() and (html / "tutorial-designer.html").is_file()

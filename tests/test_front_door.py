@@ -1,5 +1,5 @@
 """The front door (issue 21): ``import vrelab`` exports the public API lazily; ``predict``,
-``campaign`` are submodules *and* verbs, ``identify`` a plain function, correct in every import order
+``campaign`` and ``identify`` are plain functions (issue 31), correct in every import order
 (each order in a fresh interpreter); ``simulate`` and ``analyze`` are real functions; the
 package is typed (py.typed shipped); the README's Python example runs."""
 
@@ -34,18 +34,13 @@ def _censored_vre(mu: float, sigma: float, low: float, high: float) -> float:
 _CALL = ("s = vrelab.load_sensor('ideal', range_g=2); p = vrelab.parse_profile('flat:50-2000')\n"
          "out.append({}(s, p, [1.0], static_g=1.0).levels[0].vre_g)\n")
 ORDERS = {
-    "function first, then the submodule": (
+    "the package's function first, then the module's": (
         "import vrelab\nfrom vrelab import predict\nout = []\n" + _CALL.format("predict")
-        + "import vrelab.predict as m\nassert m is predict and m is vrelab.predict\n"
-        "assert callable(m.predict) and m.LevelPrediction is vrelab.LevelPrediction\n"
-        + _CALL.format("m.predict")),
-    "submodule first, then the function": (
-        "import vrelab.predict as m\nimport vrelab\nfrom vrelab import predict\nout = []\n"
-        "assert predict is m and type(m).__name__ == '_CallableModule'\n"
-        + _CALL.format("predict") + _CALL.format("vrelab.predict") + _CALL.format("m.predict")),
-    "the function from the submodule, then the package's verb": (
-        "from vrelab.predict import predict as f\nimport vrelab\nout = []\n"
-        + _CALL.format("f") + _CALL.format("vrelab.predict")),
+        + "import vrelab.prediction as m\nassert m.predict is predict and predict is vrelab.predict\n"
+        "assert m.LevelPrediction is vrelab.LevelPrediction\n" + _CALL.format("m.predict")),
+    "the module first, then the package's function": (
+        "from vrelab.prediction import predict as f\nimport vrelab\nout = []\n"
+        "assert f is vrelab.predict\n" + _CALL.format("f") + _CALL.format("vrelab.predict")),
     "a module importing it before the user does (identification imports predict)": (
         "import vrelab.identification\nimport vrelab\nout = []\n" + _CALL.format("vrelab.predict")
         + "import vrelab.identification as i\nassert vrelab.identify is i.identify and type(vrelab.identify).__name__ == 'function'\n"
@@ -55,7 +50,7 @@ ORDERS = {
 
 
 @pytest.mark.parametrize("order", list(ORDERS))
-def test_predict_is_the_verb_and_the_module_in_every_import_order(order):
+def test_predict_is_one_function_in_every_import_order(order):
     script = ORDERS[order] + "print(__import__('json').dumps(out))\n"
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=120)
     assert done.returncode == 0, done.stderr
@@ -64,9 +59,22 @@ def test_predict_is_the_verb_and_the_module_in_every_import_order(order):
     assert abs(values[0] - (-0.083)) < 0.0005  # SPEC 1.1: -83 mg
 
 
+def test_predict_is_a_plain_function_whose_help_starts_with_its_signature():
+    """Issue 31: ``vrelab.predict`` was a module made callable, and ``help()`` showed its 22,000-
+    character module docstring with the signature last. Now a function: pydoc's text begins with
+    the signature (after pydoc's own header line)."""
+    import inspect
+    import pydoc
+
+    assert inspect.isfunction(vrelab.predict)
+    text = pydoc.plain(pydoc.render_doc(vrelab.predict))
+    body = [line for line in text.splitlines()[1:] if line.strip()]
+    assert body[0].startswith("predict(sensor"), body[:2]
+
+
 def test_import_vrelab_imports_nothing_heavy():
     """Lazy: ``import vrelab`` loads no model module, no numpy (the CLI's start-up pays it once)."""
-    script = ("import sys, vrelab\nheavy = [m for m in ('numpy', 'scipy', 'vrelab.predict', 'vrelab.sensor', "
+    script = ("import sys, vrelab\nheavy = [m for m in ('numpy', 'scipy', 'vrelab.prediction', 'vrelab.sensor', "
               "'vrelab.campaigns', 'vrelab.identification', 'vrelab.shaker') if m in sys.modules]\nprint(heavy)\n"
               "vrelab.VreResult\nprint('vrelab.results' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=60)
@@ -92,7 +100,7 @@ def test_the_triaxial_exports_are_the_modules_objects():
     """``vrelab.predict_triaxial`` and the rest of SPEC 1.6's front door; ``vrelab.triaxial``
     exports each module's public names, the heavy ones on first use."""
     import vrelab.triaxial as tri
-    from vrelab.triaxial.predict import predict_triaxial
+    from vrelab.prediction.triaxial import predict_triaxial
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
     from vrelab.triaxial.simulate import simulate_triaxial
 
@@ -101,10 +109,10 @@ def test_the_triaxial_exports_are_the_modules_objects():
     assert tri.predict_triaxial is predict_triaxial and set(tri.__all__) <= set(dir(tri))
     for name in tri.__all__:
         module = getattr(tri, name).__module__ if hasattr(getattr(tri, name), "__module__") else None
-        assert module is None or module.startswith("vrelab.triaxial."), (name, module)
+        assert module is None or module.startswith(("vrelab.triaxial.", "vrelab.prediction.")), (name, module)
     with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
         tri.nonsense  # noqa: B018
-    script = ("import sys, vrelab.triaxial\nprint([m for m in ('scipy', 'vrelab.triaxial.predict', "
+    script = ("import sys, vrelab.triaxial\nprint([m for m in ('scipy', 'vrelab.prediction.triaxial', "
               "'vrelab.triaxial.simulate') if m in sys.modules])")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ, timeout=60)
     assert done.returncode == 0, done.stderr

@@ -21,7 +21,7 @@ import pytest
 from vrelab.cli import main
 from vrelab.example_campaign import ExampleRun, campaign_document, example_truth
 from vrelab.identification import IdentifyOptions, identify, observations, write_sensor_file
-from vrelab.predict import predict, propagated_u
+from vrelab.prediction import predict, propagated_u
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
 

@@ -28,7 +28,7 @@ import pytest
 from vrelab.cli import main
 from vrelab.example_campaign import ExampleRun, campaign_document
 from vrelab.identification import identify, write_sensor_file
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
 
@@ -311,7 +311,7 @@ def test_assumed_uncertainty_is_propagated_and_named(tmp_path: Path) -> None:
     profile = RandomProfile.flat(50.0, 2000.0)
     p = predict(s, profile, [1.5], static_g=1.0).levels[0]
     # besides the threshold, predict's own approximation bound enters as a rectangular source
-    from vrelab.predict import CURVED_SOURCE, MODEL_SOURCE
+    from vrelab.prediction import CURVED_SOURCE, MODEL_SOURCE
 
     # (and where the VRE is curved in the threshold, what a Monte Carlo over it adds: issue 28)
     assert p.u_vre_g is not None and set(p.u_sources_g) - {MODEL_SOURCE, CURVED_SOURCE} == {"overrange_threshold_g"}

@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 from test_identify import _design, _draw, _part
+from vrelab.example_campaign import campaign_document
 from vrelab.identification import identify
 from vrelab.sensor import load_sensor
-from vrelab.example_campaign import campaign_document
 
 NAMES = {"k2": "k2_ug_per_g2", "k3": "k3_ug_per_g3", "fn": "fn_hz", "q": "q"}
 

@@ -132,7 +132,7 @@ def test_the_clip_kind_default_is_censored() -> None:
 
     from vrelab.models.clipping import mean_shift
     from vrelab.models.kinds import DEFAULT_CLIP_KIND
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     assert DEFAULT_CLIP_KIND == "censored"
     assert inspect.signature(mean_shift).parameters["kind"].default == "censored"

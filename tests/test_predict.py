@@ -15,7 +15,7 @@ import pytest
 
 from vrelab import shaker
 from vrelab.models.clipping import censored_mean_shift
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import load_sensor
 

@@ -20,7 +20,7 @@ import pytest
 from scipy import integrate, stats
 
 from vrelab.models.memoryless import linear_part, poly_clip_vre
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import parse_profile
 from vrelab.sensor import load_sensor
 

@@ -15,7 +15,7 @@ import math
 import pytest
 
 from vrelab.models.dynamics import effective_rms
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import parse_profile
 from vrelab.sensor import load_sensor
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import RandomProfile
 from vrelab.sensor import StageBase, load_sensor
 

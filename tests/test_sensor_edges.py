@@ -17,7 +17,7 @@ import pytest
 from scipy import signal
 
 from vrelab.cli import main
-from vrelab.predict import cancellation, predict
+from vrelab.prediction import cancellation, predict
 from vrelab.profiles import parse_profile
 from vrelab.sensor import load_sensor
 

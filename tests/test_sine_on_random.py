@@ -21,7 +21,7 @@ from vrelab import shaker, synthesis
 from vrelab.cli import main
 from vrelab.models import design, nonlinearity, tones
 from vrelab.models.clipping import sine_on_random_mean_shift
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import (
     RandomProfile,
     SineOnRandom,

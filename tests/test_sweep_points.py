@@ -79,7 +79,7 @@ def test_model_point_matches_predict_on_the_ideal_sensor_beyond_a_rail():
     """SPEC 1.5: one reference point. At 2.5 g static on ±2 g rails the vibration-off reading is
     itself clipped (2 g); the model point, predict on the ideal sensor and an independent scipy
     quadrature of E[clip(μ + X)] - clip(μ) agree."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
     from vrelab.sensor import load_sensor
 
@@ -142,7 +142,7 @@ def test_model_point_with_one_of_fn_q_fails_that_point_only(tmp_path):
 
 
 def test_predict_point_passes_sensor_profile_and_draws_through(tmp_path):
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
     from vrelab.sensor import load_sensor
 

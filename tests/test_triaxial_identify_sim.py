@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from vrelab.identification import CROSS, identify
 from vrelab.example_campaign import campaign_document, mount_run, mount_truth, write_campaign
+from vrelab.identification import CROSS, identify
 
 
 def _part_and_sensor(tmp_path: Path):
@@ -146,10 +146,10 @@ def test_an_identified_kip_predicts_in_a_triaxial_environment_when_the_axis_is_n
     part's axis comes from --base-axis (written as input_axis); without it the triad is refused
     in one line rather than guessed from the base sensor's default axis."""
     from vrelab.identification import write_sensor_file
+    from vrelab.prediction import predict
     from vrelab.profiles import RandomProfile
     from vrelab.sensor import load_sensor
     from vrelab.triaxial import TriaxialProfile, direction
-    from vrelab.triaxial.predict import predict_triaxial
 
     truth, part, sensor = _part_and_sensor(tmp_path)
     doc = campaign_document(sensor, truth.runs, seed=0, seconds=1.0, settle_s=0.1)
@@ -160,7 +160,7 @@ def test_an_identified_kip_predicts_in_a_triaxial_environment_when_the_axis_is_n
     assert s.input_axis == "z" and s.triad == (2, 0, 1)
     kip = named.channels[0].parameters["kip_ug_per_g2"]
     prof = TriaxialProfile.along(RandomProfile.flat(20, 2000, 1.0), direction("z", "x", 45))
-    lv = predict_triaxial(s, prof, [1.0], static_g=(0, 0, 1)).levels[0]
+    lv = predict(s, prof, [1.0], static_g=(0, 0, 1)).levels[0]
     # ideal base: no front-end filter, so E[a_i a_p] = σ² sin45 cos45 = 0.5 g² (SPEC 1.6)
     assert lv.shares["cross_kip_g"] == pytest.approx(kip.value * 1e-6 * 0.5, rel=1e-9)
     assert lv.u_sources_g["identified (covariance)"] >= kip.u * 1e-6 * 0.5 * 0.99
@@ -169,4 +169,4 @@ def test_an_identified_kip_predicts_in_a_triaxial_environment_when_the_axis_is_n
     path = write_sensor_file(tmp_path / "unnamed" / "sensor.toml", unnamed)
     s = load_sensor(str(path), axis=unnamed.channels[0].channel)
     with pytest.raises(ValueError, match="no IEEE 1293 triad .*input_axis"):
-        predict_triaxial(s, prof, [1.0], static_g=(0, 0, 1))
+        predict(s, prof, [1.0], static_g=(0, 0, 1))

@@ -1,4 +1,4 @@
-"""predict_triaxial: one DUT axis under a triaxial vibration, cross terms included (issue 22).
+"""predict (formerly predict_triaxial): one DUT axis under a triaxial vibration, cross terms included (issue 22).
 
 Held against: today's single-axis predict (vibration along the input axis, no cross terms: the
 same numbers); scipy quad of the closed forms written out here from a hand-made cross-spectral
@@ -19,10 +19,9 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import RandomProfile, parse_profile
 from vrelab.sensor import load_sensor
-from vrelab.triaxial.predict import predict_triaxial
 from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
 
 UG = 1e-6
@@ -72,7 +71,7 @@ def test_along_the_input_axis_without_cross_terms_is_predict(axis: str, static: 
     e = direction(axis, "x" if axis != "x" else "y", 0.0)
     levels = [0.5, 1.0, 2.5]
     ref = predict(sensor, profile, levels, static_g=static)
-    got = predict_triaxial(sensor, TriaxialProfile.along(profile, e), levels, static_g=static * e)
+    got = predict(sensor, TriaxialProfile.along(profile, e), levels, static_g=static * e)
     for a, b in zip(ref.levels, got.levels):
         assert abs(a.vre_g - b.vre_g) <= 1e-12
         assert a.u_vre_g is not None and b.u_vre_g is not None and abs(a.u_vre_g - b.u_vre_g) <= 1e-12
@@ -84,7 +83,7 @@ def test_along_the_input_axis_without_cross_terms_is_predict(axis: str, static: 
     assert abs(ref.vibration_off_g - got.vibration_off_g) <= 1e-12
     # a sine along the axis, too
     ref_s = predict(sensor, [400.0], [1.0, 2.0], static_g=static)
-    got_s = [predict_triaxial(sensor, TriaxialSine(400.0, tuple(e), 1.0), [lv], static_g=static * e).levels[0]
+    got_s = [predict(sensor, TriaxialSine(400.0, tuple(e), 1.0), [lv], static_g=static * e).levels[0]
              for lv in (1.0, 2.0)]
     for a, b in zip(ref_s.levels, got_s):
         assert abs(a.vre_g - b.vre_g) <= 1e-12 and b.freq_hz == 400.0
@@ -97,7 +96,7 @@ def test_cross_coefficients_with_the_vibration_along_the_input_axis_add_nothing(
                                   cross_axis_x=0.02)
     profile = parse_profile("flat:20-1000")
     ref = predict(plain, profile, [0.5, 1.5], static_g=1.0)
-    got = predict_triaxial(crossed, TriaxialProfile.along(profile, (0, 0, 1)), [0.5, 1.5], static_g=(0, 0, 1))
+    got = predict(crossed, TriaxialProfile.along(profile, (0, 0, 1)), [0.5, 1.5], static_g=(0, 0, 1))
     for a, b in zip(ref.levels, got.levels):
         assert abs(a.vre_g - b.vre_g) <= 1e-12
 
@@ -115,7 +114,7 @@ def test_cross_terms_are_k_times_re_integral_of_s_h2() -> None:
     k = dict(kip_per_g=2000 * UG, kio_per_g=-700 * UG, kpp_per_g=300 * UG, koo_per_g=150 * UG, kpo_per_g=900 * UG)
     sensor = _ideal(fn_hz=700.0, q=8.0, clip_position="proof-mass", **k)
     level = 0.1
-    got = predict_triaxial(sensor, prof, [level], static_g=(0, 0, 0)).levels[0]
+    got = predict(sensor, prof, [level], static_g=(0, 0, 0)).levels[0]
 
     def loglog(p: np.ndarray, x: float) -> float:
         return float(np.exp(np.interp(np.log(x), np.log(f), np.log(p))))
@@ -153,7 +152,7 @@ def test_sensed_psd_no_power_law_is_tabulated_within_its_bound() -> None:
     prof = TriaxialProfile.from_axes({"x": RandomProfile(f, np.array([1e-4, 1e-2])),
                                       "z": RandomProfile(f, np.array([1e-2, 1e-4]))}, coherence={("x", "z"): (0.5, 60.0)})
     sensor = _ideal(fn_hz=900.0, q=4.0, clip_position="proof-mass", cross_axis_x=0.3, k2_per_g=2000 * UG)
-    pred = predict_triaxial(sensor, prof, [0.3], static_g=(0, 0, 0))
+    pred = predict(sensor, prof, [0.3], static_g=(0, 0, 0))
     lv = pred.levels[0]
     w = np.array([0.3, 0.0, 1.0])
 
@@ -187,13 +186,13 @@ def test_vibropendulous_error_at_45_degrees() -> None:
     sensor = _ideal(kip_per_g=kip)  # linear: no k2, rails far
     profile = parse_profile("flat:20-500")
     for phi in (45.0, -45.0, 30.0, 90.0):
-        got = predict_triaxial(sensor, TriaxialProfile.along(profile, direction("z", "x", phi)), [0.2],
+        got = predict(sensor, TriaxialProfile.along(profile, direction("z", "x", phi)), [0.2],
                                static_g=(0, 0, 0)).levels[0]  # rails at 10 σ
         expect = kip * 0.2**2 * math.sin(math.radians(phi)) * math.cos(math.radians(phi))
         assert got.shares["cross_kip_g"] == pytest.approx(expect, rel=1e-9, abs=1e-15)
         assert got.vre_g == pytest.approx(expect, rel=1e-9, abs=1e-15)
     # IEEE 1293's difference of the two mounts recovers Kip
-    v = [predict_triaxial(sensor, TriaxialProfile.along(profile, direction("z", "x", a)), [0.2],
+    v = [predict(sensor, TriaxialProfile.along(profile, direction("z", "x", a)), [0.2],
                           static_g=(0, 0, 0)).levels[0].vre_g for a in (45.0, -45.0)]
     assert (v[0] - v[1]) / 0.2**2 == pytest.approx(kip, rel=1e-9)
 
@@ -223,13 +222,13 @@ def test_memoryless_against_monte_carlo(case: str, level: float) -> None:
         rms = np.sqrt(prof.axis_mean_square_g2 / prof.mean_square_g2)
         idx = {"x": 0, "y": 1, "z": 2}
         cov = _flat_cov(rms, {(idx[j], idx[k]): v for (j, k), v in coh.items()})
-    got = predict_triaxial(sensor, prof, [level], static_g=g).levels[0]
+    got = predict(sensor, prof, [level], static_g=g).levels[0]
     mc, se = _mc_memoryless(cov * level**2, g, 1_000_000, seed=7, **_model_of(sensor))
     assert abs(got.vre_g - mc) <= 4 * se + got.model_error_g, (got.vre_g, mc, se, got.model_error_g)
     # the cross terms alone, by common random numbers (the same samples, cross terms off)
     plain = dataclasses.replace(sensor, kip_per_g=0.0, kio_per_g=0.0, kpp_per_g=0.0, koo_per_g=0.0, kpo_per_g=0.0)
     mc0, _ = _mc_memoryless(cov * level**2, g, 1_000_000, seed=7, **_model_of(plain))
-    ref0 = predict_triaxial(plain, prof, [level], static_g=g).levels[0]
+    ref0 = predict(plain, prof, [level], static_g=g).levels[0]
     if level > 1.0:
         assert got.cross_pass < 0.99  # the rails take part of the cross terms' mean
     assert abs((got.vre_g - ref0.vre_g) - (mc - mc0)) <= 2e-5 + got.model_error_g + ref0.model_error_g
@@ -263,8 +262,8 @@ def test_resonant_process_against_monte_carlo() -> None:
     r = freqs / fn
     h = 1.0 / (1 - r * r + 1j * r / q)
     for level, seed in ((0.6, 3), (1.2, 4)):
-        got = predict_triaxial(sensor, prof, [level], static_g=g).levels[0]
-        got0 = predict_triaxial(plain, prof, [level], static_g=g).levels[0]
+        got = predict(sensor, prof, [level], static_g=g).levels[0]
+        got0 = predict(plain, prof, [level], static_g=g).levels[0]
         a = _synthesise(prof.scaled_to(level), fs, n, seed)
         b = np.fft.irfft(np.fft.rfft(a, axis=1) * h, n=n, axis=1)
         v = []
@@ -303,8 +302,8 @@ def test_filtered_rails_against_a_process_monte_carlo() -> None:
     cases = ((TriaxialProfile.along(band, direction("z", "x", 45.0)), 0.8, 5),
              (TriaxialProfile.from_axes({"x": band, "y": band, "z": band}, coherence={("z", "x"): (0.8, 60.0)}), 1.5, 6))
     for prof, level, seed in cases:
-        got = predict_triaxial(sensor, prof, [level], static_g=g).levels[0]
-        got0 = predict_triaxial(plain, prof, [level], static_g=g).levels[0]
+        got = predict(sensor, prof, [level], static_g=g).levels[0]
+        got0 = predict(plain, prof, [level], static_g=g).levels[0]
         b = np.fft.irfft(np.fft.rfft(_synthesise(prof.scaled_to(level), fs, n, seed), axis=1) * h, n=n, axis=1)
         v = []
         for s in (sensor, plain):
@@ -330,7 +329,7 @@ def test_sine_at_45_degrees_against_a_phase_average() -> None:
     theta = (np.arange(2**16) + 0.5) * 2 * math.pi / 2**16
     g = np.array([0.0, 0.0, 1.0])
     for f, rms in ((300.0, 0.5), (800.0, 0.9)):  # the second reaches the upper rail
-        got = predict_triaxial(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
+        got = predict(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
         hmag = 1.0 / abs(1 - (f / 1000.0) ** 2 + 1j * (f / 1000.0) / 5.0)
         b = np.outer(d, math.sqrt(2) * rms * hmag * np.cos(theta))
         model = _model_of(sensor)
@@ -365,8 +364,8 @@ def test_filtered_sine_against_a_periodic_computation() -> None:
         return float(np.clip(yf, *m["rails"]).mean() - np.clip(y0, *m["rails"]))  # type: ignore[misc]
 
     for f, rms in ((150.0, 0.5), (500.0, 1.2)):  # the second reaches the upper rail
-        got = predict_triaxial(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
-        got0 = predict_triaxial(plain, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
+        got = predict(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
+        got0 = predict(plain, TriaxialSine(f, tuple(d), rms), [rms], static_g=g).levels[0]
         assert abs(got.vre_g - periodic(sensor, f, rms)) <= got.model_error_g + 1e-9
         cross, truth = got.vre_g - got0.vre_g, periodic(sensor, f, rms) - periodic(plain, f, rms)
         assert abs(cross - truth) <= max(got.model_error_g - got0.model_error_g, 0.0) + 1e-9, (f, cross, truth)
@@ -376,7 +375,7 @@ def test_filtered_sine_against_a_periodic_computation() -> None:
 def test_an_axis_that_senses_none_of_the_vibration() -> None:
     # z axis, no cross-axis sensitivity, vibration along its output axis y: only Koo·σ² (SPEC 1.6)
     sensor = _ideal(koo_per_g=700 * UG, k2_per_g=500 * UG)
-    pred = predict_triaxial(sensor, TriaxialProfile.along(parse_profile("flat:20-500"), (0, 1, 0)), [0.5, 1.0],
+    pred = predict(sensor, TriaxialProfile.along(parse_profile("flat:20-500"), (0, 1, 0)), [0.5, 1.0],
                             static_g=(0, 0, 1))
     for lv, rms in zip(pred.levels, (0.5, 1.0)):
         assert lv.shares["cross_koo_g"] == pytest.approx(700 * UG * rms**2, rel=1e-12)
@@ -392,10 +391,10 @@ def test_heavy_clipping_flags_the_cross_pass_through_as_not_valid() -> None:
     # deep in the rails with large cross terms: the first-order pass may miss more than 1 % of |VRE|
     sensor = _ideal(kip_per_g=0.05, kpp_per_g=0.03)
     prof = TriaxialProfile.along(parse_profile("flat:20-500"), direction("z", "x", 45.0))
-    lv = predict_triaxial(sensor, prof, [2.5], static_g=(0, 0, 1)).levels[0]
+    lv = predict(sensor, prof, [2.5], static_g=(0, 0, 1)).levels[0]
     assert lv.model_error_g > 0.01 * abs(lv.vre_g)
     assert not lv.valid and any("simulate" in n for n in lv.notes)
-    lv_ok = predict_triaxial(sensor, prof, [0.3], static_g=(0, 0, 1)).levels[0]
+    lv_ok = predict(sensor, prof, [0.3], static_g=(0, 0, 1)).levels[0]
     assert lv_ok.valid
 
 
@@ -407,7 +406,7 @@ def test_a_cross_term_bound_over_the_stated_u_is_named_in_the_note() -> None:
     # (without the preset's assumed u, issue 28: the bound is judged against 1 % of |VRE| here)
     sensor = dataclasses.replace(load_sensor("adxl355", range_g=2, axis="z"), kip_per_g=5000 * UG, uncertainty={})
     prof = TriaxialProfile.along(parse_profile("flat:20-2000"), direction("z", "x", 45.0))
-    lv = predict_triaxial(sensor, prof, [1.0], static_g=(0, 0, 1)).levels[0]
+    lv = predict(sensor, prof, [1.0], static_g=(0, 0, 1)).levels[0]
     assert not lv.valid
     assert 0 < lv.cross_error_g <= lv.model_error_g and lv.cross_error_g > 0.01 * abs(lv.vre_g)
     assert len(lv.notes) == 1, lv.notes  # one note: the pass, its bound, and why it is not valid
@@ -417,7 +416,7 @@ def test_a_cross_term_bound_over_the_stated_u_is_named_in_the_note() -> None:
     assert "more than 1 % of |VRE|" in note and note.endswith("simulate")
     assert lv.to_dict()["cross_error_g"] == lv.cross_error_g
     # without the cross terms the same level is valid: the cross terms' bound is the reason
-    plain = predict_triaxial(dataclasses.replace(sensor, kip_per_g=0.0), prof, [1.0], static_g=(0, 0, 1)).levels[0]
+    plain = predict(dataclasses.replace(sensor, kip_per_g=0.0), prof, [1.0], static_g=(0, 0, 1)).levels[0]
     assert plain.valid and plain.cross_error_g == 0.0
 
 
@@ -428,7 +427,7 @@ def test_u_vre_g_carries_fn_through_the_cross_terms() -> None:
     base = _ideal(k2_per_g=k2, kip_per_g=kip, fn_hz=fn, q=q, clip_position="proof-mass")
     sensor = dataclasses.replace(base, uncertainty={"fn_hz": u_fn})
     d = direction("z", "x", 45.0)
-    lv = predict_triaxial(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=(0, 0, 0)).levels[0]
+    lv = predict(sensor, TriaxialSine(f, tuple(d), rms), [rms], static_g=(0, 0, 0)).levels[0]
     r = f / fn
     den = (1 - r * r) ** 2 + (r / q) ** 2
     dden_dr = -4 * r * (1 - r * r) + 2 * r / q**2
@@ -443,7 +442,7 @@ def test_conditions_carry_the_triaxial_environment() -> None:
     sensor = _ideal(kip_per_g=100 * UG, cross_axis_y=0.01)
     band = parse_profile("flat:20-500")
     prof = TriaxialProfile.from_axes({"x": band, "z": band}, coherence={("x", "z"): (0.5, 90.0)})
-    pred = predict_triaxial(sensor, prof, [1.0], static_g=(0.0, 0.5, 0.866))
+    pred = predict(sensor, prof, [1.0], static_g=(0.0, 0.5, 0.866))
     d = pred.to_dict()
     ex = d["conditions"]["extra"]
     assert ex["static_vector_g"] == [0.0, 0.5, 0.866]
@@ -465,14 +464,13 @@ def test_conditions_carry_the_triaxial_environment() -> None:
     (dict(static_g=(0, float("nan"), 1)), "static_g must be three finite numbers"),
     (dict(levels=[0.0]), "levels"),
     (dict(kind="soft"), "kind must be one of"),
-    (dict(excitation=parse_profile("flat:20-500")), "needs a TriaxialProfile or TriaxialSine"),
 ])
 def test_bad_input_is_refused(bad: dict[str, object], words: str) -> None:
-    args: dict[str, object] = dict(sensor=_ideal(), excitation=TriaxialProfile.along(parse_profile("flat:20-500"), (0, 0, 1)),
+    args: dict[str, object] = dict(sensor=_ideal(), vibration=TriaxialProfile.along(parse_profile("flat:20-500"), (0, 0, 1)),
                                    levels=[1.0], static_g=(0, 0, 1))
     args.update(bad)
     with pytest.raises(ValueError, match=words):
-        predict_triaxial(**args)  # type: ignore[arg-type]
+        predict(**args)  # type: ignore[arg-type]
 
 
 def test_an_assumed_kip_u_is_carried_and_a_bare_kip_is_said_to_be_exact(tmp_path):
@@ -482,17 +480,16 @@ def test_an_assumed_kip_u_is_carried_and_a_bare_kip_is_said_to_be_exact(tmp_path
     from vrelab import load_sensor
     from vrelab.profiles import RandomProfile
     from vrelab.triaxial import TriaxialProfile, direction
-    from vrelab.triaxial.predict import predict_triaxial
 
     part = tmp_path / "kpart.toml"
     part.write_text('schema = 1\nname = "kpart"\nkip_ug_per_g2 = 5000.0\n[uncertainty]\nkip_ug_per_g2 = 500.0\n',
                     encoding="utf-8")
     prof = TriaxialProfile.along(RandomProfile.flat(20, 2000, 1.0), direction("z", "x", 30))
     s = load_sensor(str(part), axis="z", range_g=20)
-    lv = predict_triaxial(s, prof, [1.5], static_g=(0, 0, 1)).levels[0]
+    lv = predict(s, prof, [1.5], static_g=(0, 0, 1)).levels[0]
     expect = 500e-6 * 1.5**2 * math.sin(math.radians(30)) * math.cos(math.radians(30))
     assert lv.u_sources_g["kip_ug_per_g2"] == pytest.approx(expect, rel=1e-6)
     bare = load_sensor(str(part), axis="z", range_g=20, overrides={"kip_ug_per_g2": 5000.0})
-    pred = predict_triaxial(bare, prof, [1.5], static_g=(0, 0, 1))
+    pred = predict(bare, prof, [1.5], static_g=(0, 0, 1))
     assert pred.levels[0].u_vre_g is None
     assert any(n.startswith("Kip carries no stated uncertainty") for n in pred.notes)

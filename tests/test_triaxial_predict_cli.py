@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from vrelab.cli import main
+from vrelab.prediction import predict
 from vrelab.profiles import parse_profile
 from vrelab.report.html import ReportSection, render_section
 from vrelab.sensor import load_sensor
-from vrelab.triaxial.predict import predict_triaxial
 from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
 
 PART = str(Path(__file__).resolve().parents[1] / "examples" / "triaxial-part.toml")
@@ -30,7 +30,7 @@ def test_mount_angle_json_is_the_api_prediction(capsys: pytest.CaptureFixture[st
                         "--mount-deg", "45", "--static-vector", "0,0.5,0.866", "--json")
     assert rc == 0, err
     d = json.loads(out)
-    api = predict_triaxial(load_sensor(PART), TriaxialProfile.along(parse_profile("flat:20-500"), direction("z", "x", 45)),
+    api = predict(load_sensor(PART), TriaxialProfile.along(parse_profile("flat:20-500"), direction("z", "x", 45)),
                            [0.5, 1.0], static_g=(0, 0.5, 0.866))
     assert d["kind"] == "triaxial-prediction"
     ex = d["conditions"]["extra"]
@@ -54,7 +54,7 @@ def test_direction_and_sine(capsys: pytest.CaptureFixture[str]) -> None:
                         "--direction", "1,0,1", "--json")
     assert rc == 0, err
     lv = json.loads(out)["levels"][0]
-    ref = predict_triaxial(load_sensor(PART), TriaxialSine(200.0, (1, 0, 1)), [0.7], static_g=(0, 0, 1)).levels[0]
+    ref = predict(load_sensor(PART), TriaxialSine(200.0, (1, 0, 1)), [0.7], static_g=(0, 0, 1)).levels[0]
     assert lv["freq_hz"] == 200.0 and lv["vre_g"] == pytest.approx(ref.vre_g, rel=1e-12)
     assert lv["shares"]["cross_kip_g"] > 0
 
@@ -101,7 +101,7 @@ def test_tones_are_refused_along_a_direction(capsys: pytest.CaptureFixture[str])
 
 
 def test_report_table_shows_the_cross_terms() -> None:
-    pred = predict_triaxial(load_sensor(PART), TriaxialProfile.along(parse_profile("flat:20-500"), direction("z", "x", 45)),
+    pred = predict(load_sensor(PART), TriaxialProfile.along(parse_profile("flat:20-500"), direction("z", "x", 45)),
                             [0.5, 1.0], static_g=(0, 0, 1))
     html = render_section(ReportSection("triaxial", "a 45° mount", prediction=pred.to_dict()), "t")
     for col in ("clip (mg)", "nonlinearity (mg)", "cross kip (mg)", "cross kpp (mg)", "cross (mg)"):

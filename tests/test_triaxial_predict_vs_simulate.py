@@ -21,9 +21,9 @@ import pytest
 
 import vrelab
 from vrelab import load_sensor
+from vrelab.prediction import predict
 from vrelab.profiles import RandomProfile
 from vrelab.triaxial import TriaxialProfile
-from vrelab.triaxial.predict import predict_triaxial
 
 PART = """schema = 1
 name = "pv-part"
@@ -59,7 +59,7 @@ def test_predict_and_simulate_agree_for_coherent_and_incoherent_axes(tmp_path):
     for name, prof in _profiles().items():
         for seed in range(8):
             sim = vrelab.simulate([s], prof, [1.0, 2.0], static_g=(0, 0, 1), seconds=4.0, seed=seed)
-            pred_levels = predict_triaxial(s, prof, [1.0, 2.0], static_g=(0, 0, 1)).levels
+            pred_levels = predict(s, prof, [1.0, 2.0], static_g=(0, 0, 1)).levels
             for lv, pred in zip(sim.axes["z"].levels, pred_levels):
                 assert lv.rms_g == pytest.approx(pred.rms_g, rel=0.06)  # its level (1/√(B·T) = 2.3 % is its ε)
                 assert pred.valid

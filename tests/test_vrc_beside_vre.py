@@ -13,7 +13,7 @@ import math
 import pytest
 
 from vrelab.cli import main
-from vrelab.predict import predict
+from vrelab.prediction import predict
 from vrelab.profiles import parse_profile
 from vrelab.results import Estimate, LevelResult, level_vrc
 from vrelab.sensor import load_sensor

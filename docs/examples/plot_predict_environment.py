@@ -2,7 +2,7 @@
 VRE of an ADXL355 on a truck bed, by mechanism
 ==============================================
 
-:func:`vrelab.predict.predict` on the ADXL355 preset (±2 g, Z axis, ODR 4 kHz, axis up in a
+:func:`vrelab.prediction.predict` on the ADXL355 preset (±2 g, Z axis, ODR 4 kHz, axis up in a
 1 g field) in MIL-STD-810H's common-carrier vertical environment, scaled from its stated
 1.08 g rms up to 4 g rms: the total VRE and the share of each mechanism (clipping at the rails,
 the scale-factor nonlinearity, over-range protection).

@@ -16,7 +16,7 @@ The front door (``import vrelab`` is enough)::
     doc = vrelab.campaign("campaign.toml")                          # every run of a manifest
     vrelab.identify(doc, base_spec="ideal", range_g=2.048)          # each channel's model
     tri = vrelab.TriaxialProfile.along(profile, (1, 0, 1))          # the same at 45° in x-z
-    vrelab.predict_triaxial(sensor, tri, [1.0], static_g=(0, 0, 1)) # the IEEE 1293 cross terms too
+    vrelab.predict(sensor, tri, [1.0], static_g=(0, 0, 1))          # the IEEE 1293 cross terms too
     vrelab.simulate(sensor, tri, [1.0], static_g=(0, 0, 1), seconds=4, seed=1)   # one simulate for both
 
 Every name is imported on first use (``__version__`` too: ``importlib.metadata`` alone costs
@@ -25,29 +25,18 @@ the interpreter's own start (``python bench/bench_startup.py``); the modules beh
 ``predict``, ``identify`` and ``campaign`` take 1 to 3 s more, scipy mostly.
 """
 
-# Design: ``predict``, ``campaign`` and ``identify`` are both submodules of this package and the
-# front door's verbs. The import system binds ``vrelab.predict`` to the submodule whenever it is
-# first imported (``import vrelab.predict``, ``from vrelab.predict import X``, or any vrelab
-# module importing it), and ``import vrelab.predict as m`` reads that attribute back, as do
-# ``mock.patch("vrelab.predict.x")`` and the tests' ``monkeypatch.setattr(vrelab.predict, ...)``.
-# Binding the function to that name instead (eagerly, at package import) would break all three
-# and cost 1 to 3 s at every ``import vrelab`` (the CLI's too). So the name stays the module,
-# in every import order, and the module is made callable: calling ``vrelab.predict(...)``
-# calls ``vrelab.predict.predict(...)`` (``vrelab.identify(...)``: ``vrelab.identify.identify``;
-# ``vrelab.campaign(...)``: :func:`vrelab._api.campaign`), looked up at each call so a patch of
-# the function is followed. The class of the submodule is set when it is read through this
-# package (``_Package.__getattribute__``), which every access by name does, whatever imported
-# it first; module ``__class__`` assignment is the documented way to customise a module
-# (Python reference, "Customizing module attribute access"). Static checkers see the functions
-# (the ``TYPE_CHECKING`` imports below). tests/test_front_door.py runs each order in a fresh
-# interpreter.
+# Design: ``predict``, ``campaign`` and ``identify`` are plain functions; their modules have
+# their own names (``vrelab.prediction``, ``vrelab.campaigns``, ``vrelab.identification``), so
+# no submodule import can rebind the front door's verbs. Every name is a PEP 562 module
+# ``__getattr__`` entry (vrelab._lazy, the rule of every lazy package here): ``import vrelab``
+# pays for none of them. Static checkers see them through the ``TYPE_CHECKING`` imports below;
+# tests/test_front_door.py runs each import order in a fresh interpreter.
 
 from __future__ import annotations
 
-import importlib
-import sys
-from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from vrelab._lazy import lazy_getattr
 
 if TYPE_CHECKING:
     from vrelab._api import analyze as analyze
@@ -57,9 +46,10 @@ if TYPE_CHECKING:
     from vrelab.gum import TypeB as TypeB
     from vrelab.identification import Identification as Identification
     from vrelab.identification import identify as identify
-    from vrelab.predict import LevelPrediction as LevelPrediction
-    from vrelab.predict import Prediction as Prediction
-    from vrelab.predict import predict as predict
+    from vrelab.prediction import LevelPrediction as LevelPrediction
+    from vrelab.prediction import Prediction as Prediction
+    from vrelab.prediction import predict as predict
+    from vrelab.prediction import predict_triaxial as predict_triaxial
     from vrelab.profiles import RandomProfile as RandomProfile
     from vrelab.profiles import SineOnRandom as SineOnRandom
     from vrelab.profiles import SineProfile as SineProfile
@@ -73,72 +63,41 @@ if TYPE_CHECKING:
     from vrelab.sensor import load_sensor as load_sensor
     from vrelab.triaxial import TriaxialProfile as TriaxialProfile
     from vrelab.triaxial import TriaxialSine as TriaxialSine
-    from vrelab.triaxial.predict import predict_triaxial as predict_triaxial
     from vrelab.triaxial.simulate import simulate_triaxial as simulate_triaxial
 
-# name -> (module, attribute), imported on first use
-_LAZY: dict[str, tuple[str, str]] = {
-    "__version__": ("vrelab._version", "__version__"),  # importlib.metadata: 20 ms, for who asks
-    "load_sensor": ("vrelab.sensor", "load_sensor"),
-    "parse_profile": ("vrelab.profiles", "parse_profile"),
-    "simulate": ("vrelab._api", "simulate"),
-    "analyze": ("vrelab._api", "analyze"),
-    "campaign": ("vrelab._api", "campaign"),  # a plain function: the package is vrelab.campaigns
-    "Sensor": ("vrelab.sensor", "Sensor"),
-    "RandomProfile": ("vrelab.profiles", "RandomProfile"),
-    "SineOnRandom": ("vrelab.profiles", "SineOnRandom"),
-    "SineProfile": ("vrelab.profiles", "SineProfile"),
-    "Prediction": ("vrelab.predict", "Prediction"),
-    "LevelPrediction": ("vrelab.predict", "LevelPrediction"),
-    "VreResult": ("vrelab.results", "VreResult"),
-    "LevelResult": ("vrelab.results", "LevelResult"),
-    "FitResult": ("vrelab.results", "FitResult"),
-    "Estimate": ("vrelab.results", "Estimate"),
-    "Conditions": ("vrelab.results", "Conditions"),
-    "Identification": ("vrelab.identification", "Identification"),
-    "identify": ("vrelab.identification", "identify"),
-    "TypeB": ("vrelab.gum", "TypeB"),
-    "TriaxialProfile": ("vrelab.triaxial.profile", "TriaxialProfile"),
-    "TriaxialSine": ("vrelab.triaxial.profile", "TriaxialSine"),
-    "predict_triaxial": ("vrelab.triaxial.predict", "predict_triaxial"),
-    "simulate_triaxial": ("vrelab.triaxial.simulate", "simulate_triaxial"),
-}
-# submodule name -> (module, function) that calling the submodule calls
-_VERBS: dict[str, tuple[str, str]] = {
-    "predict": ("vrelab.predict", "predict"),
+# name -> the module it is imported from on first use
+_LAZY: dict[str, str] = {
+    "__version__": "vrelab._version",  # importlib.metadata: 20 ms, for who asks
+    "load_sensor": "vrelab.sensor",
+    "parse_profile": "vrelab.profiles",
+    "simulate": "vrelab._api",
+    "analyze": "vrelab._api",
+    "campaign": "vrelab._api",  # a plain function: the package is vrelab.campaigns
+    "Sensor": "vrelab.sensor",
+    "RandomProfile": "vrelab.profiles",
+    "SineOnRandom": "vrelab.profiles",
+    "SineProfile": "vrelab.profiles",
+    "predict": "vrelab.prediction",  # a plain function (its module: vrelab.prediction)
+    "Prediction": "vrelab.prediction",
+    "LevelPrediction": "vrelab.prediction",
+    "VreResult": "vrelab.results",
+    "LevelResult": "vrelab.results",
+    "FitResult": "vrelab.results",
+    "Estimate": "vrelab.results",
+    "Conditions": "vrelab.results",
+    "Identification": "vrelab.identification",
+    "identify": "vrelab.identification",
+    "TypeB": "vrelab.gum",
+    "TriaxialProfile": "vrelab.triaxial.profile",
+    "TriaxialSine": "vrelab.triaxial.profile",
+    "predict_triaxial": "vrelab.prediction",
+    "simulate_triaxial": "vrelab.triaxial.simulate",
 }
 
-__all__ = [*_LAZY, *_VERBS]
+__all__ = list(_LAZY)
+__getattr__ = lazy_getattr(__name__, _LAZY, globals())
 
 
-class _CallableModule(ModuleType):
-    """A submodule that is also its verb: ``vrelab.predict(...)`` is ``vrelab.predict.predict(...)``."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        module, function = _VERBS[self.__name__.rpartition(".")[2]]
-        return getattr(importlib.import_module(module), function)(*args, **kwargs)
-
-
-class _Package(ModuleType):
-    def __getattribute__(self, name: str) -> Any:
-        value = super().__getattribute__(name)
-        if name in _VERBS and type(value) is ModuleType:
-            value.__class__ = _CallableModule
-        return value
-
-    def __getattr__(self, name: str) -> Any:
-        if name in _VERBS:
-            importlib.import_module(f"{__name__}.{name}")  # binds the attribute; read it back
-            return getattr(self, name)
-        if name in _LAZY:
-            module, attribute = _LAZY[name]
-            value = getattr(importlib.import_module(module), attribute)
-            setattr(self, name, value)
-            return value
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-    def __dir__(self) -> list[str]:
-        return sorted({*super().__dir__(), *__all__})
-
-
-sys.modules[__name__].__class__ = _Package
+def __dir__() -> list[str]:
+    """The public names only, not the package's own imports."""
+    return sorted(__all__)

@@ -28,7 +28,7 @@ import os
 SIMULATION_SECONDS_PER_SAMPLE = 0.5e-6
 
 
-# Measured cost of one analytic prediction of one level (vrelab.predict.predict), the ADXL355
+# Measured cost of one analytic prediction of one level (vrelab.prediction.predict), the ADXL355
 # ±2 g Z preset (resonance, polynomial, over-range, filters, output rails: the costliest closed
 # forms), flat 50-2000 Hz, 200 levels, CPU time: 1.8 ms a random level, 0.4 ms a sine level
 # (2 cores under load; `bench/bench_predict.py` times the workloads). The estimate takes 5 ms so

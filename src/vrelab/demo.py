@@ -233,7 +233,7 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
 def _predict(sensor: Any, profile: Any, levels: Sequence[float]) -> Mapping[str, Any] | None:
     import dataclasses
 
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     try:
         # the simulated part is the preset itself: its assumptions are exact for it, and the

@@ -75,7 +75,7 @@ class ExampleRun:
 
     @property
     def mount(self) -> Mount | None:
-        """The run's :class:`vrelab.campaign.Mount`, or None for a run along the vibration."""
+        """The run's :class:`vrelab.campaigns.Mount`, or None for a run along the vibration."""
         from vrelab.campaigns import Mount
 
         if self.mount_deg is None or self.static_vector_g is None:
@@ -549,8 +549,8 @@ _WRITERS = {"tdms": _write_tdms, "csv": _write_csv, "h5": _write_h5, "uff": _wri
 def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, seconds: float = 2.0,
                       settle_s: float | None = None, channel: str = "dut") -> dict[str, Any]:
     """Simulate a campaign of one part in memory and return its campaign document, the shape
-    :func:`vrelab.campaign.campaign_doc` gives a reduced manifest (``runs`` with each channel's
-    levels, the random runs' profile): what :func:`vrelab.identify.identify` reads. Each run is
+    :func:`vrelab.campaigns.campaign_doc` gives a reduced manifest (``runs`` with each channel's
+    levels, the random runs' profile): what :func:`vrelab.identification.identify` reads. Each run is
     one :class:`TestPlan` (seed ``seed·1000 + index``) reduced as a lab file by
     :func:`vrelab.shaker.run_test`; ``fmt`` of the runs is ignored. For planning a campaign
     (would it determine Q?) and for the identification's recovery tests."""

@@ -79,7 +79,7 @@ def excitation(label: str) -> Any:
 
 def run(case: dict[str, Any], notes: dict[str, int]) -> dict[str, Any]:
     """predict's result for one case as plain data (NaN as the string "nan")."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     def num(x: float | None) -> Any:
         # 15 significant digits: the comparison is at 1e-12 relative

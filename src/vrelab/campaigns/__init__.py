@@ -19,7 +19,7 @@ as failed with its error, the others go on) and :func:`combine` gives per channe
 * ``vrc_by_mount``: the apparent VRC of every sine run mounted at an angle (IEEE 1293's
   procedure for the cross-coupling coefficients, SPEC 1.6: ``mount_deg``, ``mount_plane`` ip|io
   and the whole static field ``static_g = [i, p, o]``, :class:`Mount`), kept out of the above
-  and fitted by :func:`vrelab.identify.fit_cross_coupling`.
+  and fitted by :func:`vrelab.identification.fit_cross_coupling`.
 
 Data flow: manifest -> :class:`Run` -> record (:func:`vrelab.analysis.readers.open_record`,
 several DUTs) -> :func:`vrelab.analysis.pipeline.analyze_channels` -> per-run results ->

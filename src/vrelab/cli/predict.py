@@ -7,13 +7,13 @@ SPEC section 5::
                    (--profile PROFILE --levels LIST | --freq HZ --levels LIST) [--json]
                    [--direction X,Y,Z | --mount-deg DEG [--mount-plane ip|io]] [--static-vector GX,GY,GZ]
 
-``--json`` prints :meth:`vrelab.predict.Prediction.to_dict` (``levels``: objects with
+``--json`` prints :meth:`vrelab.prediction.results.Prediction.to_dict` (``levels``: objects with
 ``rms_g``, ``vre_g``, ``tilt_error_deg``, shares by mechanism). The sensor options here are
 shared with ``vrelab simulate``. With a direction, a mount angle or a static vector the
 vibration is triaxial (SPEC 1.6): the profile or sine applied along that direction in the
 part's frame (or a triaxial ``--profile``: ``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial
 TOML file: :mod:`vrelab.triaxial.files`), the levels its total rms, and the prediction
-:func:`vrelab.triaxial.predict.predict_triaxial`'s (the IEEE 1293 cross terms' shares
+:func:`vrelab.predict`'s off the input axis (the IEEE 1293 cross terms' shares
 ``cross_kip_g`` ... ``cross_g`` beside the single-axis ones). ``--static`` and
 ``--static-vector`` together are refused (:mod:`vrelab.cli._triaxial`, as ``vrelab simulate``).
 """
@@ -35,7 +35,6 @@ from vrelab.cli._triaxial import (
     direction_of,
     is_triaxial_profile,
     static_field,
-    static_vector,
     triaxial_profile,
 )
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
@@ -63,7 +62,7 @@ def print_prediction(pred: Any) -> None:
     triax = any("cross_g" in lv["shares"] for lv in d["levels"])
     cross: list[str] = []
     if triax:
-        from vrelab.triaxial.predict import CROSS_SHARES
+        from vrelab.prediction.triaxial import CROSS_SHARES
 
         cross = [k for k, _, _, _ in CROSS_SHARES if any(lv["shares"].get(k) for lv in d["levels"])]
     cross_head = "".join(f" {k[6:9].capitalize() + ' mg':>9}" for k in cross) + (f" {'cross mg':>9}" if triax else "")
@@ -106,7 +105,7 @@ def print_prediction(pred: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _validate as V
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
 
     levels = positive_list(args.levels, "--levels")
@@ -123,10 +122,14 @@ def run(args: argparse.Namespace) -> int:
         excitation = parse_profile(args.profile)
     else:
         excitation = float(V.frequency("--freq", V.positive_scalar("--freq", args.freq)))
-    if triaxial:
-        pred: Any = _predict_triaxial(args, sensor, excitation, levels, static)
-    else:
-        pred = predict(sensor, excitation, levels, static_g=args.static_g, kind=args.kind)
+    from vrelab.triaxial.profile import AXES
+
+    if triaxial and sensor.axis not in AXES:
+        raise ValueError(f"a triaxial vibration needs an axis x, y or z of the part, got --axis {sensor.axis!r}")
+    # one predict (SPEC 1.6): along the input axis with --static, else along the direction or
+    # mount angle given, a triaxial --profile as it is, the static vector where given
+    pred = predict(sensor, excitation, levels, static_g=args.static_g if static is None else static, kind=args.kind,
+                   direction=direction_of(args, sensor.triad) if directed else None)
     if args.out:
         from vrelab._io import output_dir, write_json
         from vrelab.cli._common import input_paths
@@ -138,31 +141,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_prediction(pred)
     return 0
-
-
-def _predict_triaxial(args: argparse.Namespace, sensor: Any, excitation: Any, levels: list[float],
-                      static_g: list[float] | None) -> Any:
-    """The vibration along a direction in the part's frame (SPEC 1.6): ``--direction``, or the
-    IEEE 1293 mount angle of the input axis toward its pendulous (ip) or output (io) axis; along
-    the input axis where neither is given."""
-    from vrelab.profiles import RandomProfile
-    from vrelab.triaxial.predict import predict_triaxial
-    from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
-
-    if sensor.axis not in AXES:
-        raise ValueError(f"a triaxial vibration needs an axis x, y or z of the part, got --axis {sensor.axis!r}")
-    i = sensor.triad[0]
-    d = direction_of(args, sensor.triad) or [1.0 if j == i else 0.0 for j in range(3)]
-    static = static_vector(static_g, args.static_g, i)
-    if isinstance(excitation, (TriaxialProfile, TriaxialSine)):  # a triaxial --profile: its own directions
-        tri: Any = excitation
-    elif isinstance(excitation, float):
-        tri = TriaxialSine(excitation, (d[0], d[1], d[2]), 1.0)
-    elif isinstance(excitation, RandomProfile):
-        tri = TriaxialProfile.along(excitation, d)
-    else:
-        raise ValueError("a triaxial prediction takes a random profile (no +sine tones) or --freq along the direction")
-    return predict_triaxial(sensor, tri, levels, static_g=static, kind=args.kind)
 
 
 def register(subparsers: Any) -> None:

@@ -142,7 +142,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
 def run(args: argparse.Namespace) -> int:
     from vrelab import _validate as V
     from vrelab._api import simulate as simulate_test
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.profiles import parse_profile
 
     levels = positive_list(args.levels, "--levels")

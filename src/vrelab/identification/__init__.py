@@ -6,7 +6,7 @@ fits the physical model of SPEC 1 to every level of every run of a channel at on
 weighted least-squares likelihood, each level weighted by its Type A standard uncertainty —
 and writes the result as a sensor file that ``predict``, ``simulate`` and ``sweep`` take.
 
-The model of a level is :func:`vrelab.predict.predict` on the base sensor with the parameters
+The model of a level is :func:`vrelab.prediction.predict` on the base sensor with the parameters
 set (:func:`vrelab.sensor.parameters.with_parameters`): the same analytic model, walked through
 the same stages, that ``vrelab predict`` evaluates, so identification and prediction cannot
 drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):

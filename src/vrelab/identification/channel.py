@@ -29,7 +29,7 @@ from vrelab.sensor.parameters import PARAMETERS, TABLE, parameter, with_paramete
 
 if TYPE_CHECKING:
     from vrelab.gum import TypeB
-    from vrelab.predict import LevelPrediction, Prediction
+    from vrelab.prediction import LevelPrediction, Prediction
     from vrelab.sensor.loader import Sensor
 
 
@@ -264,7 +264,7 @@ def _modelled(obs: Sequence[Observation], preds: Sequence[Prediction], notes: li
     """The observations without the levels the analytic model does not cover well enough to fit
     through; None when every level is covered. Each level left out is said in ``notes``.
 
-    :func:`vrelab.predict.predict` evaluates the nonlinearity and the rails as one map: exactly
+    :func:`vrelab.prediction.predict` evaluates the nonlinearity and the rails as one map: exactly
     where nothing sits between them; where filters do (an output clip), the rails see the
     polynomial's output as a Gaussian and ``model_error_g`` bounds the rest. Left out: a level
     whose prediction is not valid for another reason; a sine level whose peak reaches a rail

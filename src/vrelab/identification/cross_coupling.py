@@ -88,7 +88,7 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
     k2 and k3 nuisance parameters here (the channel's k2 and k3 are the model's); covariance
     ``(AᵀWA)⁻¹`` by SVD (:func:`covariance_of`), scaled by χ²/dof when that exceeds 1 (the Birge
     ratio, as identification's other fits). Levels whose sensed peak reaches a rail of the
-    identified model (:func:`vrelab.predict.predict` at ``σ·|w·d|``) are left out; random runs
+    identified model (:func:`vrelab.prediction.predict` at ``σ·|w·d|``) are left out; random runs
     at an angle are not used (their rails rectify too).
 
     **The cross-axis feed.** ``(w·d)² = cos²φ + 2·w_p·sinφ·cosφ + w_p²·sin²φ``: the p component
@@ -176,7 +176,7 @@ def _design(sines: Sequence[Observation], sensor: Sensor, w: NDArray[np.float64]
             notes: list[str]) -> _Design:
     """Each sine level clear of the rails as one equation ``VRE = σ_m²·(column · θ)``."""
     from vrelab.models.dynamics import vrc_at_frequency
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
     from vrelab.units import UG_PER_G
 
     fn, q = parameter(sensor, "fn_hz"), parameter(sensor, "q")

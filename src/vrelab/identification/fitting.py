@@ -15,7 +15,7 @@ from vrelab.models.clipping import Kind as ClipKind
 from vrelab.sensor.parameters import parameter, with_parameters
 
 if TYPE_CHECKING:
-    from vrelab.predict import Prediction
+    from vrelab.prediction import Prediction
     from vrelab.sensor.loader import Sensor
 
 

@@ -1,4 +1,4 @@
-"""Identification's model of a level (:func:`vrelab.predict.predict` at its conditions) and what
+"""Identification's model of a level (:func:`vrelab.prediction.predict` at its conditions) and what
 the campaign can determine (the plan before the fit, the checks after it, the resonance's
 profile likelihood)."""
 
@@ -23,7 +23,7 @@ from vrelab.results import group_by_frequency
 from vrelab.sensor.parameters import parameter
 
 if TYPE_CHECKING:
-    from vrelab.predict import Prediction
+    from vrelab.prediction import Prediction
     from vrelab.sensor.loader import Sensor
 
 
@@ -42,8 +42,8 @@ NUISANCE = ("fn_hz", "q")
 
 
 def model_levels(sensor: Sensor, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Prediction:
-    """:func:`vrelab.predict.predict` at the observation's conditions (its levels' rms)."""
-    from vrelab.predict import predict
+    """:func:`vrelab.prediction.predict` at the observation's conditions (its levels' rms)."""
+    from vrelab.prediction import predict
 
     excitation: RandomProfile | list[float]
     if ob.method == "random":
@@ -70,7 +70,7 @@ def _model_distorted(sensor: Sensor, ob: Observation, kind: ClipKind) -> Predict
     (the fit evaluates the model many times). What is curved in g0 (a k4 term, a rail's reach)
     is interpolated over |s| <= d·A1/2 (0.11 g for 8 % at 2 g rms): its second-order remainder
     is left, far below a level's u where the rails stay clear."""
-    from vrelab.predict import predict
+    from vrelab.prediction import predict
 
     rms, shift = drive_equivalent(ob)
     freq = [float(ob.freq_hz or 0.0)]

@@ -76,8 +76,8 @@ def ideal_vre_shares(
     ``g0 + x``, then the offset, then the rails, with nothing between them, so its mean is the
     one memoryless map :func:`vrelab.models.memoryless.poly_clip_vre`. The polynomial share is
     :func:`vrelab.models.nonlinearity.vre_poly` (exact), the clipping share what the rails add
-    to it: the convention :func:`vrelab.predict.predict` follows for any sensor by walking its
-    stages (the sweep's ``model`` points go through those stages, :func:`vrelab.predict.memoryless_level`).
+    to it: the convention :func:`vrelab.prediction.predict` follows for any sensor by walking its
+    stages (the sweep's ``model`` points go through those stages, :func:`vrelab.prediction.memoryless_level`).
     """
     from vrelab.models.memoryless import poly_clip_vre
 

@@ -31,7 +31,7 @@ from vrelab.sensor.parameters import TABLE
 
 
 def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
-    """Apparent VRC of each sine run (markers, 1 u: :func:`vrelab.identify.apparent_vrc`, read
+    """Apparent VRC of each sine run (markers, 1 u: :func:`vrelab.identification.apparent_vrc`, read
     from the document) and the identified model per orientation."""
     from vrelab.models.dynamics import vrc_at_frequency
     from vrelab.report.plots import new_figure

@@ -7,7 +7,7 @@
   ``H = 1/(1 - r² + j·r/q)``, ``r = f/fn_hz`` (no resonance when ``fn_hz`` is not given);
   ``vre_clip_g``, ``vre_poly_g``: the ideal sensor's chain (polynomial, then ``offset_g``,
   then rails ±``range_g``, none with ``clip_kind = "none"``) as its stages, each one's own
-  mean shift summed as ``predict`` does (:func:`vrelab.predict.memoryless_level`): the
+  mean shift summed as ``predict`` does (:func:`vrelab.prediction.memoryless_level`): the
   polynomial's share rectifies around ``static_g``, the rails' is what they add to it, and
   ``vre_g`` = their sum is the exact mean of the one memoryless map; all referred to the
   vibration-off reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (SPEC 1.5);
@@ -15,7 +15,7 @@
   tilt ``asin(static_g)`` (``asin(g0 + δ) - asin(g0)``; NaN where undefined, near ±1 g).
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).
 
-``predict``: :func:`vrelab.predict.predict` on a :func:`vrelab.sensor.load_sensor` sensor at one
+``predict``: :func:`vrelab.prediction.predict` on a :func:`vrelab.sensor.load_sensor` sensor at one
   level of a ``profile`` (or a sine at ``freq_hz``); a ``profile`` is any string of
   :func:`vrelab.profiles.parse_profile`, a named environment or sine-on-random
   (``"navmat-p9492+sine:120:0.5"``, or a TOML file with ``[[tone]]`` tables) included.
@@ -70,7 +70,7 @@ def _rms_at_proof_mass(rms_g: float, params: Mapping[str, Any]) -> float:
 def _tilt_deg(vre_g: float, static_g: float) -> float:
     """:func:`vrelab.models.design.tilt_error_from_static_deg` (an axis at tilt ``asin(g0)``), NaN
     where it is undefined (g0 or g0 + δ at or beyond ±1 g): predict's rule, imported."""
-    from vrelab.predict import tilt_note
+    from vrelab.prediction import tilt_note
 
     return tilt_note(vre_g, static_g)[0]
 
@@ -78,7 +78,7 @@ def _tilt_deg(vre_g: float, static_g: float) -> float:
 def model_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
     """Analytic VRE (clipping + polynomial) at one point; ``seed`` is unused (no randomness)."""
     from vrelab.models.nonlinearity import ug_per_g2_to_per_g
-    from vrelab.predict import memoryless_level
+    from vrelab.prediction import memoryless_level
     from vrelab.sensor.stages import Clip, Offset, Polynomial
 
     rms = float(params["rms_g"])
@@ -155,8 +155,8 @@ def _excitation(params: Mapping[str, Any]) -> float | Profile:
 
 
 def predict_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> dict[str, float]:
-    """:func:`vrelab.predict.predict` at one level; ``seed`` is unused (no randomness)."""
-    from vrelab.predict import predict
+    """:func:`vrelab.prediction.predict` at one level; ``seed`` is unused (no randomness)."""
+    from vrelab.prediction import predict
 
     excitation = _excitation(params)
     # a point records no u (the dataset has no column for it): the sensor file's assumed u is not

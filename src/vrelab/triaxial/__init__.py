@@ -9,7 +9,7 @@
 * :mod:`~vrelab.triaxial.chain`: one DUT axis's signal chain under a triaxial acceleration
   (IEEE 1293's model equation);
 * :mod:`~vrelab.triaxial.synthesis`: the MIMO drive of a prescribed cross-spectral density;
-* :mod:`~vrelab.triaxial.predict`: :func:`predict_triaxial`, the analytic VRE by mechanism,
+* :mod:`~vrelab.prediction.triaxial`: :func:`predict_triaxial`, the analytic VRE by mechanism,
   cross terms included;
 * :mod:`~vrelab.triaxial.simulate`: the simulated triaxial shaker test (called as
   :func:`vrelab.simulate`; :func:`simulate_triaxial` its deprecated alias);
@@ -28,6 +28,9 @@ from vrelab._lazy import lazy_getattr
 from vrelab.triaxial.profile import AXES, PairCoherence, TriaxialProfile, TriaxialSine, direction
 
 if TYPE_CHECKING:
+    from vrelab.prediction.triaxial import TriaxialLevelPrediction as TriaxialLevelPrediction
+    from vrelab.prediction.triaxial import TriaxialPrediction as TriaxialPrediction
+    from vrelab.prediction.triaxial import predict_triaxial as predict_triaxial
     from vrelab.triaxial.analyze import TriaxialAnalysis as TriaxialAnalysis
     from vrelab.triaxial.analyze import analyze_triaxial as analyze_triaxial
     from vrelab.triaxial.chain import CROSS_TERMS as CROSS_TERMS
@@ -37,9 +40,6 @@ if TYPE_CHECKING:
     from vrelab.triaxial.files import parse_triaxial as parse_triaxial
     from vrelab.triaxial.files import read_triaxial as read_triaxial
     from vrelab.triaxial.files import write_triaxial as write_triaxial
-    from vrelab.triaxial.predict import TriaxialLevelPrediction as TriaxialLevelPrediction
-    from vrelab.triaxial.predict import TriaxialPrediction as TriaxialPrediction
-    from vrelab.triaxial.predict import predict_triaxial as predict_triaxial
     from vrelab.triaxial.recording import MeasuredCsd as MeasuredCsd
     from vrelab.triaxial.recording import measure_csd as measure_csd
     from vrelab.triaxial.recording import read_recording_profile as read_recording_profile
@@ -60,9 +60,9 @@ _LAZY: dict[str, str] = {
     "TriaxialChain": "vrelab.triaxial.chain",
     "triaxial_chain": "vrelab.triaxial.chain",
     "triaxial_random_signal": "vrelab.triaxial.synthesis",
-    "predict_triaxial": "vrelab.triaxial.predict",
-    "TriaxialPrediction": "vrelab.triaxial.predict",
-    "TriaxialLevelPrediction": "vrelab.triaxial.predict",
+    "predict_triaxial": "vrelab.prediction.triaxial",
+    "TriaxialPrediction": "vrelab.prediction.triaxial",
+    "TriaxialLevelPrediction": "vrelab.prediction.triaxial",
     "simulate_triaxial": "vrelab.triaxial.simulate",
     "TriaxialTest": "vrelab.triaxial.simulate",
     "analyze_triaxial": "vrelab.triaxial.analyze",

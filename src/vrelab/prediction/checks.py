@@ -1,0 +1,74 @@
+"""How a predicted level is judged: its model bound against its stated u, its tilt error, float64 cancellation."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING, Mapping
+
+import numpy as np
+
+from vrelab.prediction.results import LevelPrediction
+
+if TYPE_CHECKING:
+    pass
+
+
+# a preset's assumed-parameter u that happens to be tiny (the over-range threshold's, far below
+# the threshold: 1e-13 g) would flag every filtered prediction for a sub-µg bound.
+TOLERANCE_REL = 0.01
+TOLERANCE_ABS_G = 1e-6
+MODEL_SOURCE = "model approximation (model_error_g, rectangular)"
+
+
+def judged(lv: LevelPrediction) -> LevelPrediction:
+    """``valid`` False where ``model_error_g`` may exceed the stated u (the larger of ``u_vre_g``
+    and 1 % of |VRE| or 1 µg), with the reason. Where the level states a u (its parameters'), the
+    bound also enters it as a rectangular source (GUM 4.3.7: ``model_error_g/√3``), so that
+    ``u_vre_g`` is never smaller than what the approximation may add."""
+    if lv.model_error_g > 0 and lv.u_vre_g is not None:
+        u_model = float(lv.model_error_g) / math.sqrt(3.0)
+        sources = {**dict(lv.u_sources_g or {}), MODEL_SOURCE: u_model}
+        judged_u: float | None = lv.u_vre_g
+        lv = dataclasses.replace(lv, u_vre_g=math.hypot(lv.u_vre_g, u_model), u_sources_g=sources)
+    else:
+        judged_u = lv.u_vre_g
+    stated = max(judged_u or 0.0, TOLERANCE_REL * abs(lv.vre_g), TOLERANCE_ABS_G)
+    if lv.model_error_g <= stated:
+        return lv
+    what = "u_vre_g" if judged_u is not None and judged_u >= TOLERANCE_REL * abs(lv.vre_g) else "1 % of |VRE|"
+    return dataclasses.replace(lv, valid=False, notes=(*lv.notes, (
+        f"the rails sit after filters that follow the nonlinearity: they see its non-Gaussian output, here "
+        f"modelled as Gaussian with an error up to {lv.model_error_g * 1e3:.3g} mg, more than {what} "
+        f"({stated * 1e3:.3g} mg) — simulate")))
+
+
+
+def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
+    """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
+    NaN with the reason where it is undefined."""
+    from vrelab.models import design
+
+    try:
+        return float(design.tilt_error_from_static_deg(vre_g, g0)), None
+    except ValueError as err:
+        return math.nan, f"tilt error undefined: {err}"
+
+
+# The shares are closed forms good to a few ulps each; their sum may lose this many ulps of the
+# largest share (a generous bound: a handful of terms, each from differences of cdfs and pdfs).
+_ROUNDING_ULPS = 64.0
+
+
+def cancellation(shares: Mapping[str, float], vre_g: float) -> str | None:
+    """Why a level's VRE is rounding noise, or None: where shares of opposite sign cancel
+    (a nonlinearity of 1e23 g clipped back by rails) the sum keeps only ``ulps × eps × max|share|``
+    of precision; beyond the tolerance a prediction is read to (1 % of |VRE| or 1 µg) the
+    number is not valid — float64 arithmetic cannot hold the model there."""
+    big = max((abs(v) for v in shares.values() if math.isfinite(v)), default=0.0)
+    lost = _ROUNDING_ULPS * float(np.finfo(np.float64).eps) * big
+    if not math.isfinite(vre_g) or lost > max(TOLERANCE_REL * abs(vre_g), TOLERANCE_ABS_G):
+        return (f"the shares (up to {big:.3g} g) cancel to {vre_g:.3g} g, beyond what float64 arithmetic holds "
+                f"(±{lost:.2g} g): the coefficients or levels are beyond the model's arithmetic")
+    return None
+

@@ -1,0 +1,151 @@
+"""What a prediction returns: :class:`Prediction`, one :class:`LevelPrediction` a level."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Mapping
+
+from vrelab._format import finite_or_none
+from vrelab.models.memoryless import REFERENCE
+from vrelab.results import Conditions, level_vrc
+
+if TYPE_CHECKING:
+    pass
+
+
+@dataclass(frozen=True)
+class LevelPrediction:
+    """Predicted VRE at one vibration level, with its shares by mechanism.
+
+    ``shares`` [g]: ``clip_low_g``, ``clip_high_g`` (each rail alone), ``clip_g`` (both
+    rails), ``nonlinearity_g``, ``overrange_g``. ``vre_g`` is ``clip_g + nonlinearity_g +
+    overrange_g``. ``sigma_*`` are rms values [g] of the vibration at the proof mass, at the
+    output (after all filters) and at the clip; ``overrange_rate_hz`` the expected trips per
+    second. The shares are each stage's change of the mean in signal order (see
+    :func:`_level`). ``model_error_g`` [g] bounds what the remaining approximation (rails after
+    filters that follow the nonlinearity) may add: 0 where polynomial and rails are evaluated
+    exactly; ``valid`` is False where it may exceed ``u_vre_g`` (or, without one, 1 % of |VRE|).
+
+    Off the input axis (a vibration along a direction, a triaxial one or a static vector: SPEC
+    1.6; None otherwise): ``shares`` also hold the cross terms after the rails and over-range
+    (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``, in ``vre_g``), ``rms_g`` is the
+    total rms; ``axis_rms_g``: the vibration's rms along x, y, z at this level;
+    ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis senses, before its dynamics;
+    ``w_eff = w + 2Kg``: the static vector across the cross terms adds a sensitivity to the
+    other axes); ``proof_mass_cov_g2``: ``E[b bᵀ]`` over x, y, z at the proof mass;
+    ``cross_pass``: the factor the rails and over-range pass the cross terms' mean with;
+    ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``: the cross terms'
+    part of ``model_error_g`` (what their first-order pass through the rails and over-range may
+    miss, and their move of the polynomial's input).
+    """
+
+    rms_g: float
+    vre_g: float
+    tilt_error_deg: float
+    shares: Mapping[str, float]
+    sigma_proof_mass_g: float
+    sigma_output_g: float
+    sigma_at_clip_g: float
+    overrange_rate_hz: float
+    valid: bool
+    notes: tuple[str, ...] = ()
+    freq_hz: float | None = None
+    # standard uncertainty [g] from an identified sensor's parameter covariance (None: the
+    # sensor carries none): linear propagation, see :func:`propagated_u`
+    u_vre_g: float | None = None
+    # its sources (:func:`propagation`): the identified covariance and each assumed parameter [g]
+    u_sources_g: Mapping[str, float] | None = None
+    # bound [g] on what the remaining approximation may add (0: exact; see _level)
+    model_error_g: float = 0.0
+    # valid apart from the judgement of model_error_g against a u (:func:`judged`): a caller
+    # with its own u (identify, each level's measured u) judges the bound itself
+    valid_otherwise: bool = True
+    # off the input axis only (SPEC 1.6, see above): None for a vibration along it
+    sensed_rms_g: float | None = None
+    axis_rms_g: tuple[float, ...] | None = None
+    proof_mass_cov_g2: tuple[tuple[float, ...], ...] | None = None
+    cross_pass: float | None = None
+    cross_unpassed_g: float | None = None
+    cross_error_g: float | None = None
+
+    @property
+    def vrc_ug_per_g2(self) -> float:
+        """The level's VRC, ``vre_g / rms_g²`` [µg/g²] (:func:`vrelab.results.level_vrc`): what a
+        datasheet quotes, beside the VRE."""
+        return level_vrc(self.vre_g, self.rms_g)[0]
+
+    @property
+    def u_vrc_ug_per_g2(self) -> float | None:
+        """The VRC's standard uncertainty [µg/g²], ``u_vre_g / rms_g²`` (the level is exact); None
+        without ``u_vre_g``."""
+        return level_vrc(self.vre_g, self.rms_g, self.u_vre_g)[1]
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "rms_g": self.rms_g,
+            "vre_g": finite_or_none(self.vre_g),
+            "tilt_error_deg": finite_or_none(self.tilt_error_deg),
+        }
+        if self.u_vre_g is not None:
+            d["u_vre_g"] = finite_or_none(self.u_vre_g)
+            if self.u_sources_g is not None:
+                d["u_sources_g"] = {k: finite_or_none(v) for k, v in self.u_sources_g.items()}
+        d["vrc_ug_per_g2"] = finite_or_none(self.vrc_ug_per_g2)
+        if self.u_vre_g is not None:
+            d["u_vrc_ug_per_g2"] = finite_or_none(self.u_vrc_ug_per_g2)
+        if self.freq_hz is not None:
+            d["freq_hz"] = self.freq_hz
+        d.update(
+            shares={k: finite_or_none(v) for k, v in self.shares.items()},
+            sigma_proof_mass_g=finite_or_none(self.sigma_proof_mass_g),
+            sigma_output_g=finite_or_none(self.sigma_output_g),
+            sigma_at_clip_g=finite_or_none(self.sigma_at_clip_g),
+            overrange_rate_hz=finite_or_none(self.overrange_rate_hz),
+            model_error_g=finite_or_none(self.model_error_g),
+            valid=self.valid,
+            notes=list(self.notes),
+        )
+        if self.sensed_rms_g is not None:  # off the input axis
+            d.update(sensed_rms_g=finite_or_none(self.sensed_rms_g),
+                     axis_rms_g=[finite_or_none(v) for v in self.axis_rms_g or ()],
+                     proof_mass_cov_g2=[[finite_or_none(v) for v in row] for row in self.proof_mass_cov_g2 or ()],
+                     cross_pass=finite_or_none(self.cross_pass), cross_unpassed_g=finite_or_none(self.cross_unpassed_g),
+                     cross_error_g=finite_or_none(self.cross_error_g))
+        return d
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The analytic VRE of a sensor at each level of one excitation.
+
+    ``excitation``: off the input axis (SPEC 1.6), what the conditions carry of the vibration
+    (kind, per-axis rms per unit total rms, coherences and phases, or a sine's direction); None
+    along it. Its ``to_dict`` then has ``kind`` "triaxial-prediction".
+    """
+
+    conditions: Conditions
+    levels: tuple[LevelPrediction, ...]
+    notes: tuple[str, ...] = field(default=())
+    # every vre_g is the mean output with vibration less this reading (SPEC 1.5) [g]
+    vibration_off_g: float = math.nan
+    excitation: Mapping[str, Any] | None = None
+
+    @property
+    def valid(self) -> bool:
+        return all(lv.valid for lv in self.levels)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {
+            "kind": "prediction" if self.excitation is None else "triaxial-prediction",
+            "conditions": self.conditions.to_dict(),
+            "reference": REFERENCE,
+            "vibration_off_g": finite_or_none(self.vibration_off_g),
+            "levels": [lv.to_dict() for lv in self.levels],
+            "valid": self.valid,
+            "notes": list(self.notes),
+        }
+        if self.excitation is not None:
+            d["excitation"] = dict(self.excitation)
+        return d
+
