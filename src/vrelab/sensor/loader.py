@@ -9,8 +9,9 @@ File schema (see ``presets/README``): top-level keys give the defaults, ``[axes.
 overrides per axis, ``[ranges."<nominal g>"]`` overrides per range, and ``[facts]`` maps a field
 name to its source. An absent key means "not present" (no resonance, no filter, ...).
 
-Chain built from a description (order is fixed here; write a :class:`SensorChain` by hand for
-another order)::
+A Sensor is an ordered tuple of stage configurations (:mod:`vrelab.sensor.configs`, each
+declaring its own fields); :meth:`Sensor.stages` walks it in order (order is data; write a
+:class:`SensorChain` by hand, or register a stage, for another)::
 
     Resonator -> Polynomial -> OverRange -> [Clip if clip_position = "proof-mass"] -> Noise
     -> AntiAlias -> LowPass (ODR/4; AnalogLowPass without an ODR) -> HighPass -> Offset -> [Drift] -> Decimate (fs/ODR)
@@ -23,13 +24,15 @@ the output clip sits after the low-pass, which is why a narrower bandwidth recti
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, Literal, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,24 +41,24 @@ from vrelab._load import toml_loads
 from vrelab.results import Conditions
 from vrelab.sensor import fields
 from vrelab.sensor.chain import SensorChain
+from vrelab.sensor.configs import (
+    AntiAliasFilter,
+    Bias,
+    HighPassFilter,
+    Mechanics,
+    NoiseFloor,
+    OutputFilter,
+    ProofMassClip,
+    Protection,
+    Rails,
+    Resolution,
+    Sampling,
+    Sense,
+    StageConfig,
+)
 from vrelab.sensor.fields import is_number
 from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
-from vrelab.sensor.stages import (
-    AnalogLowPass,
-    AntiAlias,
-    Clip,
-    Decimate,
-    Drift,
-    HighPass,
-    LowPass,
-    Noise,
-    Offset,
-    OverRange,
-    Polynomial,
-    Quantize,
-    Resonator,
-    Stage,
-)
+from vrelab.sensor.stages import Resonator, Stage
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -81,9 +84,34 @@ def numeric_fields() -> tuple[str, ...]:
 NUMERIC_FIELDS: tuple[str, ...] = numeric_fields()  # as the table stands at import
 
 
-@dataclass(frozen=True)
-class Sensor:
-    """One configuration of a sensor (range, axis, ODR resolved), in g and Hz.
+if TYPE_CHECKING:
+    # For the type checker only: the built-in stages' fields read as typed Sensor attributes
+    # (sensor.fn_hz: float | None) and set by dataclasses.replace(sensor, fn_hz=...). At run time
+    # they resolve through the sensor's stage configurations (Sensor.__getattr__), so a stage
+    # registered later (vrelab.sensor.fields.register_stage) reads the same way, typed Any.
+    class _StageFields(Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter,
+                       HighPassFilter, Bias, Sampling, Rails, Resolution):
+        pass
+else:
+    _StageFields = object
+
+
+@functools.lru_cache(maxsize=64)
+def _field_index(kinds: tuple[type[StageConfig], ...]) -> dict[str, int]:
+    """Attribute name -> position in a stage tuple of these kinds."""
+    return {a.name: k for k, kind in enumerate(kinds) for a in dataclasses.fields(kind)}
+
+
+@dataclass(frozen=True, init=False, kw_only=True)
+class Sensor(_StageFields):
+    """One configuration of a sensor (range, axis, ODR resolved), in g and Hz: its identity and
+    an ordered tuple of stage configurations (:mod:`vrelab.sensor.configs`).
+
+    ``Sensor(name=..., range_g=..., axis=..., fn_hz=..., ...)``: every field of a stage is a
+    keyword (its default the row's), and reads as an attribute (``sensor.fn_hz``), resolved
+    through ``configs``; ``dataclasses.replace(sensor, fn_hz=...)`` sets it on its stage.
+    ``configs`` defaults to one configuration of each registered stage
+    (:data:`vrelab.sensor.fields.STAGES`, in their order).
 
     ``None`` means the element is absent (no ODR: analog or ideal, output at the input rate;
     no ``fn_hz``: no resonance; no ``overrange_threshold_g``: no over-range protection; ...).
@@ -92,48 +120,9 @@ class Sensor:
 
     name: str
     range_g: float  # nominal range, as selected (2 for the ±2.048 g ADXL355 range)
-    full_scale_g: float
     axis: str
-    odr_hz: float | None
-    bandwidth_hz: float | None
-    fn_hz: float | None
-    q: float | None
-    k2_per_g: float
-    k3_per_g2: float
-    k4_per_g3: float
-    rails_g: tuple[float, float]
-    clip_position: ClipPosition
-    overrange_threshold_g: float | None
-    overrange_hold_s: float | None
-    overrange_value_g: float
-    overrange_float_tau_s: float
-    noise_ug_per_rthz: float
-    lsb_g: float | None
-    anti_alias_hz: float | None
-    anti_alias_order: int | None
-    lowpass_order: int | None
-    highpass_hz: float | None
-    offset_g: float
-    lowpass_kind: Literal["butterworth", "bessel"] = "butterworth"
-    overrange_retrigger: bool = True
-    # Slow linear drift of the output [g/s] (bias drift: warm-up, temperature). Not a data-sheet
-    # number of any preset (none sets it): 0 unless a file or dataclasses.replace sets it.
-    drift_g_per_s: float = 0.0
-    # Beyond one axis (SPEC 1.6, IEEE 1293). The cross-axis sensitivity row: this axis's output
-    # per g along x, y, z relative to its own sensitivity (own entry 0; :attr:`sensitivity_row`
-    # adds the 1). The cross-coupling coefficients [1/g] of the model equation's terms
-    # Kip·a_i·a_p + Kio·a_i·a_o + Kpp·a_p² + Koo·a_o² + Kpo·a_p·a_o on the triad
-    # (i, p, o) = :attr:`triad`. All 0: the single-axis sensor of SPEC 1.1-1.5.
-    cross_axis_x: float = 0.0
-    cross_axis_y: float = 0.0
-    cross_axis_z: float = 0.0
-    pendulous_axis: str | None = None
-    input_axis: str | None = None  # the part's axis this one senses, when its name is not x, y or z
-    kip_per_g: float = 0.0
-    kio_per_g: float = 0.0
-    kpp_per_g: float = 0.0
-    koo_per_g: float = 0.0
-    kpo_per_g: float = 0.0
+    odr_hz: float | None = None
+    configs: tuple[StageConfig, ...] = ()  # the stages, in chain order
     description: str = ""
     source: str = ""
     ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
@@ -154,34 +143,45 @@ class Sensor:
     # (:func:`unstated_assumptions`); a point of the parameter space (with_parameters) has none.
     unstated: tuple[str, ...] = field(default=(), hash=False, compare=False)
 
-    def __post_init__(self) -> None:
-        for name in ("range_g", "full_scale_g"):
-            v = getattr(self, name)
-            if not is_number(v) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
+    def __init__(self, *, name: str, range_g: float, axis: str, odr_hz: float | None = None,
+                 configs: tuple[StageConfig, ...] = (), description: str = "", source: str = "",
+                 ranges_g: tuple[float, ...] = (), axes: tuple[str, ...] = ("x", "y", "z"),
+                 odrs_hz: tuple[float, ...] = (), facts: Mapping[str, str] | None = None,
+                 covariance: Mapping[str, Any] | None = None, uncertainty: Mapping[str, float] | None = None,
+                 unstated: tuple[str, ...] = (), **values: Any) -> None:
+        put = functools.partial(object.__setattr__, self)
+        for k, v in (("name", name), ("range_g", range_g), ("axis", axis), ("odr_hz", odr_hz),
+                     ("description", description), ("source", source), ("ranges_g", ranges_g), ("axes", axes),
+                     ("odrs_hz", odrs_hz), ("facts", dict(facts or {})), ("covariance", covariance),
+                     ("uncertainty", dict(uncertainty or {})), ("unstated", tuple(unstated))):
+            put(k, v)
+        put("configs", _set_fields(tuple(configs) or tuple(kind() for kind in fields.STAGES), values, name))
+        self._check()
+
+    def __getattr__(self, name: str) -> Any:
+        """A stage's field, from the stage configuration that declares it."""
+        configs: tuple[StageConfig, ...] = () if name.startswith("__") else self.__dict__.get("configs", ())
+        k = _field_index(tuple(type(c) for c in configs)).get(name)
+        if k is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(configs[k], name)
+
+    def stage_values(self) -> dict[str, Any]:
+        """Every stage's fields by attribute, in stage order."""
+        return {a.name: getattr(c, a.name) for c in self.configs for a in dataclasses.fields(c)}
+
+    def _check(self) -> None:
+        if not is_number(self.range_g) or not math.isfinite(self.range_g) or self.range_g <= 0:
+            raise ValueError(f"sensor {self.name}: range_g must be a number > 0, got {self.range_g!r}")
+        object.__setattr__(self, "configs", tuple(c.resolved(self) for c in self.configs))
         if self.odr_hz is not None and (not is_number(self.odr_hz) or not math.isfinite(self.odr_hz) or self.odr_hz <= 0):
             raise ValueError(f"sensor {self.name}: odr_hz must be a number > 0, got {self.odr_hz!r}")
+        values = self.stage_values()
         for f in fields.FIELDS:
-            if f.name != "full_scale_g":
-                f.check(getattr(self, f.name), self.name)
-        if (self.fn_hz is None) != (self.q is None):
-            raise ValueError(f"sensor {self.name}: fn_hz and q must be given together, got fn_hz={self.fn_hz!r}, q={self.q!r}")
-        if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
-            raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
-        object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
-        own = self.sensed_axis
-        if own is not None:
-            if getattr(self, f"cross_axis_{own}") != 0:
-                raise ValueError(f"sensor {self.name}: cross_axis_{own} must be 0 on the {own} axis "
-                                 f"(its own sensitivity is 1 by definition), got {getattr(self, f'cross_axis_{own}')!r}")
-            if self.pendulous_axis == own:
-                raise ValueError(f"sensor {self.name}: pendulous_axis must be another axis than the input axis "
-                                 f"{own}, got {self.pendulous_axis!r}")
-        if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
-            raise ValueError(
-                f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
-            )
-        object.__setattr__(self, "facts", dict(self.facts))
+            if f.name in values:
+                f.check(values[f.name], self.name)
+        for c in self.configs:
+            c.validate(self)
         if self.covariance is not None:
             object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
         object.__setattr__(self, "uncertainty", _check_uncertainty(self))
@@ -189,7 +189,7 @@ class Sensor:
         bad = [n for n in self.unstated if n not in known]
         if bad:
             raise ValueError(f"sensor {self.name}: unstated names unknown parameters {bad!r}; allowed: {', '.join(known)}")
-        object.__setattr__(self, "unstated", tuple(self.unstated))
+
 
     # ------------------------------------------------------------------ beyond one axis
 
@@ -259,57 +259,21 @@ class Sensor:
 
         Both the simulation (:meth:`chain`) and the analytic prediction
         (:func:`vrelab.predict.predict`, which walks these stages and takes each one's closed
-        form) use it, so they cannot read a sensor two ways. With ``fs_hz`` (an integer multiple
+        form) use it, so they cannot read a sensor two ways. Each stage configuration, in
+        ``configs`` order (order is data), gives its runtime stages
+        (:meth:`vrelab.sensor.configs.StageConfig.build`). With ``fs_hz`` (an integer multiple
         of the ODR) a :class:`Decimate` to the ODR is included; without, the stages are
-        rate-free (what the prediction needs). Order: see the module docstring.
+        rate-free (what the prediction needs). Order: see :mod:`vrelab.sensor.configs`.
         """
         factor = 1 if fs_hz is None else self.decimation(fs_hz)
-        stages: list[Stage] = []
-        if self.fn_hz is not None and self.q is not None:
-            stages.append(Resonator(self.fn_hz, self.q))
-        if self.k2_per_g or self.k3_per_g2 or self.k4_per_g3:
-            stages.append(Polynomial(self.k2_per_g, self.k3_per_g2, self.k4_per_g3))
-        if self.overrange_threshold_g is not None:
-            stages.append(
-                OverRange(
-                    self.overrange_threshold_g,
-                    float(self.overrange_hold_s),  # type: ignore[arg-type]
-                    self.overrange_value_g,
-                    self.overrange_retrigger,
-                    self.overrange_float_tau_s,
-                )
-            )
-        if self.clip_position == "proof-mass":
-            stages.append(Clip(*self.rails_g))
-        if self.noise_ug_per_rthz > 0:
-            stages.append(Noise(self.noise_ug_per_rthz))
-        if self.anti_alias_hz is not None:
-            stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
-        if self.bandwidth_hz is not None:
-            stages.append(self.output_filter(self.bandwidth_hz))
-        if self.highpass_hz is not None:
-            stages.append(HighPass(self.highpass_hz))
-        if self.offset_g:
-            stages.append(Offset(self.offset_g))
-        if self.drift_g_per_s:
-            stages.append(Drift(self.drift_g_per_s))
-        if factor > 1:
-            stages.append(Decimate(factor))
-        if self.clip_position == "output":
-            stages.append(Clip(*self.rails_g))
-        if self.lsb_g is not None:
-            stages.append(Quantize(self.lsb_g))
-        return tuple(stages)
+        return tuple(s for c in self.configs for s in c.build(self, factor))
 
-    def output_filter(self, corner_hz: float) -> LowPass | AnalogLowPass:
-        """The band-limit at the output: with an ODR the part's digital low-pass
-        (:class:`LowPass`), without one (an analog part: the ADXL354's overall bandwidth) an
-        analog output filter of the same order and family (:class:`AnalogLowPass`). Either way
-        ``bandwidth_hz`` limits what reaches the output rails (SPEC 1.3)."""
-        order = self.lowpass_order or 4
-        if self.odr_hz is not None:
-            return LowPass(corner_hz, order, self.lowpass_kind)
-        return AnalogLowPass(corner_hz, order, self.lowpass_kind)
+    def output_filter(self, corner_hz: float) -> Stage:
+        """The band-limit at the output at ``corner_hz`` [Hz] (:class:`~vrelab.sensor.configs.OutputFilter`):
+        with an ODR the part's digital low-pass (:class:`LowPass`), without one an analog output
+        filter of the same order and family (:class:`AnalogLowPass`)."""
+        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind).filter(
+            corner_hz, self.odr_hz)
 
     def chain(self, fs_hz: float) -> SensorChain:
         """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
@@ -358,7 +322,9 @@ class Sensor:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
+        """The identity and every stage's fields by attribute (tuples as lists), as plain data."""
+        ident = {f.name: copy.deepcopy(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "configs"}
+        d = {**{k: ident.pop(k) for k in ("name", "range_g", "axis", "odr_hz")}, **self.stage_values(), **ident}
         for key, value in d.items():
             if isinstance(value, tuple):
                 d[key] = list(value)
@@ -378,6 +344,19 @@ class Sensor:
             lines.append(f"  {name} = {shown}    ({self.facts.get(name, 'unmarked')})")
         lines.append(f"  clip_position = {self.clip_position}")
         return "\n".join(lines)
+
+
+def _set_fields(configs: tuple[StageConfig, ...], values: Mapping[str, Any], name: str) -> tuple[StageConfig, ...]:
+    """``configs`` with ``values`` (stage fields by attribute) set on the stages that declare them."""
+    index = _field_index(tuple(type(c) for c in configs))
+    unknown = sorted(set(values) - set(index))
+    if unknown:
+        raise TypeError(f"sensor {name}: no stage has the field(s) {', '.join(unknown)}; "
+                        f"stages: {', '.join(type(c).__name__ for c in configs)}")
+    per: dict[int, dict[str, Any]] = {}
+    for key, v in values.items():
+        per.setdefault(index[key], {})[key] = v
+    return tuple(dataclasses.replace(c, **per[k]) if k in per else c for k, c in enumerate(configs))
 
 
 # ---------------------------------------------------------------------------- files
