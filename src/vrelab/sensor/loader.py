@@ -32,7 +32,7 @@ import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -143,18 +143,22 @@ class Sensor(_StageFields):
     # (:func:`unstated_assumptions`); a point of the parameter space (with_parameters) has none.
     unstated: tuple[str, ...] = field(default=(), hash=False, compare=False)
 
-    def __init__(self, *, name: str, range_g: float, axis: str, odr_hz: float | None = None,
-                 configs: tuple[StageConfig, ...] = (), description: str = "", source: str = "",
-                 ranges_g: tuple[float, ...] = (), axes: tuple[str, ...] = ("x", "y", "z"),
-                 odrs_hz: tuple[float, ...] = (), facts: Mapping[str, str] | None = None,
-                 covariance: Mapping[str, Any] | None = None, uncertainty: Mapping[str, float] | None = None,
-                 unstated: tuple[str, ...] = (), **values: Any) -> None:
+    def __init__(self, *, name: str, range_g: float, axis: str, configs: tuple[StageConfig, ...] = (),
+                 **values: Any) -> None:
+        """``values``: the other identity fields above (``odr_hz``, ``facts``, ...; each its default
+        when not given) and any stage's fields by attribute."""
         put = functools.partial(object.__setattr__, self)
-        for k, v in (("name", name), ("range_g", range_g), ("axis", axis), ("odr_hz", odr_hz),
-                     ("description", description), ("source", source), ("ranges_g", ranges_g), ("axes", axes),
-                     ("odrs_hz", odrs_hz), ("facts", dict(facts or {})), ("covariance", covariance),
-                     ("uncertainty", dict(uncertainty or {})), ("unstated", tuple(unstated))):
-            put(k, v)
+        put("name", name)
+        put("range_g", range_g)
+        put("axis", axis)
+        for f in dataclasses.fields(Sensor):
+            if f.name not in ("name", "range_g", "axis", "configs"):
+                factory = cast(Callable[[], Any], f.default_factory)  # facts, uncertainty: a fresh dict each
+                default = factory() if f.default is dataclasses.MISSING else f.default
+                put(f.name, values.pop(f.name) if f.name in values else default)
+        put("facts", dict(self.facts))
+        put("uncertainty", dict(self.uncertainty))
+        put("unstated", tuple(self.unstated))
         put("configs", _set_fields(tuple(configs) or tuple(kind() for kind in fields.STAGES), values, name))
         self._check()
 
@@ -649,11 +653,57 @@ def load_sensor(
     ValueError naming the field and the allowed values for an unknown preset, an invalid file,
     an unknown range, axis or ODR.
     """
+    data, origin, name = _read_checked(spec)
+    where = f"{name} ({origin})"
+    axes_table, axes, chosen_axis = _choose_axis(data, axis, name, where)
+    ranges_table, nominal, range_key, req = _choose_range(data, range_g, name, where)
+    odrs, chosen_odr = _choose_odr(data, odr_hz, name, where)
+    axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
+    range_table = dict(ranges_table[range_key]) if range_key is not None else None
+    values, uncertainty, covariance = _layered_values(data, axis_table, range_table, chosen_odr, where,
+                                                      f"[axes.{chosen_axis}]", f"[ranges.{range_key}]")
+    # ---- values the user sets (--k2/--k3, a sweep point) win over the file
+    rows = fields.by_key()
+    user = dict(overrides or {})
+    user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
+    _check_keys(user, set(rows), f"{where} (values set by the user)")
+    _apply(values, user, f"{where} (set by the user)")
+    user_params = {n for k in user for n in rows[k].parameters}
+    for n in user_params:
+        uncertainty.pop(n, None)  # the file's assumed u is not about the value set
+    given = set(values)  # the attributes the file or the user set; the others keep their stage's default
+    facts = _resolved_facts(data, axis_table.get("facts", {}), user, given, origin, where, f"[axes.{chosen_axis}]")
+    description = data.get("description", "")
+    source = data.get("source", origin)
+    sensor = Sensor(
+        name=name,
+        range_g=req,
+        axis=chosen_axis,
+        odr_hz=chosen_odr,
+        description=description if isinstance(description, str) else "",
+        source=source if isinstance(source, str) else origin,
+        ranges_g=tuple(sorted(nominal)),
+        axes=axes,
+        odrs_hz=odrs,
+        facts=facts,
+        covariance=_without(covariance, user_params),
+        uncertainty=uncertainty,
+        **values,
+    )
+    # a sensor file means what it says: no field read and ignored (a hold without a threshold)
+    for f in fields.idle(sensor.stage_values(), given):
+        need = fields.by_name()[f.needs].key
+        raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
+                         f"give {need} or leave {f.key} out")
+    return dataclasses.replace(sensor, unstated=unstated_assumptions(sensor))
+
+
+def _read_checked(spec: str) -> tuple[dict[str, Any], str, str]:
+    """(the file's document, where it comes from, the sensor's name): its keys, schema and name checked."""
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
     data, origin = read_spec(spec)
-    rows = fields.by_key()
-    _check_keys(data, _FILE_KEYS | set(rows), origin)
+    _check_keys(data, _FILE_KEYS | set(fields.by_key()), origin)
     if "schema" not in data:
         raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "
                          "(see the presets README); an empty file is not a sensor")
@@ -663,88 +713,60 @@ def load_sensor(
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
-    where = f"{name} ({origin})"
+    return data, origin, name
 
-    axes_table, axes, chosen_axis = _choose_axis(data, axis, name, where)
-    ranges_table, nominal, range_key, req = _choose_range(data, range_g, name, where)
-    odrs, chosen_odr = _choose_odr(data, odr_hz, name, where)
 
-    # ---- values: top level < axis < range
+def _layered_values(data: Mapping[str, Any], axis_table: dict[str, Any], range_table: dict[str, Any] | None,
+                    odr_hz: float | None, where: str, axis_where: str, range_where: str,
+                    ) -> tuple[dict[str, Any], dict[str, float], Any]:
+    """(the stage fields by attribute, the assumed u, the axis's covariance) of a file's tables:
+    top level < the chosen axis's table < the chosen range's table (``axis_table`` loses its
+    covariance to the result; ``range_table`` None: the file has no ranges)."""
+    rows = fields.by_key()
     values: dict[str, Any] = {}
     _apply(values, {k: v for k, v in data.items() if k in rows}, where)
     uncertainty = _uncertainty_table(data.get(UNCERTAINTY), where)
-    axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
-    axis_facts = axis_table.pop("facts", {})
     covariance = axis_table.pop("covariance", None)
-    uncertainty.update(_uncertainty_table(axis_table.pop(UNCERTAINTY, None), f"{where} [axes.{chosen_axis}]"))
-    if axes_table:
-        _check_keys(axis_table, set(rows), f"{where} [axes.{chosen_axis}]")
-        _apply(values, axis_table, f"{where} [axes.{chosen_axis}]")
-    if range_key is not None:
-        range_table = {k: v for k, v in ranges_table[range_key].items() if k != UNCERTAINTY}
-        _check_keys(range_table, set(rows), f"{where} [ranges.{range_key}]")
-        _apply(values, range_table, f"{where} [ranges.{range_key}]")
-        uncertainty.update(_uncertainty_table(ranges_table[range_key].get(UNCERTAINTY), f"{where} [ranges.{range_key}]"))
+    uncertainty.update(_uncertainty_table(axis_table.get(UNCERTAINTY), f"{where} {axis_where}"))
+    own = {k: v for k, v in axis_table.items() if k not in ("facts", UNCERTAINTY)}
+    _check_keys(own, set(rows), f"{where} {axis_where}")
+    _apply(values, own, f"{where} {axis_where}")
+    if range_table is not None:
+        own = {k: v for k, v in range_table.items() if k != UNCERTAINTY}
+        _check_keys(own, set(rows), f"{where} {range_where}")
+        _apply(values, own, f"{where} {range_where}")
+        uncertainty.update(_uncertainty_table(range_table.get(UNCERTAINTY), f"{where} {range_where}"))
         # a value the range's table sets was not the one identified on the axis: not an estimate here
-        covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in ranges_table[range_key]})
+        covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in range_table})
     u_per_odr = uncertainty.pop(PER_ODR, None)
-    if chosen_odr is not None:
-        per_odr = data.get("bandwidth_per_odr")
-        if per_odr is not None:
-            values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * chosen_odr
-            if u_per_odr is not None and "bandwidth_hz" not in uncertainty:
-                uncertainty["bandwidth_hz"] = u_per_odr * chosen_odr
-    # ---- values the user sets (--k2/--k3, a sweep point) win over the file
-    user = dict(overrides or {})
-    user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
-    _check_keys(user, set(rows), f"{where} (values set by the user)")
-    _apply(values, user, f"{where} (set by the user)")
-    user_params = {n for k in user for n in rows[k].parameters}
-    for n in user_params:
-        uncertainty.pop(n, None)  # the file's assumed u is not about the value set
-    given = set(values)  # the attributes the file or the user set; the others keep their default
-    full_scale = values.pop("full_scale_g", req)
-    rails = values.pop("rails_g", (-full_scale, full_scale))
+    per_odr = data.get("bandwidth_per_odr")
+    if odr_hz is not None and per_odr is not None:
+        values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * odr_hz
+        if u_per_odr is not None and "bandwidth_hz" not in uncertainty:
+            uncertainty["bandwidth_hz"] = u_per_odr * odr_hz
+    return values, uncertainty, covariance
 
+
+def _resolved_facts(data: Mapping[str, Any], axis_facts: Any, user: Mapping[str, Any], given: set[str],
+                    origin: str, where: str, axis_where: str) -> dict[str, str]:
+    """Where each value comes from: the file's [facts] < the axis's own < "set by the user"; a
+    value left at its default has its row's default fact; a user file's other numbers say they
+    are unmarked."""
+    rows = fields.by_key()
     facts = _facts(data, where)
     if axis_facts:  # an axis's own sources (an identified file marks each number per channel)
-        facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]"))
+        facts.update(_facts({"facts": axis_facts}, f"{where} {axis_where}"))
     for key, raw in user.items():
         shown = ", ".join(f"{x:g}" for x in raw) if isinstance(raw, (list, tuple)) else (
             f"{raw:g}" if is_number(raw) else str(raw))
         facts[rows[key].name] = f"set by the user: {shown} {rows[key].text_unit}".rstrip()
-    for f in fields.FIELDS:  # a value left at its default has the row's default fact
+    for f in fields.FIELDS:
         if f.name not in facts and f.name not in given and f.default_fact:
             facts[f.name] = f.default_fact
-    if origin.startswith("file"):  # a user file's other numbers say they are unmarked
+    if origin.startswith("file"):
         for attr in numeric_fields():
             facts.setdefault(attr, f"unmarked, from user {origin}")
-
-    description = data.get("description", "")
-    source = data.get("source", origin)
-    sensor = Sensor(
-        name=name,
-        range_g=req,
-        full_scale_g=full_scale,
-        axis=chosen_axis,
-        odr_hz=chosen_odr,
-        rails_g=rails,
-        **{f.name: values.get(f.name, f.default) for f in fields.FIELDS if f.name not in ("full_scale_g", "rails_g")},
-        description=description if isinstance(description, str) else "",
-        source=source if isinstance(source, str) else origin,
-        ranges_g=tuple(sorted(nominal)),
-        axes=axes,
-        odrs_hz=odrs,
-        facts=facts,
-        covariance=_without(covariance, user_params),
-        uncertainty=uncertainty,
-    )
-    # a sensor file means what it says: no field read and ignored (a hold without a threshold)
-    for f in fields.idle({g.name: getattr(sensor, g.name) for g in fields.FIELDS}, given):
-        need = fields.by_name()[f.needs].key
-        raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
-                         f"give {need} or leave {f.key} out")
-    return dataclasses.replace(sensor, unstated=unstated_assumptions(sensor))
+    return facts
 
 
 def _without(cov: Any, names: set[str]) -> Any:
