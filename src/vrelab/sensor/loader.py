@@ -9,8 +9,9 @@ File schema (see ``presets/README``): top-level keys give the defaults, ``[axes.
 overrides per axis, ``[ranges."<nominal g>"]`` overrides per range, and ``[facts]`` maps a field
 name to its source. An absent key means "not present" (no resonance, no filter, ...).
 
-Chain built from a description (order is fixed here; write a :class:`SensorChain` by hand for
-another order)::
+A Sensor is an ordered tuple of stage configurations (:mod:`vrelab.sensor.configs`, each
+declaring its own fields); :meth:`Sensor.stages` walks it in order (order is data; write a
+:class:`SensorChain` by hand, or register a stage, for another)::
 
     Resonator -> Polynomial -> OverRange -> [Clip if clip_position = "proof-mass"] -> Noise
     -> AntiAlias -> LowPass (ODR/4; AnalogLowPass without an ODR) -> HighPass -> Offset -> [Drift] -> Decimate (fs/ODR)
@@ -23,13 +24,15 @@ the output clip sits after the low-pass, which is why a narrower bandwidth recti
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, Literal, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,24 +41,24 @@ from vrelab._load import toml_loads
 from vrelab.results import Conditions
 from vrelab.sensor import fields
 from vrelab.sensor.chain import SensorChain
+from vrelab.sensor.configs import (
+    AntiAliasFilter,
+    Bias,
+    HighPassFilter,
+    Mechanics,
+    NoiseFloor,
+    OutputFilter,
+    ProofMassClip,
+    Protection,
+    Rails,
+    Resolution,
+    Sampling,
+    Sense,
+    StageConfig,
+)
 from vrelab.sensor.fields import is_number
 from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
-from vrelab.sensor.stages import (
-    AnalogLowPass,
-    AntiAlias,
-    Clip,
-    Decimate,
-    Drift,
-    HighPass,
-    LowPass,
-    Noise,
-    Offset,
-    OverRange,
-    Polynomial,
-    Quantize,
-    Resonator,
-    Stage,
-)
+from vrelab.sensor.stages import Resonator, Stage
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -81,9 +84,34 @@ def numeric_fields() -> tuple[str, ...]:
 NUMERIC_FIELDS: tuple[str, ...] = numeric_fields()  # as the table stands at import
 
 
-@dataclass(frozen=True)
-class Sensor:
-    """One configuration of a sensor (range, axis, ODR resolved), in g and Hz.
+if TYPE_CHECKING:
+    # For the type checker only: the built-in stages' fields read as typed Sensor attributes
+    # (sensor.fn_hz: float | None) and set by dataclasses.replace(sensor, fn_hz=...). At run time
+    # they resolve through the sensor's stage configurations (Sensor.__getattr__), so a stage
+    # registered later (vrelab.sensor.fields.register_stage) reads the same way, typed Any.
+    class _StageFields(Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter,
+                       HighPassFilter, Bias, Sampling, Rails, Resolution):
+        pass
+else:
+    _StageFields = object
+
+
+@functools.lru_cache(maxsize=64)
+def _field_index(kinds: tuple[type[StageConfig], ...]) -> dict[str, int]:
+    """Attribute name -> position in a stage tuple of these kinds."""
+    return {a.name: k for k, kind in enumerate(kinds) for a in dataclasses.fields(kind)}
+
+
+@dataclass(frozen=True, init=False, kw_only=True)
+class Sensor(_StageFields):
+    """One configuration of a sensor (range, axis, ODR resolved), in g and Hz: its identity and
+    an ordered tuple of stage configurations (:mod:`vrelab.sensor.configs`).
+
+    ``Sensor(name=..., range_g=..., axis=..., fn_hz=..., ...)``: every field of a stage is a
+    keyword (its default the row's), and reads as an attribute (``sensor.fn_hz``), resolved
+    through ``configs``; ``dataclasses.replace(sensor, fn_hz=...)`` sets it on its stage.
+    ``configs`` defaults to one configuration of each registered stage
+    (:data:`vrelab.sensor.fields.STAGES`, in their order).
 
     ``None`` means the element is absent (no ODR: analog or ideal, output at the input rate;
     no ``fn_hz``: no resonance; no ``overrange_threshold_g``: no over-range protection; ...).
@@ -92,48 +120,9 @@ class Sensor:
 
     name: str
     range_g: float  # nominal range, as selected (2 for the ±2.048 g ADXL355 range)
-    full_scale_g: float
     axis: str
-    odr_hz: float | None
-    bandwidth_hz: float | None
-    fn_hz: float | None
-    q: float | None
-    k2_per_g: float
-    k3_per_g2: float
-    k4_per_g3: float
-    rails_g: tuple[float, float]
-    clip_position: ClipPosition
-    overrange_threshold_g: float | None
-    overrange_hold_s: float | None
-    overrange_value_g: float
-    overrange_float_tau_s: float
-    noise_ug_per_rthz: float
-    lsb_g: float | None
-    anti_alias_hz: float | None
-    anti_alias_order: int | None
-    lowpass_order: int | None
-    highpass_hz: float | None
-    offset_g: float
-    lowpass_kind: Literal["butterworth", "bessel"] = "butterworth"
-    overrange_retrigger: bool = True
-    # Slow linear drift of the output [g/s] (bias drift: warm-up, temperature). Not a data-sheet
-    # number of any preset (none sets it): 0 unless a file or dataclasses.replace sets it.
-    drift_g_per_s: float = 0.0
-    # Beyond one axis (SPEC 1.6, IEEE 1293). The cross-axis sensitivity row: this axis's output
-    # per g along x, y, z relative to its own sensitivity (own entry 0; :attr:`sensitivity_row`
-    # adds the 1). The cross-coupling coefficients [1/g] of the model equation's terms
-    # Kip·a_i·a_p + Kio·a_i·a_o + Kpp·a_p² + Koo·a_o² + Kpo·a_p·a_o on the triad
-    # (i, p, o) = :attr:`triad`. All 0: the single-axis sensor of SPEC 1.1-1.5.
-    cross_axis_x: float = 0.0
-    cross_axis_y: float = 0.0
-    cross_axis_z: float = 0.0
-    pendulous_axis: str | None = None
-    input_axis: str | None = None  # the part's axis this one senses, when its name is not x, y or z
-    kip_per_g: float = 0.0
-    kio_per_g: float = 0.0
-    kpp_per_g: float = 0.0
-    koo_per_g: float = 0.0
-    kpo_per_g: float = 0.0
+    odr_hz: float | None = None
+    configs: tuple[StageConfig, ...] = ()  # the stages, in chain order
     description: str = ""
     source: str = ""
     ranges_g: tuple[float, ...] = ()  # nominal ranges the description declares (() = any > 0)
@@ -154,34 +143,49 @@ class Sensor:
     # (:func:`unstated_assumptions`); a point of the parameter space (with_parameters) has none.
     unstated: tuple[str, ...] = field(default=(), hash=False, compare=False)
 
-    def __post_init__(self) -> None:
-        for name in ("range_g", "full_scale_g"):
-            v = getattr(self, name)
-            if not is_number(v) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"sensor {self.name}: {name} must be a number > 0, got {v!r}")
+    def __init__(self, *, name: str, range_g: float, axis: str, configs: tuple[StageConfig, ...] = (),
+                 **values: Any) -> None:
+        """``values``: the other identity fields above (``odr_hz``, ``facts``, ...; each its default
+        when not given) and any stage's fields by attribute."""
+        put = functools.partial(object.__setattr__, self)
+        put("name", name)
+        put("range_g", range_g)
+        put("axis", axis)
+        for f in dataclasses.fields(Sensor):
+            if f.name not in ("name", "range_g", "axis", "configs"):
+                factory = cast(Callable[[], Any], f.default_factory)  # facts, uncertainty: a fresh dict each
+                default = factory() if f.default is dataclasses.MISSING else f.default
+                put(f.name, values.pop(f.name) if f.name in values else default)
+        put("facts", dict(self.facts))
+        put("uncertainty", dict(self.uncertainty))
+        put("unstated", tuple(self.unstated))
+        put("configs", _set_fields(tuple(configs) or tuple(kind() for kind in fields.STAGES), values, name))
+        self._check()
+
+    def __getattr__(self, name: str) -> Any:
+        """A stage's field, from the stage configuration that declares it."""
+        configs: tuple[StageConfig, ...] = () if name.startswith("__") else self.__dict__.get("configs", ())
+        k = _field_index(tuple(type(c) for c in configs)).get(name)
+        if k is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(configs[k], name)
+
+    def stage_values(self) -> dict[str, Any]:
+        """Every stage's fields by attribute, in stage order."""
+        return {a.name: getattr(c, a.name) for c in self.configs for a in dataclasses.fields(c)}
+
+    def _check(self) -> None:
+        if not is_number(self.range_g) or not math.isfinite(self.range_g) or self.range_g <= 0:
+            raise ValueError(f"sensor {self.name}: range_g must be a number > 0, got {self.range_g!r}")
+        object.__setattr__(self, "configs", tuple(c.resolved(self) for c in self.configs))
         if self.odr_hz is not None and (not is_number(self.odr_hz) or not math.isfinite(self.odr_hz) or self.odr_hz <= 0):
             raise ValueError(f"sensor {self.name}: odr_hz must be a number > 0, got {self.odr_hz!r}")
+        values = self.stage_values()
         for f in fields.FIELDS:
-            if f.name != "full_scale_g":
-                f.check(getattr(self, f.name), self.name)
-        if (self.fn_hz is None) != (self.q is None):
-            raise ValueError(f"sensor {self.name}: fn_hz and q must be given together, got fn_hz={self.fn_hz!r}, q={self.q!r}")
-        if self.overrange_threshold_g is not None and self.overrange_hold_s is None:
-            raise ValueError(f"sensor {self.name}: overrange_hold_s is required with overrange_threshold_g")
-        object.__setattr__(self, "rails_g", (float(self.rails_g[0]), float(self.rails_g[1])))
-        own = self.sensed_axis
-        if own is not None:
-            if getattr(self, f"cross_axis_{own}") != 0:
-                raise ValueError(f"sensor {self.name}: cross_axis_{own} must be 0 on the {own} axis "
-                                 f"(its own sensitivity is 1 by definition), got {getattr(self, f'cross_axis_{own}')!r}")
-            if self.pendulous_axis == own:
-                raise ValueError(f"sensor {self.name}: pendulous_axis must be another axis than the input axis "
-                                 f"{own}, got {self.pendulous_axis!r}")
-        if self.odr_hz is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < self.odr_hz / 2:
-            raise ValueError(
-                f"sensor {self.name}: bandwidth_hz must be below ODR/2 = {self.odr_hz / 2:g} Hz, got {self.bandwidth_hz!r}"
-            )
-        object.__setattr__(self, "facts", dict(self.facts))
+            if f.name in values:
+                f.check(values[f.name], self.name)
+        for c in self.configs:
+            c.validate(self)
         if self.covariance is not None:
             object.__setattr__(self, "covariance", _check_covariance(self.covariance, self.name))
         object.__setattr__(self, "uncertainty", _check_uncertainty(self))
@@ -189,7 +193,7 @@ class Sensor:
         bad = [n for n in self.unstated if n not in known]
         if bad:
             raise ValueError(f"sensor {self.name}: unstated names unknown parameters {bad!r}; allowed: {', '.join(known)}")
-        object.__setattr__(self, "unstated", tuple(self.unstated))
+
 
     # ------------------------------------------------------------------ beyond one axis
 
@@ -259,57 +263,21 @@ class Sensor:
 
         Both the simulation (:meth:`chain`) and the analytic prediction
         (:func:`vrelab.predict.predict`, which walks these stages and takes each one's closed
-        form) use it, so they cannot read a sensor two ways. With ``fs_hz`` (an integer multiple
+        form) use it, so they cannot read a sensor two ways. Each stage configuration, in
+        ``configs`` order (order is data), gives its runtime stages
+        (:meth:`vrelab.sensor.configs.StageConfig.build`). With ``fs_hz`` (an integer multiple
         of the ODR) a :class:`Decimate` to the ODR is included; without, the stages are
-        rate-free (what the prediction needs). Order: see the module docstring.
+        rate-free (what the prediction needs). Order: see :mod:`vrelab.sensor.configs`.
         """
         factor = 1 if fs_hz is None else self.decimation(fs_hz)
-        stages: list[Stage] = []
-        if self.fn_hz is not None and self.q is not None:
-            stages.append(Resonator(self.fn_hz, self.q))
-        if self.k2_per_g or self.k3_per_g2 or self.k4_per_g3:
-            stages.append(Polynomial(self.k2_per_g, self.k3_per_g2, self.k4_per_g3))
-        if self.overrange_threshold_g is not None:
-            stages.append(
-                OverRange(
-                    self.overrange_threshold_g,
-                    float(self.overrange_hold_s),  # type: ignore[arg-type]
-                    self.overrange_value_g,
-                    self.overrange_retrigger,
-                    self.overrange_float_tau_s,
-                )
-            )
-        if self.clip_position == "proof-mass":
-            stages.append(Clip(*self.rails_g))
-        if self.noise_ug_per_rthz > 0:
-            stages.append(Noise(self.noise_ug_per_rthz))
-        if self.anti_alias_hz is not None:
-            stages.append(AntiAlias(self.anti_alias_hz, self.anti_alias_order or 2))
-        if self.bandwidth_hz is not None:
-            stages.append(self.output_filter(self.bandwidth_hz))
-        if self.highpass_hz is not None:
-            stages.append(HighPass(self.highpass_hz))
-        if self.offset_g:
-            stages.append(Offset(self.offset_g))
-        if self.drift_g_per_s:
-            stages.append(Drift(self.drift_g_per_s))
-        if factor > 1:
-            stages.append(Decimate(factor))
-        if self.clip_position == "output":
-            stages.append(Clip(*self.rails_g))
-        if self.lsb_g is not None:
-            stages.append(Quantize(self.lsb_g))
-        return tuple(stages)
+        return tuple(s for c in self.configs for s in c.build(self, factor))
 
-    def output_filter(self, corner_hz: float) -> LowPass | AnalogLowPass:
-        """The band-limit at the output: with an ODR the part's digital low-pass
-        (:class:`LowPass`), without one (an analog part: the ADXL354's overall bandwidth) an
-        analog output filter of the same order and family (:class:`AnalogLowPass`). Either way
-        ``bandwidth_hz`` limits what reaches the output rails (SPEC 1.3)."""
-        order = self.lowpass_order or 4
-        if self.odr_hz is not None:
-            return LowPass(corner_hz, order, self.lowpass_kind)
-        return AnalogLowPass(corner_hz, order, self.lowpass_kind)
+    def output_filter(self, corner_hz: float) -> Stage:
+        """The band-limit at the output at ``corner_hz`` [Hz] (:class:`~vrelab.sensor.configs.OutputFilter`):
+        with an ODR the part's digital low-pass (:class:`LowPass`), without one an analog output
+        filter of the same order and family (:class:`AnalogLowPass`)."""
+        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind).filter(
+            corner_hz, self.odr_hz)
 
     def chain(self, fs_hz: float) -> SensorChain:
         """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
@@ -358,7 +326,9 @@ class Sensor:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
+        """The identity and every stage's fields by attribute (tuples as lists), as plain data."""
+        ident = {f.name: copy.deepcopy(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "configs"}
+        d = {**{k: ident.pop(k) for k in ("name", "range_g", "axis", "odr_hz")}, **self.stage_values(), **ident}
         for key, value in d.items():
             if isinstance(value, tuple):
                 d[key] = list(value)
@@ -378,6 +348,19 @@ class Sensor:
             lines.append(f"  {name} = {shown}    ({self.facts.get(name, 'unmarked')})")
         lines.append(f"  clip_position = {self.clip_position}")
         return "\n".join(lines)
+
+
+def _set_fields(configs: tuple[StageConfig, ...], values: Mapping[str, Any], name: str) -> tuple[StageConfig, ...]:
+    """``configs`` with ``values`` (stage fields by attribute) set on the stages that declare them."""
+    index = _field_index(tuple(type(c) for c in configs))
+    unknown = sorted(set(values) - set(index))
+    if unknown:
+        raise TypeError(f"sensor {name}: no stage has the field(s) {', '.join(unknown)}; "
+                        f"stages: {', '.join(type(c).__name__ for c in configs)}")
+    per: dict[int, dict[str, Any]] = {}
+    for key, v in values.items():
+        per.setdefault(index[key], {})[key] = v
+    return tuple(dataclasses.replace(c, **per[k]) if k in per else c for k, c in enumerate(configs))
 
 
 # ---------------------------------------------------------------------------- files
@@ -670,11 +653,57 @@ def load_sensor(
     ValueError naming the field and the allowed values for an unknown preset, an invalid file,
     an unknown range, axis or ODR.
     """
+    data, origin, name = _read_checked(spec)
+    where = f"{name} ({origin})"
+    axes_table, axes, chosen_axis = _choose_axis(data, axis, name, where)
+    ranges_table, nominal, range_key, req = _choose_range(data, range_g, name, where)
+    odrs, chosen_odr = _choose_odr(data, odr_hz, name, where)
+    axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
+    range_table = dict(ranges_table[range_key]) if range_key is not None else None
+    values, uncertainty, covariance = _layered_values(data, axis_table, range_table, chosen_odr, where,
+                                                      f"[axes.{chosen_axis}]", f"[ranges.{range_key}]")
+    # ---- values the user sets (--k2/--k3, a sweep point) win over the file
+    rows = fields.by_key()
+    user = dict(overrides or {})
+    user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
+    _check_keys(user, set(rows), f"{where} (values set by the user)")
+    _apply(values, user, f"{where} (set by the user)")
+    user_params = {n for k in user for n in rows[k].parameters}
+    for n in user_params:
+        uncertainty.pop(n, None)  # the file's assumed u is not about the value set
+    given = set(values)  # the attributes the file or the user set; the others keep their stage's default
+    facts = _resolved_facts(data, axis_table.get("facts", {}), user, given, origin, where, f"[axes.{chosen_axis}]")
+    description = data.get("description", "")
+    source = data.get("source", origin)
+    sensor = Sensor(
+        name=name,
+        range_g=req,
+        axis=chosen_axis,
+        odr_hz=chosen_odr,
+        description=description if isinstance(description, str) else "",
+        source=source if isinstance(source, str) else origin,
+        ranges_g=tuple(sorted(nominal)),
+        axes=axes,
+        odrs_hz=odrs,
+        facts=facts,
+        covariance=_without(covariance, user_params),
+        uncertainty=uncertainty,
+        **values,
+    )
+    # a sensor file means what it says: no field read and ignored (a hold without a threshold)
+    for f in fields.idle(sensor.stage_values(), given):
+        need = fields.by_name()[f.needs].key
+        raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
+                         f"give {need} or leave {f.key} out")
+    return dataclasses.replace(sensor, unstated=unstated_assumptions(sensor))
+
+
+def _read_checked(spec: str) -> tuple[dict[str, Any], str, str]:
+    """(the file's document, where it comes from, the sensor's name): its keys, schema and name checked."""
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"sensor must be a preset name or a path, got {spec!r}")
     data, origin = read_spec(spec)
-    rows = fields.by_key()
-    _check_keys(data, _FILE_KEYS | set(rows), origin)
+    _check_keys(data, _FILE_KEYS | set(fields.by_key()), origin)
     if "schema" not in data:
         raise ValueError(f"sensor {origin}: no schema key: a sensor file starts with schema = {SCHEMA} "
                          "(see the presets README); an empty file is not a sensor")
@@ -684,88 +713,60 @@ def load_sensor(
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
-    where = f"{name} ({origin})"
+    return data, origin, name
 
-    axes_table, axes, chosen_axis = _choose_axis(data, axis, name, where)
-    ranges_table, nominal, range_key, req = _choose_range(data, range_g, name, where)
-    odrs, chosen_odr = _choose_odr(data, odr_hz, name, where)
 
-    # ---- values: top level < axis < range
+def _layered_values(data: Mapping[str, Any], axis_table: dict[str, Any], range_table: dict[str, Any] | None,
+                    odr_hz: float | None, where: str, axis_where: str, range_where: str,
+                    ) -> tuple[dict[str, Any], dict[str, float], Any]:
+    """(the stage fields by attribute, the assumed u, the axis's covariance) of a file's tables:
+    top level < the chosen axis's table < the chosen range's table (``axis_table`` loses its
+    covariance to the result; ``range_table`` None: the file has no ranges)."""
+    rows = fields.by_key()
     values: dict[str, Any] = {}
     _apply(values, {k: v for k, v in data.items() if k in rows}, where)
     uncertainty = _uncertainty_table(data.get(UNCERTAINTY), where)
-    axis_table = dict(axes_table.get(chosen_axis, {})) if axes_table else {}
-    axis_facts = axis_table.pop("facts", {})
     covariance = axis_table.pop("covariance", None)
-    uncertainty.update(_uncertainty_table(axis_table.pop(UNCERTAINTY, None), f"{where} [axes.{chosen_axis}]"))
-    if axes_table:
-        _check_keys(axis_table, set(rows), f"{where} [axes.{chosen_axis}]")
-        _apply(values, axis_table, f"{where} [axes.{chosen_axis}]")
-    if range_key is not None:
-        range_table = {k: v for k, v in ranges_table[range_key].items() if k != UNCERTAINTY}
-        _check_keys(range_table, set(rows), f"{where} [ranges.{range_key}]")
-        _apply(values, range_table, f"{where} [ranges.{range_key}]")
-        uncertainty.update(_uncertainty_table(ranges_table[range_key].get(UNCERTAINTY), f"{where} [ranges.{range_key}]"))
+    uncertainty.update(_uncertainty_table(axis_table.get(UNCERTAINTY), f"{where} {axis_where}"))
+    own = {k: v for k, v in axis_table.items() if k not in ("facts", UNCERTAINTY)}
+    _check_keys(own, set(rows), f"{where} {axis_where}")
+    _apply(values, own, f"{where} {axis_where}")
+    if range_table is not None:
+        own = {k: v for k, v in range_table.items() if k != UNCERTAINTY}
+        _check_keys(own, set(rows), f"{where} {range_where}")
+        _apply(values, own, f"{where} {range_where}")
+        uncertainty.update(_uncertainty_table(range_table.get(UNCERTAINTY), f"{where} {range_where}"))
         # a value the range's table sets was not the one identified on the axis: not an estimate here
-        covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in ranges_table[range_key]})
+        covariance = _without(covariance, {n for n, p in identifiable().items() if p.file_key in range_table})
     u_per_odr = uncertainty.pop(PER_ODR, None)
-    if chosen_odr is not None:
-        per_odr = data.get("bandwidth_per_odr")
-        if per_odr is not None:
-            values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * chosen_odr
-            if u_per_odr is not None and "bandwidth_hz" not in uncertainty:
-                uncertainty["bandwidth_hz"] = u_per_odr * chosen_odr
-    # ---- values the user sets (--k2/--k3, a sweep point) win over the file
-    user = dict(overrides or {})
-    user.update({k: v for k, v in (("k2_ug_per_g2", k2_ug_per_g2), ("k3_ug_per_g3", k3_ug_per_g3)) if v is not None})
-    _check_keys(user, set(rows), f"{where} (values set by the user)")
-    _apply(values, user, f"{where} (set by the user)")
-    user_params = {n for k in user for n in rows[k].parameters}
-    for n in user_params:
-        uncertainty.pop(n, None)  # the file's assumed u is not about the value set
-    given = set(values)  # the attributes the file or the user set; the others keep their default
-    full_scale = values.pop("full_scale_g", req)
-    rails = values.pop("rails_g", (-full_scale, full_scale))
+    per_odr = data.get("bandwidth_per_odr")
+    if odr_hz is not None and per_odr is not None:
+        values["bandwidth_hz"] = _number(per_odr, "bandwidth_per_odr", where) * odr_hz
+        if u_per_odr is not None and "bandwidth_hz" not in uncertainty:
+            uncertainty["bandwidth_hz"] = u_per_odr * odr_hz
+    return values, uncertainty, covariance
 
+
+def _resolved_facts(data: Mapping[str, Any], axis_facts: Any, user: Mapping[str, Any], given: set[str],
+                    origin: str, where: str, axis_where: str) -> dict[str, str]:
+    """Where each value comes from: the file's [facts] < the axis's own < "set by the user"; a
+    value left at its default has its row's default fact; a user file's other numbers say they
+    are unmarked."""
+    rows = fields.by_key()
     facts = _facts(data, where)
     if axis_facts:  # an axis's own sources (an identified file marks each number per channel)
-        facts.update(_facts({"facts": axis_facts}, f"{where} [axes.{chosen_axis}]"))
+        facts.update(_facts({"facts": axis_facts}, f"{where} {axis_where}"))
     for key, raw in user.items():
         shown = ", ".join(f"{x:g}" for x in raw) if isinstance(raw, (list, tuple)) else (
             f"{raw:g}" if is_number(raw) else str(raw))
         facts[rows[key].name] = f"set by the user: {shown} {rows[key].text_unit}".rstrip()
-    for f in fields.FIELDS:  # a value left at its default has the row's default fact
+    for f in fields.FIELDS:
         if f.name not in facts and f.name not in given and f.default_fact:
             facts[f.name] = f.default_fact
-    if origin.startswith("file"):  # a user file's other numbers say they are unmarked
+    if origin.startswith("file"):
         for attr in numeric_fields():
             facts.setdefault(attr, f"unmarked, from user {origin}")
-
-    description = data.get("description", "")
-    source = data.get("source", origin)
-    sensor = Sensor(
-        name=name,
-        range_g=req,
-        full_scale_g=full_scale,
-        axis=chosen_axis,
-        odr_hz=chosen_odr,
-        rails_g=rails,
-        **{f.name: values.get(f.name, f.default) for f in fields.FIELDS if f.name not in ("full_scale_g", "rails_g")},
-        description=description if isinstance(description, str) else "",
-        source=source if isinstance(source, str) else origin,
-        ranges_g=tuple(sorted(nominal)),
-        axes=axes,
-        odrs_hz=odrs,
-        facts=facts,
-        covariance=_without(covariance, user_params),
-        uncertainty=uncertainty,
-    )
-    # a sensor file means what it says: no field read and ignored (a hold without a threshold)
-    for f in fields.idle({g.name: getattr(sensor, g.name) for g in fields.FIELDS}, given):
-        need = fields.by_name()[f.needs].key
-        raise ValueError(f"sensor {where}: {f.key} has no effect without {need} (axis {chosen_axis}, range {req:g} g): "
-                         f"give {need} or leave {f.key} out")
-    return dataclasses.replace(sensor, unstated=unstated_assumptions(sensor))
+    return facts
 
 
 def _without(cov: Any, names: set[str]) -> Any:
