@@ -45,7 +45,7 @@ def simulate(
     each) or ``freq_hz`` (the sine method of IEEE Std 1293: ``levels`` are the sine's g rms at
     each frequency), not both.
 
-    The vibration is along any direction of the part's frame (SPEC 1.6). Along the sensed axis
+    The vibration is along any direction of the part's frame (physics §1.6). Along the sensed axis
     (a plain profile or ``freq_hz``, one Sensor, a scalar ``static_g``) this is the single-axis
     test (:func:`vrelab.shaker.run_random_test`, :func:`~vrelab.shaker.run_sine_test`), reduced
     to a :class:`~vrelab.results.VreResult`. With a ``direction``, a
@@ -246,7 +246,7 @@ def _analyze_triaxial(source: Any, dut: Any, reference: Any, reading: tuple[Any,
 
 
 def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = None) -> Mapping[str, Any]:
-    """Reduce every run of a campaign manifest (SPEC 4.1) and combine each channel's results.
+    """Reduce every run of a campaign manifest (physics §4.1) and combine each channel's results.
 
     Parameters
     ----------
@@ -255,7 +255,7 @@ def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = Non
     workers : int
         Runs reduced at once, in processes.
     limit_g : float, optional
-        A VRE limit [g]: each level gets a guarded-acceptance decision (SPEC 4.3).
+        A VRE limit [g]: each level gets a guarded-acceptance decision (physics §4.3).
 
     Returns
     -------

@@ -498,7 +498,7 @@ def write_json(path: str | Path, obj: Any) -> None:
 
 LEVELS_CSV_COLUMNS = (
     "freq_hz", "rms_g", "u_rms_g", "vre_g", "u_vre_g", "duration_s", "n_samples", "n_saturated", "flags",
-    "thd", "u_thd",  # a sine level's drive distortion (SPEC 4.4: DriveWaveform.thd, a ratio); empty otherwise
+    "thd", "u_thd",  # a sine level's drive distortion (physics §4.4: DriveWaveform.thd, a ratio); empty otherwise
 )
 
 

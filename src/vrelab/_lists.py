@@ -1,6 +1,6 @@
-"""The list syntax of SPEC section 5, shared by the CLI and by sweep files.
+"""The list syntax of the CLI reference, shared by the CLI and by sweep files.
 
-``parse_list`` implements the list syntax of SPEC section 5: comma-separated numbers and ranges
+``parse_list`` implements the list syntax of the CLI reference: comma-separated numbers and ranges
 ``a:b:step``, a range inclusive of both ends when they fall on the grid.
 """
 

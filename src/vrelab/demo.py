@@ -38,7 +38,7 @@ from vrelab.results import VreResult
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.units import UG_PER_G
 
-# The article's numbers the demo holds itself against (seed article, SPEC 1.1 and 2).
+# The article's numbers the demo holds itself against (seed article, physics §1.1 and 2).
 ARTICLE_FIG1_VRE_G = -0.100  # "VRE about -100 mg" at 1 g rms on a ±2 g sensor in 1 g
 ARTICLE_RAIL_G = 2.5  # Figure 2: truncated-model fit "to a 2.5 g truncation"
 ARTICLE_DEPARTURE_RMS_G = 2.5  # Figure 2: departs from the model above about 2.5 g rms
@@ -166,7 +166,7 @@ def _window(label: str, fs_hz: float, x: Mapping[str, np.ndarray], centre: int |
 
 def _drive_psd_figure(record: Any, profile: Any, rms_g: float, what: str) -> tuple[ReportFigure, str]:
     """The reference (drive) PSD of one level against the profile scaled to it, with the ±3 dB
-    band (the tolerance check of SPEC 3, :func:`vrelab.spectra.psd_tolerance_check`), and one
+    band (the tolerance check of physics §3, :func:`vrelab.spectra.psd_tolerance_check`), and one
     line of its verdict."""
     from vrelab.spectra import psd_tolerance_check
 
@@ -179,7 +179,7 @@ def _drive_psd_figure(record: Any, profile: Any, rms_g: float, what: str) -> tup
                          label=f"reference PSD, Welch {tol.resolution_hz:.3g} Hz, {tol.n_segments} segments",
                          title=f"Drive check: reference PSD at {nominal:g} g rms against the profile ({what})")
     cap = (f"The shaker's drive as the reference measured it during the {nominal:g} g rms level, against the profile "
-           f"scaled to {nominal:g} g rms and its ±{tol.tol_db:g} dB tolerance band (SPEC 3): {verdict}. Bins within two "
+           f"scaled to {nominal:g} g rms and its ±{tol.tol_db:g} dB tolerance band (physics §3): {verdict}. Bins within two "
            "bin widths of the band's edges are not judged (the Hann window straddles the edge).")
     return ReportFigure.from_figure(fig, cap), verdict
 
@@ -298,7 +298,7 @@ def study_fig2(cfg: DemoConfig) -> _Study:
         ("effective rail (censored fit)", rail_txt + f": not comparable with the article's {ARTICLE_RAIL_G:g} g, a truncated-model fit"),
         ("effective rail (truncated fit, the article's model)", f"{trunc_txt} against the article's {ARTICLE_RAIL_G:g} g: the simulated "
          "part rectifies less than the article's (whose truncated 2.5 g rail would give −0.71 g at 2.5 g rms, beyond the "
-         "data sheet's 0.4 g limit; SPEC 1.1)"),
+         "data sheet's 0.4 g limit; physics §1.1)"),
         ("VRE at 1 g rms", f"{format_mg_text(v1, u1)}, against −83 mg for a sensor with bare ±2 g rails (Figure 1): the output clip sits after the 1 kHz low-pass"),
         ("data leave the model above", f"{dep:.3g} g rms" if dep else "not within the levels run"),
         ("article", f"departs above ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms: ±8 g over-range protection with a Gaussian crest factor ≈ 3"),
@@ -433,7 +433,7 @@ def study_limit(fig2: _Study) -> _Study:
     from vrelab.models.clipping import censored_mean_shift, truncated_mean_shift
 
     res = fig2.results["fig2-z-2g"]
-    # The article's fitted 2.5 g rail under both models at the datasheet's 2.5 g rms (SPEC 1.1:
+    # The article's fitted 2.5 g rail under both models at the datasheet's 2.5 g rms (physics §1.1:
     # -0.33 g censored, -0.71 g truncated).
     art_cens = float(censored_mean_shift(1.0, DATASHEET_LIMIT[0], -ARTICLE_RAIL_G, ARTICLE_RAIL_G))
     art_trunc = float(truncated_mean_shift(1.0, DATASHEET_LIMIT[0], -ARTICLE_RAIL_G, ARTICLE_RAIL_G))
@@ -492,7 +492,7 @@ def study_sine(cfg: DemoConfig) -> _Study:
     assert sensor.fn_hz is not None and sensor.q is not None  # the ADXL355 preset has its resonance
     from vrelab.models.dynamics import vrc_at_frequency
 
-    # The analytic model (SPEC 1.3), not the simulated chain: the plot holds one against the other.
+    # The analytic model (physics §1.3), not the simulated chain: the plot holds one against the other.
     model = plots.Curve(
         f"k2·|H(f)|², k2 = {k2_ug:g} µg/g², fn {sensor.fn_hz:g} Hz, Q {sensor.q:g}",
         f,

@@ -1,4 +1,4 @@
-"""A simulated shaker campaign written in the formats labs write (SPEC 4.1): example data and tests.
+"""A simulated shaker campaign written in the formats labs write (physics §4.1): example data and tests.
 
 :func:`write_campaign` simulates the runs of a small campaign on parts whose truth is known
 (k2, k3, the rails, a proof-mass resonance) and writes each run the way a lab's equipment
@@ -38,7 +38,7 @@ RANDOM_PROFILE = f"flat:{RANDOM_BAND_HZ[0]:g}-{RANDOM_BAND_HZ[1]:g}"  # the same
 @dataclass(frozen=True)
 class Part:
     """One DUT of the fixture: its truth (the cross-coupling coefficients, IEEE 1293's model
-    equation, SPEC 1.6, act only in the runs mounted at an angle)."""
+    equation, physics §1.6, act only in the runs mounted at an angle)."""
 
     name: str
     k2_ug_per_g2: float
@@ -67,7 +67,7 @@ class ExampleRun:
     freq_hz: float | None = None
     levels_g: tuple[float, ...] = (0.5, 1.0, 1.5)
     label: str = ""
-    # an IEEE 1293 mount-angle run (SPEC 1.6): the input axis at mount_deg to the vibration in
+    # an IEEE 1293 mount-angle run (physics §1.6): the input axis at mount_deg to the vibration in
     # mount_plane, the whole static field [i, p, o] (static_g is then its i component)
     mount_deg: float | None = None
     mount_plane: str = "ip"
@@ -146,7 +146,7 @@ def example_truth() -> CampaignTruth:
 
 
 def mount_truth() -> CampaignTruth:
-    """A simulated IEEE 1293 mount-angle campaign (SPEC 1.6): one part with known k2, k3, Kip,
+    """A simulated IEEE 1293 mount-angle campaign (physics §1.6): one part with known k2, k3, Kip,
     Kpp, Kio, Koo; 80 Hz sine runs along the vibration at +1 g and -1 g, and at +45°, -45° and
     90° in the IP and the IO plane on a vertical shaker (gravity along the vibration). The part
     has no resonance and rails at ±8 g (no level reaches them), a little noise."""
@@ -573,7 +573,7 @@ def campaign_document(sensor: Any, runs: Sequence[ExampleRun], seed: int = 0, se
 
 def vrc_truth(truth: CampaignTruth, part: Part, freq_hz: float, static_g: float) -> float:
     """The apparent VRC [µg/g²] of ``part`` at a sine ``freq_hz`` and ``static_g``:
-    ``(k2 + 3·k3·g0)·|H(f)|²``, H the proof mass's second-order response (SPEC 1.3)."""
+    ``(k2 + 3·k3·g0)·|H(f)|²``, H the proof mass's second-order response (physics §1.3)."""
     r = freq_hz / truth.fn_hz
     h2 = 1.0 / ((1 - r * r) ** 2 + (r / truth.q) ** 2)
     return (part.k2_ug_per_g2 + 3 * part.k3_ug_per_g3 * static_g) * h2

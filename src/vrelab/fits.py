@@ -14,7 +14,7 @@ References
 .. [1] IEEE Std 1293-1998, IEEE Standard Specification Format Guide and Test Procedure for
    Linear, Single-Axis, Nongyroscopic Accelerometers (vibration rectification test).
 .. [2] Analog Devices, "Vibration rectification error in MEMS accelerometers" (ADXL355 case
-   study), the seed article of this project; see SPEC sections 1.1, 1.2 and 4.
+   study), the article this project starts from; see docs/physics.md §1.1, §1.2 and §4.
 .. [3] R. T. Birge, "The calculation of errors by the method of least squares",
    Phys. Rev. 40, 207 (1932): scaling by the reduced chi².
 """
@@ -128,7 +128,7 @@ def fit_vrc(
 
     Notes
     -----
-    IEEE Std 1293-1998 and SPEC 1.2: ``VRE = VRC·rms²`` with ``VRC = k2 + 3·k3·g0 + 6·k4·g0²``
+    IEEE Std 1293-1998 and physics §1.2: ``VRE = VRC·rms²`` with ``VRC = k2 + 3·k3·g0 + 6·k4·g0²``
     at static field g0. Minimise :math:`\sum_i (y_i - X_i β)^2/u_i^2` with
     :math:`X_i = [r_i^2]` (or :math:`[r_i^2, r_i^4]`): :math:`β = (X^TWX)^{-1}X^TWy`,
     :math:`\mathrm{cov}\,β = (X^TWX)^{-1}`, scaled by χ²_red when it exceeds 1 (Birge 1932, module references).
@@ -170,7 +170,7 @@ def fit_vrc(
     if any(lv.drive is not None for lv in sel):
         shift = float(np.sum(w * x2 * x3) / (3.0 * np.sum(w * x2 * x2)))
         if any(lv.drive is not None and lv.drive.distorted for lv in sel):
-            notes.append(f"a distorted drive (SPEC 4.4): VRE fitted against each level's measured E[x²]; its E[x³] "
+            notes.append(f"a distorted drive (physics §4.4): VRE fitted against each level's measured E[x²]; its E[x³] "
                          f"makes the cubic term rectify as at g0 {shift:+.3g} g: VRC = k2 + 3*k3*(g0 {shift:+.3g} g)")
     cov = np.linalg.inv(A).astype(np.float64, copy=False)
     resid = y - X @ beta
@@ -195,7 +195,7 @@ def fit_vrc(
 
 def drive_moments(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(E[x²], E[x³]) per level [g², g³]: a sine level's measured from its reference waveform
-    (:class:`~vrelab.results.DriveWaveform`, SPEC 4.4), else those of the level's rms: rms² and 0
+    (:class:`~vrelab.results.DriveWaveform`, physics §4.4), else those of the level's rms: rms² and 0
     (a pure sine, or a symmetric random drive)."""
     x2 = np.array([lv.drive.mean_square_g2.value if lv.drive is not None else lv.rms_g**2 for lv in levels],
                   dtype=np.float64)
@@ -388,7 +388,7 @@ def fit_rail(
     static_g : float
         Static acceleration along the axis during the test [g] (from the baselines or given).
     kind : {"censored", "truncated"}
-        Clipping model (SPEC 1.1): samples beyond a rail read as the rail, or are discarded.
+        Clipping model (physics §1.1): samples beyond a rail read as the rail, or are discarded.
     symmetric : bool
         One rail parameter ``rail_g`` (rails at ±rail_g), or two (``rail_low_g``, ``rail_high_g``).
     with_vrc : bool
@@ -405,13 +405,13 @@ def fit_rail(
 
     Notes
     -----
-    Model (SPEC 1.1, the Analog Devices article): VRE(σ) = E[clip(g0 + x)] − g0 (+ VRC·σ² when ``with_vrc``) for
+    Model (physics §1.1, the Analog Devices article): VRE(σ) = E[clip(g0 + x)] − g0 (+ VRC·σ² when ``with_vrc``) for
     x ~ N(0, σ²), from
     :func:`vrelab.models.clipping.censored_mean_shift` (or ``truncated_mean_shift``). Weighted
     least squares (``scipy.optimize.least_squares`` on residuals (model − y)/u), covariance
     ``(JᵀJ)⁻¹`` scaled by χ²_red when it exceeds 1.
 
-    Departure rule (over-range protection, SPEC 1.3): sort the levels by rms; for each level i
+    Departure rule (over-range protection, physics §1.3): sort the levels by rms; for each level i
     scanning upward (from the first that leaves enough levels below it to fit), fit the levels
     below i and predict the others; the departure is the first i from which every level lies
     more than 3 combined standard uncertainties (√(u² + u_model²)) from the prediction ("leaves
@@ -511,7 +511,7 @@ def fit_rail(
 def separate_k2_k3(
     fit_plus: FitResult, fit_minus: FitResult, static_plus_g: float = 1.0, static_minus_g: float = -1.0
 ) -> FitResult:
-    r"""Separate k2 and k3 from VRC fits at two orientations (SPEC 1.2).
+    r"""Separate k2 and k3 from VRC fits at two orientations (physics §1.2).
 
     Parameters
     ----------
@@ -561,12 +561,12 @@ def separate_k2_k3(
 
 
 def fit_k2_k3(points: Sequence[tuple[float, Estimate]], freq_hz: float | None = None) -> FitResult:
-    r"""k2 and k3 from VRCs measured at several orientations (SPEC 1.2, 4.1).
+    r"""k2 and k3 from VRCs measured at several orientations (physics §1.2, §4.1).
 
     ``points`` are (static field g0 [g], VRC [µg/g²]) pairs. Weighted least squares of
     ``VRC(g0) = k2 + 3·k3·g0`` (weights 1/u², parameter covariance ``(AᵀWA)⁻¹``); with two
     orientations it is exactly :func:`separate_k2_k3`. Needs at least two distinct fields
-    (SPEC: +1 g and −1 g); the k4 term ``6·k4·g0²`` is the same at ±g0 and folds into k2.
+    (physics §1.2: +1 g and −1 g); the k4 term ``6·k4·g0²`` is the same at ±g0 and folds into k2.
     """
     g = np.array([float(p[0]) for p in points])
     y = np.array([float(p[1].value) for p in points])
@@ -683,7 +683,7 @@ def fit_levels(
     rail_with_vrc: bool = False,
     nominal_freqs_hz: Sequence[float | None] | None = None,
 ) -> tuple[list[FitResult], list[Notice]]:
-    """The fits of SPEC 4, decided in one place for every reducer of a record.
+    """The fits of physics §4, decided in one place for every reducer of a record.
 
     The simulated test (:mod:`vrelab.shaker`) and the analysis of a recorded file
     (:func:`vrelab.analysis.reduction.analyze`) both call this, with what both know (the

@@ -1,4 +1,4 @@
-"""Uncertainty budget in the GUM's sense, and decisions against a limit (SPEC 4.3).
+"""Uncertainty budget in the GUM's sense, and decisions against a limit (physics §4.3).
 
 Every VRE carries a Type A standard uncertainty from its record (batch means, with effective
 degrees of freedom ν_A). The user declares the Type B terms of the test (:class:`TypeB`):
@@ -49,7 +49,7 @@ TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u
 
 @dataclass(frozen=True)
 class TypeB:
-    """The Type B inputs of a test (SPEC 4.3); zero means not declared."""
+    """The Type B inputs of a test (physics §4.3); zero means not declared."""
 
     u_reference_pct: float = 0.0
     u_dut_pct: float = 0.0
@@ -238,7 +238,7 @@ def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel:
                    offset_g: float = 0.0) -> list[LevelResult]:
     """Levels as they would read with the reference sensitivity off by ``rms_rel`` (every rms
     scales by 1 + rms_rel, a sine level's measured E[x²] and E[x³] by its square and cube: 2r
-    and 3r, SPEC 4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
+    and 3r, physics §4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
     return [replace(lv, rms_g=lv.rms_g * (1 + rms_rel),
                     vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit),
                     drive=None if lv.drive is None else lv.drive.scaled(1 + rms_rel))

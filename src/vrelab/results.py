@@ -105,7 +105,7 @@ def _nan(x: Any) -> float:
 
 @dataclass(frozen=True)
 class Conditions:
-    """What a VRE figure depends on (SPEC 1.4). Unknown fields stay ``None``."""
+    """What a VRE figure depends on (physics §1.4). Unknown fields stay ``None``."""
 
     sensor: str | None = None
     model: str | None = None  # "censored", "truncated", "simulation", "measured", ...
@@ -128,20 +128,20 @@ class Conditions:
         return cls(**known, extra=dict(d.get("extra") or {}))
 
 
-# A sine drive whose THD reaches this (1 %) is named as distorted in notes (SPEC 4.4); a pure
+# A sine drive whose THD reaches this (1 %) is named as distorted in notes (physics §4.4); a pure
 # drive's measured THD is its reference's noise floor, 1e-5 in the tests' records.
 NOTABLE_THD = 0.01
 
 
 @dataclass(frozen=True)
 class DriveWaveform:
-    """The reference's waveform over one sine level (SPEC 4.4): a shaker's drive is not a pure sine.
+    """The reference's waveform over one sine level (physics §4.4): a shaker's drive is not a pure sine.
 
     ``harmonics_rms_g[h-1]`` is the rms of harmonic h (h = 1 the fundamental), each an
     :class:`Estimate` in g; ``thd`` the total harmonic distortion √(Σ_{h≥2} A_h²)/A_1 (a ratio,
     IEC 60050-551-20-13's definition relative to the fundamental); ``mean_square_g2`` = E[x²] and
     ``mean_cube_g3`` = E[x³] of the mean-removed waveform the harmonics make, the moments a
-    polynomial sensor rectifies (SPEC 1.2: VRE = k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) + ...; for a
+    polynomial sensor rectifies (physics §1.2: VRE = k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) + ...; for a
     pure sine E[x²] = rms² and E[x³] = 0). ``residual_rms_g``: the rms the harmonics leave
     (the reference's noise, motion at other frequencies), which the moments do not hold.
     """
@@ -195,7 +195,7 @@ class DriveWaveform:
 
 def level_vrc(vre_g: float, rms_g: float, u_vre_g: float | None = None,
               u_rms_g: float | None = None) -> tuple[float, float | None]:
-    """The level's VRC [µg/g²]: its VRE per vibration mean square, ``VRE / rms²`` (SPEC 1.2:
+    """The level's VRC [µg/g²]: its VRE per vibration mean square, ``VRE / rms²`` (physics §1.2:
     ``VRE = VRC·vib_rms²``; the datasheets' figure, k2 + 3·k3·g0 where the polynomial alone
     rectifies), and its standard uncertainty by GUM 5.1.2 with VRE and rms uncorrelated:
     ``u² = (u_vre/rms²)² + (2·VRE·u_rms/rms³)²`` (``u_rms_g`` None: the rms is exact, as in a
@@ -361,7 +361,7 @@ class FitModel:
 
     @property
     def vrc(self) -> Estimate | None:
-        """The VRC [µg/g²] where the model is SPEC 1.2's ``VRE = VRC·rms²`` alone, else None."""
+        """The VRC [µg/g²] where the model is physics §1.2's ``VRE = VRC·rms²`` alone, else None."""
         return None
 
     @property
@@ -393,7 +393,7 @@ def _one_field(model: FitModel, static_g: float | None) -> None:
 
 @dataclass(frozen=True)
 class VrcModel(FitModel):
-    """SPEC 1.2 and IEEE Std 1293-1998: ``VRE = VRC·rms²`` [g], VRC [µg/g²] = k2 + 3·k3·g0 at the
+    """physics §1.2 and IEEE Std 1293-1998: ``VRE = VRC·rms²`` [g], VRC [µg/g²] = k2 + 3·k3·g0 at the
     static field g0 the levels were measured at (a sine fit over a distorted drive: at g0 +
     ``FitResult.static_shift_g``, :func:`vrelab.fits.fit_vrc`)."""
 
@@ -415,7 +415,7 @@ class VrcModel(FitModel):
 
 @dataclass(frozen=True)
 class VrcK4Model(FitModel):
-    """SPEC 1.2 with the quartic term: ``VRE = VRC·rms² + c4·rms⁴`` [g], c4 [µg/g⁴] =
+    """physics §1.2 with the quartic term: ``VRE = VRC·rms² + c4·rms⁴`` [g], c4 [µg/g⁴] =
     k4·E[x⁴]/rms⁴ (3·k4 for Gaussian vibration, 1.5·k4 for a sine; :func:`vrelab.fits.fit_vrc`)."""
 
     NAME: ClassVar[str] = "vrc+k4"
@@ -429,7 +429,7 @@ class VrcK4Model(FitModel):
 
 @dataclass(frozen=True)
 class ClipModel(FitModel):
-    """SPEC 1.1 (the Analog Devices article): Gaussian vibration of rms σ at static field g0
+    """physics §1.1 (the Analog Devices article): Gaussian vibration of rms σ at static field g0
     clipped at the rails, ``VRE(σ) = E[clip(g0 + x)] − g0`` (``kind`` "censored": samples beyond
     a rail read as the rail, :func:`vrelab.models.clipping.censored_mean_shift`; "truncated":
     they are discarded, ``truncated_mean_shift``), ``+ VRC·σ²`` when fitted with the VRC term.
@@ -496,7 +496,7 @@ def _static_g(model: FitModel, static_g: float | None) -> float:
 
 @dataclass(frozen=True)
 class K2K3Model(FitModel):
-    """SPEC 1.2 across orientations: ``VRE = (k2 + 3·k3·g0)·rms²`` [g] at static field g0 (the k4
+    """physics §1.2 across orientations: ``VRE = (k2 + 3·k3·g0)·rms²`` [g] at static field g0 (the k4
     term ``6·k4·g0²`` folds into k2 at ±g0; :func:`vrelab.fits.fit_k2_k3`)."""
 
     NAME: ClassVar[str] = "k2-k3"
@@ -510,7 +510,7 @@ class K2K3Model(FitModel):
 
 @dataclass(frozen=True)
 class K2Model(FitModel):
-    """k2 alone, the VRC at 0 g (SPEC 1.2: VRC(0) = k2, a campaign's k2 from runs at 0 g only):
+    """k2 alone, the VRC at 0 g (physics §1.2: VRC(0) = k2, a campaign's k2 from runs at 0 g only):
     ``VRE = k2·rms²`` [g] at 0 g, the field it was measured at (k3 unknown: no other field)."""
 
     NAME: ClassVar[str] = "k2"
@@ -557,7 +557,7 @@ class FitResult:
     # Covariance of the fitted parameters, in the order and units of ``params`` (each row and
     # column a parameter; its diagonal is each ``u``²): identification and prediction carry it.
     covariance: tuple[tuple[float, ...], ...] | None = None
-    # a sine VRC fit over a distorted drive (SPEC 4.4): the drive's E[x³] makes the cubic term
+    # a sine VRC fit over a distorted drive (physics §4.4): the drive's E[x³] makes the cubic term
     # rectify as at g0 + static_shift_g, so VRC = k2 + 3·k3·(g0 + static_shift_g) (None: a pure drive)
     static_shift_g: float | None = None
 
@@ -631,7 +631,7 @@ Method = Literal["random", "sine"]
 
 @dataclass(frozen=True)
 class NoiseResult:
-    """A DUT channel's own noise on the vibration-off stretches of its record (SPEC 4.4): what a
+    """A DUT channel's own noise on the vibration-off stretches of its record (physics §4.4): what a
     metrologist checks first (:func:`vrelab.analysis.noise.channel_noise`).
 
     ``density`` [µg/√Hz]: the white level √h₀ of the fitted ``S(f) = h₀ + h₋₁/f + h₋₂/f²``,
@@ -690,7 +690,7 @@ class VreResult:
 
     ``to_dict()`` is the document that ``simulate --json``, ``analyze --json`` print and that
     ``--out DIR`` writes as ``results.json``; ``vrelab report DIR`` reads it back with
-    ``from_dict``. ``fit`` in the dict merges the parameters of all fits (SPEC section 5 asks
+    ``from_dict``. ``fit`` in the dict merges the parameters of all fits (the CLI reference asks
     for ``fit.vrc_ug_per_g2`` and ``fit.rail_g``); ``fits`` keeps each fit whole.
     """
 
@@ -746,7 +746,7 @@ class VreResult:
 
 
 def channels_to_dict(results: Sequence[tuple[str, VreResult]], provenance: Mapping[str, Any]) -> dict[str, Any]:
-    """The document of several DUT channels of one file (SPEC 5.1): ``channels``: [{``channel``,
+    """The document of several DUT channels of one file (the CLI reference): ``channels``: [{``channel``,
     ``levels``, ``fit``, ...}], each a whole :meth:`VreResult.to_dict`; the file's provenance."""
     chans = [{"channel": name, **result.to_dict()} for name, result in results]
     return {"kind": "measurement", "method": chans[0]["method"] if chans else None, "channels": chans,

@@ -1,6 +1,6 @@
 """The virtual lab: a simulated shaker test of a sensor, reduced like a recorded one.
 
-A test runs as a lab runs it (SPEC section 4): a vibration-off baseline, a level, a baseline,
+A test runs as a lab runs it (physics §4): a vibration-off baseline, a level, a baseline,
 the next level, ..., each level bracketed by baselines. Three rooms:
 
 * :class:`~vrelab.simulation.plan.TestPlan`: the test (method, levels, profile or frequencies,
@@ -101,7 +101,7 @@ def _reduce_and_fit(
         source = open_record(record_path, dut="dut", reference="reference")
     # The simulation's own progress bar covers the pass that generates the record; the
     # reduction shows one only when it reads the file back.
-    # SPEC 4.2's checks guard against a lab's slips, which a simulation cannot make: it writes
+    # physics §4.2's checks guard against a lab's slips, which a simulation cannot make: it writes
     # both channels in g on the channels it names, with the method it ran (and a sine run above
     # the sensor's bandwidth legitimately shows a DUT far smaller than its reference). Probing
     # would re-run the simulation for each segment, so nothing is checked here.
@@ -144,7 +144,7 @@ def with_simulated_saturation(
     return levels, warnings
 
 
-# Highest power of the sensor's polynomial nonlinearity (k2..k4, SPEC 1.2; with_lattice_u).
+# Highest power of the sensor's polynomial nonlinearity (k2..k4, physics §1.2; with_lattice_u).
 _MAX_POLYNOMIAL_DEGREE = 4
 
 
@@ -214,7 +214,7 @@ def run_random_test(
     clip_kind: ClipKind = DEFAULT_CLIP_KIND,
     **plan: Any,
 ) -> VreResult:
-    """Simulate the random method (SPEC 4) on ``sensor`` and reduce it like a lab record.
+    """Simulate the random method (physics §4) on ``sensor`` and reduce it like a lab record.
 
     Parameters
     ----------
@@ -250,20 +250,20 @@ def run_random_test(
     The test (:class:`~vrelab.simulation.plan.TestPlan`): a vibration-off baseline, then each
     level followed by a baseline. Each level's drive is an independent realisation
     (``SeedSequence(seed)`` children) of the profile scaled to its grms; the sensor sees
-    ``static_g + drive``. The reduction (SPEC 4) gives ``VRE = mean(DUT over the level) −
+    ``static_g + drive``. The reduction (physics §4) gives ``VRE = mean(DUT over the level) −
     baseline interpolated between the bracketing off-segments``, its standard uncertainty from
     the record's own scatter, and ``vib_rms`` = reference rms over the profile's band widened by
     an octave on each side (the drive has no power outside the band, and the band-pass edges
     then do not bias it). Fits: the one policy :func:`vrelab.fits.fit_levels`, as ``vrelab
-    analyze`` applies it to the same record: the effective rail of the clipping model (SPEC
-    1.1, at the static reading of the baselines, with the level where the data depart from it),
-    then ``VRE = VRC·rms²`` (SPEC 1.2) over levels whose 4σ peaks stay inside the fitted rails.
+    analyze`` applies it to the same record: the effective rail of the clipping model (physics
+    §1.1, at the static reading of the baselines, with the level where the data depart from it),
+    then ``VRE = VRC·rms²`` (physics §1.2) over levels whose 4σ peaks stay inside the fitted rails.
     A sine-on-random test is reduced by the random method, stated explicitly (its reference is
     neither one line nor broad): level = reference rms over that band, tones included.
 
     References
     ----------
-    .. [1] SPEC sections 1 and 4; the seed article's random method (ADXL355, 50 Hz-2 kHz).
+    .. [1] docs/physics.md §1 and §4; the ADI article's random method (ADXL355, 50 Hz-2 kHz).
     .. [2] IEEE Std 1293-1998 (vibration rectification test procedure).
     """
     plan_ = TestPlan.random(sensor, profile, levels_grms, static_g=static_g, **plan)
@@ -354,13 +354,13 @@ def run_sine_test(
     progress: bool = False,
     **plan: Any,
 ) -> VreResult:
-    """Simulate the sine method (IEEE Std 1293-1998; SPEC 4) and fit VRC at each frequency.
+    """Simulate the sine method (IEEE Std 1293-1998; physics §4) and fit VRC at each frequency.
 
     At each frequency in ``freqs_hz`` every level of ``levels_rms_g`` [g rms] runs for
     ``seconds`` (default 4; rounded to whole periods of the drive after the settling trim),
     bracketed by vibration-off baselines. ``VRE = VRC·vib_rms²`` is fitted by weighted least
     squares through the origin at each frequency (:func:`vrelab.fits.fit_levels`): ``VRC(f)``
-    shows the resonance (``VRC·|H(f)|²``, SPEC 1.3). Other parameters (``ramp_s`` too) as in
+    shows the resonance (``VRC·|H(f)|²``, physics §1.3). Other parameters (``ramp_s`` too) as in
     :func:`run_random_test`; with a ramp the sine's amplitude rises and falls, its phase runs on.
     """
     plan_ = TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan)

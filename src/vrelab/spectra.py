@@ -1,4 +1,4 @@
-"""Spectra of long records, streamed: Welch PSD in blocks and the profile tolerance check (SPEC 3).
+"""Spectra of long records, streamed: Welch PSD in blocks and the profile tolerance check (physics §3).
 
 One owner for the Welch PSD of the package: the synthesis checks its drives with it, the analysis
 the recorded reference of each level.
@@ -146,7 +146,7 @@ def psd_tolerance_check(
     rms_tol: float = 0.10,
     nperseg: int | None = None,
 ) -> ToleranceResult:
-    """Is a drive (or a recorded control channel) within tolerance of a profile? (SPEC 3)
+    """Is a drive (or a recorded control channel) within tolerance of a profile? (physics §3)
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Time signals from vibration profiles, streamed in blocks (SPEC section 3).
+"""Time signals from vibration profiles, streamed in blocks (physics §3).
 
 Every generator here yields consecutive blocks of a record of ``n_samples`` samples. The values
 depend only on the absolute sample index, the profile and the seed, never on ``block_size``;
@@ -287,7 +287,7 @@ def hermite_h4_for_kurtosis(kurtosis: float, samples: NDArray[np.float64] | None
     Winterstein's (1988) [2] model for a softening (kurtosis > 3), symmetric process is
     ``x = κ·(u + h3·(u²-1) + h4·(u³-3u))``. A symmetric drive has zero skewness, so h3 = 0
     here; pyExSi's implementation gets the h3 (skewness) term wrong and leaves the output at
-    unit variance (SPEC section 3), which this module avoids: h3 is 0 by construction and the
+    unit variance (physics §3), which this module avoids: h3 is 0 by construction and the
     caller rescales to the target rms. Instead of Winterstein's approximate closed form
     ``h4 = (√(1 + 1.5·(γ4-3)) - 1)/18`` the exact kurtosis of Y, from the Gaussian moments
     E[u^2m] = (2m-1)!!, is solved for h4 with brentq. The transform is monotone for

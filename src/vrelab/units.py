@@ -3,7 +3,7 @@ times :data:`UG_PER_G` (k3: µg/g³ ↔ 1/g², k4: µg/g⁴ ↔ 1/g³; a VRE or 
 the one in g times it).
 
 The sensor files, the CLI and every report speak µg/gⁿ (the datasheets' unit, = ppm/gⁿ⁻¹); the
-models compute in normalised coefficients (SPEC 1.2: VRE = k2·σ² + ... in g). Converting is one
+models compute in normalised coefficients (physics §1.2: VRE = k2·σ² + ... in g). Converting is one
 multiplication (:func:`to_ug`) or one division (:func:`from_ug`) by the same factor, so a value
 read from a file and one given to a model function agree to the last bit. A leaf module, so that
 any module can import it.

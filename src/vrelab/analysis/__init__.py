@@ -1,4 +1,4 @@
-"""Analysis of recorded shaker tests (SPEC section 4): readers, segmentation, VRE per level.
+"""Analysis of recorded shaker tests (physics §4): readers, segmentation, VRE per level.
 
 ``open_record`` reads lab files (CSV, NPY/NPZ, HDF5, TDMS, WAV, MAT) as a streaming
 :class:`~vrelab.record.Record`; ``reduce_record`` turns a record into VRE per level with honest

@@ -1,4 +1,4 @@
-"""The DUT's own noise on the vibration-off stretches of a record (SPEC 4.4): the channel's
+"""The DUT's own noise on the vibration-off stretches of a record (physics §4.4): the channel's
 noise result, what a metrologist checks first.
 
 * :func:`allan_deviation`: the overlapping Allan deviation of the baselines' window means (IEEE

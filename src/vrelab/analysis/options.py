@@ -1,12 +1,12 @@
-"""What a user sets for a reduction, its fits and its uncertainty budget (SPEC 4, 4.3).
+"""What a user sets for a reduction, its fits and its uncertainty budget (physics §4, §4.3).
 
 Three frozen dataclasses, each checked once when it is made (a bad value: ``ValueError`` with
 the words ``vrelab analyze`` prints for it):
 
 * :class:`ReductionOptions`: how a record becomes VRE per level (band, settling trim, rail,
-  profile, the SPEC 4.2 checks accepted on purpose, block size, progress, PSDs);
+  profile, the physics §4.2 checks accepted on purpose, block size, progress, PSDs);
 * :class:`FitOptions`: how the levels are fitted (static field, clipping model, k4, joint rail);
-* :class:`BudgetOptions`: the Type B terms and the decision limit of SPEC 4.3.
+* :class:`BudgetOptions`: the Type B terms and the decision limit of physics §4.3.
 
 The functions of :mod:`vrelab.analysis` take them as ``options=``, ``fit=`` and ``budget=``.
 Their former flat keywords (``band_hz=``, ``static_g=``, ``typeb=``, ...) still work for one
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 DEFAULT_BAND_HZ = (50.0, 2000.0)
 # Samples per block read from a record: memory is bounded by it (2 MiB per float64 channel).
 DEFAULT_BLOCK = 1 << 18
-# Checks of SPEC 4.2 a user may accept on purpose (``accept=``; CLI ``--accept-<name>``).
+# Checks of physics §4.2 a user may accept on purpose (``accept=``; CLI ``--accept-<name>``).
 ACCEPTABLE = ("unit-ratio", "channels", "method")
 
 
@@ -57,7 +57,7 @@ def default_band(fs_hz: float, band_hz: tuple[float, float] | None = None, profi
 
 @dataclass(frozen=True)
 class ReductionOptions:
-    """How a record is reduced to VRE per level (SPEC 4).
+    """How a record is reduced to VRE per level (physics §4).
 
     Attributes
     ----------
@@ -71,9 +71,9 @@ class ReductionOptions:
         data (``--rail``).
     profile : RandomProfile or SineOnRandom, optional
         The random profile the test ran: the default band, and each random level's reference
-        PSD is checked against its tolerance (SPEC 3).
+        PSD is checked against its tolerance (physics §3).
     accept : frozenset of str
-        SPEC 4.2 checks passed on purpose: a subset of :data:`ACCEPTABLE`.
+        physics §4.2 checks passed on purpose: a subset of :data:`ACCEPTABLE`.
     block_size : int
         Samples per block read from the record; memory is bounded by it.
     progress : bool
@@ -145,7 +145,7 @@ class FitOptions:
 
 @dataclass(frozen=True)
 class BudgetOptions:
-    """The GUM budget of SPEC 4.3.
+    """The GUM budget of physics §4.3.
 
     Attributes
     ----------

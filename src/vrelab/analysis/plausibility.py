@@ -1,4 +1,4 @@
-"""Plausibility checks on a recorded test: no confident wrong number (SPEC 4.2).
+"""Plausibility checks on a recorded test: no confident wrong number (physics §4.2).
 
 Before a VRE leaves the reduction, the record is held against the mistakes labs make. Each check
 reads a short stretch (at most :data:`PROBE_SAMPLES` samples) from the middle of each segment, so
@@ -40,7 +40,7 @@ MethodRequest = Literal["auto", "random", "sine"]
 # reading the reduction itself does).
 PROBE_SAMPLES = 1 << 13
 # DUT/reference rms ratio beyond which (or below whose inverse) a level's units look wrong:
-# SPEC 4.2. A flat-responding DUT agrees with the reference within a few per cent; a slip is a
+# physics §4.2. A flat-responding DUT agrees with the reference within a few per cent; a slip is a
 # factor of 9.81 (m/s² vs g), 10-1000 (mV vs g), 1e3 or more (LSB vs g).
 UNIT_RATIO_LIMIT = 3.0
 # Fraction of the reference's in-band AC power in its strongest line (the peak bin ± the Hann
@@ -297,7 +297,7 @@ def check_units_over_runs(channel: str, probes: Sequence[tuple[str | None, float
 
 
 # How far a DUT's response may depart from flat, as a DUT/reference rms ratio, when no sensor file
-# gives it: a second-order resonance's |H(fn)| is Q (SPEC 1.3; the VRC, a mean of the square, rises
+# gives it: a second-order resonance's |H(fn)| is Q (physics §1.3; the VRC, a mean of the square, rises
 # by Q²), and the units check allows a resonance of Q up to this (the mounted resonance of an
 # undamped piezoelectric accelerometer rises by about 30 dB; a gas-damped MEMS part's Q is a few),
 # and as much attenuation above a low-pass. A stated default, not a measurement: give the campaign
@@ -330,7 +330,7 @@ def run_units_ratio(probes: Sequence[UnitProbe]) -> tuple[str | None, float, flo
 
 def judge_runs_units(channel: str, runs: Sequence[tuple[int, Sequence[UnitProbe]]],
                      gain: Callable[[float], float] | None = None) -> dict[int, str]:
-    """SPEC 4.1's units check of one DUT channel, run by run: {run index: the refusal}.
+    """physics §4.1's units check of one DUT channel, run by run: {run index: the refusal}.
 
     A unit or sensitivity slip is a factor on one run's readings (mV read as V: 1000; LSB read as
     g: the sensitivity); a resonance's gain depends on frequency only. Each run's DUT/reference

@@ -1,4 +1,4 @@
-"""A sine level's second pass over the record (SPEC 4, the sine method of IEEE Std 1293).
+"""A sine level's second pass over the record (physics §4, the sine method of IEEE Std 1293).
 
 The drive frequency from the reference (:func:`estimate_frequency`: Hann-windowed FFT peak,
 log-parabolic interpolation, then a sine-fit refinement), then batches of a whole number of
@@ -7,7 +7,7 @@ fraction of a sample of whole periods), in each a three-parameter sine fit (IEEE
 offset, cos, sin at the drive frequency) of reference and DUT (:func:`sine_level`): level = rms
 of the reference's fitted sine, DUT mean = the DUT's fitted offset, the drive removed exactly.
 A plain mean over a non-integer number of periods would leave a residual of order A/(2π·f·T)
-(SPEC 4). The fit's frequency error left in the coefficients is measured from the batches'
+(physics §4). The fit's frequency error left in the coefficients is measured from the batches'
 phases and removed (:func:`_frequency_corrected`); u carries what that leaves, the leakage of
 harmonics beyond the fit, and the arithmetic's rounding (:func:`_rounding_u`), so a noiseless
 record does not claim a u of 1e-16 over an error of 1e-10.
@@ -27,7 +27,7 @@ from vrelab.analysis.uncertainty import MeanEstimate, batch_mean
 from vrelab.record import WINDOW_S, Record
 from vrelab.results import NOTABLE_THD, DriveWaveform, Estimate, Notice
 
-# Harmonics of the drive measured on the reference per sine level (SPEC 4.4), at most this many
+# Harmonics of the drive measured on the reference per sine level (physics §4.4), at most this many
 # (and only those below Nyquist): a shaker's distortion lives in its first few harmonics, and
 # ten of them (IEC 61000-4-7 goes to 40 for mains) keep the pass's cost at 21 basis functions.
 DRIVE_HARMONICS = 10
@@ -151,7 +151,7 @@ def sine_level(
     ``shared``: what the DUT channels of one record share (their window stats' ``shared``): the
     drive frequency of a level is the reference's, found once for all of them.
 
-    The 2f estimate (SPEC 6.1): a quadratic term k·m² on the DUT's motion m = Re[c1·e^{jθ}]
+    The 2f estimate (physics §6.1): a quadratic term k·m² on the DUT's motion m = Re[c1·e^{jθ}]
     (c1 the DUT's fitted phasor at f) adds k·|c1|²/2 at DC and k·c1²/2 at 2f, the same
     coefficient. So ``Re[(c2 - r2)·conj(c1)²]/|c1|²``, with c2 the DUT's fitted 2f phasor and r2
     the reference's (the shaker's own distortion, which the DUT merely follows), estimates the
@@ -202,7 +202,7 @@ def sine_level(
     rows = [np.ones(L), np.cos(w * n0), np.sin(w * n0)] + ([np.cos(2 * w * n0), np.sin(2 * w * n0)] if two_f else [])
     B0 = np.stack(rows)  # (functions, L)
     G0 = B0 @ B0.T
-    # The reference's harmonics 1..H (SPEC 4.4), fitted per batch in the batch's own phase frame
+    # The reference's harmonics 1..H (physics §4.4), fitted per batch in the batch's own phase frame
     # (amplitudes and moments do not depend on the frame; _drive_waveform turns the phasors to a
     # common one): the same basis for every batch, so one Gram matrix.
     n_h = min(DRIVE_HARMONICS, int(math.ceil(0.5 * fs / f)) - 1) if ref != "dut" else 0
@@ -304,7 +304,7 @@ def _response_at_2f(dut: NDArray[np.float64], ref: NDArray[np.float64], drive: D
         return None
     return (f"sine {f:.4g} Hz: the drive holds {100 * h[1].value / h[0].value:.2g} % of second harmonic and the DUT's "
             f"output responds at 2f {abs(rho):.3g}x (phase {math.degrees(np.angle(rho)):+.0f}°) as at f: the DUT may not "
-            "see the reference's waveform, so the E[x³] its VRC is corrected with may be off by that much (SPEC 4.4)")
+            "see the reference's waveform, so the E[x³] its VRC is corrected with may be off by that much (physics §4.4)")
 
 
 def _drive_waveform(coef: NDArray[np.float64], batch_phase: float, resid_ms: NDArray[np.float64],

@@ -1,4 +1,4 @@
-"""Campaigns: every run of one shaker test, from a TOML manifest (SPEC 4.1).
+"""Campaigns: every run of one shaker test, from a TOML manifest (physics §4.1).
 
 A lab's test is many files: one per run (frequency, orientation, level block), each holding
 several DUT channels (a 3-axis part, several parts on one fixture) and a reference. The
@@ -17,7 +17,7 @@ as failed with its error, the others go on) and :func:`combine` gives per channe
   from a frequency measured only at g0 = 0 (where VRC = k2); null with the reason otherwise;
 * the effective ``rail`` from every random run (weighted mean);
 * ``vrc_by_mount``: the apparent VRC of every sine run mounted at an angle (IEEE 1293's
-  procedure for the cross-coupling coefficients, SPEC 1.6: ``mount_deg``, ``mount_plane`` ip|io
+  procedure for the cross-coupling coefficients, physics §1.6: ``mount_deg``, ``mount_plane`` ip|io
   and the whole static field ``static_g = [i, p, o]``, :class:`Mount`), kept out of the above
   and fitted by :func:`vrelab.identification.fit_cross_coupling`.
 

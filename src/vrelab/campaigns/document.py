@@ -1,4 +1,4 @@
-"""A campaign's document (SPEC 5.1: ``results.json``) and its folder."""
+"""A campaign's document (the CLI reference: ``results.json``) and its folder."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from vrelab.campaigns.summary import ChannelSummary
 
 def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Sequence[ChannelSummary],
                  command: str | None = None) -> dict[str, Any]:
-    """The campaign's JSON (SPEC 5.1): ``runs`` and ``channels``."""
+    """The campaign's JSON (the CLI reference): ``runs`` and ``channels``."""
     runs = []
     for rr in results:
         r = rr.run

@@ -1,4 +1,4 @@
-"""A campaign's manifest (SPEC 4.1): its runs, read and validated whole before anything is
+"""A campaign's manifest (physics §4.1): its runs, read and validated whole before anything is
 reduced (:func:`read_manifest`), and the checks of a run against its record."""
 
 from __future__ import annotations
@@ -29,14 +29,14 @@ BUDGET_KEYS = TYPE_B_KEYS  # a run's declared Type B budget (vrelab.gum)
 TOP_KEYS = ("name", "description", "sensor", "defaults", "run")
 # Orientations closer than this [g] are the same orientation (a fixture's alignment error).
 SAME_ORIENTATION_G = 0.1
-# IEEE 1293's mount planes (SPEC 1.6): the input axis i tilted toward the pendulous axis p, or
+# IEEE 1293's mount planes (physics §1.6): the input axis i tilted toward the pendulous axis p, or
 # toward the output axis o (the triad of vrelab.sensor.Sensor.triad).
 MOUNT_PLANES = ("ip", "io")
 
 
 @dataclass(frozen=True)
 class Mount:
-    """How one DUT channel sits in an IEEE 1293 mount-angle run (SPEC 1.6, 4.1).
+    """How one DUT channel sits in an IEEE 1293 mount-angle run (physics §1.6, §4.1).
 
     The part's input axis i is at ``deg`` to the vibration, tilted in the ``plane`` "ip" (toward
     its pendulous axis p) or "io" (toward its output axis o): the vibration's direction in the
@@ -112,7 +112,7 @@ class Manifest:
     runs: tuple[Run, ...]
     description: str = ""
     # campaign channel -> the sensor file (or preset) its DUT is, when the manifest's `sensor` key
-    # names one: the units check then holds each run to that sensor's response (SPEC 4.1)
+    # names one: the units check then holds each run to that sensor's response (physics §4.1)
     sensors: Mapping[str, Sensor] = field(default_factory=dict, compare=False)
 
     @property
@@ -125,7 +125,7 @@ class Manifest:
 
 
 def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
-    """Read and validate a campaign manifest (SPEC 4.1); paths are relative to it.
+    """Read and validate a campaign manifest (physics §4.1); paths are relative to it.
 
     With ``check_files`` each run's file is opened (its header only where the format allows)
     to check that the channels exist. Every problem is one ``ValueError`` line naming the run

@@ -100,7 +100,7 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
     """Reduce every run (``workers`` processes; 1: here, in order). A failing run is kept with
     its error; a run whose record contradicts the manifest (:class:`ManifestContradiction`)
     refuses the campaign. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``. Each run's budget
-    keys (SPEC 4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level."""
+    keys (physics §4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level."""
     workers = V.integer("workers", workers, 1)
     subs = run_folders(manifest)
     dests = [None if out is None else out / "runs" / subs[r.index] for r in manifest.runs]
@@ -141,7 +141,7 @@ def dut_range(run: Run, channel: str, sensor: Sensor | None) -> tuple[float | No
 
 
 def judge_units(results: Sequence[RunResult], sensors: Mapping[str, Sensor] | None = None) -> list[RunResult]:
-    """SPEC 4.1/4.2's units check of every DUT channel over its runs; the runs it refuses are
+    """physics §4.1/4.2's units check of every DUT channel over its runs; the runs it refuses are
     failed with the reason (their results dropped) and returned. In order:
 
     1. a run whose DUT reads, with vibration off, orders of magnitude beyond its range

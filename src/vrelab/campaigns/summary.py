@@ -24,7 +24,7 @@ from vrelab.campaigns.runs import RunResult
 
 @dataclass(frozen=True)
 class ChannelSummary:
-    """What a campaign gives for one channel (SPEC 4.1, 5.1)."""
+    """What a campaign gives for one channel (physics §4.1, the CLI reference)."""
 
     channel: str
     vrc_by_freq: tuple[dict[str, Any], ...]
@@ -35,10 +35,10 @@ class ChannelSummary:
     rail: Estimate | None
     rails_by_run: tuple[dict[str, Any], ...]
     notes: tuple[str, ...]
-    # the apparent VRC (VRE/rms²) of every sine run mounted at an angle (IEEE 1293, SPEC 1.6): not
+    # the apparent VRC (VRE/rms²) of every sine run mounted at an angle (IEEE 1293, physics §1.6): not
     # the input axis's alone, so kept out of k2, k3 and the rail; vrelab.identify fits the cross terms
     vrc_by_mount: tuple[dict[str, Any], ...] = ()
-    # the channel's noise with vibration off in each run (SPEC 4.4: density, bias instability,
+    # the channel's noise with vibration off in each run (physics §4.4: density, bias instability,
     # the Allan deviation's minimum; the whole curve is in the run's own results)
     noise_by_run: tuple[dict[str, Any], ...] = ()
 
@@ -90,7 +90,7 @@ def _collect(channel: str, results: Sequence[RunResult]) -> tuple[_Lists, _Lists
             if mount is not None and mount.tilted:
                 mounted += _mounted_vrcs(rr, mount, res)
                 notes.append(f"{rr.run.where}: mounted at {mount.deg:+g}° in the {mount.plane.upper()} plane: its VRE is "
-                             "not the input axis's alone (cross-coupling, SPEC 1.6): not used for k2, k3 or the rail "
+                             "not the input axis's alone (cross-coupling, physics §1.6): not used for k2, k3 or the rail "
                              "(`vrelab identify` fits the cross-coupling coefficients from it)")
                 continue
             for f in res.fits:
@@ -128,7 +128,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         f0 = grp[0]["freq_hz"]
         if max(fields) - min(fields) >= SAME_ORIENTATION_G:
             # each VRC at the static field its cubic term saw (a distorted drive's E[x³] moves it:
-            # FitResult.static_shift_g), so k2 and k3 are those of the pure polynomial (SPEC 4.4)
+            # FitResult.static_shift_g), so k2 and k3 are those of the pure polynomial (physics §4.4)
             by_freq.append(fit_k2_k3([(v["static_g"] + v.get("static_shift_g", 0.0), est(v)) for v in grp], freq_hz=f0))
             _at_nominal_static(grp, by_freq[-1])
         elif all(abs(g) < SAME_ORIENTATION_G / 2 for g in fields):
@@ -162,7 +162,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
         shifted = [v for v in vrcs if abs(v.get("static_shift_g", 0.0)) > 0]
         if shifted:
             worst = max(shifted, key=lambda v: abs(v["static_shift_g"]))
-            notes.append(f"a distorted drive (SPEC 4.4): each VRC is k2 + 3*k3*(g0 + shift) with the shift its drive's "
+            notes.append(f"a distorted drive (physics §4.4): each VRC is k2 + 3*k3*(g0 + shift) with the shift its drive's "
                          f"E[x³] gives (up to {worst['static_shift_g']:+.3g} g, run {worst['run']}); without two "
                          "orientations k3 is unknown, so 3*k3*shift is an unknown bias of these VRCs (and of k2)")
     budgets = [rr.run.budget for rr in results if any(n == channel for n, _ in rr.results)]
@@ -183,7 +183,7 @@ def _combine_channel(channel: str, results: Sequence[RunResult]) -> ChannelSumma
 
 def _at_nominal_static(group: Sequence[dict[str, Any]], fit: FitResult) -> None:
     """Each VRC entry of ``group`` (one frequency, fitted by ``fit``, :func:`vrelab.fits.fit_k2_k3`
-    at the static fields g0 + shift) carried to its nominal g0 (SPEC 1.2's VRC = k2 + 3·k3·g0),
+    at the static fields g0 + shift) carried to its nominal g0 (physics §1.2's VRC = k2 + 3·k3·g0),
     in place: ``VRC - 3·k3·shift``, its variance ``u² + 9·shift²·u(k3)² - 6·shift·cov(VRC, k3)``
     with ``cov(VRC_i, k3) = C[1,0] + 3·g_i·C[1,1]`` (C the fit's covariance, g_i the field the
     point was fitted at: the weighted least squares' k3 is a linear function of the VRCs). The
@@ -221,7 +221,7 @@ def _mounted_at_pure_drive(mounted: Sequence[dict[str, Any]], by_freq: Sequence[
     """Each mount-angle VRC of ``mounted`` whose drive was distorted (its fit's
     ``static_shift_g`` s, along the vibration) carried to a pure drive, in place, as
     :func:`_at_nominal_static` does the axial ones: the input axis senses cos φ of the vibration,
-    so the drive's E[x³] adds ``3·k3·cos³φ·s`` to VRE/E[x²] (SPEC 1.6's cross terms are quadratic:
+    so the drive's E[x³] adds ``3·k3·cos³φ·s`` to VRE/E[x²] (physics §1.6's cross terms are quadratic:
     they see E[x²] only); subtracted with k3 of the axial k2/k3 fit at the same frequency, its
     variance ``u² + 9·cos⁶φ·s²·u(k3)²`` (independent runs: no covariance). The measured VRC stays
     as ``vrc_measured_ug_per_g2``. Returns a note for the entries no fit at their frequency
@@ -246,7 +246,7 @@ def _mounted_at_pure_drive(mounted: Sequence[dict[str, Any]], by_freq: Sequence[
                               "u": math.sqrt(e["u"] ** 2 + 9.0 * c3 * c3 * shift * shift * var_k3)}
     if not left:
         return []
-    return [f"a distorted drive (SPEC 4.4) on mount-angle run(s) {', '.join(left)}: no k2/k3 fit at their "
+    return [f"a distorted drive (physics §4.4) on mount-angle run(s) {', '.join(left)}: no k2/k3 fit at their "
             "frequency, so their VRC carries an unknown 3*k3*cos³φ*shift (the fit's static_shift_g)"]
 
 
@@ -256,7 +256,7 @@ K2_CONSISTENCY_P = 0.05
 
 def _k2_across_frequencies(fits: Sequence[FitResult]) -> list[str]:
     """What the combined k2 is, when it comes from more than one frequency: each frequency measures
-    the apparent VRC(f) = k2·|H(f)|² (SPEC 1.3), and |H|² > 1 grows toward the resonance, so the
+    the apparent VRC(f) = k2·|H(f)|² (physics §1.3), and |H|² > 1 grows toward the resonance, so the
     combination is an apparent k2, biased upward by the highest frequencies. Their consistency is
     the χ² of the per-frequency k2 (Type A u) about their weighted mean, with its Birge ratio
     √(χ²/dof) and p-value (scipy.stats.chi2)."""

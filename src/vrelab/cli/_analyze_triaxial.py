@@ -1,6 +1,6 @@
 """``vrelab analyze FILE --triaxial --reference X,Y,Z --dut ...``: a triaxial recording reduced per axis.
 
-The JSON is the several-DUT document of SPEC 5.1 (``channels``: [{``channel`` (the axis),
+The JSON is the several-DUT document of the CLI reference (``channels``: [{``channel`` (the axis),
 ``levels``, ``fit``, ...}]) with each level's ``axis_rms_g`` and each channel's ``level_axis``,
 plus ``triaxial``: the reference channels, the axis the segments came from and per level the
 reference's total and per-axis rms and its measured cross-spectrum (PSDs, coherences, phases with

@@ -88,7 +88,7 @@ def print_json(obj: object) -> None:
 
 
 def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
-    """The sensor options common to ``predict`` and ``simulate`` (SPEC 5)."""
+    """The sensor options common to ``predict`` and ``simulate`` (the CLI reference)."""
     p.add_argument("--sensor", required=True, metavar="S", help="preset (adxl355, adxl354, adxl357, ideal) or a sensor file")
     p.add_argument("--range", dest="range_g", type=float, metavar="G",
                    help="measurement range [g], e.g. 2, 4, 8 (default: the sensor's default_range_g: 2, or 10 for the ADXL357)")
@@ -180,7 +180,7 @@ def print_levels(result: VreResult) -> None:
     sine = result.method == "sine"
     budget = any(lv.budget for lv in result.levels)
     decided = any(lv.decision for lv in result.levels)
-    # a sine level's drive distortion (SPEC 4.4): the reference's THD, when the record had a reference
+    # a sine level's drive distortion (physics §4.4): the reference's THD, when the record had a reference
     thd = sine and any(lv.drive is not None for lv in result.levels)
     print(("freq_hz  " if sine else "") + f"{'rms_g':>8}  {'VRE ± u (mg)':>22}  {'VRC ± u (ug/g^2)':>22}"
           + ("   U (mg)     k" if budget else "")
@@ -195,7 +195,7 @@ def print_levels(result: VreResult) -> None:
             more += f"  {lv.decision or 'undefined':<13}"
         if thd:
             more += f"  {format_value(100 * lv.drive.thd.value, digits=2) if lv.drive is not None else '':>7}"
-        vrc = lv.vrc  # VRE / rms² with its u (SPEC 1.2), beside the VRE
+        vrc = lv.vrc  # VRE / rms² with its u (physics §1.2), beside the VRE
         print(f"{f}{lv.rms_g:8.4g}  {format_mg(lv.vre.value, lv.vre.u):>22}  {format_value_u(vrc.value, vrc.u):>22}"
               f"{more}  {sat}")
     for fit in result.fits:
@@ -207,15 +207,15 @@ def print_levels(result: VreResult) -> None:
         if fit.departure_rms_g is not None:
             print(f"  data leave the model from {fit.departure_rms_g:.4g} g rms on")
         for note in fit.notes:
-            if note.startswith("a distorted drive"):  # fits.fit_vrc's note on the drive's E[x³] (SPEC 4.4)
+            if note.startswith("a distorted drive"):  # fits.fit_vrc's note on the drive's E[x³] (physics §4.4)
                 print(f"  {note}")
     for w in result.warnings:
         print(f"warning: {w}")
 
 
 def add_budget_arguments(p: argparse.ArgumentParser, limit: bool = False) -> None:
-    """The Type B inputs of SPEC 4.3 (and, with ``limit``, the decision's limit)."""
-    g = p.add_argument_group("uncertainty budget (SPEC 4.3)" + (" and decision" if limit else ""))
+    """The Type B inputs of physics §4.3 (and, with ``limit``, the decision's limit)."""
+    g = p.add_argument_group("uncertainty budget (physics §4.3)" + (" and decision" if limit else ""))
     g.add_argument("--u-reference-pct", type=float, default=0.0, metavar="P",
                    help="standard uncertainty of the reference sensitivity [%%] (its calibration)")
     g.add_argument("--u-dut-pct", type=float, default=0.0, metavar="P", help="standard uncertainty of the DUT sensitivity [%%]")

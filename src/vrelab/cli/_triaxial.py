@@ -1,4 +1,4 @@
-"""What ``vrelab predict`` and ``vrelab simulate`` share for a triaxial vibration (SPEC 1.6): the
+"""What ``vrelab predict`` and ``vrelab simulate`` share for a triaxial vibration (physics §1.6): the
 options, the one rule for the static field, the vibration's direction (``--direction`` or IEEE
 1293's mount angle) and the triaxial ``--profile`` forms of :mod:`vrelab.triaxial.files`.
 
@@ -20,7 +20,7 @@ def add_triaxial_arguments(p: argparse.ArgumentParser, axes: bool = False) -> No
     """``--direction``, ``--mount-deg``, ``--mount-plane``, ``--static-vector`` (and, with
     ``axes``, ``--axes``); ``--static`` (:func:`vrelab.cli._common.add_sensor_arguments`) then
     defaults to None so that :func:`static_field` can refuse it beside ``--static-vector``."""
-    t = p.add_argument_group("triaxial vibration (SPEC 1.6, IEEE 1293 cross-coupling)")
+    t = p.add_argument_group("triaxial vibration (physics §1.6, IEEE 1293 cross-coupling)")
     t.add_argument("--direction", metavar="X,Y,Z",
                    help="the vibration along this direction in the part's frame (normalised; levels are its rms)")
     t.add_argument("--mount-deg", type=float, metavar="DEG",

@@ -1,4 +1,4 @@
-"""``vrelab analyze``: reduce a recorded shaker test to VRE per level and fit it (SPEC 4, 5).
+"""``vrelab analyze``: reduce a recorded shaker test to VRE per level and fit it (physics §4, the CLI reference).
 
 ::
 
@@ -10,7 +10,7 @@
                    [--accept-unit-ratio] [--accept-channels] [--accept-method]
                    [--out DIR] [--json] [--progress]
 
-Before any number is made the record is checked (SPEC 4.2): a DUT/reference vibration ratio
+Before any number is made the record is checked (physics §4.2): a DUT/reference vibration ratio
 beyond 3 at every level (a units or sensitivity slip), a reference reading a static field while
 the DUT reads none (swapped channels), a method the spectra contradict. Each is refused with what
 was found; ``--accept-...`` passes it on purpose.
@@ -96,7 +96,7 @@ def register(subparsers: Any) -> None:
                    help="auto (default): each level as its reference spectrum shows it, one line = sine, broad = "
                    "random; an explicit method the data contradict is refused")
     p.add_argument("--accept-unit-ratio", action="store_true",
-                   help="accept a DUT/reference rms ratio beyond 3 at every level (SPEC 4.2: a units slip otherwise)")
+                   help="accept a DUT/reference rms ratio beyond 3 at every level (physics §4.2: a units slip otherwise)")
     p.add_argument("--accept-channels", action="store_true",
                    help="accept a reference reading a static field while the DUT reads none (swapped channels otherwise)")
     p.add_argument("--accept-file-units", action="store_true",

@@ -1,4 +1,4 @@
-"""``vrelab campaign MANIFEST``: reduce every run of a shaker campaign (SPEC 4.1, 5.1).
+"""``vrelab campaign MANIFEST``: reduce every run of a shaker campaign (physics §4.1, the CLI reference).
 
 ::
 
@@ -43,7 +43,7 @@ _EXAMPLE = """example MANIFEST (paths relative to it):
   dut = ["sn1_z", "sn2_z"]          # the file's names are the campaign's
   static_g = -1.0
 
-  [[run]]                           # IEEE 1293 mount angle (SPEC 1.6): input axis at 45° to the
+  [[run]]                           # IEEE 1293 mount angle (physics §1.6): input axis at 45° to the
   file = "runs/ip_plus45.csv"       # vibration, tilted toward its pendulous axis (io: output axis)
   dut = ["sn1_z"]
   mount_deg = 45
@@ -80,7 +80,7 @@ def register(subparsers: Subparsers) -> None:
                    "then `vrelab report DIR`")
     p.add_argument("--workers", type=int, default=1, metavar="N", help="reduce N runs at once in processes (default 1)")
     p.add_argument("--limit", type=float, metavar="G",
-                   help="VRE limit [g]: each level pass/fail/indeterminate under guarded acceptance (SPEC 4.3)")
+                   help="VRE limit [g]: each level pass/fail/indeterminate under guarded acceptance (physics §4.3)")
     p.add_argument("--json", action="store_true", help="print the campaign as one JSON object")
     p.set_defaults(func=run)
 
@@ -145,7 +145,7 @@ def _print(doc: dict[str, Any]) -> None:
         for v in c["vrc_by_freq"]:
             e = v["vrc_ug_per_g2"]
             print(f"  VRC at {v['freq_hz']:8.4g} Hz, {v['static_g']:+.3g} g: {format_value_u(e['value'], e['u'], unit='µg/g²')}")
-        for v in c.get("vrc_by_mount") or ():  # IEEE 1293 mount-angle runs (SPEC 1.6)
+        for v in c.get("vrc_by_mount") or ():  # IEEE 1293 mount-angle runs (physics §1.6)
             e = v["vrc_ug_per_g2"]
             print(f"  VRE/rms² at {v['freq_hz']:8.4g} Hz, mounted {v['mount_deg']:+g}° {v['mount_plane'].upper()}: "
                   f"{format_value_u(e['value'], e['u'], unit='µg/g²')}")

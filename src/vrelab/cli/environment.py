@@ -1,4 +1,4 @@
-"""``vrelab environment``: the named vibration environments and where they come from (SPEC 6.2).
+"""``vrelab environment``: the named vibration environments and where they come from (the environments page).
 
 ::
 
@@ -7,7 +7,7 @@
 
 ``list --json`` prints ``{"environments": [...]}``, each {``name``, ``title``, ``source``,
 ``grms``, ``band_hz``, ``stated_grms``, ``reproduced_from``, ``note``}: ``grms`` is the log-log
-area of the breakpoints (SPEC 3), ``stated_grms`` what the standard (or the public reproduction
+area of the breakpoints (physics §3), ``stated_grms`` what the standard (or the public reproduction
 named) states. ``show --json`` adds ``profile`` (what ``vrelab profile NAME --json`` prints).
 Any environment is also a profile: ``--profile NAME`` in ``predict``, ``simulate``, ``sweep``.
 """

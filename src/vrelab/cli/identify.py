@@ -1,4 +1,4 @@
-"""``vrelab identify``: the sensor's VRE model from a campaign, as a sensor file (SPEC 6.1, 5.1).
+"""``vrelab identify``: the sensor's VRE model from a campaign, as a sensor file (physics §6.1, the CLI reference).
 
 ::
 
@@ -34,7 +34,7 @@ def register(subparsers: Subparsers) -> None:
         "identify",
         help="identify each channel's VRE model (k2, k3, fn, Q, rails, over-range) from a campaign: a sensor file",
         description=textwrap.fill(
-            "Fit the physical model of SPEC 1 to every level of every run of each channel of a campaign at once "
+            "Fit the physical model of physics §1 to every level of every run of each channel of a campaign at once "
             "(weighted by each level's uncertainty; each level evaluated with the analytic model `vrelab predict` "
             "uses): k2 and k3 from the orientations, fn and Q from VRC(f) across the sine frequencies, the "
             "physical rails from the random runs through the identified dynamics, the over-range threshold where "

@@ -1,6 +1,6 @@
 """``vrelab model clip`` and ``vrelab model poly``: the analytic VRE models at a list of levels.
 
-Argument parsing and printing only; the physics is :mod:`vrelab.models` (SPEC section 5).
+Argument parsing and printing only; the physics is :mod:`vrelab.models` (the CLI reference).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ rail before the other, so the clipped output's mean moves.
              normal); it overstates the shift (-283 mg vs -83 mg at 1 g rms on +-2 g, 1 g field).
 
 Gaussian vibration uses sigma = rms; a sine uses amplitude = rms * sqrt(2).
-VRE = mean output with vibration - the vibration-off reading clip(mean) (SPEC 1.5; beyond a rail
+VRE = mean output with vibration - the vibration-off reading clip(mean) (physics §1.5; beyond a rail
 that reading is itself clipped, and the output says so).
 Example: vrelab model clip --mean 1 --rail 2 --rms 0.5:3:0.5
 """
@@ -41,7 +41,7 @@ coefficients in ug/g^2, ug/g^3, ug/g^4 (k2 is the VRC; 1 ug/g^2 = 1 ppm/g):
 
   VRE = (k2 + 3*k3*g0)*rms^2 + k4*(6*g0^2*rms^2 + E[x^4]),  E[x^4] = 3 rms^4 (Gaussian), 1.5 rms^4 (sine)
 
-referred to the vibration-off reading P(g0) (SPEC 1.5).
+referred to the vibration-off reading P(g0) (physics §1.5).
 
 Example: vrelab model poly --k2 100 --k3 5 --static 1 --rms 0.5,1,2
 """

@@ -1,6 +1,6 @@
 """``vrelab predict``: analytic VRE of a sensor in a vibration environment, without simulating.
 
-SPEC section 5::
+the CLI reference::
 
     vrelab predict --sensor S [--range G] [--axis x|y|z] [--odr HZ] [--static G]
                    [--k2 UG_PER_G2] [--k3 UG_PER_G3]
@@ -10,7 +10,7 @@ SPEC section 5::
 ``--json`` prints :meth:`vrelab.prediction.results.Prediction.to_dict` (``levels``: objects with
 ``rms_g``, ``vre_g``, ``tilt_error_deg``, shares by mechanism). The sensor options here are
 shared with ``vrelab simulate``. With a direction, a mount angle or a static vector the
-vibration is triaxial (SPEC 1.6): the profile or sine applied along that direction in the
+vibration is triaxial (physics §1.6): the profile or sine applied along that direction in the
 part's frame (or a triaxial ``--profile``: ``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial
 TOML file: :mod:`vrelab.triaxial.files`), the levels its total rms, and the prediction
 :func:`vrelab.predict`'s off the input axis (the IEEE 1293 cross terms' shares
@@ -50,7 +50,7 @@ def print_prediction(pred: Any) -> None:
           f"static {c.get('static_g'):g} g")
     print(f"vibration: {c.get('profile')}")
     extra = c.get("extra") or {}
-    if "static_vector_g" in extra:  # triaxial (SPEC 1.6): the part's frame, the axis's triad and row
+    if "static_vector_g" in extra:  # triaxial (physics §1.6): the part's frame, the axis's triad and row
         t, k = extra["triad"], extra["cross_coupling_ug_per_g2"]
         print(f"static vector ({', '.join(f'{x:g}' for x in extra['static_vector_g'])}) g  triad i={t['input']} "
               f"p={t['pendulous']} o={t['output']}  sensitivity row ({', '.join(f'{x:g}' for x in extra['sensitivity_row'])})"
@@ -79,7 +79,7 @@ def print_prediction(pred: Any) -> None:
         sh = lv["shares"]
         f = f"{lv['freq_hz']:7.4g} " if sine else ""
         vre = format_mg(lv["vre_g"], lv.get("u_vre_g"), signed=False, resolution_mg=res)
-        # the level's VRC (VRE / rms², SPEC 1.2), what a datasheet quotes, beside its VRE
+        # the level's VRC (VRE / rms², physics §1.2), what a datasheet quotes, beside its VRE
         # shown to the VRE's resolution carried over (res mg = 1e3·res µg, per rms²)
         vrc = format_value_u(lv.get("vrc_ug_per_g2"), lv.get("u_vrc_ug_per_g2"),
                              resolution=1e3 * res / lv["rms_g"] ** 2)
@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
 
     if triaxial and sensor.axis not in AXES:
         raise ValueError(f"a triaxial vibration needs an axis x, y or z of the part, got --axis {sensor.axis!r}")
-    # one predict (SPEC 1.6): along the input axis with --static, else along the direction or
+    # one predict (physics §1.6): along the input axis with --static, else along the direction or
     # mount angle given, a triaxial --profile as it is, the static vector where given
     pred = predict(sensor, excitation, levels, static_g=args.static_g if static is None else static, kind=args.kind,
                    direction=direction_of(args, sensor.triad) if directed else None)

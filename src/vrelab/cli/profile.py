@@ -1,6 +1,6 @@
 """``vrelab profile``: show a random vibration profile, its grms and its breakpoint table.
 
-SPEC section 5::
+the CLI reference::
 
     vrelab profile PROFILE [--grms G] [--json] [--write FILE]
     vrelab profile --list          (or: vrelab profile list)

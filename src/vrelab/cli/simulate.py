@@ -1,6 +1,6 @@
 """``vrelab simulate``: the virtual shaker test of a sensor (random or sine method).
 
-SPEC section 5::
+the CLI reference::
 
     vrelab simulate --sensor S [--range G] [--axis A] [--odr HZ] [--static G] [--k2] [--k3]
                     (--profile PROFILE | --freq LIST) --levels LIST [--seconds S] [--seed N]
@@ -10,7 +10,7 @@ SPEC section 5::
 ``--seconds`` at level; the record's schedule leaves the ramps out); ``--drift`` adds a slow
 linear drift of the sensor's output [g/s] (both default 0).
 
-Both run :func:`vrelab.simulate`. A triaxial test (SPEC 1.6): ``--direction
+Both run :func:`vrelab.simulate`. A triaxial test (physics §1.6): ``--direction
 X,Y,Z`` (or IEEE 1293's mount angle ``--mount-deg DEG [--mount-plane ip|io]`` of the first DUT
 axis) runs the random ``--profile`` (or one ``--freq`` sine) along that direction, or
 ``--profile`` names a triaxial vibration (``PROFILE@dir=X,Y,Z``, ``PROFILE@z45x``, a triaxial

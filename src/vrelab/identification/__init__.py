@@ -1,8 +1,8 @@
-"""Identification: the sensor's VRE model from a campaign, per channel (SPEC 6.1).
+"""Identification: the sensor's VRE model from a campaign, per channel (physics §6.1).
 
 A campaign measures a part under a few conditions (orientations, sine frequencies, random
 levels); a designer needs its VRE under *their* vibration, range and bandwidth. This package
-fits the physical model of SPEC 1 to every level of every run of a channel at once — one
+fits the physical model of physics §1 to every level of every run of a channel at once — one
 weighted least-squares likelihood, each level weighted by its Type A standard uncertainty —
 and writes the result as a sensor file that ``predict``, ``simulate`` and ``sweep`` take.
 
@@ -12,9 +12,9 @@ the same stages, that ``vrelab predict`` evaluates, so identification and predic
 drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 
 * ``k2_ug_per_g2``, ``k3_ug_per_g3`` — from the sine runs' orientations: a sine at f in a field
-  g0 gives ``VRE = (k2 + 3·k3·g0)·|H(f)|²·rms²`` (SPEC 1.2, 1.3); two static fields separate
+  g0 gives ``VRE = (k2 + 3·k3·g0)·|H(f)|²·rms²`` (physics §1.2, §1.3); two static fields separate
   them (random levels carry k·σ² under the clipping's share, which the rails also shape). A
-  level whose drive was measured distorted (the document's ``drive``, SPEC 4.4) gives
+  level whose drive was measured distorted (the document's ``drive``, physics §4.4) gives
   ``k2·E[x²] + k3·(3·g0·E[x²] + E[x³])``, modelled as the pure sine of its E[x²] at
   g0 + E[x³]/(3·E[x²]) (:func:`drive_equivalent`);
 * ``fn_hz``, ``q`` — from VRC(f) across the sine frequencies, ``|H(f)|² = 1/((1-r²)² + (r/Q)²)``;
@@ -24,7 +24,7 @@ drift apart. The parameters (:data:`vrelab.sensor.parameters.PARAMETERS`):
 * ``overrange_threshold_g`` — from the random runs, where the data reach it (the base sensor
   must give the hold time);
 * ``kip_ug_per_g2``, ``kpp_ug_per_g2``, ``kio_ug_per_g2``, ``koo_ug_per_g2`` — IEEE 1293's
-  cross-coupling coefficients (SPEC 1.6), from the sine runs mounted at an angle (the manifest's
+  cross-coupling coefficients (physics §1.6), from the sine runs mounted at an angle (the manifest's
   ``mount_deg``, ``mount_plane``), by their own linear fit on the model identified from the
   others (:func:`fit_cross_coupling`); those runs stay out of the fit above.
 
@@ -51,7 +51,7 @@ its u) are left out with a note; the choice is iterated with the fit.
 
 Uncertainty: the covariance ``(JᵀJ)⁻¹`` of the whitened residuals at the solution (J by
 central differences), scaled by the reduced χ² when that exceeds 1 (the Birge ratio, as the
-campaign's combinations do). Declared Type B terms (SPEC 4.3: reference and DUT sensitivity,
+campaign's combinations do). Declared Type B terms (physics §4.3: reference and DUT sensitivity,
 static field, thermal offset) enter by refitting with each input perturbed by its standard
 uncertainty (:func:`vrelab.gum.type_b_shifts`); each gives a shift vector ``d`` and the
 covariance gains ``d·dᵀ`` (the shifts are fully correlated across parameters).

@@ -1,4 +1,4 @@
-"""Identification's 2f cross-check (SPEC 6.1): the apparent VRC from the DUT's 2f line beside the
+"""Identification's 2f cross-check (physics §6.1): the apparent VRC from the DUT's 2f line beside the
 one from its DC shift."""
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def _post_filter_gain(base: Sensor | None, f_hz: float) -> float:
 def cross_check_2f(obs: Sequence[Observation], base: Sensor | None = None) -> list[Check2f]:
     """Per sine run whose levels carry a 2f estimate: the apparent VRC from the DUT's 2f line
     (less the reference's own) beside the one from the DC shift, both ``(k2 + 3·k3·g0)·|H|²``
-    for a cubic polynomial on the proof mass (SPEC 6.1): x = A·cos θ gives
+    for a cubic polynomial on the proof mass (physics §6.1): x = A·cos θ gives
     ``k·x² = k·A²/2 + k·A²/2·cos 2θ``, the same coefficient at DC and at 2f. Immune to drift,
     so a disagreement beyond the uncertainties points at a drifting baseline or at filters
     after the nonlinearity that attenuate 2f (the DC is untouched by them). The base sensor's

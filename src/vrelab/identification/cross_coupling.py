@@ -1,4 +1,4 @@
-"""IEEE 1293's cross-coupling coefficients from a campaign's mount-angle runs (SPEC 1.6)."""
+"""IEEE 1293's cross-coupling coefficients from a campaign's mount-angle runs (physics §1.6)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
 
-# The cross-coupling coefficients a mount-angle campaign identifies (SPEC 1.6), in the order of
+# The cross-coupling coefficients a mount-angle campaign identifies (physics §1.6), in the order of
 # the JSON and the covariance: read off the one table of the model equation's cross terms.
 CROSS: tuple[str, ...] = tuple(t.key for t in FITTED)
 # the axis a plane tilts the input axis toward
@@ -70,7 +70,7 @@ class CrossCoupling:
 
 def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observation], sensor: Sensor,
                        typeb: TypeB | None = None, kind: ClipKind = DEFAULT_CLIP_KIND) -> CrossCoupling:
-    r"""IEEE 1293's cross-coupling coefficients Kip, Kpp, Kio, Koo of one channel (SPEC 1.6)
+    r"""IEEE 1293's cross-coupling coefficients Kip, Kpp, Kio, Koo of one channel (physics §1.6)
     from its runs mounted at an angle (``tilted``) beside its sine runs along the vibration
     (``axial``), on the model identified from the latter (``sensor``: its dynamics, rails,
     cross-axis sensitivity row).
@@ -195,7 +195,7 @@ def _design(sines: Sequence[Observation], sensor: Sensor, w: NDArray[np.float64]
                 if not k:
                     notes.append(f"run {ob.run} ({ob.label!r}): level {r:.4g} g rms left out of the cross-coupling fit: "
                                  "its sensed peak reaches a rail of the identified model")
-        # a distorted drive (SPEC 4.4): E[x²] in place of rms², and its E[x³] as the sensed shift w·d·s
+        # a distorted drive (physics §4.4): E[x²] in place of rms², and its E[x³] as the sensed shift w·d·s
         rms_eq, shift = drive_equivalent(ob)
         s2 = rms_eq**2 * h2
         for k in np.flatnonzero(keep):

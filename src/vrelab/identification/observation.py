@@ -40,9 +40,9 @@ class Observation:
     harmonic_g: tuple[tuple[float, float] | None, ...] = ()  # per level: the 2f estimate (value, u)
     # per sine level: the analysis flagged DUT samples at a rail (its own rail, not the identified one)
     saturated: tuple[bool, ...] = ()
-    mount: Mount | None = None  # an IEEE 1293 mount-angle run (SPEC 1.6): its angle, plane and static vector
+    mount: Mount | None = None  # an IEEE 1293 mount-angle run (physics §1.6): its angle, plane and static vector
     # per sine level: the reference's measured waveform as (E[x²]/rms², E[x³]/rms³), rms the
-    # fundamental's (SPEC 4.4, :class:`vrelab.results.DriveWaveform`); None: a pure sine. Held
+    # fundamental's (physics §4.4, :class:`vrelab.results.DriveWaveform`); None: a pure sine. Held
     # relative to rms so that a Type B scaling of the levels scales the moments with them.
     drive: tuple[tuple[float, float] | None, ...] = ()
 
@@ -335,7 +335,7 @@ def _type_a(level: Mapping[str, Any]) -> float | None:
 
 def _drive_moments(level: Mapping[str, Any], rms: float) -> tuple[float, float] | None:
     """A sine level's measured drive moments relative to its fundamental's rms, (E[x²]/rms²,
-    E[x³]/rms³) (the campaign document's ``drive``, SPEC 4.4), or None (a pure sine assumed, as
+    E[x³]/rms³) (the campaign document's ``drive``, physics §4.4), or None (a pure sine assumed, as
     without them) when the level carries none or they are not finite."""
     d = level.get("drive")
     if not isinstance(d, Mapping):
@@ -406,7 +406,7 @@ def _observation(run: Mapping[str, Any], ch: Mapping[str, Any], notes: list[str]
 
 def drive_equivalent(ob: Observation) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Per sine level, the pure sine a polynomial sensor rectifies as it does the measured drive
-    (SPEC 4.4): its rms √E[x²] and its static-field shift s = E[x³]/(3·E[x²]) [g].
+    (physics §4.4): its rms √E[x²] and its static-field shift s = E[x³]/(3·E[x²]) [g].
 
     For ``f(a) = a + k2·a² + k3·a³`` at ``a = g0 + x``, ``VRE = E[f(g0 + x)] - f(g0) =
     k2·E[x²] + k3·(3·g0·E[x²] + E[x³])`` (the drive's mean is 0), which a pure sine y with

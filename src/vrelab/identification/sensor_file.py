@@ -1,4 +1,4 @@
-"""The identified sensor as a sensor file (SPEC 6.1)."""
+"""The identified sensor as a sensor file (physics §6.1)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from vrelab.sensor.writer import file_values
 
 
 def sensor_file_document(ident: Identification) -> dict[str, Any]:
-    """The identified sensor as a sensor-file document (the presets' schema, SPEC 6.1).
+    """The identified sensor as a sensor-file document (the presets' schema, physics §6.1).
 
     The base sensor's file is the template: its other ranges, ODRs and filters stay as they
     are. Each channel becomes ``[axes.<channel>]`` holding every identifiable parameter
@@ -104,7 +104,7 @@ def write_sensor_file(path: str | Path, ident: Identification) -> Path:
     from vrelab.sensor.writer import write_sensor_file as write
 
     doc = sensor_file_document(ident)
-    header = (f"# Identified by vrelab from campaign {ident.campaign!r} (SPEC 6.1): one [axes.<channel>] per channel,\n"
+    header = (f"# Identified by vrelab from campaign {ident.campaign!r} (physics §6.1): one [axes.<channel>] per channel,\n"
               "# every number's source in its facts, the identified parameters' covariance beside them.\n"
               "# Use it as --sensor with --axis <channel> in predict, simulate and sweep.\n")
     return write(path, doc, header, axes=[cm.channel for cm in ident.channels])

@@ -1,9 +1,9 @@
-"""Pure analytic physics of vibration rectification (SPEC sections 1 and 4): no I/O, no printing.
+"""Pure analytic physics of vibration rectification (docs/physics.md §1 and §4): no I/O, no printing.
 
-* :mod:`~vrelab.models.clipping`: asymmetric rails, censored and truncated (SPEC 1.1)
-* :mod:`~vrelab.models.nonlinearity`: polynomial scale-factor nonlinearity, VRC units (SPEC 1.2)
-* :mod:`~vrelab.models.dynamics`: resonance, filters, effective rms, Rice crossings (SPEC 1.3)
-* :mod:`~vrelab.models.design`: the designer's inverse questions and planning checks (SPEC 4)
+* :mod:`~vrelab.models.clipping`: asymmetric rails, censored and truncated (physics §1.1)
+* :mod:`~vrelab.models.nonlinearity`: polynomial scale-factor nonlinearity, VRC units (physics §1.2)
+* :mod:`~vrelab.models.dynamics`: resonance, filters, effective rms, Rice crossings (physics §1.3)
+* :mod:`~vrelab.models.design`: the designer's inverse questions and planning checks (physics §4)
 
 The names below are imported on first use (``from vrelab.models import mean_shift`` or
 ``vrelab.models.mean_shift``): importing one leaf, e.g. :mod:`vrelab.models.kinds` for the

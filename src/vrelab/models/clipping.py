@@ -1,4 +1,4 @@
-"""Rectification by asymmetric rails (SPEC 1.1): the mean shift of a clipped vibration.
+"""Rectification by asymmetric rails (physics §1.1): the mean shift of a clipped vibration.
 
 A sensor with rails ``[L, U]`` in a static field ``g0`` clips the vibration asymmetrically and the
 mean of its output moves. Two models of what happens beyond a rail:
@@ -11,7 +11,7 @@ Closed forms exist for Gaussian and sine vibration; any other distribution goes 
 function returns the mean shift ``E[output] - E[input]`` (measured from μ = g0) in g, and
 broadcasts its array arguments.
 
-Reference point: the VRE the tool states (SPEC 1.5) is referred to the vibration-off reading
+Reference point: the VRE the tool states (physics §1.5) is referred to the vibration-off reading
 ``clip(μ)`` (:func:`vrelab.models.memoryless.vibration_off_reading`), not to μ: :func:`vrelab.models.design.clip_vre`.
 The two are the same number wherever μ lies within the rails; beyond a rail the mean shift
 also counts the static level's own clipping ``clip(μ) - μ``, which no vibration causes (±2 g
@@ -171,7 +171,7 @@ def censored_mean_shift(
 
     Notes
     -----
-    With α = (L-μ)/σ, β = (U-μ)/σ (SPEC 1.1, from the article's section on range clipping):
+    With α = (L-μ)/σ, β = (U-μ)/σ (physics §1.1, from the article's section on range clipping):
 
     .. math:: E[\mathrm{clip}(X)] = L\,Φ(α) + U\,(1-Φ(β)) + μ\,(Φ(β)-Φ(α)) + σ\,(φ(α)-φ(β))
 
@@ -190,7 +190,7 @@ def censored_mean_shift(
     References
     ----------
     .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (the seed
-       article; ADXL355 case study): the clipping mechanism. SPEC section 1.1.
+       article; ADXL355 case study): the clipping mechanism. physics §1.1.
     .. [2] M. Abramowitz, I. Stegun, Handbook of Mathematical Functions, 26.2.12 (Mills' ratio).
     """
     mu, sigma, low, high = _inputs(mean_g, sigma_g, "sigma_g", rail_low_g, rail_high_g)
@@ -239,7 +239,7 @@ def censored_rail_derivatives(
 
     Notes
     -----
-    Differentiating SPEC 1.1's ``E[clip(X)] = L·Φ(α) + U·(1-Φ(β)) + ∫_L^U x f(x) dx`` under the
+    Differentiating physics §1.1's ``E[clip(X)] = L·Φ(α) + U·(1-Φ(β)) + ∫_L^U x f(x) dx`` under the
     integral sign: the boundary terms ``±L·f(L)``, ``±U·f(U)`` cancel and leave the probability
     mass on each rail (Leibniz's rule). Both are tail probabilities from ``scipy.special.ndtr``,
     exact in relative terms far into the tails. The rail fit (:func:`vrelab.fits.fit_rail`)
@@ -284,7 +284,7 @@ def truncated_mean_shift(
     .. math:: \mathrm{VRE} = σ\,\frac{φ(α) - φ(β)}{Φ(β) - Φ(α)}
 
     **Seed erratum**: the article writes Φ for both the pdf and the cdf; the numerator holds
-    pdfs (φ) and the denominator cdfs (Φ), as above (SPEC 1.1).
+    pdfs (φ) and the denominator cdfs (Φ), as above (physics §1.1).
 
     Numerics, as in ``scipy.stats.truncnorm`` but vectorised: the numerator is
     ``-φ(α)·expm1(-(β-α)(β+α)/2)`` with (β-α) and (β+α) taken exactly from the inputs; when both
@@ -297,7 +297,7 @@ def truncated_mean_shift(
     References
     ----------
     .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (seed
-       article), VRE model by truncation; SPEC section 1.1 with its erratum.
+       article), VRE model by truncation; physics §1.1 with its erratum.
     .. [2] N. L. Johnson, S. Kotz, N. Balakrishnan, Continuous Univariate Distributions vol. 1,
        2nd ed., Wiley 1994, section 10.1 (moments of the truncated normal).
     """
@@ -428,12 +428,12 @@ def sine_clip_mean_shift(
 
     Notes
     -----
-    x = A·cos θ, θ uniform over a period (SPEC 1.1). Censored: where μ + A > U,
+    x = A·cos θ, θ uniform over a period (physics §1.1). Censored: where μ + A > U,
     θu = arccos((U-μ)/A) and the upper rail removes
 
     .. math:: (A \sin θ_u - (U-μ)\,θ_u)/π ;
 
-    the lower rail adds the mirror image, with θl = arccos((μ-L)/A). Check value (SPEC 1.1):
+    the lower rail adds the mirror image, with θl = arccos((μ-L)/A). Check value (physics §1.1):
     1 g field, ±2 g rails, 1 g rms (A = √2): -68.3 mg. Near first contact the bracket cancels
     (it is A·θ³/3); a Taylor series takes over there, and θ comes from μ + A - U directly.
 
@@ -447,7 +447,7 @@ def sine_clip_mean_shift(
     References
     ----------
     .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (seed
-       article); SPEC section 1.1.
+       article); physics §1.1.
     """
     _validate.one_of("kind", kind, KINDS)
     mu, amp, low, high = _inputs(mean_g, amplitude_g, "amplitude_g", rail_low_g, rail_high_g)
@@ -610,7 +610,7 @@ def sine_on_random_mean_shift(
 
     Notes
     -----
-    Given the phases, X is Gaussian with mean m = μ + s, s = Σ A_i cos θ_i (SPEC 1.1 applies
+    Given the phases, X is Gaussian with mean m = μ + s, s = Σ A_i cos θ_i (physics §1.1 applies
     with μ → m). Averaging over the phases (:mod:`vrelab.models.tones`):
 
     * censored: :math:`\mathrm{VRE} = E_θ[c(μ + s, σ)]`, c the censored shift of
@@ -655,7 +655,7 @@ def mean_shift(
 
     Dispatches to :func:`censored_mean_shift`, :func:`truncated_mean_shift` or
     :func:`sine_clip_mean_shift`; see those for the equations. Units: g in, g out. Measured
-    from μ; :func:`vrelab.models.design.clip_vre` is the same referred to the vibration-off reading (SPEC 1.5).
+    from μ; :func:`vrelab.models.design.clip_vre` is the same referred to the vibration-off reading (physics §1.5).
     """
     _validate.one_of("shape", shape, SHAPES)
     _validate.one_of("kind", kind, KINDS)

@@ -1,4 +1,4 @@
-"""IEEE 1293's cross-coupling terms of one sensing axis: the one table (SPEC 1.6).
+"""IEEE 1293's cross-coupling terms of one sensing axis: the one table (physics §1.6).
 
 The model equation of an axis on its triad (i, p, o) = (input, pendulous, output) adds to
 ``u + k2·u² + k3·u³ + k4·u⁴`` one term per row of :data:`CROSS_TERMS`,

@@ -1,4 +1,4 @@
-"""The system designer's inverse questions and the test planner's checks (SPEC 1.3, 1.4, 4).
+"""The system designer's inverse questions and the test planner's checks (physics §1.3, §1.4, physics §4).
 
 * how much vibration fits in a VRE budget (:func:`max_rms_for_budget`);
 * the largest sine that stays clear of the rails (:func:`max_sine_level_clear_of_rails`);
@@ -32,12 +32,12 @@ def clip_vre(
     tone_peaks_g: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
     """VRE of rails [g]: the mean shift the vibration causes, referred to the vibration-off reading
-    (SPEC 1.5; ``vrelab model clip`` prints it). ``mean_g`` and the rails broadcast with ``sigma_g``
+    (physics §1.5; ``vrelab model clip`` prints it). ``mean_g`` and the rails broadcast with ``sigma_g``
     (a scalar ``mean_g`` and ``sigma_g`` with tones). Censored, 1 g rms Gaussian at μ = 2.5 g on
     ±2 g rails: -0.198 g, where the mean shift measured from μ is -0.698 g.
 
     ``mean_shift(μ, σ, L, U) - (clip(μ, L, U) - μ)`` (:func:`vrelab.models.clipping.mean_shift`,
-    SPEC 1.1). A VRE is measured against the reading with the vibration off, which a static
+    physics §1.1). A VRE is measured against the reading with the vibration off, which a static
     field ``μ`` beyond a rail already clips: the second term removes that static part, so the
     result is 0 at σ = 0 wherever ``μ`` is. ``μ`` is the static level *at the rails*: the
     static field plus any offset the sensor adds before them. With ``tone_peaks_g`` [g peak]
@@ -183,7 +183,7 @@ def max_rms_for_budget(
 def max_sine_level_clear_of_rails(
     static_g: float, rail_low_g: float, rail_high_g: float, gain: float = 1.0
 ) -> float:
-    """Largest sine rms (at the input) whose peaks stay within the rails [g rms] (SPEC 4).
+    """Largest sine rms (at the input) whose peaks stay within the rails [g rms] (physics §4).
 
     Parameters
     ----------
@@ -214,7 +214,7 @@ def max_sine_level_clear_of_rails(
 def grms_at_peak_threshold(threshold_g: float, static_g: float = 0.0, crest_factor: float = 3.0) -> float:
     """grms at which a Gaussian drive's peaks (crest factor × rms) reach a threshold [g rms].
 
-    σ = (T - |g0|)/CF: the peaks on the side of the static field reach T first (SPEC 1.3, 4).
+    σ = (T - |g0|)/CF: the peaks on the side of the static field reach T first (physics §1.3, §4).
     ADXL355 on ±2 g: T ≈ 8 g, g0 = 1 g, CF = 3 → 2.33 g rms (the article: "above about
     2.5 g rms" the data leave the clipping model).
     """
@@ -234,7 +234,7 @@ def overrange_trip_rate_hz(
     tone_peaks_g: Sequence[float] = (),
     tone_freqs_hz: Sequence[float] = (),
 ) -> NDArray[np.float64] | float:
-    r"""Expected over-range trips per second of Gaussian motion N(mean, σ²) [Hz] (SPEC 1.3).
+    r"""Expected over-range trips per second of Gaussian motion N(mean, σ²) [Hz] (physics §1.3).
 
     ``ν = ν⁺(+T) + ν⁻(-T)``: up-crossings of +T plus down-crossings of -T (the latter are the
     up-crossings of +T by the mirrored motion), each Rice's
@@ -299,7 +299,7 @@ def overrange_vre(
     tone_freqs_hz: Sequence[float] = (),
     held_mean_g: ArrayLike | None = None,
 ) -> NDArray[np.float64] | float:
-    r"""Estimated extra VRE from over-range protection [g] (SPEC 1.3).
+    r"""Estimated extra VRE from over-range protection [g] (physics §1.3).
 
     Parameters
     ----------
@@ -414,7 +414,7 @@ def overrange_held_mean_g(
 
 
 def tilt_error_deg(vre_g: ArrayLike, tilt_deg: ArrayLike = 0.0) -> NDArray[np.float64] | float:
-    """A VRE as an inclinometer's tilt error [deg] (SPEC 4).
+    """A VRE as an inclinometer's tilt error [deg] (physics §4).
 
     An axis at tilt θ reads g·sin θ, so an offset δ [g] reads as Δθ ≈ δ/cos θ radians
     (first order in δ), reported in degrees. 1 mg at θ = 0 is 0.0573°.
@@ -433,7 +433,7 @@ NEAR_VERTICAL_G = 1e-3
 
 
 def tilt_error_from_static_deg(vre_g: float, static_g: float) -> float:
-    """A VRE as the tilt error of an inclinometer axis at tilt ``asin(g0)`` [deg] (SPEC 1.5).
+    """A VRE as the tilt error of an inclinometer axis at tilt ``asin(g0)`` [deg] (physics §1.5).
 
     The axis reads ``g0 = sin θ`` with no vibration and ``g0 + δ`` with it, which it takes for
     the tilt ``asin(g0 + δ)``: the error is ``asin(g0 + δ) - asin(g0)`` (≈ δ/cos θ). 1 mg is

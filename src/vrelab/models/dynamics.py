@@ -1,4 +1,4 @@
-"""Frequency dependence of VRE (SPEC 1.3): proof-mass resonance, filters, crossing rates.
+"""Frequency dependence of VRE (physics §1.3): proof-mass resonance, filters, crossing rates.
 
 The nonlinearity and any rail act on the signal *where they sit* in the chain: the proof mass
 (after the mechanical resonance) or the output (after the anti-alias and digital filters).
@@ -24,7 +24,7 @@ Response = Callable[[NDArray[np.float64]], ArrayLike]
 
 Psd = Callable[[NDArray[np.float64]], ArrayLike] | tuple[ArrayLike, ArrayLike]
 """A PSD: a callable f [Hz] -> S(f) [g²/Hz] (e.g. ``RandomProfile.psd``), or a table
-``(f_hz, psd_g2_per_hz)`` interpolated log-log between its points (SPEC 3) and zero outside."""
+``(f_hz, psd_g2_per_hz)`` interpolated log-log between its points (physics §3) and zero outside."""
 
 
 def second_order_response(f_hz: ArrayLike, fn_hz: ArrayLike, q: ArrayLike) -> NDArray[np.complex128] | complex:
@@ -42,12 +42,12 @@ def second_order_response(f_hz: ArrayLike, fn_hz: ArrayLike, q: ArrayLike) -> ND
     Returns
     -------
     numpy.ndarray or complex
-        :math:`H(f) = 1/(1 - r^2 + j\,r/Q)`, r = f/fn (SPEC 1.3). |H(fn)| = Q.
+        :math:`H(f) = 1/(1 - r^2 + j\,r/Q)`, r = f/fn (physics §1.3). |H(fn)| = Q.
 
     References
     ----------
     .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (seed
-       article), frequency dependence; SPEC section 1.3.
+       article), frequency dependence; physics §1.3.
     """
     f = _validate.non_negative("f_hz", f_hz)
     fn = _validate.positive("fn_hz", fn_hz)
@@ -72,7 +72,7 @@ def resonator(fn_hz: float, q: float) -> Response:
 def vrc_at_frequency(vrc: ArrayLike, f_hz: ArrayLike, fn_hz: ArrayLike, q: ArrayLike) -> NDArray[np.float64] | float:
     """Apparent VRC of a sine at ``f_hz``: VRC·|H(f)|² (the nonlinearity sees the proof mass).
 
-    Units follow ``vrc`` (e.g. µg/g²). At f = fn this is VRC·Q² (SPEC 1.3).
+    Units follow ``vrc`` (e.g. µg/g²). At f = fn this is VRC·Q² (physics §1.3).
     """
     h2: NDArray[np.float64] = np.abs(np.asarray(second_order_response(f_hz, fn_hz, q))) ** 2  # an array, even at one f
     out = _validate.finite("vrc", vrc) * h2
@@ -182,7 +182,7 @@ def effective_rms(
         Input PSD [g²/Hz] (see :data:`Psd`).
     responses : sequence of callables
         Frequency responses between the input and the point of interest, e.g.
-        ``[resonator(2400, 7.4), anti_alias, low_pass]`` for a rail at the output (SPEC 1.3).
+        ``[resonator(2400, 7.4), anti_alias, low_pass]`` for a rail at the output (physics §1.3).
     f_lo_hz, f_hi_hz : float
         Integration band [Hz].
     points_hz : sequence of float

@@ -1,4 +1,4 @@
-"""The clipping model's kind, its one owner: what a sample beyond a rail becomes (SPEC 1.1).
+"""The clipping model's kind, its one owner: what a sample beyond a rail becomes (physics §1.1).
 
 * ``censored`` (physical saturation, the default): the sample reads as the rail;
 * ``truncated`` (the article's model): the sample is discarded.

@@ -1,8 +1,8 @@
-"""Exact mean of a polynomial followed by rails: the memoryless part of a sensor chain (SPEC 1.1-1.3).
+"""Exact mean of a polynomial followed by rails: the memoryless part of a sensor chain (physics §1.1-1.3).
 
 A sensor's nonlinearity and its rails are memoryless maps: the output is
 ``clip(P(y) + offset, L, U)`` with ``P(y) = y + k2·y² + k3·y³ + k4·y⁴`` of the total input
-``y = g0 + x`` (SPEC 1.2), when no filter sits between them. Its mean over the distribution of
+``y = g0 + x`` (physics §1.2), when no filter sits between them. Its mean over the distribution of
 ``x`` is therefore one expectation, not a sum of a clipping share and a nonlinearity share:
 the rails see the polynomial's output, whose mean and spread the nonlinearity has moved.
 
@@ -58,7 +58,7 @@ _SQRT2PI = math.sqrt(2.0 * math.pi)
 
 def polynomial(k2_per_g: float = 0.0, k3_per_g2: float = 0.0, k4_per_g3: float = 0.0,
                offset_g: float = 0.0) -> Polynomial:
-    """``P(y) = offset + y + k2·y² + k3·y³ + k4·y⁴`` (SPEC 1.2, normalised to g)."""
+    """``P(y) = offset + y + k2·y² + k3·y³ + k4·y⁴`` (physics §1.2, normalised to g)."""
     return Polynomial(_coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g))
 
 
@@ -117,7 +117,7 @@ def _clipped(c: Coefficients, y: float, low: float, high: float) -> float:
     return min(max(float(horner(c, y)), low), high)
 
 
-# SPEC 1.5: every VRE the tool states is the mean output with vibration less this reading.
+# physics §1.5: every VRE the tool states is the mean output with vibration less this reading.
 REFERENCE = "vibration-off reading"
 
 
@@ -128,7 +128,7 @@ def vibration_off_reading(static_g: float, k2_per_g: float = 0.0, k3_per_g2: flo
 
     .. math:: r_0 = \mathrm{clip}(P(g_0) + \mathrm{offset},\ L,\ U)
 
-    SPEC 1.5: VRE is always ``E[output with vibration] - r0``, in every command (``model clip``,
+    physics §1.5: VRE is always ``E[output with vibration] - r0``, in every command (``model clip``,
     ``model poly``, ``predict``, the sweep). Where ``P(g0) + offset`` lies beyond a rail the
     reading is itself clipped (:func:`reference_note` says so); it is not μ = g0, which a
     mean shift (:func:`vrelab.models.clipping.censored_mean_shift`) is measured from.
@@ -292,7 +292,7 @@ def poly_clip_vre(
         rms of the vibration x there [g]: Gaussian σ, or a sine's rms (A = rms·√2); with
         ``tone_peaks_g``, the Gaussian part's σ.
     k2_per_g, k3_per_g2, k4_per_g3 : float
-        Nonlinearity (SPEC 1.2).
+        Nonlinearity (physics §1.2).
     offset_g : float
         Offset added between the polynomial and the rails [g].
     rail_low_g, rail_high_g : float
@@ -308,8 +308,8 @@ def poly_clip_vre(
     -------
     float
         ``E[out] - out(x = 0)``: the mean output with vibration less the vibration-off reading
-        ``clip(P(g0) + offset)`` (:func:`vibration_off_reading`, SPEC 1.5). With no rails this is
-        SPEC 1.2's polynomial VRE exactly; with k = 0, SPEC 1.1's clipped mean
+        ``clip(P(g0) + offset)`` (:func:`vibration_off_reading`, physics §1.5). With no rails this is
+        physics §1.2's polynomial VRE exactly; with k = 0, physics §1.1's clipped mean
         (:func:`vrelab.models.design.clip_vre`), which differs from the mean shift measured
         from μ only where g0 lies beyond a rail.
 

@@ -1,4 +1,4 @@
-"""Rectification by scale-factor nonlinearity (SPEC 1.2): the polynomial model and VRC units.
+"""Rectification by scale-factor nonlinearity (physics §1.2): the polynomial model and VRC units.
 
 Output normalised to g: ``y = b0 + a + k2·a² + k3·a³ + k4·a⁴ + …`` with ``a = g0 + x`` the total
 input (static field plus zero-mean vibration) and ``k_n = K_n/K1`` in g^(1-n). The vibration
@@ -84,7 +84,7 @@ def sine_moments(rms_g: ArrayLike, order: int) -> NDArray[np.float64]:
     Notes
     -----
     The period average of cos^j θ is 0 for odd j and C(j, j/2)/2^j for even j: 1/2, 3/8, 5/16, …
-    So E[x²] = A²/2 = rms², E[x⁴] = 3A⁴/8 = 1.5·rms⁴ (SPEC 1.2).
+    So E[x²] = A²/2 = rms², E[x⁴] = 3A⁴/8 = 1.5·rms⁴ (physics §1.2).
     """
     n = _order(order)
     amp = np.sqrt(2.0) * _validate.non_negative("rms_g", rms_g)
@@ -216,7 +216,7 @@ def polynomial_vre(
 
     Notes
     -----
-    SPEC 1.2:
+    physics §1.2:
 
     .. math:: \mathrm{VRE} = \sum_n k_n \sum_{j=2}^{n} \binom{n}{j} g_0^{n-j} E[x^j]
 
@@ -230,7 +230,7 @@ def polynomial_vre(
     References
     ----------
     .. [1] Analog Devices, "Vibration rectification error in MEMS accelerometers" (seed
-       article), with the corrections of SPEC section 1.2.
+       article), with the corrections of physics §1.2.
     .. [2] IEEE Std 1293-1998, IEEE Standard Specification Format Guide and Test Procedure for
        Linear, Single-Axis, Nongyroscopic Accelerometers (VRC definition and sine method).
     """
@@ -328,7 +328,7 @@ def ug_per_g2_from_ppm_fs(nonlinearity_ppm_fs: ArrayLike, full_scale_g: ArrayLik
 
     Notes
     -----
-    SPEC 1.2: a "ppm of full scale" figure must first be divided by the full scale. This assumes
+    physics §1.2: a "ppm of full scale" figure must first be divided by the full scale. This assumes
     the whole nonlinearity is quadratic and quoted as the end-point deviation at full scale; a
     figure against a best-fit line, or one that includes a cubic term, bounds k2 only roughly.
     Example: 0.1 % FS (1000 ppm FS) on ±2 g gives at most 500 µg/g².
@@ -341,7 +341,7 @@ def vrc_ug_per_g2_from_vre(vre_g: ArrayLike, rms_g: ArrayLike) -> NDArray[np.flo
     """VRC [µg/g²] from a quoted "VRE at a vibration level": VRC = VRE/rms², VRE in g.
 
     "X mg at Y g rms" → ``vrc_ug_per_g2_from_vre(X·1e-3, Y)`` = 1e3·X/Y² µg/g². Only meaningful
-    below clipping, where VRE grows as rms² (SPEC 1.2).
+    below clipping, where VRE grows as rms² (physics §1.2).
     """
     rms = _validate.positive("rms_g", rms_g)
     return _out(to_ug(_validate.finite("vre_g", vre_g) / rms**2))
@@ -355,7 +355,7 @@ def separate_k2_k3(vrc_plus: ArrayLike, vrc_minus: ArrayLike, static_g: float = 
                    static_minus_g: float | None = None) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]: ...
 def separate_k2_k3(vrc_plus: Estimate | ArrayLike, vrc_minus: Estimate | ArrayLike, static_g: float = 1.0,
                    static_minus_g: float | None = None) -> Any:
-    """Separate k2 and k3 from VRCs measured at two orientations (SPEC 1.2).
+    """Separate k2 and k3 from VRCs measured at two orientations (physics §1.2).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Expectations over the phases of sine tones riding on random vibration (SPEC 6.2).
+"""Expectations over the phases of sine tones riding on random vibration (the environments page).
 
 Sine-on-random motion at a point of the sensor is ``x = G + Σ A_i·cos θ_i``: ``G`` zero-mean
 Gaussian (the random part through the dynamics), ``A_i`` the tones' amplitudes there and

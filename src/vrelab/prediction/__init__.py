@@ -4,11 +4,11 @@
 direction of the part's frame, a static field as a scalar or a vector, one result type.
 
 * :mod:`~vrelab.prediction.single`: the sensor's stages walked in signal order, each one's mean
-  shift summed (SPEC 1.1-1.3);
+  shift summed (physics §1.1-1.3);
 * :mod:`~vrelab.prediction.triaxial`: one axis under a triaxial vibration, IEEE 1293's cross
-  terms beside the sensed vibration's mechanisms (SPEC 1.6);
+  terms beside the sensed vibration's mechanisms (physics §1.6);
 * :mod:`~vrelab.prediction.propagation`: the parameters' uncertainties carried to the VRE
-  (SPEC 6.1);
+  (physics §6.1);
 * :mod:`~vrelab.prediction.results`: :class:`Prediction`, :class:`LevelPrediction`;
 * :mod:`~vrelab.prediction.checks`: how a level is judged (its bound against its u).
 

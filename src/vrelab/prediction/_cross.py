@@ -1,4 +1,4 @@
-"""The IEEE 1293 cross terms through the stages after the nonlinearity: the axis read as its stages, the rails' and holds' first-order pass (SPEC 1.6)."""
+"""The IEEE 1293 cross terms through the stages after the nonlinearity: the axis read as its stages, the rails' and holds' first-order pass (physics §1.6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The sensed vibration of a triaxial one: its spectral integrals by adaptive quadrature and its single-axis profile (SPEC 1.6)."""
+"""The sensed vibration of a triaxial one: its spectral integrals by adaptive quadrature and its single-axis profile (physics §1.6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A sensor read as its stages for the analytic model (SPEC 1.3): where each mean shift sits and what reaches it."""
+"""A sensor read as its stages for the analytic model (physics §1.3): where each mean shift sits and what reaches it."""
 
 from __future__ import annotations
 
@@ -35,12 +35,12 @@ class Reading:
     output: tuple[Response, ...]  # every linear response
     unmodelled: tuple[str, ...]  # stages with memory that say nothing of their mean
     numerical: tuple[str, ...]  # memoryless stages without a closed form (quadrature)
-    vibration_off_g: float  # the reading with no vibration (SPEC 1.5)
+    vibration_off_g: float  # the reading with no vibration (physics §1.5)
     reference_note: str | None  # where the rails clip that reading
 
 
 def read_stages(stages: Sequence[Any], g0: float) -> Reading:
-    """Walk the stages in order, as the signal goes (SPEC 1.3), asking each what it does
+    """Walk the stages in order, as the signal goes (physics §1.3), asking each what it does
     (:mod:`vrelab.sensor.meanshift`): a linear stage (``response``) shapes what every later
     stage sees, an offset (``static_shift_g``) moves the static level of every later stage, a
     stage with a ``mean_shift`` becomes a site evaluated with the vibration that reaches it,

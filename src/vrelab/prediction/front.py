@@ -1,5 +1,5 @@
 """The one front door of the analytic prediction: a vibration along any direction of the part's
-frame, a static field as a scalar along the sensed axis or a vector (SPEC 1.1-1.6)."""
+frame, a static field as a scalar along the sensed axis or a vector (physics §1.1-1.6)."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def predict(
     sensor : vrelab.sensor.Sensor
         One axis, read through :meth:`~vrelab.sensor.Sensor.stages` (the stages the simulation
         runs); off its input axis also its sensitivity row, triad and IEEE 1293 cross-coupling
-        coefficients (SPEC 1.6).
+        coefficients (physics §1.6).
     vibration : RandomProfile, SineOnRandom, sine frequencies [Hz], TriaxialProfile or TriaxialSine
         Along the sensed axis unless ``direction`` is given: a random profile (its shape scaled
         to each level, Gaussian drive), a sine-on-random profile (random part and tones scaled
@@ -48,7 +48,7 @@ def predict(
         The static acceleration [g]: a number is along the sensed (input) axis, three numbers
         the vector in the part's frame (``(0, 0, 1)``: z up in 1 g).
     kind : {"censored", "truncated"}
-        Clipping model (SPEC 1.1); censored is what a saturating sensor does.
+        Clipping model (physics §1.1); censored is what a saturating sensor does.
     direction : three floats, optional
         The direction in the part's frame along which a single-axis profile or one sine
         frequency is applied (normalised): ``a = d·x(t)``.
@@ -64,23 +64,23 @@ def predict(
 
     Notes
     -----
-    The model of one axis (SPEC 1.6, IEEE Std 1293-2018's model equation): the acceleration
+    The model of one axis (physics §1.6, IEEE Std 1293-2018's model equation): the acceleration
     ``a = g + x`` passes the axis's linear front end ``H``, ``b = H*a``, then
 
     ``y = P(w·b) + Kip·b_i·b_p + Kio·b_i·b_o + Kpp·b_p² + Koo·b_o² + Kpo·b_p·b_o``
 
     and the rest of its chain. ``VRE = VRE_1(u) + pass·Σ K_jk·Re ∫S_jk|H|²df``: ``VRE_1`` the
     stages' mean shifts walked in signal order for the sensed vibration ``u = w·b``
-    (:func:`vrelab.prediction.single.predict`, SPEC 1.1-1.3), the cross terms in closed form
+    (:func:`vrelab.prediction.single.predict`, physics §1.1-1.3), the cross terms in closed form
     passed through the rails and over-range to first order
     (:mod:`vrelab.prediction.triaxial`). A single-axis vibration with a scalar static field,
-    the case of SPEC 1.1-1.5, is the first term alone: that call is
+    the case of physics §1.1-1.5, is the first term alone: that call is
     :func:`vrelab.prediction.single.predict`, whose numbers the triaxial model gives along the
     input axis with every cross term 0 (tests/test_triaxial_predict.py).
 
     References
     ----------
-    .. [1] SPEC sections 1.1-1.6 (after the ADI article on VRE in MEMS accelerometers).
+    .. [1] docs/physics.md §1.1-1.6 (after the ADI article on VRE in MEMS accelerometers).
     .. [2] IEEE Std 1293-2018: the model equation's cross-coupling terms.
     """
     from vrelab.prediction import single

@@ -1,4 +1,4 @@
-"""The standard uncertainty of a predicted VRE from the sensor's parameter uncertainties (SPEC 6.1, GUM and its Supplement 1)."""
+"""The standard uncertainty of a predicted VRE from the sensor's parameter uncertainties (physics §6.1, GUM and its Supplement 1)."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def propagation(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float
                 predictor: Callable[..., Prediction]) -> Propagation:
     r"""Standard uncertainty [g] of each predicted VRE from the sensor's parameter uncertainties.
 
-    Two sources (SPEC 6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
+    Two sources (physics §6.1): the identified parameters' covariance ``Σ`` (``sensor.covariance``)
     and the assumed standard uncertainties of parameters no campaign measured
     (``sensor.uncertainty``: a datasheet tolerance, a base sensor's filter corner), independent
     of each other and of ``Σ``. Linear propagation (GUM 5.1.2): ``u² = J·Σ·Jᵀ + Σ_a (J_a·u_a)²``
@@ -342,7 +342,7 @@ def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], s
 # An assumption with no stated u is probed by this relative change (a conservative engineering
 # spread for a number nobody bounded: a rail's headroom, a corner's convention are of this order).
 PROBE_REL = 0.1
-# The parameters only a vibration off the input axis reaches (SPEC 1.6; the triaxial prediction's).
+# The parameters only a vibration off the input axis reaches (physics §1.6; the triaxial prediction's).
 OFF_AXIS = ("cross_axis_", "kip_", "kio_", "kpp_", "koo_", "kpo_")
 
 
@@ -350,7 +350,7 @@ def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64],
                    out: Sequence[LevelPrediction], *,
                    predictor: Callable[..., Prediction]) -> tuple[list[LevelPrediction], list[str]]:
     """The assumptions with no stated u (``sensor.unstated``: facts "assumption..." and no
-    ``[uncertainty]`` or covariance entry) are never silently exact (SPEC 1.5, 6.1): each one is
+    ``[uncertainty]`` or covariance entry) are never silently exact (physics §1.5, §6.1): each one is
     named, and where moving it by ``PROBE_REL`` (±10 %) moves a level's VRE by more than the
     level's stated u (the larger of ``u_vre_g``, 1 % of |VRE| and 1 µg), that level is not valid,
     naming the parameter and the move. A parameter at 0 cannot be moved relatively: it is named

@@ -27,8 +27,8 @@ class LevelPrediction:
     filters that follow the nonlinearity) may add: 0 where polynomial and rails are evaluated
     exactly; ``valid`` is False where it may exceed ``u_vre_g`` (or, without one, 1 % of |VRE|).
 
-    Off the input axis (a vibration along a direction, a triaxial one or a static vector: SPEC
-    1.6; None otherwise): ``shares`` also hold the cross terms after the rails and over-range
+    Off the input axis (a vibration along a direction, a triaxial one or a static vector: physics
+    §1.6; None otherwise): ``shares`` also hold the cross terms after the rails and over-range
     (``cross_kip_g`` ... ``cross_kpo_g``, their sum ``cross_g``, in ``vre_g``), ``rms_g`` is the
     total rms; ``axis_rms_g``: the vibration's rms along x, y, z at this level;
     ``sensed_rms_g``: rms of ``w_eff·a`` (the vibration the axis senses, before its dynamics;
@@ -61,7 +61,7 @@ class LevelPrediction:
     # valid apart from the judgement of model_error_g against a u (:func:`judged`): a caller
     # with its own u (identify, each level's measured u) judges the bound itself
     valid_otherwise: bool = True
-    # off the input axis only (SPEC 1.6, see above): None for a vibration along it
+    # off the input axis only (physics §1.6, see above): None for a vibration along it
     sensed_rms_g: float | None = None
     axis_rms_g: tuple[float, ...] | None = None
     proof_mass_cov_g2: tuple[tuple[float, ...], ...] | None = None
@@ -119,7 +119,7 @@ class LevelPrediction:
 class Prediction:
     """The analytic VRE of a sensor at each level of one excitation.
 
-    ``excitation``: off the input axis (SPEC 1.6), what the conditions carry of the vibration
+    ``excitation``: off the input axis (physics §1.6), what the conditions carry of the vibration
     (kind, per-axis rms per unit total rms, coherences and phases, or a sine's direction); None
     along it. Its ``to_dict`` then has ``kind`` "triaxial-prediction".
     """
@@ -127,7 +127,7 @@ class Prediction:
     conditions: Conditions
     levels: tuple[LevelPrediction, ...]
     notes: tuple[str, ...] = field(default=())
-    # every vre_g is the mean output with vibration less this reading (SPEC 1.5) [g]
+    # every vre_g is the mean output with vibration less this reading (physics §1.5) [g]
     vibration_off_g: float = math.nan
     excitation: Mapping[str, Any] | None = None
 

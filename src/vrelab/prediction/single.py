@@ -3,11 +3,11 @@
 The sensor is read through :meth:`vrelab.sensor.Sensor.stages`, the same tuple of stages the
 simulation runs, walked in signal order: each stage that changes the mean gives its own change
 (its ``mean_shift``, :mod:`vrelab.sensor.meanshift`), fed the vibration that reaches it through
-the linear stages before it and the static level the offsets before it leave (SPEC 1.3), and
+the linear stages before it and the static level the offsets before it leave (physics §1.3), and
 predict sums what they say:
 
 * **nonlinearity** (:class:`~vrelab.sensor.stages.Polynomial`) on the proof-mass motion:
-  ``E[P(g0 + x)] - P(g0)`` (SPEC 1.2), exact for any polynomial and any zero-mean vibration;
+  ``E[P(g0 + x)] - P(g0)`` (physics §1.2), exact for any polynomial and any zero-mean vibration;
 * **rails** (:class:`~vrelab.sensor.stages.Clip`) on what the polynomial puts out. With no
   filter between them (an ideal sensor, a proof-mass clip) polynomial and rails are one
   memoryless map whose mean :func:`vrelab.models.memoryless.poly_clip_vre` gives in closed
@@ -235,7 +235,7 @@ def predict(
     static_g : float
         Static acceleration along the axis [g].
     kind : {"censored", "truncated"}
-        Clipping model (SPEC 1.1); censored is what a saturating sensor does.
+        Clipping model (physics §1.1); censored is what a saturating sensor does.
 
     Returns
     -------
@@ -249,11 +249,11 @@ def predict(
     high-pass) shapes the vibration every later stage sees; an offset moves their static level;
     each stage with a closed form adds its mean shift, evaluated with the vibration ``H`` of the
     linear stages before it and the static level ``g0 + offsets`` before it. Random drive with
-    PSD S(f): ``σ² = ∫S|H|²df`` (SPEC 1.3); sine at f, rms A/√2: ``σ = rms·|H(f)|``.
+    PSD S(f): ``σ² = ∫S|H|²df`` (physics §1.3); sine at f, rms A/√2: ``σ = rms·|H(f)|``.
     Sine-on-random: the random part as a random drive (σ_r at each site) and each tone through
     its own gain, ``A_i·|H(f_i)|``; phases independent and uniform (random-phase ensemble).
 
-    * polynomial: ``E[P(g0 + x)] - P(g0)`` (SPEC 1.2), exact
+    * polynomial: ``E[P(g0 + x)] - P(g0)`` (physics §1.2), exact
       (:func:`vrelab.models.memoryless.poly_clip_vre` without rails; with tones the average
       over their phases);
     * rails: with no linear stage between them and the polynomial, the exact mean of
@@ -280,7 +280,7 @@ def predict(
 
     References
     ----------
-    .. [1] SPEC sections 1.1-1.3 (after the ADI article on VRE in MEMS accelerometers).
+    .. [1] docs/physics.md §1.1-1.3 (after the ADI article on VRE in MEMS accelerometers).
     .. [2] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944):
        up-crossing rate ``ν0·exp(-(a-μ)²/(2σ²))``.
     """
@@ -348,7 +348,7 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
                      each_rail: bool = True) -> tuple[LevelPrediction, float]:
     """One level of a chain of memoryless stages (no linear stage: every stage sees the same
     vibration, rms ``rms_g``, Gaussian or a sine), each stage's own mean shift summed as
-    :func:`predict` sums them; and the vibration-off reading (SPEC 1.5) the VRE is referred to.
+    :func:`predict` sums them; and the vibration-off reading (physics §1.5) the VRE is referred to.
 
     What the sweep's ``model`` points evaluate (a polynomial, an offset and rails: one exact
     memoryless map). ``each_rail`` False skips each rail alone (``clip_low_g``/``clip_high_g``

@@ -1,6 +1,6 @@
 r"""Analytic VRE of one DUT axis under a triaxial vibration, by mechanism, cross terms included.
 
-The model of one axis (the triaxial model contract, SPEC 1.6; IEEE Std 1293-2018's model
+The model of one axis (the triaxial model contract, physics §1.6; IEEE Std 1293-2018's model
 equation): the acceleration ``a = g + x`` in the part's frame (static vector ``g``, zero-mean
 vibration ``x``) passes the axis's linear front end ``H`` (the stages before its
 :class:`~vrelab.sensor.stages.Polynomial`, today the proof-mass resonance) on every component
@@ -19,7 +19,7 @@ filters, offset, ...) on ``y``. So
   that projected vibration gives the clipping, nonlinearity and over-range shares;
 * the **cross terms** rectify in closed form, ``VRE_jk = K_jk · Re ∫ S_jk(f)·|H(f)|² df``
   (sine: ``K_jk·d_j·d_k·rms²·|H(f)|²``): the products of the static vector with the zero-mean
-  vibration average out, and ``K·g_j·g_k`` is in the vibration-off reading as well (SPEC 1.5);
+  vibration average out, and ``K·g_j·g_k`` is in the vibration-off reading as well (physics §1.5);
 * where rails or over-range act after the nonlinearity, the cross terms pass them to first
   order: their mean times the rails' response to a shift of their input, ``∂E[out]/∂(shift)``
   (the probability of being inside, for censored rails), plus the part of their fluctuation
@@ -42,7 +42,7 @@ References
 ----------
 .. [1] IEEE Std 1293-2018, IEEE Specification Format Guide and Test Procedure for Linear
    Single-Axis, Nongyroscopic Accelerometers: the model equation's cross-coupling terms.
-.. [2] SPEC 1.6 (the vibropendulous error ``Kip·σ²·sin φ·cos φ``) and 1.1-1.5.
+.. [2] physics §1.6 (the vibropendulous error ``Kip·σ²·sin φ·cos φ``) and 1.1-1.5.
 """
 
 from __future__ import annotations
@@ -160,7 +160,7 @@ def predict_triaxial(
     ----------
     sensor : vrelab.sensor.Sensor
         One axis (loaded with ``axis`` x, y or z): its stages, sensitivity row ``w``, triad and
-        cross-coupling coefficients (SPEC 1.6).
+        cross-coupling coefficients (physics §1.6).
     excitation : TriaxialProfile or TriaxialSine
         Random: the cross-spectral density matrix's shape, scaled to each level (Gaussian
         drive). Sine: frequency and direction, at each level's rms.
@@ -170,7 +170,7 @@ def predict_triaxial(
     static_g : three floats
         The static acceleration vector in the part's frame [g] (``(0, 0, 1)``: z up in 1 g).
     kind : {"censored", "truncated"}
-        Clipping model (SPEC 1.1).
+        Clipping model (physics §1.1).
 
     Returns
     -------
@@ -192,7 +192,7 @@ def predict_triaxial(
     References
     ----------
     .. [1] IEEE Std 1293-2018, the model equation (cross-coupling coefficients Kip ... Kpo).
-    .. [2] SPEC 1.6; the single-axis mechanisms: SPEC 1.1-1.3 and :func:`vrelab.prediction.single.predict`.
+    .. [2] physics §1.6; the single-axis mechanisms: physics §1.1-1.3 and :func:`vrelab.prediction.single.predict`.
     """
     import warnings
 

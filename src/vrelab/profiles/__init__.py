@@ -1,4 +1,4 @@
-"""Vibration profiles: sine levels and random breakpoint tables (SPEC section 3).
+"""Vibration profiles: sine levels and random breakpoint tables (physics §3).
 
 A random profile is a table of (frequency Hz, PSD g²/Hz) breakpoints joined by straight lines
 on a log-log plot, the way vibration test specifications (NAVMAT P-9492, GSFC-STD-7000,

@@ -79,7 +79,7 @@ def _toml_pair(path: Path, field: str, item: Any) -> tuple[float, float]:
 
 
 def profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
-    """Build a profile from a TOML ``[profile]`` table (SPEC section 3 file format)."""
+    """Build a profile from a TOML ``[profile]`` table (physics §3 file format)."""
     name = table.get("name")
     source = table.get("source")
     for key in ("name", "source"):

@@ -36,7 +36,7 @@ _ENV_KEYS = (*_ENV_TEXT_KEYS, "stated_grms")
 
 @dataclass(frozen=True)
 class Environment:
-    """A named vibration environment: a profile with where it comes from (SPEC 6.2).
+    """A named vibration environment: a profile with where it comes from (the environments page).
 
     ``source`` names the document and its table or figure; ``stated_grms`` is the overall level
     the standard (or the public reproduction named in ``reproduced_from``) states, which may
@@ -208,7 +208,7 @@ def with_tones(profile: Profile, tones: Sequence[Tone]) -> SineOnRandom:
 
 
 def parse_profile(spec: str) -> Profile:
-    """A vibration profile from a command-line string (SPEC sections 5 and 6.2).
+    """A vibration profile from a command-line string (the CLI reference and the environments page).
 
     Accepted forms, tried in this order: a named profile (``navmat-p9492``), a file path
     (``.csv``/``.toml``; a TOML file with ``[[tone]]`` tables is sine-on-random),

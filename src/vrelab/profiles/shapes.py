@@ -1,4 +1,4 @@
-"""Sine levels, random breakpoint tables and sine on random (SPEC section 3): the profile
+"""Sine levels, random breakpoint tables and sine on random (physics §3): the profile
 classes, their grms and scaling (the equations in :mod:`vrelab.profiles`)."""
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     With r = f2/f1, L = ln r and m = n + 1, the closed form ``P1·f1/m·(r^m - 1)`` is written
     ``P1·f1·L·(e^(mL) - 1)/(mL)``, which tends to ``P1·f1·L`` (the n = -1 case) continuously,
     so a slope of exactly -3.0103 dB/oct and one of -3 dB/oct give nearly equal areas instead
-    of a division by a tiny number (SPEC section 3).
+    of a division by a tiny number (physics §3).
     """
     f = np.asarray(freq_hz, dtype=np.float64)
     p = np.asarray(psd_g2_per_hz, dtype=np.float64)
@@ -98,7 +98,7 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
 
 @dataclass(frozen=True, eq=False)
 class RandomProfile:
-    """A random-vibration PSD given by breakpoints, interpolated log-log (SPEC section 3).
+    """A random-vibration PSD given by breakpoints, interpolated log-log (physics §3).
 
     Parameters
     ----------
@@ -413,12 +413,12 @@ class Tone:
 
 @dataclass(frozen=True)
 class SineOnRandom:
-    """Random vibration plus sine tones (sine-on-random, SPEC 6.2).
+    """Random vibration plus sine tones (sine-on-random, the environments page).
 
     Parameters
     ----------
     random : RandomProfile
-        The broadband part, a log-log breakpoint PSD (SPEC 3).
+        The broadband part, a log-log breakpoint PSD (physics §3).
     tones : sequence of Tone
         At least one; distinct frequencies (stored sorted by frequency).
     name, source : str, optional

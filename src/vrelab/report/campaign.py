@@ -66,7 +66,7 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
     ax.legend(loc="best")
     ax.set_title(f"channel {channel['channel']}: VRC against frequency (error bars: 1 standard uncertainty)")
     return ReportFigure.from_figure(fig, f"Channel {channel['channel']}: VRC at every sine frequency and orientation. "
-                                    "A rise toward the proof mass's resonance is VRC·|H(f)|² (SPEC 1.3).")
+                                    "A rise toward the proof mass's resonance is VRC·|H(f)|² (physics §1.3).")
 
 
 def _est(e: Mapping[str, Any] | None, unit: str) -> str:
@@ -104,7 +104,7 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
                 for f in channel.get("k2_k3_by_freq") or [] for p in [f.get("parameters") or f]]
     tables = [ReportTable("VRC by frequency and orientation", ["freq (Hz)", "static field (g)", "VRC ± u (µg/g²)",
                                                                "levels", "run"]
-                          + (["drive's shift of g0 (g; SPEC 4.4)"] if shifted else []), rows,
+                          + (["drive's shift of g0 (g; physics §4.4)"] if shifted else []), rows,
                           numeric=(0, 1, 2, 3, 5) if shifted else (0, 1, 2, 3))]
     if per_freq:
         tables.append(ReportTable("k2 and k3 per frequency (VRC(g0) = k2 + 3·k3·g0)",
@@ -115,7 +115,7 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
               _adev_min(n.get("allan")))
              for n in channel.get("noise_by_run") or []]
     if noise:
-        tables.append(ReportTable("Noise with vibration off, by run (SPEC 4.4; IEEE 952 conventions, density one-sided)",
+        tables.append(ReportTable("Noise with vibration off, by run (physics §4.4; IEEE 952 conventions, density one-sided)",
                                   ["run", "off (s)", "density ± u", "bias instability ± u", "Allan deviation minimum"],
                                   noise, numeric=(1,)))
     return ReportSection(

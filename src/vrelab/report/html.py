@@ -232,7 +232,7 @@ def _levels_table(result: VreResult) -> str:
         # A simulated sine's level is exact: a u of 1e-16 g is rounding, not information.
         shown_u = x.u_rms_g is not None and math.isfinite(x.u_rms_g) and x.u_rms_g > 1e-6 * abs(x.rms_g)
         rms = format_value_u(x.rms_g, x.u_rms_g) if shown_u else _fmt(x.rms_g)
-        vrc = x.vrc  # VRE / rms² with its u (SPEC 1.2), beside the VRE
+        vrc = x.vrc  # VRE / rms² with its u (physics §1.2), beside the VRE
         cells = [str(i)] + ([_fmt(x.freq_hz, 6)] if has_f else []) + [rms, format_mg(x.vre.value, x.vre.u),
                                                                       format_value_u(vrc.value, vrc.u)]
         if has_b:
@@ -246,7 +246,7 @@ def _levels_table(result: VreResult) -> str:
 
 
 def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") -> str:
-    """Each level's uncertainty budget (SPEC 4.3): the terms, their type and size, U and k."""
+    """Each level's uncertainty budget (physics §4.3): the terms, their type and size, U and k."""
     rows = []
     for i, x in enumerate(result.levels, 1):
         for t in x.budget:
@@ -427,7 +427,7 @@ PCT_RESOLUTION = 1e-3
 
 
 def _drive_table(result: VreResult) -> str:
-    """Each sine level's reference waveform (SPEC 4.4): the harmonics' rms as % of the
+    """Each sine level's reference waveform (physics §4.4): the harmonics' rms as % of the
     fundamental, the THD, E[x²] against the fundamental's rms² and E[x³]: what the VRC was fitted
     against (the levels' ``drive``)."""
     lv = [(i, x) for i, x in enumerate(result.levels, 1) if x.drive is not None]
@@ -454,7 +454,7 @@ def _drive_table(result: VreResult) -> str:
                format_value_u(d.mean_cube_g3.value, d.mean_cube_g3.u)])) + "</tr>")
     th = "".join(f'<th class="num">{esc(h)}</th>' for h in head)
     note = ('<p class="mute">A shaker\'s drive is not a pure sine: a sine level\'s VRE is k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) '
-            "of the waveform measured on the reference (SPEC 4.4). The VRC is fitted against E[x²]; E[x³] makes the "
+            "of the waveform measured on the reference (physics §4.4). The VRC is fitted against E[x²]; E[x³] makes the "
             "cubic term rectify as at a shifted static field (the VRC fit's note), which the campaign's k2/k3 fit "
             "uses. The DUT is taken to see the reference's waveform: its response is assumed equal at the "
             "harmonics as at the fundamental.</p>")
@@ -632,7 +632,7 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
             if f.size > PSD_LINES_BEFORE_AVERAGING:
                 f, pm, pp = plots.fractional_octave_average(f, pm, 24, pp)
                 label, how = "reference PSD, 1/24-octave average", "in 1/24-octave bands"
-            # Shown, not judged: the tolerance verdict is the analysis's (SPEC 3 check on the
+            # Shown, not judged: the tolerance verdict is the analysis's (physics §3 check on the
             # whole level, flagged per level and listed in the warnings); a table of a short
             # record's PSD scatters too much line by line to be read against ±3 dB.
             figs.append(

@@ -61,7 +61,7 @@ def vrc_model_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     ax.set_title(f"channel {ch['channel']}: VRC(f) measured and identified (error bars: 1 u)")
     return ReportFigure.from_figure(fig, f"Channel {ch['channel']}: each sine run's apparent VRC (weighted fit of "
                                     "VRE = VRC·rms² over its levels) and the identified (k2 + 3·k3·g0)·|H(f)|² "
-                                    "for each orientation (SPEC 1.2, 1.3).")
+                                    "for each orientation (physics §1.2, §1.3).")
 
 
 def pulls_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
@@ -90,7 +90,7 @@ def pulls_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
 
 
 def cross_coupling_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
-    """IEEE 1293's mount-angle runs (SPEC 1.6): each run's VRE/σ_m² against its mount angle, per
+    """IEEE 1293's mount-angle runs (physics §1.6): each run's VRE/σ_m² against its mount angle, per
     plane (1 u error bars), beside the identified model's value at the same run (crosses)."""
     from vrelab.report.plots import new_figure
 
@@ -119,7 +119,7 @@ def cross_coupling_figure(ch: Mapping[str, Any]) -> ReportFigure | None:
     ax.set_title(f"channel {ch['channel']}: the mount-angle runs (IEEE 1293)")
     return ReportFigure.from_figure(fig, f"Channel {ch['channel']}: each run's rectification per proof-mass mean square "
                                     "against its mount angle, and the identified (k2 + 3·k3·w·g)·(w·d)² + Kip·d_i·d_p + "
-                                    "Kpp·d_p² + Kio·d_i·d_o + Koo·d_o² at the same run (SPEC 1.6).")
+                                    "Kpp·d_p² + Kio·d_i·d_o + Koo·d_o² at the same run (physics §1.6).")
 
 
 # the parameter table's order: the nonlinearity, then the cross-coupling terms beside it, then the rest
@@ -204,7 +204,7 @@ def report_identification_dir(rf: ResultsFolder, argv: Sequence[str] | None = No
     base = doc.get("base_sensor") or {}
     summary = ReportSection(
         title=f"Identification: {doc.get('campaign', '')}",
-        what="Each channel's VRE model (SPEC 6.1) identified from the campaign's levels; what the campaign cannot "
+        what="Each channel's VRE model (physics §6.1) identified from the campaign's levels; what the campaign cannot "
         "determine is null with its reason and taken from the base sensor.",
         facts=[("base sensor", f"{base.get('spec')} (±{base.get('range_g')} g, axis {base.get('axis')}, ODR "
                                f"{base.get('odr_hz') or 'none'})"),

@@ -85,7 +85,7 @@ def new_figure(nrows: int = 1, height_in: float | None = None, sharex: bool = Tr
 
 
 def describe_conditions(result: VreResult, short: bool = False) -> str:
-    """One line of the conditions a VRE figure depends on (SPEC 1.4), for titles and legends."""
+    """One line of the conditions a VRE figure depends on (physics §1.4), for titles and legends."""
     c = result.conditions
     parts: list[str] = []
     if c.sensor:
@@ -173,7 +173,7 @@ def clip_curves(
 
 
 def vrc_curve(vrc_ug_per_g2: float, rms_g: ArrayLike, label: str | None = None) -> Curve:
-    """The small-signal nonlinearity line ``VRE = VRC·rms²`` (SPEC 1.2), VRE in g.
+    """The small-signal nonlinearity line ``VRE = VRC·rms²`` (physics §1.2), VRE in g.
 
     A measured VRC is the effective k2 at the test's static field (it already holds 3·k3·g0),
     so the line is :func:`vrelab.models.nonlinearity.vre_poly` with k2 = VRC and no other term.

@@ -34,10 +34,10 @@ RESULTS_NUMBER = 5
 _MAJOR = (("item", "Test item"), ("equipment", "Equipment"), ("conditions", "Conditions"),
           ("procedure", "Procedure"), ("results", "Results"), ("decisions", "Decisions"), ("approval", "Approval"))
 
-# What vrelab does with a record, by method (SPEC 4): stated in the procedure, as a lab states
+# What vrelab does with a record, by method (physics §4): stated in the procedure, as a lab states
 # its method. The wording is the reduction's, not the laboratory's procedure (that is metadata).
 _METHOD_TEXT = {
-    "random": "Random method (SPEC 4): the grms of a broadband profile is stepped; every level is bracketed by "
+    "random": "Random method (physics §4): the grms of a broadband profile is stepped; every level is bracketed by "
               "vibration-off baselines, the settling time trimmed at each edge. VRE = mean DUT output during the "
               "level minus the mean of its bracketing baselines (drift removed by the bracket); the level is the "
               "reference rms in the test band. The clipping model (effective rail) is fitted by weighted least "

@@ -234,7 +234,7 @@ class StageConfig:
 
 @dataclass(frozen=True)
 class Mechanics(StageConfig):
-    """The proof mass's resonance (SPEC 1.3): a second-order resonator at ``fn_hz`` with ``q``."""
+    """The proof mass's resonance (physics §1.3): a second-order resonator at ``fn_hz`` with ``q``."""
 
     fn_hz: float | None = row(Field(
         "fn_hz", "fn_hz", "positive", None,
@@ -281,7 +281,7 @@ def _coupling(jk: str, doc: str, fitted: bool = True) -> Any:
 
 @dataclass(frozen=True)
 class Sense(StageConfig):
-    """What the axis senses: three axes into one (SPEC 1.2, 1.6; IEEE Std 1293-1998's model equation).
+    """What the axis senses: three axes into one (physics §1.2, §1.6; IEEE Std 1293-1998's model equation).
 
     ``u = w · b`` with ``w`` the axis's cross-axis sensitivity row (1 on its own axis), then
     ``y = u + k2·u² + k3·u³ + k4·u⁴ + Kip·b_i·b_p + Kio·b_i·b_o + Kpp·b_p² + Koo·b_o² + Kpo·b_p·b_o``
@@ -337,7 +337,7 @@ _NEEDS_THRESHOLD = "overrange_threshold_g"
 
 @dataclass(frozen=True)
 class Protection(StageConfig):
-    """The over-range protection on |proof-mass motion| (SPEC 1.3; the ADXL355's 0.5 ms hold)."""
+    """The over-range protection on |proof-mass motion| (physics §1.3; the ADXL355's 0.5 ms hold)."""
 
     overrange_threshold_g: float | None = row(Field(
         "overrange_threshold_g", "overrange_threshold_g", "positive", None,
@@ -416,7 +416,7 @@ class AntiAliasFilter(StageConfig):
 
 @dataclass(frozen=True)
 class OutputFilter(StageConfig):
-    """The band-limit at the output (SPEC 1.3): with an ODR the part's digital low-pass
+    """The band-limit at the output (physics §1.3): with an ODR the part's digital low-pass
     (:class:`~vrelab.sensor.stages.LowPass`), without one (an analog part: the ADXL354's overall
     bandwidth) an analog output filter of the same order and family
     (:class:`~vrelab.sensor.stages.AnalogLowPass`). Either way it limits what reaches the output rails."""

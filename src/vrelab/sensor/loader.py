@@ -18,7 +18,7 @@ declaring its own fields); :meth:`Sensor.stages` walks it in order (order is dat
     -> [Clip if clip_position = "output"] -> Quantize
 
 The nonlinearity and the over-range trip act on the proof-mass motion (after the resonance,
-SPEC 1.3); noise is added before the filters so the output shows the data-sheet density in band;
+physics §1.3); noise is added before the filters so the output shows the data-sheet density in band;
 the output clip sits after the low-pass, which is why a narrower bandwidth rectifies less.
 """
 
@@ -129,7 +129,7 @@ class Sensor(_StageFields):
     axes: tuple[str, ...] = ("x", "y", "z")
     odrs_hz: tuple[float, ...] = ()
     facts: Mapping[str, str] = field(default_factory=dict, hash=False)  # a dict: not hashable
-    # An identified sensor's parameter covariance (vrelab.identify, SPEC 6.1): {"params": names
+    # An identified sensor's parameter covariance (vrelab.identify, physics §6.1): {"params": names
     # of vrelab.sensor.parameters.PARAMETERS, "matrix": rows}; predict carries it into u_vre_g.
     covariance: Mapping[str, Any] | None = field(default=None, hash=False, compare=False)
     # Assumed standard uncertainties [the parameter's unit] of parameters no campaign measured
@@ -230,7 +230,7 @@ class Sensor(_StageFields):
 
     @property
     def is_single_axis(self) -> bool:
-        """True when no cross-axis term is set (the sensor of SPEC 1.1-1.5)."""
+        """True when no cross-axis term is set (the sensor of physics §1.1-1.5)."""
         return not any((self.cross_axis_x, self.cross_axis_y, self.cross_axis_z, self.kip_per_g, self.kio_per_g,
                         self.kpp_per_g, self.koo_per_g, self.kpo_per_g))
 
@@ -312,7 +312,7 @@ class Sensor(_StageFields):
     # ------------------------------------------------------------------ reporting
 
     def conditions(self, static_g: float | None = None, profile: str | None = None, model: str | None = None) -> Conditions:
-        """The :class:`vrelab.results.Conditions` this sensor configuration contributes (SPEC 1.4)."""
+        """The :class:`vrelab.results.Conditions` this sensor configuration contributes (physics §1.4)."""
         return Conditions(
             sensor=self.name,
             model=model,
@@ -366,7 +366,7 @@ def _set_fields(configs: tuple[StageConfig, ...], values: Mapping[str, Any], nam
 # ---------------------------------------------------------------------------- files
 
 # Keys a file may set at top level besides the rows of the field table (vrelab.sensor.fields,
-# written in the field's units: µg/g² for the nonlinearity, SPEC 1.2), which it may also set in
+# written in the field's units: µg/g² for the nonlinearity, physics §1.2), which it may also set in
 # [axes.*] or in [ranges.*].
 _FILE_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
@@ -641,7 +641,7 @@ def load_sensor(
         default: the file's ``default_range_g``.
     axis : ``x``, ``y``, ``z`` (or the file's axes); default: the file's ``default_axis``.
     odr_hz : output data rate [Hz], one of the file's ``odrs_hz``; default ``default_odr_hz``.
-    k2_ug_per_g2, k3_ug_per_g3 : override the nonlinearity [µg/g², µg/g³] (SPEC 5 ``--k2``/``--k3``);
+    k2_ug_per_g2, k3_ug_per_g3 : override the nonlinearity [µg/g², µg/g³] (the CLI reference ``--k2``/``--k3``);
         the same as ``overrides={"k2_ug_per_g2": ...}``.
     overrides : values set by the user, by file key in the file's units (a sweep point's
         ``fn_hz``, ``kip_ug_per_g2``, ...): they win over every table of the file, their facts

@@ -1,4 +1,4 @@
-"""What a stage says about the mean output (SPEC 1.1-1.3): the vibration at its site and the change
+"""What a stage says about the mean output (physics §1.1-1.3): the vibration at its site and the change
 of the mean it makes there.
 
 :func:`vrelab.predict.predict` walks a sensor's stages in signal order and asks each one what it
@@ -16,7 +16,7 @@ does, by what the stage defines (no list of stage types in the prediction):
     form, with the bound on what its approximation may add and its notes.
 ``vibration_off(level_g) -> (level_g, note)``
     What it makes of a static level (the polynomial maps it, the rails clip it): the walk that
-    gives the vibration-off reading every VRE is referred to (SPEC 1.5). Without it a stage
+    gives the vibration-off reading every VRE is referred to (physics §1.5). Without it a stage
     passes the level unchanged.
 ``zero_mean_shift``
     Why it shifts no mean (zero-mean noise, rounding, decimation, a drift bracketing removes).

@@ -1,4 +1,4 @@
-"""Over-range protection (SPEC 1.3): the stage that holds the output after the proof mass crosses
+"""Over-range protection (physics §1.3): the stage that holds the output after the proof mass crosses
 its threshold, placed in continuous time between the samples."""
 
 from __future__ import annotations
@@ -211,7 +211,7 @@ class OverRange(StageBase):
     References
     ----------
     ADXL354/ADXL355 data sheet Rev. D (Analog Devices): over-range protection at ≈ ±8 g on the
-    ±2 g range, drive off for 0.5 ms; SPEC 1.3.
+    ±2 g range, drive off for 0.5 ms; physics §1.3.
     """
 
     threshold_g: float
@@ -277,7 +277,7 @@ class OverRange(StageBase):
         )
 
     def mean_shift(self, site: Site) -> Shift:
-        """The change of the mean the holds make (SPEC 1.3), an estimate.
+        """The change of the mean the holds make (physics §1.3), an estimate.
 
         Random drive: Rice's trip rate ν of the Gaussian motion at the site
         (:func:`vrelab.models.design.overrange_trip_rate_hz`, with tones the phase-averaged rate)

@@ -1,4 +1,4 @@
-"""The parameters of a sensor's VRE model: the identifiable ones (SPEC 6.1) and the assumable ones.
+"""The parameters of a sensor's VRE model: the identifiable ones (physics §6.1) and the assumable ones.
 
 A view of the one field table (:data:`vrelab.sensor.fields.FIELDS`, its ``identifiable``,
 ``fitted`` and ``assumable`` columns): the name a parameter has in ``vrelab identify``'s JSON
@@ -73,7 +73,7 @@ def assumable() -> dict[str, Param]:
 TABLE: dict[str, Param] = identifiable()
 # the ones vrelab identify fits (its JSON's and its sensor file's parameters, in this order),
 PARAMETERS: tuple[str, ...] = tuple(_params("fitted"))
-# and the ones a file may give an assumed standard uncertainty ([uncertainty], SPEC 6.1) without
+# and the ones a file may give an assumed standard uncertainty ([uncertainty], physics §6.1) without
 # a campaign identifying them (a datasheet tolerance, a base sensor's filter corner given as
 # "about"; predict propagates these u like the covariance).
 ASSUMABLE: dict[str, Param] = assumable()

@@ -2,7 +2,7 @@
 
 A stage turns a block of samples (in g) into another block (in g), carrying whatever state it
 needs across block edges, so a chain of stages streams a record of any length in bounded memory
-and gives the same answer whatever the block size (SPEC 1.3, STYLE "a chain of replaceable
+and gives the same answer whatever the block size (physics §1.3, STYLE "a chain of replaceable
 stages"). Order is data: :class:`vrelab.sensor.chain.SensorChain` is an ordered tuple of stages.
 
 The :class:`Stage` protocol
@@ -154,7 +154,7 @@ class Resonator(FilterStage):
 
     Notes
     -----
-    ``H(f) = 1 / (1 - r² + j·r/Q)``, ``r = f/fn`` (SPEC 1.3). Discretised by
+    ``H(f) = 1 / (1 - r² + j·r/Q)``, ``r = f/fn`` (physics §1.3). Discretised by
     :func:`discretize_zpk`: the analog poles ``s = ωn(-1/(2Q) ± j·sqrt(1 - 1/(4Q²)))`` are
     mapped exactly; the numerator is fitted so ``|H|`` matches within 0.03 % up to fs/8 when
     fn <= fs/5 (the simulation rate should be at least 5·fn and 8× the drive's highest
@@ -295,7 +295,7 @@ class AnalogLowPass(FilterStage):
     (matched poles, numerator fitted to the analog response, :func:`discretize_zpk`) so the
     simulation matches ``|H|`` within 0.05 % up to fs/8 whatever the rate. It sits where the
     digital low-pass would (after the anti-alias, before the output rails): a band-limit the
-    output clip sees (SPEC 1.3).
+    output clip sees (physics §1.3).
     """
 
     corner_hz: float
@@ -324,7 +324,7 @@ class HighPass(FilterStage):
     """Digital high-pass (Butterworth). Off in every preset.
 
     A high-pass after the nonlinearity removes the very DC shift (VRE) one wants to measure;
-    it exists to reproduce the part's optional HPF (corner = k·ODR, SPEC 2).
+    it exists to reproduce the part's optional HPF (corner = k·ODR, the presets page).
     """
 
     corner_hz: float
@@ -364,7 +364,7 @@ class Polynomial(StageBase):
 
     Notes
     -----
-    ``y = a + k2·a² + k3·a³ + k4·a⁴`` (SPEC 1.2, normalised ``k_n = K_n/K1``). Its mean shift
+    ``y = a + k2·a² + k3·a³ + k4·a⁴`` (physics §1.2, normalised ``k_n = K_n/K1``). Its mean shift
     for a zero-mean vibration ``x`` on a static ``g0`` is
     ``Σ_n k_n·(E[(g0+x)^n] - g0^n)``, e.g. ``k2·σ²`` for ``g0 = 0``.
     """
@@ -389,7 +389,7 @@ class Polynomial(StageBase):
         return vibration_off_reading(level_g, *self.coefficients), None
 
     def mean_shift(self, site: Site) -> Shift:
-        """``E[P(g0 + x)] - P(g0)`` at the site (SPEC 1.2): exact for any zero-mean vibration
+        """``E[P(g0 + x)] - P(g0)`` at the site (physics §1.2): exact for any zero-mean vibration
         (:func:`vrelab.models.memoryless.poly_clip_vre` without rails; with tones, the average
         over their phases), ``g0`` the static field with the offsets before it. Its input must be
         the Gaussian (or sine) vibration: rails before it make the level invalid."""
@@ -454,7 +454,7 @@ class Drift(StageBase):
     Notes
     -----
     ``n`` counts samples from the start of the run (the state), so the output does not depend
-    on the block size. A linear drift is what the bracketing of SPEC 4 removes exactly: the
+    on the block size. A linear drift is what the bracketing of physics §4 removes exactly: the
     baseline interpolated linearly between the vibration-off segments before and after a level.
     """
 
@@ -480,7 +480,7 @@ class _ClipCount(NamedTuple):
 
 @dataclass(frozen=True)
 class Clip(StageBase):
-    """Rails: samples beyond ``[low_g, high_g]`` read as the rail (censoring, SPEC 1.1).
+    """Rails: samples beyond ``[low_g, high_g]`` read as the rail (censoring, physics §1.1).
 
     Counts the clipped samples (``stats``: ``clipped_low``, ``clipped_high``,
     ``clipped_samples``), which the simulated test reports as saturation.
@@ -520,7 +520,7 @@ class Clip(StageBase):
                 memoryless.reference_note(level_g, rail_low_g=low, rail_high_g=high))
 
     def mean_shift(self, site: Site) -> Shift:
-        """What the rails add to the mean of what reaches them, each rail alone and both (SPEC 1.1),
+        """What the rails add to the mean of what reaches them, each rail alone and both (physics §1.1),
         referred to the vibration-off reading at the rails ``c0`` (``site.vibration_off_g``).
 
         * Nothing linear between the :class:`Polynomial` before them (if any) and the rails:

@@ -74,7 +74,7 @@ def _freqs(name: str, freqs: Sequence[float]) -> tuple[float, ...]:
 
 @dataclass(frozen=True)
 class TestPlan:
-    """A shaker test to simulate (SPEC 4), validated on construction.
+    """A shaker test to simulate (physics §4), validated on construction.
 
     ``method`` "random": every level of ``levels_g`` [g rms] runs the ``profile`` scaled to it;
     "sine": at each of ``freqs_hz`` every level runs as a sine. Each level lasts ``seconds``
@@ -136,7 +136,7 @@ class TestPlan:
     @classmethod
     def random(cls, sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
                **kw: Any) -> TestPlan:
-        """The random method (SPEC 4): ``profile`` scaled to each of ``levels_grms`` (a
+        """The random method (physics §4): ``profile`` scaled to each of ``levels_grms`` (a
         sine-on-random profile too: its tones scale with it and count in the level)."""
         return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
 
@@ -339,7 +339,7 @@ def _few_phases(freq_hz: float, fs_out_hz: float) -> bool:
 
 def _may_saturate(sensor: Sensor, static_g: float, rms_g: float, freq_hz: float) -> bool:
     """Whether a sine of ``rms_g`` at ``freq_hz`` may bring the output within 5 % of a rail or
-    of the over-range threshold: its peak through the resonance's gain (SPEC 1.3; the filters'
+    of the over-range threshold: its peak through the resonance's gain (physics §1.3; the filters'
     gain is at most 1), on the static field."""
     gain = 1.0
     fn, q = getattr(sensor, "fn_hz", None), getattr(sensor, "q", None)

@@ -1,6 +1,6 @@
 """The simulated record: a shaker test generated on demand, block by block, from its seed.
 
-A test runs as a lab runs it (SPEC section 4): a vibration-off baseline, a level, a baseline,
+A test runs as a lab runs it (physics §4): a vibration-off baseline, a level, a baseline,
 the next level, ..., each level bracketed by baselines. The device under test (DUT) sees the
 *total* acceleration ``static_g + drive(t)`` through its signal chain
 (:meth:`vrelab.sensor.Sensor.chain`), simulated block by block at an internal rate chosen by

@@ -1,6 +1,6 @@
 """The built-in point kinds: each is ``f(params, seed) -> {name: float}`` (see the engine).
 
-``model``: closed forms only (SPEC 1.1-1.3); about 0.2 ms a point, a few ms with the
+``model``: closed forms only (physics §1.1-1.3); about 0.2 ms a point, a few ms with the
   resonance integral of a random band:
   the vibration at the proof mass has rms ``rms_mass = rms_g·|H(freq_hz)|`` for a sine, or
   ``rms_g·sqrt(mean |H|² over [f_lo_hz, f_hi_hz])`` for a flat random band, with
@@ -10,7 +10,7 @@
   mean shift summed as ``predict`` does (:func:`vrelab.prediction.memoryless_level`): the
   polynomial's share rectifies around ``static_g``, the rails' is what they add to it, and
   ``vre_g`` = their sum is the exact mean of the one memoryless map; all referred to the
-  vibration-off reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (SPEC 1.5);
+  vibration-off reading ``vibration_off_g`` = ``clip(P(static_g) + offset_g)`` (physics §1.5);
   ``tilt_error_deg`` = :func:`vrelab.models.design.tilt_error_from_static_deg` for an axis at
   tilt ``asin(static_g)`` (``asin(g0 + δ) - asin(g0)``; NaN where undefined, near ±1 g).
   The rails here see the proof-mass motion: this kind has no output filter (``predict`` does).

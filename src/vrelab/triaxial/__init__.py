@@ -1,4 +1,4 @@
-"""Beyond one axis (SPEC 1.6): triaxial vibration and the IEEE 1293 cross-coupling terms.
+"""Beyond one axis (physics §1.6): triaxial vibration and the IEEE 1293 cross-coupling terms.
 
 * :mod:`~vrelab.triaxial.profile`: :class:`TriaxialProfile` (random vibration along x, y and z
   as a 3×3 cross-spectral density matrix), :class:`TriaxialSine` (a sine along a direction),

@@ -1,4 +1,4 @@
-"""Triaxial recordings reduced per axis (SPEC 1.6, 4): a triaxial reference and up to three DUT axes.
+"""Triaxial recordings reduced per axis (physics §1.6, §4): a triaxial reference and up to three DUT axes.
 
 Each DUT axis is reduced as one axis is today (:func:`vrelab.analysis.analyze_full`: baselines,
 offset shift under vibration, batch-means uncertainty), against the reference channel of its own
@@ -10,7 +10,7 @@ the channel's warnings.
 Every DUT axis uses the same segments: found once from the most moving reference axis (or the
 given or embedded schedule), so a still axis still has its levels.
 
-The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, SPEC 1.6), one number per
+The level of a triaxial vibration is its **total rms** (TRIAXIAL.md, physics §1.6), one number per
 level for every DUT axis and for ``triaxial.levels``: the level the reduction reads from the
 most moving reference axis ``d`` (the single-axis rule: the window FFTs' in-band power, its
 batch-means u; the lock-in at the drive frequency for a sine) times ``sqrt(Σ_j m_j / m_d)``,

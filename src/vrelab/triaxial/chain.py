@@ -1,4 +1,4 @@
-"""One DUT axis under a triaxial acceleration: the axis's signal chain, extended (SPEC 1.6).
+"""One DUT axis under a triaxial acceleration: the axis's signal chain, extended (physics §1.6).
 
 The model of one sensing axis (a :class:`~vrelab.sensor.Sensor` loaded with ``axis=a``) under
 the acceleration vector ``a(t) = g + x(t)`` in the part's frame (x, y, z), the contract of
@@ -67,7 +67,7 @@ class TriaxialPolynomial:
     -----
     ``u = w · b``;
     ``y = u + k2·u² + k3·u³ + k4·u⁴ + Kip·b_i·b_p + Kio·b_i·b_o + Kpp·b_p² + Koo·b_o² + Kpo·b_p·b_o``
-    (SPEC 1.2 and 1.6; IEEE Std 1293-1998 model equation, K in µg/g² there, 1/g here). The
+    (physics §1.2 and 1.6; IEEE Std 1293-1998 model equation, K in µg/g² there, 1/g here). The
     polynomial in ``u`` is :class:`~vrelab.sensor.stages.Polynomial`'s own (one owner), so
     with ``b`` along the input axis the output is its output bit for bit. For a zero-mean
     Gaussian ``b`` (no static part) the cross terms' mean is ``Σ K_jk·E[b_j b_k]`` (the

@@ -1,4 +1,4 @@
-"""Triaxial profile files and command-line strings (SPEC 1.6, 3).
+"""Triaxial profile files and command-line strings (physics §1.6, §3).
 
 A triaxial random profile file (TOML) holds each moving axis's PSD as a single-axis profile file
 holds its ``[profile]`` (``breakpoints``, or ``start`` + ``slopes``; an optional ``grms`` scales

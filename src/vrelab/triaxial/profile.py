@@ -1,8 +1,8 @@
-"""Triaxial vibration: a 3×3 cross-spectral density matrix, or a sine along a direction (SPEC 1.6).
+"""Triaxial vibration: a 3×3 cross-spectral density matrix, or a sine along a direction (physics §1.6).
 
 A triaxial random vibration is a one-sided cross-spectral density matrix ``S(f)`` [g²/Hz] over
 the part's axes (x, y, z), held as what a test specification gives: each axis's PSD
-``P_j(f)`` (breakpoints, log-log between them as for one axis, SPEC 3) and the complex
+``P_j(f)`` (breakpoints, log-log between them as for one axis, physics §3) and the complex
 coherency ``C_jk(f) = S_jk / sqrt(P_j P_k)`` between axes (``|C_jk|²`` the coherence,
 ``arg C_jk`` the phase of k behind j... as ``S_jk = E[A_j A_k*]``), linear in ln f between
 breakpoints. So ``S_jk(f) = sqrt(P_j(f) P_k(f)) · C_jk(f)``. Linear interpolation keeps a
@@ -38,7 +38,7 @@ def direction(input_axis: str, toward_axis: str, angle_deg: float) -> NDArray[np
     """The unit vector at ``angle_deg`` from ``input_axis`` toward ``toward_axis`` (in their plane).
 
     IEEE 1293's mount angle: the part's input axis i at angle φ to the vibration in the plane
-    of i and p gives ``a_i = a cos φ, a_p = a sin φ`` (SPEC 1.6). ``direction("z", "x", 45)`` is
+    of i and p gives ``a_i = a cos φ, a_p = a sin φ`` (physics §1.6). ``direction("z", "x", 45)`` is
     ``(sin 45°, 0, cos 45°)``.
     """
     if input_axis not in AXES or toward_axis not in AXES:
@@ -123,7 +123,7 @@ class PairCoherence:
 
 @dataclass(frozen=True, eq=False)
 class TriaxialProfile:
-    """Random vibration along x, y, z as a 3×3 cross-spectral density matrix (SPEC 1.6).
+    """Random vibration along x, y, z as a 3×3 cross-spectral density matrix (physics §1.6).
 
     Parameters
     ----------
@@ -375,7 +375,7 @@ class TriaxialProfile:
 
 @dataclass(frozen=True)
 class TriaxialSine:
-    """A sine along a direction: ``a(t) = d · √2·rms·sin(2πft)`` (SPEC 1.6).
+    """A sine along a direction: ``a(t) = d · √2·rms·sin(2πft)`` (physics §1.6).
 
     ``direction`` is normalised; ``rms_g`` is the rms along it (the total rms).
     """

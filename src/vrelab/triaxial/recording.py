@@ -1,4 +1,4 @@
-"""A triaxial profile measured from a recording: Welch cross-spectral matrix, streamed (SPEC 1.6).
+"""A triaxial profile measured from a recording: Welch cross-spectral matrix, streamed (physics §1.6).
 
 Three acceleration channels of a reference (x, y, z) give the one-sided cross-spectral density
 matrix ``S_jk(f) = E[A_j A_k*]`` [g²/Hz] by Welch's method (Hann window, 50 % overlap, mean

@@ -1,4 +1,4 @@
-"""A triaxial shaker test, simulated: the drive along x, y, z and each DUT axis's output (SPEC 1.6).
+"""A triaxial shaker test, simulated: the drive along x, y, z and each DUT axis's output (physics §1.6).
 
 The table moves along x, y and z (the part's frame); an ideal triaxial reference accelerometer
 records the vibration ``x(t)`` (3 channels, no gravity) and each DUT axis sees the total
@@ -173,7 +173,7 @@ class TriaxialTest:
     """A simulated triaxial shaker test, reduced per DUT axis.
 
     ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
-    the axis's output against its interpolated vibration-off readings, SPEC 4) with the
+    the axis's output against its interpolated vibration-off readings, physics §4) with the
     reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
     reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.analyze`
     gives them for the record (its VRC fit against the total rms; no rail fit).

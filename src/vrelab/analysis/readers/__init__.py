@@ -124,7 +124,7 @@ from vrelab.analysis.readers._base import (
 from vrelab.analysis.readers.units import ASSUMED_NOTE, channel_scale
 from vrelab.record import Schedule
 
-# SPEC 4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
+# physics §4.2: a sample rate above this is refused before any memory is sized from it. Shaker-test
 # DAQs sample at up to a few hundred kHz (IEPE front ends at 51.2-204.8 kHz); 10 MHz leaves a
 # wide margin, while a corrupt header (a WAV claiming 4.29 GHz) is far beyond it.
 MAX_PLAUSIBLE_FS_HZ = 1e7

@@ -55,7 +55,7 @@ class WavSource(Source):
         try:
             return cls(path)
         except _Unopened as exc:
-            # a header libsndfile refuses (a corrupt rate: SPEC 4.2 lets --fs override it) may
+            # a header libsndfile refuses (a corrupt rate: physics §4.2 lets --fs override it) may
             # still be read by scipy; if neither can, libsndfile's reason is the one given
             try:
                 return ScipyWavSource(path)
