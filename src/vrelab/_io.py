@@ -1,6 +1,6 @@
 """Output helpers: files are written completely or not at all, and only into folders of ours.
 
-The rules (issue 23), owned here and nowhere else:
+The rules, owned here and nowhere else:
 
 * **Whose folder.** Every output folder vrelab writes holds :data:`MARKER`, a JSON file naming
   what wrote it and every entry (file and sub-folder, relative path) it wrote. A later run may

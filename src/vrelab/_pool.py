@@ -1,4 +1,4 @@
-"""Process pools whose workers never outlive the run (issue 23).
+"""Process pools whose workers never outlive the run.
 
 Every pool of vrelab (``campaign --workers``, ``identify --workers``, a sweep's process backend)
 is made here, so its workers:

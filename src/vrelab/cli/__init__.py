@@ -121,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if on_main:
         # SIGINT raises KeyboardInterrupt even when the process started with it ignored (a
         # script's `vrelab ... &`): a `kill -INT` then finished the run and exited 0 with the
-        # workers busy (issue 23); now it stops the run, its workers and its staging, exit 130
+        # workers busy; now it stops the run, its workers and its staging, exit 130
         before = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, signal.default_int_handler)
     streams = sys.stdout, sys.stderr
     # every line printed goes out escaped (a channel name with ESC or BEL is text, not a command

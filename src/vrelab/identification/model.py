@@ -213,7 +213,7 @@ def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Seq
                         f"Q needs f >= {NEAR_FN:g}·fn)")
             else:
                 head = f"the sine runs ({text} Hz) do not close the likelihood of"
-            # one flank: neither is a value (issue: Q 2.69 ± 0.15 for 4 from three frequencies below fn); both
+            # one flank: neither is a value (once: Q 2.69 ± 0.15 for 4 from three frequencies below fn); both
             # flanks but an open profile: the open one only (a well-bounded fn stays identified)
             for n, label in (("fn_hz", "fn"), ("q", "Q")):
                 if one_sided or prof[n].open:

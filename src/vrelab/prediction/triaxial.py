@@ -95,7 +95,7 @@ _PASS_NOTE = "the cross terms' mean "
 # the rails/holds pass the cross terms' mean unchanged to this (relative): below it no note
 _PASS_TOL = 1e-6
 
-# The result types before issue 31 (one Prediction, its triaxial fields present when they apply):
+# The triaxial result types of earlier releases (now one Prediction, its triaxial fields present when they apply):
 # aliases for one release.
 TriaxialLevelPrediction = LevelPrediction
 TriaxialPrediction = Prediction

@@ -298,7 +298,7 @@ def sine_drive(freq_hz: float, fs_out_hz: float) -> tuple[float, int, int]:
 
     A drive whose frequency divides the sensor's output rate (1000 Hz at 8 kHz) is sampled at
     the same few phases in every period, and the mean of a clipped or nonlinear output over
-    those phases is not its mean over the cycle (issue 18: -51.8 mg against the closed form's
+    those phases is not its mean over the cycle (-51.8 mg against the closed form's
     -68.3 mg at 1 kHz, 1 g rms, +1 g, ±2 g). A lab's shaker and sensor run on independent
     clocks, so the phase at which the sensor samples slides. Here the drive is
     ``f = m·fs_out/L`` with ``gcd(m, L) = 1``: m whole periods take exactly L output samples,
