@@ -39,9 +39,8 @@ over-range threshold, and where the static level is already at a rail. The rando
 taken as Gaussian.
 
 How close: the tests hold the memoryless map against a numpy Monte Carlo over static fields,
-levels and coefficients (and adaptive quadrature for a resonant part with k2, k3 and asymmetric rails: +9.14/+16.17 mg,
-tests/test_predict_exact.py), the
-filtered case against a numpy Monte Carlo of the chain within ``model_error_g``, and the
+levels and coefficients (and adaptive quadrature for a resonant part with k2, k3 and
+asymmetric rails: +9.14/+16.17 mg, tests/test_predict_exact.py), the filtered case against a numpy Monte Carlo of the chain within ``model_error_g``, and the
 simulated test within 3u + 10 % (ADXL355 ±2 g Z at 1-2 g rms). Over-range firing often
 (ADXL355 X at 4 g rms on ±8 g: -96 mg against the simulation's -110 ± 5 mg) is not valid.
 """
