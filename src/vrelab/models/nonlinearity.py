@@ -15,7 +15,7 @@ datasheet states it.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, overload
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, cast, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,6 +27,10 @@ if TYPE_CHECKING:  # imported by separate_k2_k3: the closed forms (vrelab model)
     from vrelab.results import Estimate
 
 Shape = Literal["gaussian", "sine"]
+
+
+def _is_estimate(x: object) -> bool:
+    return all(hasattr(x, k) for k in ("value", "u", "unit"))
 
 
 
@@ -393,19 +397,20 @@ def separate_k2_k3(vrc_plus: Estimate | ArrayLike, vrc_minus: Estimate | ArrayLi
         raise ValueError(f"static_minus_g must be below static_g, got {gm!r} and {gp!r}")
     d = 3.0 * (gp - gm)
     c = gp / (gp - gm)
-    from vrelab.results import Estimate
-
-    if isinstance(vrc_plus, Estimate) or isinstance(vrc_minus, Estimate):
-        if not (isinstance(vrc_plus, Estimate) and isinstance(vrc_minus, Estimate)):
+    # an Estimate is read by its fields (value, u, unit) and the result built by its own type:
+    # the closed forms import nothing from vrelab.results, which builds on them
+    if _is_estimate(vrc_plus) or _is_estimate(vrc_minus):
+        if not (_is_estimate(vrc_plus) and _is_estimate(vrc_minus)):
             raise ValueError("separate_k2_k3: give both VRCs as Estimate, or both as numbers")
-        if vrc_plus.unit != vrc_minus.unit:
-            raise ValueError(f"separate_k2_k3: units differ, {vrc_plus.unit!r} vs {vrc_minus.unit!r}")
-        a, b = vrc_plus, vrc_minus
-        k2 = Estimate(a.value * (1 - c) + b.value * c, math.hypot(a.u * (1 - c), b.u * c), a.unit)
-        k3 = Estimate((a.value - b.value) / d, math.hypot(a.u, b.u) / d, f"{a.unit}/g")
+        a, b = cast("Estimate", vrc_plus), cast("Estimate", vrc_minus)
+        if a.unit != b.unit:
+            raise ValueError(f"separate_k2_k3: units differ, {a.unit!r} vs {b.unit!r}")
+        est = type(a)
+        k2 = est(a.value * (1 - c) + b.value * c, math.hypot(a.u * (1 - c), b.u * c), a.unit)
+        k3 = est((a.value - b.value) / d, math.hypot(a.u, b.u) / d, f"{a.unit}/g")
         return k2, k3
-    p = _validate.finite("vrc_plus", vrc_plus)
-    m = _validate.finite("vrc_minus", vrc_minus)
+    p = _validate.finite("vrc_plus", cast(ArrayLike, vrc_plus))
+    m = _validate.finite("vrc_minus", cast(ArrayLike, vrc_minus))
     return _out(p * (1 - c) + m * c), _out((p - m) / d)
 
 
