@@ -43,7 +43,9 @@ def test_every_shipped_environment_simulates_at_its_stated_level(name: str) -> N
     assert lv.rms_g == pytest.approx(level, rel=0.15)
 
 
-@pytest.mark.parametrize("spec", ["flat:5-500", "flat:8-500", "flat:10-500"])
+# flat:15-500 worked before the fix by where its windows fell; its baselines are now longer
+# (2.07 s), so its numbers moved: held against predict too
+@pytest.mark.parametrize("spec", ["flat:5-500", "flat:8-500", "flat:10-500", "flat:15-500"])
 def test_low_frequency_profile_vre_agrees_with_predict_and_with_analyze(spec: str, tmp_path: Path) -> None:
     profile = vrelab.parse_profile(spec)
     rec = tmp_path / "test.h5"
