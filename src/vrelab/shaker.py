@@ -30,7 +30,8 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Method, Notice, VreResult
-from vrelab.simulation.plan import TestPlan, measurement_band, min_segment_seconds
+from vrelab.simulation.plan import TestPlan, min_segment_seconds
+from vrelab.simulation.plan import measurement_band as measurement_band  # its owner is the plan
 from vrelab.simulation.record import SimulatedRecord
 
 if TYPE_CHECKING:

@@ -31,7 +31,8 @@ from numpy.typing import NDArray
 from vrelab import _budget
 from vrelab import _validate as V
 from vrelab._ahead import prefetch
-from vrelab.record import Record, Schedule, Segment, window_length
+from vrelab.record import Record, Schedule, Segment
+from vrelab.record import window_length as window_length  # its owner is vrelab.record
 from vrelab.results import Notice
 
 # Samples within this relative distance of the record's extreme count as "at the rail".
