@@ -25,6 +25,24 @@ from vrelab import _validate as V
 DEFAULT_SETTLE_S = 0.5
 WINDOW_S = 0.1
 
+
+def window_seconds(band_hz: tuple[float, float], window_s: float = WINDOW_S) -> float:
+    """The reduction's averaging window [s] for a test band: ``window_s``, longer when needed to
+    put 2 FFT bins below the band's lower edge (2/f1: 0.4 s for a band from 5 Hz, so that the
+    band's power is resolved). A simulated test's baselines and levels must hold several such
+    windows after the settling trims (vrelab.simulation.plan.min_segment_seconds)."""
+    return max(window_s, 2.0 / band_hz[0])
+
+
+def window_length(fs_hz: float, band_hz: tuple[float, float], window_s: float = WINDOW_S) -> int:
+    """Samples per window of the reduction's first pass: :func:`window_seconds` at ``fs_hz``.
+
+    The band is resolved to one FFT bin (1/window, 10 Hz for 0.1 s): its edges fall on the
+    nearest bins inside it.
+    """
+    return max(1, int(round(window_seconds(band_hz, window_s) * fs_hz)))
+
+
 @dataclass(frozen=True)
 class Segment:
     """One stretch of a test: ``nominal_rms_g == 0`` is a vibration-off baseline."""

@@ -31,6 +31,7 @@ from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Method, Notice, VreResult
 from vrelab.simulation.plan import TestPlan, min_segment_seconds
+from vrelab.simulation.plan import measurement_band as measurement_band  # its owner is the plan
 from vrelab.simulation.record import SimulatedRecord
 
 if TYPE_CHECKING:
@@ -314,15 +315,6 @@ def _sine_drive_notes(plan: TestPlan, record: SimulatedRecord) -> list[Notice]:
                 f"and a sensor on independent clocks do (a drive that divides the output rate samples a few "
                 f"phases only); the levels give the frequency measured, and a VRE that depends on frequency is that frequency's")))
     return out
-
-
-def measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:
-    """Band in which the reduction measures the reference rms: the profile's band (its tones
-    included) widened by an octave on each side. The drive has no power outside the profile's band (it is
-    synthesised that way), so the wider band measures the same rms, but the band-pass edges
-    (a Butterworth is 3 dB down at its corners) no longer eat into the profile's edges."""
-    f_lo, f_hi = profile.band
-    return f_lo / 2, f_hi * 2
 
 
 def sine_band(record: SimulatedRecord) -> tuple[float, float] | None:

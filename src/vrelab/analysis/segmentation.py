@@ -32,6 +32,7 @@ from vrelab import _budget
 from vrelab import _validate as V
 from vrelab._ahead import prefetch
 from vrelab.record import Record, Schedule, Segment
+from vrelab.record import window_length as window_length  # its owner is vrelab.record
 from vrelab.results import Notice
 
 # Samples within this relative distance of the record's extreme count as "at the rail".
@@ -201,15 +202,6 @@ def band_variance_weights(window: int, fs_hz: float, band_hz: tuple[float, float
         c[-1] = 2.0 / 3.0
     out: NDArray[np.float64] = band * band * c
     return out
-
-
-def window_length(fs_hz: float, band_hz: tuple[float, float], window_s: float = 0.1) -> int:
-    """Samples per window: ``window_s``, longer when needed to put 2 FFT bins below the band's lower edge.
-
-    The band is resolved to one FFT bin (1/window, 10 Hz for 0.1 s): its edges fall on the
-    nearest bins inside it.
-    """
-    return max(1, int(round(max(window_s, 2.0 / band_hz[0]) * fs_hz)))
 
 
 def _window_reduce(x: NDArray[np.float64], w: int) -> list[NDArray[np.float64]]:

@@ -18,7 +18,7 @@ from vrelab import _budget
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import NYQUIST_MARGIN, simulation_rate_hz
-from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S
+from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, window_length, window_seconds
 from vrelab.results import Method
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.simulation.record import (
@@ -47,15 +47,35 @@ def default_settle_s(settle_s: float | None = None) -> float:
     return float(V.non_negative("settle_s", settle_s))
 
 
-def min_segment_seconds(settle_s: float | None = None) -> float:
-    """Shortest baseline or level [s] the simulated test accepts for a settling time ``settle_s``.
+def min_segment_seconds(settle_s: float | None = None, window_s: float = WINDOW_S) -> float:
+    """Shortest baseline or level [s] the simulated test accepts for a settling time ``settle_s``
+    and the reduction's averaging window ``window_s`` (:func:`vrelab.record.window_seconds`:
+    0.1 s, longer for a band from below 20 Hz).
 
     The reduction ignores a segment with fewer than 3 whole averaging windows after the trim
     (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
     per edge, so a segment shorter than 4·settle_s would be trimmed less than asked.
     """
     settle_s = default_settle_s(settle_s)
-    return max(2 * settle_s + MIN_WINDOWS * WINDOW_S, 4 * settle_s)
+    return max(2 * settle_s + MIN_WINDOWS * window_s, 4 * settle_s)
+
+
+def measurement_band(profile: RandomProfile | SineOnRandom) -> tuple[float, float]:
+    """Band in which the reduction measures the reference rms: the profile's band (its tones
+    included) widened by an octave on each side. The drive has no power outside the profile's band (it is
+    synthesised that way), so the wider band measures the same rms, but the band-pass edges
+    (a Butterworth is 3 dB down at its corners) no longer eat into the profile's edges."""
+    f_lo, f_hi = profile.band
+    return f_lo / 2, f_hi * 2
+
+
+def _ending_on(pos: int, n: int, window: int, multiple: int) -> int:
+    """``n`` internal samples from ``pos``, lengthened so that they end on a multiple of ``window``
+    (0: as they are), in whole ``multiple``s (the DUT's output samples: one at most past the edge)."""
+    if window <= 0:
+        return n
+    end = -(-(pos + n) // window) * window
+    return round_up(end - pos, multiple)
 
 
 def _levels(name: str, levels: Sequence[float]) -> tuple[float, ...]:
@@ -103,6 +123,8 @@ class TestPlan:
     kurtosis: float | None = None
     fs_internal_hz: float | None = None
     ramp_s: float = 0.0
+    # the baseline_s asked when a low band's analysis windows made it longer (_fit_band_windows)
+    baseline_s_asked: float | None = None
 
     def __post_init__(self) -> None:
         V.one_of("method", self.method, ("random", "sine"))
@@ -132,6 +154,33 @@ class TestPlan:
                     f"edges, at most a quarter of the segment each, plus {MIN_WINDOWS} averaging windows of "
                     f"{WINDOW_S:g} s), got {key}={value:g}"
                 )
+        self._fit_band_windows()
+
+    def _fit_band_windows(self) -> None:
+        """A measurement band (:func:`measurement_band`) from below 20 Hz makes the reduction's
+        windows longer than 0.1 s (2/f1: 0.8 s for a profile from 5 Hz, its band from 2.5 Hz),
+        and a segment holding fewer than 3 of them after the trims is not averaged: a 2 s baseline
+        of a profile from 10 Hz or below kept 1 s, one window or two, and the record had no
+        baseline. A baseline (no vibration: the lab's housekeeping) is lengthened to hold
+        MIN_WINDOWS of them, the length used in the conditions (``baseline_s``; the one asked in
+        ``baseline_s_asked``). A level keeps its length (the measurement's): one that cannot hold
+        3 windows is refused."""
+        if self.method != "random" or self.profile is None:
+            return  # a sine test is reduced with 0.1 s windows
+        assert self.settle_s is not None  # __post_init__ sets the default
+        window = window_seconds(measurement_band(self.profile))
+        need = min_segment_seconds(self.settle_s, window)
+        fits = 2 * self.settle_s + (MIN_WINDOWS - 1) * window  # 3 whole windows at best below it
+        if self.seconds < fits - 1e-9:
+            raise ValueError(
+                f"seconds must be >= {fits:g} s for a profile from {self.profile.band[0]:g} Hz: its analysis averages "
+                f"windows of {window:g} s (2 FFT bins below its measurement band's lower edge, an octave under the "
+                f"profile's) and a level must hold {MIN_WINDOWS - 1} of them after the settling trims of "
+                f"{self.settle_s:g} s; got seconds={self.seconds:g}"
+            )
+        if self.baseline_s < need - 1e-9:
+            object.__setattr__(self, "baseline_s_asked", self.baseline_s)
+            object.__setattr__(self, "baseline_s", need)
 
     @classmethod
     def random(cls, sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
@@ -196,6 +245,7 @@ class TestPlan:
             "seed": self.seed,
             "seconds": self.seconds,
             "baseline_s": self.baseline_s,
+            **({} if self.baseline_s_asked is None else {"baseline_s_asked": self.baseline_s_asked}),
             "settle_s": self.settle_s,
             "fs_internal_hz": fs_int,
             "fs_record_hz": rates.fs_record_hz,
@@ -232,11 +282,25 @@ class TestPlan:
         n_base = round_up(self.baseline_s * fs_int, rates.decimation)
         n_level = round_up(self.seconds * fs_int, rates.decimation)
         n_ramp = _ramp_samples(self.ramp_s, fs_int, rates)
-        segs = [Stretch(n_base, 0.0)]
+        window = self._window_internal(rates)
+        segs = [Stretch(_ending_on(0, n_base, window, rates.decimation), 0.0)]
+        pos = segs[0].n_internal
         for g, s in zip(self.levels_g, level_seeds):
             seed_g = int(s.generate_state(1, np.uint32)[0])
-            segs += [Stretch(n_level + 2 * n_ramp, g, None, seed_g, n_ramp), Stretch(n_base, 0.0)]
+            level = Stretch(n_level + 2 * n_ramp, g, None, seed_g, n_ramp)
+            base = Stretch(_ending_on(pos + level.n_internal, n_base, window, rates.decimation), 0.0)
+            segs += [level, base]
+            pos += level.n_internal + base.n_internal
         return segs, chain_seed
+
+    def _window_internal(self, rates: Rates) -> int:
+        """Internal samples per analysis window when the baselines were lengthened for a low band
+        (:meth:`_fit_band_windows`), else 0. Each such baseline then ends on a window edge, so the
+        level after it starts on one: a level holds the same whole windows wherever it falls in
+        the record (a 4 s level of 0.8 s windows, trimmed to 3 s: 3 windows, not 2 or 3)."""
+        if self.baseline_s_asked is None or self.profile is None:
+            return 0
+        return window_length(rates.fs_record_hz, measurement_band(self.profile)) * rates.step
 
     def _sine_stretches(self, rates: Rates) -> tuple[list[Stretch], np.random.SeedSequence]:
         fs_int = rates.fs_internal_hz
