@@ -1,4 +1,4 @@
-"""One level's VRE against the vibration-off baselines that bracket it (SPEC 4, steps 3 and 5).
+"""One level's VRE against the vibration-off baselines that bracket it (physics §4, steps 3 and 5).
 
 * DUT mean of a segment (baseline or random level), its uncertainty and degrees of freedom: from
   the Hann-smoothed window series (:func:`dut_mean_estimate`), batch means sized by the
@@ -484,7 +484,7 @@ def reduce_level(ctx: LevelContext, seg: Segment, method: Method
         flags += ("few-windows",)
     off = _off_scale_baselines(t_c, baselines)
     if off:
-        # SPEC 4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
+        # physics §4.2: a vibration-off reading at a rail makes VRE undefined: no plain number
         flags += ("baseline-off-scale",)
         vre = Estimate(math.nan, math.nan, "g")
         warnings.append(Notice(

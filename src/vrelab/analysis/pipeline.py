@@ -1,4 +1,4 @@
-"""Reduction of a recorded shaker test to VRE per level, and its fits (SPEC section 4).
+"""Reduction of a recorded shaker test to VRE per level, and its fits (physics §4).
 
 Steps, each over data streamed in blocks:
 
@@ -6,7 +6,7 @@ Steps, each over data streamed in blocks:
    when the band starts below 20 Hz), the next block read in a background thread.
 2. Segmentation: the user's schedule, else the one embedded in the record, else automatic from
    the reference's rms envelope; ``settle_s`` trimmed at both edges of every segment.
-3. The SPEC 4.2 checks on a short probe of every level (:mod:`vrelab.analysis.plausibility`),
+3. The physics §4.2 checks on a short probe of every level (:mod:`vrelab.analysis.plausibility`),
    which also decide the method per level with ``method="auto"``.
 4. Baselines and levels (:mod:`vrelab.analysis.levels`; a sine level's second pass in
    :mod:`vrelab.analysis.sine`): VRE per level against the bracketing baselines.
@@ -94,7 +94,7 @@ class Reduction:
     # was measured at (SegmentProbe.ratio_hz): a campaign judges a channel's units over all its
     # runs with them (plausibility.judge_runs_units, check_units_over_runs)
     unit_probes: list[tuple[str | None, float, float]] = field(default_factory=list)
-    # the DUT's noise on the vibration-off stretches (SPEC 4.4; None: none to measure)
+    # the DUT's noise on the vibration-off stretches (physics §4.4; None: none to measure)
     noise: NoiseResult | None = None
 
     @property
@@ -148,7 +148,7 @@ def reduce(
         The record's first pass when already made (:func:`analyze_channels` makes one pass for
         all the DUTs of a file).
 
-    Before any number is made the record is held against SPEC 4.2
+    Before any number is made the record is held against physics §4.2
     (:mod:`vrelab.analysis.plausibility`): a units or sensitivity slip, swapped channels, a
     method that does not fit; ``options.accept`` names the checks to pass on purpose.
     ``keywords``: the former flat options (deprecated, see :func:`~vrelab.analysis.options.from_keywords`).
@@ -226,7 +226,7 @@ def _plausible_method(
     baselines: Sequence[Baseline],
     accept: Collection[str],
 ) -> tuple[Method, list[Any]]:
-    """The method the record's levels are reduced with, after SPEC 4.2's checks on a short probe
+    """The method the record's levels are reduced with, after physics §4.2's checks on a short probe
     of every level (:mod:`vrelab.analysis.plausibility`); levels of both kinds are refused. With
     it, the probes (empty when nothing was checked)."""
     if method != "auto" and set(ACCEPTABLE) <= set(accept):
@@ -302,7 +302,7 @@ def library_rate_notice(record: Record, red: Reduction, fs_lib_hz: float, band_h
     sine frequencies (by q - 1) and a random level's band do. The band [f1, f2] at the library's
     rate is [f1/q, f2/q] at the rate used: the level's reference power becomes ``P·ratio``
     (:func:`band_power_ratio` on the level's reference PSD), its rms ``rms·√ratio``. With VRE ∝ rms²
-    (SPEC 1.2) the same reading then belongs to a VRC off by ``1/ratio``; at the level's rms that is
+    (physics §1.2) the same reading then belongs to a VRC off by ``1/ratio``; at the level's rms that is
     a VRE of ``VRE·(1/ratio - 1)``, the shift compared with the level's u(VRE)."""
     q = fs_lib_hz / record.fs_hz
     head = f"the file library's sample rate {fs_lib_hz:.9g} Hz is {100 * (q - 1):+.3g} % off the {record.fs_hz:.9g} Hz used"
@@ -332,7 +332,7 @@ def library_rate_notice(record: Record, red: Reduction, fs_lib_hz: float, band_h
 def _tolerance_checks(
     record: Record, segs: Sequence[Segment], levels: list[LevelResult], stats: WindowStats, profile: Any
 ) -> list[str]:
-    """Reference PSD against the profile (SPEC 3: ±3 dB, rms ±10 %) for each random level."""
+    """Reference PSD against the profile (physics §3: ±3 dB, rms ±10 %) for each random level."""
     from vrelab.spectra import psd_tolerance_check
 
     out: list[str] = []
@@ -531,7 +531,7 @@ def analyze(
         Static field for the rail fit (default: the DUT's mean reading at the baselines),
         clipping model, k4 term, joint rail + VRC fit (:func:`vrelab.fits.fit_rail`).
     budget : BudgetOptions, optional
-        Type B terms (SPEC 4.3) and a decision limit.
+        Type B terms (physics §4.3) and a decision limit.
     conditions : Conditions, optional
         Default: those in the record's metadata.
 
