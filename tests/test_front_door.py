@@ -207,3 +207,29 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     for block in blocks:
         exec(compile(block, "README.md", "exec"), namespace)
     assert "VRE" in capsys.readouterr().out
+
+
+def test_analyze_takes_the_clis_names_for_units_and_sensitivity(capsys):
+    """``vrelab.analyze(..., dut_units="lsb", dut_sensitivity=256000, ...)`` reduces the example
+    run as ``vrelab analyze --dut-units lsb --dut-sensitivity 256000 ...`` does (the same
+    numbers: one reduction behind both); a pair beside a Scale is refused, an unknown keyword a
+    TypeError, a bad unit the CLI's words."""
+    from vrelab.cli import main
+
+    run = ROOT / "examples" / "campaign" / "runs" / "03_z_up_300hz.uff"
+    assert main(["analyze", str(run), "--dut", "101:+Z", "--reference", "1:+Z", "--reference-units", "mv",
+                 "--reference-sensitivity", "10", "--dut-units", "lsb", "--dut-sensitivity", "256000", "--json"]) == 0
+    cli = json.loads(capsys.readouterr().out)
+    res = vrelab.analyze(str(run), dut="101:+Z", reference="1:+Z", reference_units="mv", reference_sensitivity=10,
+                         dut_units="lsb", dut_sensitivity=256000)
+    assert [lv.vre.value for lv in res.levels] == [lv["vre_g"] for lv in cli["levels"]]
+    assert [lv.rms_g for lv in res.levels] == [lv["rms_g"] for lv in cli["levels"]]
+    from vrelab.analysis.readers import Scale
+
+    with pytest.raises(ValueError, match="give dut_scale or dut_units/dut_sensitivity, not both"):
+        vrelab.analyze(str(run), dut="101:+Z", reference="1:+Z", dut_scale=Scale("lsb", 256000), dut_units="lsb",
+                       dut_sensitivity=256000)
+    with pytest.raises(ValueError, match="dut units 'lsb' need a sensitivity"):
+        vrelab.analyze(str(run), dut="101:+Z", reference="1:+Z", dut_units="lsb")
+    with pytest.raises(TypeError, match="dut_unit"):
+        vrelab.analyze(str(run), dut="101:+Z", reference="1:+Z", dut_unit="lsb")

@@ -184,7 +184,9 @@ def analyze(
     fs_hz : float, optional
         Sample rate [Hz] where the file does not state it (CSV without a time column).
     dut_scale, reference_scale : optional
-        Units and sensitivity of each channel (see :func:`vrelab.analysis.readers.open_record`).
+        Units and sensitivity of each channel (see :func:`vrelab.analysis.readers.open_record`),
+        or as the CLI names them: ``dut_units="lsb", dut_sensitivity=256000``,
+        ``reference_units="mv", reference_sensitivity=10`` (``vrelab analyze --dut-units ...``).
     method : {"auto", "sine", "random"}
         How each level is reduced; ``auto`` decides from the reference's spectrum.
     **options
@@ -202,6 +204,8 @@ def analyze(
     from vrelab.analysis import analyze as _reduce
     from vrelab.analysis import open_record
 
+    dut_scale, reference_scale = _scales_named_as_the_cli(options, dut_scale, reference_scale)
+    _check_keywords(options)
     if reference is not None and not isinstance(reference, str):
         return _analyze_triaxial(path_or_record, dut, reference, (fs_hz, dut_scale, reference_scale), method,
                                  options)
@@ -214,6 +218,41 @@ def analyze(
     with open_record(path_or_record, dut=dut, reference=reference, fs_hz=fs_hz, dut_scale=dut_scale,
                      reference_scale=reference_scale) as record:
         return _reduce(record, method, **options)  # type: ignore[arg-type]
+
+
+# the CLI's names for a channel's units and sensitivity (vrelab analyze --dut-units lsb
+# --dut-sensitivity 256000), taken by vrelab.analyze as keywords
+_SCALE_KEYWORDS = {"dut": ("dut_units", "dut_sensitivity"), "reference": ("reference_units", "reference_sensitivity")}
+
+
+def _scales_named_as_the_cli(options: dict[str, Any], dut_scale: Any, reference_scale: Any) -> tuple[Any, Any]:
+    """``dut_units``/``dut_sensitivity`` (``reference_...``) popped from ``options`` into the
+    channels' :class:`~vrelab.analysis.readers.Scale`, with the CLI's words for a bad pair; given
+    beside ``dut_scale`` (``reference_scale``) they are refused, not silently preferred."""
+    from vrelab.analysis.readers import Scale
+
+    out = {"dut": dut_scale, "reference": reference_scale}
+    for channel, (units_key, sens_key) in _SCALE_KEYWORDS.items():
+        units, sens = options.pop(units_key, None), options.pop(sens_key, None)
+        if units is None and sens is None:
+            continue
+        if out[channel] is not None:
+            raise ValueError(f"give {channel}_scale or {units_key}/{sens_key}, not both")
+        out[channel] = Scale.parse(units, sens, f"{channel}")
+    return out["dut"], out["reference"]
+
+
+def _check_keywords(options: Mapping[str, Any]) -> None:
+    """An unknown keyword is a TypeError before any file is opened (as for any function)."""
+    from dataclasses import fields
+
+    from vrelab.analysis.options import RENAMED_KEYWORDS, BudgetOptions, FitOptions, ReductionOptions
+
+    known = {"options", "fit", "budget", "conditions", "provenance", "schedule", *RENAMED_KEYWORDS}
+    known |= {f.name for cls in (ReductionOptions, FitOptions, BudgetOptions) for f in fields(cls)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise TypeError(f"analyze() got an unexpected keyword argument {unknown[0]!r}")
 
 
 def _analyze_triaxial(source: Any, dut: Any, reference: Any, reading: tuple[Any, Any, Any], method: str,

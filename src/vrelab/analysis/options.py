@@ -179,7 +179,8 @@ def _is_number(x: Any) -> bool:
 
 
 # The former flat keywords of reduce / analyze / analyze_channels -> (which options, its field).
-_RENAMED = {"fit_k4": "k4"}
+# a former flat keyword whose field has another name
+RENAMED_KEYWORDS = {"fit_k4": "k4"}
 
 
 def from_keywords(
@@ -199,7 +200,7 @@ def from_keywords(
         return options, fit, budget
     groups: list[tuple[Any, dict[str, Any]]] = [(options, {}), (fit, {}), (budget, {})]
     for key, value in keywords.items():
-        name = _RENAMED.get(key, key)
+        name = RENAMED_KEYWORDS.get(key, key)
         for obj, changes in groups:
             if name in {f.name for f in fields(obj)}:
                 changes[name] = frozenset(value) if name == "accept" else value
