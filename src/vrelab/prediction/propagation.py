@@ -30,6 +30,13 @@ class Propagation:
     level_notes: tuple[tuple[str, ...], ...]  # per level: why the u is not a claim (empty: it is)
     notes: tuple[str, ...]  # which sources dominate
 
+    def applied(self, levels: Sequence[LevelPrediction]) -> list[LevelPrediction]:
+        """The levels with their u, u by source, and validity and notes where the u is no claim."""
+        return [dataclasses.replace(lv, u_vre_g=float(self.u_g[i]),
+                                    u_sources_g={k: float(v[i]) for k, v in self.sources_g.items()},
+                                    valid=lv.valid and not self.level_notes[i],
+                                    notes=lv.notes + self.level_notes[i]) for i, lv in enumerate(levels)]
+
 
 # The propagation is linear where the VRE moved by ±u of a parameter departs from the tangent by
 # less than this fraction of the tangent's step; beyond, u_vre_g is not a claim (valid False).

@@ -319,10 +319,7 @@ def predict(
             sensor = dataclasses.replace(sensor, uncertainty=on_axis)
         prop = propagation(sensor, excitation, levels_arr, g0, kind, vre_g=np.array([lv.vre_g for lv in out]),
                            predictor=predict)
-        out = [dataclasses.replace(lv, u_vre_g=float(prop.u_g[i]),
-                                   u_sources_g={k: float(v[i]) for k, v in prop.sources_g.items()},
-                                   valid=lv.valid and not prop.level_notes[i],
-                                   notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
+        out = prop.applied(out)
         notes += prop.notes
     out = [judged(lv) for lv in out]
     if getattr(sensor, "unstated", ()):

@@ -366,10 +366,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
 
         prop = propagation(sensor, cast(Any, excitation), levels_arr, u0, kind, vre_g=np.array([lv.vre_g for lv in out]),
                            predictor=again)
-        out = [dataclasses.replace(lv, u_vre_g=float(prop.u_g[i]),
-                                   u_sources_g={k: float(v[i]) for k, v in prop.sources_g.items()},
-                                   valid=lv.valid and not prop.level_notes[i],
-                                   notes=lv.notes + prop.level_notes[i]) for i, lv in enumerate(out)]
+        out = prop.applied(out)
         notes += prop.notes
     if ax.any_cross:
         notes += _bare_coefficients(sensor)
