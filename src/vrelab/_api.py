@@ -244,15 +244,13 @@ def _scales_named_as_the_cli(options: dict[str, Any], dut_scale: Any, reference_
 
 def _check_keywords(options: Mapping[str, Any]) -> None:
     """An unknown keyword is a TypeError before any file is opened (as for any function)."""
-    from dataclasses import fields
+    from vrelab.analysis.options import check_keywords
 
-    from vrelab.analysis.options import RENAMED_KEYWORDS, BudgetOptions, FitOptions, ReductionOptions
+    check_keywords("analyze", (k for k in options if k not in _OPTION_OBJECTS))
 
-    known = {"options", "fit", "budget", "conditions", "provenance", "schedule", *RENAMED_KEYWORDS}
-    known |= {f.name for cls in (ReductionOptions, FitOptions, BudgetOptions) for f in fields(cls)}
-    unknown = sorted(set(options) - known)
-    if unknown:
-        raise TypeError(f"analyze() got an unexpected keyword argument {unknown[0]!r}")
+
+# the keywords of vrelab.analysis.analyze that are not former flat keywords
+_OPTION_OBJECTS = frozenset({"options", "fit", "budget", "conditions", "provenance", "schedule"})
 
 
 def _analyze_triaxial(source: Any, dut: Any, reference: Any, reading: tuple[Any, Any, Any], method: str,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, fields, replace
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 from vrelab import _validate as V
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
@@ -183,6 +183,15 @@ def _is_number(x: Any) -> bool:
 RENAMED_KEYWORDS = {"fit_k4": "k4"}
 
 
+def check_keywords(where: str, keywords: Iterable[str]) -> None:
+    """A former flat keyword that names no field of the three options is a ``TypeError``, as for
+    any function (:func:`from_keywords`; ``vrelab.analyze`` asks before it opens a file)."""
+    known = {f.name for cls in (ReductionOptions, FitOptions, BudgetOptions) for f in fields(cls)}
+    for key in keywords:
+        if RENAMED_KEYWORDS.get(key, key) not in known:
+            raise TypeError(f"{where}() got an unexpected keyword argument {key!r}")
+
+
 def from_keywords(
     where: str,
     keywords: Mapping[str, Any],
@@ -198,15 +207,12 @@ def from_keywords(
     budget = budget if budget is not None else BudgetOptions()
     if not keywords:
         return options, fit, budget
+    check_keywords(where, keywords)
     groups: list[tuple[Any, dict[str, Any]]] = [(options, {}), (fit, {}), (budget, {})]
     for key, value in keywords.items():
         name = RENAMED_KEYWORDS.get(key, key)
-        for obj, changes in groups:
-            if name in {f.name for f in fields(obj)}:
-                changes[name] = frozenset(value) if name == "accept" else value
-                break
-        else:
-            raise TypeError(f"{where}() got an unexpected keyword argument {key!r}")
+        obj, changes = next(g for g in groups if name in {f.name for f in fields(g[0])})
+        changes[name] = frozenset(value) if name == "accept" else value
     warnings.warn(
         f"{where}(): the keywords {', '.join(sorted(keywords))} are deprecated and will be removed in the next "
         "release; pass options=ReductionOptions(...), fit=FitOptions(...), budget=BudgetOptions(...) "
@@ -226,6 +232,7 @@ __all__ = [
     "FitOptions",
     "ReductionOptions",
     "check_band",
+    "check_keywords",
     "default_band",
     "from_keywords",
 ]
