@@ -247,3 +247,9 @@ def test_cli_identify_contract(example_campaign_out: Path, tmp_path: Path, capsy
     assert "SN 0001" in html and "SN 0002" in html
     assert "Channel sn1" in html and "Channel sn2" in html and "2f cross-check" in html
     assert "do not reach the lower rail" in html and html.count("<img") >= 4
+
+
+def test_identify_names_options_of_the_wrong_type() -> None:
+    # a dict in place of IdentifyOptions used to fail deep inside with an AttributeError
+    with pytest.raises(TypeError, match="options must be an IdentifyOptions, not dict"):
+        identify({"runs": []}, "ideal", options={"kind": "clip"})  # type: ignore[arg-type]

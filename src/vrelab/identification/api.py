@@ -59,6 +59,10 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     from vrelab.models.clipping import KINDS
     from vrelab.sensor import load_sensor
 
+    if options is not None and not isinstance(options, IdentifyOptions):
+        # a dict or another options object would fail later on a missing attribute
+        raise TypeError(f"identify: options must be an IdentifyOptions, not {type(options).__name__}"
+                        " (vrelab.identification.IdentifyOptions(kind=..., typeb=..., workers=...))")
     opts = options or IdentifyOptions()
     kind, typeb = opts.kind, opts.typeb
     V.one_of("kind", kind, KINDS)
