@@ -50,21 +50,20 @@ def contrast_var(boxes: Sequence[Box]) -> NDArray[np.float64]:
 
     The coefficients sum to 0 (a difference, which makes the random walk's integral converge).
     White noise in closed form, ``Σ c²/(2T)`` (boxes that do not overlap); flicker and random
-    walk numerically on a logarithmic grid, whose ends (10⁻⁴/span, 10³/T) lose nothing: the
-    integrand is O(f^(α+3)) at 0 for a difference (O(f^(α+5)) for a second difference) and
-    O(f^(α−2)) above 1/T."""
-    t = np.array([b[0] for b in boxes], dtype=float)
-    T = np.array([b[1] for b in boxes], dtype=float)
+    walk by :func:`vrelab.analysis.levels.second_difference_var` (the same integral on its
+    logarithmic grid, cached by the boxes' geometry: every record's Hadamard rows ask for the
+    same octaves), whose ends lose nothing: the integrand is O(f^(α+3)) at 0 for a difference
+    (O(f^(α+5)) for a second difference) and O(f^(α−2)) above 1/T."""
+    from vrelab.analysis.levels import second_difference_var
+
     c = np.array([b[2] for b in boxes], dtype=float)
+    T = np.array([b[1] for b in boxes], dtype=float)
     white = float(np.sum(c * c / (2 * T)))
-    span = float(np.max(t + T / 2) - np.min(t - T / 2))
-    f = np.logspace(math.log10(1e-4 / span), math.log10(1e3 / float(np.min(T))), 1500)
-    W = (c[None, :] * np.exp(-2j * np.pi * f[:, None] * (t - t.mean())[None, :])
-         * np.sinc(f[:, None] * T[None, :])).sum(axis=1)
-    red = np.array(NOISE_ALPHAS[1:])
-    y = f[None, :] ** (red[:, None] + 1.0) * (np.abs(W) ** 2)[None, :]  # × f: over ln f
-    out: NDArray[np.float64] = np.concatenate([[white], np.trapezoid(y, np.log(f), axis=1)])
+    out: NDArray[np.float64] = np.concatenate([[white], second_difference_var(boxes, _RED_ALPHAS)])
     return out
+
+
+_RED_ALPHAS = np.array(NOISE_ALPHAS[1:])
 
 
 def _box_means(y: NDArray[np.float64], m: int) -> NDArray[np.float64]:

@@ -125,8 +125,11 @@ def _rail_asymmetry(mu: NDArray[np.float64], low: NDArray[np.float64], high: NDA
 
 def _mills_gap(t: NDArray[np.float64]) -> NDArray[np.float64]:
     """``q(t) = 1 - t·R(t)`` for t >= 0, where R(t) = (1-Φ(t))/φ(t) is Mills' ratio."""
-    q = np.empty_like(t)
     small = t < _SERIES_T
+    if small.all():  # the common case, without the masked copies
+        out: NDArray[np.float64] = 1.0 - t * _SQRT_HALF_PI * special.erfcx(t / np.sqrt(2.0))
+        return out
+    q = np.empty_like(t)
     ts = t[small]
     q[small] = 1.0 - ts * _SQRT_HALF_PI * special.erfcx(ts / np.sqrt(2.0))
     # 1 - tR(t) ~ Σ (-1)^(k+1) (2k-1)!! / t^(2k): the asymptotic series of Mills' ratio [A&S 26.2.12]
@@ -194,11 +197,29 @@ def censored_mean_shift(
     .. [2] M. Abramowitz, I. Stegun, Handbook of Mathematical Functions, 26.2.12 (Mills' ratio).
     """
     mu, sigma, low, high = _inputs(mean_g, sigma_g, "sigma_g", rail_low_g, rail_high_g)
-    out = np.empty(mu.shape)
     det = sigma == 0
+    if not det.any():  # the common case (a rail fit's thousands of calls): no mask to apply
+        return _scalar_or_array(_censored_random(*(_compact(x) for x in (mu, sigma, low, high))))
+    out = np.empty(mu.shape)
     out[det] = np.clip(mu[det], low[det], high[det]) - mu[det]
     r = ~det
-    mu, sigma, low, high = mu[r], sigma[r], low[r], high[r]
+    out[r] = _censored_random(mu[r], sigma[r], low[r], high[r])
+    return _scalar_or_array(out)
+
+
+def _compact(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A broadcast view's own values: length 1 along the axes it was broadcast over (stride 0)."""
+    return x[tuple(slice(0, 1) if st == 0 and n > 1 else slice(None) for st, n in zip(x.strides, x.shape))]
+
+
+def _censored_random(mu: NDArray[np.float64], sigma: NDArray[np.float64], low: NDArray[np.float64],
+                     high: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`censored_mean_shift` where σ > 0 (arrays that broadcast together). Every value is
+    computed elementwise, so the rail terms are taken over the whole array and the balanced rails'
+    quadrature then replaces them where it applies, and what depends on the rails alone (their
+    asymmetry) is taken once per rail, not once per rail and level of a rail fit's grid: the
+    same operations on the same values as taking each branch over its own elements of the
+    broadcast arrays, without the masked copies (a third of a rail fit's time)."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         a = (mu - low) / sigma  # = -α, distance to the lower rail in σ
         b = (high - mu) / sigma  # = β
@@ -206,24 +227,20 @@ def censored_mean_shift(
         width = np.abs(gap / sigma)
         reach = np.maximum(1.0, np.maximum(np.abs(a), np.abs(b)))
         narrow = np.isfinite(gap) & (width * reach <= _NARROW)
-    res = np.empty(mu.shape)
-
-    # Rail terms, each a positive physical contribution. σ·G(t) for t < 0 is σ·G(-t) + distance
-    # beyond the rail, and the distance is taken from the inputs, not from σ·|t| (σ may be 1e-300).
-    w = ~narrow
-    lower = sigma[w] * _partial_expectation(np.abs(a[w])) + np.maximum(low[w] - mu[w], 0.0)
-    upper = sigma[w] * _partial_expectation(np.abs(b[w])) + np.maximum(mu[w] - high[w], 0.0)
-    res[w] = lower - upper
-
-    # Balanced rails: VRE = σ∫_a^b Φ(-t) dt = gap · mean of Φ(-t) over [a, b].
-    n = narrow
-    mid = 0.5 * (a[n] + b[n])
-    half = 0.5 * (b[n] - a[n])
-    nodes = mid[:, None] + half[:, None] * _GL_X
-    res[n] = gap[n] * (0.5 * special.ndtr(-nodes) @ _GL_W)
-
-    out[r] = res
-    return _scalar_or_array(out)
+        # Rail terms, each a positive physical contribution. σ·G(t) for t < 0 is σ·G(-t) + distance
+        # beyond the rail, and the distance is taken from the inputs, not from σ·|t| (σ may be 1e-300).
+        lower = sigma * _partial_expectation(np.abs(a)) + np.maximum(low - mu, 0.0)
+        upper = sigma * _partial_expectation(np.abs(b)) + np.maximum(mu - high, 0.0)
+    res: NDArray[np.float64] = np.asarray(lower - upper)  # 0-d: an array, not a numpy scalar
+    if narrow.any():
+        # Balanced rails: VRE = σ∫_a^b Φ(-t) dt = gap · mean of Φ(-t) over [a, b].
+        n = narrow
+        a, b, gap = (np.broadcast_to(x, res.shape)[n] for x in (a, b, gap))
+        mid = 0.5 * (a + b)
+        half = 0.5 * (b - a)
+        nodes = mid[:, None] + half[:, None] * _GL_X
+        res[n] = gap * (0.5 * special.ndtr(-nodes) @ _GL_W)
+    return res
 
 
 def censored_rail_derivatives(
