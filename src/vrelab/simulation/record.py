@@ -41,7 +41,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
-from typing import Any, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +53,9 @@ from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import record_step
 from vrelab.record import Schedule, Segment
 from vrelab.synthesis import Method as DriveMethod
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 # Internal samples per simulated block: large enough that per-block Python overhead is small
 # against the numpy/scipy work (2^16 runs as fast as 2^17, measured on the ADXL355 random test),
@@ -145,7 +148,7 @@ class SimulatedRecord:
 
     def __init__(
         self,
-        sensor: Any,
+        sensor: Sensor,
         segments: Sequence[Stretch],
         rates: Rates,
         static_g: float,
@@ -387,7 +390,7 @@ class SimulatedRecord:
             bar.close()
 
 
-def rail_window(sensor: Any) -> tuple[float, float]:
+def rail_window(sensor: Sensor) -> tuple[float, float]:
     """(low, high): DUT output at or beyond these counts as saturated."""
     low, high = (float(r) for r in sensor.rails_g)
     lsb = getattr(sensor, "lsb_g", None) or 0.0

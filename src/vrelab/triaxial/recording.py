@@ -48,6 +48,7 @@ from vrelab.triaxial.profile import AXES, TriaxialProfile
 
 if TYPE_CHECKING:
     from vrelab.analysis.readers import Scale
+    from vrelab.record import Record
 
 __all__ = ["CsdAccumulator", "MeasuredCsd", "RecordingOptions", "band_csd", "measure_csd", "read_recording_profile"]
 
@@ -310,7 +311,7 @@ def measure_csd(
     return band_csd(acc, band_hz, points_per_octave)
 
 
-def record_blocks(record: Any, channels: Sequence[str], start: int = 0, stop: int | None = None,
+def record_blocks(record: Record, channels: Sequence[str], start: int = 0, stop: int | None = None,
                   block: int = DEFAULT_BLOCK) -> Iterable[NDArray[np.float64]]:
     """(n, 3) blocks of three channels of a :class:`vrelab.record.Record` (x, y, z order)."""
     for b in record.blocks(block, list(channels), start, stop):

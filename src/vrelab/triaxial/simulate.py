@@ -27,7 +27,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence, TypedDict, Unpack
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,6 +42,9 @@ from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 from vrelab.triaxial.synthesis import direction_blocks
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 FloatArray = NDArray[np.float64]
 
@@ -101,7 +104,7 @@ class DirectionDrive(TypedDict, total=False):
 
 
 def simulate_direction(
-    sensors: Any,
+    sensors: Sensor | Sequence[Sensor],
     excitation: RandomProfile | SineOnRandom | TriaxialSine,
     n_samples: int,
     *,
@@ -229,7 +232,7 @@ class _Counts:
 PLAN_KEYWORDS = {"baseline_s": DEFAULT_BASELINE_S, "settle_s": None, "fs_internal_hz": None, "progress": False}
 
 
-def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
+def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
     """Deprecated alias of :func:`vrelab.simulate` (one release): the same test, bit for bit.
 
     ``simulate_triaxial(sensors, excitation, levels_g, direction=..., static_g=(gx, gy, gz), ...)``
@@ -249,7 +252,7 @@ def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], 
 
 
 def run_triaxial_test(
-    sensors: Any,
+    sensors: Sensor | Sequence[Sensor],
     excitation: TriaxialProfile | TriaxialSine | RandomProfile,
     levels_g: Sequence[float],
     static_g: ArrayLike | None = None,
