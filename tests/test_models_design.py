@@ -91,3 +91,32 @@ def test_fixture_rule():
     """Article: fixture's lowest resonance >= 1.5 × highest test frequency."""
     assert fixture_resonance_ok(3000.0, 2000.0)
     assert not fixture_resonance_ok(2999.0, 2000.0)
+
+
+def test_options_given_by_position_as_before_still_work_with_a_deprecation_warning():
+    """Issue 31's limit of 8 parameters made the trailing options of the model functions
+    keywords; a call that gives them by position, as before, returns the same number for one
+    release and warns (the suite's filterwarnings turns that warning into an error, so vrelab's
+    own code cannot rely on it). Equality is exact: both calls run the same arithmetic."""
+    from vrelab.models.memoryless import poly_clip_vre
+
+    by_name = poly_clip_vre(1.0, 0.8, 0.01, 0.002, 0.0, offset_g=0.05, rail_low_g=-2.0, rail_high_g=2.0,
+                            kind="truncated")
+    with pytest.warns(DeprecationWarning, match=r"poly_clip_vre\(\): the keywords offset_g, rail_low_g, rail_high_g, "
+                      r"shape, kind given by position are deprecated"):
+        assert poly_clip_vre(1.0, 0.8, 0.01, 0.002, 0.0, 0.05, -2.0, 2.0, "gaussian", "truncated") == by_name
+    with pytest.warns(DeprecationWarning, match="total_vre"):
+        assert total_vre(1.5, 1.0, -2.0, 2.0, 0.01, 0.0, "sine") == total_vre(1.5, 1.0, -2.0, 2.0, 0.01, shape="sine")
+    with pytest.warns(DeprecationWarning, match="max_rms_for_budget"):
+        assert max_rms_for_budget(0.05, 1.0, -2.0, 2.0, 0.01, 0.0, "gaussian", "truncated") == max_rms_for_budget(
+            0.05, 1.0, -2.0, 2.0, 0.01, kind="truncated")
+    with pytest.warns(DeprecationWarning, match="overrange_vre"):
+        assert overrange_vre(1.0, 4.0, 8.0, 5e-4, 800.0, 0.0, (), (), 1.5) == overrange_vre(
+            1.0, 4.0, 8.0, 5e-4, 800.0, held_mean_g=1.5)
+    # a call Python itself would refuse is still refused, in Python's words
+    with pytest.raises(TypeError, match="unexpected keyword argument 'rail_low'"):
+        poly_clip_vre(1.0, 0.8, rail_low=-2.0)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="multiple values for argument 'offset_g'"):
+        poly_clip_vre(1.0, 0.8, 0.0, 0.0, 0.0, 0.1, offset_g=0.1)
+    with pytest.raises(TypeError, match="at most 6 optional positional"):
+        poly_clip_vre(1.0, 0.8, 0.0, 0.0, 0.0, 0.1, -2.0, 2.0, "gaussian", "censored", (), 7)

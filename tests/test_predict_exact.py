@@ -107,7 +107,7 @@ def test_memoryless_chain_against_numpy_monte_carlo(g0, k2, k3, k4, sigma):
               + k4 * (g0**4 + 6 * g0**2 * sigma**2 + 3 * sigma**4) + off)
     ref = float(np.clip(poly(g0), low, high))
     mc, se = _mc_mean(rng, sigma, beyond, n=200_000, reps=4)
-    got = poly_clip_vre(g0, sigma, k2, k3, k4, off, low, high)
+    got = poly_clip_vre(g0, sigma, k2, k3, k4, offset_g=off, rail_low_g=low, rail_high_g=high)
     assert got == pytest.approx(mc + mean_p - ref, abs=4 * se + 1e-6), (got, mc + mean_p - ref, se)
 
 
@@ -121,14 +121,14 @@ def test_memoryless_chain_sine_and_truncated_against_numpy(g0):
     y = g0 + amp * np.cos(theta)
     p = y + k2 * y * y + k3 * y**3
     ref = g0 + k2 * g0**2 + k3 * g0**3
-    assert poly_clip_vre(g0, amp / math.sqrt(2), k2, k3, 0.0, 0.0, low, high, shape="sine") == pytest.approx(
+    assert poly_clip_vre(g0, amp / math.sqrt(2), k2, k3, rail_low_g=low, rail_high_g=high, shape="sine") == pytest.approx(
         float(np.mean(np.clip(p, low, high))) - ref, abs=1e-9)
     rng = np.random.default_rng(7)
     x = g0 + rng.standard_normal(4_000_000) * 1.1
     px = x + k2 * x * x + k3 * x**3
     kept = px[(px > low) & (px < high)]
     se = float(np.std(kept) / math.sqrt(kept.size))
-    assert poly_clip_vre(g0, 1.1, k2, k3, 0.0, 0.0, low, high, kind="truncated") == pytest.approx(
+    assert poly_clip_vre(g0, 1.1, k2, k3, rail_low_g=low, rail_high_g=high, kind="truncated") == pytest.approx(
         float(np.mean(kept)) - ref, abs=4 * se)
 
 

@@ -52,13 +52,13 @@ __all__ = [
 # --- running a test ---------------------------------------------------------------------------
 
 
-def conditions(sensor: Any, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
+def conditions(sensor: Sensor, profile_text: str, static_g: float, extra: Mapping[str, Any]) -> Conditions:
     """The sensor's conditions (range, axis, ODR, bandwidth, rails) plus the test's."""
     base: Conditions = sensor.conditions(static_g=float(static_g), profile=profile_text, model="simulation")
     return dataclasses.replace(base, extra={**dict(base.extra), **dict(extra)})
 
 
-def provenance(function: str, sensor: Any) -> dict[str, Any]:
+def provenance(function: str, sensor: Sensor) -> dict[str, Any]:
     prov: dict[str, Any] = {
         "software": f"vrelab {__version__}",
         "function": function,

@@ -159,15 +159,7 @@ def sine_level(
     reference, or when 2f is at or above Nyquist."""
     fs = record.fs_hz
     warnings: list[str] = []
-    key = ("frequency", i0, i1)
-    if shared is not None and key in shared:
-        f = shared[key]
-    else:
-        n_probe = min(i1 - i0, 1 << 17)
-        probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
-        f = estimate_frequency(probe, fs)
-        if shared is not None:
-            shared[key] = f
+    f = _drive_frequency(record, i0, i1, ref, shared)
     if freq_hint is not None and abs(f - freq_hint) > 0.05 * freq_hint:
         warnings.append(Notice("frequency", f"drive found at {f:.4g} Hz, schedule says {freq_hint:.4g} Hz"))
     m, L = whole_period_batch(f, fs)
@@ -194,20 +186,8 @@ def sine_level(
     blk_len = max(L, (block_size // L) * L)
     chans = ["dut"] if ref == "dut" else ["dut", ref]
     labels = channel_labels(record)
-    # The basis of a batch starting at phase φ is the first batch's, rotated: each harmonic h's
-    # (cos, sin) pair turns by h·φ. So the functions are evaluated once, on L samples; each
-    # batch's sums are the first batch's sums rotated (Gram matrix R·G0·Rᵀ, right side R·(B0·x)),
-    # with no trigonometry per sample.
-    n0 = np.arange(L)
-    rows = [np.ones(L), np.cos(w * n0), np.sin(w * n0)] + ([np.cos(2 * w * n0), np.sin(2 * w * n0)] if two_f else [])
-    B0 = np.stack(rows)  # (functions, L)
-    G0 = B0 @ B0.T
-    # The reference's harmonics 1..H (physics §4.4), fitted per batch in the batch's own phase frame
-    # (amplitudes and moments do not depend on the frame; _drive_waveform turns the phasors to a
-    # common one): the same basis for every batch, so one Gram matrix.
     n_h = min(DRIVE_HARMONICS, int(math.ceil(0.5 * fs / f)) - 1) if ref != "dut" else 0
-    BH = np.stack([np.ones(L)] + [g(h * w * n0) for h in range(1, n_h + 1) for g in (np.cos, np.sin)]) if n_h else None
-    GH: NDArray[np.float64] | None = BH @ BH.T if BH is not None else None
+    n0, B0, G0, BH, GH = _batch_bases(w, L, two_f, n_h)
     rhs_h = np.zeros((nb, 2 * n_h + 1))
     ref_ss = np.zeros(nb)  # Σ (ref - its harmonic fit)² per batch: what the harmonics leave
     pos = i0
@@ -216,7 +196,7 @@ def sine_level(
         k = nn // L
         sl = slice((pos - i0) // L, (pos - i0) // L + k)
         # Phase from the segment start: batches of whole periods line up with it.
-        R = _harmonic_rotations(w * ((pos - i0) + L * np.arange(k)), nf)  # (batch, nf, nf)
+        R = _harmonic_rotations(w * ((pos - i0) + L * np.arange(k, dtype=np.float64)), nf)  # (batch, nf, nf)
         basis_sums[sl] = R @ G0 @ R.transpose(0, 2, 1)
         for c in chans:
             x = blk[c]
@@ -256,13 +236,7 @@ def sine_level(
     # the rms's share of the frequency correction's u and the arithmetic's rounding
     u_rms = math.hypot(rm.u / (2 * rms), u_df["rms"], _rounding_u(rms, L)) if rms > 0 else math.nan
     t_c = (i0 + stop) / 2 / fs
-    h2 = None
-    if two_f:
-        c1 = coef["dut"][:, 1] - 1j * coef["dut"][:, 2]
-        c2 = (coef["dut"][:, 3] - coef[ref][:, 3]) - 1j * (coef["dut"][:, 4] - coef[ref][:, 4])
-        m2 = np.abs(c1) ** 2
-        if np.all(m2 > 0):
-            h2 = batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
+    h2 = _two_f_shift(coef["dut"], coef[ref]) if two_f else None
     drive = None
     if GH is not None:
         coef_h = np.asarray(np.linalg.solve(GH, rhs_h.T).T, dtype=np.float64)
@@ -273,6 +247,54 @@ def sine_level(
                 warnings.append(Notice("drive", note))
     return SineLevel(f, dm, MeanEstimate(rms, u_rms, rm.tau, rm.batch, rm.n_batches), t_c, stop - i0, warnings, h2,
                      drive, np.asarray(dut_means, dtype=np.float64))
+
+
+def _drive_frequency(record: Record, i0: int, i1: int, ref: str, shared: dict[Any, Any] | None) -> float:
+    """The drive's frequency on samples ``i0:i1``, estimated on the first 2**17 samples of
+    ``ref``; found once per level for all the DUT channels sharing ``shared``."""
+    key = ("frequency", i0, i1)
+    if shared is not None and key in shared:
+        return float(shared[key])
+    n_probe = min(i1 - i0, 1 << 17)
+    probe = next(record.blocks(n_probe, [ref], i0, i0 + n_probe))[ref]
+    f = estimate_frequency(probe, record.fs_hz)
+    if shared is not None:
+        shared[key] = f
+    return f
+
+
+def _batch_bases(w: float, L: int, two_f: bool, n_h: int) -> tuple[NDArray[np.int_], NDArray[np.float64],
+                                                                   NDArray[np.float64], NDArray[np.float64] | None,
+                                                                   NDArray[np.float64] | None]:
+    """(n0, B0, G0, BH, GH): the first batch's sample index, fit basis and its Gram matrix, and
+    the reference's harmonic basis and Gram matrix (None without harmonics, ``n_h`` = 0).
+
+    The basis of a batch starting at phase φ is the first batch's, rotated: each harmonic h's
+    (cos, sin) pair turns by h·φ. So the functions are evaluated once, on L samples; each
+    batch's sums are the first batch's sums rotated (Gram matrix R·G0·Rᵀ, right side R·(B0·x)),
+    with no trigonometry per sample. The reference's harmonics 1..H (physics §4.4) are fitted
+    per batch in the batch's own phase frame (amplitudes and moments do not depend on the frame;
+    _drive_waveform turns the phasors to a common one): the same basis for every batch, so one
+    Gram matrix."""
+    n0 = np.arange(L)
+    rows = [np.ones(L), np.cos(w * n0), np.sin(w * n0)] + ([np.cos(2 * w * n0), np.sin(2 * w * n0)] if two_f else [])
+    B0 = np.stack(rows)  # (functions, L)
+    G0 = B0 @ B0.T
+    BH = np.stack([np.ones(L)] + [g(h * w * n0) for h in range(1, n_h + 1) for g in (np.cos, np.sin)]) if n_h else None
+    GH: NDArray[np.float64] | None = BH @ BH.T if BH is not None else None
+    return n0, B0, G0, BH, GH
+
+
+def _two_f_shift(dut: NDArray[np.float64], ref: NDArray[np.float64]) -> MeanEstimate | None:
+    """The 2f estimate of the rectified shift, ``Re[(c2 - r2)·conj(c1)²]/|c1|²`` per batch
+    (``sine_level``'s docstring), from the batches' fitted phasors (columns 1-4: cos, sin at f
+    and 2f); None where a batch has no response at f."""
+    c1 = dut[:, 1] - 1j * dut[:, 2]
+    c2 = (dut[:, 3] - ref[:, 3]) - 1j * (dut[:, 4] - ref[:, 4])
+    m2 = np.abs(c1) ** 2
+    if np.all(m2 > 0):
+        return batch_mean(np.real(c2 * np.conj(c1) ** 2) / m2, detrend=False)
+    return None
 
 
 # A distorted drive's moments are the reference's: the DUT is taken to see the same waveform,

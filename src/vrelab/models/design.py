@@ -10,12 +10,12 @@
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Sequence, TypedDict, Unpack, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vrelab import _validate
+from vrelab import _keywords, _validate
 from vrelab.models.clipping import Kind, Shape, mean_shift, sine_on_random_mean_shift
 from vrelab.models.dynamics import rice_upcrossing_rate
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
@@ -59,6 +59,33 @@ def clip_vre(
     return out[()] if out.ndim == 0 else out
 
 
+class IdealSensorOptions(TypedDict, total=False):
+    """The keywords of :func:`ideal_vre_shares` and :func:`total_vre` after the polynomial:
+    ``shape`` of the vibration and ``kind`` of clipping (:func:`vrelab.models.clipping.mean_shift`;
+    defaults ``"gaussian"``, :data:`vrelab.models.kinds.DEFAULT_CLIP_KIND`) and the offset
+    ``offset_g`` [g] added before the rails (default 0)."""
+
+    shape: Shape
+    kind: Kind
+    offset_g: float
+
+
+class BudgetSearchOptions(TypedDict, total=False):
+    """The keywords of :func:`max_rms_for_budget` after the polynomial (its parameters' docs)."""
+
+    shape: Shape
+    kind: Kind
+    rms_max_g: float | None
+
+
+class OverrangeOptions(TypedDict, total=False):
+    """The keywords of :func:`overrange_vre` after ``value_g`` (its parameters' docs)."""
+
+    tone_peaks_g: Sequence[float]
+    tone_freqs_hz: Sequence[float]
+    held_mean_g: ArrayLike | None
+
+
 def ideal_vre_shares(
     rms_g: ArrayLike,
     mean_g: float,
@@ -66,9 +93,8 @@ def ideal_vre_shares(
     rail_high_g: float,
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
-    shape: Shape = "gaussian",
-    kind: Kind = DEFAULT_CLIP_KIND,
-    offset_g: float = 0.0,
+    *legacy: object,
+    **options: Unpack[IdealSensorOptions],
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
     """(clipping, polynomial) VRE of an ideal sensor [g]: shares of one exact mean.
 
@@ -78,13 +104,20 @@ def ideal_vre_shares(
     :func:`vrelab.models.nonlinearity.vre_poly` (exact), the clipping share what the rails add
     to it: the convention :func:`vrelab.prediction.predict` follows for any sensor by walking its
     stages (the sweep's ``model`` points go through those stages, :func:`vrelab.prediction.memoryless_level`).
+
+    ``shape``, ``kind`` and ``offset_g`` are keywords (:class:`IdealSensorOptions`); given by
+    position, as before, they still work for one release with a ``DeprecationWarning``.
     """
     from vrelab.models.memoryless import poly_clip_vre
 
+    o = cast(IdealSensorOptions, _keywords.merged("ideal_vre_shares", list(IdealSensorOptions.__annotations__),
+                                                  legacy, options))
+    shape, kind = o.get("shape", "gaussian"), o.get("kind", DEFAULT_CLIP_KIND)
     rms = np.asarray(_validate.non_negative("rms_g", rms_g), dtype=np.float64)
     poly = np.asarray(vre_poly(rms, k2_per_g, k3_per_g2, static_g=mean_g, shape=shape), dtype=np.float64)
-    total = np.vectorize(lambda r: poly_clip_vre(mean_g, float(r), k2_per_g, k3_per_g2, 0.0, offset_g,
-                                                 rail_low_g, rail_high_g, shape, kind), otypes=[float])(rms)
+    total = np.vectorize(lambda r: poly_clip_vre(mean_g, float(r), k2_per_g, k3_per_g2, 0.0,
+                                                 offset_g=o.get("offset_g", 0.0), rail_low_g=rail_low_g,
+                                                 rail_high_g=rail_high_g, shape=shape, kind=kind), otypes=[float])(rms)
     clip = total - poly
     return (clip[()] if clip.ndim == 0 else clip), (poly[()] if poly.ndim == 0 else poly)
 
@@ -96,13 +129,17 @@ def total_vre(
     rail_high_g: float,
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
-    shape: Shape = "gaussian",
-    kind: Kind = DEFAULT_CLIP_KIND,
-    offset_g: float = 0.0,
+    *legacy: object,
+    **options: Unpack[IdealSensorOptions],
 ) -> NDArray[np.float64] | float:
     """Clipping plus polynomial VRE of an ideal sensor [g]: the exact mean of the polynomial
-    followed by the rails (:func:`ideal_vre_shares`, whose shares add up to it)."""
-    clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind, offset_g)
+    followed by the rails (:func:`ideal_vre_shares`, whose shares add up to it).
+
+    ``shape``, ``kind`` and ``offset_g`` are keywords (:class:`IdealSensorOptions`); given by
+    position, as before, they still work for one release with a ``DeprecationWarning``."""
+    o = cast(IdealSensorOptions, _keywords.merged("total_vre", list(IdealSensorOptions.__annotations__), legacy,
+                                                  options))
+    clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, **o)
     return clip + poly
 
 
@@ -113,9 +150,8 @@ def max_rms_for_budget(
     rail_high_g: float,
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
-    shape: Shape = "gaussian",
-    kind: Kind = DEFAULT_CLIP_KIND,
-    rms_max_g: float | None = None,
+    *legacy: object,
+    **options: Unpack[BudgetSearchOptions],
 ) -> float:
     """Largest vibration rms whose |VRE| stays within ``budget_g`` at every lower level [g rms].
 
@@ -133,6 +169,9 @@ def max_rms_for_budget(
         Vibration shape and clipping model (see :func:`vrelab.models.clipping.mean_shift`).
     rms_max_g : float, optional
         Upper end of the search; default 100 × the larger of the rail distances and 1 g.
+
+    ``shape``, ``kind`` and ``rms_max_g`` are keywords (:class:`BudgetSearchOptions`); given by
+    position, as before, they still work for one release with a ``DeprecationWarning``.
 
     Returns
     -------
@@ -153,11 +192,15 @@ def max_rms_for_budget(
     opposite sign to the clipping shift, |VRE| can rise, fall through zero and rise again, and
     the designer wants the first crossing.
     """
+    o = cast(BudgetSearchOptions, _keywords.merged("max_rms_for_budget", list(BudgetSearchOptions.__annotations__),
+                                                   legacy, options))
+    shape, kind, rms_max_g = o.get("shape", "gaussian"), o.get("kind", DEFAULT_CLIP_KIND), o.get("rms_max_g")
     budget = _validate.positive_scalar("budget_g", budget_g)
     mu = _validate.finite_scalar("mean_g", mean_g)
 
     def excess(rms: float) -> float:
-        return abs(float(total_vre(rms, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind))) - budget
+        return abs(float(total_vre(rms, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape=shape,
+                                   kind=kind))) - budget
 
     if not rail_low_g < mu < rail_high_g or excess(0.0) >= 0:
         raise ValueError(
@@ -169,7 +212,8 @@ def max_rms_for_budget(
         rms_max_g = 100.0 * max([1.0, *finite_rails])
     top = _validate.positive_scalar("rms_max_g", rms_max_g)
     grid = np.geomspace(1e-9, top, 400)
-    ex = np.abs(np.asarray(total_vre(grid, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape, kind))) - budget
+    ex = np.abs(np.asarray(total_vre(grid, mu, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, shape=shape,
+                                     kind=kind))) - budget
     over = np.flatnonzero(ex >= 0)
     if over.size == 0:
         raise ValueError(f"budget_g={budget_g!r} is never reached for rms up to {top:g} g")
@@ -295,9 +339,8 @@ def overrange_vre(
     hold_s: ArrayLike,
     nu0_hz: ArrayLike,
     value_g: ArrayLike = 0.0,
-    tone_peaks_g: Sequence[float] = (),
-    tone_freqs_hz: Sequence[float] = (),
-    held_mean_g: ArrayLike | None = None,
+    *legacy: object,
+    **options: Unpack[OverrangeOptions],
 ) -> NDArray[np.float64] | float:
     r"""Estimated extra VRE from over-range protection [g] (physics §1.3).
 
@@ -326,6 +369,9 @@ def overrange_vre(
         (:func:`overrange_held_mean_g`); default ``mean_g`` (the static field: too small where
         the holds start beyond the threshold, by half on the ADXL355 X at ±8 g, 4 g rms).
 
+    The parameters after ``value_g`` are keywords (:class:`OverrangeOptions`); given by position,
+    as before, they still work for one release with a ``DeprecationWarning``.
+
     Returns
     -------
     numpy.ndarray or float
@@ -343,11 +389,14 @@ def overrange_vre(
     independent (ignores the clustering of crossings within one excursion and the correlation of
     re-triggering with the motion), and ignores the transient as the output floats.
     """
+    o = cast(OverrangeOptions, _keywords.merged("overrange_vre", list(OverrangeOptions.__annotations__), legacy,
+                                                options))
+    held_mean_g = o.get("held_mean_g")
     mu = _validate.finite("mean_g", mean_g)
     hold = _validate.non_negative("hold_s", hold_s)
     v = _validate.finite("value_g", value_g)
     held = mu if held_mean_g is None else _validate.finite("held_mean_g", held_mean_g)
-    nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz, tone_peaks_g, tone_freqs_hz)
+    nu = overrange_trip_rate_hz(threshold_g, mu, sigma_g, nu0_hz, o.get("tone_peaks_g", ()), o.get("tone_freqs_hz", ()))
     p = -np.expm1(-nu * hold)
     out = np.asarray(p * (v - held), dtype=np.float64)
     return out[()] if out.ndim == 0 else out

@@ -37,14 +37,14 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any, Callable, Literal, Sequence
+from typing import Any, Callable, Literal, Sequence, TypedDict, Unpack, cast
 
 import numpy as np
 from numpy.polynomial import Polynomial
 from numpy.typing import NDArray
 from scipy import special
 
-from vrelab import _validate
+from vrelab import _keywords, _validate
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS, Kind
 
 Shape = Literal["gaussian", "sine"]
@@ -269,18 +269,25 @@ def _sine(c: Coefficients, pieces: Sequence[tuple[float, float, str]], low: floa
     return total, inside
 
 
+class PolyClipOptions(TypedDict, total=False):
+    """The keywords of :func:`poly_clip_vre` after the polynomial (its parameters' docs)."""
+
+    offset_g: float
+    rail_low_g: float
+    rail_high_g: float
+    shape: Shape
+    kind: Kind
+    tone_peaks_g: Sequence[float]
+
+
 def poly_clip_vre(
     static_g: float,
     rms_g: float,
     k2_per_g: float = 0.0,
     k3_per_g2: float = 0.0,
     k4_per_g3: float = 0.0,
-    offset_g: float = 0.0,
-    rail_low_g: float = -math.inf,
-    rail_high_g: float = math.inf,
-    shape: Shape = "gaussian",
-    kind: Kind = DEFAULT_CLIP_KIND,
-    tone_peaks_g: Sequence[float] = (),
+    *legacy: object,
+    **options: Unpack[PolyClipOptions],
 ) -> float:
     r"""VRE [g] of ``clip(P(g0 + x) + offset, L, U)``: polynomial and rails as one memoryless map.
 
@@ -304,6 +311,9 @@ def poly_clip_vre(
     tone_peaks_g : sequence of float
         Sine tones [g peak] on the Gaussian part (sine-on-random), independent uniform phases.
 
+    The parameters after ``k4_per_g3`` are keywords (:class:`PolyClipOptions`); given by
+    position, as before, they still work for one release with a ``DeprecationWarning``.
+
     Returns
     -------
     float
@@ -318,6 +328,9 @@ def poly_clip_vre(
     Closed form: see the module notes (truncated normal moments on the pieces between the
     kinks; Gauss-Legendre in θ for a sine; the tones' phase average for sine-on-random).
     """
+    o = cast(PolyClipOptions, _keywords.merged("poly_clip_vre", list(PolyClipOptions.__annotations__), legacy, options))
+    rail_low_g, rail_high_g = o.get("rail_low_g", -math.inf), o.get("rail_high_g", math.inf)
+    shape, kind = o.get("shape", "gaussian"), o.get("kind", DEFAULT_CLIP_KIND)
     g0 = _validate.finite_scalar("static_g", static_g)
     rms = _validate.non_negative_scalar("rms_g", rms_g)
     low, high = float(rail_low_g), float(rail_high_g)
@@ -325,50 +338,43 @@ def poly_clip_vre(
         raise ValueError(f"rail_low_g must be < rail_high_g, got {rail_low_g!r}, {rail_high_g!r}")
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     _validate.one_of("kind", kind, KINDS)
-    p = _coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g)
+    p = _coefficients(k2_per_g, k3_per_g2, k4_per_g3, o.get("offset_g", 0.0))
     ref = _clipped(p, g0, low, high)  # vibration_off_reading
-    peaks = [float(a) for a in tone_peaks_g if a > 0]
+    peaks = [float(a) for a in o.get("tone_peaks_g", ()) if a > 0]
     if rms == 0 and not peaks:
         return 0.0
+    if shape == "sine" and peaks:
+        raise ValueError("tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian'")
+    if shape != "sine" and peaks and rms == 0:
+        raise ValueError("tones alone (no random part) are not a Gaussian motion: give rms_g > 0")
     pieces = _pieces(p, low, high)
-    if shape == "sine":
-        if peaks:
-            raise ValueError("tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian'")
-        total, inside = _sine(p, pieces, low, high, g0, rms * math.sqrt(2.0), ref)
-    elif peaks:
-        from vrelab.models.tones import phase_grid
-
-        if rms == 0:
-            raise ValueError("tones alone (no random part) are not a Gaussian motion: give rms_g > 0")
-        grid = phase_grid(peaks, rms)
-        t, i = _gaussian(p, pieces, low, high, g0 + grid.sum_of(peaks), rms, ref)
-        total, inside = float(np.mean(t)), float(np.mean(i))
-    else:
-        t, i = _gaussian(p, pieces, low, high, np.array([g0]), rms, ref)
-        total, inside = float(t[0]), float(i[0])
+    total, inside = _piecewise_mean(p, pieces, (low, high), g0, rms, ref, shape, peaks)
     if kind == "censored":
         return total
     if not inside > 0:
         return math.nan
-    # kept samples only: subtract the rail pieces' share, divide by the kept probability
-    kept = total - _rail_part(p, pieces, low, high, g0, rms, ref, shape, peaks)
+    # kept samples only: subtract the rail pieces' share (what truncation discards), divide by
+    # the kept probability
+    only_rails = [(a, b, w) for a, b, w in pieces if w != "poly"]
+    kept = total - (_piecewise_mean(p, only_rails, (low, high), g0, rms, ref, shape, peaks)[0] if only_rails else 0.0)
     return kept / inside
 
 
-def _rail_part(p: Coefficients, pieces: Sequence[tuple[float, float, str]], low: float, high: float, g0: float,
-               rms: float, ref: float, shape: Shape, peaks: Sequence[float]) -> float:
-    """The rail pieces' part of the censored sum (what truncation discards)."""
-    only_rails = [(a, b, w) for a, b, w in pieces if w != "poly"]
-    if not only_rails:
-        return 0.0
+def _piecewise_mean(p: Coefficients, pieces: Sequence[tuple[float, float, str]], rails: tuple[float, float],
+                    g0: float, rms: float, ref: float, shape: Shape, peaks: Sequence[float]) -> tuple[float, float]:
+    """(sum over ``pieces`` of the map's mean less ``ref``, probability of the polynomial pieces)
+    for the vibration's shape: a sine, Gaussian, or Gaussian with tones (phase-averaged)."""
+    low, high = rails
     if shape == "sine":
-        return _sine(p, only_rails, low, high, g0, rms * math.sqrt(2.0), ref)[0]
+        return _sine(p, pieces, low, high, g0, rms * math.sqrt(2.0), ref)
     if peaks:
         from vrelab.models.tones import phase_grid
 
         grid = phase_grid(list(peaks), rms)
-        return float(np.mean(_gaussian(p, only_rails, low, high, g0 + grid.sum_of(peaks), rms, ref)[0]))
-    return float(_gaussian(p, only_rails, low, high, np.array([g0]), rms, ref)[0][0])
+        t, i = _gaussian(p, pieces, low, high, g0 + grid.sum_of(peaks), rms, ref)
+        return float(np.mean(t)), float(np.mean(i))
+    t, i = _gaussian(p, pieces, low, high, np.array([g0]), rms, ref)
+    return float(t[0]), float(i[0])
 
 
 def _nodes(rms: float, shape: Shape, peaks: Sequence[float], n_gauss: int = 24, n_sine: int = 32) -> NDArray[np.float64]:

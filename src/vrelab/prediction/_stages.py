@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 from vrelab.sensor.meanshift import Response
 
 if TYPE_CHECKING:
-    pass
+    from vrelab.sensor import Sensor
 
 
 # --- the sensor, read as its stages -------------------------------------------------------------
@@ -92,7 +92,7 @@ def needs_rate(site: StageSite) -> bool:
     return bool(getattr(site.stage, "needs_crossing_rate", False))
 
 
-def clip_position_of(sensor: Any) -> str:
+def clip_position_of(sensor: Sensor) -> str:
     pos = str(getattr(sensor, "clip_position", "output") or "output")
     return "output" if pos == "output" else "proof-mass"
 

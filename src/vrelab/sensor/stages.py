@@ -565,8 +565,9 @@ class Clip(StageBase):
             # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
             src = up.site if up is not None else site
             own = up.shift.shares["nonlinearity_g"] if up is not None else 0.0
-            args = (src.level_g, src.motion.sigma_g, *k, site.offset_g - src.offset_g)
-            parts = [float(memoryless.poly_clip_vre(*args, lo_, hi_, shape=base, kind=site.kind,
+            args = (src.level_g, src.motion.sigma_g, *k)
+            parts = [float(memoryless.poly_clip_vre(*args, offset_g=site.offset_g - src.offset_g, rail_low_g=lo_,
+                                                    rail_high_g=hi_, shape=base, kind=site.kind,
                                                     tone_peaks_g=src.motion.tone_peaks_g)) - own for lo_, hi_ in each]
         else:
             # filters between: the rails see the polynomial's mean and its linear part through

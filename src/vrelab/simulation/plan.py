@@ -23,6 +23,7 @@ from vrelab.results import Method
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.simulation.record import (
     MIN_WINDOWS,
+    RandomDrive,
     Rates,
     SimulatedRecord,
     Stretch,
@@ -266,10 +267,8 @@ class TestPlan:
             segs,
             rates,
             self.static_g,
-            profile=self.profile,
-            drive_method=self.drive_method if self.method == "random" else "gaussian",
-            clip_sigma=self.clip_sigma if self.method == "random" else None,
-            kurtosis=self.kurtosis if self.method == "random" else None,
+            drive=RandomDrive(self.profile, self.drive_method, self.clip_sigma, self.kurtosis)
+            if self.method == "random" else RandomDrive(self.profile),
             chain_seed=chain_seed,
             meta={"simulation": extra, "sensor": str(getattr(self.sensor, "name", type(self.sensor).__name__)),
                   "static_g": self.static_g, **meta_more},

@@ -41,7 +41,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
-from typing import Any, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +53,9 @@ from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.rates import record_step
 from vrelab.record import Schedule, Segment
 from vrelab.synthesis import Method as DriveMethod
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 # Internal samples per simulated block: large enough that per-block Python overhead is small
 # against the numpy/scipy work (2^16 runs as fast as 2^17, measured on the ADXL355 random test),
@@ -97,6 +100,18 @@ class Rates:
         return self.decimation // self.step
 
 
+@dataclass(frozen=True)
+class RandomDrive:
+    """How a record's random stretches are synthesised (:func:`vrelab.synthesis.random_blocks`):
+    the profile (scaled to each stretch's rms), the method, and the optional clip at
+    ``clip_sigma``·σ or target ``kurtosis``. A record of sine stretches only has ``profile=None``."""
+
+    profile: RandomProfile | SineOnRandom | None = None
+    method: DriveMethod = "gaussian"
+    clip_sigma: float | None = None
+    kurtosis: float | None = None
+
+
 def choose_rates(chain: Any, fs_internal_hz: float, f_max_hz: float) -> Rates:
     fs_out = float(chain.fs_out_hz(fs_internal_hz))
     ratio = fs_internal_hz / fs_out
@@ -133,15 +148,12 @@ class SimulatedRecord:
 
     def __init__(
         self,
-        sensor: Any,
+        sensor: Sensor,
         segments: Sequence[Stretch],
         rates: Rates,
         static_g: float,
         *,
-        profile: RandomProfile | SineOnRandom | None,
-        drive_method: DriveMethod,
-        clip_sigma: float | None,
-        kurtosis: float | None,
+        drive: RandomDrive,
         chain_seed: np.random.SeedSequence,
         meta: Mapping[str, Any],
         progress: bool = False,
@@ -150,10 +162,7 @@ class SimulatedRecord:
         self._segments = tuple(segments)
         self.rates = rates
         self.static_g = float(static_g)
-        self._profile = profile
-        self._drive_method = drive_method
-        self._clip_sigma = clip_sigma
-        self._kurtosis = kurtosis
+        self._random = drive
         self._chain_seed = chain_seed
         self.meta = dict(meta)
         self._progress = progress
@@ -170,7 +179,7 @@ class SimulatedRecord:
         # Butterworth order 10 at the record's Nyquist frequency: flat to 1e-6 up to f_max
         # (<= 0.4·fs_record), 35 dB down where aliases into the band start (fs_record - f_max).
         self._ref_sos = None
-        if rates.step > 1 and (clip_sigma is not None or kurtosis is not None):
+        if rates.step > 1 and (drive.clip_sigma is not None or drive.kurtosis is not None):
             self._ref_sos = signal.butter(10, rates.fs_record_hz / 2, fs=rates.fs_internal_hz, output="sos")
         ref_zi = None if self._ref_sos is None else np.zeros((self._ref_sos.shape[0], 2))
         runner0 = sensor.chain(rates.fs_internal_hz).start(rates.fs_internal_hz, chain_seed)
@@ -243,16 +252,17 @@ class SimulatedRecord:
             drive_hz = seg.freq_hz if seg.drive_hz is None else seg.drive_hz
             yield from synthesis.sine_blocks(drive_hz, seg.rms_g, fs, seg.n_internal, block, phase_rad=seg.phase_rad)
         else:
-            assert self._profile is not None and seg.seed is not None  # a random stretch has both
+            drive = self._random
+            assert drive.profile is not None and seg.seed is not None  # a random stretch has both
             yield from synthesis.random_blocks(
-                self._profile.scaled_to(seg.rms_g),
+                drive.profile.scaled_to(seg.rms_g),
                 fs,
                 seg.n_internal,
                 block,
                 seed=seg.seed,
-                method=self._drive_method,
-                clip_sigma=self._clip_sigma,
-                kurtosis=self._kurtosis,
+                method=drive.method,
+                clip_sigma=drive.clip_sigma,
+                kurtosis=drive.kurtosis,
             )
 
     def _drives(self, first: int) -> Iterator[NDArray[np.float64]]:
@@ -380,7 +390,7 @@ class SimulatedRecord:
             bar.close()
 
 
-def rail_window(sensor: Any) -> tuple[float, float]:
+def rail_window(sensor: Sensor) -> tuple[float, float]:
     """(low, high): DUT output at or beyond these counts as saturated."""
     low, high = (float(r) for r in sensor.rails_g)
     lsb = getattr(sensor, "lsb_g", None) or 0.0

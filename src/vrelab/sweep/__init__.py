@@ -19,9 +19,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence, TypedDict, Unpack, cast
 
-from vrelab import _io
+from vrelab import _io, _keywords
 from vrelab.folder import SWEEP_RESULT
 from vrelab.sweep.backends import (
     Backend,
@@ -34,13 +34,18 @@ from vrelab.sweep.backends import (
 )
 from vrelab.sweep.checkpoint import CHECKPOINT_NAME, Checkpoint, PointRecord
 from vrelab.sweep.engine import (
+    Item,
     PointFunction,
+    PointPolicy,
     SweepAborted,
     resolve,
     run_points,
     run_task,
 )
 from vrelab.sweep.spec import SweepSpec, load_spec, parse_spec
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = [
     "Backend",
@@ -121,19 +126,27 @@ class SweepResult:
     files: Mapping[str, Path]
 
 
+class SweepRunOptions(TypedDict, total=False):
+    """The keywords of :func:`run_sweep` that choose a backend and override the file's run
+    settings: ``workers``, ``scheduler``, ``retries``, ``chunk``, ``retry_failed`` (its
+    parameters' docs)."""
+
+    workers: int | None
+    scheduler: str | None
+    retries: int | None
+    chunk: int | None
+    retry_failed: bool
+
+
 def run_sweep(
     spec: SweepSpec,
     out_dir: str | Path,
     *,
     backend: Backend | None = None,
-    workers: int | None = None,
-    scheduler: str | None = None,
     fresh: bool = False,
     progress: bool = False,
-    retries: int | None = None,
-    chunk: int | None = None,
-    retry_failed: bool = False,
     inputs: Sequence[str | Path] = (),
+    **options: Unpack[SweepRunOptions],
 ) -> SweepResult:
     """Run (or resume) ``spec`` with its checkpoint and outputs in ``out_dir``.
 
@@ -159,19 +172,19 @@ def run_sweep(
         Files the sweep reads besides those its points name (the sweep file): ``out_dir`` must
         not hold them (:func:`vrelab._io.check_output`; the points' sensor and profile files
         are added here).
+
+    ``workers``, ``scheduler``, ``retries``, ``chunk`` and ``retry_failed`` are taken as
+    keywords, as before (:class:`SweepRunOptions`).
     """
+    o = cast(SweepRunOptions, _keywords.merged("run_sweep", list(SweepRunOptions.__annotations__), (), options))
+    workers, scheduler = o.get("workers"), o.get("scheduler")
     func = point_function(spec)
     check_time_budget(spec)
     if "zarr" in spec.formats:  # fail now, not after the last point
         from vrelab.sweep.dataset import require_zarr
 
         require_zarr()
-    retries = spec.retries if retries is None else retries
-    chunk = spec.chunk if chunk is None else chunk
-    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
-        raise ValueError(f"retries must be an integer >= 0, got {retries!r}")
-    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-        raise ValueError(f"chunk must be an integer >= 1, got {chunk!r}")
+    retries, chunk = _run_settings(spec, o.get("retries"), o.get("chunk"))
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out exists and is not a folder: {out}")
@@ -189,34 +202,15 @@ def run_sweep(
     with Checkpoint(out, spec.fingerprint(), spec.n_points, lambda i: spec.point_key(i, units), fresh=fresh,
                     inputs=spec.inputs()) as ck:
         quarantined = [{"line": n, "why": why} for n, _, why in ck.quarantined]
-        keep = {i for i, r in ck.records.items() if r.status == "ok" or not retry_failed}
+        keep = {i for i, r in ck.records.items() if r.status == "ok" or not o.get("retry_failed", False)}
         resumed = len(keep)
         items = [(i, spec.point_params(i, units), spec.point_seed(i)) for i in range(spec.n_points) if i not in keep]
         t0 = time.perf_counter()
         if own:
             backend = make_backend(workers, scheduler) if items else SerialBackend()
         assert backend is not None
-        try:
-            run_points(
-                func,
-                items,
-                backend,
-                retries=retries,
-                chunk=chunk,
-                run=ck.run,
-                on_records=ck.append,
-                progress=progress,
-                total=spec.n_points,
-            )
-            # nothing to compute (every point from the checkpoint): say so, claim no backend
-            described = backend.describe() if items else {"backend": "none: nothing computed", "n_workers": 0}
-        except BaseException:
-            if own:
-                backend.abort()  # Ctrl-C, SIGTERM: the workers are ended, the checkpoint kept
-            raise
-        finally:
-            if own:
-                backend.close()
+        described = _compute(func, items, backend, own, ck, retries=retries, chunk=chunk, run=ck.run,
+                             progress=progress, total=spec.n_points)
         elapsed = time.perf_counter() - t0
         records = dict(ck.records)
         run = ck.run
@@ -246,6 +240,44 @@ def run_sweep(
         "failed": [{"index": i, "error": r.error} for i, r in sorted(records.items()) if r.status == "failed"][:20],
         "spec": spec.to_dict(),
     }
+    return SweepResult(spec, ds, records, summary, _write_outputs(spec, ds, records, summary, out, reads))
+
+
+def _run_settings(spec: SweepSpec, retries: int | None, chunk: int | None) -> tuple[int, int]:
+    """(retries, chunk): the caller's overrides, else the sweep file's; checked."""
+    retries = spec.retries if retries is None else retries
+    chunk = spec.chunk if chunk is None else chunk
+    if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+        raise ValueError(f"retries must be an integer >= 0, got {retries!r}")
+    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+        raise ValueError(f"chunk must be an integer >= 1, got {chunk!r}")
+    return retries, chunk
+
+
+def _compute(func: str, items: Sequence[Item], backend: Backend, own: bool, ck: Checkpoint,
+             **policy: Unpack[PointPolicy]) -> dict[str, Any]:
+    """Run the points still to compute into the checkpoint; the backend's description for the
+    summary. A backend made by :func:`run_sweep` (``own``) is ended on an interrupt (Ctrl-C,
+    SIGTERM: the workers are ended, the checkpoint kept) and closed in any case."""
+    try:
+        run_points(func, items, backend, on_records=ck.append, **policy)
+        # nothing to compute (every point from the checkpoint): say so, claim no backend
+        return backend.describe() if items else {"backend": "none: nothing computed", "n_workers": 0}
+    except BaseException:
+        if own:
+            backend.abort()
+        raise
+    finally:
+        if own:
+            backend.close()
+
+
+def _write_outputs(spec: SweepSpec, ds: xr.Dataset, records: Mapping[int, PointRecord], summary: dict[str, Any],
+                   out: Path, reads: Sequence[str | Path]) -> dict[str, Path]:
+    """Write the result files the spec asks for and the summary, together (one staged
+    directory), into ``out``; the files by format, and ``summary``."""
+    from vrelab.sweep import dataset as D
+
     names = {"netcdf": RESULT_NC, "csv": RESULT_CSV, "zarr": RESULT_ZARR}
     files = {f: out / names[f] for f in spec.formats}
     summary["files"] = {f: str(p) for f, p in files.items()}
@@ -258,4 +290,4 @@ def run_sweep(
             D.write_zarr(ds, stage / RESULT_ZARR)
         _io.write_json(stage / SUMMARY, summary)
     files["summary"] = out / SUMMARY
-    return SweepResult(spec, ds, records, summary, files)
+    return files

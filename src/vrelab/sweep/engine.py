@@ -35,10 +35,11 @@ from concurrent.futures import (
     Future,
     wait,
 )
-from typing import Any, Callable, Literal, Mapping, Sequence
+from typing import Any, Callable, Literal, Mapping, Sequence, TypedDict, Unpack
 
 import numpy as np
 
+from vrelab import _keywords
 from vrelab.sweep.backends import Backend
 from vrelab.sweep.checkpoint import PointRecord
 
@@ -122,18 +123,26 @@ class _Progress:
             self._bar.close()
 
 
+class PointPolicy(TypedDict, total=False):
+    """How :func:`run_points` runs its points (its parameters' docs): ``retries`` (default 1),
+    ``chunk`` (1), ``run`` (0: the checkpoint's run number each record carries), ``progress``
+    (False), ``total`` (``len(items)``), ``window`` (4 tasks per worker)."""
+
+    retries: int
+    chunk: int
+    run: int
+    progress: bool
+    total: int | None
+    window: int | None
+
+
 def run_points(
     func: str | PointFunction,
     items: Sequence[Item],
     backend: Backend,
     *,
-    retries: int = 1,
-    chunk: int = 1,
-    run: int = 0,
     on_records: Callable[[list[PointRecord]], None] | None = None,
-    progress: bool = False,
-    total: int | None = None,
-    window: int | None = None,
+    **policy: Unpack[PointPolicy],
 ) -> dict[int, PointRecord]:
     """Evaluate ``func`` at every item on ``backend``; return index -> record (ok or failed).
 
@@ -154,58 +163,82 @@ def run_points(
     window : int, optional
         Tasks in flight at once (default 4 per worker): bounds memory and the points a worker
         crash can strand.
+
+    ``retries``, ``chunk``, ``run``, ``progress``, ``total`` and ``window`` are keywords, as
+    before (:class:`PointPolicy`).
     """
+    _keywords.merged("run_points", list(PointPolicy.__annotations__), (), policy)  # an unknown keyword: TypeError
+    retries, chunk = policy.get("retries", 1), policy.get("chunk", 1)
     if retries < 0 or chunk < 1:
         raise ValueError(f"retries must be >= 0 and chunk >= 1, got retries={retries}, chunk={chunk}")
-    by_index = {it[0]: it for it in items}
-    todo: deque[int] = deque(by_index)
-    suspects: deque[int] = deque()  # rerun alone after a worker crash, to find the culprit
-    attempts: dict[int, int] = {}
-    results: dict[int, PointRecord] = {}
-    inflight: dict[Future[list[TaskResult]], list[int]] = {}
-    window = window or max(2, 4 * backend.n_workers)
-    n_total = total if total is not None else len(items)
-    bar = _Progress(n_total, n_total - len(items), progress, "sweep")
-    n_failed = 0
-    isolated: Future[list[TaskResult]] | None = None  # the lone task run after a crash, to pin the crash on it
+    return _PointRun(func, items, backend, on_records, policy).run_all()
 
-    pending: list[PointRecord] = []  # finished in this turn of the loop: one checkpoint write
 
-    def finish(recs: list[PointRecord]) -> None:
-        pending.extend(recs)
+class _PointRun:
+    """One call of :func:`run_points`: its queues, attempts and results, and the steps of its loop
+    (submit a window of tasks, collect what finished, recover from a broken pool)."""
 
-    def flush() -> None:
-        nonlocal n_failed
-        recs = pending[:]
-        pending.clear()
+    def __init__(self, func: str | PointFunction, items: Sequence[Item], backend: Backend,
+                 on_records: Callable[[list[PointRecord]], None] | None, policy: PointPolicy) -> None:
+        self.func, self.backend, self.on_records = func, backend, on_records
+        self.retries, self.chunk, self.run = policy.get("retries", 1), policy.get("chunk", 1), policy.get("run", 0)
+        self.by_index = {it[0]: it for it in items}
+        self.todo: deque[int] = deque(self.by_index)
+        self.suspects: deque[int] = deque()  # rerun alone after a worker crash, to find the culprit
+        self.attempts: dict[int, int] = {}
+        self.results: dict[int, PointRecord] = {}
+        self.inflight: dict[Future[list[TaskResult]], list[int]] = {}
+        self.window = policy.get("window") or max(2, 4 * backend.n_workers)
+        total = policy.get("total")
+        n_total = total if total is not None else len(items)
+        self.bar = _Progress(n_total, n_total - len(items), policy.get("progress", False), "sweep")
+        self.n_failed = 0
+        self.isolated: Future[list[TaskResult]] | None = None  # the lone task run after a crash, to pin the crash on it
+        self.pending: list[PointRecord] = []  # finished in this turn of the loop: one checkpoint write
+
+    def run_all(self) -> dict[int, PointRecord]:
+        try:
+            while self.todo or self.suspects or self.inflight:
+                self.step()
+        finally:
+            self.flush()  # whatever finished before an interrupt still reaches the checkpoint
+            self.bar.close()
+        return self.results
+
+    def finish(self, recs: list[PointRecord]) -> None:
+        self.pending.extend(recs)
+
+    def flush(self) -> None:
+        recs = self.pending[:]
+        self.pending.clear()
         if not recs:
             return
         for r in recs:
-            results[r.index] = r
-        n_failed += sum(r.status == "failed" for r in recs)
-        if on_records is not None:
-            on_records(recs)
-        bar.update(len(recs), n_failed)
+            self.results[r.index] = r
+        self.n_failed += sum(r.status == "failed" for r in recs)
+        if self.on_records is not None:
+            self.on_records(recs)
+        self.bar.update(len(recs), self.n_failed)
 
     def attempt_failed(
-        i: int, error: str, elapsed: float, queue: deque[int], final: bool = False
+        self, i: int, error: str, elapsed: float, queue: deque[int], final: bool = False
     ) -> PointRecord | None:
-        attempts[i] = attempts.get(i, 0) + 1
-        if final or attempts[i] > retries:
-            return PointRecord(i, "failed", {}, error, attempts[i], elapsed, run)
+        self.attempts[i] = self.attempts.get(i, 0) + 1
+        if final or self.attempts[i] > self.retries:
+            return PointRecord(i, "failed", {}, error, self.attempts[i], elapsed, self.run)
         queue.appendleft(i)
         return None
 
-    def submit(idx: list[int]) -> Future[list[TaskResult]]:
+    def submit(self, idx: list[int]) -> Future[list[TaskResult]]:
         try:
-            fut = backend.executor.submit(run_task, func, [by_index[i] for i in idx])
+            fut = self.backend.executor.submit(run_task, self.func, [self.by_index[i] for i in idx])
         except BrokenExecutor as exc:  # the pool broke since the last wait: handled as a crash below
             fut = Future()
             fut.set_exception(exc)
-        inflight[fut] = idx
+        self.inflight[fut] = idx
         return fut
 
-    def collect(fut: Future[list[TaskResult]], idx: list[int], crashed: list[int]) -> None:
+    def collect(self, fut: Future[list[TaskResult]], idx: list[int], crashed: list[int]) -> None:
         try:
             out = fut.result()
         except BrokenExecutor:
@@ -215,56 +248,56 @@ def run_points(
             # not the point's doing: the executor shut down or lost its scheduler. Recording
             # these points as failed would make a resume skip them; stop instead.
             raise SweepAborted(
-                f"{backend.name} executor cancelled its tasks (shut down or disconnected); "
+                f"{self.backend.name} executor cancelled its tasks (shut down or disconnected); "
                 "finished points are in the checkpoint: rerun to resume"
             ) from None
         except Exception as exc:  # KilledWorker, an unpicklable argument or result...
             if len(idx) > 1:  # a whole chunk failed: rerun its points alone to find which one
-                suspects.extend(idx)
+                self.suspects.extend(idx)
                 return
             msg = f"{type(exc).__name__}: {exc}".splitlines()[0]
-            finish([r for r in [attempt_failed(idx[0], msg, math.nan, todo)] if r is not None])
+            self.finish([r for r in [self.attempt_failed(idx[0], msg, math.nan, self.todo)] if r is not None])
             return
         recs = []
         for i, outcome, payload, dt, cpu in out:
             if isinstance(payload, dict):  # outcome "ok" (run_task gives values exactly then)
-                recs.append(PointRecord(i, "ok", payload, None, attempts.get(i, 0) + 1, dt, run, cpu))
-            elif (r := attempt_failed(i, payload, dt, todo, final=outcome == "invalid")) is not None:
+                recs.append(PointRecord(i, "ok", payload, None, self.attempts.get(i, 0) + 1, dt, self.run, cpu))
+            elif (r := self.attempt_failed(i, payload, dt, self.todo, final=outcome == "invalid")) is not None:
                 recs.append(r)
-        finish(recs)
+        self.finish(recs)
 
-    try:
-        while todo or suspects or inflight:
-            if suspects:
-                if not inflight:
-                    isolated = submit([suspects.popleft()])
-            else:
-                while todo and len(inflight) < window:
-                    submit([todo.popleft() for _ in range(min(chunk, len(todo)))])
-            done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
-            crashed: list[int] = []
-            for fut in sorted(done, key=lambda f: inflight[f][0]):  # index order when several land
-                collect(fut, inflight.pop(fut), crashed)
-            flush()
-            if not crashed:
-                continue
-            # The pool is broken: every other pending future fails too. Gather them all.
-            culprit = crashed[0] if isolated is not None and isolated in done else None
-            for fut in list(inflight):
-                wait([fut])
-                collect(fut, inflight.pop(fut), crashed)
-            isolated = None
-            if not backend.can_reset:
-                flush()  # the crashed points stay unfinished: a resume computes them
-                raise SweepAborted(f"{backend.name} executor broke (a worker died) and cannot be replaced")
-            backend.reset()
-            if culprit is not None:
-                msg = "worker process died while computing this point (BrokenProcessPool)"
-                finish([r for r in [attempt_failed(culprit, msg, math.nan, suspects)] if r is not None])
-            else:
-                suspects.extend(sorted(crashed))
-            flush()
-    finally:
-        flush()  # whatever finished before an interrupt still reaches the checkpoint
-        bar.close()
-    return results
+    def step(self) -> None:
+        """Submit (the next suspect alone, or a window of tasks), wait for the first to finish,
+        collect what finished, and recover if the pool broke."""
+        if self.suspects:
+            if not self.inflight:
+                self.isolated = self.submit([self.suspects.popleft()])
+        else:
+            while self.todo and len(self.inflight) < self.window:
+                self.submit([self.todo.popleft() for _ in range(min(self.chunk, len(self.todo)))])
+        done, _ = wait(list(self.inflight), return_when=FIRST_COMPLETED)
+        crashed: list[int] = []
+        for fut in sorted(done, key=lambda f: self.inflight[f][0]):  # index order when several land
+            self.collect(fut, self.inflight.pop(fut), crashed)
+        self.flush()
+        if crashed:
+            self.recover(crashed, done)
+
+    def recover(self, crashed: list[int], done: set[Future[list[TaskResult]]]) -> None:
+        """The pool is broken: every other pending future fails too. Gather them all, then
+        replace the pool and pin the crash on the lone task, or rerun the crashed points alone."""
+        culprit = crashed[0] if self.isolated is not None and self.isolated in done else None
+        for fut in list(self.inflight):
+            wait([fut])
+            self.collect(fut, self.inflight.pop(fut), crashed)
+        self.isolated = None
+        if not self.backend.can_reset:
+            self.flush()  # the crashed points stay unfinished: a resume computes them
+            raise SweepAborted(f"{self.backend.name} executor broke (a worker died) and cannot be replaced")
+        self.backend.reset()
+        if culprit is not None:
+            msg = "worker process died while computing this point (BrokenProcessPool)"
+            self.finish([r for r in [self.attempt_failed(culprit, msg, math.nan, self.suspects)] if r is not None])
+        else:
+            self.suspects.extend(sorted(crashed))
+        self.flush()

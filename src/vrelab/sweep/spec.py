@@ -44,7 +44,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Literal, Mapping
+from typing import Any, Iterator, Literal, Mapping, Sequence
 
 import numpy as np
 
@@ -391,97 +391,28 @@ _TOP = {"name", "kind", "function", "seed", "seconds", "retries", "chunk", "fixe
 
 
 def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
-    """Validate a sweep description (the parsed TOML as a mapping); the input is not modified."""
-    unknown = sorted(set(doc) - _TOP)
-    if unknown:
-        raise ValueError(f"{unknown[0]}: unknown field in sweep file (known: {', '.join(sorted(_TOP))})")
-    kind = doc.get("kind")
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
-    name = doc.get("name", "sweep")
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"name must be a non-empty string, got {name!r}")
-    function = doc.get("function")
-    if kind == "python":
-        if not isinstance(function, str) or ":" not in function:
-            raise ValueError(f"function must be 'module:name' for kind 'python', got {function!r}")
-    elif function is not None:
-        raise ValueError(f"function is only for kind 'python', got {function!r} with kind {kind!r}")
+    """Validate a sweep description (the parsed TOML as a mapping); the input is not modified.
+
+    Checked in the file's order, so the first problem is the one named: the header, the tables'
+    reserved names, [fixed], [grid], [montecarlo], what the kind needs, [output]."""
+    kind, name, function, seconds = _header(doc)
     seed = _int("seed", doc.get("seed", 0), 0)
     retries = _int("retries", doc.get("retries", 1), 0)
     chunk = _int("chunk", doc.get("chunk", 1), 1)
-    seconds = doc.get("seconds")
-    if kind == "simulate":
-        if seconds is not None:  # else the shaker's default
-            seconds = Param(float, "positive").number("seconds", seconds)
-    elif seconds is not None:
-        raise ValueError(f"seconds is only for kind 'simulate', got {seconds!r} with kind {kind!r}")
-
+    seconds = _seconds(kind, seconds)
     for table in ("fixed", "grid", "montecarlo"):
         for k in _table(doc, table):
             if k in _RESERVED and not (table == "montecarlo" and k == "units"):
                 raise ValueError(f"{table}.{k}: the name is reserved for the outputs ({', '.join(sorted(_RESERVED))})")
-
-    fixed: dict[str, Any] = {}
-    for k, v in _table(doc, "fixed").items():
-        p = _param_spec(kind, f"fixed.{k}", k)
-        if p is None:
-            if not isinstance(v, (int, float, str, bool)):
-                raise ValueError(f"fixed.{k} must be a number or a string, got {v!r}")
-            fixed[k] = v
-        else:
-            fixed[k] = p.coerce(f"fixed.{k}", v)
-
-    grid = []
+    fixed = _fixed(kind, doc)
+    grid: list[tuple[str, tuple[Any, ...]]] = []
     for k, v in _table(doc, "grid").items():
         if k in fixed:
             raise ValueError(f"grid.{k} is also in [fixed]")
         grid.append((k, _axis_values(kind, k, v)))
-
-    mc = dict(_table(doc, "montecarlo"))
-    units = None
-    dists: list[Distribution] = []
-    if "montecarlo" in doc:
-        if "units" not in mc:
-            raise ValueError("montecarlo.units is missing")
-        units = _int("montecarlo.units", mc.pop("units"), 1)
-        for k in mc:
-            if k in fixed or k in dict(grid):
-                raise ValueError(f"montecarlo.{k} is also in [fixed] or [grid]")
-            dists.append(_distribution(kind, k, mc[k]))
-        if not dists:
-            raise ValueError("montecarlo needs at least one parameter distribution besides units")
-    if not grid and units is None:
-        raise ValueError("grid: a sweep needs a [grid] axis or a [montecarlo] lot")
-
-    if kind in REQUIRED:
-        have = set(fixed) | {k for k, _ in grid} | {d.param for d in dists}
-        for r in REQUIRED[kind]:
-            if r not in have:
-                raise ValueError(f"{r}: kind {kind!r} needs it in [fixed] or [grid]")
-
-    if kind in ("predict", "simulate"):
-        have = set(fixed) | {k for k, _ in grid}
-        if ("profile" in have) == ("freq_hz" in have):
-            raise ValueError(f"profile: kind {kind!r} needs exactly one of profile (random) and freq_hz (sine)")
-
-        _check_names(fixed, grid)
-
-    out = _table(doc, "output")
-    extra = sorted(set(out) - {"variables", "formats"})
-    if extra:
-        raise ValueError(f"output.{extra[0]}: unknown field (known: variables, formats)")
-    variables = out.get("variables")
-    if variables is not None:
-        if not isinstance(variables, list) or not variables or not all(isinstance(v, str) for v in variables):
-            raise ValueError(f"output.variables must be a non-empty list of names, got {variables!r}")
-        if {"status", "error"} & set(variables):
-            raise ValueError("output.variables: status and error are always written; do not list them")
-        variables = tuple(variables)
-    formats = out.get("formats", ["netcdf", "csv"])
-    if not isinstance(formats, list) or not formats or any(f not in FORMATS for f in formats):
-        raise ValueError(f"output.formats must be a non-empty list from {', '.join(FORMATS)}; got {formats!r}")
-
+    units, dists = _montecarlo(kind, doc, fixed, grid)
+    _check_needs(kind, fixed, grid, dists)
+    variables, formats = _output(doc)
     spec = SweepSpec(
         kind=kind,
         grid=tuple(grid),
@@ -500,3 +431,103 @@ def parse_spec(doc: Mapping[str, Any]) -> SweepSpec:
     if spec.n_points > MAX_POINTS:
         raise ValueError(f"grid: {spec.n_points} points is more than {MAX_POINTS}; check the ranges")
     return spec
+
+
+def _header(doc: Mapping[str, Any]) -> tuple[Kind, str, str | None, Any]:
+    """(kind, name, function, seconds as written): the top-level fields checked, the tables' names known."""
+    unknown = sorted(set(doc) - _TOP)
+    if unknown:
+        raise ValueError(f"{unknown[0]}: unknown field in sweep file (known: {', '.join(sorted(_TOP))})")
+    kind = doc.get("kind")
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    name = doc.get("name", "sweep")
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    function = doc.get("function")
+    if kind == "python":
+        if not isinstance(function, str) or ":" not in function:
+            raise ValueError(f"function must be 'module:name' for kind 'python', got {function!r}")
+    elif function is not None:
+        raise ValueError(f"function is only for kind 'python', got {function!r} with kind {kind!r}")
+    return kind, name, function, doc.get("seconds")
+
+
+def _seconds(kind: Kind, seconds: object) -> float | None:
+    """A simulate sweep's level duration [s] (None: the shaker's default); refused for other kinds."""
+    if seconds is None:  # a simulate sweep: the shaker's default
+        return None
+    if kind != "simulate":
+        raise ValueError(f"seconds is only for kind 'simulate', got {seconds!r} with kind {kind!r}")
+    return Param(float, "positive").number("seconds", seconds)
+
+
+def _fixed(kind: Kind, doc: Mapping[str, Any]) -> dict[str, Any]:
+    """[fixed]: each known parameter coerced, any other a plain number or string (kind python)."""
+    fixed: dict[str, Any] = {}
+    for k, v in _table(doc, "fixed").items():
+        p = _param_spec(kind, f"fixed.{k}", k)
+        if p is None:
+            if not isinstance(v, (int, float, str, bool)):
+                raise ValueError(f"fixed.{k} must be a number or a string, got {v!r}")
+            fixed[k] = v
+        else:
+            fixed[k] = p.coerce(f"fixed.{k}", v)
+    return fixed
+
+
+def _montecarlo(kind: Kind, doc: Mapping[str, Any], fixed: Mapping[str, Any],
+                grid: list[tuple[str, tuple[Any, ...]]]) -> tuple[int | None, list[Distribution]]:
+    """[montecarlo]: (units, the parameters' distributions), or (None, []) without the table."""
+    mc = dict(_table(doc, "montecarlo"))
+    units = None
+    dists: list[Distribution] = []
+    if "montecarlo" in doc:
+        if "units" not in mc:
+            raise ValueError("montecarlo.units is missing")
+        units = _int("montecarlo.units", mc.pop("units"), 1)
+        for k in mc:
+            if k in fixed or k in dict(grid):
+                raise ValueError(f"montecarlo.{k} is also in [fixed] or [grid]")
+            dists.append(_distribution(kind, k, mc[k]))
+        if not dists:
+            raise ValueError("montecarlo needs at least one parameter distribution besides units")
+    if not grid and units is None:
+        raise ValueError("grid: a sweep needs a [grid] axis or a [montecarlo] lot")
+    return units, dists
+
+
+def _check_needs(kind: Kind, fixed: Mapping[str, Any], grid: list[tuple[str, tuple[Any, ...]]],
+                 dists: Sequence[Distribution]) -> None:
+    """What the kind needs is given ([fixed], [grid] or a distribution), and exactly one drive."""
+    if kind in REQUIRED:
+        have = set(fixed) | {k for k, _ in grid} | {d.param for d in dists}
+        for r in REQUIRED[kind]:
+            if r not in have:
+                raise ValueError(f"{r}: kind {kind!r} needs it in [fixed] or [grid]")
+
+    if kind in ("predict", "simulate"):
+        have = set(fixed) | {k for k, _ in grid}
+        if ("profile" in have) == ("freq_hz" in have):
+            raise ValueError(f"profile: kind {kind!r} needs exactly one of profile (random) and freq_hz (sine)")
+
+        _check_names(fixed, grid)
+
+
+def _output(doc: Mapping[str, Any]) -> tuple[tuple[str, ...] | None, list[str]]:
+    """[output]: (the variables asked for or None: all, the formats as written)."""
+    out = _table(doc, "output")
+    extra = sorted(set(out) - {"variables", "formats"})
+    if extra:
+        raise ValueError(f"output.{extra[0]}: unknown field (known: variables, formats)")
+    variables = out.get("variables")
+    if variables is not None:
+        if not isinstance(variables, list) or not variables or not all(isinstance(v, str) for v in variables):
+            raise ValueError(f"output.variables must be a non-empty list of names, got {variables!r}")
+        if {"status", "error"} & set(variables):
+            raise ValueError("output.variables: status and error are always written; do not list them")
+        variables = tuple(variables)
+    formats = out.get("formats", ["netcdf", "csv"])
+    if not isinstance(formats, list) or not formats or any(f not in FORMATS for f in formats):
+        raise ValueError(f"output.formats must be a non-empty list from {', '.join(FORMATS)}; got {formats!r}")
+    return variables, formats

@@ -33,7 +33,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Iterable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,6 +42,9 @@ from vrelab.models import cross_terms
 from vrelab.sensor.base import Stage, StageBase, finite
 from vrelab.sensor.chain import ChainRun, ChainStats, SensorChain, seed_sequence
 from vrelab.sensor.stages import FilterStage, Polynomial, Resonator
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 FloatArray = NDArray[np.float64]
 
@@ -102,7 +105,7 @@ class TriaxialPolynomial:
         object.__setattr__(self, "triad", t)
 
     @classmethod
-    def from_sensor(cls, sensor: Any) -> TriaxialPolynomial:
+    def from_sensor(cls, sensor: Sensor) -> TriaxialPolynomial:
         """The axis's polynomial and cross-coupling terms from a :class:`~vrelab.sensor.Sensor`."""
         w = sensor.sensitivity_row
         return cls((float(w[0]), float(w[1]), float(w[2])), sensor.triad, sensor.k2_per_g, sensor.k3_per_g2,
@@ -249,7 +252,7 @@ class TriaxialChain:
         return (np.concatenate(out) if out else np.empty(0)), runner.stats
 
 
-def triaxial_chain(sensor: Any, fs_hz: float) -> TriaxialChain:
+def triaxial_chain(sensor: Sensor, fs_hz: float) -> TriaxialChain:
     """The triaxial chain of ``sensor``'s axis at internal rate ``fs_hz`` (a multiple of its ODR).
 
     The stages are :meth:`Sensor.stages` (the one reading of a sensor description); the

@@ -34,18 +34,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence, TypedDict, Unpack, cast
 
 import numpy as np
 import scipy.fft
 import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
+from vrelab import _keywords
 from vrelab import _validate as v
 from vrelab.spectra import whole_segments
 from vrelab.triaxial.profile import AXES, TriaxialProfile
 
-__all__ = ["CsdAccumulator", "MeasuredCsd", "band_csd", "measure_csd", "read_recording_profile"]
+if TYPE_CHECKING:
+    from vrelab.analysis.readers import Scale
+    from vrelab.record import Record
+
+__all__ = ["CsdAccumulator", "MeasuredCsd", "RecordingOptions", "band_csd", "measure_csd", "read_recording_profile"]
 
 # Default block read from a record [samples]: memory is bounded by it and one Welch segment.
 DEFAULT_BLOCK = 1 << 16
@@ -306,11 +311,20 @@ def measure_csd(
     return band_csd(acc, band_hz, points_per_octave)
 
 
-def record_blocks(record: Any, channels: Sequence[str], start: int = 0, stop: int | None = None,
+def record_blocks(record: Record, channels: Sequence[str], start: int = 0, stop: int | None = None,
                   block: int = DEFAULT_BLOCK) -> Iterable[NDArray[np.float64]]:
     """(n, 3) blocks of three channels of a :class:`vrelab.record.Record` (x, y, z order)."""
     for b in record.blocks(block, list(channels), start, stop):
         yield np.column_stack([b[c] for c in channels])
+
+
+class RecordingOptions(TypedDict, total=False):
+    """The keywords of :func:`read_recording_profile` after ``fs_hz`` (its docstring)."""
+
+    scale: Scale | float | None | Mapping[str, Scale | float | None]
+    nperseg: int | None
+    start_s: float
+    stop_s: float | None
 
 
 def read_recording_profile(
@@ -319,10 +333,8 @@ def read_recording_profile(
     band_hz: tuple[float, float],
     points_per_octave: float = 3.0,
     fs_hz: float | None = None,
-    scale: Any = None,
-    nperseg: int | None = None,
-    start_s: float = 0.0,
-    stop_s: float | None = None,
+    *legacy: object,
+    **options: Unpack[RecordingOptions],
 ) -> MeasuredCsd:
     """The CSD of a triaxial reference recorded in a lab file of any format vrelab reads.
 
@@ -330,9 +342,15 @@ def read_recording_profile(
     "x"/"y"/"z" -> channel; an axis left out is refused: a triaxial recording has three);
     ``scale`` is :func:`vrelab.analysis.readers.open_record`'s ``dut_scale`` (one for all, or
     per axis); ``start_s``/``stop_s`` the stretch to use. ``.profile`` of the result is the
-    measured :class:`TriaxialProfile`.
+    measured :class:`TriaxialProfile`. ``scale``, ``nperseg``, ``start_s`` and ``stop_s`` are
+    keywords (:class:`RecordingOptions`); given by position, as before, they still work for one
+    release with a ``DeprecationWarning``.
     """
     from vrelab.analysis.readers import open_record
+
+    o = cast(RecordingOptions, _keywords.merged("read_recording_profile", list(RecordingOptions.__annotations__),
+                                                legacy, options))
+    start_s, stop_s = o.get("start_s", 0.0), o.get("stop_s")
 
     if isinstance(channels, Mapping):
         names = dict(channels)
@@ -340,11 +358,11 @@ def read_recording_profile(
         names = dict(zip(AXES, channels)) if len(channels) == 3 else {}
     if sorted(names) != list(AXES):
         raise ValueError(f"a triaxial recording needs three channels x, y, z, got {channels!r}")
-    with open_record(path, names, None, fs_hz, scale) as rec:
+    with open_record(path, names, None, fs_hz, o.get("scale")) as rec:
         fs = rec.fs_hz
         i0 = int(round(v.finite_scalar("start_s", start_s) * fs))
         i1 = None if stop_s is None else int(round(v.finite_scalar("stop_s", stop_s) * fs))
         if i0 < 0 or (i1 is not None and i1 <= i0):
             raise ValueError(f"stretch {start_s!r}-{stop_s!r} s: give 0 <= start < stop")
         keys = [f"dut:{a}" for a in AXES]
-        return measure_csd(record_blocks(rec, keys, i0, i1), fs, band_hz, points_per_octave, nperseg)
+        return measure_csd(record_blocks(rec, keys, i0, i1), fs, band_hz, points_per_octave, o.get("nperseg"))

@@ -27,11 +27,12 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vrelab import _keywords
 from vrelab import _validate as V
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
@@ -41,6 +42,9 @@ from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 from vrelab.triaxial.synthesis import direction_blocks
+
+if TYPE_CHECKING:
+    from vrelab.sensor import Sensor
 
 FloatArray = NDArray[np.float64]
 
@@ -90,17 +94,24 @@ def axis_runs(sensors: Mapping[str, Any], fs_hz: float, seed: np.random.SeedSequ
     return runs
 
 
+class DirectionDrive(TypedDict, total=False):
+    """How :func:`simulate_direction` draws its drive: ``seed`` (default 0), ``method``
+    (default ``"gaussian"``) and ``block_size`` (default :data:`BLOCK`), its parameters' docs."""
+
+    seed: int
+    method: DriveMethod
+    block_size: int
+
+
 def simulate_direction(
-    sensors: Any,
+    sensors: Sensor | Sequence[Sensor],
     excitation: RandomProfile | SineOnRandom | TriaxialSine,
     n_samples: int,
     *,
     direction: ArrayLike | None = None,
     static_g: ArrayLike | None = None,
     fs_hz: float | None = None,
-    seed: int = 0,
-    method: DriveMethod = "gaussian",
-    block_size: int = BLOCK,
+    **drive: Unpack[DirectionDrive],
 ) -> Iterator[DirectionBlock]:
     """A single-axis drive along a direction, plus the static vector, through each DUT axis.
 
@@ -129,8 +140,9 @@ def simulate_direction(
     axes = _axis_sensors(sensors)
     g = np.array([0.0, 0.0, 1.0]) if static_g is None else V.static_vector(static_g)
     n = V.integer("n_samples", n_samples, 0)
-    bs = V.integer("block_size", block_size, 1)
-    sd = V.integer("seed", seed, 0)
+    _keywords.merged("simulate_direction", list(DirectionDrive.__annotations__), (), drive)  # an unknown keyword: TypeError
+    bs = V.integer("block_size", drive.get("block_size", BLOCK), 1)
+    sd = V.integer("seed", drive.get("seed", 0), 0)
     f_max = excitation.freq_hz if isinstance(excitation, TriaxialSine) else excitation.band[1]
     if isinstance(excitation, SineOnRandom):
         f_max = max(f_max, max(t.freq_hz for t in excitation.tones))
@@ -139,7 +151,7 @@ def simulate_direction(
     chain_seed, drive_seed = np.random.SeedSequence(sd).spawn(2)
     runs = axis_runs(axes, fs, chain_seed)
     drive_int = int(drive_seed.generate_state(1, np.uint32)[0])
-    for x in direction_blocks(excitation, fs, n, bs, drive_int, direction, method):
+    for x in direction_blocks(excitation, fs, n, bs, drive_int, direction, drive.get("method", "gaussian")):
         a = x + g[:, None]
         yield DirectionBlock(x, {ax: r.process(a) for ax, r in runs.items()})
 
@@ -220,7 +232,7 @@ class _Counts:
 PLAN_KEYWORDS = {"baseline_s": DEFAULT_BASELINE_S, "settle_s": None, "fs_internal_hz": None, "progress": False}
 
 
-def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
+def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
     """Deprecated alias of :func:`vrelab.simulate` (one release): the same test, bit for bit.
 
     ``simulate_triaxial(sensors, excitation, levels_g, direction=..., static_g=(gx, gy, gz), ...)``
@@ -240,7 +252,7 @@ def simulate_triaxial(sensors: Any, excitation: Any, levels_g: Sequence[float], 
 
 
 def run_triaxial_test(
-    sensors: Any,
+    sensors: Sensor | Sequence[Sensor],
     excitation: TriaxialProfile | TriaxialSine | RandomProfile,
     levels_g: Sequence[float],
     static_g: ArrayLike | None = None,

@@ -457,28 +457,7 @@ def open_record(
         n = next(iter(lens.values()))
         if n == 0:
             raise ValueError(f"{path.name}: channels hold no samples")
-        fs = src.fs_hz
-        how = "file"
-        if fs is None and tcol is not None:
-            fs, how = _time_rate(src, tcol) / (time_unit(tcol) or 1.0), f"time column {tcol!r}"
-        if fs is None:
-            if fs_hz is None:
-                raise ValueError(f"{path.name}: no sample rate in the file and no time column: give --fs HZ")
-            fs, how = fs_hz, "given"
-        elif fs_hz is not None and fs > MAX_PLAUSIBLE_FS_HZ and fs_hz <= MAX_PLAUSIBLE_FS_HZ:
-            # a corrupt header: the user's rate wins, and the record says so
-            src.notes.append(f"the file's sample rate {fs:.6g} Hz is implausible: --fs {fs_hz:g} Hz used instead")
-            fs, how = fs_hz, "given (the file's is implausible)"
-        elif fs_hz is not None and abs(fs - fs_hz) > 1e-6 * fs:
-            raise ValueError(f"--fs {fs_hz:g} Hz disagrees with the sample rate from the {how}: {fs:.9g} Hz")
-        if not (math.isfinite(fs) and fs > 0):
-            raise ValueError(f"{path.name}: bad sample rate {fs!r} from the {how}")
-        if fs > MAX_PLAUSIBLE_FS_HZ:
-            raise ValueError(
-                f"{path.name}: sample rate {fs:.6g} Hz from the {how} is implausible for a vibration record "
-                f"(above {MAX_PLAUSIBLE_FS_HZ:g} Hz; {n} samples would last {n / fs:.3g} s): a corrupt header? "
-                "give the true rate with --fs"
-            )
+        fs, how = _sample_rate(path, src, fs_hz, tcol, n)
         scales: dict[str, Scale] = {}
         assumed: list[str] = []
         for key, ch in mapping.items():
@@ -509,6 +488,34 @@ def open_record(
     except BaseException:
         src.close()
         raise
+
+
+def _sample_rate(path: Path, src: Source, fs_hz: float | None, tcol: str | None, n: int) -> tuple[float, str]:
+    """(rate [Hz], where it came from): the file's, else its time column's, else ``fs_hz``; a
+    given rate that disagrees is refused, one that replaces an implausible header is noted."""
+    fs = src.fs_hz
+    how = "file"
+    if fs is None and tcol is not None:
+        fs, how = _time_rate(src, tcol) / (time_unit(tcol) or 1.0), f"time column {tcol!r}"
+    if fs is None:
+        if fs_hz is None:
+            raise ValueError(f"{path.name}: no sample rate in the file and no time column: give --fs HZ")
+        fs, how = fs_hz, "given"
+    elif fs_hz is not None and fs > MAX_PLAUSIBLE_FS_HZ and fs_hz <= MAX_PLAUSIBLE_FS_HZ:
+        # a corrupt header: the user's rate wins, and the record says so
+        src.notes.append(f"the file's sample rate {fs:.6g} Hz is implausible: --fs {fs_hz:g} Hz used instead")
+        fs, how = fs_hz, "given (the file's is implausible)"
+    elif fs_hz is not None and abs(fs - fs_hz) > 1e-6 * fs:
+        raise ValueError(f"--fs {fs_hz:g} Hz disagrees with the sample rate from the {how}: {fs:.9g} Hz")
+    if not (math.isfinite(fs) and fs > 0):
+        raise ValueError(f"{path.name}: bad sample rate {fs!r} from the {how}")
+    if fs > MAX_PLAUSIBLE_FS_HZ:
+        raise ValueError(
+            f"{path.name}: sample rate {fs:.6g} Hz from the {how} is implausible for a vibration record "
+            f"(above {MAX_PLAUSIBLE_FS_HZ:g} Hz; {n} samples would last {n / fs:.3g} s): a corrupt header? "
+            "give the true rate with --fs"
+        )
+    return float(fs), how
 
 
 def list_channels(path: str | Path) -> dict[str, Any]:
