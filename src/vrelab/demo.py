@@ -570,8 +570,11 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
         return n.get(key, math.nan)
 
     def near(key: str) -> str:
-        """The nearest level's VRE ± u at its measured rms (an interpolation between levels has no u)."""
-        return f"{format_mg_text(g(key + '_near'), g(key + '_near_u'))} at {g(key + '_near_rms'):.3g} g rms"
+        """The nearest level's VRE ± u (an interpolation between levels has no u)."""
+        return format_mg_text(g(key + "_near"), g(key + "_near_u"))
+
+    def at(key: str) -> str:
+        return f"simulated at {g(key + '_near_rms'):.3g} g rms (the nearest level)"
 
     dep = g("fig2_departure_rms_g")
     rows = [
@@ -586,10 +589,10 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
             "Figure 2: data leave the model above",
             f"article ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms · simulated " + (f"{dep:.3g} g rms" if math.isfinite(dep) else "no departure within the levels run"),
         ),
-        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · simulated (the nearest level) X {near('fig3_x')}, Z {near('fig3_z')}; "
-         "the article's X/Y peak near 3 g rms and fall after it: not reproduced (see Figure 3)"),
-        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · simulated (the nearest level) 125 Hz {near('fig4_125hz')}, 1 kHz {near('fig4_1khz')}"),
-        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated (the nearest level) {near('limit')}"),
+        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · {at('fig3_x')} X {near('fig3_x')}, Z {near('fig3_z')}; "
+         "the article's X/Y peak near 3 g rms: not reproduced"),
+        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · {at('fig4_125hz')} 125 Hz {near('fig4_125hz')}, 1 kHz {near('fig4_1khz')}"),
+        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · {at('limit')} {near('limit')}"),
         (
             "Sine method: VRC at fn = 2.4 kHz",
             f"model k2·Q² = {format_value(g('sine_model_vrc_2400'), unit='µg/g²')} · simulated {format_value_u(g('sine_vrc_2400'), g('sine_u_vrc_2400'), unit='µg/g²')}",

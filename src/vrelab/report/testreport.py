@@ -283,8 +283,9 @@ def _item_model(m: ReportMetadata, channel: str | None) -> str | None:
 def _record_rate(results: Sequence[VreResult]) -> str | None:
     """A recording's sample rate: the rate its DUT channel was read at (not the sensor's own
     output data rate when a data acquisition resampled it: said as such)."""
-    rates = _distinct(r.provenance.get("fs_hz") for r in results if r.kind != "simulation")
-    return f"{', '.join(f'{x:g}' for x in rates)} Hz (the record's sample rate)" if rates else None
+    rates = _distinct(f"{r.provenance['fs_hz']:.6g}" for r in results
+                      if r.kind != "simulation" and isinstance(r.provenance.get("fs_hz"), (int, float)))
+    return f"{', '.join(rates)} Hz (the record's sample rate)" if rates else None
 
 
 def _sensors_where(entries: Sequence[_Entry]) -> str:
