@@ -99,8 +99,8 @@ def test_vrc_line_is_vrc_times_rms_squared() -> None:
 def test_rms2_plot_slope_is_the_fitted_vrc_per_frequency() -> None:
     ax = plots.plot_vre_vs_rms2(_sine_result()).axes[0]
     x, y = _line(ax, "2400 Hz: VRC").get_data()
-    assert y[-1] / x[-1] == pytest.approx(2000.0)
-    assert ax.get_ylabel() == "VRE (µg)"
+    assert y[-1] / x[-1] == pytest.approx(2.0)  # 2000 µg/g² = 2 mg/g²: VRE in mg, as in the tables
+    assert ax.get_ylabel() == "VRE (mg)"
 
 
 def test_vrc_vs_frequency_marks_resonance_and_uses_log_axes_for_a_peak() -> None:
@@ -450,7 +450,10 @@ def test_decisions_state_the_rule_and_show_each_level_as_the_results_judged_it(t
 
 
 def test_without_a_limit_the_decisions_say_so_and_without_metadata_everything_is_not_given(tmp_path: Path) -> None:
-    (tmp_path / "results.json").write_text(json.dumps(_random_result().to_dict()))
+    import dataclasses
+
+    # a measurement: a simulation study leaves the laboratory's fields out (tests/test_report_loose_ends.py)
+    (tmp_path / "results.json").write_text(json.dumps(dataclasses.replace(_random_result(), kind="measurement").to_dict()))
     text = report_dir(tmp_path).read_text(encoding="utf-8")
     secs = _sections(text)
     assert "No limit was given to any result, so no level was judged" in secs["6 Decisions"]
@@ -512,7 +515,7 @@ def test_rms2_plot_pairs_each_measured_frequency_with_its_fit_and_keeps_nine_apa
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert legend == [f"{f:g} Hz: VRC {10 * (k + 1)}.0 ± 1.0 µg/g²" for k, f in enumerate(freqs)]
     x, y = _line(ax, "100 Hz: VRC").get_data()
-    assert y[-1] / x[-1] == pytest.approx(10.0)
+    assert y[-1] / x[-1] == pytest.approx(10.0e-3)  # 10 µg/g² in mg/g² (VRE in mg)
     style = {(c.lines[0].get_color(), c.lines[0].get_marker()) for c in ax.containers}
     assert len(ax.containers) == 9 and len(style) == 9
 

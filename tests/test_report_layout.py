@@ -80,6 +80,29 @@ JSON.stringify((function () {
 """
 
 
+# Every word of a table's header and of a numeric cell on one line: its boxes (one per line the
+# browser laid it on, Range.getClientRects) share one top. "lev el", "decisi on", "0. 27 1" broke.
+_BROKEN_WORDS_JS = """
+JSON.stringify((function () {
+  var out = [];
+  document.querySelectorAll("th, td.num").forEach(function (e) {
+    if (e.offsetParent === null) return;
+    var w = document.createTreeWalker(e, NodeFilter.SHOW_TEXT), re = /\\S+/g, m;
+    for (var n = w.nextNode(); n; n = w.nextNode()) {
+      re.lastIndex = 0;
+      while ((m = re.exec(n.data))) {
+        var r = document.createRange(), tops = {};
+        r.setStart(n, m.index); r.setEnd(n, m.index + m[0].length);
+        Array.from(r.getClientRects()).forEach(function (b) { if (b.width > 0.1) tops[Math.round(b.top)] = 1; });
+        if (Object.keys(tops).length > 1) out.push(m[0] + " in '" + e.textContent.slice(0, 50) + "'");
+      }
+    }
+  });
+  return out;
+})())
+"""
+
+
 def _layout(report: Path, work: Path) -> dict:
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
@@ -96,6 +119,7 @@ def _layout(report: Path, work: Path) -> dict:
         cdp.send("Emulation.setDeviceMetricsOverride", {"width": CONTENT_WIDTH_PX, "height": 1000, "deviceScaleFactor": 1,
                                                         "mobile": False}, session=session)
         out["print"] = json.loads(_eval(cdp, session, _OVERFLOW_JS))
+        out["broken"] = json.loads(_eval(cdp, session, _BROKEN_WORDS_JS))
         printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session)
         out["pdf_bytes"] = len(printed["data"])
     finally:
@@ -145,6 +169,11 @@ def test_report_fits_its_boxes_on_screen_and_on_a4(layout: tuple[str, dict]) -> 
     assert paper["over"] == [], f"{which} on A4: content wider than its box: {paper['over'][:5]}"
     assert paper["page"] <= CONTENT_WIDTH_PX, f"{which} on A4: the page is {paper['page']} px, the paper {CONTENT_WIDTH_PX}"
     assert got["pdf_bytes"] > 10_000
+
+
+def test_no_word_of_a_header_or_a_number_breaks_on_a4(layout: tuple[str, dict]) -> None:
+    which, got = layout
+    assert got["broken"] == [], f"{which} on A4: words broken across lines: {got['broken'][:8]}"
 
 
 def test_figure_texts_do_not_overlap_and_log_axes_say_their_magnitude(layout: tuple[str, dict]) -> None:

@@ -107,6 +107,14 @@ def _vre_at(result: VreResult, rms_g: float) -> tuple[float, float]:
     return lv.vre.value, lv.vre.u
 
 
+def _nearest(key: str, result: VreResult, rms_g: float) -> dict[str, float]:
+    """The level nearest ``rms_g`` as numbers for the summary: ``key_near`` (VRE [g]),
+    ``key_near_u`` (its u) and ``key_near_rms`` (its measured rms): a measured VRE with its
+    uncertainty beside an interpolated one, which has none."""
+    lv = min(result.levels, key=lambda x: abs(x.rms_g - rms_g))
+    return {f"{key}_near": lv.vre.value, f"{key}_near_u": lv.vre.u, f"{key}_near_rms": lv.rms_g}
+
+
 def _interp_vre(result: VreResult, rms_g: float) -> float:
     pts = sorted((x.rms_g, x.vre.value) for x in result.levels if math.isfinite(x.vre.value))
     return float(np.interp(rms_g, [p[0] for p in pts], [p[1] for p in pts]))
@@ -381,7 +389,8 @@ def study_fig3(cfg: DemoConfig) -> _Study:
         figures=figs,
         facts=[(f"VRE at {at:g} g rms, X axis (Q 7.4)", format_mg_text(vx)), (f"VRE at {at:g} g rms, Z axis (Q 1.5)", format_mg_text(vz))],
     )
-    return _Study("fig3", sec, out, numbers={"fig3_x_at_5": vx, "fig3_z_at_5": vz})
+    return _Study("fig3", sec, out, numbers={"fig3_x_at_5": vx, "fig3_z_at_5": vz, **_nearest("fig3_x", rx, at),
+                                             **_nearest("fig3_z", rz, at)})
 
 
 def study_fig4(cfg: DemoConfig) -> _Study:
@@ -425,7 +434,8 @@ def study_fig4(cfg: DemoConfig) -> _Study:
         figures=figs,
         facts=[(f"VRE at {at:g} g rms, 1 kHz bandwidth", format_mg_text(vh)), (f"VRE at {at:g} g rms, 125 Hz bandwidth", format_mg_text(vl))],
     )
-    return _Study("fig4", sec, out, numbers={"fig4_1khz_at_2": vh, "fig4_125hz_at_2": vl})
+    return _Study("fig4", sec, out, numbers={"fig4_1khz_at_2": vh, "fig4_125hz_at_2": vl, **_nearest("fig4_1khz", hi, at),
+                                             **_nearest("fig4_125hz", lo, at)})
 
 
 def study_limit(fig2: _Study) -> _Study:
@@ -467,7 +477,8 @@ def study_limit(fig2: _Study) -> _Study:
             ("comparison (not a decision: no limit was given to the result)", "|VRE| below the limit" if ok else "|VRE| above the limit"),
         ],
     )
-    return _Study("limit", sec, numbers={"limit_vre_at_2p5": v, "limit_article_truncated": art_trunc, "limit_article_censored": art_cens})
+    return _Study("limit", sec, numbers={"limit_vre_at_2p5": v, "limit_article_truncated": art_trunc, "limit_article_censored": art_cens,
+                                         **_nearest("limit", res, rms)})
 
 
 def study_sine(cfg: DemoConfig) -> _Study:
@@ -558,6 +569,13 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
     def g(key: str) -> float:
         return n.get(key, math.nan)
 
+    def near(key: str) -> str:
+        """The nearest level's VRE ± u (an interpolation between levels has no u)."""
+        return format_mg_text(g(key + "_near"), g(key + "_near_u"))
+
+    def at(key: str) -> str:
+        return f"simulated at {g(key + '_near_rms'):.3g} g rms (the nearest level)"
+
     dep = g("fig2_departure_rms_g")
     rows = [
         (
@@ -571,10 +589,10 @@ def summary_section(n: Mapping[str, float]) -> ReportSection:
             "Figure 2: data leave the model above",
             f"article ≈ {ARTICLE_DEPARTURE_RMS_G:g} g rms · simulated " + (f"{dep:.3g} g rms" if math.isfinite(dep) else "no departure within the levels run"),
         ),
-        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · simulated X {format_mg_text(g('fig3_x_at_5'))}, Z {format_mg_text(g('fig3_z_at_5'))}; "
-         "the article's X/Y peak near 3 g rms and fall after it: not reproduced (see Figure 3)"),
-        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · simulated 125 Hz {format_mg_text(g('fig4_125hz_at_2'))}, 1 kHz {format_mg_text(g('fig4_1khz_at_2'))}"),
-        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · simulated {format_mg_text(g('limit_vre_at_2p5'))}"),
+        ("Figure 3: VRE at 5 g rms, ±8 g", f"article: X/Y worse than Z · {at('fig3_x')} X {near('fig3_x')}, Z {near('fig3_z')}; "
+         "the article's X/Y peak near 3 g rms: not reproduced"),
+        ("Figure 4: VRE at 2 g rms, ±2 g Y", f"article: 125 Hz well below 1 kHz · {at('fig4_125hz')} 125 Hz {near('fig4_125hz')}, 1 kHz {near('fig4_1khz')}"),
+        ("Datasheet: VRE at 2.5 g rms", f"limit |VRE| < {DATASHEET_LIMIT[1] * 1e3:.0f} mg · {at('limit')} {near('limit')}"),
         (
             "Sine method: VRC at fn = 2.4 kHz",
             f"model k2·Q² = {format_value(g('sine_model_vrc_2400'), unit='µg/g²')} · simulated {format_value_u(g('sine_vrc_2400'), g('sine_u_vrc_2400'), unit='µg/g²')}",

@@ -43,6 +43,33 @@ DECISION_RULE = ("guarded acceptance: pass when |VRE| + U <= limit; fail when |V
                  "indeterminate otherwise (U = k·u, coverage about 95 %)")
 
 
+# An estimate whose relative standard uncertainty exceeds this determines nothing: `vrelab
+# identify` takes the base sensor's fn or Q instead, and a report shows such a fitted parameter
+# (a rail the levels never reached) as "not determined", never as a number.
+MAX_REL_U = 0.5
+
+
+def undetermined(value: float | None, u: float | None) -> str | None:
+    """Why ``value ± u`` determines nothing (its relative standard uncertainty above
+    :data:`MAX_REL_U`, or no finite value or u), None when it is determined.
+
+    Examples
+    --------
+    >>> undetermined(2.0, 0.1) is None
+    True
+    >>> undetermined(0.0, 1.6e13)
+    'u = 1.6e+13 with a value of 0'
+    >>> undetermined(1.0, 3.0)
+    'u = 3 × the value (above 0.5 ×)'
+    """
+    if value is None or u is None or not (math.isfinite(value) and math.isfinite(u)):
+        return "no finite value and uncertainty"
+    if value == 0:
+        return None if u == 0 else f"u = {u:.2g} with a value of 0"
+    rel = u / abs(value)
+    return None if rel <= MAX_REL_U else f"u = {rel:.2g} × the value (above {MAX_REL_U:g} ×)"
+
+
 # The Type B inputs a test declares (a campaign run's budget keys, TypeB's fields).
 TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u_thermal_g")
 

@@ -16,7 +16,8 @@ def register(sub: Subparsers) -> None:
         "DIR/results.json and, when present, prediction.json, record.h5, envelope.csv and psd.csv; "
         "or, for a sweep folder (DIR/result.nc, no results.json), VRE against the grid, the spread "
         "of a Monte Carlo lot and the failed points. The report is laid out as a test report (test item, "
-        "equipment, conditions, procedure, results, decisions, approval) and prints on A4 or letter; "
+        "equipment, conditions, procedure, results, decisions, approval) and prints on A4 (letter when the "
+        "metadata says paper = \"letter\"); "
         "--metadata fills in what no record holds (laboratory, item, equipment, who signs).",
     )
     p.add_argument("dir", metavar="DIR", help="output folder of simulate/analyze/sweep --out")
@@ -24,7 +25,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument("--metadata", metavar="FILE.toml",
                    help="laboratory, item, equipment, procedure and approval for the test report (TOML; tables "
                         "[laboratory] [customer] [item] [items.CHANNEL] [equipment] [conditions] [procedure] "
-                        "[approval], top-level report_number); missing fields say 'not given'")
+                        "[approval], top-level report_number and paper); missing fields say 'not given'")
     p.add_argument("--json", action="store_true", help="print {\"report\": PATH} on stdout")
     p.set_defaults(func=run)
 

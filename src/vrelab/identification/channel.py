@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.gum import MAX_REL_U
 from vrelab.identification.check2f import cross_check_2f
 from vrelab.identification.cross_coupling import CROSS, CrossCoupling, fit_cross_coupling
 from vrelab.identification.fitting import (
@@ -20,7 +21,7 @@ from vrelab.identification.fitting import (
     subset_levels,
     unsaturated,
 )
-from vrelab.identification.model import MAX_REL_U, NUISANCE, Findings, model_runs, plan_parameters, post_checks
+from vrelab.identification.model import NUISANCE, Findings, model_runs, plan_parameters, post_checks
 from vrelab.identification.observation import ChannelModel, Observation, RunFit, TypeBTerm, apparent_vrc, value_u
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND

@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 
 from vrelab.campaigns import (
     SAME_ORIENTATION_G,  # static fields closer than this are one orientation
-    )
+)
+from vrelab.gum import MAX_REL_U
 from vrelab.identification.observation import Observation, apparent_vrc, drive_equivalent
 from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
@@ -33,8 +34,8 @@ REACH_SIGMA = 3.0
 # The highest sine frequency must reach this fraction of fn for Q (and fn) to be determined:
 # below it |H|² ≈ 1 + (2 - 1/Q²)·r², and only that one combination of fn and Q shows.
 NEAR_FN = 0.5
-# fn or Q with a relative standard uncertainty beyond this is not determined.
-MAX_REL_U = 0.5
+# fn or Q with a relative standard uncertainty beyond vrelab.gum.MAX_REL_U is not determined
+# (the one threshold: a report says a fitted parameter is "not determined" by it too).
 # fn or Q whose profile-likelihood u exceeds the fit's local one by this factor take the profile's.
 _WIDER = 1.3
 # Parameters that stay free when not determined (see post_checks).

@@ -19,12 +19,15 @@ from typing import Any, Sequence
 class ReportTable:
     """A table of text cells under a heading (cells are escaped; ``numeric`` columns align right).
 
-    A cell may be ``(text, "#anchor")``: a link within the report."""
+    A cell may be ``(text, "#anchor")``: a link within the report. ``breakable`` columns hold
+    long unbroken tokens (a SHA-256, a path) that may break anywhere to fit the paper; every
+    other cell breaks between words only."""
 
     title: str
     header: Sequence[str]
     rows: Sequence[Sequence[Any]]
     numeric: Sequence[int] = ()
+    breakable: Sequence[int] = ()
 
 
 def _shown(ch: str) -> str:
@@ -97,7 +100,10 @@ def table_html(t: ReportTable, level: int = 4) -> str:
     def cls(j: int) -> str:
         return ' class="num"' if j in t.numeric else ""
 
+    def td_cls(j: int) -> str:
+        return ' class="any"' if j in t.breakable else cls(j)
+
     th = "".join(f"<th{cls(j)}>{esc(h)}</th>" for j, h in enumerate(t.header))
-    body = "".join("<tr>" + "".join(f"<td{cls(j)}>{cell(c)}</td>" for j, c in enumerate(row)) + "</tr>" for row in t.rows)
+    body = "".join("<tr>" + "".join(f"<td{td_cls(j)}>{cell(c)}</td>" for j, c in enumerate(row)) + "</tr>" for row in t.rows)
     head = f"<h{level}>{esc(t.title)}</h{level}>" if t.title else ""
     return f'{head}<div class="scroll"><table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table></div>'

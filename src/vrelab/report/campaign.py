@@ -31,8 +31,9 @@ from vrelab.report.testreport import RESULTS_NUMBER
 
 
 def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
-    """VRC(f) of one channel: log frequency axis; log VRC axis when the values share a sign
-    (their magnitude, the sign said in the label), symmetric-log otherwise."""
+    """VRC(f) of one channel: log frequency axis; the VRC with its sign on every channel (one
+    convention across the report's figures and tables), on a log axis when every value is
+    positive, symmetric-log otherwise."""
     from vrelab.report.plots import new_figure
 
     pts = channel.get("vrc_by_freq") or []
@@ -43,14 +44,9 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
     u = np.array([p["vrc_ug_per_g2"]["u"] for p in pts], dtype=float)
     g = np.array([p["static_g"] for p in pts], dtype=float)
     fig, (ax,) = new_figure()
-    sign = 1.0
     if (v > 0).all():
         ax.set_yscale("log")
         ylabel = "VRC (µg/g²)"
-    elif (v < 0).all():
-        sign = -1.0
-        ax.set_yscale("log")
-        ylabel = "−VRC (µg/g²; the VRC is negative)"
     else:
         ax.set_yscale("symlog", linthresh=max(float(np.min(np.abs(v[v != 0]))) if (v != 0).any() else 1.0, 1.0))
         ylabel = "VRC (µg/g², symmetric log)"
@@ -58,7 +54,7 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
     for i, g0 in enumerate(sorted(set(np.round(g, 2)), reverse=True)):
         sel = np.isclose(np.round(g, 2), g0)
         order = np.argsort(f[sel])
-        ax.errorbar(f[sel][order], sign * v[sel][order], yerr=u[sel][order], fmt=markers[i % len(markers)] + "-",
+        ax.errorbar(f[sel][order], v[sel][order], yerr=u[sel][order], fmt=markers[i % len(markers)] + "-",
                     capsize=3, label=f"static field {g0:+g} g")
     ax.set_xscale("log")
     ax.set_xlabel("frequency (Hz)")
@@ -69,8 +65,10 @@ def vrc_figure(channel: Mapping[str, Any]) -> ReportFigure | None:
                                     "A rise toward the proof mass's resonance is VRC·|H(f)|² (physics §1.3).")
 
 
-def _est(e: Mapping[str, Any] | None, unit: str) -> str:
-    return "not determined (see the notes)" if e is None else format_value_u(e["value"], e["u"], unit=unit)
+def _est(e: Mapping[str, Any] | None, unit: str, name: str = "") -> str:
+    from vrelab.report.plots import fit_param_text
+
+    return "not determined (see the notes)" if e is None else fit_param_text(name, e["value"], e["u"], unit)
 
 
 def _noise_est(e: Mapping[str, Any], unit: str) -> str:
@@ -121,11 +119,11 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
     return ReportSection(
         title=f"Channel {channel['channel']}",
         what=f"apparent k2 = {_est(channel.get('k2_ug_per_g2'), 'µg/g²')}, k3 = {_est(channel.get('k3_ug_per_g3'), 'µg/g³')}, "
-        f"effective rail = {_est(channel.get('rail_g'), 'g')} (standard uncertainties).",
+        f"effective rail = {_est(channel.get('rail_g'), 'g', 'rail_g')} (standard uncertainties).",
         figures=[fig] if fig else [],
         facts=[("k2 (apparent: combined over frequencies, see the notes)", _est(channel.get("k2_ug_per_g2"), "µg/g²")),
                ("k3 (combined over frequencies)", _est(channel.get("k3_ug_per_g3"), "µg/g³")),
-               ("effective rail", _est(channel.get("rail_g"), "g"))],
+               ("effective rail", _est(channel.get("rail_g"), "g", "rail_g"))],
         notes=list(channel.get("notes") or []),
         tables=tables,
         channel=str(channel["channel"]),
@@ -135,6 +133,8 @@ def channel_section(channel: Mapping[str, Any]) -> ReportSection:
 def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, tuple[int, int]]) -> ReportTable:
     """One row per run; its link names the numbered sections it points to (5.4–5.5, as the
     headings read) and the anchor is the first of them."""
+    from vrelab.report.plots import fit_param_text
+
     rows: list[tuple[Any, ...]] = []
     for r in runs:
         fits = []
@@ -143,7 +143,7 @@ def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, tuple[i
             if "vrc_ug_per_g2" in fit:
                 fits.append(f"{c['channel']}: VRC {format_value_u(fit['vrc_ug_per_g2']['value'], fit['vrc_ug_per_g2']['u'], unit='µg/g²')}")
             if "rail_g" in fit:
-                fits.append(f"{c['channel']}: rail {format_value_u(fit['rail_g']['value'], fit['rail_g']['u'], unit='g')}")
+                fits.append(f"{c['channel']}: rail {fit_param_text('rail_g', fit['rail_g']['value'], fit['rail_g']['u'], 'g')}")
         status = "ok" if r["status"] == "ok" else f"FAILED: {r.get('error')}"
         where: Any = "—"
         if r["index"] in anchors:
@@ -152,7 +152,7 @@ def _runs_table(runs: Sequence[Mapping[str, Any]], anchors: Mapping[int, tuple[i
             where = (f"{span} (run {r['index']})", f"#s{first}")
         rows.append((str(r["index"]), r["label"], r["file"], r["method"], status, "; ".join(fits), where))
     return ReportTable("Runs", ["run", "label", "file", "method", "status", "fits (± standard uncertainty)", "sections"], rows,
-                       numeric=(0,))
+                       numeric=(0,), breakable=(2,))
 
 
 def report_campaign_dir(rf: ResultsFolder, argv: Sequence[str] | None = None, title: str | None = None,

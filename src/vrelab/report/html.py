@@ -17,6 +17,7 @@ import hashlib
 import io
 import math
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -191,6 +192,35 @@ def collect_warnings(
     return list(dict.fromkeys(out))  # each once, in order
 
 
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def collapse_warnings(warnings: Sequence[str]) -> list[str]:
+    """Each warning once (with a count "×3" when it came more than once), and a family of warnings that differ only in their numbers (one per
+    segment of a record) as its first with a count and the others' numbers: "segment 0-2 s is
+    short ... (×7; the others: 2-4, 4-6, ...)". In order of first appearance."""
+    times: dict[str, int] = {}
+    for w in warnings:
+        times[w] = times.get(w, 0) + 1
+    groups: dict[str, list[str]] = {}
+    for w in times:
+        groups.setdefault(_NUMBER.sub("#", w), []).append(w)
+    out = []
+    for family in groups.values():
+        first, rest = family[0], family[1:]
+        if not rest:
+            out.append(first if times[first] == 1 else f"{first} (×{times[first]})")
+            continue
+        head = [m.group() for m in _NUMBER.finditer(first)]
+        spans = []
+        for w in rest:
+            ms = list(_NUMBER.finditer(w))
+            differ = [i for i, m in enumerate(ms) if m.group() != head[i]]
+            spans.append(w[ms[differ[0]].start():ms[differ[-1]].end()])
+        out.append(f"{first} (×{sum(times[w] for w in family)}; the others: {', '.join(spans)})")
+    return out
+
+
 # --------------------------------------------------------------------------- rendering
 def _conditions_rows(result: VreResult) -> list[tuple[str, object]]:
     from vrelab.report.plots import levels_reached
@@ -264,6 +294,8 @@ def _budget_table(result: VreResult, title: str = "Uncertainty budget (GUM)") ->
 
 
 def _fits_table(fits: Sequence[FitResult]) -> str:
+    from vrelab.report import plots
+
     if not fits:
         return '<p class="mute">No fits.</p>'
     rows = []
@@ -272,7 +304,7 @@ def _fits_table(fits: Sequence[FitResult]) -> str:
             params = f"no fit: {f.no_fit_reason}"
         else:
             params = "; ".join(
-                f"{describe_fit_param(k)[0]} = {format_value_u(v.value, v.u, unit=describe_fit_param(k)[1] or v.unit)}"
+                f"{describe_fit_param(k)[0]} = {plots.fit_param_text(k, v.value, v.u, describe_fit_param(k)[1] or v.unit)}"
                 for k, v in f.params.items()
             )
         used = f"{len(f.levels_used)} levels ≤ {max(f.levels_used):.3g} g rms" if f.levels_used else str(f.n_points)
@@ -477,7 +509,7 @@ def render_section(sec: ReportSection, anchor: str, number: str = "") -> str:
     if not results:
         warnings += collect_warnings(None, None, sec.prediction)
     if warnings:
-        parts.append("<h4>Warnings</h4><ul class=\"warn\">" + "".join(f"<li>{esc(w)}</li>" for w in dict.fromkeys(warnings)) + "</ul>")
+        parts.append("<h4>Warnings</h4><ul class=\"warn\">" + "".join(f"<li>{esc(w)}</li>" for w in collapse_warnings(warnings)) + "</ul>")
     for i, fig in enumerate(sec.figures, 1):
         parts.append(_figure_html(fig, f"{anchor}-f{i}", fig.caption or f"{sec.title}, figure {i}"))
     if sec.notes:
@@ -646,6 +678,8 @@ def result_figures(result: VreResult, folder: Path | None = None) -> tuple[list[
 
 def summary_sentence(result: VreResult) -> str:
     """One sentence of what a result shows, for a section without a hand-written one."""
+    from vrelab.report import plots
+
     lv = [x for x in result.levels if math.isfinite(x.rms_g) and math.isfinite(x.vre.value)]
     what = f"{'Simulated' if result.kind == 'simulation' else 'Measured'} VRE"
     if not lv:
@@ -656,7 +690,8 @@ def summary_sentence(result: VreResult) -> str:
     bits = []
     for f in result.fits:
         if "rail_g" in f.params:
-            bits.append(f"the {f.model} model fits with an effective rail of {format_value_u(f.params['rail_g'].value, f.params['rail_g'].u, unit='g')}")
+            rail = plots.fit_param_text("rail_g", f.params["rail_g"].value, f.params["rail_g"].u, "g")
+            bits.append(f"the {f.model} model's effective rail: {rail}")
         elif "vrc_ug_per_g2" in f.params and f.freq_hz is None:
             bits.append(f"VRC = {format_value_u(f.params['vrc_ug_per_g2'].value, f.params['vrc_ug_per_g2'].u, unit='µg/g²')}")
     return s + ("; " + "; ".join(bits) if bits else "") + "."

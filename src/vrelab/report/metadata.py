@@ -10,6 +10,7 @@ the test-report habits of IEEE Std 1293 (reference accelerometer and its calibra
 .. code-block:: toml
 
     report_number = "VRE-2025-014"
+    paper = "A4"                     # or "letter"
     [laboratory]
     name = "Vibration Lab, Example GmbH"
     address = "Example Street 1, 12345 Example City"
@@ -55,20 +56,25 @@ NOT_GIVEN = "not given"
 # follow it). "" is the file's top level. Keys ending in "date" or named "received" also take a
 # TOML date.
 SCHEMA: Mapping[str, Mapping[str, str]] = {
-    "": {"report_number": "the report's unique identification", "title": "the report's title (--title wins)"},
+    "": {"report_number": "the report's unique identification", "title": "the report's title (--title wins)",
+         "paper": 'the printed paper: "A4" (the default) or "letter"'},
     "laboratory": {"name": "laboratory name", "address": "laboratory address",
                    "accreditation": "accreditation body and number"},
     "customer": {"name": "customer name", "address": "customer address"},
     "item": {"name": "what the item is", "manufacturer": "manufacturer", "model": "model",
              "serial": "serial number", "description": "description", "condition": "condition on receipt",
-             "received": "date of receipt"},
+             "received": "date of receipt", "range": "the range set for the test (when the results do not hold it)",
+             "axis": "the axis tested (when the results do not hold it)",
+             "odr": "output data rate (when the results do not hold it)",
+             "bandwidth": "bandwidth (when the results do not hold it)"},
     "equipment": {"reference": "reference accelerometer (make, model)", "reference_serial": "its serial number",
                   "reference_calibration": "its calibration: certificate, date, due date",
                   "shaker": "shaker", "controller": "vibration controller", "daq": "data acquisition",
                   "fixture": "fixture (its lowest resonance)", "other": "other equipment"},
     "conditions": {"temperature": "ambient temperature", "humidity": "relative humidity", "notes": "other conditions"},
     "procedure": {"standard": "standard or method followed", "text": "the procedure",
-                  "deviations": "deviations from the procedure"},
+                  "deviations": "deviations from the procedure",
+                  "test_date": "date of the test (its last day; the reference's calibration is checked against it)"},
     "approval": {"prepared_by": "who prepared the report", "reviewed_by": "who reviewed it",
                  "approved_by": "who approved it", "date": "date of issue", "prepared_date": "date prepared",
                  "reviewed_date": "date reviewed", "approved_date": "date approved"},
@@ -129,6 +135,20 @@ def _value(where: str, table: str, key: str, v: Any) -> str:
     raise ValueError(f"{where}: {name} must be {want}, got {_toml_type(v)}{hint}")
 
 
+# The papers the printed report is laid out for (CSS @page size keywords).
+PAPERS = ("A4", "letter")
+
+
+def _checked(where: str, table: str, key: str, v: str) -> str:
+    """A value with a closed set of choices (the paper), checked here so a typo is an error."""
+    if table == "" and key == "paper":
+        got = {p.lower(): p for p in PAPERS}.get(v.strip().lower())
+        if got is None:
+            raise ValueError(f"{where}: paper must be one of {', '.join(PAPERS)}, got {v!r}")
+        return got
+    return v
+
+
 def _table(where: str, table: str, doc: Mapping[str, Any], keys: Mapping[str, str]) -> dict[str, str]:
     out = {}
     for key, v in doc.items():
@@ -153,7 +173,7 @@ def parse_metadata(doc: Mapping[str, Any], source: str | None = None) -> ReportM
     known = ", ".join(f"[{t}]" for t in [*SCHEMA, _PER_CHANNEL + ".<channel>"] if t)
     for name, sub in doc.items():
         if name in SCHEMA[""]:
-            tables[""][name] = _value(where, "", name, sub)
+            tables[""][name] = _checked(where, "", name, _value(where, "", name, sub))
         elif name == _PER_CHANNEL:
             if not isinstance(sub, Mapping):
                 raise ValueError(f"{where}: items must be tables, one per channel ([items.<channel>]), got {_toml_type(sub)}")

@@ -52,7 +52,7 @@ footer { margin-top: 3em; font-size: .85em; color: var(--mute); border-top: 1px 
 code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
 
 @media print {
-  /* Paper: the browser's paper size (A4 or letter) with the margins of @page (page_css);
+  /* Paper: A4, or letter when the metadata says paper = "letter" (page_css), with its margins;
      every table fits the narrower of the two, 180 mm. */
   body { max-width: none; margin: 0; padding: 0; font-size: 9.5pt; line-height: 1.35; }
   h1 { font-size: 17pt; }
@@ -68,10 +68,14 @@ code { font-size: .92em; background: #f4f6f8; padding: 0 .25em; }
   thead { display: table-header-group; }
   div.scroll { overflow: visible; }
   table { width: 100%; font-size: 8pt; }
-  th, td { padding: 2px 4px; overflow-wrap: anywhere; }  /* a hash or a path breaks to fit 180 mm */
-  /* Headers wrap; a number never breaks inside itself (a "-1.145e-" / "07" on paper). */
+  /* A word never breaks inside itself on paper ("lev el", "0. 27 1"): headers and cells wrap
+     between words only, and the table's columns are sized to their longest word; only a text
+     cell's long unbroken token (a hash, a path) breaks, and only where it cannot fit its line. */
+  th, td { padding: 2px 3px; overflow-wrap: break-word; word-break: normal; hyphens: manual; }
+  th { font-size: 7.5pt; }
   th.num, table.kv th { white-space: normal; }
   td.num { white-space: nowrap; overflow-wrap: normal; }
+  table.kv td, td.any, footer { overflow-wrap: anywhere; }
   .iplot { display: none !important; }
   figure img.static { display: block !important; max-width: 100%; max-height: 200mm; width: auto; border: none; }
   details::details-content { content-visibility: visible; display: block; }

@@ -118,13 +118,30 @@ def levels_reached(result: VreResult) -> str | None:
     return f"{lo} g rms" if lo == hi else f"{lo}–{hi} g rms"
 
 
+# Fitted parameters the data may not reach (a rail above every level): shown "not determined",
+# with the reason, when vrelab.gum.undetermined says so. A VRC, k2 or k3 is linear in the data:
+# its u, however large, is its answer (consistent with zero).
+_MAY_BE_UNREACHED = ("rail_g", "rail_low_g", "rail_high_g")
+
+
+def fit_param_text(name: str, value: float | None, u: float | None, unit: str | None = None) -> str:
+    """A fitted parameter as ``value ± u unit``, or "not determined (why)" for one the data
+    cannot determine (:func:`vrelab.gum.undetermined`), never as a number."""
+    from vrelab.gum import undetermined
+
+    why = undetermined(value, u) if name in _MAY_BE_UNREACHED else None
+    if why is not None:
+        return f"not determined ({why}: the levels do not reach it)"
+    return format_value_u(value, u, unit=unit or field_label(name)[1] or None)
+
+
 def _fit_label(fit: FitResult) -> str:
     """Legend text of a fit: the fitted parameter with its standard error."""
     bits = []
     for name, est in fit.params.items():
         if name in ("rail_g", "rail_low_g", "rail_high_g"):
             which = {"rail_g": "rail ±", "rail_low_g": "lower rail ", "rail_high_g": "upper rail "}[name]
-            bits.append(f"{which}{format_value_u(est.value, est.u, unit='g')}")
+            bits.append(f"{which}{fit_param_text(name, est.value, est.u, 'g')}")
         else:
             label, unit = field_label(name)
             bits.append(f"{'VRC' if name == 'vrc_ug_per_g2' else label} {format_value_u(est.value, est.u, unit=unit or est.unit or None)}")
@@ -132,8 +149,12 @@ def _fit_label(fit: FitResult) -> str:
 
 
 def _significant(fit: FitResult) -> bool:
-    """A VRC fit worth drawing: its value at least twice its standard error (a VRC fitted to
-    levels that are all noise draws a line through nothing)."""
+    """A fit worth drawing: a VRC at least twice its standard error (a VRC fitted to levels that
+    are all noise draws a line through nothing), a rail determined (:func:`fit_param_text`)."""
+    from vrelab.gum import undetermined
+
+    if any(undetermined(e.value, e.u) for n, e in fit.params.items() if n in _MAY_BE_UNREACHED):
+        return False
     est = fit.params.get("vrc_ug_per_g2")
     return est is None or (math.isfinite(est.value) and math.isfinite(est.u) and abs(est.value) >= 2 * est.u)
 
@@ -201,8 +222,8 @@ def model_curves(
     grid = np.linspace(top / n, top, n)
     curves: list[Curve] = []
     rail = _rail_fit(result)
-    if rail is not None and result.conditions.static_g is not None:
-        p = rail.params
+    if rail is not None and result.conditions.static_g is not None and _significant(rail):
+        p = rail.params  # a rail the data do not determine draws no curve (its legend says why)
         high = p["rail_g"].value if "rail_g" in p else p["rail_high_g"].value
         low = p["rail_low_g"].value if "rail_low_g" in p else None
         if math.isfinite(high) and (low is None or math.isfinite(low)):  # a failed fit draws nothing
@@ -323,7 +344,8 @@ def frequency_groups(result: VreResult) -> list[tuple[float | None, list[LevelRe
 
 
 def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
-    """VRE (µg) against rms² (g²) with the fitted VRC line through the origin (IEEE 1293 style).
+    """VRE (mg, as in every table and figure of VRE) against rms² (g²) with the fitted VRC line
+    through the origin (IEEE 1293 style).
 
     One colour-and-marker pair per frequency; each legend entry shows a frequency's marker with
     its fitted line and VRC ± u. Points that entered the fit are filled; others are hollow.
@@ -338,8 +360,8 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
         color, marker = COLORS[i % len(COLORS)], MARKERS[i % len(MARKERS)]
         used = set(np.round(fit.levels_used, 12)) if fit and fit.levels_used else None
         r2 = np.array([x.rms_g**2 for x in pts])
-        y = np.array([x.vre.value for x in pts]) * UG_PER_G
-        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * UG_PER_G
+        y = np.array([x.vre.value for x in pts]) * 1e3  # mg
+        u = np.array([x.vre.u if np.isfinite(x.vre.u) else 0.0 for x in pts]) * 1e3
         mask = np.array([used is None or round(x.rms_g, 12) in used for x in pts], dtype=bool)
         name = f"{fq:g} Hz" if fq is not None else "measured"
         pts_h = ax.errorbar(r2[mask], y[mask], yerr=u[mask], fmt=marker, color=color, capsize=3, label="_nolegend_")
@@ -347,7 +369,7 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
             est = fit.params["vrc_ug_per_g2"]
             xx = np.linspace(0, 1.05 * r2.max(), 50)
             text = f"{name}: VRC {format_value_u(est.value, est.u)} µg/g²"
-            (line,) = ax.plot(xx, est.value * xx, "-", color=color, lw=1.3, label=text)
+            (line,) = ax.plot(xx, est.value * xx * 1e3 / UG_PER_G, "-", color=color, lw=1.3, label=text)
             handles.append((pts_h, line) if mask.any() else line)
             labels.append(text)
         elif mask.any():
@@ -360,7 +382,7 @@ def plot_vre_vs_rms2(result: VreResult, *, title: str | None = None) -> Figure:
             labels.append(f"{name}: not in fit")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel("vibration level squared, rms² (g²)")
-    ax.set_ylabel("VRE (µg)")
+    ax.set_ylabel("VRE (mg)")
     ax.set_xlim(left=0)
     ax.set_title(title or f"VRE vs rms² (slope = VRC)\n{describe_conditions(result, short=True)}", fontsize=10)
     # matplotlib's stub types a handle as Artist | tuple[Artist, ...]; at run time a tuple may

@@ -18,6 +18,8 @@ metadata file (:mod:`vrelab.report.metadata`), and where it is absent the report
 
 from __future__ import annotations
 
+import datetime as _dt
+import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
@@ -112,6 +114,83 @@ def channels(doc: Document) -> list[str]:
         c for c in _distinct(e.channel for e in _entries(doc)) if c not in {s.channel for s in doc.sections}]
 
 
+# --------------------------------------------------------------------------- dates
+_ISO_DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
+_DUE = re.compile(r"\bdue\b\D{0,12}(\d{4}-\d{2}-\d{2})", re.I)
+
+
+def _day(text: str | None) -> _dt.date | None:
+    """The first ISO date (YYYY-MM-DD) in ``text``, None without one."""
+    m = _ISO_DATE.search(text or "")
+    if m is None:
+        return None
+    try:
+        return _dt.date.fromisoformat(m.group())
+    except ValueError:
+        return None
+
+
+def _test_day(doc: Document) -> tuple[_dt.date | None, str]:
+    """The (last) day of the test and where it comes from: the metadata's ``[procedure]
+    test_date``, else the latest date a simulated result was made (its provenance)."""
+    given = _day(doc.metadata.get("procedure", "test_date"))
+    if given is not None:
+        return given, "[procedure] test_date"
+    made = [d for d in (_day(str(e.result.provenance.get("created_utc") or "")) for e in _entries(doc)) if d]
+    return (max(made), "the simulation's date") if made else (None, "")
+
+
+def _shown_day(day: _dt.date | None, source: str) -> str:
+    return NOT_GIVEN if day is None else f"{day} ({source})"
+
+
+def date_warnings(doc: Document) -> list[str]:
+    """What the dates contradict (ISO/IEC 17025:2017 7.8.2.1: the dates of the test and of
+    issue; 6.4.7: equipment used within its calibration): a date of issue before the report was
+    generated or before the test, a signature dated after the issue, and the reference's
+    calibration past due at the test (its "due YYYY-MM-DD" in ``[equipment]
+    reference_calibration``). Day resolution; nothing said when a date is not given."""
+    m = doc.metadata
+    out = []
+    issued = _day(m.get("approval", "date"))
+    generated = _day(str(doc.provenance.get("date_utc") or ""))
+    tested, tested_from = _test_day(doc)
+    if issued and generated and issued < generated:
+        out.append(f"date of issue {issued} is {(generated - issued).days} days before this report was generated "
+                   f"({generated}): a report is issued after it is made (set [approval] date)")
+    if issued and tested and issued < tested:
+        out.append(f"date of issue {issued} is before the test ({tested}, {tested_from})")
+    for role in ("prepared", "reviewed", "approved"):
+        signed = _day(m.get("approval", f"{role}_date"))
+        if issued and signed and signed > issued:
+            out.append(f"{role} on {signed}, after the date of issue {issued}")
+    cal = m.get("equipment", "reference_calibration")
+    due = _DUE.search(cal or "")
+    due_day = _day(due.group(1)) if due else None
+    if due_day and tested and due_day < tested:
+        out.append(f"the reference's calibration was past due at the test: due {due_day}, tested {tested} ({tested_from})")
+    elif due_day and tested is None and generated and due_day < generated:
+        out.append(f"the reference's calibration is due {due_day}, before this report was generated ({generated}), and "
+                   "the test date is not given ([procedure] test_date): its validity at the test is not shown")
+    return out
+
+
+# --------------------------------------------------------------------------- a simulation study
+NO_LABORATORY = "none: a simulation study (no laboratory, equipment or environment)"
+
+
+def simulated(doc: Document) -> bool:
+    """Every result of the report is a simulation (the demo): no laboratory took part."""
+    kinds = {e.result.kind for e in _entries(doc)}
+    return kinds == {"simulation"}
+
+
+def _applicable(doc: Document, rows: Sequence[tuple[str, Any]]) -> list[tuple[str, Any]]:
+    """The rows, without the laboratory's fields left "not given" in a simulation study (a
+    simulation has no laboratory: rows of "not given" would say it has one not named)."""
+    return [r for r in rows if not (r[1] == NOT_GIVEN and simulated(doc))]
+
+
 # --------------------------------------------------------------------------- identification
 def _identification(doc: Document) -> str:
     m = doc.metadata
@@ -119,17 +198,21 @@ def _identification(doc: Document) -> str:
     addr = m.get("laboratory", "address")
     cust = m.get("customer", "name")
     rows = [
-        ("laboratory", f"{lab}, {addr}" if lab and addr else (lab or addr or NOT_GIVEN)),
+        ("laboratory", f"{lab}, {addr}" if lab and addr else (lab or addr or
+                                                              (NO_LABORATORY if simulated(doc) else NOT_GIVEN))),
         ("accreditation", m.shown("laboratory", "accreditation")),
         ("customer", ", ".join(v for v in (cust, m.get("customer", "address")) if v) or NOT_GIVEN),
         ("report number", m.shown("", "report_number")),
         ("date of issue", m.shown("approval", "date")),
+        ("date of test", _shown_day(*_test_day(doc))),
         ("generated", f"{doc.provenance.get('date_utc', NOT_GIVEN)} by vrelab {doc.provenance.get('vrelab_version', __version__)}"),
         ("metadata file", m.source or "none (vrelab report DIR --metadata FILE.toml fills the fields that say "
                                      f"'{NOT_GIVEN}')"),
     ]
-    body = "".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows)
-    return f'<table class="kv ident">{body}</table>'
+    body = "".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in _applicable(doc, rows))
+    warn = date_warnings(doc)
+    listed = ('<ul class="warn dates">' + "".join(f"<li>Dates: {esc(w)}</li>" for w in warn) + "</ul>") if warn else ""
+    return f'<table class="kv ident">{body}</table>{listed}'
 
 
 def _toc(doc: Document) -> str:
@@ -156,7 +239,10 @@ def _item(doc: Document) -> str:
     head = ["channel", "item", "manufacturer", "model", "serial", "description", "condition on receipt", "received"]
     each: list[str | None] = [*chans] if chans else [None]  # None: the report's one DUT
     rows = [[c or "DUT"] + [m.item(c, k) or NOT_GIVEN for k in keys] for c in each]
-    parts = [table_html(ReportTable("Identification (metadata)", head, rows), 3)]
+    if simulated(doc) and all(v == NOT_GIVEN for row in rows for v in row[1:]):
+        parts = ['<p class="mute">A simulation study: no physical item (the simulated sensor is described below).</p>']
+    else:
+        parts = [table_html(ReportTable("Identification (metadata)", head, rows), 3)]
     entries = list(_entries(doc))
     known = []
     for c in each:
@@ -164,15 +250,42 @@ def _item(doc: Document) -> str:
         mine = [e.result for e in mine_e]
         known.append([
             c or "DUT",
-            _sensors_where(mine_e),
-            _join(f"±{r.conditions.range_g:g} g" if r.conditions.range_g is not None else None for r in mine),
-            _join(str(r.conditions.axis).upper() if r.conditions.axis else None for r in mine),
-            _join(_g(r.conditions.odr_hz, "g", "Hz") for r in mine),
-            _join(_g(r.conditions.bandwidth_hz, "g", "Hz") for r in mine),
+            _or_else(_sensors_where(mine_e), _item_model(m, c)),
+            _or_else(_join(f"±{r.conditions.range_g:g} g" if r.conditions.range_g is not None else None for r in mine),
+                     _from_item(m, c, "range")),
+            _or_else(_join(str(r.conditions.axis).upper() if r.conditions.axis else None for r in mine),
+                     _from_item(m, c, "axis")),
+            _or_else(_join(_g(r.conditions.odr_hz, "g", "Hz") for r in mine), _from_item(m, c, "odr"),
+                     _record_rate(mine)),
+            _or_else(_join(_g(r.conditions.bandwidth_hz, "g", "Hz") for r in mine), _from_item(m, c, "bandwidth")),
         ])
-    parts.append(table_html(ReportTable("Recorded in the results", ["channel", "sensor", "range", "axis", "output data rate",
-                                                                    "bandwidth"], known), 3))
+    parts.append(table_html(ReportTable("Recorded in the results (else as noted)", ["channel", "sensor", "range", "axis",
+                                                                                    "output data rate", "bandwidth"],
+                                        known), 3))
     return "".join(parts)
+
+
+def _or_else(*values: str | None) -> str:
+    """The first value given (the results' own, then what the note in it names), else "not given"."""
+    return next((v for v in values if v and v != NOT_GIVEN), NOT_GIVEN)
+
+
+def _from_item(m: ReportMetadata, channel: str | None, key: str) -> str | None:
+    v = m.item(channel, key)
+    return None if v is None else f"{v} (metadata [item] {key})"
+
+
+def _item_model(m: ReportMetadata, channel: str | None) -> str | None:
+    got = " ".join(v for v in (m.item(channel, "manufacturer"), m.item(channel, "model")) if v)
+    return f"{got} (metadata [item])" if got else None
+
+
+def _record_rate(results: Sequence[VreResult]) -> str | None:
+    """A recording's sample rate: the rate its DUT channel was read at (not the sensor's own
+    output data rate when a data acquisition resampled it: said as such)."""
+    rates = _distinct(f"{r.provenance['fs_hz']:.6g}" for r in results
+                      if r.kind != "simulation" and isinstance(r.provenance.get("fs_hz"), (int, float)))
+    return f"{', '.join(rates)} Hz (the record's sample rate)" if rates else None
 
 
 def _sensors_where(entries: Sequence[_Entry]) -> str:
@@ -230,7 +343,7 @@ def _equipment(doc: Document) -> str:
                                    "simulated drive; no physical shaker, reference or data acquisition"))
     rows.append(("software", f"vrelab {doc.provenance.get('vrelab_version', __version__)} (reduction, fits, "
                              "uncertainty, this report)"))
-    return kv_table(rows)
+    return kv_table(_applicable(doc, rows))
 
 
 # --------------------------------------------------------------------------- 3 conditions
@@ -244,9 +357,10 @@ def _levels_text(r: VreResult) -> str:
 
 def _conditions(doc: Document) -> str:
     m = doc.metadata
-    ambient = kv_table([("ambient temperature", m.shown("conditions", "temperature")),
-                        ("relative humidity", m.shown("conditions", "humidity")),
-                        ("other conditions", m.shown("conditions", "notes"))])
+    ambient = kv_table(_applicable(doc, [("ambient temperature", m.shown("conditions", "temperature")),
+                                         ("relative humidity", m.shown("conditions", "humidity")),
+                                         ("other conditions", m.shown("conditions", "notes"))]))
+    ambient = ambient or '<p class="mute">A simulation study: no laboratory environment.</p>'
     rows = []
     for e in _entries(doc):
         c = e.result.conditions
@@ -286,9 +400,9 @@ def _input_files(doc: Document) -> list[list[Any]]:
 
 def _procedure(doc: Document) -> str:
     m = doc.metadata
-    parts = [kv_table([("standard or method", m.shown("procedure", "standard")),
-                       ("procedure", m.shown("procedure", "text")),
-                       ("deviations", m.shown("procedure", "deviations"))])]
+    parts = [kv_table(_applicable(doc, [("standard or method", m.shown("procedure", "standard")),
+                                        ("procedure", m.shown("procedure", "text")),
+                                        ("deviations", m.shown("procedure", "deviations"))]))]
     entries = list(_entries(doc))
     methods = _distinct(e.result.method for e in entries)
     items = [_METHOD_TEXT[x] for x in methods if x in _METHOD_TEXT]
@@ -302,7 +416,7 @@ def _procedure(doc: Document) -> str:
                      + '<ul class="notes">' + "".join(f"<li>{esc(t)}</li>" for t in items) + "</ul>")
     files = _input_files(doc)
     if files:
-        parts.append(table_html(ReportTable("Files (SHA-256)", ["file", "SHA-256", "used in"], files), 3))
+        parts.append(table_html(ReportTable("Files (SHA-256)", ["file", "SHA-256", "used in"], files, breakable=(0, 1)), 3))
     return "".join(parts)
 
 
@@ -355,8 +469,10 @@ def _approval(doc: Document) -> str:
     m = doc.metadata
     rows = []
     for role, key in (("Prepared by", "prepared"), ("Reviewed by", "reviewed"), ("Approved by", "approved")):
+        issued = m.get("approval", "date")
+        day = m.get("approval", key + "_date") or (f"{issued} (date of issue)" if issued else NOT_GIVEN)
         rows.append(f"<tr><th>{role}</th><td>{esc(m.shown('approval', key + '_by'))}</td>"
-                    f"<td>{esc(m.shown('approval', key + '_date'))}</td><td class=\"sign\"></td></tr>")
+                    f"<td>{esc(day)}</td><td class=\"sign\"></td></tr>")
     return ('<p>The results relate only to the item(s) tested, under the conditions stated in this report.</p>'
             '<table class="approval"><thead><tr><th>role</th><th>name</th><th>date</th><th>signature</th></tr></thead>'
             f"<tbody>{''.join(rows)}</tbody></table>"
@@ -384,10 +500,11 @@ def render(doc: Document) -> str:
 
 
 def page_css(meta: ReportMetadata, title: str) -> str:
-    """@page rules: margins that fit A4 and letter, the report's number (or title) and "Page x of
-    y" in the bottom margin of every printed page (ISO/IEC 17025 7.8.2.1 e)."""
+    """@page rules: the paper (A4 unless the metadata's ``paper`` says letter), margins that fit
+    both, the report's number (or title) and "Page x of y" in the bottom margin of every printed
+    page (ISO/IEC 17025 7.8.2.1 e)."""
     ident = meta.get("", "report_number")
     left = f"Report {ident}" if ident else title
-    return ("\n@page { margin: 15mm 15mm 16mm 15mm;"
+    return (f"\n@page {{ size: {meta.get('', 'paper') or 'A4'}; margin: 15mm 15mm 16mm 15mm;"
             f" @bottom-left {{ content: {css_string(left[:90])}; font: 7.5pt sans-serif; color: #5b6570; }}"
             ' @bottom-right { content: "Page " counter(page) " of " counter(pages); font: 7.5pt sans-serif; color: #5b6570; } }\n')
