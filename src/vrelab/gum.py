@@ -73,7 +73,16 @@ class TypeB:
 
 
 def coverage_factor(dof: float | None) -> float:
-    """k for 95.45 % two-sided coverage from Student's t with ``dof`` degrees of freedom."""
+    """k for 95.45 % two-sided coverage from Student's t with ``dof`` degrees of freedom.
+
+    Examples
+    --------
+    k for 95.45 % coverage: 2 for a normal distribution (infinite degrees of freedom), more with few:
+
+    >>> from vrelab.gum import coverage_factor
+    >>> print(f"{coverage_factor(None):.3f} {coverage_factor(10):.3f} {coverage_factor(3):.3f}")
+    2.000 2.284 3.307
+    """
     # scipy.special's quantiles, which scipy.stats.norm.ppf and t.ppf call (the same bits):
     # importing scipy.stats cost an analysis a second of CPU
     from scipy.special import ndtri, stdtrit
@@ -84,13 +93,34 @@ def coverage_factor(dof: float | None) -> float:
 
 
 def welch_satterthwaite(u_c: float, parts: Sequence[tuple[float, float | None]]) -> float:
-    """ν_eff = u_c⁴ / Σ u_i⁴/ν_i over (u_i, ν_i); ν None or inf: exactly known (no term)."""
+    """ν_eff = u_c⁴ / Σ u_i⁴/ν_i over (u_i, ν_i); ν None or inf: exactly known (no term).
+
+    Examples
+    --------
+    A Type A term of 0.03 mg from 4 degrees of freedom and an exactly known Type B term of 0.04 mg:
+
+    >>> import math
+    >>> from vrelab.gum import welch_satterthwaite
+    >>> u_c = math.hypot(0.03, 0.04)
+    >>> print(f"{welch_satterthwaite(u_c, [(0.03, 4), (0.04, None)]):.1f}")
+    30.9
+    """
     den = sum(u**4 / nu for u, nu in parts if nu is not None and math.isfinite(nu) and nu > 0 and u > 0)
     return math.inf if den == 0 else u_c**4 / den
 
 
 def decide(vre_g: float, U_g: float, limit_g: float) -> str | None:
-    """Guarded acceptance against ``limit_g`` (see the module docstring); None when VRE is undefined."""
+    """Guarded acceptance against ``limit_g`` (see the module docstring); None when VRE is undefined.
+
+    Examples
+    --------
+    VREs of -0.5, -0.9 and -1.5 mg, each with U = 0.3 mg, against a 1 mg limit: the middle one's
+    interval straddles the limit.
+
+    >>> from vrelab.gum import decide
+    >>> decide(-0.5e-3, 0.3e-3, 1e-3), decide(-0.9e-3, 0.3e-3, 1e-3), decide(-1.5e-3, 0.3e-3, 1e-3)
+    ('pass', 'indeterminate', 'fail')
+    """
     if not (math.isfinite(vre_g) and math.isfinite(U_g)):
         return None
     if abs(vre_g) + U_g <= limit_g:
@@ -106,6 +136,19 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
 
     ``static_coeff`` is ∂VRE/∂g0 at this level [g/g] (None: unknown, the term is listed as not
     evaluated).
+
+    Examples
+    --------
+    A level of -3 mg measured to 0.03 mg (Type A, 9 degrees of freedom) with a declared thermal
+    term of 0.04 mg: u = 0.05 mg, k from the Welch-Satterthwaite degrees of freedom, and the
+    decision against a 5 mg limit:
+
+    >>> from vrelab import Estimate, LevelResult, TypeB
+    >>> from vrelab.gum import level_budget
+    >>> level = LevelResult(rms_g=1.0, vre=Estimate(-0.0030, 0.00003), dof=9)
+    >>> budgeted = level_budget(level, TypeB(u_thermal_g=0.00004), None, limit_g=0.005)
+    >>> print(f"u {budgeted.vre.u * 1e3:.4f} mg, k {budgeted.k:.2f}, U {budgeted.U_vre_g * 1e3:.3f} mg, {budgeted.decision}")
+    u 0.0500 mg, k 2.04, U 0.102 mg, pass
     """
     v, u_a = level.vre.value, level.vre.u
     terms: list[dict[str, Any]] = [{"source": "record (batch means, low-frequency noise)", "type": "A", "u_g": u_a,
@@ -142,7 +185,17 @@ def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[fl
     """(mean, u, χ²) of independent values with standard uncertainties ``us``: the
     inverse-variance weighted mean, its internal u = 1/√Σw (w = 1/u²) and χ² = Σ w·(x − mean)²
     of the values about it (JCGM 100:2008 does not treat the combination of repeated results;
-    this is the usual least-squares one, e.g. Bevington & Robinson, Data Reduction, ch. 4)."""
+    this is the usual least-squares one, e.g. Bevington & Robinson, Data Reduction, ch. 4).
+
+    Examples
+    --------
+    Two VRCs of 100 ± 5 and 110 ± 5 µg/g²:
+
+    >>> from vrelab.gum import weighted_mean_chi2
+    >>> mean, u, chi2 = weighted_mean_chi2([100.0, 110.0], [5.0, 5.0])
+    >>> print(f"{mean:.1f} ± {u:.2f}, chi2 {chi2:.1f}")
+    105.0 ± 3.54, chi2 2.0
+    """
     w = [1.0 / u**2 for u in us]
     m = sum(wi * x for wi, x in zip(w, values)) / sum(w)
     chi2 = sum(wi * (x - m) ** 2 for wi, x in zip(w, values))
@@ -152,7 +205,19 @@ def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[fl
 def weighted_mean(es: Sequence[Estimate]) -> Estimate:
     """Inverse-variance weighted mean of independent estimates; its u scaled by the Birge ratio
     √(χ²/(n−1)) when the values scatter more than their uncertainties (never scaled down: R. T.
-    Birge, Phys. Rev. 40, 207 (1932); the CODATA adjustments' practice)."""
+    Birge, Phys. Rev. 40, 207 (1932); the CODATA adjustments' practice).
+
+    Examples
+    --------
+    The same two VRCs as estimates; their scatter (χ² = 2 for one degree of freedom) widens the
+    u by the Birge ratio √2:
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.gum import weighted_mean
+    >>> mean = weighted_mean([Estimate(100.0, 5.0, "µg/g²"), Estimate(110.0, 5.0, "µg/g²")])
+    >>> print(f"{mean.value:.1f} ± {mean.u:.2f} {mean.unit}")
+    105.0 ± 5.00 µg/g²
+    """
     m, u, chi2 = weighted_mean_chi2([e.value for e in es], [e.u for e in es])
     if len(es) > 1:
         u *= math.sqrt(max(chi2 / (len(es) - 1), 1.0))
@@ -182,7 +247,15 @@ def common_sensitivity_terms(estimates: Sequence[Estimate | None], budgets: Sequ
 def type_b_perturbations(typeb: TypeB) -> list[tuple[str, dict[str, float]]]:
     """(source, perturbation) for each declared Type B input (``rms_rel``: every level's rms
     scales by 1 + r; ``vre_rel``: every VRE by 1 + p; ``static_g``: the static field moves;
-    ``offset_g``: an offset on every VRE)."""
+    ``offset_g``: an offset on every VRE).
+
+    Examples
+    --------
+    >>> from vrelab import TypeB
+    >>> from vrelab.gum import type_b_perturbations
+    >>> type_b_perturbations(TypeB(u_reference_pct=1.0, u_static_g=0.01))
+    [('reference sensitivity', {'rms_rel': 0.01}), ('static field (alignment)', {'static_g': 0.01})]
+    """
     every = [
         ("reference sensitivity", {"rms_rel": typeb.u_reference_pct / 100}),
         ("DUT sensitivity", {"vre_rel": typeb.u_dut_pct / 100}),
@@ -238,7 +311,18 @@ def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel:
                    offset_g: float = 0.0) -> list[LevelResult]:
     """Levels as they would read with the reference sensitivity off by ``rms_rel`` (every rms
     scales by 1 + rms_rel, a sine level's measured E[x²] and E[x³] by its square and cube: 2r
-    and 3r, physics §4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
+    and 3r, physics §4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE.
+
+    Examples
+    --------
+    A level as it reads with the reference's sensitivity 1 % high (every rms 1 % higher):
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.gum import perturb_levels
+    >>> level = LevelResult(rms_g=1.0, vre=Estimate(-0.0030, 0.00003))
+    >>> print(f"{perturb_levels([level], rms_rel=0.01)[0].rms_g:.2f} g rms")
+    1.01 g rms
+    """
     return [replace(lv, rms_g=lv.rms_g * (1 + rms_rel),
                     vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit),
                     drive=None if lv.drive is None else lv.drive.scaled(1 + rms_rel))

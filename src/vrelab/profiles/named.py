@@ -215,6 +215,17 @@ def parse_profile(spec: str) -> Profile:
     ``flat:F1-F2`` (a flat 1 g²/Hz shape, to be scaled to a grms), and an inline breakpoint list
     ``F:P,F:P,...`` (Hz:g²/Hz). Any of them followed by ``+sine:F:PEAK,F:PEAK,...`` (Hz : g
     peak) adds sine tones: a :class:`SineOnRandom`.
+
+    Examples
+    --------
+    A flat random profile of 50-2000 Hz (its level is set where it is used), and a sine-on-random:
+
+    >>> import vrelab
+    >>> profile = vrelab.parse_profile("flat:50-2000")
+    >>> print(type(profile).__name__, profile.freq_hz.min(), profile.freq_hz.max())
+    RandomProfile 50.0 2000.0
+    >>> print(type(vrelab.parse_profile("flat:50-2000+sine:120:0.5")).__name__)
+    SineOnRandom
     """
     if not isinstance(spec, str) or not spec.strip():
         raise ValueError(f"profile must be {_FORMS.format(names=', '.join(named_profiles()))}; got {spec!r}")

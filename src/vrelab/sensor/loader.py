@@ -652,6 +652,17 @@ def load_sensor(
     ------
     ValueError naming the field and the allowed values for an unknown preset, an invalid file,
     an unknown range, axis or ODR.
+
+    Examples
+    --------
+    The ADXL355 preset at its ±2 g range, z axis, 4 kHz output rate:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> print(sensor.name, sensor.range_g, sensor.axis, sensor.odr_hz)
+    adxl355 2.0 z 4000.0
+    >>> print(sensor.rails_g)
+    (-2.048, 2.048)
     """
     data, origin, name = _read_checked(spec)
     where = f"{name} ({origin})"
