@@ -49,7 +49,17 @@ TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u
 
 @dataclass(frozen=True)
 class TypeB:
-    """The Type B inputs of a test (physics §4.3); zero means not declared."""
+    """The Type B inputs of a test (physics §4.3); zero means not declared.
+
+    Examples
+    --------
+    The Type B inputs of a test: the reference's sensitivity to 1 %, the static field to 5 mg.
+
+    >>> from vrelab import TypeB
+    >>> typeb = TypeB(u_reference_pct=1.0, u_static_g=0.005)
+    >>> typeb.declared, typeb.to_dict()
+    (True, {'u_reference_pct': 1.0, 'u_dut_pct': 0.0, 'u_static_g': 0.005, 'u_thermal_g': 0.0})
+    """
 
     u_reference_pct: float = 0.0
     u_dut_pct: float = 0.0
@@ -231,7 +241,19 @@ def common_sensitivity_terms(estimates: Sequence[Estimate | None], budgets: Sequ
     sensitivity and by p with the DUT's (closed form, this module's docstring), so k2 and k3 do
     too. Added once, after the weighted combination that independent Type A errors allow; the
     largest declared values of the runs are used. Returns the estimates and a note (None when no
-    run declares either term)."""
+    run declares either term).
+
+    Examples
+    --------
+    k2 = 100 ± 3 µg/g² combined from runs that share a reference known to 1 %: a VRC scales by
+    -2·r with the reference's sensitivity, so 2 µg/g² is added in quadrature once.
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.gum import common_sensitivity_terms
+    >>> (k2,), note = common_sensitivity_terms([Estimate(100.0, 3.0, "µg/g²")], [{"u_reference_pct": 1.0}])
+    >>> print(f"{k2.value:.1f} ± {k2.u:.2f} {k2.unit}")
+    100.0 ± 3.61 µg/g²
+    """
     r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
     p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
     if not (r or p):
@@ -269,7 +291,21 @@ def type_b_shifts(values: Mapping[str, float], refit: Callable[[dict[str, float]
                   typeb: TypeB) -> list[tuple[str, dict[str, float], dict[str, float] | None]]:
     """For each declared Type B input: (source, perturbation, each parameter's shift), the shifts
     from refitting with that input moved by its standard uncertainty (None: the refit failed).
-    ``refit`` takes the perturbation and returns the refitted parameter values."""
+    ``refit`` takes the perturbation and returns the refitted parameter values.
+
+    Examples
+    --------
+    A VRC refitted with the reference's sensitivity 1 % high: every rms 1 % higher, so the VRC
+    (VRE/rms²) 2 % lower.
+
+    >>> from vrelab import TypeB
+    >>> from vrelab.gum import type_b_shifts
+    >>> def refit(perturbation):
+    ...     return {"vrc_ug_per_g2": 100.0 / (1 + perturbation.get("rms_rel", 0.0)) ** 2}
+    >>> for source, perturbation, shift in type_b_shifts({"vrc_ug_per_g2": 100.0}, refit, TypeB(u_reference_pct=1.0)):
+    ...     print(f"{source}: {shift['vrc_ug_per_g2']:.2f} µg/g²")
+    reference sensitivity: -1.97 µg/g²
+    """
     out: list[tuple[str, dict[str, float], dict[str, float] | None]] = []
     for source, delta in type_b_perturbations(typeb):
         other = refit(delta)
@@ -282,7 +318,23 @@ def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | N
                typeb: TypeB) -> FitResult:
     """``fit`` with each parameter's ``u`` combined with the Type B terms, found by refitting
     with one input perturbed by its standard uncertainty (``refit`` takes the perturbations
-    ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes."""
+    ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes.
+
+    Examples
+    --------
+    A VRC fit of 100 ± 3 µg/g² with the reference's sensitivity known to 1 %: the refit with every
+    rms 1 % high moves the VRC by 2 µg/g², added to its u.
+
+    >>> from vrelab import Estimate, LevelResult, TypeB
+    >>> from vrelab.fits import fit_vrc
+    >>> from vrelab.gum import fit_budget, perturb_levels
+    >>> levels = [LevelResult(rms_g=r, vre=Estimate(1e-4 * r**2, 3e-5)) for r in (1.0, 2.0, 3.0)]
+    >>> def refit(perturbation):
+    ...     return fit_vrc(perturb_levels(levels, **perturbation))
+    >>> fit = fit_budget(fit_vrc(levels), refit, TypeB(u_reference_pct=1.0))
+    >>> print(f"{fit.params['vrc_ug_per_g2'].value:.1f} ± {fit.params['vrc_ug_per_g2'].u:.2f}")
+    100.0 ± 3.61
+    """
     params = dict(fit.params)
     notes = list(fit.notes)
     extra: dict[str, float] = {name: 0.0 for name in params}
