@@ -44,7 +44,15 @@ Kind = Literal["positive", "finite", "non_negative", "order", "bool", "choice", 
 
 @dataclass(frozen=True)
 class Field:
-    """One sensor parameter."""
+    """One sensor parameter.
+
+    Examples
+    --------
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> field = Mechanics.rows()[0]
+    >>> print(field.key, "|", field.name, "|", field.kind)
+    fn_hz | fn_hz | positive
+    """
 
     key: str  # TOML key (in the file's units)
     name: str  # Sensor attribute (g, Hz, s; nonlinearity in 1/g^(n-1))
@@ -201,7 +209,16 @@ def row(f: Field) -> Any:
 @dataclass(frozen=True)
 class StageConfig:
     """One stage of a sensor description: its fields (:meth:`rows`), their checks across fields
-    (:meth:`validate`) and the runtime stages it stands for (:meth:`build`)."""
+    (:meth:`validate`) and the runtime stages it stands for (:meth:`build`).
+
+    Examples
+    --------
+    Each stage configuration declares its fields by their rows:
+
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> [field.key for field in Mechanics.rows()]
+    ['fn_hz', 'q']
+    """
 
     @classmethod
     def rows(cls) -> tuple[Field, ...]:
@@ -234,7 +251,19 @@ class StageConfig:
 
 @dataclass(frozen=True)
 class Mechanics(StageConfig):
-    """The proof mass's resonance (physics §1.3): a second-order resonator at ``fn_hz`` with ``q``."""
+    """The proof mass's resonance (physics §1.3): a second-order resonator at ``fn_hz`` with ``q``.
+
+    Examples
+    --------
+    The ADXL355's proof mass:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> mechanics = next(c for c in sensor.configs if isinstance(c, Mechanics))
+    >>> print(mechanics.fn_hz, mechanics.q)
+    2400.0 1.5
+    """
 
     fn_hz: float | None = row(Field(
         "fn_hz", "fn_hz", "positive", None,
