@@ -135,6 +135,16 @@ class TriaxialProfile:
     coherency : array_like, shape (n, 3, 3), complex
         ``C_jk = S_jk / sqrt(P_j P_k)``: Hermitian, unit diagonal, positive semi-definite.
     name, source : str, optional
+
+    Examples
+    --------
+    The flat 50-2000 Hz profile along a direction at 45° in the x-z plane (one rank: every pair of
+    axes fully coherent):
+
+    >>> import vrelab
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> print(f"{tri.grms:.3f} g rms", [f"{g:.3f}" for g in tri.axis_mean_square_g2 ** 0.5])
+    1.000 g rms ['0.707', '0.000', '0.707']
     """
 
     freq_hz: NDArray[np.float64]
@@ -378,6 +388,15 @@ class TriaxialSine:
     """A sine along a direction: ``a(t) = d · √2·rms·sin(2πft)`` (physics §1.6).
 
     ``direction`` is normalised; ``rms_g`` is the rms along it (the total rms).
+
+    Examples
+    --------
+    A 1 g rms sine at 100 Hz at 45° between x and z:
+
+    >>> import vrelab
+    >>> sine = vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0))
+    >>> print(sine.freq_hz, [round(d, 4) for d in sine.direction])
+    100.0 [0.7071, 0.0, 0.7071]
     """
 
     freq_hz: float
