@@ -75,7 +75,27 @@ class Mount:
 
 @dataclass(frozen=True)
 class Run:
-    """One run of a campaign, validated: paths absolute, one static field per DUT channel."""
+    """One run of a campaign, validated: paths absolute, one static field per DUT channel.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> run.index, run.label, dict(run.dut), run.dut_units
+    (1, '01_z_up_80hz.tdms', {'sn1': 'shaker/sn1_z'}, 'lsb')
+    """
 
     index: int  # 1-based, in manifest order
     file: Path
@@ -105,7 +125,27 @@ class Run:
 
 @dataclass(frozen=True)
 class Manifest:
-    """A campaign manifest, validated (:func:`read_manifest`)."""
+    """A campaign manifest, validated (:func:`read_manifest`).
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> manifest = read_manifest("campaign.toml")
+    >>> type(manifest).__name__, manifest.runs[0].file.name
+    ('Manifest', '01_z_up_80hz.tdms')
+    """
 
     path: Path
     name: str
@@ -130,6 +170,28 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     With ``check_files`` each run's file is opened (its header only where the format allows)
     to check that the channels exist. Every problem is one ``ValueError`` line naming the run
     and the key.
+
+    Examples
+    --------
+    A manifest of one run, written here (the example campaign's own is
+    ``examples/campaign/campaign.toml``):
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest.name, len(manifest.runs), dict(manifest.runs[0].static_g)
+    ('sn1, z up, 80 Hz', 1, {'sn1': 1.0})
     """
     path = Path(path)
     if not path.is_file():
@@ -455,7 +517,27 @@ def _band(where: str, value: Any) -> tuple[float, float] | None:
 
 
 def run_scales(run: Run) -> tuple[dict[str, Any], Any]:
-    """A run's scales: per DUT channel and for the reference (None: the file's own unit)."""
+    """A run's scales: per DUT channel and for the reference (None: the file's own unit).
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest, run_scales
+    >>> dut_scales, reference_scale = run_scales(read_manifest("campaign.toml").runs[0])
+    >>> dut_scales["sn1"].sensitivity, reference_scale.units
+    (256000.0, 'mv')
+    """
     from vrelab.analysis.readers import Scale
 
     # neither a unit nor a sensitivity: None, the unit the file states (else g) is used
@@ -586,6 +668,28 @@ def check_records(runs: Sequence[Run]) -> None:
     at two static fields, make k2 and k3 from one orientation as if it were two. Runs on one file
     for different DUTs (parts split into runs), or with different schedules (each its own part of
     a long record), are not refused.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import check_records, read_manifest
+    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> check_records([run])
+    >>> check_records([run, run])
+    Traceback (most recent call last):
+        ...
+    ValueError: run 1 ('01_z_up_80hz.tdms') and run 1 ('01_z_up_80hz.tdms') are the same file 01_z_up_80hz.tdms, both for DUT 'sn1': its VRC would be counted twice (list each recording once)
     """
     for group in _recordings(runs):
         pair = _first_shared(group)
