@@ -17,7 +17,25 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Identification:
-    """Every channel of a campaign identified on one base sensor."""
+    """Every channel of a campaign identified on one base sensor.
+
+    Examples
+    --------
+    A campaign's channels identified on one base sensor (here one channel, built directly):
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> ident = vrelab.Identification("two runs", "ideal", base, (identify_channel("sn1", obs, base),), "censored")
+    >>> [channel.channel for channel in ident.channels], ident.base_spec
+    (['sn1'], 'ideal')
+    """
 
     campaign: str
     base_spec: str
