@@ -390,7 +390,24 @@ def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64],
     named, and where moving it by ``PROBE_REL`` (±10 %) moves a level's VRE by more than the
     level's stated u (the larger of ``u_vre_g``, 1 % of |VRE| and 1 µg), that level is not valid,
     naming the parameter and the move. A parameter at 0 cannot be moved relatively: it is named
-    only. Returns the levels and the prediction's notes."""
+    only. Returns the levels and the prediction's notes.
+
+    Examples
+    --------
+    Each assumption without a stated u is named in the notes, and a level whose VRE moves by more
+    than its u when one moves by 10 % is not valid. The ADXL355 preset states a u for each of its
+    assumptions: nothing to name, the level stays valid.
+
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.prediction.propagation import unstated_check
+    >>> from vrelab.prediction.single import predict
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> levels = predict(sensor, 100.0, [1.0], 1.0).levels
+    >>> checked, notes = unstated_check(sensor, 100.0, np.array([1.0]), 1.0, "censored", levels, predictor=predict)
+    >>> checked[0].valid, len(notes)
+    (True, 0)
+    """
     from vrelab.sensor.parameters import parameter, with_parameters
 
     levels_out = list(out)

@@ -417,7 +417,20 @@ _log = logging.getLogger("vrelab.readers")
 
 
 def register(cls: type[Source]) -> type[Source]:
-    """Add a format (a :class:`Source` subclass) to the registry; usable as a class decorator."""
+    """Add a format (a :class:`Source` subclass) to the registry; usable as a class decorator.
+
+    Examples
+    --------
+    A format is a :class:`Source` subclass decorated with ``@register`` (a plugin's entry point
+    does it on import). Registering one already there keeps one entry:
+
+    >>> from vrelab.analysis.readers import Scale, formats, open_record, register
+    >>> with open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", dut_scale=Scale("lsb", 256000)) as record:
+    ...     tdms = type(record.source)
+    >>> n = len(formats())
+    >>> register(tdms) is tdms, len(formats()) == n
+    (True, True)
+    """
     if cls not in READERS:
         READERS.append(cls)
     return cls
