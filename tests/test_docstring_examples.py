@@ -37,15 +37,6 @@ import vrelab
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 
-# Public names whose Examples section is still to write (issue 33). A ratchet: the test fails
-# when a public name without a section is not listed here, and when a listed one has gained a
-# section (delete its entry), so the list only shrinks.
-PENDING: frozenset[str] = frozenset({
-    "vrelab.identification.cross_coupling.CrossCoupling",
-    "vrelab.identification.cross_coupling.fit_cross_coupling",
-    "vrelab.identification.model.post_checks",
-})
-
 _DIRECTIVE = re.compile(r"^\.\. (automodule|autofunction|autoclass):: (\S+)[ \t]*\n((?:[ \t]+:.*\n(?:[ \t]{4,}\S.*\n)*)*)",
                         re.M)
 _SECTION = re.compile(r"^[ \t]*Examples\n[ \t]*-{8,}\n", re.M)
@@ -161,10 +152,7 @@ def test_public_api_is_found():
 
 def test_every_public_name_has_examples():
     missing = sorted(name for name, obj in PUBLIC.items() if examples_section(obj) is None)
-    unlisted = [n for n in missing if n not in PENDING]
-    assert not unlisted, "no Examples section in the docstring of: " + ", ".join(unlisted)
-    done = sorted(PENDING - set(missing))
-    assert not done, "has an Examples section now, delete from PENDING: " + ", ".join(done)
+    assert not missing, "no Examples section in the docstring of: " + ", ".join(missing)
 
 
 @pytest.fixture

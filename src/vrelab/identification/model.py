@@ -261,7 +261,27 @@ def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Seq
     column are to be scaled; where the profile does not close, fn and Q are bounded (Q 2.0 ± 0.6
     for a true 6 on three frequencies far from fn was such a case). A rail or the threshold
     that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
-    shapes nothing the data see)."""
+    shapes nothing the data see).
+
+    Examples
+    --------
+    Two sine runs at one frequency (80 Hz) leave no resonance in the fit: with only k2 and k3
+    freed, nothing the fit freed is found undetermined.
+
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.identification.model import model_runs, post_checks
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100, k3_ug_per_g3=10)
+    >>> values = {"k2_ug_per_g2": 100.0, "k3_ug_per_g3": 10.0}
+    >>> cov = {"k2_ug_per_g2": 3.57**2, "k3_ug_per_g3": 1.19**2}
+    >>> post_checks(values, cov, list(values), model_runs(sensor, obs, "censored"), obs)
+    {}
+    """
     why: dict[str, str] = {}
     if "fn_hz" in free:
         freqs = _sine_frequencies(obs)
