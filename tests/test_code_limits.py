@@ -4,7 +4,8 @@
   ``**kwargs`` count one each): a call that needs more takes an options dataclass;
 * no function is longer than 100 lines, from its ``def`` to its last line, its docstring not
   counted (module-level tables are not functions, so they are free);
-* no module is longer than 800 lines;
+* no module is longer than 800 lines, its docstrings' Examples sections not counted (they are
+  tests, run by tests/test_docstring_examples.py);
 * the function parameters annotated exactly ``Any`` (``dict[str, Any]`` for JSON-like data is
   fine) only go down: :data:`MAX_ANY_PARAMETERS` is their count when it was set;
 * no private attribute is read on another object: ``x._name`` where ``x`` is not ``self``,
@@ -22,6 +23,7 @@ list can only shrink (delete the entry that the failure names).
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import vrelab
@@ -119,13 +121,27 @@ def any_parameters(text: str) -> list[str]:
     return out
 
 
+def _example_lines(tree: ast.AST) -> int:
+    """Lines of the docstrings' numpydoc Examples sections (the section to the docstring's end,
+    where numpydoc puts it): tests/test_docstring_examples.py runs them, so they are tests kept
+    beside the function they show, not code a module's length limit is about."""
+    n = 0
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            doc = ast.get_docstring(node, clean=False)
+            head = re.search(r"\n[ \t]*Examples\n[ \t]*-{8,}\n", doc or "")
+            if head:
+                n += (doc or "").count("\n", head.start())
+    return n
+
+
 def measure_source(rel: str, text: str) -> dict[str, int]:
     """The violations in one module's source: ``kind:rel:name`` -> size."""
     out: dict[str, int] = {}
-    n = len(text.splitlines())
+    tree = ast.parse(text)
+    n = len(text.splitlines()) - _example_lines(tree)
     if n > MAX_MODULE_LINES:
         out[f"module:{rel}"] = n
-    tree = ast.parse(text)
     for name, f in _functions(tree):
         if (p := _n_params(f)) > MAX_PARAMS:
             out[f"params:{rel}:{name}"] = p
@@ -191,6 +207,10 @@ def test_a_planted_violation_of_each_kind_is_found() -> None:
     assert found["lines:x.py:long"] == 101
     assert measure_source("x.py", "x = 1\n" * 801) == {"module:x.py": 801}
     assert measure_source("x.py", "x = 1\n" * 800) == {}
+    # a docstring's Examples section (run by tests/test_docstring_examples.py) is not counted
+    example = 'def f():\n    """F.\n\n    Examples\n    --------\n    >>> f()\n    """\n'
+    assert measure_source("x.py", example + "x = 1\n" * 797) == {}
+    assert measure_source("x.py", example + "x = 1\n" * 798) == {"module:x.py": 801}
 
 
 def test_the_ratchet_only_shrinks() -> None:

@@ -91,6 +91,18 @@ def simulate(
     ------
     ValueError
         Both or neither of ``vibration`` and ``freq_hz``, no level, or a bad plan.
+
+    Examples
+    --------
+    A simulated sine test (IEEE Std 1293's sine method) of the ADXL355 at ±2 g, axis up: 2 g rms
+    at 100 Hz drives the output past its +2 g rail, and the output reads 0.44 g low.
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = vrelab.simulate(sensor, levels=[2.0], static_g=1.0, freq_hz=100, seconds=2, seed=1)
+    >>> level = result.levels[0]
+    >>> print(f"{level.rms_g:.2f} g rms: VRE {level.vre.value * 1e3:.0f} mg, u {level.vre.u * 1e3:.2f} mg")
+    2.00 g rms: VRE -440 mg, u 0.02 mg
     """
     from vrelab.shaker import run_random_test, run_sine_test
 
@@ -200,6 +212,21 @@ def analyze(
     -------
     VreResult or TriaxialAnalysis
         What ``vrelab analyze --json`` (``--triaxial``) prints, as objects.
+
+    Examples
+    --------
+    A run of the example campaign (``make examples``): sensor sn1 axis up, sines at 80 Hz. The
+    channels' units as the CLI names them (``vrelab analyze --dut-units lsb ...``):
+
+    >>> import vrelab
+    >>> result = vrelab.analyze("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z",
+    ...                         reference="shaker/ref", dut_units="lsb", dut_sensitivity=256000,
+    ...                         reference_units="mv", reference_sensitivity=10)
+    >>> for level in result.levels:
+    ...     print(f"{level.rms_g:.1f} g rms: VRE {level.vre.value * 1e3:.2f} ± {level.vre.u * 1e3:.2f} mg")
+    0.2 g rms: VRE 0.10 ± 0.03 mg
+    0.4 g rms: VRE 0.47 ± 0.03 mg
+    0.6 g rms: VRE 1.02 ± 0.04 mg
     """
     from vrelab.analysis import analyze as _reduce
     from vrelab.analysis import open_record
@@ -301,6 +328,31 @@ def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = Non
         ``k3_ug_per_g3``, ``rail_g``): what ``vrelab campaign --json`` prints and what
         :func:`vrelab.identify` takes. A run that failed is in it with its ``error``. To write
         a results folder (and then a report), use ``vrelab campaign MANIFEST --out DIR``.
+
+    Examples
+    --------
+    A campaign of one run (a manifest written here; the example campaign's own manifest is
+    ``examples/campaign/campaign.toml``):
+
+    >>> import vrelab
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> doc = vrelab.campaign("campaign.toml")
+    >>> doc["n_runs"], doc["n_failed"], [c["channel"] for c in doc["channels"]]
+    (1, 0, ['sn1'])
+    >>> vrc = doc["channels"][0]["vrc_by_freq"][0]
+    >>> print(f"{vrc['freq_hz']:.0f} Hz: VRC {vrc['vrc_ug_per_g2']['value']:.0f} ± {vrc['vrc_ug_per_g2']['u']:.0f} µg/g²")
+    80 Hz: VRC 2853 ± 87 µg/g²
     """
     from vrelab.campaigns import campaign_doc, combine, read_manifest, run_campaign
 

@@ -133,6 +133,17 @@ def fit_vrc(
     :math:`X_i = [r_i^2]` (or :math:`[r_i^2, r_i^4]`): :math:`β = (X^TWX)^{-1}X^TWy`,
     :math:`\mathrm{cov}\,β = (X^TWX)^{-1}`, scaled by χ²_red when it exceeds 1 (Birge 1932, module references).
     ``c4 = k4·E[x⁴]/rms⁴``: 3·k4 for Gaussian vibration, 1.5·k4 for a sine.
+
+    Examples
+    --------
+    Three levels of a k2 = 100 µg/g² sensor (VRE = VRC·rms²), each to 0.03 mg:
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import fit_vrc
+    >>> levels = [LevelResult(rms_g=r, vre=Estimate(1e-4 * r**2, 3e-5)) for r in (1.0, 2.0, 3.0)]
+    >>> vrc = fit_vrc(levels).params["vrc_ug_per_g2"]
+    >>> print(f"VRC {vrc.value:.1f} ± {vrc.u:.1f} {vrc.unit}")
+    VRC 100.0 ± 3.0 ug/g^2
     """
     notes: list[str] = []
     if max_rms_g is not None:
@@ -196,7 +207,18 @@ def fit_vrc(
 def drive_moments(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(E[x²], E[x³]) per level [g², g³]: a sine level's measured from its reference waveform
     (:class:`~vrelab.results.DriveWaveform`, physics §4.4), else those of the level's rms: rms² and 0
-    (a pure sine, or a symmetric random drive)."""
+    (a pure sine, or a symmetric random drive).
+
+    Examples
+    --------
+    Random levels (no reference waveform): the Gaussian moments, rms² and 0:
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import drive_moments
+    >>> m2, m3 = drive_moments([LevelResult(rms_g=2.0, vre=Estimate(0.0, 1e-5))])
+    >>> print(m2, m3)
+    [4.] [0.]
+    """
     x2 = np.array([lv.drive.mean_square_g2.value if lv.drive is not None else lv.rms_g**2 for lv in levels],
                   dtype=np.float64)
     x3 = np.array([lv.drive.mean_cube_g3.value if lv.drive is not None else 0.0 for lv in levels], dtype=np.float64)
@@ -418,6 +440,19 @@ def fit_rail(
     and stays out"), or, when i is the highest level alone, more than 5 (a single 3σ draw is
     chance). The reported fit is the one below the departure. A lone outlier followed by levels
     back on the model is not a departure.
+
+    Examples
+    --------
+    Random levels against ±2 g rails on a 1 g field (the VRE of :func:`vrelab.models.clip_vre`,
+    each to 0.1 mg): the fit finds the rail.
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import fit_rail
+    >>> from vrelab.models.design import clip_vre
+    >>> levels = [LevelResult(rms_g=r, vre=Estimate(float(clip_vre(1.0, r, -2.0, 2.0)), 1e-4)) for r in (0.8, 1.0, 1.2)]
+    >>> rail = fit_rail(levels, static_g=1.0).params["rail_g"]
+    >>> print(f"rail {rail.value:.4f} g, u {rail.u * 1e3:.2f} mg")
+    rail 2.0000 g, u 0.37 mg
     """
     static_g = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
@@ -530,6 +565,21 @@ def separate_k2_k3(
     k2). Two orientations: ``k3 = (VRC₊ − VRC₋)/(3·(g₊ − g₋))``, ``k2 = VRC₊ − 3·k3·g₊``;
     at ±1 g, k2 = (VRC₊ + VRC₋)/2 and k3 = (VRC₊ − VRC₋)/6. The two recordings are
     independent, so their uncertainties add in quadrature through these linear maps.
+
+    Examples
+    --------
+    VRC fits axis up (+1 g) and axis down (-1 g) of a sensor with k2 = 100 µg/g², k3 = 10 µg/g³
+    (VRC = k2 + 3·k3·g0):
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import fit_vrc, separate_k2_k3
+    >>> def fit(vrc):
+    ...     return fit_vrc([LevelResult(rms_g=r, vre=Estimate(vrc * 1e-6 * r**2, 3e-5)) for r in (1.0, 2.0)])
+    >>> both = separate_k2_k3(fit(130.0), fit(70.0))
+    >>> for name in ("k2_ug_per_g2", "k3_ug_per_g3"):
+    ...     print(f"{name} {both.params[name].value:.1f} ± {both.params[name].u:.1f}")
+    k2_ug_per_g2 100.0 ± 5.1
+    k3_ug_per_g3 10.0 ± 1.7
     """
     from vrelab.models.nonlinearity import k2_k3_covariance
     from vrelab.models.nonlinearity import separate_k2_k3 as separate
@@ -567,6 +617,18 @@ def fit_k2_k3(points: Sequence[tuple[float, Estimate]], freq_hz: float | None = 
     ``VRC(g0) = k2 + 3·k3·g0`` (weights 1/u², parameter covariance ``(AᵀWA)⁻¹``); with two
     orientations it is exactly :func:`separate_k2_k3`. Needs at least two distinct fields
     (physics §1.2: +1 g and −1 g); the k4 term ``6·k4·g0²`` is the same at ±g0 and folds into k2.
+
+    Examples
+    --------
+    VRCs at three orientations (g0 = +1, 0, -1 g) of the same sensor (k2 = 100 µg/g²,
+    k3 = 10 µg/g³):
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.fits import fit_k2_k3
+    >>> points = [(1.0, Estimate(130.0, 3.0, "µg/g²")), (0.0, Estimate(100.0, 3.0, "µg/g²")), (-1.0, Estimate(70.0, 3.0, "µg/g²"))]
+    >>> fit = fit_k2_k3(points)
+    >>> print(f"k2 {fit.params['k2_ug_per_g2'].value:.1f}, k3 {fit.params['k3_ug_per_g3'].value:.1f}")
+    k2 100.0, k3 10.0
     """
     g = np.array([float(p[0]) for p in points])
     y = np.array([float(p[1].value) for p in points])
@@ -606,6 +668,19 @@ def combine_fits(fits: Sequence[FitResult], names: Sequence[str],
     disagree by more than their uncertainties (for k2/k3 across frequencies: the resonance, or
     an effect the model lacks): the covariance is scaled by it (the Birge ratio²) and a note
     says so, so the combined ``u`` covers the spread instead of hiding it.
+
+    Examples
+    --------
+    Two runs' VRC fits (100 and 110 µg/g², each to 5) combined into one:
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import combine_fits, fit_vrc
+    >>> from vrelab.results import VrcModel
+    >>> def fit(vrc):
+    ...     return fit_vrc([LevelResult(rms_g=1.0, vre=Estimate(vrc * 1e-6, 5e-6))])
+    >>> both = combine_fits([fit(100.0), fit(110.0)], ["vrc_ug_per_g2"], VrcModel)
+    >>> print(f"{both.params['vrc_ug_per_g2'].value:.1f} ± {both.params['vrc_ug_per_g2'].u:.2f}")
+    105.0 ± 5.00
     """
     if not fits:
         raise ValueError("combine_fits: no fit to combine")
@@ -648,7 +723,16 @@ VRC_PEAK_SIGMAS = 4.0
 
 
 def vrc_level_limit_g(rails_g: tuple[float, float], static_g: float) -> float:
-    """Largest rms [g] whose Gaussian peaks (4σ) stay inside ``rails_g`` at ``static_g``."""
+    """Largest rms [g] whose Gaussian peaks (4σ) stay inside ``rails_g`` at ``static_g``.
+
+    Examples
+    --------
+    ±2 g rails on a 1 g field: Gaussian peaks of 4σ reach the upper rail at 0.25 g rms.
+
+    >>> from vrelab.fits import vrc_level_limit_g
+    >>> print(f"{vrc_level_limit_g((-2.0, 2.0), 1.0):.2f} g rms")
+    0.25 g rms
+    """
     low, high = (float(x) for x in rails_g)
     return max(0.0, min(high - static_g, static_g - low)) / VRC_PEAK_SIGMAS
 
@@ -700,6 +784,19 @@ def fit_levels(
       unsaturated level when the rail fit does not determine the rails.
 
     Returns the fits and :class:`~vrelab.results.Notice` s (code ``fit`` or ``departure``).
+
+    Examples
+    --------
+    The fits a random test gets (the policy of every reducer): the VRC below the rails' reach and
+    the rail above it. Levels of the ±2 g rails of :func:`vrelab.models.clip_vre` on a 1 g field:
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import fit_levels
+    >>> from vrelab.models.design import clip_vre
+    >>> levels = [LevelResult(rms_g=r, vre=Estimate(float(clip_vre(1.0, r, -2.0, 2.0)), 1e-4)) for r in (0.2, 0.8, 1.0, 1.2)]
+    >>> fits, notices = fit_levels(levels, "random", static_g=1.0)
+    >>> [fit.model.name for fit in fits]
+    ['clip-censored', 'vrc']
     """
     V.one_of("method", method, ("random", "sine"))
     out: list[FitResult] = []

@@ -76,7 +76,17 @@ TYPE_B_KEYS: tuple[str, ...] = ("u_reference_pct", "u_dut_pct", "u_static_g", "u
 
 @dataclass(frozen=True)
 class TypeB:
-    """The Type B inputs of a test (physics §4.3); zero means not declared."""
+    """The Type B inputs of a test (physics §4.3); zero means not declared.
+
+    Examples
+    --------
+    The Type B inputs of a test: the reference's sensitivity to 1 %, the static field to 5 mg.
+
+    >>> from vrelab import TypeB
+    >>> typeb = TypeB(u_reference_pct=1.0, u_static_g=0.005)
+    >>> typeb.declared, typeb.to_dict()
+    (True, {'u_reference_pct': 1.0, 'u_dut_pct': 0.0, 'u_static_g': 0.005, 'u_thermal_g': 0.0})
+    """
 
     u_reference_pct: float = 0.0
     u_dut_pct: float = 0.0
@@ -100,7 +110,16 @@ class TypeB:
 
 
 def coverage_factor(dof: float | None) -> float:
-    """k for 95.45 % two-sided coverage from Student's t with ``dof`` degrees of freedom."""
+    """k for 95.45 % two-sided coverage from Student's t with ``dof`` degrees of freedom.
+
+    Examples
+    --------
+    k for 95.45 % coverage: 2 for a normal distribution (infinite degrees of freedom), more with few:
+
+    >>> from vrelab.gum import coverage_factor
+    >>> print(f"{coverage_factor(None):.3f} {coverage_factor(10):.3f} {coverage_factor(3):.3f}")
+    2.000 2.284 3.307
+    """
     # scipy.special's quantiles, which scipy.stats.norm.ppf and t.ppf call (the same bits):
     # importing scipy.stats cost an analysis a second of CPU
     from scipy.special import ndtri, stdtrit
@@ -111,13 +130,34 @@ def coverage_factor(dof: float | None) -> float:
 
 
 def welch_satterthwaite(u_c: float, parts: Sequence[tuple[float, float | None]]) -> float:
-    """ν_eff = u_c⁴ / Σ u_i⁴/ν_i over (u_i, ν_i); ν None or inf: exactly known (no term)."""
+    """ν_eff = u_c⁴ / Σ u_i⁴/ν_i over (u_i, ν_i); ν None or inf: exactly known (no term).
+
+    Examples
+    --------
+    A Type A term of 0.03 mg from 4 degrees of freedom and an exactly known Type B term of 0.04 mg:
+
+    >>> import math
+    >>> from vrelab.gum import welch_satterthwaite
+    >>> u_c = math.hypot(0.03, 0.04)
+    >>> print(f"{welch_satterthwaite(u_c, [(0.03, 4), (0.04, None)]):.1f}")
+    30.9
+    """
     den = sum(u**4 / nu for u, nu in parts if nu is not None and math.isfinite(nu) and nu > 0 and u > 0)
     return math.inf if den == 0 else u_c**4 / den
 
 
 def decide(vre_g: float, U_g: float, limit_g: float) -> str | None:
-    """Guarded acceptance against ``limit_g`` (see the module docstring); None when VRE is undefined."""
+    """Guarded acceptance against ``limit_g`` (see the module docstring); None when VRE is undefined.
+
+    Examples
+    --------
+    VREs of -0.5, -0.9 and -1.5 mg, each with U = 0.3 mg, against a 1 mg limit: the middle one's
+    interval straddles the limit.
+
+    >>> from vrelab.gum import decide
+    >>> decide(-0.5e-3, 0.3e-3, 1e-3), decide(-0.9e-3, 0.3e-3, 1e-3), decide(-1.5e-3, 0.3e-3, 1e-3)
+    ('pass', 'indeterminate', 'fail')
+    """
     if not (math.isfinite(vre_g) and math.isfinite(U_g)):
         return None
     if abs(vre_g) + U_g <= limit_g:
@@ -133,6 +173,19 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
 
     ``static_coeff`` is ∂VRE/∂g0 at this level [g/g] (None: unknown, the term is listed as not
     evaluated).
+
+    Examples
+    --------
+    A level of -3 mg measured to 0.03 mg (Type A, 9 degrees of freedom) with a declared thermal
+    term of 0.04 mg: u = 0.05 mg, k from the Welch-Satterthwaite degrees of freedom, and the
+    decision against a 5 mg limit:
+
+    >>> from vrelab import Estimate, LevelResult, TypeB
+    >>> from vrelab.gum import level_budget
+    >>> level = LevelResult(rms_g=1.0, vre=Estimate(-0.0030, 0.00003), dof=9)
+    >>> budgeted = level_budget(level, TypeB(u_thermal_g=0.00004), None, limit_g=0.005)
+    >>> print(f"u {budgeted.vre.u * 1e3:.4f} mg, k {budgeted.k:.2f}, U {budgeted.U_vre_g * 1e3:.3f} mg, {budgeted.decision}")
+    u 0.0500 mg, k 2.04, U 0.102 mg, pass
     """
     v, u_a = level.vre.value, level.vre.u
     terms: list[dict[str, Any]] = [{"source": "record (batch means, low-frequency noise)", "type": "A", "u_g": u_a,
@@ -169,7 +222,17 @@ def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[fl
     """(mean, u, χ²) of independent values with standard uncertainties ``us``: the
     inverse-variance weighted mean, its internal u = 1/√Σw (w = 1/u²) and χ² = Σ w·(x − mean)²
     of the values about it (JCGM 100:2008 does not treat the combination of repeated results;
-    this is the usual least-squares one, e.g. Bevington & Robinson, Data Reduction, ch. 4)."""
+    this is the usual least-squares one, e.g. Bevington & Robinson, Data Reduction, ch. 4).
+
+    Examples
+    --------
+    Two VRCs of 100 ± 5 and 110 ± 5 µg/g²:
+
+    >>> from vrelab.gum import weighted_mean_chi2
+    >>> mean, u, chi2 = weighted_mean_chi2([100.0, 110.0], [5.0, 5.0])
+    >>> print(f"{mean:.1f} ± {u:.2f}, chi2 {chi2:.1f}")
+    105.0 ± 3.54, chi2 2.0
+    """
     w = [1.0 / u**2 for u in us]
     m = sum(wi * x for wi, x in zip(w, values)) / sum(w)
     chi2 = sum(wi * (x - m) ** 2 for wi, x in zip(w, values))
@@ -179,7 +242,19 @@ def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[fl
 def weighted_mean(es: Sequence[Estimate]) -> Estimate:
     """Inverse-variance weighted mean of independent estimates; its u scaled by the Birge ratio
     √(χ²/(n−1)) when the values scatter more than their uncertainties (never scaled down: R. T.
-    Birge, Phys. Rev. 40, 207 (1932); the CODATA adjustments' practice)."""
+    Birge, Phys. Rev. 40, 207 (1932); the CODATA adjustments' practice).
+
+    Examples
+    --------
+    The same two VRCs as estimates; their scatter (χ² = 2 for one degree of freedom) widens the
+    u by the Birge ratio √2:
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.gum import weighted_mean
+    >>> mean = weighted_mean([Estimate(100.0, 5.0, "µg/g²"), Estimate(110.0, 5.0, "µg/g²")])
+    >>> print(f"{mean.value:.1f} ± {mean.u:.2f} {mean.unit}")
+    105.0 ± 5.00 µg/g²
+    """
     m, u, chi2 = weighted_mean_chi2([e.value for e in es], [e.u for e in es])
     if len(es) > 1:
         u *= math.sqrt(max(chi2 / (len(es) - 1), 1.0))
@@ -193,7 +268,19 @@ def common_sensitivity_terms(estimates: Sequence[Estimate | None], budgets: Sequ
     sensitivity and by p with the DUT's (closed form, this module's docstring), so k2 and k3 do
     too. Added once, after the weighted combination that independent Type A errors allow; the
     largest declared values of the runs are used. Returns the estimates and a note (None when no
-    run declares either term)."""
+    run declares either term).
+
+    Examples
+    --------
+    k2 = 100 ± 3 µg/g² combined from runs that share a reference known to 1 %: a VRC scales by
+    -2·r with the reference's sensitivity, so 2 µg/g² is added in quadrature once.
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.gum import common_sensitivity_terms
+    >>> (k2,), note = common_sensitivity_terms([Estimate(100.0, 3.0, "µg/g²")], [{"u_reference_pct": 1.0}])
+    >>> print(f"{k2.value:.1f} ± {k2.u:.2f} {k2.unit}")
+    100.0 ± 3.61 µg/g²
+    """
     r = max((b.get("u_reference_pct", 0.0) for b in budgets), default=0.0) / 100
     p = max((b.get("u_dut_pct", 0.0) for b in budgets), default=0.0) / 100
     if not (r or p):
@@ -209,7 +296,15 @@ def common_sensitivity_terms(estimates: Sequence[Estimate | None], budgets: Sequ
 def type_b_perturbations(typeb: TypeB) -> list[tuple[str, dict[str, float]]]:
     """(source, perturbation) for each declared Type B input (``rms_rel``: every level's rms
     scales by 1 + r; ``vre_rel``: every VRE by 1 + p; ``static_g``: the static field moves;
-    ``offset_g``: an offset on every VRE)."""
+    ``offset_g``: an offset on every VRE).
+
+    Examples
+    --------
+    >>> from vrelab import TypeB
+    >>> from vrelab.gum import type_b_perturbations
+    >>> type_b_perturbations(TypeB(u_reference_pct=1.0, u_static_g=0.01))
+    [('reference sensitivity', {'rms_rel': 0.01}), ('static field (alignment)', {'static_g': 0.01})]
+    """
     every = [
         ("reference sensitivity", {"rms_rel": typeb.u_reference_pct / 100}),
         ("DUT sensitivity", {"vre_rel": typeb.u_dut_pct / 100}),
@@ -223,7 +318,21 @@ def type_b_shifts(values: Mapping[str, float], refit: Callable[[dict[str, float]
                   typeb: TypeB) -> list[tuple[str, dict[str, float], dict[str, float] | None]]:
     """For each declared Type B input: (source, perturbation, each parameter's shift), the shifts
     from refitting with that input moved by its standard uncertainty (None: the refit failed).
-    ``refit`` takes the perturbation and returns the refitted parameter values."""
+    ``refit`` takes the perturbation and returns the refitted parameter values.
+
+    Examples
+    --------
+    A VRC refitted with the reference's sensitivity 1 % high: every rms 1 % higher, so the VRC
+    (VRE/rms²) 2 % lower.
+
+    >>> from vrelab import TypeB
+    >>> from vrelab.gum import type_b_shifts
+    >>> def refit(perturbation):
+    ...     return {"vrc_ug_per_g2": 100.0 / (1 + perturbation.get("rms_rel", 0.0)) ** 2}
+    >>> for source, perturbation, shift in type_b_shifts({"vrc_ug_per_g2": 100.0}, refit, TypeB(u_reference_pct=1.0)):
+    ...     print(f"{source}: {shift['vrc_ug_per_g2']:.2f} µg/g²")
+    reference sensitivity: -1.97 µg/g²
+    """
     out: list[tuple[str, dict[str, float], dict[str, float] | None]] = []
     for source, delta in type_b_perturbations(typeb):
         other = refit(delta)
@@ -236,7 +345,23 @@ def fit_budget(fit: FitResult, refit: Callable[[dict[str, float]], FitResult | N
                typeb: TypeB) -> FitResult:
     """``fit`` with each parameter's ``u`` combined with the Type B terms, found by refitting
     with one input perturbed by its standard uncertainty (``refit`` takes the perturbations
-    ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes."""
+    ``{"rms_rel", "vre_rel", "static_g", "offset_g"}``); the budget is kept in the notes.
+
+    Examples
+    --------
+    A VRC fit of 100 ± 3 µg/g² with the reference's sensitivity known to 1 %: the refit with every
+    rms 1 % high moves the VRC by 2 µg/g², added to its u.
+
+    >>> from vrelab import Estimate, LevelResult, TypeB
+    >>> from vrelab.fits import fit_vrc
+    >>> from vrelab.gum import fit_budget, perturb_levels
+    >>> levels = [LevelResult(rms_g=r, vre=Estimate(1e-4 * r**2, 3e-5)) for r in (1.0, 2.0, 3.0)]
+    >>> def refit(perturbation):
+    ...     return fit_vrc(perturb_levels(levels, **perturbation))
+    >>> fit = fit_budget(fit_vrc(levels), refit, TypeB(u_reference_pct=1.0))
+    >>> print(f"{fit.params['vrc_ug_per_g2'].value:.1f} ± {fit.params['vrc_ug_per_g2'].u:.2f}")
+    100.0 ± 3.61
+    """
     params = dict(fit.params)
     notes = list(fit.notes)
     extra: dict[str, float] = {name: 0.0 for name in params}
@@ -265,7 +390,18 @@ def perturb_levels(levels: Sequence[LevelResult], rms_rel: float = 0.0, vre_rel:
                    offset_g: float = 0.0) -> list[LevelResult]:
     """Levels as they would read with the reference sensitivity off by ``rms_rel`` (every rms
     scales by 1 + rms_rel, a sine level's measured E[x²] and E[x³] by its square and cube: 2r
-    and 3r, physics §4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE."""
+    and 3r, physics §4.3), the DUT's by ``vre_rel`` and an offset ``offset_g`` on every VRE.
+
+    Examples
+    --------
+    A level as it reads with the reference's sensitivity 1 % high (every rms 1 % higher):
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.gum import perturb_levels
+    >>> level = LevelResult(rms_g=1.0, vre=Estimate(-0.0030, 0.00003))
+    >>> print(f"{perturb_levels([level], rms_rel=0.01)[0].rms_g:.2f} g rms")
+    1.01 g rms
+    """
     return [replace(lv, rms_g=lv.rms_g * (1 + rms_rel),
                     vre=Estimate(lv.vre.value * (1 + vre_rel) + offset_g, lv.vre.u, lv.vre.unit),
                     drive=None if lv.drive is None else lv.drive.scaled(1 + rms_rel))

@@ -23,6 +23,12 @@ def same_frequency(a: float | None, b: float | None) -> bool:
     """Whether two drive frequencies [Hz] are the same sine test point (within ``FREQ_RTOL``).
 
     ``None`` (a random level, or an unknown frequency) matches anything.
+
+    Examples
+    --------
+    >>> from vrelab.results import same_frequency
+    >>> same_frequency(80.0, 80.0000002), same_frequency(80.0, 81.0), same_frequency(None, None)
+    (True, False, True)
     """
     return a is None or b is None or abs(a - b) <= FREQ_RTOL * max(abs(a), abs(b))
 
@@ -36,7 +42,16 @@ def group_by_frequency(items: Iterable[_T], freq: Callable[[_T], float]) -> list
     when :func:`same_frequency` holds against the group's first (lowest) item, else starts the
     next. The groups, low to high, therefore depend only on the frequencies, never on the order
     the items came in. Every ``freq(item)`` must be a number; callers set aside items without
-    one (a random level)."""
+    one (a random level).
+
+    Examples
+    --------
+    Sine levels at 80 Hz and 300 Hz, read back with the small scatter of a measured frequency:
+
+    >>> from vrelab.results import group_by_frequency
+    >>> group_by_frequency([300.0, 80.0000001, 80.0, 299.9999998], lambda f: f)
+    [[80.0, 80.0000001], [299.9999998, 300.0]]
+    """
     groups: list[list[_T]] = []
     for x in sorted(items, key=freq):
         if groups and same_frequency(freq(groups[-1][0]), freq(x)):
@@ -56,6 +71,15 @@ class Notice(str):
     (a sine level whose DUT may not see the reference's distorted waveform),
     ``rate`` (the file library's sample rate differs from the one used: its effect per level),
     ``simulation`` (the simulated test's own), ``note`` (anything else).
+
+    Examples
+    --------
+    >>> from vrelab.results import Notice
+    >>> n = Notice("overrange", "level 3: the DUT over-ranged")
+    >>> print(n)
+    level 3: the DUT over-ranged
+    >>> n.code
+    'overrange'
     """
 
     code: str
@@ -73,13 +97,33 @@ class Notice(str):
 
 
 def notice(text: str, code: str = "note") -> Notice:
-    """``text`` as a :class:`Notice` (kept as it is when it already is one)."""
+    """``text`` as a :class:`Notice` (kept as it is when it already is one).
+
+    Examples
+    --------
+    >>> from vrelab.results import notice
+    >>> n = notice("the fit used 3 of 4 levels")
+    >>> print(n.code, "|", n)
+    note | the fit used 3 of 4 levels
+    """
     return text if isinstance(text, Notice) else Notice(code, text)
 
 
 @dataclass(frozen=True)
 class Estimate:
-    """A value with its standard uncertainty (k = 1), in ``unit``."""
+    """A value with its standard uncertainty (k = 1), in ``unit``.
+
+    Examples
+    --------
+    A VRE of -82.9 mg known to 1.2 mg (standard uncertainty, k = 1):
+
+    >>> from vrelab import Estimate
+    >>> vre = Estimate(-0.0829, 0.0012)
+    >>> print(f"{vre.value * 1e3:.1f} ± {vre.u * 1e3:.1f} m{vre.unit}")
+    -82.9 ± 1.2 mg
+    >>> vre.to_dict()
+    {'value': -0.0829, 'u': 0.0012, 'unit': 'g'}
+    """
 
     value: float
     u: float
@@ -105,7 +149,17 @@ def _nan(x: Any) -> float:
 
 @dataclass(frozen=True)
 class Conditions:
-    """What a VRE figure depends on (physics §1.4). Unknown fields stay ``None``."""
+    """What a VRE figure depends on (physics §1.4). Unknown fields stay ``None``.
+
+    Examples
+    --------
+    What a VRE figure depends on; a field not known stays None:
+
+    >>> from vrelab import Conditions
+    >>> conditions = Conditions(sensor="adxl355", range_g=2.0, axis="z", static_g=1.0, odr_hz=4000.0)
+    >>> conditions.range_g, conditions.bandwidth_hz
+    (2.0, None)
+    """
 
     sensor: str | None = None
     model: str | None = None  # "censored", "truncated", "simulation", "measured", ...
@@ -144,6 +198,18 @@ class DriveWaveform:
     polynomial sensor rectifies (physics §1.2: VRE = k2·E[x²] + k3·(3·g0·E[x²] + E[x³]) + ...; for a
     pure sine E[x²] = rms² and E[x³] = 0). ``residual_rms_g``: the rms the harmonics leave
     (the reference's noise, motion at other frequencies), which the moments do not hold.
+
+    Examples
+    --------
+    The drive waveform of each level of a sine test, as the reduction measures it from the
+    reference (one level of ``vrelab.simulate``'s sine method, ±2 g ADXL355 at 100 Hz):
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = vrelab.simulate(sensor, levels=[1.0], static_g=1.0, freq_hz=100, seconds=2, seed=1)
+    >>> drive = result.levels[0].drive
+    >>> print(f"THD {drive.thd.value:.4f}, E[x²] {drive.mean_square_g2.value:.4f} g²")
+    THD 0.0000, E[x²] 1.0000 g²
     """
 
     harmonics_rms_g: tuple[Estimate, ...]
@@ -200,7 +266,17 @@ def level_vrc(vre_g: float, rms_g: float, u_vre_g: float | None = None,
     rectifies), and its standard uncertainty by GUM 5.1.2 with VRE and rms uncorrelated:
     ``u² = (u_vre/rms²)² + (2·VRE·u_rms/rms³)²`` (``u_rms_g`` None: the rms is exact, as in a
     prediction). NaN (and u None) where the rms is not > 0 or the VRE is not finite; u None
-    without ``u_vre_g``."""
+    without ``u_vre_g``.
+
+    Examples
+    --------
+    A VRE of 0.40 ± 0.03 mg at 2 g rms is a VRC of 100 ± 7.5 µg/g²:
+
+    >>> from vrelab.results import level_vrc
+    >>> vrc, u = level_vrc(4e-4, 2.0, 3e-5)
+    >>> print(f"{vrc:.1f} ± {u:.1f} µg/g²")
+    100.0 ± 7.5 µg/g²
+    """
     from vrelab.units import UG_PER_G  # (units imports numpy: not at this light module's import)
 
     if not (math.isfinite(rms_g) and rms_g > 0 and math.isfinite(vre_g)):
@@ -214,7 +290,17 @@ def level_vrc(vre_g: float, rms_g: float, u_vre_g: float | None = None,
 
 @dataclass(frozen=True)
 class LevelResult:
-    """VRE measured (or simulated) at one vibration level."""
+    """VRE measured (or simulated) at one vibration level.
+
+    Examples
+    --------
+    One level of a test: its rms, its VRE with u, and what follows (the VRC, VRE/rms²):
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> level = LevelResult(rms_g=2.0, vre=Estimate(4e-4, 3e-5))
+    >>> print(f"{level.vrc.value:.1f} ± {level.vrc.u:.1f} {level.vrc.unit}")
+    100.0 ± 7.5 ug/g^2
+    """
 
     rms_g: float  # vibration level: reference rms in the test band (or at the drive frequency)
     vre: Estimate  # in g
@@ -334,6 +420,16 @@ class FitModel:
     ``params`` maps the parameter names (units in them: ``vrc_ug_per_g2``, ``rail_g``) to
     estimates, in the order of the fit's covariance. ``PARAMS``: the parameter sets the model
     accepts (each a tuple of names); a model built with another set is refused.
+
+    Examples
+    --------
+    Every model gives the VRE [g] at a vibration level from its parameters:
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import VrcModel
+    >>> model = VrcModel({"vrc_ug_per_g2": Estimate(100.0, 3.0, "ug/g^2")})
+    >>> print(model.name, f"{model.eval(2.0) * 1e3:.2f} mg")
+    vrc 0.40 mg
     """
 
     params: Mapping[str, Estimate]
@@ -395,7 +491,17 @@ def _one_field(model: FitModel, static_g: float | None) -> None:
 class VrcModel(FitModel):
     """physics §1.2 and IEEE Std 1293-1998: ``VRE = VRC·rms²`` [g], VRC [µg/g²] = k2 + 3·k3·g0 at the
     static field g0 the levels were measured at (a sine fit over a distorted drive: at g0 +
-    ``FitResult.static_shift_g``, :func:`vrelab.fits.fit_vrc`)."""
+    ``FitResult.static_shift_g``, :func:`vrelab.fits.fit_vrc`).
+
+    Examples
+    --------
+    VRC = 100 µg/g²: at 2 g rms, 0.4 mg.
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import VrcModel
+    >>> print(f"{VrcModel({'vrc_ug_per_g2': Estimate(100.0, 3.0, 'ug/g^2')}).eval(2.0) * 1e3:.2f} mg")
+    0.40 mg
+    """
 
     NAME: ClassVar[str] = "vrc"
     PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("vrc_ug_per_g2",),)
@@ -416,7 +522,18 @@ class VrcModel(FitModel):
 @dataclass(frozen=True)
 class VrcK4Model(FitModel):
     """physics §1.2 with the quartic term: ``VRE = VRC·rms² + c4·rms⁴`` [g], c4 [µg/g⁴] =
-    k4·E[x⁴]/rms⁴ (3·k4 for Gaussian vibration, 1.5·k4 for a sine; :func:`vrelab.fits.fit_vrc`)."""
+    k4·E[x⁴]/rms⁴ (3·k4 for Gaussian vibration, 1.5·k4 for a sine; :func:`vrelab.fits.fit_vrc`).
+
+    Examples
+    --------
+    VRC = 100 µg/g² and c4 = 10 µg/g⁴: at 2 g rms, 0.4 + 0.16 mg.
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import VrcK4Model
+    >>> model = VrcK4Model({"vrc_ug_per_g2": Estimate(100.0, 3.0, "ug/g^2"), "c4_ug_per_g4": Estimate(10.0, 1.0, "ug/g^4")})
+    >>> print(f"{model.eval(2.0) * 1e3:.2f} mg")
+    0.56 mg
+    """
 
     NAME: ClassVar[str] = "vrc+k4"
     PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("vrc_ug_per_g2", "c4_ug_per_g4"),)
@@ -434,7 +551,18 @@ class ClipModel(FitModel):
     a rail read as the rail, :func:`vrelab.models.clipping.censored_mean_shift`; "truncated":
     they are discarded, ``truncated_mean_shift``), ``+ VRC·σ²`` when fitted with the VRC term.
     Rails ±``rail_g`` or (``rail_low_g``, ``rail_high_g``) [g]; ``static_g`` the field it was
-    fitted at (None: unknown, in a results file written before it was recorded)."""
+    fitted at (None: unknown, in a results file written before it was recorded).
+
+    Examples
+    --------
+    The article's Figure 1 as a fitted model: rails at ±2 g, a 1 g field, 1 g rms.
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import ClipModel
+    >>> model = ClipModel({"rail_g": Estimate(2.0, 0.01)}, static_g=1.0)
+    >>> print(f"{model.eval(1.0) * 1e3:.1f} mg")
+    -82.9 mg
+    """
 
     kind: str = "censored"
     static_g: float | None = None
@@ -497,7 +625,18 @@ def _static_g(model: FitModel, static_g: float | None) -> float:
 @dataclass(frozen=True)
 class K2K3Model(FitModel):
     """physics §1.2 across orientations: ``VRE = (k2 + 3·k3·g0)·rms²`` [g] at static field g0 (the k4
-    term ``6·k4·g0²`` folds into k2 at ±g0; :func:`vrelab.fits.fit_k2_k3`)."""
+    term ``6·k4·g0²`` folds into k2 at ±g0; :func:`vrelab.fits.fit_k2_k3`).
+
+    Examples
+    --------
+    k2 = 100 µg/g², k3 = 10 µg/g³ at 2 g rms, axis up (+1 g) and down (-1 g):
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import K2K3Model
+    >>> model = K2K3Model({"k2_ug_per_g2": Estimate(100.0, 3.0, "ug/g^2"), "k3_ug_per_g3": Estimate(10.0, 1.0, "ug/g^3")})
+    >>> print(f"{model.eval(2.0, static_g=1.0) * 1e3:.2f} mg, {model.eval(2.0, static_g=-1.0) * 1e3:.2f} mg")
+    0.52 mg, 0.28 mg
+    """
 
     NAME: ClassVar[str] = "k2-k3"
     PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("k2_ug_per_g2", "k3_ug_per_g3"),)
@@ -511,7 +650,15 @@ class K2K3Model(FitModel):
 @dataclass(frozen=True)
 class K2Model(FitModel):
     """k2 alone, the VRC at 0 g (physics §1.2: VRC(0) = k2, a campaign's k2 from runs at 0 g only):
-    ``VRE = k2·rms²`` [g] at 0 g, the field it was measured at (k3 unknown: no other field)."""
+    ``VRE = k2·rms²`` [g] at 0 g, the field it was measured at (k3 unknown: no other field).
+
+    Examples
+    --------
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import K2Model
+    >>> print(f"{K2Model({'k2_ug_per_g2': Estimate(100.0, 3.0, 'ug/g^2')}).eval(2.0) * 1e3:.2f} mg")
+    0.40 mg
+    """
 
     NAME: ClassVar[str] = "k2"
     PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = (("k2_ug_per_g2",),)
@@ -532,7 +679,18 @@ _MODELS: dict[str, Callable[..., FitModel]] = {
 
 def fit_model(name: str, params: Mapping[str, Estimate], static_g: float | None = None) -> FitModel:
     """The model called ``name`` in a results file, with ``params`` (and, for a clipping model,
-    the static field it was fitted at)."""
+    the static field it was fitted at).
+
+    Examples
+    --------
+    The model a results file names, rebuilt from its parameters:
+
+    >>> from vrelab import Estimate
+    >>> from vrelab.results import fit_model
+    >>> model = fit_model("vrc", {"vrc_ug_per_g2": Estimate(100.0, 3.0, "ug/g^2")})
+    >>> print(type(model).__name__, f"{model.eval(2.0) * 1e3:.2f} mg")
+    VrcModel 0.40 mg
+    """
     if name not in _MODELS:
         raise ValueError(f"unknown fit model {name!r}: one of {', '.join(_MODELS)}")
     if name.startswith("clip-"):
@@ -545,6 +703,18 @@ class FitResult:
     """A fitted model (:class:`FitModel`: its name, its parameters with standard errors, the VRE
     it gives) and how it was fitted. ``departure_rms_g`` is the first level at which the data
     leave the model (None when they never do).
+
+    Examples
+    --------
+    A VRC fitted through three levels of a k2 = 100 µg/g² sensor, and the VRE it gives at 2.5 g rms:
+
+    >>> from vrelab import Estimate, LevelResult
+    >>> from vrelab.fits import fit_vrc
+    >>> fit = fit_vrc([LevelResult(rms_g=r, vre=Estimate(1e-4 * r**2, 3e-5)) for r in (1.0, 2.0, 3.0)])
+    >>> print(fit.model.name, fit.n_points, f"{fit.params['vrc_ug_per_g2'].value:.1f}", f"{fit.eval(2.5) * 1e3:.3f} mg")
+    vrc 3 100.0 0.625 mg
+    >>> fit.to_dict()["parameters"]["vrc_ug_per_g2"]["unit"]
+    'ug/g^2'
     """
 
     model: FitModel
@@ -640,6 +810,20 @@ class NoiseResult:
     (IEEE Std 952-1997 C.3: the Allan deviation's flicker floor is ``0.664·B``); ``adev``: the
     overlapping Allan deviation [µg] at ``tau_s`` (IEEE Std 1554), pooled over ``n_stretches``
     stretches, ``off_s`` seconds of record in all; ``n_pairs`` pairs of τ-means per point.
+
+    Examples
+    --------
+    A DUT's own noise, measured on the vibration-off stretches of a record (the example campaign's
+    80 Hz run, whose parts were simulated with 25 µg/√Hz; ``noise`` is None where the record has
+    too little vibration-off time):
+
+    >>> import vrelab
+    >>> result = vrelab.analyze("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z",
+    ...                         reference="shaker/ref", dut_units="lsb", dut_sensitivity=256000,
+    ...                         reference_units="mv", reference_sensitivity=10)
+    >>> noise = result.noise
+    >>> print(f"{noise.density_ug_rthz.value:.0f} ± {noise.density_ug_rthz.u:.0f} µg/√Hz")
+    22 ± 3 µg/√Hz
     """
 
     density_ug_rthz: Estimate
@@ -692,6 +876,18 @@ class VreResult:
     ``--out DIR`` writes as ``results.json``; ``vrelab report DIR`` reads it back with
     ``from_dict``. ``fit`` in the dict merges the parameters of all fits (the CLI reference asks
     for ``fit.vrc_ug_per_g2`` and ``fit.rail_g``); ``fits`` keeps each fit whole.
+
+    Examples
+    --------
+    A whole test: its levels, fits and conditions (here a simulated one of two sine levels):
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = vrelab.simulate(sensor, levels=[0.5, 1.0], static_g=1.0, freq_hz=100, seconds=2, seed=1)
+    >>> result.method, result.kind, len(result.levels), [fit.model.name for fit in result.fits]
+    ('sine', 'simulation', 2, ['vrc'])
+    >>> print(result.conditions.sensor, result.conditions.range_g)
+    adxl355 2.0
     """
 
     method: Method
@@ -747,7 +943,17 @@ class VreResult:
 
 def channels_to_dict(results: Sequence[tuple[str, VreResult]], provenance: Mapping[str, Any]) -> dict[str, Any]:
     """The document of several DUT channels of one file (the CLI reference): ``channels``: [{``channel``,
-    ``levels``, ``fit``, ...}], each a whole :meth:`VreResult.to_dict`; the file's provenance."""
+    ``levels``, ``fit``, ...}], each a whole :meth:`VreResult.to_dict`; the file's provenance.
+
+    Examples
+    --------
+    >>> from vrelab import Conditions, Estimate, LevelResult, VreResult
+    >>> from vrelab.results import channels_to_dict
+    >>> result = VreResult("sine", Conditions(), (LevelResult(rms_g=1.0, vre=Estimate(1e-4, 3e-5)),))
+    >>> doc = channels_to_dict([("sn1", result), ("sn2", result)], {"tool": "example"})
+    >>> [c["channel"] for c in doc["channels"]]
+    ['sn1', 'sn2']
+    """
     chans = [{"channel": name, **result.to_dict()} for name, result in results]
     return {"kind": "measurement", "method": chans[0]["method"] if chans else None, "channels": chans,
             "provenance": dict(provenance)}

@@ -200,7 +200,19 @@ def plan_random_test(
     sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
-    """The record of a random-method test, not yet run (see :func:`run_random_test`)."""
+    """The record of a random-method test, not yet run (see :func:`run_random_test`).
+
+    Examples
+    --------
+    Two levels, each after a vibration-off baseline, and a last baseline:
+
+    >>> import vrelab
+    >>> from vrelab.shaker import plan_random_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> record = plan_random_test(sensor, vrelab.parse_profile("flat:50-2000"), [1.0, 2.0], seconds=2.0, seed=1)
+    >>> len(record.stretches)
+    5
+    """
     return TestPlan.random(sensor, profile, levels_grms, static_g=static_g, **plan).record(progress)
 
 
@@ -266,6 +278,18 @@ def run_random_test(
     ----------
     .. [1] docs/physics.md §1 and §4; the ADI article's random method (ADXL355, 50 Hz-2 kHz).
     .. [2] IEEE Std 1293-1998 (vibration rectification test procedure).
+
+    Examples
+    --------
+    The ADXL355 at ±2 g, axis up, under 1.5 g rms of flat 50-2000 Hz random vibration for 2 s:
+
+    >>> import vrelab
+    >>> from vrelab.shaker import run_random_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = run_random_test(sensor, vrelab.parse_profile("flat:50-2000"), [1.5], static_g=1.0, seconds=2.0, seed=1)
+    >>> level = result.levels[0]
+    >>> print(f"{level.rms_g:.2f} g rms: VRE {level.vre.value * 1e3:.0f} ± {level.vre.u * 1e3:.0f} mg")
+    1.52 g rms: VRE -97 ± 1 mg
     """
     plan_ = TestPlan.random(sensor, profile, levels_grms, static_g=static_g, **plan)
     return run_test(plan_, record_path=record_path, progress=progress, clip_kind=clip_kind)
@@ -278,7 +302,17 @@ def run_test(
     clip_kind: ClipKind = DEFAULT_CLIP_KIND,
 ) -> VreResult:
     """Run a :class:`~vrelab.simulation.plan.TestPlan`: simulate its record, reduce it as a lab
-    file (writing it to ``record_path`` first when given) and fit it with the one fit policy."""
+    file (writing it to ``record_path`` first when given) and fit it with the one fit policy.
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> from vrelab.shaker import TestPlan, run_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = run_test(TestPlan.sine(sensor, [100.0], [0.5], static_g=1.0, seconds=2.0, seed=1))
+    >>> print(f"VRE {result.levels[0].vre.value * 1e3:.3f} mg, {result.kind}")
+    VRE 0.045 mg, simulation
+    """
     record = plan.record(progress)
     assert plan.settle_s is not None  # TestPlan.__post_init__ sets the default
     band = measurement_band(plan.profile) if plan.method == "random" else sine_band(record)  # type: ignore[arg-type]
@@ -332,7 +366,19 @@ def plan_sine_test(
     sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
     progress: bool = False, **plan: Any,
 ) -> SimulatedRecord:
-    """The record of a sine-method test, not yet run (see :func:`run_sine_test`)."""
+    """The record of a sine-method test, not yet run (see :func:`run_sine_test`).
+
+    Examples
+    --------
+    One level at each of two frequencies, between vibration-off baselines:
+
+    >>> import vrelab
+    >>> from vrelab.shaker import plan_sine_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> record = plan_sine_test(sensor, [100.0, 300.0], [1.0], seconds=2.0, seed=1)
+    >>> len(record.stretches)
+    5
+    """
     return TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan).record(progress)
 
 
@@ -354,6 +400,18 @@ def run_sine_test(
     squares through the origin at each frequency (:func:`vrelab.fits.fit_levels`): ``VRC(f)``
     shows the resonance (``VRC·|H(f)|²``, physics §1.3). Other parameters (``ramp_s`` too) as in
     :func:`run_random_test`; with a ramp the sine's amplitude rises and falls, its phase runs on.
+
+    Examples
+    --------
+    The ADXL355 at ±2 g, axis up, at 1 g rms and 100 Hz: peaks of 2.41 g reach past the +2.048 g
+    rail (:func:`vrelab.predict` gives -57.1 ± 0.8 mg).
+
+    >>> import vrelab
+    >>> from vrelab.shaker import run_sine_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> result = run_sine_test(sensor, [100.0], [1.0], static_g=1.0, seconds=2.0, seed=1)
+    >>> print(f"VRE {result.levels[0].vre.value * 1e3:.1f} mg")
+    VRE -57.1 mg
     """
     plan_ = TestPlan.sine(sensor, freqs_hz, levels_rms_g, static_g=static_g, **plan)
     return run_test(plan_, record_path=record_path, progress=progress)

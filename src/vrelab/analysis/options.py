@@ -80,6 +80,15 @@ class ReductionOptions:
         A progress bar on stderr over the first pass.
     psd : bool
         Keep each random level's reference PSD (for the CLI's ``psd_levels.csv``).
+
+    Examples
+    --------
+    The reduction's choices, here a band and a longer settling trim (the defaults otherwise):
+
+    >>> from vrelab.analysis import ReductionOptions
+    >>> options = ReductionOptions(band_hz=(20.0, 2000.0), settle_s=1.0)
+    >>> options.band_hz, options.settle_s, options.rail_g
+    ((20.0, 2000.0), 1.0, None)
     """
 
     band_hz: tuple[float, float] | None = None
@@ -128,6 +137,15 @@ class FitOptions:
         Add a rms⁴ term to the VRC fit (``--k4``).
     rail_with_vrc : bool
         Fit the rail jointly with a VRC·rms² term (``--rail-vrc``; :func:`vrelab.fits.fit_rail`).
+
+    Examples
+    --------
+    The static field the run was at (axis up, +1 g) and the clipping model to fit:
+
+    >>> from vrelab.analysis import FitOptions
+    >>> fit = FitOptions(static_g=1.0, clip_kind="censored")
+    >>> fit.static_g, fit.k4
+    (1.0, False)
     """
 
     static_g: float | None = None
@@ -156,6 +174,16 @@ class BudgetOptions:
         A VRE limit [g] (``--limit``): each level gets a guarded-acceptance decision.
 
     With neither, no budget is made (:attr:`wanted` is False).
+
+    Examples
+    --------
+    The Type B inputs and a VRE limit for the decisions:
+
+    >>> from vrelab import TypeB
+    >>> from vrelab.analysis import BudgetOptions
+    >>> budget = BudgetOptions(typeb=TypeB(u_reference_pct=1.0), limit_g=0.005)
+    >>> budget.limit_g, budget.typeb.u_reference_pct
+    (0.005, 1.0)
     """
 
     typeb: TypeB | None = None

@@ -152,6 +152,18 @@ def reduce(
     (:mod:`vrelab.analysis.plausibility`): a units or sensitivity slip, swapped channels, a
     method that does not fit; ``options.accept`` names the checks to pass on purpose.
     ``keywords``: the former flat options (deprecated, see :func:`~vrelab.analysis.options.from_keywords`).
+
+    Examples
+    --------
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> from vrelab.analysis import reduce
+    >>> with record:
+    ...     reduction = reduce(record)
+    >>> [f"{level.rms_g:.1f}" for level in reduction.levels]
+    ['0.2', '0.4', '0.6']
     """
     if keywords:
         options = from_keywords("reduce", keywords, options)[0]
@@ -372,6 +384,21 @@ def reduce_record(
         In time order; ``vre`` in g with its standard uncertainty; ``flags`` has "saturated"
         when the DUT sat on a rail.
     warnings : list of str
+
+    Examples
+    --------
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> from vrelab.analysis import reduce_record
+    >>> with record:
+    ...     levels, warnings = reduce_record(record)
+    >>> for level in levels:
+    ...     print(f"{level.freq_hz:.0f} Hz, {level.rms_g:.1f} g rms: VRE {level.vre.value * 1e3:.2f} ± {level.vre.u * 1e3:.2f} mg")
+    80 Hz, 0.2 g rms: VRE 0.10 ± 0.03 mg
+    80 Hz, 0.4 g rms: VRE 0.47 ± 0.03 mg
+    80 Hz, 0.6 g rms: VRE 1.02 ± 0.04 mg
     """
     if keywords:
         options = from_keywords("reduce_record", keywords, options)[0]
@@ -400,6 +427,18 @@ def analyze_full(
     ``conditions``: default, those in the record's metadata; ``provenance``: added to the
     result's (version, rate, samples, the file's source and channels); ``stats``: the record's
     first pass when already made (:func:`analyze_channels`).
+
+    Examples
+    --------
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> from vrelab.analysis import analyze_full
+    >>> with record:
+    ...     result, reduction = analyze_full(record)
+    >>> len(result.levels), type(reduction).__name__
+    (3, 'Reduction')
     """
     opt, fit, budget = from_keywords("analyze_full", keywords, options, fit, budget)
     red = reduce(record, schedule, method, options=opt, stats=stats)
@@ -540,6 +579,25 @@ def analyze(
     VreResult
         ``kind="measurement"``; fits by :func:`vrelab.fits.fit_levels`: "vrc" per frequency for
         sine; for random "clip-<kind>" (``rail_g``, ``departure_rms_g``), then "vrc".
+
+    Examples
+    --------
+    A run of the example campaign (sensor sn1 axis up, sines at 80 Hz), opened with its channels'
+    units and reduced. The part was simulated with k2 = 2000 µg/g² and k3 = 300 µg/g³, a VRC of
+    k2 + 3·k3 = 2900 µg/g² at +1 g:
+
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> from vrelab.analysis import analyze
+    >>> with record:
+    ...     result = analyze(record)
+    >>> result.method, len(result.levels), [fit.model.name for fit in result.fits]
+    ('sine', 3, ['vrc'])
+    >>> vrc = result.fits[0].params["vrc_ug_per_g2"]
+    >>> print(f"VRC {vrc.value:.0f} ± {vrc.u:.0f} µg/g²")
+    VRC 2853 ± 87 µg/g²
     """
     opt, fit, budget = from_keywords("analyze", keywords, options, fit, budget)
     return analyze_full(record, method, schedule, options=opt, fit=fit, budget=budget, conditions=conditions,
@@ -570,6 +628,21 @@ def analyze_channels(
     :func:`vrelab.analysis.readers.open_record` with several DUTs; default: all of them).
     Returns (name, result, reduction) per channel, in order. The other arguments are
     :func:`analyze_full`'s.
+
+    Examples
+    --------
+    Both parts of the example campaign's 80 Hz run, each against the one reference:
+
+    >>> from vrelab.analysis import analyze_channels, open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> duts = {"sn1": "shaker/sn1_z", "sn2": "shaker/sn2_z"}
+    >>> with open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut=duts, reference="shaker/ref",
+    ...                  dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10)) as record:
+    ...     results = analyze_channels(record)
+    >>> for name, result, _reduction in results:
+    ...     print(name, f"{result.levels[-1].vre.value * 1e3:.2f} mg at {result.levels[-1].rms_g:.1f} g rms")
+    sn1 1.02 mg at 0.6 g rms
+    sn2 -0.36 mg at 0.6 g rms
     """
     opt, fit, budget = from_keywords("analyze_channels", keywords, options, fit, budget)
     if duts is None:

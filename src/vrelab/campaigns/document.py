@@ -18,7 +18,32 @@ from vrelab.campaigns.summary import ChannelSummary
 
 def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Sequence[ChannelSummary],
                  command: str | None = None) -> dict[str, Any]:
-    """The campaign's JSON (the CLI reference): ``runs`` and ``channels``."""
+    """The campaign's JSON (the CLI reference): ``runs`` and ``channels``.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.document import campaign_doc
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import run_campaign
+    >>> from vrelab.campaigns.summary import combine
+    >>> manifest = read_manifest("campaign.toml")
+    >>> results = run_campaign(manifest)
+    >>> doc = campaign_doc(manifest, results, combine(results, ["sn1"]))
+    >>> doc["kind"], doc["n_runs"], [c["channel"] for c in doc["channels"]]
+    ('campaign', 1, ['sn1'])
+    """
     runs = []
     for rr in results:
         r = rr.run
@@ -58,7 +83,15 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
 
 def profile_document(spec: str | None) -> dict[str, Any] | None:
     """A run's profile as the campaign document keeps it: the spec and the breakpoints (so a
-    campaign folder is self-contained: its profile files need not travel with it)."""
+    campaign folder is self-contained: its profile files need not travel with it).
+
+    Examples
+    --------
+    >>> from vrelab.campaigns.document import profile_document
+    >>> doc = profile_document("flat:50-2000")
+    >>> doc["spec"], sorted(doc)
+    ('flat:50-2000', ['band_hz', 'breakpoints', 'grms', 'kind', 'name', 'slopes_db_per_oct', 'source', 'spec'])
+    """
     if spec is None:
         return None
     from vrelab.profiles import parse_profile
@@ -76,7 +109,35 @@ def _rel(p: Path, base: Path) -> str:
 def write_campaign(stage: Path, manifest: Manifest, results: Sequence[RunResult],
                    summaries: Sequence[ChannelSummary], doc: Mapping[str, Any]) -> None:
     """``results.json`` (the document), ``levels.csv`` of every level of every run and channel;
-    the run folders were written by :func:`run_campaign`."""
+    the run folders were written by :func:`run_campaign`.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from pathlib import Path
+    >>> from vrelab.campaigns.document import campaign_doc, write_campaign
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import run_campaign
+    >>> from vrelab.campaigns.summary import combine
+    >>> manifest = read_manifest("campaign.toml")
+    >>> results = run_campaign(manifest)
+    >>> summaries = combine(results, ["sn1"])
+    >>> Path("out").mkdir()
+    >>> write_campaign(Path("out"), manifest, results, summaries, campaign_doc(manifest, results, summaries))
+    >>> sorted(p.name for p in Path("out").iterdir())
+    ['levels.csv', 'results.json']
+    """
     from vrelab._io import write_json, write_levels_table
     from vrelab.folder import LEVELS, RESULTS
 

@@ -44,6 +44,18 @@ class Mount:
     (:func:`vrelab.triaxial.direction`). ``static_g`` is the whole static field in that triad
     [g]: along the vibration on a vertical shaker, across it on a slip table (:func:`_mount`
     refuses anything else, and a static field given by its input-axis component only).
+
+    Examples
+    --------
+    A DUT tilted 45° in its IP plane on a vertical shaker, the static field along the vibration
+    (1 g split between its input and pendulous axes):
+
+    >>> import math
+    >>> from vrelab.campaigns.manifest import Mount
+    >>> c = math.cos(math.radians(45.0))
+    >>> mount = Mount(45.0, "ip", (c, c, 0.0))
+    >>> mount.deg, mount.plane, [round(g, 4) for g in mount.static_g]
+    (45.0, 'ip', [0.7071, 0.7071, 0.0])
     """
 
     deg: float
@@ -75,7 +87,27 @@ class Mount:
 
 @dataclass(frozen=True)
 class Run:
-    """One run of a campaign, validated: paths absolute, one static field per DUT channel."""
+    """One run of a campaign, validated: paths absolute, one static field per DUT channel.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> run.index, run.label, dict(run.dut), run.dut_units
+    (1, '01_z_up_80hz.tdms', {'sn1': 'shaker/sn1_z'}, 'lsb')
+    """
 
     index: int  # 1-based, in manifest order
     file: Path
@@ -105,7 +137,27 @@ class Run:
 
 @dataclass(frozen=True)
 class Manifest:
-    """A campaign manifest, validated (:func:`read_manifest`)."""
+    """A campaign manifest, validated (:func:`read_manifest`).
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> manifest = read_manifest("campaign.toml")
+    >>> type(manifest).__name__, manifest.runs[0].file.name
+    ('Manifest', '01_z_up_80hz.tdms')
+    """
 
     path: Path
     name: str
@@ -130,6 +182,28 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     With ``check_files`` each run's file is opened (its header only where the format allows)
     to check that the channels exist. Every problem is one ``ValueError`` line naming the run
     and the key.
+
+    Examples
+    --------
+    A manifest of one run, written here (the example campaign's own is
+    ``examples/campaign/campaign.toml``):
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest.name, len(manifest.runs), dict(manifest.runs[0].static_g)
+    ('sn1, z up, 80 Hz', 1, {'sn1': 1.0})
     """
     path = Path(path)
     if not path.is_file():
@@ -455,7 +529,27 @@ def _band(where: str, value: Any) -> tuple[float, float] | None:
 
 
 def run_scales(run: Run) -> tuple[dict[str, Any], Any]:
-    """A run's scales: per DUT channel and for the reference (None: the file's own unit)."""
+    """A run's scales: per DUT channel and for the reference (None: the file's own unit).
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest, run_scales
+    >>> dut_scales, reference_scale = run_scales(read_manifest("campaign.toml").runs[0])
+    >>> dut_scales["sn1"].sensitivity, reference_scale.units
+    (256000.0, 'mv')
+    """
     from vrelab.analysis.readers import Scale
 
     # neither a unit nor a sensitivity: None, the unit the file states (else g) is used
@@ -586,6 +680,28 @@ def check_records(runs: Sequence[Run]) -> None:
     at two static fields, make k2 and k3 from one orientation as if it were two. Runs on one file
     for different DUTs (parts split into runs), or with different schedules (each its own part of
     a long record), are not refused.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import check_records, read_manifest
+    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> check_records([run])
+    >>> check_records([run, run])
+    Traceback (most recent call last):
+        ...
+    ValueError: run 1 ('01_z_up_80hz.tdms') and run 1 ('01_z_up_80hz.tdms') are the same file 01_z_up_80hz.tdms, both for DUT 'sn1': its VRC would be counted twice (list each recording once)
     """
     for group in _recordings(runs):
         pair = _first_shared(group)
@@ -616,13 +732,64 @@ _STATIC_CONTRADICTED_G = 0.5
 
 class ManifestContradiction(ValueError):
     """A run's declared conditions contradicted by its own record: the manifest is wrong, so the
-    campaign is refused (not the run kept as failed)."""
+    campaign is refused (not the run kept as failed).
+
+    Examples
+    --------
+    Raised by :func:`check_static` (a ``ValueError``: the CLI prints its one line):
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import ManifestContradiction, check_static, read_manifest
+    >>> try:
+    ...     check_static(read_manifest("campaign.toml").runs[0], "sn1", -1.0)
+    ... except ManifestContradiction as error:
+    ...     print(type(error).__name__, isinstance(error, ValueError))
+    ManifestContradiction True
+    """
 
 
 def check_static(run: Run, channel: str, baseline_g: float | None) -> None:
     """Refuse a declared ``static_g`` the DUT's own vibration-off reading (``baseline_g`` [g],
     the mean of its baselines) contradicts (see the constants above); called after the record is
-    read and before any of its numbers is kept."""
+    read and before any of its numbers is kept.
+
+    Examples
+    --------
+    The example campaign's 80 Hz run declares +1 g (axis up): a vibration-off reading of +1 g
+    agrees with it, one of -1 g (the part mounted the other way, or the manifest wrong)
+    contradicts it and is refused:
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import check_static, read_manifest
+    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> check_static(run, "sn1", 1.0)
+    >>> check_static(run, "sn1", -1.0)
+    Traceback (most recent call last):
+        ...
+    vrelab.campaigns.manifest.ManifestContradiction: run 1 ('01_z_up_80hz.tdms'): static_g of 'sn1' is declared +1 g, but the DUT's own vibration-off reading is -1.000 g: fix static_g (or the DUT's units/sensitivity)
+    """
     if baseline_g is None or not math.isfinite(baseline_g):
         return
     g0 = run.static_g[channel]

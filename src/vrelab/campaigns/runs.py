@@ -20,7 +20,29 @@ from vrelab.campaigns.manifest import Manifest, ManifestContradiction, Mount, Ru
 
 @dataclass
 class RunResult:
-    """One run reduced (``error`` set when it failed): per channel its result."""
+    """One run reduced (``error`` set when it failed): per channel its result.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import reduce_run
+    >>> result = reduce_run(read_manifest("campaign.toml").runs[0])
+    >>> name, vre_result = result.results[0]
+    >>> print(name, len(vre_result.levels), result.error)
+    sn1 3 None
+    """
 
     run: Run
     results: list[tuple[str, VreResult]] = field(default_factory=list)
@@ -39,7 +61,28 @@ class RunResult:
 def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_g: float | None = None) -> RunResult:
     """Reduce one run: its record opened with every DUT, each reduced against the reference
     (:func:`vrelab.analysis.pipeline.analyze_channels`). With ``out`` the run's folder is
-    written there (a ``results.json`` of its channels and a sub-folder per channel)."""
+    written there (a ``results.json`` of its channels and a sub-folder per channel).
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import reduce_run
+    >>> result = reduce_run(read_manifest("campaign.toml").runs[0])
+    >>> result.error, [name for name, _ in result.results]
+    (None, ['sn1'])
+    """
     from vrelab.analysis.options import BudgetOptions, ReductionOptions
     from vrelab.analysis.pipeline import analyze_channels
     from vrelab.analysis.readers import open_record
@@ -100,7 +143,28 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
     """Reduce every run (``workers`` processes; 1: here, in order). A failing run is kept with
     its error; a run whose record contradicts the manifest (:class:`ManifestContradiction`)
     refuses the campaign. With ``out``, run ``i`` is written to ``out/runs/<NN-label>``. Each run's budget
-    keys (physics §4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level."""
+    keys (physics §4.3) give its levels and fits their Type B terms; ``limit_g`` decides each level.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import run_campaign
+    >>> results = run_campaign(read_manifest("campaign.toml"))
+    >>> [(r.run.index, r.error) for r in results]
+    [(1, None)]
+    """
     workers = V.integer("workers", workers, 1)
     subs = run_folders(manifest)
     dests = [None if out is None else out / "runs" / subs[r.index] for r in manifest.runs]
@@ -132,7 +196,30 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
 
 def dut_range(run: Run, channel: str, sensor: Sensor | None) -> tuple[float | None, str]:
     """The DUT's range [g] and where it comes from: the sensor file's full scale, else the run's
-    ``rail_g``, else None (unknown)."""
+    ``rail_g``, else None (unknown).
+
+    Examples
+    --------
+    Neither a sensor file nor a range in the manifest: the range is not known (None, no source),
+    and the checks that need it say so:
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import dut_range
+    >>> dut_range(read_manifest("campaign.toml").runs[0], "sn1", None)
+    (None, '')
+    """
     if sensor is not None:
         return sensor.full_scale_g, f"the sensor file {sensor.name!r}"
     if run.rail_g is not None:
@@ -152,6 +239,26 @@ def judge_units(results: Sequence[RunResult], sensors: Mapping[str, Sensor] | No
        response, else the stated default);
     3. a slip common to every run of a channel, judged where its response is flat
        (:func:`vrelab.analysis.plausibility.check_units_over_runs`): every run holding it fails.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import judge_units, run_campaign
+    >>> results = judge_units(run_campaign(read_manifest("campaign.toml")))
+    >>> [r.error for r in results]
+    []
     """
     from vrelab.analysis.plausibility import check_units_over_runs, judge_runs_units, off_reading_slip
 
@@ -214,7 +321,27 @@ def _mount_probes(mount: Mount | None, probes: Sequence[tuple[str | None, float,
 
 
 def run_folders(manifest: Manifest) -> dict[int, str]:
-    """Run index -> its sub-folder name, ``NN-<label>``."""
+    """Run index -> its sub-folder name, ``NN-<label>``.
+
+    Examples
+    --------
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> from vrelab.campaigns.manifest import read_manifest
+    >>> from vrelab.campaigns.runs import run_folders
+    >>> run_folders(read_manifest("campaign.toml"))
+    {1: '01-01_z_up_80hz.tdms'}
+    """
     from vrelab.folder import channel_folder_names
 
     names = channel_folder_names([f"{r.index:02d}-{r.label}" for r in manifest.runs])

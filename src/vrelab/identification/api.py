@@ -17,7 +17,25 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Identification:
-    """Every channel of a campaign identified on one base sensor."""
+    """Every channel of a campaign identified on one base sensor.
+
+    Examples
+    --------
+    A campaign's channels identified on one base sensor (here one channel, built directly):
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> ident = vrelab.Identification("two runs", "ideal", base, (identify_channel("sn1", obs, base),), "censored")
+    >>> [channel.channel for channel in ident.channels], ident.base_spec
+    (['sn1'], 'ideal')
+    """
 
     campaign: str
     base_spec: str
@@ -54,6 +72,35 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     that the runs see but determine poorly (relative u above ``MAX_REL_U``) are replaced by the
     base sensor's (by default they are kept with their u). Failed runs are listed in ``notes``
     and in every channel's notes. The model and its data flow: :mod:`vrelab.identification`.
+
+    Examples
+    --------
+    The campaign of one run of :func:`vrelab.campaign`'s example, identified on the ideal sensor
+    (rails at ±2.048 g and the polynomial nonlinearity). One orientation determines the VRC at
+    +1 g, k2 + 3·k3, not k2 and k3 apart: identify says so instead of giving a number (the example
+    campaign's own manifest, ``examples/campaign/campaign.toml``, has both orientations).
+
+    >>> import vrelab
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> identification = vrelab.identify(vrelab.campaign("campaign.toml"), base_spec="ideal", range_g=2.048)
+    >>> channel = identification.channels[0]
+    >>> print(channel.channel)
+    sn1
+    >>> print(channel.parameters["k2_ug_per_g2"], channel.values["rail_high_g"])
+    None 2.048
+    >>> print(channel.reasons["k2_ug_per_g2"])
+    one orientation only (g0 = +1 g): k2 and k3 are not separable (only k2 + 3·k3·g0 is, see the notes)
     """
     from vrelab.gum import TYPE_B_KEYS, TypeB
     from vrelab.models.clipping import KINDS

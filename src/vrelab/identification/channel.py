@@ -36,7 +36,16 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class IdentifyOptions:
-    """How a campaign is identified, beyond its base sensor (:func:`vrelab.identification.identify`)."""
+    """How a campaign is identified, beyond its base sensor (:func:`vrelab.identification.identify`).
+
+    Examples
+    --------
+    >>> from vrelab import TypeB
+    >>> from vrelab.identification.channel import IdentifyOptions
+    >>> options = IdentifyOptions(typeb=TypeB(u_reference_pct=1.0))
+    >>> options.kind, options.workers, options.prefer_base
+    ('censored', 1, False)
+    """
 
     kind: ClipKind = DEFAULT_CLIP_KIND  # the clipping model
     # the Type B budget; identify's None: the largest value each run declared (one reference, one DUT)
@@ -53,7 +62,28 @@ def identify_channel(channel: str, obs: Sequence[Observation], base: Sensor, opt
 
     Which levels the fit uses is decided with the fitted model and iterated: a sine level the
     analysis flagged saturated (against its own rail) comes back when the identified rails clear
-    its peak, and a level the fitted model does not cover goes (:func:`_modelled`)."""
+    its peak, and a level the fitted model does not cover goes (:func:`_modelled`).
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg: both come back with their u.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> model = identify_channel("sn1", obs, base)
+    >>> for name in ("k2_ug_per_g2", "k3_ug_per_g3"):
+    ...     print(f"{name} {model.parameters[name].value:.1f} ± {model.parameters[name].u:.2f}")
+    k2_ug_per_g2 100.0 ± 3.57
+    k3_ug_per_g3 10.0 ± 1.19
+    """
     opts = options or IdentifyOptions()
     notes = list(notes)
     tilted = [ob for ob in obs if ob.tilted]

@@ -37,7 +37,22 @@ def cross_check_2f(obs: Sequence[Observation], base: Sensor | None = None) -> li
     after the nonlinearity that attenuate 2f (the DC is untouched by them). The base sensor's
     own output filters are known: the 2f VRC is divided by their gain at 2f relative to DC
     (:func:`_post_filter_gain`; 0.30 at 600 Hz on an ADXL355 at 4 kHz ODR), and the gain is
-    reported beside it."""
+    reported beside it.
+
+    Examples
+    --------
+    Runs without a 2f line in their levels give no check (an empty list):
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.check2f import cross_check_2f
+    >>> cross_check_2f(obs)
+    []
+    """
     from vrelab.fits import fit_vrc
     from vrelab.results import LevelResult
 

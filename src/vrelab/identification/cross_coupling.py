@@ -42,7 +42,30 @@ _ESTIMABLE = 1e-6
 
 @dataclass(frozen=True)
 class CrossCoupling:
-    """The cross-coupling fit of one channel (:func:`fit_cross_coupling`)."""
+    """The cross-coupling fit of one channel (:func:`fit_cross_coupling`).
+
+    Examples
+    --------
+    What :func:`fit_cross_coupling` returns: each coefficient determined (an Estimate) or not
+    (its reason), their covariance and notes. Runs as in its example:
+
+    >>> import math
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.campaigns.manifest import Mount
+    >>> from vrelab.identification.cross_coupling import fit_cross_coupling
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc, mount=None):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6), mount=mount)
+    >>> c = math.cos(math.radians(45.0))
+    >>> axial = [sine_run(1, 1.0, 100.0)]
+    >>> tilted = [sine_run(2, 1.0, 90.0, Mount(45.0, "ip", (c, c, 0.0))), sine_run(3, 1.0, 40.0, Mount(-45.0, "ip", (c, -c, 0.0)))]
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100)
+    >>> cc = fit_cross_coupling(tilted, axial, sensor)
+    >>> sorted(cc.estimates), sorted(cc.reasons)
+    (['kip_ug_per_g2'], ['kio_ug_per_g2', 'koo_ug_per_g2', 'kpp_ug_per_g2'])
+    """
 
     estimates: Mapping[str, Estimate]  # the identified ones of CROSS
     reasons: Mapping[str, str]  # why each other one of CROSS is null
@@ -108,6 +131,36 @@ def fit_cross_coupling(tilted: Sequence[Observation], axial: Sequence[Observatio
     (reference and DUT, common to every run) are added as for k2
     (:func:`vrelab.gum.common_sensitivity_terms`, fully correlated across the coefficients); its
     static-field and thermal terms are not carried (a ±φ pair cancels both in Kip).
+
+    Examples
+    --------
+    Sine runs at 80 Hz of a part with k2 = 100 µg/g², Kip = 50 µg/g² and Kpp = 30 µg/g² (k3 = 0):
+    along the vibration axis up, and tilted ±45° in its IP plane on a vertical shaker, where
+    VRE/σ² = k2·cos²φ + Kpp·sin²φ + Kip·sinφ·cosφ (90 and 40 µg/g²). Kip comes back from the ±45° pair;
+    Kpp does not separate from k2 with these runs, and no run is tilted in the IO plane (Kio,
+    Koo): each is left out with its reason.
+
+    >>> import math
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.campaigns.manifest import Mount
+    >>> from vrelab.identification.cross_coupling import fit_cross_coupling
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc, mount=None):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6), mount=mount)
+    >>> c = math.cos(math.radians(45.0))
+    >>> axial = [sine_run(1, 1.0, 100.0)]
+    >>> tilted = [sine_run(2, 1.0, 90.0, Mount(45.0, "ip", (c, c, 0.0))), sine_run(3, 1.0, 40.0, Mount(-45.0, "ip", (c, -c, 0.0)))]
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100)
+    >>> cc = fit_cross_coupling(tilted, axial, sensor)
+    >>> kip = cc.estimates["kip_ug_per_g2"]
+    >>> print(f"Kip {kip.value:.1f} ± {kip.u:.1f} µg/g²")
+    Kip 50.0 ± 7.1 µg/g²
+    >>> sorted(cc.reasons)
+    ['kio_ug_per_g2', 'koo_ug_per_g2', 'kpp_ug_per_g2']
+    >>> print(cc.reasons["kpp_ug_per_g2"])
+    the runs (IP plane at -45°, +45°, and along the vibration) do not separate Kpp from the other terms (k2, k3, Kip): add a run at 90° in the IP plane
     """
     notes: list[str] = []
     if not tilted:

@@ -21,6 +21,29 @@ if TYPE_CHECKING:
 
 @dataclass
 class LeastSquaresFit:
+    """What :func:`least_squares_fit` finds: the free parameters' values ``x`` (in the order given),
+    their covariance ``cov`` ((JᵀJ)⁻¹ of the weighted residuals, :func:`covariance_of`), the χ²
+    at ``x``, the model's prediction of each run there (``preds``), the Jacobian's rank and notes.
+
+    Examples
+    --------
+    What :func:`least_squares_fit` returns: the values, their covariance, χ² and the model runs.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.fitting import least_squares_fit, starting_values
+    >>> free = ["k2_ug_per_g2", "k3_ug_per_g3"]
+    >>> fit = least_squares_fit(base, obs, free, starting_values(obs, base, free), "censored")
+    >>> print(f"u(k2) {fit.cov[0, 0] ** 0.5:.2f}, chi2 {fit.chi2:.6f}, runs {len(fit.preds)}")
+    u(k2) 3.57, chi2 0.000000, runs 2
+    """
+
     x: NDArray[np.float64]
     cov: NDArray[np.float64]
     chi2: float
@@ -73,7 +96,26 @@ def starting_values(obs: Sequence[Observation], base: Sensor, free: Sequence[str
     at every (fn, Q) of a log grid (fn from a third of the lowest to ten times the highest sine
     frequency, Q from 0.5 to 50), the best grid point polished by least squares. A grid, not a
     few starts: VRC(f) has valleys (a large Q fits three frequencies nearly as well) that a
-    local search from a poor start does not leave."""
+    local search from a poor start does not leave.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg: the closed form's k2 and k3 start the fit.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.fitting import starting_values
+    >>> start = starting_values(obs, base, ["k2_ug_per_g2", "k3_ug_per_g3"])
+    >>> print(f"{start['k2_ug_per_g2']:.1f} {start['k3_ug_per_g3']:.1f}")
+    100.0 10.0
+    """
     from scipy.optimize import least_squares
 
     from vrelab.models.dynamics import vrc_at_frequency
@@ -122,7 +164,27 @@ def _residuals(sensor: Sensor, obs: Sequence[Observation], kind: ClipKind) -> tu
 
 def least_squares_fit(base: Sensor, obs: Sequence[Observation], free: Sequence[str], start: Mapping[str, float],
          kind: ClipKind) -> LeastSquaresFit:
-    """Least squares over the ``free`` parameters; the others keep the base sensor's values."""
+    """Least squares over the ``free`` parameters; the others keep the base sensor's values.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.fitting import least_squares_fit, starting_values
+    >>> free = ["k2_ug_per_g2", "k3_ug_per_g3"]
+    >>> fit = least_squares_fit(base, obs, free, starting_values(obs, base, free), "censored")
+    >>> print([f"{x:.2f}" for x in fit.x], fit.jac_rank)
+    ['100.00', '10.00'] 2
+    """
     from scipy.optimize import least_squares
 
     def sensor_at(x: NDArray[np.float64]) -> Sensor:
@@ -164,7 +226,23 @@ def least_squares_fit(base: Sensor, obs: Sequence[Observation], free: Sequence[s
 
 
 def covariance_of(jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
-    """(JᵀJ)⁻¹ by SVD, singular directions dropped (as scipy's curve_fit does); and J's rank."""
+    """(JᵀJ)⁻¹ by SVD, singular directions dropped (as scipy's curve_fit does); and J's rank.
+
+    Examples
+    --------
+    A Jacobian of two independent unit-slope parameters, and one whose columns coincide (its
+    singular direction dropped: rank 1):
+
+    >>> import numpy as np
+    >>> from vrelab.identification.fitting import covariance_of
+    >>> cov, rank = covariance_of(np.eye(2))
+    >>> print(cov, rank)
+    [[1. 0.]
+     [0. 1.]] 2
+    >>> _, rank = covariance_of(np.array([[1.0, 1.0], [2.0, 2.0]]))
+    >>> rank
+    1
+    """
     if jac.shape[1] == 0:
         return np.zeros((0, 0)), 0
     _, s, vt = np.linalg.svd(jac, full_matrices=False)
@@ -174,7 +252,20 @@ def covariance_of(jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
 
 
 def subset_levels(ob: Observation, keep: NDArray[np.bool_]) -> Observation:
-    """``ob`` with only the levels ``keep`` marks."""
+    """``ob`` with only the levels ``keep`` marks.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.fitting import subset_levels
+    >>> print(subset_levels(obs[0], np.array([True, True, False])).rms_g)
+    [0.2 0.4]
+    """
     from dataclasses import replace
 
     def pick(t: tuple[Any, ...]) -> tuple[Any, ...]:
@@ -185,7 +276,20 @@ def subset_levels(ob: Observation, keep: NDArray[np.bool_]) -> Observation:
 
 
 def unsaturated(obs: Sequence[Observation]) -> list[Observation]:
-    """The observations without the sine levels the analysis flagged saturated."""
+    """The observations without the sine levels the analysis flagged saturated.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.fitting import unsaturated
+    >>> len(unsaturated(obs)), [len(ob.rms_g) for ob in unsaturated(obs)]
+    (2, [3, 3])
+    """
     out = []
     for ob in obs:
         keep = ~np.array(ob.saturated, dtype=bool) if ob.saturated else np.ones(ob.n, dtype=bool)
@@ -195,4 +299,18 @@ def unsaturated(obs: Sequence[Observation]) -> list[Observation]:
 
 
 def level_key(obs: Sequence[Observation]) -> list[tuple[int, float | None, tuple[float, ...]]]:
+    """Each observation's identity as a cache key: its run, frequency and levels' rms.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.fitting import level_key
+    >>> [(run, freq_hz) for run, freq_hz, _ in level_key(obs)]
+    [(1, 80.0), (2, 80.0)]
+    """
     return [(ob.run, ob.freq_hz, tuple(ob.rms_g)) for ob in obs]

@@ -43,7 +43,25 @@ NUISANCE = ("fn_hz", "q")
 
 
 def model_levels(sensor: Sensor, ob: Observation, kind: ClipKind = DEFAULT_CLIP_KIND) -> Prediction:
-    """:func:`vrelab.prediction.predict` at the observation's conditions (its levels' rms)."""
+    """:func:`vrelab.prediction.predict` at the observation's conditions (its levels' rms).
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> from vrelab.identification.model import model_levels
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100, k3_ug_per_g3=10)
+    >>> print([f"{level.vre_g * 1e6:.2f}" for level in model_levels(sensor, obs[0]).levels])
+    ['5.20', '20.80', '46.80']
+    """
     from vrelab.prediction import predict
 
     excitation: RandomProfile | list[float]
@@ -95,6 +113,25 @@ def _model_distorted(sensor: Sensor, ob: Observation, kind: ClipKind) -> Predict
 
 
 def model_runs(sensor: Sensor, obs: Sequence[Observation], kind: ClipKind) -> list[Prediction]:
+    """:func:`model_levels` of each observation: the model's prediction of every run.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> from vrelab.identification.model import model_runs
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100, k3_ug_per_g3=10)
+    >>> [f"{p.levels[-1].vre_g * 1e6:.2f}" for p in model_runs(sensor, obs, "censored")]
+    ['46.80', '25.20']
+    """
     return [model_levels(sensor, ob, kind) for ob in obs]
 
 
@@ -112,7 +149,29 @@ def _sine_frequencies(obs: Sequence[Observation]) -> list[float]:
 
 
 def plan_parameters(obs: Sequence[Observation], base: Sensor) -> tuple[list[str], dict[str, str]]:
-    """Which parameters the data can determine before fitting, and why the others cannot."""
+    """Which parameters the data can determine before fitting, and why the others cannot.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg: two orientations determine k2 and k3; one frequency cannot
+    determine a resonance.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.model import plan_parameters
+    >>> free, reasons = plan_parameters(obs, base)
+    >>> free
+    ['k2_ug_per_g2', 'k3_ug_per_g3']
+    >>> print(reasons["fn_hz"])
+    sine runs at one frequency only (80 Hz): VRC(f) has no shape
+    """
     free: list[str] = []
     why: dict[str, str] = {}
     sines = [ob for ob in obs if ob.method == "sine"]
@@ -168,7 +227,14 @@ def _reach(preds: Sequence[Prediction], obs: Sequence[Observation], share: str) 
 
 @dataclass
 class Findings:
-    """What :func:`post_checks` finds about fn and Q beyond the reasons, per parameter."""
+    """What :func:`post_checks` finds about fn and Q beyond the reasons, per parameter.
+
+    Examples
+    --------
+    >>> from vrelab.identification.model import Findings
+    >>> Findings()
+    Findings(bounds={}, widen={}, loose={})
+    """
 
     # only bounded: (its standard u from the profile, the reason, the bound's middle or None)
     bounds: dict[str, tuple[float, str, float | None]] = field(default_factory=dict)
@@ -196,7 +262,27 @@ def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Seq
     column are to be scaled; where the profile does not close, fn and Q are bounded (Q 2.0 ± 0.6
     for a true 6 on three frequencies far from fn was such a case). A rail or the threshold
     that the levels do not reach is fixed at the base sensor's value and the rest refitted (it
-    shapes nothing the data see)."""
+    shapes nothing the data see).
+
+    Examples
+    --------
+    Two sine runs at one frequency (80 Hz) leave no resonance in the fit: with only k2 and k3
+    freed, nothing the fit freed is found undetermined.
+
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.identification.model import model_runs, post_checks
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> sensor = vrelab.load_sensor("ideal", range_g=2, k2_ug_per_g2=100, k3_ug_per_g3=10)
+    >>> values = {"k2_ug_per_g2": 100.0, "k3_ug_per_g3": 10.0}
+    >>> cov = {"k2_ug_per_g2": 3.57**2, "k3_ug_per_g3": 1.19**2}
+    >>> post_checks(values, cov, list(values), model_runs(sensor, obs, "censored"), obs)
+    {}
+    """
     why: dict[str, str] = {}
     if "fn_hz" in free:
         freqs = _sine_frequencies(obs)
@@ -252,7 +338,24 @@ def post_checks(values: Mapping[str, float], cov: Mapping[str, float], free: Seq
 
 
 def vrc_data(sines: Sequence[Observation]) -> tuple[NDArray[np.float64], ...]:
-    """The sine runs' apparent VRCs, their u, frequencies and static fields, as arrays."""
+    """The sine runs' apparent VRCs, their u, frequencies and static fields, as arrays.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.model import vrc_data
+    >>> vrc, u, freq, g0 = vrc_data(obs)
+    >>> print(vrc.round(6), freq, g0)
+    [130.  70.] [80. 80.] [ 1. -1.]
+    """
     vrc, u = (np.array(a) for a in zip(*(apparent_vrc(ob) for ob in sines)))
     return vrc, u, np.array([ob.freq_hz for ob in sines]), np.array([vrc_static_g(ob) for ob in sines])
 
@@ -261,7 +364,20 @@ def vrc_static_g(ob: Observation) -> float:
     """The static field a sine observation's apparent VRC belongs to: g0, or under a distorted
     drive g0 + Σ w·E[x²]·s / Σ w·E[x²] (:func:`drive_equivalent`'s s per level, w = 1/u², the
     weights of :func:`apparent_vrc`), so that VRC = (k2 + 3·k3·that)·|H(f)|² (as
-    :func:`vrelab.fits.fit_vrc`'s ``static_shift_g``)."""
+    :func:`vrelab.fits.fit_vrc`'s ``static_shift_g``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.model import vrc_static_g
+    >>> vrc_static_g(obs[1])
+    -1.0
+    """
     if not ob.drive:
         return ob.static_g
     rms, shift = drive_equivalent(ob)
@@ -272,7 +388,24 @@ def vrc_static_g(ob: Observation) -> float:
 def vrc_chi2(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: float,
               fn: float | None, q: float | None) -> tuple[NDArray[np.float64], float]:
     """k2 (and k3) by weighted linear least squares of the apparent VRCs (:func:`vrc_data`)
-    at the response ``|H|²`` of (fn, Q) (flat without fn); and the χ² there."""
+    at the response ``|H|²`` of (fn, Q) (flat without fn); and the χ² there.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg: k2 and k3 come back, with χ² = 0.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.model import vrc_chi2, vrc_data
+    >>> k, chi2 = vrc_chi2(vrc_data(obs), True, 0.0, None, None)
+    >>> print(k.round(6), f"{chi2:.6f}")
+    [100.  10.] 0.000000
+    """
     from vrelab.models.dynamics import vrc_at_frequency
 
     vrc, u, f, g0 = data
@@ -285,7 +418,21 @@ def vrc_chi2(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed: flo
 
 
 def resonance_grid(sines: Sequence[Observation], n_fn: int = 60, n_q: int = 15) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """fn from a third of the lowest to ten times the highest sine frequency, Q from 0.5 to 50 (log)."""
+    """fn from a third of the lowest to ten times the highest sine frequency, Q from 0.5 to 50 (log).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.model import resonance_grid
+    >>> fn, q = resonance_grid(obs)
+    >>> print(f"fn {fn.min():.1f}-{fn.max():.0f} Hz ({fn.size}), Q {q.min():.1f}-{q.max():.0f} ({q.size})")
+    fn 26.7-800 Hz (60), Q 0.5-50 (15)
+    """
     f = [ob.freq_hz for ob in sines if ob.freq_hz is not None]  # a sine observation has its frequency
     return np.geomspace(min(f) / 3, 10 * max(f), n_fn), np.geomspace(0.5, 50, n_q)
 
@@ -306,7 +453,22 @@ def vrc_chi2_grid(data: tuple[NDArray[np.float64], ...], k3_free: bool, k3_fixed
                    fn: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
     """:func:`vrc_chi2`'s χ² at every (fn, Q) of two broadcastable arrays at once: the weighted
     linear least squares for k2 (and k3) in closed form (normal equations of one or two
-    unknowns), so a fine grid costs a few array operations instead of one lstsq per point."""
+    unknowns), so a fine grid costs a few array operations instead of one lstsq per point.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.model import resonance_grid, vrc_chi2_grid, vrc_data
+    >>> fn, q = resonance_grid(obs)
+    >>> chi2 = vrc_chi2_grid(vrc_data(obs), True, 0.0, fn[:, None], q[None, :])
+    >>> chi2.shape
+    (60, 15)
+    """
     vrc, u, f, g0 = data
     r = f / fn[..., None]
     h = 1.0 / ((1 - r * r) ** 2 + (r / q[..., None]) ** 2)

@@ -26,7 +26,22 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Observation:
-    """One run of one channel as identification uses it: the excitation and the levels."""
+    """One run of one channel as identification uses it: the excitation and the levels.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> obs[0].method, obs[0].static_g, obs[0].freq_hz
+    ('sine', 1.0, 80.0)
+    """
 
     run: int
     label: str
@@ -57,12 +72,37 @@ class Observation:
 
 
 class ValueU(TypedDict):
+    """A value and its standard uncertainty (k = 1) in the identification's JSON.
+
+    Examples
+    --------
+    >>> from vrelab.identification.observation import value_u
+    >>> value_u(130.0, 1.5)["u"]
+    1.5
+    """
+
     value: float
     u: float
 
 
 class Residual(TypedDict):
-    """One level of a run in :class:`RunFit`: measured, modelled, and the pull between them."""
+    """One level of a run in :class:`RunFit`: measured, modelled, and the pull between them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> residual = identify_channel("sn1", obs, base).runs[0]["residuals"][-1]
+    >>> print(f"{residual['rms_g']:.1f} g rms: measured {residual['vre_g'] * 1e6:.2f} µg, model {residual['model_g'] * 1e6:.2f} µg, pull {abs(residual['pull']):.1f}")
+    0.6 g rms: measured 46.80 µg, model 46.80 µg, pull 0.0
+    """
 
     rms_g: float
     vre_g: float
@@ -73,7 +113,23 @@ class Residual(TypedDict):
 
 
 class RunFit(TypedDict):
-    """One run of a channel as the fitted model meets it (``ChannelModel.runs``, the JSON's ``runs``)."""
+    """One run of a channel as the fitted model meets it (``ChannelModel.runs``, the JSON's ``runs``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> run = identify_channel("sn1", obs, base).runs[0]
+    >>> run["label"], f"{run['vrc_ug_per_g2']['value']:.1f}", len(run["residuals"])
+    ('run 1', '130.0', 3)
+    """
 
     run: int
     label: str
@@ -89,7 +145,27 @@ class RunFit(TypedDict):
 
 class TypeBTerm(TypedDict):
     """One Type B source's effect on the fitted parameters (``ChannelModel.budget``): the refit's
-    shifts under its perturbation, or None with a note where the refit failed."""
+    shifts under its perturbation, or None with a note where the refit failed.
+
+    Examples
+    --------
+    The reference's sensitivity known to 1 %: its term moves k2 and k3 by 2 % (a VRC scales by -2·r):
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab import TypeB
+    >>> from vrelab.identification.channel import IdentifyOptions, identify_channel
+    >>> model = identify_channel("sn1", obs, base, IdentifyOptions(typeb=TypeB(u_reference_pct=1.0)))
+    >>> term = model.budget[0]
+    >>> print(term["source"], f"{abs(term['shifts']['k2_ug_per_g2']):.2f}")
+    reference sensitivity 1.97
+    """
 
     source: str
     type: Literal["B"]
@@ -99,7 +175,16 @@ class TypeBTerm(TypedDict):
 
 
 class Check2f(TypedDict):
-    """One sine run's 2f cross-check (:func:`cross_check_2f`)."""
+    """One sine run's 2f cross-check (:func:`cross_check_2f`).
+
+    Examples
+    --------
+    The fields of one check (:func:`vrelab.identification.check2f.cross_check_2f` makes them):
+
+    >>> from vrelab.identification.observation import Check2f
+    >>> list(Check2f.__annotations__)[:5]
+    ['run', 'label', 'freq_hz', 'static_g', 'vrc_2f_ug_per_g2']
+    """
 
     run: int
     label: str
@@ -114,7 +199,28 @@ class Check2f(TypedDict):
 
 @dataclass(frozen=True)
 class ChannelModel:
-    """The identified model of one channel."""
+    """The identified model of one channel.
+
+    Examples
+    --------
+    What :func:`vrelab.identification.channel.identify_channel` returns: each parameter
+    determined (an Estimate) or not (None, and the reason).
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> model = identify_channel("sn1", obs, base)
+    >>> print(f"{model.parameters['k2_ug_per_g2'].value:.1f}", model.parameters["fn_hz"])
+    100.0 None
+    >>> print(model.reasons["fn_hz"])
+    sine runs at one frequency only (80 Hz): VRC(f) has no shape
+    """
 
     channel: str
     parameters: Mapping[str, Estimate | None]  # every name of PARAMETERS; None: not determined
@@ -161,6 +267,14 @@ class ChannelModel:
 
 
 def value_u(value: float, u: float) -> ValueU:
+    """A value and its standard uncertainty as the identification's JSON writes them.
+
+    Examples
+    --------
+    >>> from vrelab.identification.observation import value_u
+    >>> value_u(130.0, 1.5)
+    {'value': 130.0, 'u': 1.5}
+    """
     return {"value": value, "u": u}
 
 
@@ -183,7 +297,18 @@ def check_document(doc: Any) -> None:
     """The campaign document's schema, as identification reads it (``vrelab campaign``'s
     results.json, :func:`vrelab.campaigns.campaign_doc`): a ValueError naming the first field
     that is missing or of the wrong type (``runs[2].channels[0].static_g``), never a KeyError or
-    a TypeError deep in the fit."""
+    a TypeError deep in the fit.
+
+    Examples
+    --------
+    A document without runs is refused with the reason:
+
+    >>> from vrelab.identification.observation import check_document
+    >>> check_document({"kind": "campaign"})
+    Traceback (most recent call last):
+        ...
+    ValueError: identify: campaign document runs must be a list of runs (give a manifest or a `vrelab campaign --out` folder), got None
+    """
 
     def need(where: str, ok: bool, what: str, value: Any) -> None:
         if not ok:
@@ -271,7 +396,15 @@ def check_document(doc: Any) -> None:
 
 
 def failed_runs(doc: Mapping[str, Any]) -> list[str]:
-    """One line per run of the campaign that failed: it is not in the identification."""
+    """One line per run of the campaign that failed: it is not in the identification.
+
+    Examples
+    --------
+    >>> from vrelab.identification.observation import failed_runs
+    >>> failed_runs({"runs": [{"index": 1, "label": "Z up", "status": "ok"},
+    ...                       {"index": 2, "label": "Z down", "status": "failed", "error": "unreadable file"}]})
+    ["run 2 ('Z down') failed (unreadable file): not used"]
+    """
     return [f"run {r['index']} ({r.get('label')!r}) failed ({r.get('error') or 'no error given'}): not used"
             for r in doc["runs"] if r.get("status") != "ok"]
 
@@ -283,6 +416,29 @@ def observations(doc: Mapping[str, Any]) -> tuple[dict[str, list[Observation]], 
     positive uncertainty are left out; a random run without its profile (the manifest's
     ``profile``) cannot be modelled and is left out with a note. A failed run is named in every
     channel's notes (:func:`failed_runs`).
+
+    Examples
+    --------
+    The observations of a campaign of one run (the example campaign's 80 Hz run):
+
+    >>> with open("campaign.toml", "w") as f:
+    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
+    ... [[run]]
+    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
+    ... reference = "shaker/ref"
+    ... reference_units = "mv"
+    ... reference_sensitivity = 10
+    ... dut = {sn1 = "shaker/sn1_z"}
+    ... dut_units = "lsb"
+    ... dut_sensitivity = 256000
+    ... static_g = 1
+    ... ''')
+    >>> import vrelab
+    >>> from vrelab.identification.observation import observations
+    >>> per_channel, notes = observations(vrelab.campaign("campaign.toml"))
+    >>> ob = per_channel["sn1"][0]
+    >>> ob.method, ob.static_g, [f"{r:.1f}" for r in ob.rms_g]
+    ('sine', 1.0, ['0.2', '0.4', '0.6'])
     """
     check_document(doc)
     obs: dict[str, list[Observation]] = {}
@@ -314,7 +470,24 @@ def apparent_vrc(ob: Observation) -> tuple[float, float]:
     """A sine observation's apparent VRC [µg/g²] and its u: the weighted least-squares fit
     through the origin of VRE = VRC·rms² over its levels, which is the weighted mean of each
     level's VRE/rms² (u: its u/rms²), so it is :func:`vrelab.gum.weighted_mean`'s: u scaled up by
-    the Birge ratio when the levels scatter about the line more than their u say."""
+    the Birge ratio when the levels scatter about the line more than their u say.
+
+    Examples
+    --------
+    Two sine runs at 80 Hz of a part with k2 = 100 µg/g² and k3 = 10 µg/g³, axis up (VRC 130 µg/g²)
+    and axis down (70 µg/g²), three levels clear of the ±2 g rails, each known to 2 µg:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.observation import apparent_vrc
+    >>> vrc, u = apparent_vrc(obs[0])
+    >>> print(f"{vrc:.1f} ± {u:.2f} µg/g²")
+    130.0 ± 5.05 µg/g²
+    """
     from vrelab.gum import weighted_mean
 
     x2 = drive_equivalent(ob)[0] ** 2 if ob.drive else ob.rms_g**2
@@ -413,6 +586,22 @@ def drive_equivalent(ob: Observation) -> tuple[NDArray[np.float64], NDArray[np.f
     E[y²] = E[x²] gives exactly at the static field g0 + s: ``k2·E[x²] + 3·k3·(g0 + s)·E[x²]``.
     Exact for the cubic polynomial; assumed, as in the reduction, that the DUT sees the reference's
     waveform (its response at the harmonics that of the fundamental). Levels without a measured
-    drive: their rms and no shift (a pure sine)."""
+    drive: their rms and no shift (a pure sine).
+
+    Examples
+    --------
+    Without a measured drive waveform the levels are pure sines: their own rms and static field.
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> from vrelab.identification.observation import drive_equivalent
+    >>> rms_eq, g0_eq = drive_equivalent(obs[0])
+    >>> print(rms_eq, g0_eq)
+    [0.2 0.4 0.6] [0. 0. 0.]
+    """
     q = np.array([d if d is not None else (1.0, 0.0) for d in ob.drive] if ob.drive else [(1.0, 0.0)] * ob.n)
     return ob.rms_g * np.sqrt(q[:, 0]), ob.rms_g * q[:, 1] / (3.0 * q[:, 0])

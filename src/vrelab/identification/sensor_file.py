@@ -21,6 +21,26 @@ def sensor_file_document(ident: Identification) -> dict[str, Any]:
     covariance of the identified ones. The tested range's table loses the keys the axes now
     set, so they win there (resolution: top level < axis < range); other ranges keep the base's
     rails and threshold (they were not tested).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> from vrelab.identification.sensor_file import sensor_file_document
+    >>> ident = vrelab.Identification("two runs", "ideal", base, (identify_channel("sn1", obs, base),), "censored")
+    >>> doc = sensor_file_document(ident)
+    >>> axis = doc["axes"]["sn1"]
+    >>> print(doc["name"], f"{axis['k2_ug_per_g2']:.1f} {axis['k3_ug_per_g3']:.1f}")
+    ideal-identified 100.0 10.0
+    >>> print(axis["facts"]["k2_per_g"])
+    identified from two runs, 100 ± 3.6 µg/g²
     """
     from vrelab.sensor.loader import read_spec
 
@@ -100,7 +120,27 @@ def _side(name: str) -> str:
 def write_sensor_file(path: str | Path, ident: Identification) -> Path:
     """Write :func:`sensor_file_document` as TOML to ``path`` by the one sensor-file writer
     (:func:`vrelab.sensor.writer.write_sensor_file`: loaded for each channel before it is renamed
-    into place, so a file that would not load is never left behind)."""
+    into place, so a file that would not load is never left behind).
+
+    Examples
+    --------
+    The identified sensor written as a sensor file, and loaded back as any sensor is:
+
+    >>> import numpy as np
+    >>> from vrelab.identification.observation import Observation
+    >>> rms = np.array([0.2, 0.4, 0.6])
+    >>> def sine_run(run, g0, vrc):
+    ...     return Observation(run, f"run {run}", "sine", g0, 80.0, None, rms, vrc * 1e-6 * rms**2, np.full(3, 2e-6))
+    >>> obs = [sine_run(1, 1.0, 130.0), sine_run(2, -1.0, 70.0)]
+    >>> import vrelab
+    >>> base = vrelab.load_sensor("ideal", range_g=2)
+    >>> from vrelab.identification.channel import identify_channel
+    >>> from vrelab.identification.sensor_file import write_sensor_file
+    >>> ident = vrelab.Identification("two runs", "ideal", base, (identify_channel("sn1", obs, base),), "censored")
+    >>> path = write_sensor_file("sn1.toml", ident)
+    >>> print(f"{vrelab.load_sensor(str(path)).k2_per_g * 1e6:.1f} µg/g²")
+    100.0 µg/g²
+    """
     from vrelab.sensor.writer import write_sensor_file as write
 
     doc = sensor_file_document(ident)

@@ -43,6 +43,14 @@ def clip_vre(
     static field plus any offset the sensor adds before them. With ``tone_peaks_g`` [g peak]
     the vibration is Gaussian (rms ``sigma_g``, a scalar) plus those sine tones
     (:func:`vrelab.models.clipping.sine_on_random_mean_shift`).
+
+    Examples
+    --------
+    The article's Figure 1 (±2 g rails, 1 g field, 1 g rms), referred to the vibration-off reading:
+
+    >>> from vrelab.models.design import clip_vre
+    >>> print(f"{clip_vre(1.0, 1.0, -2.0, 2.0) * 1e3:.1f} mg")
+    -82.9 mg
     """
     if len(tone_peaks_g):
         if shape != "gaussian":
@@ -107,6 +115,15 @@ def ideal_vre_shares(
 
     ``shape``, ``kind`` and ``offset_g`` are keywords (:class:`IdealSensorOptions`); given by
     position, as before, they still work for one release with a ``DeprecationWarning``.
+
+    Examples
+    --------
+    Clipping and k2 = 100 µg/g² (1e-4 /g) at 1 g rms on a 1 g field against ±2 g rails:
+
+    >>> from vrelab.models.design import ideal_vre_shares
+    >>> clip_g, poly_g = ideal_vre_shares(1.0, 1.0, -2.0, 2.0, k2_per_g=1e-4)
+    >>> print(f"{clip_g * 1e3:.2f} mg, {poly_g * 1e3:.3f} mg")
+    -83.04 mg, 0.100 mg
     """
     from vrelab.models.memoryless import poly_clip_vre
 
@@ -136,7 +153,14 @@ def total_vre(
     followed by the rails (:func:`ideal_vre_shares`, whose shares add up to it).
 
     ``shape``, ``kind`` and ``offset_g`` are keywords (:class:`IdealSensorOptions`); given by
-    position, as before, they still work for one release with a ``DeprecationWarning``."""
+    position, as before, they still work for one release with a ``DeprecationWarning``.
+
+    Examples
+    --------
+    >>> from vrelab.models.design import total_vre
+    >>> print(f"{total_vre(1.0, 1.0, -2.0, 2.0, k2_per_g=1e-4) * 1e3:.2f} mg")
+    -82.94 mg
+    """
     o = cast(IdealSensorOptions, _keywords.merged("total_vre", list(IdealSensorOptions.__annotations__), legacy,
                                                   options))
     clip, poly = ideal_vre_shares(rms_g, mean_g, rail_low_g, rail_high_g, k2_per_g, k3_per_g2, **o)
@@ -191,6 +215,14 @@ def max_rms_for_budget(
     one before, where |VRE| is monotone. Scanning first matters: with a nonlinearity of the
     opposite sign to the clipping shift, |VRE| can rise, fall through zero and rise again, and
     the designer wants the first crossing.
+
+    Examples
+    --------
+    The largest vibration a ±2 g sensor on a 1 g field takes within 1 mg of VRE:
+
+    >>> from vrelab.models.design import max_rms_for_budget
+    >>> print(f"{max_rms_for_budget(1e-3, 1.0, -2.0, 2.0):.2f} g rms")
+    0.41 g rms
     """
     o = cast(BudgetSearchOptions, _keywords.merged("max_rms_for_budget", list(BudgetSearchOptions.__annotations__),
                                                    legacy, options))
@@ -245,6 +277,14 @@ def max_sine_level_clear_of_rails(
     -------
     float
         rms = min(U - g0, g0 - L)/(gain·√2): the amplitude at the rail is gain·A.
+
+    Examples
+    --------
+    A 1 g field leaves 1 g of headroom under a +2 g rail: a sine of 1 g peak, 0.707 g rms.
+
+    >>> from vrelab.models.design import max_sine_level_clear_of_rails
+    >>> print(f"{max_sine_level_clear_of_rails(1.0, -2.0, 2.0):.3f} g rms")
+    0.707 g rms
     """
     g0 = _validate.finite_scalar("static_g", static_g)
     lo = _validate.finite_scalar("rail_low_g", rail_low_g)
@@ -261,6 +301,14 @@ def grms_at_peak_threshold(threshold_g: float, static_g: float = 0.0, crest_fact
     σ = (T - |g0|)/CF: the peaks on the side of the static field reach T first (physics §1.3, §4).
     ADXL355 on ±2 g: T ≈ 8 g, g0 = 1 g, CF = 3 → 2.33 g rms (the article: "above about
     2.5 g rms" the data leave the clipping model).
+
+    Examples
+    --------
+    An 8 g over-range threshold on a 1 g field, peaks at 3σ:
+
+    >>> from vrelab.models.design import grms_at_peak_threshold
+    >>> print(f"{grms_at_peak_threshold(8.0, 1.0):.3f} g rms")
+    2.333 g rms
     """
     t = _validate.positive_scalar("threshold_g", threshold_g)
     g0 = _validate.finite_scalar("static_g", static_g)
@@ -301,6 +349,14 @@ def overrange_trip_rate_hz(
     ----------
     .. [1] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944),
        §3.3: expected number of crossings ∫|ẋ| p(T, ẋ) dẋ.
+
+    Examples
+    --------
+    2 g rms on a 1 g field against a 6 g threshold, 1 kHz mean-crossing rate:
+
+    >>> from vrelab.models.design import overrange_trip_rate_hz
+    >>> print(f"{overrange_trip_rate_hz(6.0, 1.0, 2.0, 1000.0):.2f} trips/s")
+    46.12 trips/s
     """
     t = _validate.positive("threshold_g", threshold_g)
     mu = _validate.finite("mean_g", mean_g)
@@ -388,6 +444,14 @@ def overrange_vre(
     This is an **estimate**: it assumes Gaussian proof-mass motion, takes crossings as
     independent (ignores the clustering of crossings within one excursion and the correlation of
     re-triggering with the motion), and ignores the transient as the output floats.
+
+    Examples
+    --------
+    The same motion held at 0 g for 1 ms after each trip:
+
+    >>> from vrelab.models.design import overrange_vre
+    >>> print(f"{overrange_vre(1.0, 2.0, 6.0, 1e-3, 1000.0) * 1e3:.2f} mg")
+    -45.08 mg
     """
     o = cast(OverrangeOptions, _keywords.merged("overrange_vre", list(OverrangeOptions.__annotations__), legacy,
                                                 options))
@@ -437,6 +501,16 @@ def overrange_held_mean_g(
     .. [1] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944), §3.3;
        M. R. Leadbetter, G. Lindgren, H. Rootzén, *Extremes and related properties of random
        sequences and processes* (1983), ch. 10 (the Palm distribution of the slope at a crossing).
+
+    Examples
+    --------
+    2 g rms on a 1 g field against a 6 g threshold, 1 kHz mean-crossing rate, held 1 ms, a hold
+    far longer than the motion's correlation time (ρ̄ = 0, ρ(hold) = 0): the held stretches
+    average more than the static 1 g.
+
+    >>> from vrelab.models.design import overrange_held_mean_g
+    >>> print(f"{overrange_held_mean_g(1.0, 2.0, 6.0, 1e-3, 1000.0, 0.0, 1.0):.3f} g")
+    1.316 g
     """
     mu = _validate.finite_scalar("mean_g", mean_g)
     sigma = _validate.positive_scalar("sigma_g", sigma_g)
@@ -467,6 +541,14 @@ def tilt_error_deg(vre_g: ArrayLike, tilt_deg: ArrayLike = 0.0) -> NDArray[np.fl
 
     An axis at tilt θ reads g·sin θ, so an offset δ [g] reads as Δθ ≈ δ/cos θ radians
     (first order in δ), reported in degrees. 1 mg at θ = 0 is 0.0573°.
+
+    Examples
+    --------
+    A VRE of -10 mg on an inclinometer at 0° tilt:
+
+    >>> from vrelab.models.design import tilt_error_deg
+    >>> print(f"{tilt_error_deg(-0.010):.3f} deg")
+    -0.573 deg
     """
     d = _validate.finite("vre_g", vre_g)
     th = np.radians(_validate.finite("tilt_deg", tilt_deg))
@@ -493,6 +575,14 @@ def tilt_error_from_static_deg(vre_g: float, static_g: float) -> float:
     ValueError
         Where it is undefined: ``g0`` or ``g0 + δ`` beyond ±1 g, or within ``NEAR_VERTICAL_G``
         (1 mg) of ±1 g, where the axis is vertical and a tilt barely moves its reading.
+
+    Examples
+    --------
+    The same -10 mg on an axis reading 0.5 g (30° tilt):
+
+    >>> from vrelab.models.design import tilt_error_from_static_deg
+    >>> print(f"{tilt_error_from_static_deg(-0.010, 0.5):.3f} deg")
+    -0.659 deg
     """
     d = _validate.finite_scalar("vre_g", vre_g)
     g0 = _validate.finite_scalar("static_g", static_g)
@@ -506,7 +596,14 @@ def tilt_error_from_static_deg(vre_g: float, static_g: float) -> float:
 
 def fixture_resonance_ok(fixture_fn_hz: float, f_max_hz: float, factor: float = 1.5) -> bool:
     """True when the fixture's lowest resonance is at least ``factor`` × the highest test
-    frequency (the article's rule: >= 1.5×), so the fixture does not add its own amplification."""
+    frequency (the article's rule: >= 1.5×), so the fixture does not add its own amplification.
+
+    Examples
+    --------
+    >>> from vrelab.models.design import fixture_resonance_ok
+    >>> fixture_resonance_ok(3500.0, 2000.0), fixture_resonance_ok(2500.0, 2000.0)
+    (True, False)
+    """
     fn = _validate.positive_scalar("fixture_fn_hz", fixture_fn_hz)
     fmax = _validate.positive_scalar("f_max_hz", f_max_hz)
     k = _validate.positive_scalar("factor", factor)

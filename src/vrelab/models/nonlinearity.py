@@ -61,6 +61,14 @@ def gaussian_moments(sigma_g: ArrayLike, order: int) -> NDArray[np.float64]:
     Notes
     -----
     E[x^j] = 0 for odd j, (j-1)!!·σ^j for even j (E[x²] = σ², E[x⁴] = 3σ⁴, E[x⁶] = 15σ⁶).
+
+    Examples
+    --------
+    E[x^j] of 2 g rms Gaussian vibration: 1, 0, σ², 0, 3σ⁴.
+
+    >>> from vrelab.models.nonlinearity import gaussian_moments
+    >>> print(gaussian_moments(2.0, 4))
+    [ 1.  0.  4.  0. 48.]
     """
     n = _order(order)
     s = _validate.non_negative("sigma_g", sigma_g)
@@ -89,6 +97,14 @@ def sine_moments(rms_g: ArrayLike, order: int) -> NDArray[np.float64]:
     -----
     The period average of cos^j θ is 0 for odd j and C(j, j/2)/2^j for even j: 1/2, 3/8, 5/16, …
     So E[x²] = A²/2 = rms², E[x⁴] = 3A⁴/8 = 1.5·rms⁴ (physics §1.2).
+
+    Examples
+    --------
+    E[x^j] of a 1 g rms sine (amplitude √2 g): 1, 0, rms², 0, 1.5·rms⁴.
+
+    >>> from vrelab.models.nonlinearity import sine_moments
+    >>> print(sine_moments(1.0, 4).round(12))
+    [1.  0.  1.  0.  1.5]
     """
     n = _order(order)
     amp = np.sqrt(2.0) * _validate.non_negative("rms_g", rms_g)
@@ -103,6 +119,14 @@ def sum_moments(moments_a: ArrayLike, moments_b: ArrayLike) -> NDArray[np.float6
 
     ``E[(a+b)^j] = Σ_k C(j,k)·E[a^k]·E[b^(j-k)]`` (binomial theorem; independence factors
     each expectation). Both inputs need the same number of rows; the trailing dimensions broadcast.
+
+    Examples
+    --------
+    Moments of a 1 g rms Gaussian plus an independent 1 g rms sine: the variances add.
+
+    >>> from vrelab.models.nonlinearity import gaussian_moments, sine_moments, sum_moments
+    >>> print(sum_moments(gaussian_moments(1.0, 2), sine_moments(1.0, 2)).round(12))
+    [1. 0. 2.]
     """
     a = np.asarray(moments_a, dtype=np.float64)
     b = np.asarray(moments_b, dtype=np.float64)
@@ -146,6 +170,14 @@ def sine_on_random_moments(sigma_g: ArrayLike, peaks_g: Sequence[float], order: 
     frequencies (f and 2f) keep a fixed relative phase, and then the time average of odd powers
     need not vanish (cos²(ωt)·cos(2ωt + φ) averages to cos(φ)/4): these moments are the
     average over that phase.
+
+    Examples
+    --------
+    1 g rms Gaussian plus a tone of 1 g peak (0.5 g² of variance):
+
+    >>> from vrelab.models.nonlinearity import sine_on_random_moments
+    >>> print(sine_on_random_moments(1.0, [1.0], 2).round(12))
+    [1.  0.  1.5]
     """
     n = _order(order)
     out = gaussian_moments(sigma_g, n)
@@ -164,6 +196,17 @@ def sample_moments(x_g: ArrayLike, order: int, axis: int = -1) -> NDArray[np.flo
     -------
     numpy.ndarray
         Shape ``(order + 1,)`` + the shape of ``x_g`` without ``axis``.
+
+    Examples
+    --------
+    Central moments of seeded samples of 1 g rms Gaussian vibration about 0.3 g (close to
+    1, 0, 1, 0, 3; ``+ 0.0`` prints a rounded -0 as 0):
+
+    >>> import numpy as np
+    >>> from vrelab.models.nonlinearity import sample_moments
+    >>> x = np.random.default_rng(0).normal(0.3, 1.0, 200_000)
+    >>> print(sample_moments(x, 4).round(1) + 0.0)
+    [1. 0. 1. 0. 3.]
     """
     n = _order(order)
     x = _validate.finite("x_g", x_g)
@@ -237,6 +280,15 @@ def polynomial_vre(
        article), with the corrections of physics §1.2.
     .. [2] IEEE Std 1293-1998, IEEE Standard Specification Format Guide and Test Procedure for
        Linear, Single-Axis, Nongyroscopic Accelerometers (VRC definition and sine method).
+
+    Examples
+    --------
+    VRE of k2 = 100 µg/g² (1e-4 /g) at 2 g rms of Gaussian vibration, on no static field: k2·σ².
+
+    >>> from vrelab.models.nonlinearity import gaussian_moments, polynomial_vre
+    >>> vre_g = polynomial_vre({2: 1e-4}, 0.0, gaussian_moments(2.0, 2))
+    >>> print(f"{vre_g * 1e3:.2f} mg")
+    0.40 mg
     """
     k = _coefficients(coeffs_k)
     g0 = _validate.finite("static_g", static_g)
@@ -285,6 +337,14 @@ def vre_poly(
         VRE [g] = (k2 + 3·k3·g0)·E[x²] + k4·(6·g0²·E[x²] + E[x⁴]) with E[x⁴] = 3·rms⁴
         (Gaussian), 1.5·rms⁴ (sine) or that of :func:`sine_on_random_moments`; see
         :func:`polynomial_vre`. Exact for this polynomial: no other moment enters.
+
+    Examples
+    --------
+    k2 = 100 µg/g² and k3 = 20 µg/g³ on a 1 g field at 2 g rms: k2·σ² plus k3's 3·g0·σ².
+
+    >>> from vrelab.models.nonlinearity import vre_poly
+    >>> print(f"{vre_poly(2.0, 1e-4, 2e-5, static_g=1.0) * 1e3:.3f} mg")
+    0.640 mg
     """
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     rms = _validate.non_negative("rms_g", rms_g)
@@ -301,17 +361,38 @@ def vre_poly(
 
 
 def ug_per_g2_to_per_g(vrc_ug_per_g2: ArrayLike) -> NDArray[np.float64] | float:
-    """VRC in µg/g² (= ppm/g) to the normalised k2 in 1/g (:func:`vrelab.units.from_ug`)."""
+    """VRC in µg/g² (= ppm/g) to the normalised k2 in 1/g (:func:`vrelab.units.from_ug`).
+
+    Examples
+    --------
+    >>> from vrelab.models.nonlinearity import ug_per_g2_to_per_g
+    >>> print(ug_per_g2_to_per_g(100.0))
+    0.0001
+    """
     return _out(from_ug(_validate.finite("vrc_ug_per_g2", vrc_ug_per_g2)))
 
 
 def per_g_to_ug_per_g2(k2_per_g: ArrayLike) -> NDArray[np.float64] | float:
-    """Normalised k2 in 1/g to the VRC in µg/g² (= ppm/g) (:func:`vrelab.units.to_ug`)."""
+    """Normalised k2 in 1/g to the VRC in µg/g² (= ppm/g) (:func:`vrelab.units.to_ug`).
+
+    Examples
+    --------
+    >>> from vrelab.models.nonlinearity import per_g_to_ug_per_g2
+    >>> print(f"{per_g_to_ug_per_g2(1e-4):.1f} µg/g²")
+    100.0 µg/g²
+    """
     return _out(to_ug(_validate.finite("k2_per_g", k2_per_g)))
 
 
 def ppm_per_g_to_ug_per_g2(vrc_ppm_per_g: ArrayLike) -> NDArray[np.float64] | float:
-    """ppm/g and µg/g² are the same unit (1 ppm of 1 g per g of vibration² = 1 µg/g²)."""
+    """ppm/g and µg/g² are the same unit (1 ppm of 1 g per g of vibration² = 1 µg/g²).
+
+    Examples
+    --------
+    >>> from vrelab.models.nonlinearity import ppm_per_g_to_ug_per_g2
+    >>> print(ppm_per_g_to_ug_per_g2(40.0))
+    40.0
+    """
     return _out(_validate.finite("vrc_ppm_per_g", vrc_ppm_per_g))
 
 
@@ -336,6 +417,14 @@ def ug_per_g2_from_ppm_fs(nonlinearity_ppm_fs: ArrayLike, full_scale_g: ArrayLik
     the whole nonlinearity is quadratic and quoted as the end-point deviation at full scale; a
     figure against a best-fit line, or one that includes a cubic term, bounds k2 only roughly.
     Example: 0.1 % FS (1000 ppm FS) on ±2 g gives at most 500 µg/g².
+
+    Examples
+    --------
+    A quadratic nonlinearity of 100 ppm of a 2 g full scale:
+
+    >>> from vrelab.models.nonlinearity import ug_per_g2_from_ppm_fs
+    >>> print(ug_per_g2_from_ppm_fs(100.0, 2.0))
+    50.0
     """
     fs = _validate.positive("full_scale_g", full_scale_g)
     return _out(_validate.finite("nonlinearity_ppm_fs", nonlinearity_ppm_fs) / fs)
@@ -346,6 +435,14 @@ def vrc_ug_per_g2_from_vre(vre_g: ArrayLike, rms_g: ArrayLike) -> NDArray[np.flo
 
     "X mg at Y g rms" → ``vrc_ug_per_g2_from_vre(X·1e-3, Y)`` = 1e3·X/Y² µg/g². Only meaningful
     below clipping, where VRE grows as rms² (physics §1.2).
+
+    Examples
+    --------
+    A datasheet's "VRE of 2 mg at 5 g rms":
+
+    >>> from vrelab.models.nonlinearity import vrc_ug_per_g2_from_vre
+    >>> print(f"{vrc_ug_per_g2_from_vre(2e-3, 5.0):.1f} µg/g²")
+    80.0 µg/g²
     """
     rms = _validate.positive("rms_g", rms_g)
     return _out(to_ug(_validate.finite("vre_g", vre_g) / rms**2))
@@ -386,6 +483,16 @@ def separate_k2_k3(vrc_plus: Estimate | ArrayLike, vrc_minus: Estimate | ArrayLi
     VRC(g0) = k2 + 3·k3·g0 (the g0 term of :func:`polynomial_vre` for n = 3), so two
     orientations determine both. A k4 term adds 6·k4·g0² + 3·k4·σ² to both orientations
     alike (at ±g0) and ends up in k2.
+
+    Examples
+    --------
+    VRCs of 130 µg/g² axis up and 70 µg/g² axis down (±1 g) give k2 = 100 µg/g² and
+    k3 = 10 µg/g³ (VRC = k2 ± 3·k3):
+
+    >>> from vrelab.models.nonlinearity import separate_k2_k3
+    >>> k2, k3 = separate_k2_k3(130.0, 70.0)
+    >>> print(f"{float(k2):.1f} {float(k3):.1f}")
+    100.0 10.0
     """
     if static_minus_g is None:
         gp = _validate.positive_scalar("static_g", static_g)
@@ -419,6 +526,17 @@ def k2_k3_covariance(u_plus: float, u_minus: float, static_g: float = 1.0, stati
 
     ``k2 = (1-c)·VRC₊ + c·VRC₋`` and ``k3 = (VRC₊ - VRC₋)/d`` share both inputs:
     ``cov = ((1-c)·u₊² - c·u₋²)/d`` (0 at ±g0 with equal uncertainties).
+
+    Examples
+    --------
+    Two VRCs each known to 5 µg/g² at ±1 g: k2 = (p + m)/2 and k3 = (p - m)/6 are uncorrelated
+    when the two are equally certain, and correlated when not:
+
+    >>> from vrelab.models.nonlinearity import k2_k3_covariance
+    >>> print(f"{k2_k3_covariance(5.0, 5.0):.2f}")
+    0.00
+    >>> print(f"{k2_k3_covariance(5.0, 2.0):.2f}")
+    1.75
     """
     gp = float(static_g)
     gm = -gp if static_minus_g is None else float(static_minus_g)

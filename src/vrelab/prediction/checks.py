@@ -25,7 +25,23 @@ def judged(lv: LevelPrediction) -> LevelPrediction:
     """``valid`` False where ``model_error_g`` may exceed the stated u (the larger of ``u_vre_g``
     and 1 % of |VRE| or 1 µg), with the reason. Where the level states a u (its parameters'), the
     bound also enters it as a rectangular source (GUM 4.3.7: ``model_error_g/√3``), so that
-    ``u_vre_g`` is never smaller than what the approximation may add."""
+    ``u_vre_g`` is never smaller than what the approximation may add.
+
+    Examples
+    --------
+    A level whose approximation error may exceed its stated u is marked not valid, with the reason:
+
+    >>> import dataclasses
+    >>> import vrelab
+    >>> from vrelab.prediction.checks import judged
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> level = vrelab.predict(sensor, 100.0, [2.0], static_g=1.0).levels[0]
+    >>> judged(level).valid
+    True
+    >>> bad = judged(dataclasses.replace(level, model_error_g=0.1, u_vre_g=None))
+    >>> bad.valid
+    False
+    """
     if lv.model_error_g > 0 and lv.u_vre_g is not None:
         u_model = float(lv.model_error_g) / math.sqrt(3.0)
         sources = {**dict(lv.u_sources_g or {}), MODEL_SOURCE: u_model}
@@ -46,7 +62,21 @@ def judged(lv: LevelPrediction) -> LevelPrediction:
 
 def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
     """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
-    NaN with the reason where it is undefined."""
+    NaN with the reason where it is undefined.
+
+    Examples
+    --------
+    -10 mg on an axis reading 0.5 g (30° of tilt), and on one reading exactly 1 g, where a tilt
+    error is undefined:
+
+    >>> from vrelab.prediction.checks import tilt_note
+    >>> deg, note = tilt_note(-0.010, 0.5)
+    >>> print(f"{deg:.3f} deg", note)
+    -0.659 deg None
+    >>> deg, note = tilt_note(-0.010, 1.0)
+    >>> print(deg, "|", note)
+    nan | tilt error undefined: the static field (1 g) is within 1 mg of ±1 g (the axis is vertical: a tilt barely moves its reading): no tilt corresponds to it
+    """
     from vrelab.models import design
 
     try:
@@ -64,7 +94,18 @@ def cancellation(shares: Mapping[str, float], vre_g: float) -> str | None:
     """Why a level's VRE is rounding noise, or None: where shares of opposite sign cancel
     (a nonlinearity of 1e23 g clipped back by rails) the sum keeps only ``ulps × eps × max|share|``
     of precision; beyond the tolerance a prediction is read to (1 % of |VRE| or 1 µg) the
-    number is not valid — float64 arithmetic cannot hold the model there."""
+    number is not valid — float64 arithmetic cannot hold the model there.
+
+    Examples
+    --------
+    Shares that cancel to float64's last digits, and shares that do not:
+
+    >>> from vrelab.prediction.checks import cancellation
+    >>> print(cancellation({"nonlinearity_g": 1e20, "clip_g": -1e20}, 0.0))
+    the shares (up to 1e+20 g) cancel to 0 g, beyond what float64 arithmetic holds (±1.4e+06 g): the coefficients or levels are beyond the model's arithmetic
+    >>> print(cancellation({"nonlinearity_g": 0.0004, "clip_g": -0.083}, -0.0826))
+    None
+    """
     big = max((abs(v) for v in shares.values() if math.isfinite(v)), default=0.0)
     lost = _ROUNDING_ULPS * float(np.finfo(np.float64).eps) * big
     if not math.isfinite(vre_g) or lost > max(TOLERANCE_REL * abs(vre_g), TOLERANCE_ABS_G):

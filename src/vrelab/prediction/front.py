@@ -82,6 +82,20 @@ def predict(
     ----------
     .. [1] docs/physics.md §1.1-1.6 (after the ADI article on VRE in MEMS accelerometers).
     .. [2] IEEE Std 1293-2018: the model equation's cross-coupling terms.
+
+    Examples
+    --------
+    The ADXL355 at ±2 g, axis up in a 1 g field, under a 2 g rms sine at 100 Hz: the analytic VRE
+    with its standard uncertainty from the datasheet's ranges (the simulated test of
+    :func:`vrelab.simulate` reads -440 mg too). A profile (``vrelab.parse_profile("flat:50-2000")``)
+    in place of the frequency predicts a random test.
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> prediction = vrelab.predict(sensor, 100.0, [2.0], static_g=1.0)
+    >>> level = prediction.levels[0]
+    >>> print(f"{level.rms_g:.1f} g rms: VRE {level.vre_g * 1e3:.0f} ± {level.u_vre_g * 1e3:.1f} mg, valid {level.valid}")
+    2.0 g rms: VRE -440 ± 1.9 mg, valid True
     """
     from vrelab.prediction import single
 

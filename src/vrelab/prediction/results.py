@@ -38,6 +38,18 @@ class LevelPrediction:
     ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``: the cross terms'
     part of ``model_error_g`` (what their first-order pass through the rails and over-range may
     miss, and their move of the polynomial's input).
+
+    Examples
+    --------
+    One level of a prediction: its VRE, u, shares by mechanism and whether it is valid.
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> level = vrelab.predict(sensor, 100.0, [1.0], static_g=1.0).levels[0]
+    >>> print(f"{level.rms_g:.1f} g rms at {level.freq_hz:.0f} Hz: VRE {level.vre_g * 1e3:.1f} ± {level.u_vre_g * 1e3:.1f} mg, {level.valid}")
+    1.0 g rms at 100 Hz: VRE -57.1 ± 0.8 mg, True
+    >>> sorted(level.shares)[:3]
+    ['clip_g', 'clip_high_g', 'clip_low_g']
     """
 
     rms_g: float
@@ -122,6 +134,23 @@ class Prediction:
     ``excitation``: off the input axis (physics §1.6), what the conditions carry of the vibration
     (kind, per-axis rms per unit total rms, coherences and phases, or a sine's direction); None
     along it. Its ``to_dict`` then has ``kind`` "triaxial-prediction".
+
+    Examples
+    --------
+    The levels of one excitation, and the reading with the vibration off that each VRE is referred
+    to. A triaxial vibration gives a Prediction too (a sine at 45° between the ADXL355's z axis and
+    x: 0.707 g rms along z, the IEEE 1293 cross terms included).
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> prediction = vrelab.predict(sensor, 100.0, [0.5, 1.0], static_g=1.0)
+    >>> len(prediction.levels), prediction.valid, prediction.conditions.sensor
+    (2, True, 'adxl355')
+    >>> print(f"vibration off: {prediction.vibration_off_g:.4f} g")
+    vibration off: 1.0000 g
+    >>> tri = vrelab.predict(sensor, vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0)), [1.0], static_g=(0, 0, 1))
+    >>> print(f"{tri.levels[0].sensed_rms_g:.3f} g rms sensed: VRE {tri.levels[0].vre_g * 1e3:.3f} mg")
+    0.707 g rms sensed: VRE 0.010 mg
     """
 
     conditions: Conditions

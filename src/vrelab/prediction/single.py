@@ -283,6 +283,18 @@ def predict(
     .. [1] docs/physics.md §1.1-1.3 (after the ADI article on VRE in MEMS accelerometers).
     .. [2] S. O. Rice, "Mathematical analysis of random noise", Bell Syst. Tech. J. 23 (1944):
        up-crossing rate ``ν0·exp(-(a-μ)²/(2σ²))``.
+
+    Examples
+    --------
+    The single-axis model behind :func:`vrelab.predict` (which chooses it for a vibration along the
+    sensed axis): the ADXL355 at ±2 g, axis up, under a 2 g rms sine at 100 Hz, by mechanism.
+
+    >>> import vrelab
+    >>> from vrelab.prediction.single import predict
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> level = predict(sensor, 100.0, [2.0], static_g=1.0).levels[0]
+    >>> print(f"VRE {level.vre_g * 1e3:.0f} mg: clipping {level.shares['clip_g'] * 1e3:.0f} mg, nonlinearity {level.shares['nonlinearity_g'] * 1e3:.2f} mg")
+    VRE -440 mg: clipping -440 mg, nonlinearity 0.08 mg
     """
     levels_arr = V.vibration_level("levels", np.atleast_1d(np.asarray(levels, dtype=np.float64)))
     if levels_arr.ndim != 1 or levels_arr.size == 0:
@@ -336,7 +348,16 @@ def predict(
 
 def propagated_u(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
                  levels: Sequence[float], static_g: float, kind: ClipKind = DEFAULT_CLIP_KIND) -> NDArray[np.float64]:
-    """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`)."""
+    """Standard uncertainty [g] of each predicted VRE, every source combined (:func:`propagation`).
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> from vrelab.prediction.single import propagated_u
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> print(f"{propagated_u(sensor, 100.0, [2.0], 1.0)[0] * 1e3:.1f} mg")
+    1.9 mg
+    """
     return propagation(sensor, excitation, levels, static_g, kind, predictor=predict).u_g
 
 
@@ -351,6 +372,17 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
     memoryless map). ``each_rail`` False skips each rail alone (``clip_low_g``/``clip_high_g``
     then 0). The level carries ``vre_g``, its shares, ``tilt_error_deg``, ``valid`` and notes,
     without the prediction's conditions.
+
+    Examples
+    --------
+    k2 = 100 µg/g² and ±2 g rails at 1 g rms of Gaussian vibration on a 1 g field (the clipping
+    share is the article's Figure 1, :func:`vrelab.models.clipping.censored_mean_shift`):
+
+    >>> from vrelab.prediction.single import memoryless_level
+    >>> from vrelab.sensor import Clip, Polynomial
+    >>> level, off_g = memoryless_level([Polynomial(k2_per_g=1e-4), Clip(-2.0, 2.0)], 1.0, 1.0)
+    >>> print(f"VRE {level.vre_g * 1e3:.2f} mg, vibration off {off_g:.4f} g")
+    VRE -82.94 mg, vibration off 1.0001 g
     """
     g0 = V.finite_scalar("static_g", static_g)
     rms = float(V.non_negative("rms_g", rms_g))

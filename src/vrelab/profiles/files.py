@@ -176,6 +176,15 @@ def read_profile(path: str | os.PathLike[str]) -> Profile:
         (CSV) or field (TOML).
     FileNotFoundError
         The file does not exist.
+
+    Examples
+    --------
+    A profile written as CSV and read back:
+
+    >>> from vrelab.profiles import load_named_profile, read_profile, write_profile
+    >>> path = write_profile(load_named_profile("navmat-p9492"), "navmat.csv")
+    >>> print(f"{read_profile(path).grms:.2f} g rms")
+    6.06 g rms
     """
     p = Path(path)
     suffix = p.suffix.lower()
@@ -203,6 +212,16 @@ def write_profile(profile: Profile, path: str | os.PathLike[str]) -> Path:
 
     Values are written with ``repr`` precision so that ``read_profile`` gives back the same
     breakpoints exactly. A sine-on-random profile needs .toml (its tones as ``[[tone]]``).
+
+    Examples
+    --------
+    >>> from vrelab import RandomProfile
+    >>> from vrelab.profiles import write_profile
+    >>> path = write_profile(RandomProfile.flat(50.0, 2000.0).scaled_to(2.0), "flat.toml")
+    >>> print(path.name)
+    flat.toml
+    >>> print(path.read_text().splitlines()[0])
+    [profile]
     """
     p = Path(path)
     suffix = p.suffix.lower()

@@ -20,7 +20,14 @@ from vrelab.profiles.shapes import Profile, RandomProfile, SineOnRandom, Tone, c
 
 
 def named_profiles() -> dict[str, str]:
-    """Named profiles shipped in ``vrelab/data``: name -> path of its TOML file."""
+    """Named profiles shipped in ``vrelab/data``: name -> path of its TOML file.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import named_profiles
+    >>> sorted(named_profiles())[:2]
+    ['adi-flat-50-2000', 'gevs-workmanship']
+    """
     folder = resources.files("vrelab") / "data"
     out: dict[str, str] = {}
     for item in sorted(folder.iterdir(), key=lambda x: x.name):
@@ -41,6 +48,15 @@ class Environment:
     ``source`` names the document and its table or figure; ``stated_grms`` is the overall level
     the standard (or the public reproduction named in ``reproduced_from``) states, which may
     differ from the log-log area of the breakpoints (:attr:`grms`); ``note`` says why when it does.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import load_environment
+    >>> env = load_environment("navmat-p9492")
+    >>> print(env.title)
+    NAVMAT P-9492 random screening spectrum
+    >>> print(f"{env.grms:.2f} g rms over {env.band_hz[0]:.0f}-{env.band_hz[1]:.0f} Hz")
+    6.06 g rms over 20-2000 Hz
     """
 
     name: str
@@ -97,7 +113,14 @@ def _citation(table: dict[str, Any]) -> str | None:
 
 
 def load_named_profile(name: str) -> Profile:
-    """The named profile ``name`` (see :func:`named_profiles`)."""
+    """The named profile ``name`` (see :func:`named_profiles`).
+
+    Examples
+    --------
+    >>> from vrelab.profiles import load_named_profile
+    >>> print(f"{load_named_profile('gevs-workmanship').grms:.2f} g rms")
+    6.78 g rms
+    """
     return load_environment(name, what="profile").profile
 
 
@@ -108,6 +131,14 @@ def load_environment(name: str, what: str = "environment") -> Environment:
     ``document``, ``table``, ``figure``, ``stated_grms``, ``reproduced_from``, ``note``) says
     where it comes from. A profile without its own ``source`` takes the citation built from
     ``document``, ``table`` and ``figure``.
+
+    Examples
+    --------
+    NAVMAT P-9492's random screen, 6.06 g rms:
+
+    >>> from vrelab.profiles import load_environment
+    >>> print(f"{load_environment('navmat-p9492').grms:.2f} g rms")
+    6.06 g rms
     """
     known = named_profiles()
     if name not in known:
@@ -132,7 +163,14 @@ def load_environment(name: str, what: str = "environment") -> Environment:
 
 
 def environments() -> list[Environment]:
-    """Every named environment (:func:`load_environment`), by name."""
+    """Every named environment (:func:`load_environment`), by name.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import environments
+    >>> [env.name for env in environments()][:3]
+    ['adi-flat-50-2000', 'gevs-workmanship', 'mil-std-810h-common-carrier-longitudinal']
+    """
     return [load_environment(name) for name in named_profiles()]
 
 
@@ -185,7 +223,14 @@ TONES_MARK = "+sine:"
 
 
 def split_tones(spec: str) -> tuple[str, str | None]:
-    """(profile part, tone list or None) of a profile string: ``"A+sine:T"`` -> ``("A", "T")``."""
+    """(profile part, tone list or None) of a profile string: ``"A+sine:T"`` -> ``("A", "T")``.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import split_tones
+    >>> split_tones("flat:50-2000+sine:120:0.5"), split_tones("flat:50-2000")
+    (('flat:50-2000', '120:0.5'), ('flat:50-2000', None))
+    """
     i = spec.lower().rfind(TONES_MARK)
     if i < 0:
         return spec, None
@@ -193,7 +238,14 @@ def split_tones(spec: str) -> tuple[str, str | None]:
 
 
 def parse_tones(text: str) -> tuple[Tone, ...]:
-    """Tones from ``F:PEAK,F:PEAK,...`` (Hz : g peak), e.g. ``"120:0.5,240:0.2"``."""
+    """Tones from ``F:PEAK,F:PEAK,...`` (Hz : g peak), e.g. ``"120:0.5,240:0.2"``.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import parse_tones
+    >>> [(t.freq_hz, t.peak_g) for t in parse_tones("120:0.5,240:0.2")]
+    [(120.0, 0.5), (240.0, 0.2)]
+    """
     if not text.strip():
         raise ValueError("sine tones: give F:PEAK pairs after '+sine:' (Hz:g peak), e.g. +sine:120:0.5,240:0.2")
     check_tone_count(text.count(",") + 1)
@@ -201,7 +253,16 @@ def parse_tones(text: str) -> tuple[Tone, ...]:
 
 
 def with_tones(profile: Profile, tones: Sequence[Tone]) -> SineOnRandom:
-    """``profile`` with ``tones`` added (to those it already has)."""
+    """``profile`` with ``tones`` added (to those it already has).
+
+    Examples
+    --------
+    >>> from vrelab import RandomProfile
+    >>> from vrelab.profiles import Tone, with_tones
+    >>> profile = with_tones(RandomProfile.flat(50.0, 2000.0).scaled_to(1.0), [Tone(120.0, 0.5)])
+    >>> print(f"{profile.grms:.4f} g rms")
+    1.0607 g rms
+    """
     if isinstance(profile, SineOnRandom):
         return SineOnRandom(profile.random, profile.tones + tuple(tones), profile.name, profile.source)
     return SineOnRandom(profile, tuple(tones))
@@ -215,6 +276,17 @@ def parse_profile(spec: str) -> Profile:
     ``flat:F1-F2`` (a flat 1 g²/Hz shape, to be scaled to a grms), and an inline breakpoint list
     ``F:P,F:P,...`` (Hz:g²/Hz). Any of them followed by ``+sine:F:PEAK,F:PEAK,...`` (Hz : g
     peak) adds sine tones: a :class:`SineOnRandom`.
+
+    Examples
+    --------
+    A flat random profile of 50-2000 Hz (its level is set where it is used), and a sine-on-random:
+
+    >>> import vrelab
+    >>> profile = vrelab.parse_profile("flat:50-2000")
+    >>> print(type(profile).__name__, profile.freq_hz.min(), profile.freq_hz.max())
+    RandomProfile 50.0 2000.0
+    >>> print(type(vrelab.parse_profile("flat:50-2000+sine:120:0.5")).__name__)
+    SineOnRandom
     """
     if not isinstance(spec, str) or not spec.strip():
         raise ValueError(f"profile must be {_FORMS.format(names=', '.join(named_profiles()))}; got {spec!r}")

@@ -32,6 +32,17 @@ class SineProfile:
     rms_g : float
         Level [g rms], >= 0. The peak is ``rms_g·√2``; use :meth:`from_peak` for a level
         stated in g peak.
+
+    Examples
+    --------
+    1 g rms at 100 Hz is a sine of 1.414 g peak:
+
+    >>> from vrelab import SineProfile
+    >>> sine = SineProfile(100.0, 1.0)
+    >>> print(f"{sine.peak_g:.3f} g peak")
+    1.414 g peak
+    >>> print(sine.describe())
+    sine 100 Hz, 1 g rms (1.41 g pk)
     """
 
     freq_hz: float
@@ -85,6 +96,14 @@ def segment_areas(freq_hz: ArrayLike, psd_g2_per_hz: ArrayLike) -> NDArray[np.fl
     ``P1·f1·L·(e^(mL) - 1)/(mL)``, which tends to ``P1·f1·L`` (the n = -1 case) continuously,
     so a slope of exactly -3.0103 dB/oct and one of -3 dB/oct give nearly equal areas instead
     of a division by a tiny number (physics §3).
+
+    Examples
+    --------
+    A flat 0.01 g²/Hz from 20 to 2000 Hz: one segment of 19.8 g².
+
+    >>> from vrelab.profiles import segment_areas
+    >>> print(segment_areas([20.0, 2000.0], [0.01, 0.01]))
+    [19.8]
     """
     f = np.asarray(freq_hz, dtype=np.float64)
     p = np.asarray(psd_g2_per_hz, dtype=np.float64)
@@ -114,6 +133,17 @@ class RandomProfile:
     The arrays are stored as read-only copies, so the caller's arrays are never modified and
     the profile cannot be changed after validation. Between breakpoints
     ``P(f) = P1·(f/f1)^n``, ``n = ln(P2/P1)/ln(f2/f1)``; outside the band the PSD is 0.
+
+    Examples
+    --------
+    The flat 50-2000 Hz profile scaled to 2 g rms, its PSD level and its breakpoints:
+
+    >>> from vrelab import RandomProfile
+    >>> profile = RandomProfile.flat(50.0, 2000.0).scaled_to(2.0)
+    >>> print(f"{profile.grms:.3f} g rms, {profile.psd(100.0):.6f} g²/Hz")
+    2.000 g rms, 0.002051 g²/Hz
+    >>> print(profile.describe())
+    random 50–2000 Hz, 2.00 g rms
     """
 
     freq_hz: NDArray[np.float64]
@@ -381,6 +411,13 @@ class Tone:
         Frequency [Hz], > 0.
     peak_g : float
         Amplitude [g peak], >= 0; its rms is ``peak_g/√2``.
+
+    Examples
+    --------
+    >>> from vrelab.profiles import Tone
+    >>> tone = Tone(120.0, 0.5)
+    >>> print(f"{tone.rms_g:.4f} g rms")
+    0.3536 g rms
     """
 
     freq_hz: float
@@ -433,6 +470,15 @@ class SineOnRandom:
     together: to reach a target grms every PSD value is multiplied by ``(target/grms)²`` and
     every tone amplitude by ``target/grms``, so the ratio of tone power to random power, and
     hence the crest of the motion, is the same at every level.
+
+    Examples
+    --------
+    2 g rms of flat random plus a 0.5 g peak tone at 120 Hz:
+
+    >>> import vrelab
+    >>> profile = vrelab.parse_profile("flat:50-2000+sine:120:0.5").scaled_to(2.0)
+    >>> print(type(profile).__name__, f"{profile.grms:.3f} g rms", [t.freq_hz for t in profile.tones])
+    SineOnRandom 2.000 g rms [120.0]
     """
 
     random: RandomProfile

@@ -16,7 +16,16 @@ ComplexArray = NDArray[np.complex128]
 
 @runtime_checkable
 class Stage(Protocol):
-    """What the chain needs from a stage (see the module docstring)."""
+    """What the chain needs from a stage (see the module docstring).
+
+    Examples
+    --------
+    Any object with the protocol's methods is a stage (here :class:`Clip`):
+
+    >>> from vrelab.sensor import Clip, Stage
+    >>> isinstance(Clip(-2.0, 2.0), Stage)
+    True
+    """
 
     # read-only: stages give them as class constants or properties
     @property
@@ -73,7 +82,24 @@ def below_nyquist(stage: object, field: str, f_hz: float, fs_hz: float) -> None:
 
 
 class StageBase:
-    """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one."""
+    """Defaults for a stage (static, rate factor 1, no state, no stats); inherit to write one.
+
+    Examples
+    --------
+    A stage of one's own: a gain (memoryless, no state), inheriting the defaults:
+
+    >>> import dataclasses
+    >>> import numpy as np
+    >>> from vrelab.sensor import SensorChain, StageBase
+    >>> @dataclasses.dataclass(frozen=True)
+    ... class Gain(StageBase):
+    ...     gain: float
+    ...     def process(self, x, state, fs_hz):
+    ...         return self.gain * x, state
+    >>> y, _ = SensorChain((Gain(2.0),)).apply(np.array([1.0, -0.5]), 1000.0)
+    >>> print(y)
+    [ 2. -1.]
+    """
 
     is_static: ClassVar[bool] = True
     # What the analytic prediction (vrelab.predict) asks of a stage is what it defines (a

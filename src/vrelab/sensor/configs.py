@@ -44,7 +44,15 @@ Kind = Literal["positive", "finite", "non_negative", "order", "bool", "choice", 
 
 @dataclass(frozen=True)
 class Field:
-    """One sensor parameter."""
+    """One sensor parameter.
+
+    Examples
+    --------
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> field = Mechanics.rows()[0]
+    >>> print(field.key, "|", field.name, "|", field.kind)
+    fn_hz | fn_hz | positive
+    """
 
     key: str  # TOML key (in the file's units)
     name: str  # Sensor attribute (g, Hz, s; nonlinearity in 1/g^(n-1))
@@ -194,14 +202,38 @@ NUMERIC_KINDS: tuple[Kind, ...] = ("positive", "finite", "non_negative", "order"
 
 def row(f: Field) -> Any:
     """A stage configuration's attribute declared by its row: the row's default, the row in the
-    attribute's metadata (:meth:`StageConfig.rows`)."""
+    attribute's metadata (:meth:`StageConfig.rows`).
+
+    Examples
+    --------
+    A stage configuration of one's own declares each field by its row (a sketch; registering it
+    puts it in every sensor, see :func:`vrelab.sensor.fields.register_stage`):
+
+    >>> import dataclasses
+    >>> from vrelab.sensor.configs import Field, StageConfig, row
+    >>> @dataclasses.dataclass(frozen=True)
+    ... class Cable(StageConfig):
+    ...     cable_pf: float | None = row(Field("cable_pf", "cable_pf", "positive", None,
+    ...                                        "the cable's capacitance [pF]"))
+    >>> Cable().cable_pf, [f.key for f in Cable.rows()]
+    (None, ['cable_pf'])
+    """
     return dataclasses.field(default=f.default, metadata={"row": f})
 
 
 @dataclass(frozen=True)
 class StageConfig:
     """One stage of a sensor description: its fields (:meth:`rows`), their checks across fields
-    (:meth:`validate`) and the runtime stages it stands for (:meth:`build`)."""
+    (:meth:`validate`) and the runtime stages it stands for (:meth:`build`).
+
+    Examples
+    --------
+    Each stage configuration declares its fields by their rows:
+
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> [field.key for field in Mechanics.rows()]
+    ['fn_hz', 'q']
+    """
 
     @classmethod
     def rows(cls) -> tuple[Field, ...]:
@@ -234,7 +266,19 @@ class StageConfig:
 
 @dataclass(frozen=True)
 class Mechanics(StageConfig):
-    """The proof mass's resonance (physics §1.3): a second-order resonator at ``fn_hz`` with ``q``."""
+    """The proof mass's resonance (physics §1.3): a second-order resonator at ``fn_hz`` with ``q``.
+
+    Examples
+    --------
+    The ADXL355's proof mass:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Mechanics
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> mechanics = next(c for c in sensor.configs if isinstance(c, Mechanics))
+    >>> print(mechanics.fn_hz, mechanics.q)
+    2400.0 1.5
+    """
 
     fn_hz: float | None = row(Field(
         "fn_hz", "fn_hz", "positive", None,
@@ -290,6 +334,20 @@ class Sense(StageConfig):
     ``u``; :func:`vrelab.triaxial.chain.triaxial_chain` adds the rest. Kip, Kio, Kpp, Koo are
     fitted by ``vrelab identify`` from a campaign's mount-angle runs (IEEE 1293's IP and IO
     planes); Kpo needs a p-o plane mount, which those runs do not excite: identifiable, not fitted.
+
+    Examples
+    --------
+    The ADXL355's z axis: what it senses, and the stage it builds (the polynomial on the sensed
+    acceleration; the preset's k2 of 20 µg/g²):
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Sense
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Sense))
+    >>> config.input_axis, config.k2_per_g
+    (None, 2e-05)
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['Polynomial']
     """
 
     input_axis: str | None = row(Field(
@@ -337,7 +395,21 @@ _NEEDS_THRESHOLD = "overrange_threshold_g"
 
 @dataclass(frozen=True)
 class Protection(StageConfig):
-    """The over-range protection on |proof-mass motion| (physics §1.3; the ADXL355's 0.5 ms hold)."""
+    """The over-range protection on |proof-mass motion| (physics §1.3; the ADXL355's 0.5 ms hold).
+
+    Examples
+    --------
+    The ADXL355's over-range protection: its threshold, its 0.5 ms hold, and the stage it builds:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Protection
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Protection))
+    >>> config.overrange_threshold_g, config.overrange_hold_s
+    (8.0, 0.0005)
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['OverRange']
+    """
 
     overrange_threshold_g: float | None = row(Field(
         "overrange_threshold_g", "overrange_threshold_g", "positive", None,
@@ -373,7 +445,20 @@ class Protection(StageConfig):
 
 @dataclass(frozen=True)
 class ProofMassClip(StageConfig):
-    """The rails at the proof mass (``clip_position = "proof-mass"``; the rails are :class:`Rails`'s)."""
+    """The rails at the proof mass (``clip_position = "proof-mass"``; the rails are :class:`Rails`'s).
+
+    Examples
+    --------
+    Absent unless the rails sit at the proof mass (``clip_position = "proof-mass"``); the
+    ADXL355's are at the output, so it builds no stage:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import ProofMassClip
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, ProofMassClip))
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    []
+    """
 
     def build(self, sensor: Sensor, factor: int) -> tuple[Stage, ...]:
         from vrelab.sensor.stages import Clip
@@ -383,7 +468,21 @@ class ProofMassClip(StageConfig):
 
 @dataclass(frozen=True)
 class NoiseFloor(StageConfig):
-    """White noise of the data-sheet density, added before the filters so the output shows it in band."""
+    """White noise of the data-sheet density, added before the filters so the output shows it in band.
+
+    Examples
+    --------
+    The ADXL355's noise density and the stage it builds:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import NoiseFloor
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, NoiseFloor))
+    >>> config.noise_ug_per_rthz
+    22.5
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['Noise']
+    """
 
     noise_ug_per_rthz: float = row(Field(
         "noise_ug_per_rthz", "noise_ug_per_rthz", "non_negative", 0.0, "noise density [µg/√Hz]",
@@ -398,7 +497,21 @@ class NoiseFloor(StageConfig):
 
 @dataclass(frozen=True)
 class AntiAliasFilter(StageConfig):
-    """The analog anti-alias Butterworth low-pass before the ADC."""
+    """The analog anti-alias Butterworth low-pass before the ADC.
+
+    Examples
+    --------
+    The ADXL355's analog anti-alias filter before its ADC:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import AntiAliasFilter
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, AntiAliasFilter))
+    >>> config.anti_alias_hz, config.anti_alias_order
+    (1500.0, 2)
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['AntiAlias']
+    """
 
     anti_alias_hz: float | None = row(Field(
         "anti_alias_hz", "anti_alias_hz", "positive", None, "analog anti-alias corner [Hz] (omit for none)",
@@ -419,7 +532,21 @@ class OutputFilter(StageConfig):
     """The band-limit at the output (physics §1.3): with an ODR the part's digital low-pass
     (:class:`~vrelab.sensor.stages.LowPass`), without one (an analog part: the ADXL354's overall
     bandwidth) an analog output filter of the same order and family
-    (:class:`~vrelab.sensor.stages.AnalogLowPass`). Either way it limits what reaches the output rails."""
+    (:class:`~vrelab.sensor.stages.AnalogLowPass`). Either way it limits what reaches the output rails.
+
+    Examples
+    --------
+    The ADXL355's digital low-pass at 4 kHz ODR (corner ODR/4):
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import OutputFilter
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, OutputFilter))
+    >>> config.bandwidth_hz, config.lowpass_order
+    (1000.0, 4)
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['LowPass']
+    """
 
     bandwidth_hz: float | None = row(Field(
         "bandwidth_hz", "bandwidth_hz", "positive", None,
@@ -454,7 +581,20 @@ class OutputFilter(StageConfig):
 
 @dataclass(frozen=True)
 class HighPassFilter(StageConfig):
-    """A first-order high-pass at the output (an AC-coupled part)."""
+    """A first-order high-pass at the output (an AC-coupled part).
+
+    Examples
+    --------
+    Off in the ADXL355 (no stage):
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import HighPassFilter
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, HighPassFilter))
+    >>> config.highpass_hz
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    []
+    """
 
     highpass_hz: float | None = row(Field(
         "highpass_hz", "highpass_hz", "positive", None, "high-pass corner [Hz] (omit: off)",
@@ -469,7 +609,21 @@ class HighPassFilter(StageConfig):
 @dataclass(frozen=True)
 class Bias(StageConfig):
     """The 0 g offset and a slow linear drift (warm-up, temperature), added before the output rails.
-    No preset sets a drift: 0 unless a file or ``dataclasses.replace`` sets it."""
+    No preset sets a drift: 0 unless a file or ``dataclasses.replace`` sets it.
+
+    Examples
+    --------
+    The ADXL355 preset's 0 g offset and drift (zero unless set), and the stages they build:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Bias
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Bias))
+    >>> config.offset_g, config.drift_g_per_s
+    (0.0, 0.0)
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    []
+    """
 
     offset_g: float = row(Field(
         "offset_g", "offset_g", "finite", 0.0, "0 g offset [g], added before the output rails", sweepable=True,
@@ -490,7 +644,19 @@ class Bias(StageConfig):
 @dataclass(frozen=True)
 class Sampling(StageConfig):
     """The decimation from the simulation rate to the ODR (the ODR is the sensor's identity: chosen
-    from the file's list when it loads)."""
+    from the file's list when it loads).
+
+    Examples
+    --------
+    The decimation from the simulation rate to the ADXL355's 4 kHz ODR (16 from 64 kHz):
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Sampling
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Sampling))
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['Decimate']
+    """
 
     def build(self, sensor: Sensor, factor: int) -> tuple[Stage, ...]:
         from vrelab.sensor.stages import Decimate
@@ -501,7 +667,21 @@ class Sampling(StageConfig):
 @dataclass(frozen=True)
 class Rails(StageConfig):
     """The digital full scale and the rails: at the output (after the low-pass, which is why a
-    narrower bandwidth rectifies less) or at the proof mass (:class:`ProofMassClip`)."""
+    narrower bandwidth rectifies less) or at the proof mass (:class:`ProofMassClip`).
+
+    Examples
+    --------
+    The ADXL355's ±2 g range: its digital full scale (2.048 g) and where the rails are:
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Rails
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Rails))
+    >>> config.full_scale_g, config.clip_position
+    (2.048, 'output')
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['Clip']
+    """
 
     # full_scale_g and rails_g are None only until the Sensor resolves them (resolved): a Sensor's
     # are numbers
@@ -536,7 +716,21 @@ class Rails(StageConfig):
 
 @dataclass(frozen=True)
 class Resolution(StageConfig):
-    """Rounding to the output's LSB."""
+    """Rounding to the output's LSB.
+
+    Examples
+    --------
+    The ADXL355's LSB at ±2 g (1/256000 g):
+
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Resolution
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> config = next(c for c in sensor.configs if isinstance(c, Resolution))
+    >>> config.lsb_g
+    3.90625e-06
+    >>> [type(stage).__name__ for stage in config.build(sensor, 16)]
+    ['Quantize']
+    """
 
     lsb_g: float | None = row(Field(
         "lsb_g", "lsb_g", "positive", None, "output resolution [g] (omit for none)", upper=_MAX_G, why_upper=_WHY_G))

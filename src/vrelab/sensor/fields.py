@@ -63,7 +63,17 @@ FIELDS: tuple[Field, ...] = rows_of(STAGES)
 def register_stage(stage: type[StageConfig], after: type[StageConfig] | None = None) -> None:
     """Add a stage configuration to :data:`STAGES` (after ``after``; at the end when None) and its
     rows to :data:`FIELDS`: the loader, the writer, the parameter lists, the sweep lists and
-    :func:`schema_text` then know its fields, and every Sensor built after this has the stage."""
+    :func:`schema_text` then know its fields, and every Sensor built after this has the stage.
+
+    Examples
+    --------
+    See :func:`stage_registered` for a stage registered for a ``with`` block only (how a test
+    adds one); the stages in order:
+
+    >>> from vrelab.sensor import fields
+    >>> [stage.__name__ for stage in fields.STAGES][:4]
+    ['Mechanics', 'Sense', 'Protection', 'ProofMassClip']
+    """
     global STAGES, FIELDS
     order = list(STAGES)
     if stage in order:
@@ -77,7 +87,26 @@ def register_stage(stage: type[StageConfig], after: type[StageConfig] | None = N
 
 @contextmanager
 def stage_registered(stage: type[StageConfig], after: type[StageConfig] | None = None) -> Iterator[None]:
-    """:func:`register_stage` for the ``with`` block only (a test's fixture stage)."""
+    """:func:`register_stage` for the ``with`` block only (a test's fixture stage).
+
+    Examples
+    --------
+    A stage of one's own, in every sensor for the ``with`` block only:
+
+    >>> import dataclasses
+    >>> import vrelab
+    >>> from vrelab.sensor.configs import Field, Mechanics, StageConfig, row
+    >>> from vrelab.sensor import fields
+    >>> @dataclasses.dataclass(frozen=True)
+    ... class Cable(StageConfig):
+    ...     cable_pf: float | None = row(Field("cable_pf", "cable_pf", "positive", None,
+    ...                                        "the cable's capacitance [pF]"))
+    >>> with fields.stage_registered(Cable, after=Mechanics):
+    ...     print([stage.__name__ for stage in fields.STAGES][:3])
+    ['Mechanics', 'Cable', 'Sense']
+    >>> Cable in fields.STAGES
+    False
+    """
     global STAGES, FIELDS
     before = STAGES, FIELDS
     register_stage(stage, after)
@@ -125,7 +154,14 @@ def _flags(f: Field) -> str:
 
 def schema_text() -> str:
     """The value keys as the presets README lists them (a test holds the README to this;
-    :func:`update_readme` rewrites the README's copy)."""
+    :func:`update_readme` rewrites the README's copy).
+
+    Examples
+    --------
+    >>> from vrelab.sensor.fields import schema_text
+    >>> print(schema_text().splitlines()[0])
+    Value keys (top level, `[axes.*]` or `[ranges.*]`), from vrelab/sensor/fields.py: each stage's fields
+    """
     pairs = "; ".join(f"{f.key} holds the parameters {' and '.join(f.elements)}" for f in FIELDS if f.elements)
     lines = [
         "Value keys (top level, `[axes.*]` or `[ranges.*]`), from vrelab/sensor/fields.py: each stage's fields",

@@ -116,6 +116,17 @@ class Sensor(_StageFields):
     ``None`` means the element is absent (no ODR: analog or ideal, output at the input rate;
     no ``fn_hz``: no resonance; no ``overrange_threshold_g``: no over-range protection; ...).
     ``facts[field]`` says where each number comes from ("datasheet ..." or "assumption: ...").
+
+    Examples
+    --------
+    A sensor is its identity and its stage configurations; it builds its chain:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> print(sensor.name, sensor.range_g, sensor.fn_hz, sensor.bandwidth_hz)
+    adxl355 2.0 2400.0 1000.0
+    >>> [type(c).__name__ for c in sensor.configs][:4]
+    ['Mechanics', 'Sense', 'Protection', 'ProofMassClip']
     """
 
     name: str
@@ -412,7 +423,14 @@ def _preset_dir() -> Any:
 
 
 def list_presets() -> list[str]:
-    """Names of the built-in presets (``ideal``, ``adxl355``, ...)."""
+    """Names of the built-in presets (``ideal``, ``adxl355``, ...).
+
+    Examples
+    --------
+    >>> from vrelab.sensor import list_presets
+    >>> list_presets()
+    ['adxl354', 'adxl355', 'adxl357', 'ideal']
+    """
     return sorted(p.name[: -len(".toml")] for p in _preset_dir().iterdir() if p.name.endswith(".toml"))
 
 
@@ -652,6 +670,17 @@ def load_sensor(
     ------
     ValueError naming the field and the allowed values for an unknown preset, an invalid file,
     an unknown range, axis or ODR.
+
+    Examples
+    --------
+    The ADXL355 preset at its ±2 g range, z axis, 4 kHz output rate:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> print(sensor.name, sensor.range_g, sensor.axis, sensor.odr_hz)
+    adxl355 2.0 z 4000.0
+    >>> print(sensor.rails_g)
+    (-2.048, 2.048)
     """
     data, origin, name = _read_checked(spec)
     where = f"{name} ({origin})"

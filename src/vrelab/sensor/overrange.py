@@ -212,6 +212,19 @@ class OverRange(StageBase):
     ----------
     ADXL354/ADXL355 data sheet Rev. D (Analog Devices): over-range protection at ≈ ±8 g on the
     ±2 g range, drive off for 0.5 ms; physics §1.3.
+
+    Examples
+    --------
+    The ADXL355's protection (0.5 ms hold at 0 g) on a 1 ms excursion past a 4 g threshold,
+    sampled at 10 kHz: one trip, held for the excursion's 10 samples and 0.5 ms (5) after it.
+
+    >>> import numpy as np
+    >>> from vrelab.sensor import OverRange, SensorChain
+    >>> x = np.ones(40)
+    >>> x[10:20] = 5.0
+    >>> y, stats = SensorChain((OverRange(4.0, 0.5e-3),)).apply(x, 10000.0)
+    >>> stats.overrange_events, stats.overrange_samples
+    (1, 15)
     """
 
     threshold_g: float

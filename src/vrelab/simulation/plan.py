@@ -56,6 +56,14 @@ def min_segment_seconds(settle_s: float | None = None, window_s: float = WINDOW_
     The reduction ignores a segment with fewer than 3 whole averaging windows after the trim
     (4 windows of length guarantee 3 whole ones), and trims at most a quarter of a segment
     per edge, so a segment shorter than 4·settle_s would be trimmed less than asked.
+
+    Examples
+    --------
+    The shortest level the simulated test accepts with a 0.5 s settling trim:
+
+    >>> from vrelab.shaker import min_segment_seconds
+    >>> print(f"{min_segment_seconds(0.5):.1f} s")
+    2.0 s
     """
     settle_s = default_settle_s(settle_s)
     return max(2 * settle_s + MIN_WINDOWS * window_s, 4 * settle_s)
@@ -105,6 +113,22 @@ class TestPlan:
     is the root of every random draw. ``drive_method``, ``clip_sigma``, ``kurtosis`` shape a
     random drive (:func:`vrelab.synthesis.random_blocks`); ``fs_internal_hz`` overrides the rate
     rule (:func:`vrelab.rates.simulation_rate_hz`).
+
+    Examples
+    --------
+    A sine test of two levels at 100 Hz on the ADXL355, checked when it is made (a level too
+    short for its settling trim is refused):
+
+    >>> import vrelab
+    >>> from vrelab.shaker import TestPlan
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> plan = TestPlan.sine(sensor, [100.0], [0.5, 1.0], static_g=1.0, seconds=2.0, seed=1)
+    >>> plan.method, plan.levels_g
+    ('sine', (0.5, 1.0))
+    >>> TestPlan.sine(sensor, [100.0], [0.5], seconds=0.5)
+    Traceback (most recent call last):
+        ...
+    ValueError: seconds must be >= 2 s with settle_s=0.5 s (...), got seconds=0.5
     """
 
     __test__ = False  # a pytest collection hint: this is not a test class

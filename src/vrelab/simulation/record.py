@@ -142,6 +142,20 @@ class SimulatedRecord:
     also counts, per segment, the DUT output samples at a rail (:attr:`saturated`), the samples
     the chain clipped (:attr:`clipped`, at the clip's own rate) and the over-range episodes
     (:attr:`overrange_events`).
+
+    Examples
+    --------
+    A planned test is a record like a lab file (the :class:`vrelab.record.Record` protocol): its
+    channels are generated when read. A level between two vibration-off baselines:
+
+    >>> import vrelab
+    >>> from vrelab.shaker import plan_sine_test
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> record = plan_sine_test(sensor, [100.0], [1.0], static_g=1.0, seconds=2.0, seed=1)
+    >>> record.channels
+    ('reference', 'dut')
+    >>> len(record.stretches)
+    3
     """
 
     channels: tuple[str, ...] = ("reference", "dut")

@@ -74,7 +74,18 @@ POINTS_PER_OCTAVE = 3.0
 
 @dataclass(frozen=True, eq=False)
 class TriaxialLevel:
-    """The reference's vibration at one level: total and per-axis rms [g] and its cross-spectrum."""
+    """The reference's vibration at one level: total and per-axis rms [g] and its cross-spectrum.
+
+    Examples
+    --------
+    One level of a triaxial reference: its time span, total and per-axis rms (here 1 g rms at 45°
+    in x-z, as :func:`reduce_triaxial` would find it):
+
+    >>> from vrelab.triaxial.analyze import TriaxialLevel
+    >>> level = TriaxialLevel(2.0, 4.0, 1.0, (0.7071, 0.0, 0.7071), None)
+    >>> print(f"{level.end_s - level.start_s:.1f} s at {level.rms_g:.1f} g rms", level.axis_rms_g)
+    2.0 s at 1.0 g rms (0.7071, 0.0, 0.7071)
+    """
 
     start_s: float
     end_s: float
@@ -96,7 +107,21 @@ class TriaxialLevel:
 
 @dataclass(frozen=True, eq=False)
 class TriaxialAnalysis:
-    """Per DUT axis (name, result, reduction), the reference's levels, what the reduction used."""
+    """Per DUT axis (name, result, reduction), the reference's levels, what the reduction used.
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
+    >>> _ = vrelab.simulate(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1, record_path="tri.h5")
+    >>> from vrelab.analysis.readers import list_channels
+    >>> [channel["name"] for channel in list_channels("tri.h5")["channels"]]
+    ['dut_z', 'reference_x', 'reference_y', 'reference_z']
+    >>> analysis = vrelab.analyze("tri.h5", dut={"z": "dut_z"}, reference=("reference_x", "reference_y", "reference_z"))
+    >>> type(analysis).__name__, len(analysis.levels), [f"{g:.2f}" for g in analysis.levels[0].axis_rms_g]
+    ('TriaxialAnalysis', 1, ['0.71', '0.00', '0.71'])
+    """
 
     channels: tuple[tuple[str, VreResult, Any], ...]
     levels: tuple[TriaxialLevel, ...]
@@ -211,7 +236,18 @@ class Caller:
     does). ``known(axis, levels, warnings) -> (levels, warnings)``: what the caller knows better
     than the record shows, applied to each axis's reduced levels before the level and the fits
     (a simulation's saturation counts and a sine lattice's error,
-    :func:`vrelab.triaxial.simulate.run_triaxial_test`)."""
+    :func:`vrelab.triaxial.simulate.run_triaxial_test`).
+
+    Examples
+    --------
+    What a caller adds to a triaxial reduction: provenance (and, for a simulation, what it knows
+    better than the record):
+
+    >>> from vrelab.triaxial.analyze import Caller
+    >>> caller = Caller({"operator": "example"})
+    >>> caller.provenance, caller.known
+    ({'operator': 'example'}, None)
+    """
 
     provenance: Mapping[str, Any] | None = None
     known: Known | None = None
@@ -298,6 +334,23 @@ def reduce_triaxial(
         ``k4`` only: the VRC is fitted against the total rms; no rail is fitted (the module docstring).
     caller : Caller, optional
         The results' provenance and what the caller knows better than the record shows.
+
+    Examples
+    --------
+    A simulated triaxial test written as a lab file (its DUT's z axis and the reference's three
+    axes), reduced as a recorded one through :func:`vrelab.analyze`, which calls this:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
+    >>> _ = vrelab.simulate(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1, record_path="tri.h5")
+    >>> from vrelab.analysis.readers import list_channels
+    >>> [channel["name"] for channel in list_channels("tri.h5")["channels"]]
+    ['dut_z', 'reference_x', 'reference_y', 'reference_z']
+    >>> analysis = vrelab.analyze("tri.h5", dut={"z": "dut_z"}, reference=("reference_x", "reference_y", "reference_z"))
+    >>> name, result, _ = analysis.channels[0]
+    >>> print(name, f"{result.levels[0].rms_g:.2f} g rms: VRE {result.levels[0].vre.value * 1e3:.1f} ± {result.levels[0].vre.u * 1e3:.1f} mg")
+    z 1.01 g rms: VRE -4.1 ± 0.2 mg
     """
     from vrelab.analysis.options import FitOptions, ReductionOptions, default_band
     from vrelab.analysis.segmentation import auto_segment, window_pass

@@ -75,6 +75,18 @@ class TriaxialPolynomial:
     with ``b`` along the input axis the output is its output bit for bit. For a zero-mean
     Gaussian ``b`` (no static part) the cross terms' mean is ``Σ K_jk·E[b_j b_k]`` (the
     vibropendulous error for ``jk = ip``).
+
+    Examples
+    --------
+    The ADXL355's z axis: its sensitivity row, its k2 (20 µg/g²) and no IEEE 1293 cross-coupling
+    terms in the preset:
+
+    >>> import vrelab
+    >>> from vrelab.triaxial.chain import TriaxialPolynomial
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> poly = TriaxialPolynomial.from_sensor(sensor)
+    >>> poly.sensitivity_row, f"{poly.k2_per_g * 1e6:.0f} µg/g²", poly.has_cross_terms
+    ((0.0, 0.0, 1.0), '20 µg/g²', False)
     """
 
     sensitivity_row: tuple[float, float, float]
@@ -199,6 +211,16 @@ class TriaxialChain:
 
     ``start(fs_hz, seed).process(block)`` takes a (3, n) block of the total acceleration
     ``g + x(t)`` [g] along (x, y, z) and returns the axis's output block [g].
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> import numpy as np
+    >>> from vrelab.triaxial.chain import triaxial_chain
+    >>> chain = triaxial_chain(sensor, 64000.0)
+    >>> type(chain).__name__, len(chain.stages) > 0
+    ('TriaxialChain', True)
     """
 
     stages: tuple[Stage, ...]
@@ -258,13 +280,41 @@ def triaxial_chain(sensor: Sensor, fs_hz: float) -> TriaxialChain:
     The stages are :meth:`Sensor.stages` (the one reading of a sensor description); the
     polynomial adds the axis's sensitivity row and IEEE 1293 cross-coupling terms
     (:meth:`TriaxialPolynomial.from_sensor`).
+
+    Examples
+    --------
+    The ADXL355's z axis as a triaxial chain at 64 kHz: its stages, and the polynomial that reads
+    its sensitivity row (z) from the three components:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> from vrelab.triaxial.chain import triaxial_chain
+    >>> chain = triaxial_chain(sensor, 64000.0)
+    >>> chain.polynomial.sensitivity_row, [type(s).__name__ for s in chain.stages][:3]
+    ((0.0, 0.0, 1.0), ['Resonator', 'Polynomial', 'OverRange'])
     """
     return TriaxialChain(sensor.stages(fs_hz), TriaxialPolynomial.from_sensor(sensor))
 
 
 class TriaxialRun:
     """One run of a :class:`TriaxialChain`: the state of the front end (per component) and of
-    the rest of the chain, carried across blocks."""
+    the rest of the chain, carried across blocks.
+
+    Examples
+    --------
+    A run keeps each stage's state across blocks of (3, n) acceleration:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> import numpy as np
+    >>> from vrelab.triaxial.chain import triaxial_chain
+    >>> run = triaxial_chain(sensor, 64000.0).start(64000.0)
+    >>> a = np.zeros((3, 6400))
+    >>> a[2] = 1.0
+    >>> y = run.process(a)
+    >>> print(y.shape)
+    (400,)
+    """
 
     def __init__(self, chain: TriaxialChain, fs_hz: float, seed: int | np.random.SeedSequence = 0) -> None:
         ss = seed_sequence(seed)

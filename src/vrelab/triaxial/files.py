@@ -128,6 +128,25 @@ def read_triaxial(path: str | os.PathLike[str]) -> TriaxialProfile:
     Raises ValueError naming the file and the field on any malformed or inconsistent content
     (coherence outside 0..1, a negative PSD, non-monotonic breakpoints, NaN, coherences that no
     vibration can have), FileNotFoundError when it does not exist.
+
+    Examples
+    --------
+    A profile file with x and z moving, half coherent (the form the module docstring gives):
+
+    >>> from vrelab.triaxial.files import read_triaxial
+    >>> with open("tri.toml", "w") as f:
+    ...     _ = f.write('''[triaxial]
+    ... grms = 3.0
+    ... [x]
+    ... breakpoints = [[20, 0.01], [2000, 0.01]]
+    ... [z]
+    ... breakpoints = [[20, 0.02], [2000, 0.02]]
+    ... [pair.xz]
+    ... coherence = 0.5
+    ... ''')
+    >>> tri = read_triaxial("tri.toml")
+    >>> print(f"{tri.grms:.3f} g rms", [f"{g:.3f}" for g in tri.axis_mean_square_g2 ** 0.5])
+    3.000 g rms ['1.732', '0.000', '2.449']
     """
     p = Path(path)
     if not p.is_file():
@@ -201,6 +220,13 @@ def write_triaxial(profile: TriaxialProfile, path: str | os.PathLike[str]) -> Pa
     its coherence and phase there (constants when they do not vary), with ``repr`` precision:
     :func:`read_triaxial` gives back the breakpoints and PSDs exactly and the coherency to the
     last bits of a square root and a cosine.
+
+    Examples
+    --------
+    >>> from vrelab.triaxial.files import parse_triaxial, read_triaxial, write_triaxial
+    >>> path = write_triaxial(parse_triaxial("flat:50-2000@z45x").scaled_to(2.0), "tri.toml")
+    >>> print(path.name, f"{read_triaxial(path).grms:.3f} g rms")
+    tri.toml 2.000 g rms
     """
     p = Path(path)
     if p.suffix.lower() != ".toml":
@@ -234,7 +260,16 @@ def write_triaxial(profile: TriaxialProfile, path: str | os.PathLike[str]) -> Pa
 
 
 def parse_direction(text: str) -> NDArray[np.float64]:
-    """A unit direction from ``dir=X,Y,Z``, a mount angle ``AφB`` (``z45x``) or an axis ``x``."""
+    """A unit direction from ``dir=X,Y,Z``, a mount angle ``AφB`` (``z45x``) or an axis ``x``.
+
+    Examples
+    --------
+    The same direction three ways: components, a mount angle (45° from z toward x) and an axis:
+
+    >>> from vrelab.triaxial.files import parse_direction
+    >>> print(parse_direction("dir=1,0,1").round(4), parse_direction("z45x").round(4), parse_direction("x"))
+    [0.7071 0.     0.7071] [0.7071 0.     0.7071] [1. 0. 0.]
+    """
     t = text.strip().lower()
     if t in AXES:
         d = np.zeros(3)
@@ -261,7 +296,14 @@ def parse_direction(text: str) -> NDArray[np.float64]:
 
 def is_triaxial_spec(spec: str) -> bool:
     """Whether a command-line profile string means a triaxial vibration (an ``@direction``, or
-    a TOML file with [x]/[y]/[z] or [triaxial] tables)."""
+    a TOML file with [x]/[y]/[z] or [triaxial] tables).
+
+    Examples
+    --------
+    >>> from vrelab.triaxial.files import is_triaxial_spec
+    >>> is_triaxial_spec("flat:50-2000@dir=1,0,1"), is_triaxial_spec("flat:50-2000")
+    (True, False)
+    """
     text = spec.strip()
     if "@" in text and not Path(text).is_file():
         return True
@@ -281,6 +323,15 @@ def parse_triaxial(spec: str) -> TriaxialVibration:
 
     Raises ValueError with one line naming the problem (an unknown form, a zero direction, a bad
     profile or file).
+
+    Examples
+    --------
+    A flat profile along a direction at 45° between z and x, scaled to 1 g rms:
+
+    >>> from vrelab.triaxial.files import parse_triaxial
+    >>> tri = parse_triaxial("flat:50-2000@dir=1,0,1").scaled_to(1.0)
+    >>> print(type(tri).__name__, f"{tri.grms:.3f} g rms", [f"{g:.3f}" for g in tri.axis_mean_square_g2 ** 0.5])
+    TriaxialProfile 1.000 g rms ['0.707', '0.000', '0.707']
     """
     if not isinstance(spec, str) or not spec.strip():
         raise ValueError("triaxial profile: give FILE.toml, PROFILE@dir=X,Y,Z, PROFILE@z45x or sine:F@dir=X,Y,Z")

@@ -40,6 +40,14 @@ def direction(input_axis: str, toward_axis: str, angle_deg: float) -> NDArray[np
     IEEE 1293's mount angle: the part's input axis i at angle φ to the vibration in the plane
     of i and p gives ``a_i = a cos φ, a_p = a sin φ`` (physics §1.6). ``direction("z", "x", 45)`` is
     ``(sin 45°, 0, cos 45°)``.
+
+    Examples
+    --------
+    45° from the input axis z toward x:
+
+    >>> from vrelab.triaxial.profile import direction
+    >>> print(direction("z", "x", 45.0).round(4))
+    [0.7071 0.     0.7071]
     """
     if input_axis not in AXES or toward_axis not in AXES:
         raise ValueError(f"axes must be x, y or z, got {input_axis!r} and {toward_axis!r}")
@@ -71,6 +79,15 @@ class PairCoherence:
     ``freq_hz`` None: one value at every frequency. Else breakpoints [Hz] (at least 2, strictly
     increasing) with ``coherence`` (0..1) and ``phase_deg`` at each, linear in ln f between them.
     The phase is the one of ``S_jk = E[A_j A_k*]``: positive when axis k lags axis j.
+
+    Examples
+    --------
+    Half coherent (γ² = 0.5) at every frequency, axis k lagging by 90°:
+
+    >>> from vrelab.triaxial.profile import PairCoherence
+    >>> pair = PairCoherence(0.5, 90.0)
+    >>> print(pair.coherence, pair.phase_deg, pair.freq_hz)
+    [0.5] [90.] None
     """
 
     coherence: NDArray[np.float64]
@@ -135,6 +152,16 @@ class TriaxialProfile:
     coherency : array_like, shape (n, 3, 3), complex
         ``C_jk = S_jk / sqrt(P_j P_k)``: Hermitian, unit diagonal, positive semi-definite.
     name, source : str, optional
+
+    Examples
+    --------
+    The flat 50-2000 Hz profile along a direction at 45° in the x-z plane (one rank: every pair of
+    axes fully coherent):
+
+    >>> import vrelab
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> print(f"{tri.grms:.3f} g rms", [f"{g:.3f}" for g in tri.axis_mean_square_g2 ** 0.5])
+    1.000 g rms ['0.707', '0.000', '0.707']
     """
 
     freq_hz: NDArray[np.float64]
@@ -378,6 +405,15 @@ class TriaxialSine:
     """A sine along a direction: ``a(t) = d · √2·rms·sin(2πft)`` (physics §1.6).
 
     ``direction`` is normalised; ``rms_g`` is the rms along it (the total rms).
+
+    Examples
+    --------
+    A 1 g rms sine at 100 Hz at 45° between x and z:
+
+    >>> import vrelab
+    >>> sine = vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0))
+    >>> print(sine.freq_hz, [round(d, 4) for d in sine.direction])
+    100.0 [0.7071, 0.0, 0.7071]
     """
 
     freq_hz: float

@@ -58,7 +58,17 @@ BLOCK = 1 << 16
 @dataclass(frozen=True)
 class DirectionBlock:
     """One block of a simulated triaxial test: the reference (3, n) at the internal rate (the
-    vibration along x, y, z, no gravity) and each DUT axis's output at its output rate."""
+    vibration along x, y, z, no gravity) and each DUT axis's output at its output rate.
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> from vrelab.triaxial.simulate import simulate_direction
+    >>> block = next(iter(simulate_direction(sensor, vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0)), 64000, seed=1)))
+    >>> block.reference.shape[0], list(block.dut)
+    (3, ['z'])
+    """
 
     reference: FloatArray
     dut: Mapping[str, FloatArray]
@@ -82,7 +92,18 @@ def _axis_sensors(sensors: Any) -> dict[str, Any]:
 
 def axis_runs(sensors: Mapping[str, Any], fs_hz: float, seed: np.random.SeedSequence) -> dict[str, TriaxialRun]:
     """A triaxial run per DUT axis; axis ``a`` of (x, y, z) takes child ``AXES.index(a)`` of ``seed``
-    (its noise is independent of the other axes' and does not change with which axes run)."""
+    (its noise is independent of the other axes' and does not change with which axes run).
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> import numpy as np
+    >>> from vrelab.triaxial.simulate import axis_runs
+    >>> runs = axis_runs({"z": sensor}, 64000.0, np.random.SeedSequence(1))
+    >>> list(runs), type(runs["z"]).__name__
+    (['z'], 'TriaxialRun')
+    """
     ents = seed
     runs = {}
     for a, s in sensors.items():
@@ -136,6 +157,17 @@ def simulate_direction(
     ------
     DirectionBlock
         Blocks of ``block_size`` internal samples (the last may be shorter).
+
+    Examples
+    --------
+    The ADXL355's z axis under a 1 g rms sine at 100 Hz along 45° in x-z, axis up:
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> from vrelab.triaxial.simulate import simulate_direction
+    >>> blocks = list(simulate_direction(sensor, vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0)), 64000, seed=1))
+    >>> type(blocks[0]).__name__, sorted(blocks[0].dut)
+    ('DirectionBlock', ['z'])
     """
     axes = _axis_sensors(sensors)
     g = np.array([0.0, 0.0, 1.0]) if static_g is None else V.static_vector(static_g)
@@ -189,6 +221,18 @@ class TriaxialTest:
     reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
     reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.analyze`
     gives them for the record (its VRC fit against the total rms; no rail fit).
+
+    Examples
+    --------
+    What :func:`vrelab.simulate` returns for a triaxial vibration: per DUT axis a VreResult
+    (flat 50-2000 Hz along 45° in x-z, the ADXL355's z axis upright in 1 g):
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
+    >>> test = vrelab.simulate(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1)
+    >>> type(test).__name__, test.method, list(test.axes), test.static_g
+    ('TriaxialTest', 'random', ['z'], (0.0, 0.0, 1.0))
     """
 
     method: Method
@@ -306,6 +350,20 @@ def run_triaxial_test(
     saturation flags taken from the simulation's counts and a sine's lattice error added to u,
     as the single-axis test does; the level is the total rms of the triaxial reference (that
     function's rule).
+
+    Examples
+    --------
+    The ADXL355's z axis, upright in 1 g, under 1 g rms of flat 50-2000 Hz random vibration along
+    45° in x-z, 2 s (the triaxial case of :func:`vrelab.simulate`, which is the way to call it):
+
+    >>> import vrelab
+    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
+    >>> from vrelab.triaxial.simulate import run_triaxial_test
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
+    >>> test = run_triaxial_test(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1)
+    >>> level = test.axes["z"].levels[0]
+    >>> print(f"{level.rms_g:.2f} g rms total: VRE {level.vre.value * 1e3:.1f} ± {level.vre.u * 1e3:.1f} mg")
+    1.01 g rms total: VRE -4.1 ± 0.2 mg
     """
     import tempfile
 

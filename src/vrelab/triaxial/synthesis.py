@@ -85,7 +85,19 @@ def _check(profile: TriaxialProfile, fs_hz: float) -> float:
 
 def rank_one(profile: TriaxialProfile) -> tuple[RandomProfile, FloatArray] | None:
     """``(P, d)`` when ``S(f) = d dᵀ P(f)`` with a real unit direction ``d`` (every moving pair
-    fully coherent, in phase or in antiphase, and the PSDs in fixed ratios), else None."""
+    fully coherent, in phase or in antiphase, and the PSDs in fixed ratios), else None.
+
+    Examples
+    --------
+    A profile along one direction is rank one: its PSD and the direction come back.
+
+    >>> import vrelab
+    >>> from vrelab.triaxial.synthesis import rank_one
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> psd, d = rank_one(tri)
+    >>> print(f"{psd.grms:.3f} g rms", d.round(4))
+    1.000 g rms [0.7071 0.     0.7071]
+    """
     moving = np.flatnonzero(~profile.still)
     p = profile.axis_psd_g2_per_hz
     c = profile.coherency
@@ -131,6 +143,15 @@ def design_fir_matrix(profile: TriaxialProfile, fs_hz: float, n_taps: int | None
     diagonal (each row of the Cholesky factor of a unit-diagonal matrix has unit norm, so
     ``Σ_m Σ_n h[j, m, n]² = ∫P_j df`` exactly, Parseval) and the coherency at the bin centre
     off it. Row j holds axis j's filters, column m those of noise stream m.
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> from vrelab.triaxial.synthesis import design_fir_matrix
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> h = design_fir_matrix(tri, 8000.0, n_taps=256)
+    >>> h.shape, bool((h[0, 1:] == 0).all())
+    ((3, 3, 256), True)
     """
     fs = _check(profile, fs_hz)
     moving = np.flatnonzero(~profile.still)
@@ -183,6 +204,14 @@ def triaxial_random_blocks(
     Stationary and Gaussian at every sample (white Gaussian noise through fixed linear
     filters, started with a full filter's worth of noise: no start-up transient); expected CSD
     the target at the design frequencies (module docstring).
+
+    Examples
+    --------
+    >>> import vrelab
+    >>> from vrelab.triaxial.synthesis import triaxial_random_blocks
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> [block.shape for block in triaxial_random_blocks(tri, 8000.0, 20000, 8192, seed=1)]
+    [(3, 8192), (3, 8192), (3, 3616)]
     """
     fs = _check(profile, fs_hz)
     n = V.integer("n_samples", n_samples, 0)
@@ -221,7 +250,19 @@ def _summed(gens: list[Iterator[FloatArray]], frame: int, n: int) -> Iterator[Fl
 
 
 def triaxial_random_signal(profile: TriaxialProfile, fs_hz: float, n_samples: int, seed: int) -> FloatArray:
-    """The whole record of :func:`triaxial_random_blocks` as one (3, n) array (short records)."""
+    """The whole record of :func:`triaxial_random_blocks` as one (3, n) array (short records).
+
+    Examples
+    --------
+    1 g rms along 45° in x-z: x and z each carry 0.707 g rms and y is still.
+
+    >>> import vrelab
+    >>> from vrelab.triaxial.synthesis import triaxial_random_signal
+    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000").scaled_to(1.0), (1, 0, 1))
+    >>> x = triaxial_random_signal(tri, 8000.0, 80000, seed=1)
+    >>> print(x.shape, [f"{v:.2f}" for v in x.std(axis=1)])
+    (3, 80000) ['0.70', '0.00', '0.70']
+    """
     n = V.integer("n_samples", n_samples, 0)
     blocks = list(triaxial_random_blocks(profile, fs_hz, n, max(n, 1), seed))
     return np.concatenate(blocks, axis=1) if blocks else np.zeros((3, 0))
@@ -253,6 +294,18 @@ def direction_blocks(
         be left out (its own direction is used).
     method : {"gaussian", "multisine"}
         The random drive's synthesis.
+
+    Examples
+    --------
+    A 1 g rms sine at 100 Hz along 45° in x-z, as (3, n) blocks:
+
+    >>> import numpy as np
+    >>> import vrelab
+    >>> from vrelab.triaxial.synthesis import direction_blocks
+    >>> blocks = list(direction_blocks(vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0)), 8000.0, 8000, 4000, seed=1))
+    >>> x = np.concatenate(blocks, axis=1)
+    >>> print(len(blocks), [f"{v:.3f}" for v in np.sqrt((x ** 2).mean(axis=1))])
+    2 ['0.707', '0.000', '0.707']
     """
     from vrelab import synthesis
 

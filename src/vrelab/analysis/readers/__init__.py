@@ -131,7 +131,15 @@ MAX_PLAUSIBLE_FS_HZ = 1e7
 
 
 def detect_format(path: Path) -> str:
-    """The format name of ``path`` from the registry: its magic bytes, else its extension."""
+    """The format name of ``path`` from the registry: its magic bytes, else its extension.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from vrelab.analysis.readers import detect_format
+    >>> detect_format(Path("examples/campaign/runs/01_z_up_80hz.tdms")), detect_format(Path("examples/campaign/runs/02_z_down_80hz.csv"))
+    ('tdms', 'csv')
+    """
     return reader_for(Path(path)).fmt
 
 
@@ -285,7 +293,20 @@ def _time_rate(src: Source, name: str, block: int = 1 << 20) -> float:
 
 @dataclass
 class FileRecord:
-    """A lab file as a :class:`~vrelab.record.Record` with channels ``dut`` (and ``reference``) in g."""
+    """A lab file as a :class:`~vrelab.record.Record` with channels ``dut`` (and ``reference``) in g.
+
+    Examples
+    --------
+    What :func:`open_record` returns:
+
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> with record:
+    ...     print(type(record).__name__, record.n_samples)
+    FileRecord 84000
+    """
 
     source: Source
     mapping: dict[str, str]  # record channel -> file channel
@@ -354,7 +375,16 @@ class FileRecord:
 def dut_channels(dut: str | Sequence[str] | Mapping[str, str]) -> dict[str, str]:
     """Record channel -> file channel for ``open_record``'s ``dut``: one name gives ``dut``;
     a list (the file's names are the campaign's) or a mapping name -> file channel gives
-    ``dut:<name>`` for each."""
+    ``dut:<name>`` for each.
+
+    Examples
+    --------
+    >>> from vrelab.analysis.readers import dut_channels
+    >>> dut_channels("shaker/sn1_z")
+    {'dut': 'shaker/sn1_z'}
+    >>> dut_channels({"sn1": "shaker/sn1_z", "sn2": "shaker/sn2_z"})
+    {'dut:sn1': 'shaker/sn1_z', 'dut:sn2': 'shaker/sn2_z'}
+    """
     if isinstance(dut, str):
         return {"dut": dut}
     pairs = list(dut.items()) if isinstance(dut, Mapping) else [(str(d), str(d)) for d in dut]
@@ -410,6 +440,19 @@ def open_record(
     FileRecord
         ``blocks()`` reads lazily; ``meta`` holds ``source``, ``format``, ``channels`` and
         ``reader_notes`` (plus the HDF5 ``meta`` attribute of vrelab's own records).
+
+    Examples
+    --------
+    The example campaign's 80 Hz run (a TDMS file): its DUT in LSB at 256000 LSB/g and its
+    reference in mV at 10 mV/g, read in g:
+
+    >>> from vrelab.analysis import open_record
+    >>> from vrelab.analysis.readers import Scale
+    >>> record = open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", reference="shaker/ref",
+    ...                      dut_scale=Scale("lsb", 256000), reference_scale=Scale("mv", 10))
+    >>> with record:
+    ...     print(record.channels, f"{record.fs_hz:.0f} Hz")
+    ('dut', 'reference') 6000 Hz
     """
     path = Path(path)
     if not path.exists():
@@ -531,6 +574,13 @@ def list_channels(path: str | Path) -> dict[str, Any]:
     column used, a rate snapped or fitted, why it is not read); ``data`` where its samples live
     (:meth:`Source.location`: ``{"kind": "file" | "external" | "virtual", "files": [...]}``).
     At most :data:`MAX_CHANNELS` are listed; ``unlisted`` counts the rest.
+
+    Examples
+    --------
+    >>> from vrelab.analysis.readers import list_channels
+    >>> listing = list_channels("examples/campaign/runs/01_z_up_80hz.tdms")
+    >>> listing["format"], [channel["name"] for channel in listing["channels"]]
+    ('tdms', ['shaker/ref', 'shaker/sn1_z', 'shaker/sn2_z'])
     """
     path = Path(path)
     if not path.is_file():

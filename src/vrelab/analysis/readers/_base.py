@@ -38,6 +38,14 @@ class Scale:
     ``units`` is what the file holds: ``g`` (no scaling), ``lsb`` (counts; ``sensitivity`` in
     LSB/g, e.g. 256000 for an ADXL355 on ±2 g), ``mv`` or ``v`` (``sensitivity`` in mV/g or V/g,
     e.g. 10 mV/g for an IEPE reference), ``m/s2``, ``mg``, ``mm/s2``.
+
+    Examples
+    --------
+    A DUT at 256000 LSB/g, a reference at 10 mV/g:
+
+    >>> from vrelab.analysis.readers import Scale
+    >>> print(f"{Scale('lsb', 256000).to_g(512000.0):.1f} g, {Scale('mv', 10).to_g(-5.0):.1f} g")
+    2.0 g, -0.5 g
     """
 
     units: Units = "g"
@@ -94,6 +102,15 @@ class Source:
     is read as what it is, whatever its name), and ``open(path)`` returns an instance (a class
     may dispatch to another, as MAT does to HDF5 for v7.3). A format without magic bytes (text)
     is chosen by extension alone.
+
+    Examples
+    --------
+    The raw channels under a record: the TDMS format's subclass, chosen by :func:`detect_format`:
+
+    >>> from vrelab.analysis.readers import Scale, Source, open_record
+    >>> with open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", dut_scale=Scale("lsb", 256000)) as record:
+    ...     print(isinstance(record.source, Source), record.source.fmt, record.source.unit_of("shaker/sn1_z"))
+    True tdms LSB
     """
 
     fmt: ClassVar[str] = "?"
@@ -400,7 +417,20 @@ _log = logging.getLogger("vrelab.readers")
 
 
 def register(cls: type[Source]) -> type[Source]:
-    """Add a format (a :class:`Source` subclass) to the registry; usable as a class decorator."""
+    """Add a format (a :class:`Source` subclass) to the registry; usable as a class decorator.
+
+    Examples
+    --------
+    A format is a :class:`Source` subclass decorated with ``@register`` (a plugin's entry point
+    does it on import). Registering one already there keeps one entry:
+
+    >>> from vrelab.analysis.readers import Scale, formats, open_record, register
+    >>> with open_record("examples/campaign/runs/01_z_up_80hz.tdms", dut="shaker/sn1_z", dut_scale=Scale("lsb", 256000)) as record:
+    ...     tdms = type(record.source)
+    >>> n = len(formats())
+    >>> register(tdms) is tdms, len(formats()) == n
+    (True, True)
+    """
     if cls not in READERS:
         READERS.append(cls)
     return cls
@@ -436,6 +466,14 @@ def load_plugins() -> list[str]:
     A plugin that fails to import, is not a :class:`Source` subclass, or clashes with a
     registered format name is skipped with a one-line note (:data:`PLUGIN_NOTES`, and a warning
     on the ``vrelab.readers`` logger); vrelab itself keeps working. Returns the notes.
+
+    Examples
+    --------
+    No reader plugin is installed here (an entry point in the ``vrelab.readers`` group adds one):
+
+    >>> from vrelab.analysis.readers import load_plugins
+    >>> load_plugins()
+    []
     """
     global _plugins_started, _plugins_loaded
     if _plugins_loaded or threading.current_thread().name.startswith("vrelab plugin "):
@@ -578,7 +616,14 @@ def reader_for(path: Path) -> type[Source]:
 
 def formats() -> list[dict[str, Any]]:
     """Every registered format, plugins included: ``{"format", "extensions", "requires",
-    "installed", "install", "plugin"}`` (``plugin``: the entry point, None for a built-in)."""
+    "installed", "install", "plugin"}`` (``plugin``: the entry point, None for a built-in).
+
+    Examples
+    --------
+    >>> from vrelab.analysis.readers import formats
+    >>> sorted(f["format"] for f in formats())[:4]
+    ['csv', 'hdf5', 'ide', 'lvm']
+    """
     load_plugins()
     return [{"format": cls.fmt, "extensions": list(cls.extensions), "requires": cls.requires,
              "installed": missing_library(cls) is None, "install": cls.install or cls.requires,
@@ -587,7 +632,14 @@ def formats() -> list[dict[str, Any]]:
 
 def formats_text() -> str:
     """The registered formats in one line for help texts: ``CSV (.csv .tsv), ..., MDF (.mf4 .mdf;
-    needs asammdf, not installed: pip install 'vrelab[formats]'), REC (.rec; plugin ...)``."""
+    needs asammdf, not installed: pip install 'vrelab[formats]'), REC (.rec; plugin ...)``.
+
+    Examples
+    --------
+    >>> from vrelab.analysis.readers import formats_text
+    >>> formats_text().split(", ")[0]
+    'HDF5 (.h5 .hdf5 .hdf .he5 .nc)'
+    """
     parts = []
     for f in formats():
         extra = []
