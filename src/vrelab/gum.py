@@ -55,6 +55,7 @@ def undetermined(value: float | None, u: float | None) -> str | None:
 
     Examples
     --------
+    >>> from vrelab.gum import undetermined
     >>> undetermined(2.0, 0.1) is None
     True
     >>> undetermined(0.0, 1.6e13)

@@ -71,7 +71,17 @@ class IdealSensorOptions(TypedDict, total=False):
     """The keywords of :func:`ideal_vre_shares` and :func:`total_vre` after the polynomial:
     ``shape`` of the vibration and ``kind`` of clipping (:func:`vrelab.models.clipping.mean_shift`;
     defaults ``"gaussian"``, :data:`vrelab.models.kinds.DEFAULT_CLIP_KIND`) and the offset
-    ``offset_g`` [g] added before the rails (default 0)."""
+    ``offset_g`` [g] added before the rails (default 0).
+
+    Examples
+    --------
+    A sine of 1 g rms (1.41 g peak) on a 1 g field against ±2 g rails:
+
+    >>> from vrelab.models.design import IdealSensorOptions, total_vre
+    >>> opts: IdealSensorOptions = {"shape": "sine"}
+    >>> print(f"{total_vre(1.0, 1.0, -2.0, 2.0, **opts) * 1e3:.2f} mg")
+    -68.31 mg
+    """
 
     shape: Shape
     kind: Kind
@@ -79,7 +89,17 @@ class IdealSensorOptions(TypedDict, total=False):
 
 
 class BudgetSearchOptions(TypedDict, total=False):
-    """The keywords of :func:`max_rms_for_budget` after the polynomial (its parameters' docs)."""
+    """The keywords of :func:`max_rms_for_budget` after the polynomial (its parameters' docs).
+
+    Examples
+    --------
+    The largest sine a ±2 g sensor on a 1 g field takes within 1 mg of VRE:
+
+    >>> from vrelab.models.design import BudgetSearchOptions, max_rms_for_budget
+    >>> opts: BudgetSearchOptions = {"shape": "sine"}
+    >>> print(f"{max_rms_for_budget(1e-3, 1.0, -2.0, 2.0, **opts):.2f} g rms")
+    0.72 g rms
+    """
 
     shape: Shape
     kind: Kind
@@ -87,7 +107,14 @@ class BudgetSearchOptions(TypedDict, total=False):
 
 
 class OverrangeOptions(TypedDict, total=False):
-    """The keywords of :func:`overrange_vre` after ``value_g`` (its parameters' docs)."""
+    """The keywords of :func:`overrange_vre` after ``value_g`` (its parameters' docs).
+
+    Examples
+    --------
+    >>> from vrelab.models.design import OverrangeOptions
+    >>> sorted(OverrangeOptions.__annotations__)
+    ['held_mean_g', 'tone_freqs_hz', 'tone_peaks_g']
+    """
 
     tone_peaks_g: Sequence[float]
     tone_freqs_hz: Sequence[float]

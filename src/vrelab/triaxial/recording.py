@@ -372,7 +372,14 @@ def record_blocks(record: Record, channels: Sequence[str], start: int = 0, stop:
 
 
 class RecordingOptions(TypedDict, total=False):
-    """The keywords of :func:`read_recording_profile` after ``fs_hz`` (its docstring)."""
+    """The keywords of :func:`read_recording_profile` after ``fs_hz`` (its docstring).
+
+    Examples
+    --------
+    >>> from vrelab.triaxial.recording import RecordingOptions
+    >>> sorted(RecordingOptions.__annotations__)
+    ['nperseg', 'scale', 'start_s', 'stop_s']
+    """
 
     scale: Scale | float | None | Mapping[str, Scale | float | None]
     nperseg: int | None
