@@ -27,8 +27,6 @@ from vrelab.cli._common import add_mount_arguments, mount_overrides, positive_li
 
 def print_comparison(cmp: Any) -> None:
     """The ranked table, then each invalid candidate's reason and the notes."""
-    from vrelab._format import format_value
-
     d = cmp.to_dict()
     c = d["conditions"]
     static = (f"tilt {c['tilt_range_deg'][0]:g} to {c['tilt_range_deg'][1]:g} deg" if c["tilt_range_deg"]
@@ -43,8 +41,7 @@ def print_comparison(cmp: Any) -> None:
           f"{'tilt ± U deg':>19} {'margin':>7}  mechanism     dominant u")
     for n, r in enumerate(rows, 1):
         vre = f"{r['vre_g'] * 1e3:.3g} ± {r['U_vre_g'] * 1e3:.2g}"
-        tilt = (f"{format_value(r['tilt_error_deg'], resolution=1e-5)} ± {r['U_tilt_error_deg']:.2g}"
-                if r["tilt_error_deg"] is not None else "-")
+        tilt = (f"{r['tilt_error_deg']:.3g} ± {r['U_tilt_error_deg']:.2g}" if r["tilt_error_deg"] is not None else "-")
         du = f"{r['dominant_u']['source']} ({r['dominant_u']['u_vre_g'] * 1e3:.2g} mg)" if r["dominant_u"] else "none stated"
         print(f"{n:>3} {r['label']:<{width}} {r['verdict']:<9} {vre:>17} {r['vrc_ug_per_g2']:>11.4g} {tilt:>19} "
               f"{r['margin']:>7.3g}  {r['dominant_mechanism'] or '-':<13} {du}")

@@ -18,7 +18,7 @@ _SHOWN = 40
 # the best few drawn against level, and the levels each is drawn at (log-spaced from a tenth of
 # the lowest level asked to twice the highest: where clipping sets in shows)
 _BEST = 4
-_CURVE_LEVELS = 9
+_CURVE_LEVELS = 7
 
 
 def _vre_figure(rows: Sequence[CandidateRow], budget_text: str) -> Figure:
@@ -68,18 +68,23 @@ def _level_figure(cmp: Comparison, best: Sequence[CandidateRow]) -> Figure:
         sensor = load_candidate({"part": r.candidate.part, "range_g": r.candidate.range_g, "odr_hz": r.candidate.odr_hz,
                                  "axis": r.candidate.axis, "mount": (mount["fn_hz"], mount["q"]) if mount else None})
         pred = predict(sensor, env, levels, static_g=w.static_g)
-        vre = np.array([abs(lv.vre_g) for lv in pred.levels]) * 1e3
+        vre = np.array([lv.vre_g for lv in pred.levels]) * 1e3
         u = np.array([2 * (lv.u_vre_g or 0.0) for lv in pred.levels]) * 1e3
         line = ax.plot(levels, vre, "o-", label=f"{r.candidate.label} (static {w.static_g:.3g} g)")[0]
-        ax.fill_between(levels, np.maximum(vre - u, 1e-6), vre + u, color=line.get_color(), alpha=0.15)
-    if c["budget_kind"] == "vre":
-        ax.axhline(c["budget_value"] * 1e3, color="black", ls="--", lw=1.2, label=f"budget ({c['budget']})")
+        ax.fill_between(levels, vre - u, vre + u, color=line.get_color(), alpha=0.15)
+    # the budget as a VRE at the first candidate's worst static field (a tilt budget varies with it)
+    limit = best[0].worst.limit_g * 1e3 if best[0].worst is not None else None
+    if limit is not None:
+        for sign in (1, -1):
+            ax.axhline(sign * limit, color="black", ls="--", lw=1.2,
+                       label=f"budget ({c['budget']}: ±{limit:.3g} mg)" if sign > 0 else None)
     for x in c["levels_g"]:
         ax.axvline(x, color="gray", ls=":", lw=1)
     ax.set_xscale("log")
-    ax.set_yscale("log")
+    # symlog: a VRE crosses zero and spans decades; linear within a tenth of the budget
+    ax.set_yscale("symlog", linthresh=max(limit or 0.0, 1e-6) / 10)
     ax.set_xlabel("vibration level (g rms)")
-    ax.set_ylabel("|VRE| (mg), band: ± U (k = 2)")
+    ax.set_ylabel("VRE (mg), band: ± U (k = 2)")
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     return fig
