@@ -1,8 +1,8 @@
 """The sensor is an ordered tuple of stage configurations, each declaring its own fields (issue 31).
 
 A new parameter is one field on its stage, a new stage one frozen class and one entry in the
-ordered tuple (``fields.register_stage``): the test below defines a fixture stage (a mount
-resonance, the part-library's future ``Mount``) here, registers it, and follows its fields through
+ordered tuple (``fields.register_stage``): the test below defines a fixture stage (a housing
+resonance; the real ``Mount`` stage began as this fixture) here, registers it, and follows its fields through
 the loader, the sensor's stages, the writer, the sweep and the presets' README block with no
 other edit to ``src/``. The others hold every preset to its file (the writer's round trip) and
 the stage order to the chain the module docstring draws.
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from vrelab.sensor import Sensor, fields, list_presets, load_sensor, parameters
-from vrelab.sensor.configs import Field, Mechanics, Sense, StageConfig, row
+from vrelab.sensor.configs import Field, Mechanics, Mount, Sense, StageConfig, row
 from vrelab.sensor.stages import Resonator
 from vrelab.sensor.writer import sensor_document, write_sensor_file
 from vrelab.sweep import spec as sweep_spec
@@ -25,24 +25,24 @@ from vrelab.sweep.points import sensor_for
 
 
 @dataclasses.dataclass(frozen=True)
-class Mount(StageConfig):
-    """A fixture's mount resonance between the shaker and the part: a second-order resonator
-    (``H = 1 / (1 - r² + j·r/Q)``, r = f/fn, as the proof mass's) at ``mount_fn_hz`` with ``mount_q``."""
+class Housing(StageConfig):
+    """A housing's resonance between the shaker and the part: a second-order resonator
+    (``H = 1 / (1 - r² + j·r/Q)``, r = f/fn, as the proof mass's) at ``housing_fn_hz`` with ``housing_q``."""
 
-    mount_fn_hz: float | None = row(Field(
-        "mount_fn_hz", "mount_fn_hz", "positive", None, "mount resonance [Hz] (with mount_q; omit both for a rigid mount)",
-        lower=1.0, why_lower="below 1 Hz a mount is a suspension", upper=1e6, why_upper="beyond any mount's",
+    housing_fn_hz: float | None = row(Field(
+        "housing_fn_hz", "housing_fn_hz", "positive", None, "housing resonance [Hz] (with housing_q; omit both for a rigid housing)",
+        lower=1.0, why_lower="below 1 Hz a housing is a suspension", upper=1e6, why_upper="beyond any housing's",
         sweepable=True, assumable=True))
-    mount_q: float | None = row(Field(
-        "mount_q", "mount_q", "positive", None, "quality factor of the mount resonance",
+    housing_q: float | None = row(Field(
+        "housing_q", "housing_q", "positive", None, "quality factor of the housing resonance",
         upper=1e3, why_upper="no bolted mount rings that long", sweepable=True))
 
     def validate(self, sensor: Sensor) -> None:
-        if (self.mount_fn_hz is None) != (self.mount_q is None):
-            raise ValueError(f"sensor {sensor.name}: mount_fn_hz and mount_q must be given together")
+        if (self.housing_fn_hz is None) != (self.housing_q is None):
+            raise ValueError(f"sensor {sensor.name}: housing_fn_hz and housing_q must be given together")
 
     def build(self, sensor, factor):
-        return () if self.mount_fn_hz is None else (Resonator(self.mount_fn_hz, self.mount_q),)
+        return () if self.housing_fn_hz is None else (Resonator(self.housing_fn_hz, self.housing_q),)
 
 
 PART = """schema = 1
@@ -50,33 +50,33 @@ name = "mounted"
 fn_hz = 2400.0
 q = 7.4
 k2_ug_per_g2 = 20.0
-mount_fn_hz = 800.0
-mount_q = 5.0
+housing_fn_hz = 800.0
+housing_q = 5.0
 [uncertainty]
-mount_fn_hz = 40.0
+housing_fn_hz = 40.0
 [facts]
 fn_hz = "datasheet: 2.4 kHz"
 q = "datasheet"
 k2_ug_per_g2 = "assumption: one sample"
-mount_fn_hz = "measured: tap test of the fixture"
-mount_q = "measured: tap test of the fixture"
+housing_fn_hz = "measured: tap test of the fixture"
+housing_q = "measured: tap test of the fixture"
 """
 
 
 def test_a_stage_defined_here_is_loaded_built_written_swept_and_documented(tmp_path):
     part = tmp_path / "mounted.toml"
     part.write_text(PART, encoding="utf-8")
-    with fields.stage_registered(Mount, after=Mechanics):  # the one registration: an entry in the tuple
-        assert fields.STAGES[:3] == (Mechanics, Mount, Sense)
+    with fields.stage_registered(Housing, after=Mechanics):  # the one registration: an entry in the tuple
+        assert fields.STAGES[:4] == (Mount, Mechanics, Housing, Sense)
         # loaded: the file's keys parse into the Sensor, with their facts and assumed u
         s = load_sensor(str(part))
-        assert (s.mount_fn_hz, s.mount_q) == (800.0, 5.0)
-        assert s.facts["mount_fn_hz"] == "measured: tap test of the fixture" and s.uncertainty == {"mount_fn_hz": 40.0}
-        assert load_sensor("ideal").mount_fn_hz is None  # a file that leaves it out: the row's default
-        with pytest.raises(ValueError, match="mount_fn_hz and mount_q must be given together"):
-            load_sensor("ideal", overrides={"mount_fn_hz": 500.0})
-        with pytest.raises(ValueError, match="mount_q must be at most 1000"):
-            load_sensor(str(part), overrides={"mount_q": 5e3})
+        assert (s.housing_fn_hz, s.housing_q) == (800.0, 5.0)
+        assert s.facts["housing_fn_hz"] == "measured: tap test of the fixture" and s.uncertainty == {"housing_fn_hz": 40.0}
+        assert load_sensor("ideal").housing_fn_hz is None  # a file that leaves it out: the row's default
+        with pytest.raises(ValueError, match="housing_fn_hz and housing_q must be given together"):
+            load_sensor("ideal", overrides={"housing_fn_hz": 500.0})
+        with pytest.raises(ValueError, match="housing_q must be at most 1000"):
+            load_sensor(str(part), overrides={"housing_q": 5e3})
         # built: its stage sits where the tuple puts it (after the proof mass, before the polynomial)
         st = s.stages()
         assert st[:2] == (Resonator(2400.0, 7.4), Resonator(800.0, 5.0)) and type(st[2]).__name__ == "Polynomial"
@@ -87,35 +87,35 @@ def test_a_stage_defined_here_is_loaded_built_written_swept_and_documented(tmp_p
         np.testing.assert_allclose(s.response(f), h, rtol=1e-12)
         # written: the writer's document holds the fields, and the written file loads to the same sensor
         doc = sensor_document(s)
-        assert (doc["mount_fn_hz"], doc["mount_q"]) == (800.0, 5.0)
+        assert (doc["housing_fn_hz"], doc["housing_q"]) == (800.0, 5.0)
         back = load_sensor(str(write_sensor_file(tmp_path / "back.toml", doc)))
         assert back.stage_values() == s.stage_values() and back.facts == s.facts and back.uncertainty == s.uncertainty
         # swept: the sweep's lists know the fields, a grid may set them, a point's sensor has them
-        assert {"mount_fn_hz", "mount_q"} <= set(sweep_spec.params_for("predict"))
+        assert {"housing_fn_hz", "housing_q"} <= set(sweep_spec.params_for("predict"))
         sp = sweep_spec.parse_spec({"kind": "predict", "fixed": {"sensor": str(part), "freq_hz": 100.0},
-                                    "grid": {"rms_g": [1.0], "mount_fn_hz": [600.0, 900.0]}})
+                                    "grid": {"rms_g": [1.0], "housing_fn_hz": [600.0, 900.0]}})
         assert sp.shape == (1, 2)
-        point = sensor_for({"sensor": str(part), "mount_fn_hz": 600.0})
-        assert point.mount_fn_hz == 600.0 and Resonator(600.0, 5.0) in point.stages()
-        assert point.facts["mount_fn_hz"] == "set by the user: 600 Hz" and point.uncertainty == {}
+        point = sensor_for({"sensor": str(part), "housing_fn_hz": 600.0})
+        assert point.housing_fn_hz == 600.0 and Resonator(600.0, 5.0) in point.stages()
+        assert point.facts["housing_fn_hz"] == "set by the user: 600 Hz" and point.uncertainty == {}
         # the parameter lists
-        assert parameters.parameter(s, "mount_fn_hz") == 800.0 and "mount_fn_hz" in parameters.assumable()
-        assert parameters.with_parameters(s, {"mount_fn_hz": 700.0}).mount_fn_hz == 700.0
+        assert parameters.parameter(s, "housing_fn_hz") == 800.0 and "housing_fn_hz" in parameters.assumable()
+        assert parameters.with_parameters(s, {"housing_fn_hz": 700.0}).housing_fn_hz == 700.0
         # documented: the presets README block lists the rows, in stage order
         text = fields.schema_text()
-        assert "mount_fn_hz" in text and "mount_q" in text and "Mechanics -> Mount -> Sense" in text
-        assert text.index("    mount_fn_hz") < text.index("    input_axis")
+        assert "housing_fn_hz" in text and "housing_q" in text and "Mechanics -> Housing -> Sense" in text
+        assert text.index("    housing_fn_hz") < text.index("    input_axis")
     # gone with its registration
-    assert Mount not in fields.STAGES and "mount_fn_hz" not in fields.schema_text()
-    assert not hasattr(load_sensor("ideal"), "mount_fn_hz")
-    with pytest.raises(ValueError, match="unknown key 'mount_fn_hz'"):
+    assert Housing not in fields.STAGES and "housing_fn_hz" not in fields.schema_text()
+    assert not hasattr(load_sensor("ideal"), "housing_fn_hz")
+    with pytest.raises(ValueError, match="unknown key 'housing_fn_hz'"):
         load_sensor(str(part))
 
 
 def test_a_stage_declares_each_field_by_its_row_and_a_key_once():
     @dataclasses.dataclass(frozen=True)
     class Bare(StageConfig):
-        mount_fn_hz: float | None = None  # no row: not a field the loader or the writer could know
+        housing_fn_hz: float | None = None  # no row: not a field the loader or the writer could know
 
     with pytest.raises(TypeError, match="must be declared with row"):
         fields.register_stage(Bare)

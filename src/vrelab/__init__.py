@@ -43,6 +43,8 @@ if TYPE_CHECKING:
     from vrelab._api import campaign as campaign
     from vrelab._api import simulate as simulate
     from vrelab._version import __version__ as __version__
+    from vrelab.comparison import Comparison as Comparison
+    from vrelab.comparison import compare as compare
     from vrelab.gum import TypeB as TypeB
     from vrelab.identification import Identification as Identification
     from vrelab.identification import identify as identify
@@ -92,6 +94,8 @@ _LAZY: dict[str, str] = {
     "TriaxialSine": "vrelab.triaxial.profile",
     "predict_triaxial": "vrelab.prediction",
     "simulate_triaxial": "vrelab.triaxial.simulate",
+    "compare": "vrelab.comparison",  # a plain function (its package: vrelab.comparison)
+    "Comparison": "vrelab.comparison",
 }
 
 __all__ = list(_LAZY)

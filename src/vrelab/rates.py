@@ -44,7 +44,7 @@ _LOWPASS_OVERSAMPLING = 16.0
 def simulation_rate_hz(sensor: object, f_max_hz: float) -> float:
     """The internal rate of a simulated test: accurate where the test looks, and cheap.
 
-    Rule: ``f_need = max(8·f_max, 5·fn, 5·f_anti-alias, 16·bandwidth)`` (the reasons for each
+    Rule: ``f_need = max(8·f_max, 5·fn, 5·f_anti-alias, 5·f_mount, 16·bandwidth)`` (the reasons for each
     factor are at ``_DRIVE_OVERSAMPLING`` and below), rounded up to a multiple ``k0·ODR``.
     The former conservative rule asked 8× *every* corner, including the resonance, which only
     the drive (≤ f_max) passes through: the 5× rule keeps every discretised analog
@@ -76,7 +76,8 @@ def simulation_rate_hz(sensor: object, f_max_hz: float) -> float:
     # any object: a sensor's optional corners are read by name, absent or None if it has none
     odr: float | None = getattr(sensor, "odr_hz", None)
     corners = {
-        _ANALOG_OVERSAMPLING: (getattr(sensor, "fn_hz", None), getattr(sensor, "anti_alias_hz", None)),
+        _ANALOG_OVERSAMPLING: (getattr(sensor, "fn_hz", None), getattr(sensor, "anti_alias_hz", None),
+                               getattr(sensor, "mount_fn_hz", None)),
         _LOWPASS_OVERSAMPLING: (getattr(sensor, "bandwidth_hz", None),),
     }
     need = _DRIVE_OVERSAMPLING * float(f_max_hz)

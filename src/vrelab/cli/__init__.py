@@ -32,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "profile": "show a random vibration profile: grms and breakpoints",
     "environment": "the named vibration environments (standards' profiles) with their sources",
     "predict": "analytic VRE of a sensor in a sine or random vibration, with shares by mechanism",
+    "compare": "rank parts, ranges and output rates against a VRE or tilt budget in a vibration environment",
     "simulate": "simulated shaker test of a sensor (random or sine method), reduced like a lab record",
     "channels": "list a recorded file's channels: the names --dut/--reference take, rates, units",
     "analyze": "reduce a recorded shaker test (a lab file of any format its --help lists) to VRE per level and fit it",

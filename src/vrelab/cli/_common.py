@@ -102,6 +102,24 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
                    help="static acceleration along the axis [g] (default 1: axis up in a 1 g field)")
     p.add_argument("--k2", dest="k2_ug_per_g2", type=float, metavar="UG_PER_G2", help="second-order nonlinearity [µg/g²]")
     p.add_argument("--k3", dest="k3_ug_per_g3", type=float, metavar="UG_PER_G3", help="third-order nonlinearity [µg/g³]")
+    add_mount_arguments(p)
+
+
+def add_mount_arguments(p: argparse.ArgumentParser) -> None:
+    """``--mount-fn``/``--mount-q``: the PCB or bracket the part sits on (:class:`vrelab.sensor.configs.Mount`)."""
+    p.add_argument("--mount-fn", dest="mount_fn_hz", type=float, metavar="HZ",
+                   help="resonance of the PCB or bracket the part sits on [Hz] (with --mount-q): its transmissibility "
+                   "acts on the vibration (default: the sensor file's, else a rigid mount)")
+    p.add_argument("--mount-q", dest="mount_q", type=float, metavar="Q",
+                   help="quality factor of that mount resonance (with --mount-fn; PCBs: about 10 to 50)")
+
+
+def mount_overrides(args: argparse.Namespace) -> dict[str, float]:
+    """The mount options as a sensor's user-set values (file keys); both or neither."""
+    fn, q = getattr(args, "mount_fn_hz", None), getattr(args, "mount_q", None)
+    if (fn is None) != (q is None):
+        raise ValueError("--mount-fn and --mount-q go together: give both or neither")
+    return {} if fn is None or q is None else {"mount_fn_hz": float(fn), "mount_q": float(q)}
 
 
 def input_paths(*values: object) -> list[Path]:
@@ -134,6 +152,7 @@ def sensor_from_args(args: argparse.Namespace) -> Sensor:
         odr_hz=args.odr_hz,
         k2_ug_per_g2=args.k2_ug_per_g2,
         k3_ug_per_g3=args.k3_ug_per_g3,
+        overrides=mount_overrides(args),
     )
 
 

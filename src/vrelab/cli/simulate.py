@@ -37,6 +37,7 @@ from typing import Any
 from vrelab.cli import _triaxial as tri
 from vrelab.cli._common import (
     add_sensor_arguments,
+    mount_overrides,
     positive_list,
     print_json,
     print_levels,
@@ -81,7 +82,7 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
     sensors = []
     for a in names:
         s = load_sensor(args.sensor, range_g=args.range_g, axis=a, odr_hz=args.odr_hz,
-                        k2_ug_per_g2=args.k2_ug_per_g2, k3_ug_per_g3=args.k3_ug_per_g3)
+                        k2_ug_per_g2=args.k2_ug_per_g2, k3_ug_per_g3=args.k3_ug_per_g3, overrides=mount_overrides(args))
         if drift:
             s = dataclasses.replace(s, drift_g_per_s=drift,
                                     facts={**dict(s.facts), "drift_g_per_s": f"set by the user: {drift:g} g/s"})
@@ -170,6 +171,11 @@ def run(args: argparse.Namespace) -> int:
     freqs = V.frequency("--freq", positive_list(args.freq, "--freq")).tolist() if args.freq is not None else None
     excitation = profile if profile is not None else freqs
     assert excitation is not None  # --profile or --freq: the parser requires one
+    from vrelab.prediction.checks import mount_note
+
+    warning = mount_note(sensor, profile.band if profile is not None else (min(freqs or [0.0]), max(freqs or [0.0])))
+    if warning:  # the fixture rule, applied in planning: the test is run as asked
+        print(f"warning: {warning}", file=sys.stderr)
 
     def simulate(record_path: Path | None) -> Any:
         common = dict(seconds=seconds, baseline_s=baseline_s, settle_s=args.settle, seed=args.seed,

@@ -60,6 +60,24 @@ def judged(lv: LevelPrediction) -> LevelPrediction:
 
 
 
+def mount_note(sensor: object, band_hz: tuple[float, float]) -> str | None:
+    """The fixture rule (:func:`vrelab.models.design.fixture_resonance_ok`: a mount's resonance at
+    least 1.5 × the highest test frequency) applied to a sensor's mount stage (``mount_fn_hz``,
+    :class:`vrelab.sensor.configs.Mount`) in a vibration spanning ``band_hz`` [Hz]: a warning
+    naming the mount where it sits within reach of the band, else None. The prediction includes
+    the mount's amplification (``|T(fn)| = sqrt(1 + Q²)``); the warning says the number is the
+    mount's as much as the part's."""
+    from vrelab.models.design import fixture_resonance_ok
+
+    fn, q = getattr(sensor, "mount_fn_hz", None), getattr(sensor, "mount_q", None)
+    if fn is None or q is None or fixture_resonance_ok(fn, band_hz[1]):
+        return None
+    where = "inside" if band_hz[0] <= fn <= band_hz[1] else "within 1.5× of"
+    return (f"mount resonance {fn:g} Hz (Q {q:g}) is {where} the vibration's band {band_hz[0]:g}-{band_hz[1]:g} Hz "
+            f"(fixture rule: fn >= 1.5 × {band_hz[1]:g} Hz): the mount amplifies the vibration up to "
+            f"×{math.sqrt(1 + q * q):.3g} at {fn:g} Hz, and the VRE predicted includes it")
+
+
 def tilt_note(vre_g: float, g0: float) -> tuple[float, str | None]:
     """Tilt error [deg] of a VRE on an axis at ``asin(g0)`` (:func:`vrelab.models.design.tilt_error_from_static_deg`),
     NaN with the reason where it is undefined.

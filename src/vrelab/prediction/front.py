@@ -100,10 +100,29 @@ def predict(
     from vrelab.prediction import single
 
     if direction is None and np.ndim(static_g) == 0 and not _is_triaxial(vibration):
-        return single.predict(sensor, cast(Any, vibration), levels, static_g=cast(float, static_g), kind=kind)
-    from vrelab.prediction import triaxial
+        pred = single.predict(sensor, cast(Any, vibration), levels, static_g=cast(float, static_g), kind=kind)
+    else:
+        from vrelab.prediction import triaxial
 
-    return triaxial.predict_along(sensor, vibration, levels, static_g, kind, direction)
+        pred = triaxial.predict_along(sensor, vibration, levels, static_g, kind, direction)
+    return _with_mount_note(pred, sensor, vibration)
+
+
+def _with_mount_note(pred: Prediction, sensor: Sensor, vibration: Any) -> Prediction:
+    """The prediction with the fixture rule's warning on the sensor's mount (:func:`vrelab.prediction.checks.mount_note`)
+    among its notes, where it has one."""
+    if getattr(sensor, "mount_fn_hz", None) is None:
+        return pred  # no mount: the prediction as it was, untouched
+    import dataclasses
+
+    from vrelab.prediction.checks import mount_note
+
+    band = getattr(vibration, "band", None)
+    if band is None:  # sine frequencies: a number, a list, or a triaxial sine's
+        freqs = np.atleast_1d(np.asarray(getattr(vibration, "freq_hz", vibration), dtype=float))
+        band = (float(freqs.min()), float(freqs.max()))
+    note = mount_note(sensor, (float(band[0]), float(band[1])))
+    return pred if note is None else dataclasses.replace(pred, notes=(*pred.notes, note))
 
 
 def _is_triaxial(vibration: Any) -> bool:

@@ -304,8 +304,8 @@ def predict(
     _check_time(sensor, excitation, levels_arr.size)
     reading = read_stages(sensor.stages(), g0)
     clip_where = clip_position_of(sensor)
-    fn_hz = getattr(sensor, "fn_hz", None)
-    points = [float(fn_hz)] if fn_hz else []
+    # the resonances (the proof mass's, the mount's) as breakpoints of the spectral quadrature
+    points = [float(f) for f in (getattr(sensor, "fn_hz", None), getattr(sensor, "mount_fn_hz", None)) if f]
     if isinstance(excitation, RandomProfile):
         out, text, notes = _random_levels(reading, excitation, levels_arr, g0, kind, points)
     elif isinstance(excitation, SineOnRandom):

@@ -12,7 +12,7 @@ the sweep lists and the presets' README block are views of it.
 Each configuration turns itself into runtime stages (:mod:`vrelab.sensor.stages`) with
 :meth:`StageConfig.build`; :meth:`Sensor.stages` walks the tuple in order (order is data)::
 
-    Mechanics (Resonator) -> Sense (Polynomial; three axes into one in the triaxial chain)
+    Mount (MountTransmissibility) -> Mechanics (Resonator) -> Sense (Polynomial; three axes into one in the triaxial chain)
     -> Protection (OverRange) -> ProofMassClip (Clip at the proof mass) -> NoiseFloor (Noise)
     -> AntiAliasFilter (AntiAlias) -> OutputFilter (LowPass, AnalogLowPass without an ODR)
     -> HighPassFilter (HighPass) -> Bias (Offset, Drift) -> Sampling (Decimate to the ODR)
@@ -194,6 +194,9 @@ _MAX_K = 1e6
 _WHY_K = "1e6 is the term as large as the linear one at 1 g: no accelerometer's transfer"
 # A frequency [Hz]: the range vrelab's drives take (vrelab._validate.MIN_FREQ_HZ..MAX_FREQ_HZ).
 _WHY_FREQ = "beyond any vibration test's frequencies"
+# The mount is the user's (the board or bracket the part sits on), not the part's: absent, the
+# part sits rigidly on the vibrating structure.
+_RIGID = "assumption: no mount, the part rigidly on the vibrating structure (a board or bracket is the user's: mount_fn_hz, mount_q)"
 _WHY_HOLD = "an over-range recovery is a circuit's (ADXL355: 0.5 ms); beyond 10 s the part is off, not protected"
 
 # The kinds whose value is a number (or a pair of numbers): every file marks where it comes from.
@@ -263,6 +266,38 @@ class StageConfig:
 
 # The stage configurations, in the order of the chain (runtime stages are imported where they
 # are built: scipy stays out of the modules the CLI loads for every command).
+
+@dataclass(frozen=True)
+class Mount(StageConfig):
+    """The PCB or bracket between the environment and the part (the article's package and
+    mounting resonance): its base-excitation transmissibility at ``mount_fn_hz`` with
+    ``mount_q`` on every vibration component (:class:`vrelab.sensor.mount.MountTransmissibility`,
+    ``|T|² = (1 + (2ζr)²)/((1 − r²)² + (2ζr)²)``, r = f/fn, ζ = 1/(2Q)). Absent: a rigid mount."""
+
+    mount_fn_hz: float | None = row(Field(
+        "mount_fn_hz", "mount_fn_hz", "positive", None,
+        "mount (PCB, bracket) resonance [Hz] (with mount_q; omit both for a rigid mount)",
+        lower=1.0, why_lower="below 1 Hz a mount is a suspension, not a mount", upper=1e6,
+        why_upper="a resonance above 1 MHz is no board's or bracket's", sweepable=True, assumable=True,
+        default_fact=_RIGID))
+    mount_q: float | None = row(Field(
+        "mount_q", "mount_q", "positive", None, "quality factor of the mount resonance (its transmissibility peak)",
+        lower=0.5, why_lower="below Q 0.5 the mount is overdamped: no resonance left to speak of",
+        upper=1e3, why_upper="no bolted board or bracket rings that long (Steinberg: Q of PCBs about 10 to 50)",
+        sweepable=True, assumable=True, default_fact=_RIGID))
+
+    def validate(self, sensor: Sensor) -> None:
+        if (self.mount_fn_hz is None) != (self.mount_q is None):
+            raise ValueError(f"sensor {sensor.name}: mount_fn_hz and mount_q must be given together, got "
+                             f"mount_fn_hz={self.mount_fn_hz!r}, mount_q={self.mount_q!r}")
+
+    def build(self, sensor: Sensor, factor: int) -> tuple[Stage, ...]:
+        from vrelab.sensor.mount import MountTransmissibility
+
+        if self.mount_fn_hz is None or self.mount_q is None:
+            return ()
+        return (MountTransmissibility(self.mount_fn_hz, self.mount_q),)
+
 
 @dataclass(frozen=True)
 class Mechanics(StageConfig):
@@ -743,6 +778,6 @@ class Resolution(StageConfig):
 
 # The stages of every sensor description, in chain order (vrelab.sensor.fields.STAGES starts as this).
 DEFAULT_STAGES: tuple[type[StageConfig], ...] = (
-    Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter, HighPassFilter, Bias,
+    Mount, Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter, HighPassFilter, Bias,
     Sampling, Rails, Resolution,
 )

@@ -46,6 +46,7 @@ from vrelab.sensor.configs import (
     Bias,
     HighPassFilter,
     Mechanics,
+    Mount,
     NoiseFloor,
     OutputFilter,
     ProofMassClip,
@@ -89,7 +90,7 @@ if TYPE_CHECKING:
     # (sensor.fn_hz: float | None) and set by dataclasses.replace(sensor, fn_hz=...). At run time
     # they resolve through the sensor's stage configurations (Sensor.__getattr__), so a stage
     # registered later (vrelab.sensor.fields.register_stage) reads the same way, typed Any.
-    class _StageFields(Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter,
+    class _StageFields(Mount, Mechanics, Sense, Protection, ProofMassClip, NoiseFloor, AntiAliasFilter, OutputFilter,
                        HighPassFilter, Bias, Sampling, Rails, Resolution):
         pass
 else:

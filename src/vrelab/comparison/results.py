@@ -1,0 +1,203 @@
+"""What :func:`vrelab.compare` returns: one :class:`CandidateRow` a candidate, ranked, in a
+:class:`Comparison`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+from vrelab._format import finite_or_none
+from vrelab.results import level_vrc
+
+# verdicts in rank order: a pass first, an invalid prediction last (never ranked as a pass)
+VERDICTS = ("pass", "undecided", "fail", "invalid")
+# the expanded uncertainty's coverage factor (GUM 6.2: k = 2, about 95 % for a normal distribution)
+COVERAGE_K = 2.0
+
+
+@dataclass(frozen=True)
+class Point:
+    """One candidate at one level and one static field: its VRE [g] with its standard u, and the
+    budget [g] at that static field."""
+
+    rms_g: float
+    static_g: float
+    vre_g: float
+    u_vre_g: float | None  # None: the sensor states no u
+    limit_g: float
+    shares: Mapping[str, float] = field(default_factory=dict)
+    u_sources_g: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def expanded_g(self) -> float:
+        """U = k·u (k = 2) [g]; 0 where the sensor states no u (its numbers taken as exact)."""
+        return COVERAGE_K * (self.u_vre_g or 0.0)
+
+    @property
+    def high(self) -> float:
+        """(|VRE| + U) / budget: the guarded margin (≤ 1: within the budget whatever the u)."""
+        return (abs(self.vre_g) + self.expanded_g) / self.limit_g
+
+    @property
+    def low(self) -> float:
+        """(|VRE| − U) / budget (> 1: beyond the budget whatever the u)."""
+        return (abs(self.vre_g) - self.expanded_g) / self.limit_g
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rms_g": self.rms_g, "static_g": self.static_g, "vre_g": finite_or_none(self.vre_g),
+                "u_vre_g": finite_or_none(self.u_vre_g) if self.u_vre_g is not None else None,
+                "U_vre_g": finite_or_none(self.expanded_g), "budget_g": finite_or_none(self.limit_g),
+                "margin": finite_or_none(self.high)}
+
+
+def dominant(values: Mapping[str, float]) -> tuple[str | None, float | None]:
+    """The name and value of the largest |value| (None, None for none)."""
+    if not values:
+        return None, None
+    name = max(values, key=lambda k: abs(values[k]))
+    return name, values[name]
+
+
+# the shares that are parts of another (each rail of clip_g; each cross term of cross_g)
+_PARTS = ("clip_low_g", "clip_high_g")
+
+
+@dataclass(frozen=True)
+class CandidateRow:
+    """One candidate's answer: at its worst point (the largest guarded margin over the levels and
+    static fields) its VRE, U (k = 2), VRC, tilt error, the dominant mechanism and uncertainty
+    source; its ``verdict`` against the budget ("pass": VRE + U ≤ budget at every point; "fail":
+    VRE − U > budget at some point; "undecided" otherwise; "invalid": the prediction is not
+    valid, ``reason`` says why) and every point."""
+
+    candidate: Any  # vrelab.comparison.candidates.Candidate
+    verdict: str
+    points: tuple[Point, ...] = ()
+    reason: str | None = None
+    notes: tuple[str, ...] = ()
+
+    @property
+    def valid(self) -> bool:
+        return self.verdict != "invalid"
+
+    @property
+    def worst(self) -> Point | None:
+        return max(self.points, key=lambda p: p.high) if self.points else None
+
+    @property
+    def margin(self) -> float | None:
+        """(|VRE| + U)/budget at the worst point: what the rows are ranked by (None: invalid)."""
+        w = self.worst
+        return w.high if w is not None else None
+
+    @property
+    def vrc_ug_per_g2(self) -> float | None:
+        """The VRE per rms² at the worst point [µg/g²] (:func:`vrelab.results.level_vrc`)."""
+        w = self.worst
+        return None if w is None else level_vrc(w.vre_g, w.rms_g)[0]
+
+    @property
+    def tilt_error_deg(self) -> tuple[float, float] | None:
+        """(tilt error, its U) [deg] at the worst point, ``δ/(g·cos θ)``
+        (:class:`~vrelab.comparison.candidates.Budget`); None on a vertical axis (|g0| near 1 g)."""
+        from vrelab.comparison.candidates import Budget
+        from vrelab.models.design import NEAR_VERTICAL_G
+
+        w = self.worst
+        if w is None or abs(w.static_g) > 1.0 - NEAR_VERTICAL_G:
+            return None
+        return Budget.tilt_deg(w.vre_g, w.static_g), Budget.tilt_deg(w.expanded_g, w.static_g)
+
+    @property
+    def mechanism(self) -> str | None:
+        """The largest share of the VRE at the worst point (``clip``, ``nonlinearity``, ``overrange``, ``cross``)."""
+        w = self.worst
+        if w is None:
+            return None
+        name, _ = dominant({k: v for k, v in w.shares.items() if k not in _PARTS and not k.startswith("cross_k")})
+        return name[:-2] if name and name.endswith("_g") else name
+
+    @property
+    def dominant_u(self) -> tuple[str, float] | None:
+        """The largest uncertainty source at the worst point and its standard u [g] (None: no u stated)."""
+        w = self.worst
+        name, value = dominant(dict(w.u_sources_g)) if w is not None else (None, None)
+        return None if name is None or value is None else (name, value)
+
+    def to_dict(self) -> dict[str, Any]:
+        w = self.worst
+        tilt = self.tilt_error_deg
+        du = self.dominant_u
+        return {
+            "candidate": self.candidate.spec, "label": self.candidate.label, "part": self.candidate.part,
+            "range_g": self.candidate.range_g, "odr_hz": self.candidate.odr_hz, "axis": self.candidate.axis,
+            "verdict": self.verdict, "valid": self.valid, "reason": self.reason,
+            "vre_g": finite_or_none(w.vre_g) if w else None,
+            "U_vre_g": finite_or_none(w.expanded_g) if w else None, "k": COVERAGE_K,
+            "vrc_ug_per_g2": finite_or_none(self.vrc_ug_per_g2) if w else None,
+            "tilt_error_deg": finite_or_none(tilt[0]) if tilt else None,
+            "U_tilt_error_deg": finite_or_none(tilt[1]) if tilt else None,
+            "margin": finite_or_none(self.margin) if w else None,
+            "worst": {"rms_g": w.rms_g, "static_g": w.static_g} if w else None,
+            "dominant_mechanism": self.mechanism,
+            "dominant_u": {"source": du[0], "u_vre_g": finite_or_none(du[1])} if du else None,
+            "points": [p.to_dict() for p in self.points],
+            "notes": list(self.notes),
+        }
+
+
+def ranked(rows: Sequence[CandidateRow]) -> tuple[CandidateRow, ...]:
+    """Pass, undecided, fail, invalid; within each by the guarded margin (smaller first), then by label."""
+    return tuple(sorted(rows, key=lambda r: (VERDICTS.index(r.verdict),
+                                             r.margin if r.margin is not None and math.isfinite(r.margin) else math.inf,
+                                             r.candidate.label)))
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Candidates ranked against a budget in one environment (:func:`vrelab.compare`).
+
+    ``rows`` in rank order (:func:`ranked`); ``conditions``: the environment, levels, static
+    fields, budget and mount they were judged at; ``notes``: what applies to every row."""
+
+    conditions: Mapping[str, Any]
+    rows: tuple[CandidateRow, ...]
+    notes: tuple[str, ...] = ()
+
+    @property
+    def best(self) -> CandidateRow | None:
+        """The first-ranked row that passes; None where none does (no candidate is shown to hold the budget)."""
+        return next((r for r in self.rows if r.verdict == "pass"), None)
+
+    def to_dict(self) -> dict[str, Any]:
+        best = self.best
+        return {"kind": "comparison", "conditions": dict(self.conditions),
+                "best": best.candidate.spec if best else None,
+                "counts": {v: sum(r.verdict == v for r in self.rows) for v in VERDICTS},
+                "rows": [r.to_dict() for r in self.rows], "notes": list(self.notes)}
+
+    def to_dataframe(self) -> Any:
+        """One row a candidate (rank order) with the scalar columns of :meth:`CandidateRow.to_dict`
+        (pandas: installed with the ``sweep`` extra's xarray)."""
+        import importlib
+
+        try:  # pandas is no dependency of vrelab (xarray brings it), nor typed here
+            pd = importlib.import_module("pandas")
+        except ImportError:
+            raise ValueError("to_dataframe needs pandas (pip install pandas, or vrelab[sweep])") from None
+        rows = []
+        for r in self.rows:
+            d = r.to_dict()
+            du = d.pop("dominant_u") or {}
+            d.pop("points"), d.pop("worst")
+            d["notes"] = "; ".join(d["notes"])
+            d["dominant_u"], d["dominant_u_g"] = du.get("source"), du.get("u_vre_g")
+            rows.append(d)
+        return pd.DataFrame(rows)
+
+    def __repr__(self) -> str:
+        counts = ", ".join(f"{sum(r.verdict == v for r in self.rows)} {v}" for v in VERDICTS)
+        best = self.best
+        return (f"<Comparison {len(self.rows)} candidates against {self.conditions.get('budget')}: {counts}; "
+                f"best {best.candidate.label if best else 'none'}>")
