@@ -72,7 +72,7 @@ def register_stage(stage: type[StageConfig], after: type[StageConfig] | None = N
 
     >>> from vrelab.sensor import fields
     >>> [stage.__name__ for stage in fields.STAGES][:4]
-    ['Mechanics', 'Sense', 'Protection', 'ProofMassClip']
+    ['Mount', 'Mechanics', 'Sense', 'Protection']
     """
     global STAGES, FIELDS
     order = list(STAGES)
@@ -103,7 +103,7 @@ def stage_registered(stage: type[StageConfig], after: type[StageConfig] | None =
     ...                                        "the cable's capacitance [pF]"))
     >>> with fields.stage_registered(Cable, after=Mechanics):
     ...     print([stage.__name__ for stage in fields.STAGES][:3])
-    ['Mechanics', 'Cable', 'Sense']
+    ['Mount', 'Mechanics', 'Cable']
     >>> Cable in fields.STAGES
     False
     """

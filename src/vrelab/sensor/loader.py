@@ -127,7 +127,7 @@ class Sensor(_StageFields):
     >>> print(sensor.name, sensor.range_g, sensor.fn_hz, sensor.bandwidth_hz)
     adxl355 2.0 2400.0 1000.0
     >>> [type(c).__name__ for c in sensor.configs][:4]
-    ['Mechanics', 'Sense', 'Protection', 'ProofMassClip']
+    ['Mount', 'Mechanics', 'Sense', 'Protection']
     """
 
     name: str
