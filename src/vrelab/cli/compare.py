@@ -20,12 +20,16 @@ undecided | fail | invalid, ``valid``, ``reason``, ``vre_g``, ``U_vre_g``, ``k``
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 from vrelab.cli._common import add_mount_arguments, mount_overrides, positive_list, print_json
 
+if TYPE_CHECKING:
+    from vrelab.cli._common import Subparsers
+    from vrelab.comparison.results import Comparison
 
-def print_comparison(cmp: Any) -> None:
+
+def print_comparison(cmp: Comparison) -> None:
     """The ranked table, then each invalid candidate's reason and the notes."""
     d = cmp.to_dict()
     c = d["conditions"]
@@ -83,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "compare",
         help="rank parts, ranges and output rates against a VRE or tilt budget in a vibration environment",

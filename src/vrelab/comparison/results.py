@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from vrelab._format import finite_or_none
 from vrelab.results import level_vrc
+
+if TYPE_CHECKING:
+    from vrelab.comparison.candidates import Candidate
 
 # verdicts in rank order: a pass first, an invalid prediction last (never ranked as a pass)
 VERDICTS = ("pass", "undecided", "fail", "invalid")
@@ -71,7 +74,7 @@ class CandidateRow:
     VRE − U > budget at some point; "undecided" otherwise; "invalid": the prediction is not
     valid, ``reason`` says why) and every point."""
 
-    candidate: Any  # vrelab.comparison.candidates.Candidate
+    candidate: Candidate
     verdict: str
     points: tuple[Point, ...] = ()
     reason: str | None = None

@@ -108,7 +108,7 @@ def predict(
     return _with_mount_note(pred, sensor, vibration)
 
 
-def _with_mount_note(pred: Prediction, sensor: Sensor, vibration: Any) -> Prediction:
+def _with_mount_note(pred: Prediction, sensor: Sensor, vibration: object) -> Prediction:
     """The prediction with the fixture rule's warning on the sensor's mount (:func:`vrelab.prediction.checks.mount_note`)
     among its notes, where it has one."""
     if getattr(sensor, "mount_fn_hz", None) is None:
