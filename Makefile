@@ -40,7 +40,7 @@ demo: $(STAMP_BASE) examples
 # busy threads on 2 cores; the identify and sweep tests took 59 s instead of 44 s).
 test: $(STAMP_TEST) examples
 	$(BIN)/python tests/setup_browser.py
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 --dist loadfile
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder
 
 docs: $(STAMP_TEST) examples
 	$(BIN)/python -m sphinx -b html -W --keep-going docs docs/_build/html

@@ -24,10 +24,38 @@ HARDENING_MODULES = ("test_hardening_folders", "test_hardening_inputs", "test_un
 HARDENING_CAP_BYTES = 6 * 1024**3
 
 
+# The heaviest test files, heaviest first (one worker's seconds at 3dfc271 on a 2-core CI clone,
+# `--durations`: the tour's page ~150 s, identify's recovery 86 s, campaign 71 s, sweep 69 s, mypy
+# 55 s, the docs' build 47 s...). `make test` runs `--dist loadfile --no-loadscope-reorder`: each
+# worker takes the next whole file in collection order, so these go first and the light files fill
+# in behind them (longest first: no worker left alone on a heavy file at the end, as when xdist
+# orders the files by their number of tests and the one-test heavy files came last).
+HEAVY_FIRST = ("test_readme_tour", "test_identify_recovery", "test_campaign", "test_sweep", "test_lint",
+               "test_readme_tutorials", "test_readme", "test_docs", "test_imports", "test_triaxial_identify_sim",
+               "test_demo", "test_coverage", "test_report_layout", "test_predict", "test_identify_honest",
+               "test_gum", "test_one_predict", "test_report_browser")
+
+
+def _file_order(items) -> list:
+    """``items`` grouped by file: the HEAVY_FIRST files in that order, then the others by their
+    number of tests, most first (xdist's own order for --dist loadfile), each file's tests in
+    their order."""
+    by_file: dict[str, list] = {}
+    for item in items:
+        by_file.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+
+    def rank(path: str) -> tuple[int, int]:
+        stem = path.rsplit("/", 1)[-1].removesuffix(".py")
+        return (HEAVY_FIRST.index(stem) if stem in HEAVY_FIRST else len(HEAVY_FIRST), -len(by_file[path]))
+
+    return [item for path in sorted(by_file, key=rank) for item in by_file[path]]
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.module is not None and item.module.__name__.rsplit(".", 1)[-1] in HARDENING_MODULES:
             item.add_marker(pytest.mark.hardening)
+    items[:] = _file_order(items)
 
 
 @pytest.fixture(autouse=True)

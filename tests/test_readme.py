@@ -78,6 +78,20 @@ def page_steps(page: str) -> list[tuple[str, object]]:
 
 
 STEPS = [(page, k, kind, what) for page in PAGES for k, (kind, what) in enumerate(page_steps(page))]
+# Where each page's steps run: a page is one worker's (its steps share a folder, in order), and
+# pytest-xdist's --dist loadfile gives a worker whole files, so the heavy pages (each runs a
+# campaign and a report) are files of their own, run beside each other rather than one after
+# another on one worker. Every page is in exactly one (test_every_page_runs_in_one_file).
+PAGE_FILES = {
+    "test_readme": ("README.md", "docs/environments.md", "docs/index.md"),
+    "test_readme_tour": ("docs/tour.md",),
+    "test_readme_tutorials": ("docs/designer-path.md", "docs/tutorial-test-engineer.md", "docs/tutorial-designer.md"),
+}
+
+
+def page_step_params(pages: tuple[str, ...]) -> list:
+    """The steps of ``pages``, as pytest params of :func:`test_page_step_runs`."""
+    return [pytest.param(*s, id=_step_id(*s), marks=_marks(s[3])) for s in STEPS if s[0] in pages]
 
 
 def _id(argv: list[str]) -> str:
@@ -150,10 +164,29 @@ def _environment() -> dict[str, str]:
     return env
 
 
-@pytest.mark.parametrize(("page", "k", "kind", "what"),
-                         [pytest.param(*s, id=_step_id(*s), marks=_marks(s[3])) for s in STEPS])
+def test_every_page_runs_in_one_file():
+    """Each page's steps run in exactly one test file (PAGE_FILES), and each of those files runs
+    its pages' steps: splitting the pages across files drops none."""
+    import importlib
+
+    listed = [page for pages in PAGE_FILES.values() for page in pages]
+    assert sorted(listed) == sorted(PAGES), "a page in no file, or in two"
+    for name, pages in PAGE_FILES.items():
+        module = importlib.import_module(name)
+        marks = [m for m in module.test_page_step_runs.pytestmark if m.name == "parametrize"]
+        assert [p.values[0] for p in marks[0].args[1]] == [s[0] for s in STEPS if s[0] in pages], name
+
+
+@pytest.mark.parametrize(("page", "k", "kind", "what"), page_step_params(PAGE_FILES["test_readme"]))
 def test_page_step_runs(page: str, k: int, kind: str, what: object, workspaces, tmp_path_factory,
                         request, monkeypatch) -> None:
+    run_page_step(page, k, kind, what, workspaces, tmp_path_factory, request, monkeypatch)
+
+
+def run_page_step(page: str, k: int, kind: str, what: object, workspaces, tmp_path_factory,
+                  request, monkeypatch) -> None:
+    """One step of a page, in the page's folder: a Python block in its namespace, a command as a
+    subprocess that must exit 0."""
     workspace, namespace = _workspace(workspaces, page, tmp_path_factory)
     if kind == "python":
         monkeypatch.chdir(workspace)

@@ -138,6 +138,29 @@ def test_lowpass_minus_3db_at_corner(kind):
     assert _sine_gain(stage, 50.0, fs, periods=40) == pytest.approx(1.0, rel=1e-3)
 
 
+_W = 2 * np.pi  # rad/s per Hz
+_ANALOG = [  # a stage and scipy's own analog design of it (zpk), which its response must be
+    (LowPass(1000.0, 4, "butterworth"), signal.butter(4, _W * 1000.0, analog=True, output="zpk")),
+    (LowPass(250.0, 3, "bessel"), signal.bessel(3, _W * 250.0, norm="mag", analog=True, output="zpk")),
+    (HighPass(0.5, 2), signal.butter(2, _W * 0.5, btype="highpass", analog=True, output="zpk")),
+]
+
+
+@pytest.mark.parametrize(("stage", "zpk"), _ANALOG, ids=["butterworth", "bessel", "highpass"])
+@pytest.mark.parametrize("f_hz", [np.array(37.0), np.geomspace(0.01, 1e5, 301), np.geomspace(1.0, 1e4, 12).reshape(3, 4)],
+                         ids=["scalar", "vector", "matrix"])
+def test_analog_response_is_scipys_freqs_zpk(stage, zpk, f_hz):
+    """A filter's ``response`` (the analog prototype, written out by hand for speed) is scipy's
+    ``signal.freqs_zpk`` of scipy's own design, at every frequency, in the frequencies' shape (a
+    0-d one too). rtol 1e-14: the same few complex products (order <= 4), each rounding by
+    ~2^-53, so a few ulp apart at most; a wrong pole, gain or sign is off by far more."""
+    z, p, k = zpk
+    _, h = signal.freqs_zpk(z, p, k, worN=_W * np.atleast_1d(f_hz))
+    got = stage.response(f_hz)
+    assert np.shape(got) == np.shape(f_hz)
+    np.testing.assert_allclose(np.ravel(got), np.ravel(h), rtol=1e-14, atol=0.0)
+
+
 def test_highpass_removes_dc():
     """Why presets keep the HPF off: it removes the very DC shift (VRE)."""
     fs = 1000.0

@@ -74,6 +74,13 @@ class ReportFigure:
         from vrelab.report.interactive import to_plotly_json
 
         buf = io.BytesIO()
+        # The layout once, then one draw: savefig under a layout engine draws the figure twice
+        # (a draw without output that runs the engine, then the drawing), the first pass as
+        # dear as the second; run at the saving dpi, so the PNG is the one savefig makes alone.
+        engine = fig.get_layout_engine()
+        if engine is not None and dpi == fig.dpi:
+            engine.execute(fig)
+            fig.set_layout_engine("none")
         fig.savefig(buf, format="png", dpi=dpi)
         # Translated after savefig: the layout engine has placed the axes the twin copies.
         twin = to_plotly_json(fig) if interactive else None
