@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from vrelab._load import toml_loads
 from vrelab.results import Conditions
 from vrelab.sensor import fields
+from vrelab.sensor.catalog import VRE_STATEMENT, vre_statement
 from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.configs import (
     AntiAliasFilter,
@@ -55,6 +56,7 @@ from vrelab.sensor.configs import (
     Sampling,
     Sense,
     StageConfig,
+    nonlinearity_u,
 )
 from vrelab.sensor.fields import is_number
 from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
@@ -276,8 +278,8 @@ class Sensor(_StageFields):
         """The band-limit at the output at ``corner_hz`` [Hz] (:class:`~vrelab.sensor.configs.OutputFilter`):
         with an ODR the part's digital low-pass (:class:`LowPass`), without one an analog output
         filter of the same order and family (:class:`AnalogLowPass`)."""
-        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind).filter(
-            corner_hz, self.odr_hz)
+        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind,
+                            lowpass_corner=self.lowpass_corner).filter(corner_hz, self.odr_hz)
 
     def chain(self, fs_hz: float) -> SensorChain:
         """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
@@ -370,7 +372,7 @@ def _set_fields(configs: tuple[StageConfig, ...], values: Mapping[str, Any], nam
 # [axes.*] or in [ranges.*].
 _FILE_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
-    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty",
+    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty", "vre_statement",
 }
 # The table of assumed standard uncertainties (top level < [axes.*] < [ranges.*]).
 UNCERTAINTY = "uncertainty"
@@ -662,6 +664,10 @@ def load_sensor(
     range_table = dict(ranges_table[range_key]) if range_key is not None else None
     values, uncertainty, covariance = _layered_values(data, axis_table, range_table, chosen_odr, where,
                                                       f"[axes.{chosen_axis}]", f"[ranges.{range_key}]")
+    cov_params = covariance.get("params", ()) if isinstance(covariance, Mapping) else ()
+    for key, u in nonlinearity_u(values.get("nonlinearity_pct_fs"), req).items():  # the file's own u wins
+        if key not in cov_params:
+            uncertainty.setdefault(key, u)
     # ---- values the user sets (--k2/--k3, a sweep point) win over the file
     rows = fields.by_key()
     user = dict(overrides or {})
@@ -713,6 +719,7 @@ def _read_checked(spec: str) -> tuple[dict[str, Any], str, str]:
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
+    vre_statement(data.get(VRE_STATEMENT), origin)  # the datasheet's VRE statement, checked (catalog)
     return data, origin, name
 
 
