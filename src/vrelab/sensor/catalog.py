@@ -171,3 +171,27 @@ def part_details(spec: str, range_g: float | None = None, axis: str | None = Non
     out["unstated"] = [{"parameter": n, "value": parameter(s, n), "fact": s.facts.get(params[n].fact_key, "")}
                        for n in s.unstated]
     return out
+
+
+def parts_table() -> str:
+    """The parts table of docs/presets.md, generated from the presets (a test holds the page to
+    it, so no number there goes stale): name, ranges, output rates, output filter, datasheet VRE
+    statement, and whether the preset reproduces it."""
+    from vrelab.sensor.loader import list_presets, load_sensor
+
+    lines = ["| preset | ranges [g] | ODR [Hz] | output filter | datasheet VRE statement | reproduced |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for name in list_presets():
+        p = part_summary(name)
+        s = load_sensor(name)
+        lo, hi = (min(p["odrs_hz"]), max(p["odrs_hz"])) if p["odrs_hz"] else (0.0, 0.0)
+        odrs = "none (analog)" if not p["odrs_hz"] else f"{hi:g}" if lo == hi else f"{lo:g}–{hi:g}"
+        filt = ("none" if s.bandwidth_hz is None else
+                f"{s.lowpass_kind} order {s.lowpass_order or (3 if s.lowpass_kind == 'sinc' else 4)}, "
+                f"{s.bandwidth_hz:g} Hz at {s.lowpass_corner}" + (f" (ODR {s.odr_hz:g})" if s.odr_hz else ""))
+        st = p["vre_statement"]
+        said = p["vre_statement_text"].split(";")[0] if st else "none found"
+        done = "—" if not st else "yes (tests/test_parts_library.py)" if st["reproducible"] else "no: `vrelab sensor show` says why"
+        ranges = ", ".join(f"±{r:g}" for r in p["ranges_g"])
+        lines.append(f"| `{name}` | {ranges} | {odrs} | {filt} | {said} | {done} |")
+    return "\n".join(lines) + "\n"
