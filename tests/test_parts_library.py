@@ -229,7 +229,7 @@ def _statement_parts() -> list[str]:
 
 
 def test_the_parts_with_a_datasheet_vre_statement():
-    assert {"adxl357", "adxl359", "adxl380"} <= set(_statement_parts())
+    assert {"adxl356", "adxl357", "adxl359", "adxl380"} <= set(_statement_parts())
 
 
 @pytest.mark.parametrize("name", _statement_parts())

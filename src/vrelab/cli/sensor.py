@@ -31,7 +31,8 @@ def _list(as_json: bool) -> int:
     width = max(len(p["name"]) for p in parts)
     for p in parts:
         ranges = "/".join(f"±{r:g}" for r in p["ranges_g"]) + " g"
-        odrs = (f"ODR {min(p['odrs_hz']):g}-{max(p['odrs_hz']):g} Hz" if p["odrs_hz"] else "no ODR (analog)")
+        lo, hi = (min(p["odrs_hz"]), max(p["odrs_hz"])) if p["odrs_hz"] else (0.0, 0.0)
+        odrs = "no ODR modelled" if not p["odrs_hz"] else f"ODR {hi:g} Hz" if lo == hi else f"ODR {lo:g}-{hi:g} Hz"
         print(f"{p['name']:<{width}}  {ranges}; {odrs}; {p['description']}")
         print(f"{'':<{width}}  VRE statement: {p['vre_statement_text'] or 'none in its datasheet (or not found)'}")
     return 0

@@ -185,7 +185,7 @@ def parts_table() -> str:
         p = part_summary(name)
         s = load_sensor(name)
         lo, hi = (min(p["odrs_hz"]), max(p["odrs_hz"])) if p["odrs_hz"] else (0.0, 0.0)
-        odrs = "none (analog)" if not p["odrs_hz"] else f"{hi:g}" if lo == hi else f"{lo:g}–{hi:g}"
+        odrs = "none modelled" if not p["odrs_hz"] else f"{hi:g}" if lo == hi else f"{lo:g}–{hi:g}"
         filt = ("none" if s.bandwidth_hz is None else
                 f"{s.lowpass_kind} order {s.lowpass_order or (3 if s.lowpass_kind == 'sinc' else 4)}, "
                 f"{s.bandwidth_hz:g} Hz at {s.lowpass_corner}" + (f" (ODR {s.odr_hz:g})" if s.odr_hz else ""))

@@ -404,6 +404,8 @@ def unstated_assumptions(sensor: Sensor) -> tuple[str, ...]:
     for name, p in assumable().items():
         if name in sensor.uncertainty or name in cov or not _is_assumed(sensor.facts, p):
             continue
+        if name == f"cross_axis_{sensor.sensed_axis}":  # 0 on its own axis by definition, not assumed
+            continue
         if parameter(sensor, name) is not None:
             out.append(name)
     return tuple(out)
