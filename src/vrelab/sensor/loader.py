@@ -40,7 +40,6 @@ from numpy.typing import NDArray
 from vrelab._load import toml_loads
 from vrelab.results import Conditions
 from vrelab.sensor import fields
-from vrelab.sensor.catalog import VRE_STATEMENT, vre_statement
 from vrelab.sensor.chain import SensorChain
 from vrelab.sensor.configs import (
     AntiAliasFilter,
@@ -61,6 +60,7 @@ from vrelab.sensor.configs import (
 from vrelab.sensor.fields import is_number
 from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
 from vrelab.sensor.stages import Resonator, Stage
+from vrelab.sensor.statement import VRE_STATEMENT, vre_statement
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -721,7 +721,7 @@ def _read_checked(spec: str) -> tuple[dict[str, Any], str, str]:
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
-    vre_statement(data.get(VRE_STATEMENT), origin)  # the datasheet's VRE statement, checked (catalog)
+    vre_statement(data.get(VRE_STATEMENT), origin)  # the datasheet's VRE statement, checked
     return data, origin, name
 
 
