@@ -91,6 +91,15 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "environment list": [
         ("extra-name", ["navmat-p9492"], 'navmat-p9492'),
     ],
+    "sensor show": [
+        ("unknown-name", ["no-such-part"], 'no-such-part'),
+        ("unknown-range", ["adxl355", "--range", "3"], 'range'),
+        ("unknown-axis", ["adxl355", "--axis", "w"], 'axis'),
+        ("nan-odr", ["adxl355", "--odr", "nan"], 'odr'),
+    ],
+    "sensor list": [
+        ("extra-name", ["adxl355"], 'adxl355'),
+    ],
     "predict": [
         ("negative-level", [*PRED, "--levels", "-1"], 'levels'),
         ("nan-level", [*PRED, "--levels", "nan"], 'levels'),
@@ -257,6 +266,8 @@ VALID: dict[str, list[str]] = {
     "profile": ["20:0.01,80:0.04,2000:0.01", "--grms", "2", "--json"],
     "environment list": ["--json"],
     "environment show": ["navmat-p9492", "--json"],
+    "sensor list": ["--json"],
+    "sensor show": ["adxl355", "--json"],
     "predict": [*PRED, "--levels", "1", "--json"],
     "simulate": [*SIM, "--levels", "1", "--json"],
     "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],

@@ -38,7 +38,7 @@ def test_presets_listed():
     assert set(list_presets()) >= {"ideal", "adxl355", "adxl354", "adxl357"}
 
 
-@pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])
+@pytest.mark.parametrize("name", list_presets())
 def test_every_preset_loads_for_every_range_axis_odr_it_declares(name):
     ranges, axes, odrs = _options(name)
     for r in ranges:
@@ -55,7 +55,7 @@ def test_every_preset_loads_for_every_range_axis_odr_it_declares(name):
                 assert (c["sensor"], c["axis"], c["odr_hz"], c["static_g"]) == (name, axis, odr, 1.0)
 
 
-@pytest.mark.parametrize("name", ["ideal", "adxl355", "adxl354", "adxl357"])
+@pytest.mark.parametrize("name", list_presets())
 def test_facts_cover_every_numeric_field(name):
     """Each preset says, for every number, whether it is a data-sheet fact or an assumption: in its
     [facts], or by the field table's default fact for a value it leaves at the row's default. The
@@ -166,7 +166,7 @@ def test_linear_responses_proof_mass_and_output():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"spec": "adxl999"}, r"sensor must be one of adxl354, adxl355, adxl357, ideal or a path"),
+        ({"spec": "adxl999"}, r"sensor must be one of adxl354, adxl355, adxl356, adxl357, adxl359, adxl380, ideal, sca3300 or a path"),
         ({"spec": "adxl355", "range_g": 3}, r"range_g must be one of 2, 4, 8 g \(full scale 2.048, 4.096, 8.192\) for adxl355; got 3"),
         ({"spec": "adxl355", "axis": "w"}, r"axis must be one of x, y, z for adxl355; got 'w'"),
         ({"spec": "adxl355", "odr_hz": 3000}, r"odr_hz must be one of 4000, 2000, .* Hz for adxl355; got 3000"),

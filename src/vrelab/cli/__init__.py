@@ -31,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "model": "analytic VRE models: clipping at the rails, polynomial nonlinearity",
     "profile": "show a random vibration profile: grms and breakpoints",
     "environment": "the named vibration environments (standards' profiles) with their sources",
+    "sensor": "the parts library: presets with their datasheet facts, assumptions and VRE statements",
     "predict": "analytic VRE of a sensor in a sine or random vibration, with shares by mechanism",
     "compare": "rank parts, ranges and output rates against a VRE or tilt budget in a vibration environment",
     "simulate": "simulated shaker test of a sensor (random or sine method), reduced like a lab record",

@@ -405,6 +405,12 @@ class Sense(StageConfig):
     kpp_per_g: float = _coupling("pp", "cross-axis nonlinearity Kpp, output per a_p² [µg/g²]")
     koo_per_g: float = _coupling("oo", "cross-axis nonlinearity Koo, output per a_o² [µg/g²]")
     kpo_per_g: float = _coupling("po", "cross-coupling Kpo, output per a_p·a_o [µg/g²]", fitted=False)
+    nonlinearity_pct_fs: float | None = row(Field(
+        "nonlinearity_pct_fs", "nonlinearity_pct_fs", "positive", None,
+        "datasheet nonlinearity [% of the nominal range]: bounds k2 and k3 where the file gives them no u "
+        "(|k2| ≤ 2·NL/FS, |k3| ≤ 4·NL/FS², rectangular; nonlinearity_u)", upper=100.0,
+        why_upper="a deviation from the line beyond the full scale itself is no accelerometer's",
+        default_fact="assumption: not given (no k2, k3 bound from a datasheet nonlinearity)"))
 
     def validate(self, sensor: Sensor) -> None:
         own = sensor.sensed_axis
@@ -423,6 +429,37 @@ class Sense(StageConfig):
 
         k = (self.k2_per_g, self.k3_per_g2, self.k4_per_g3)
         return (Polynomial(*k),) if any(k) else ()
+
+
+def nonlinearity_bounds(pct_fs: float, fs_g: float) -> tuple[float, float]:
+    """The largest |k2| [1/g] and |k3| [1/g²] a datasheet nonlinearity of ±``pct_fs`` % of the
+    full scale ``fs_g`` [g] allows, each term taken alone.
+
+    Nonlinearity is the largest deviation of the transfer from its best-fit straight line over
+    ±FS, in % of FS (the ADXL355 datasheet's "% FS"), i.e. ``NL·FS`` [g] with ``NL = pct_fs/100``.
+    The straight line closest in the largest deviation (the minimax, Chebyshev line) to
+    ``k2·x²`` on [-FS, FS] is ``k2·FS²/2``: ``x² - FS²/2`` equioscillates at -FS, 0, FS with
+    deviation ``FS²/2``; to ``k3·x³`` it is ``(3/4)·k3·FS²·x``: ``x³ - (3/4)FS²·x = FS³·T3(x/FS)/4``
+    (Chebyshev's T3) deviates by ``FS³/4``. So ``|k2|·FS²/2 ≤ NL·FS`` and ``|k3|·FS³/4 ≤ NL·FS``:
+
+        |k2| ≤ 2·NL/FS,    |k3| ≤ 4·NL/FS².
+
+    The minimax line is the conservative reading: any other line (a least-squares one, an
+    end-point one) deviates more from the same term, so the same NL bounds k2 tighter (a
+    least-squares line leaves ``2·k2·FS²/3``: |k2| ≤ 1.5·NL/FS). tests/test_parts_library.py
+    holds the bound against a numerical minimax fit (scipy.optimize.linprog)."""
+    nl = pct_fs / 100.0
+    return 2.0 * nl / fs_g, 4.0 * nl / fs_g**2
+
+
+def nonlinearity_u(pct_fs: float | None, fs_g: float) -> dict[str, float]:
+    """The assumed standard uncertainties of k2 and k3 [µg/g², µg/g³, the file's units] that a
+    datasheet nonlinearity implies (:func:`nonlinearity_bounds`), each bound ±a read as
+    rectangular (GUM 4.3.7: u = a/√3); {} without a nonlinearity."""
+    if pct_fs is None:
+        return {}
+    k2, k3 = nonlinearity_bounds(pct_fs, fs_g)
+    return {"k2_ug_per_g2": k2 * UG_PER_G / math.sqrt(3.0), "k3_ug_per_g3": k3 * UG_PER_G / math.sqrt(3.0)}
 
 
 _NEEDS_THRESHOLD = "overrange_threshold_g"
@@ -591,24 +628,48 @@ class OutputFilter(StageConfig):
     lowpass_order: int | None = row(Field(
         "lowpass_order", "lowpass_order", "order", None,
         "output low-pass order (default 4)", upper=12, why_upper=_WHY_ORDER, needs="bandwidth_hz", assumable=True))
-    lowpass_kind: Literal["butterworth", "bessel"] = row(Field(
-        "lowpass_kind", "lowpass_kind", "choice", "butterworth", "output low-pass family",
-        choices=("butterworth", "bessel"), needs="bandwidth_hz"))
+    lowpass_kind: Literal["butterworth", "bessel", "sinc"] = row(Field(
+        "lowpass_kind", "lowpass_kind", "choice", "butterworth",
+        "output low-pass family: butterworth, bessel, or sinc (a sinc^N decimator, N = lowpass_order, default 3; "
+        "needs an ODR)", choices=("butterworth", "bessel", "sinc"), needs="bandwidth_hz"))
+    lowpass_corner: Literal["-3dB", "-6dB"] = row(Field(
+        "lowpass_corner", "lowpass_corner", "choice", "-3dB",
+        "the gain bandwidth_hz is given at, as the datasheet states it: -3dB (|H| = 1/√2) or -6dB (|H| = 1/2)",
+        choices=("-3dB", "-6dB"), needs="bandwidth_hz"))
 
     def validate(self, sensor: Sensor) -> None:
-        odr = sensor.odr_hz
-        if odr is not None and self.bandwidth_hz is not None and not self.bandwidth_hz < odr / 2:
+        odr, bw = sensor.odr_hz, self.bandwidth_hz
+        if bw is None:
+            return
+        if self.lowpass_kind == "sinc":
+            # a sinc decimator's corner may sit at the output's Nyquist (the ADXL380's 4 kHz at 8 kHz):
+            # its nulls at the multiples of 1/T, not the corner, keep the aliases out
+            if odr is None:
+                raise ValueError(f"sensor {sensor.name}: lowpass_kind = sinc is a decimation filter: it needs odrs_hz "
+                                 "(an analog part's output filter is butterworth or bessel)")
+            if not bw <= odr / 2:
+                raise ValueError(f"sensor {sensor.name}: bandwidth_hz must be at most ODR/2 = {odr / 2:g} Hz for a sinc "
+                                 f"decimator, got {bw!r}")
+        elif odr is not None and not bw < odr / 2:
             raise ValueError(
-                f"sensor {sensor.name}: bandwidth_hz must be below ODR/2 = {odr / 2:g} Hz, got {self.bandwidth_hz!r}")
+                f"sensor {sensor.name}: bandwidth_hz must be below ODR/2 = {odr / 2:g} Hz for a {self.lowpass_kind} "
+                f"low-pass (lowpass_kind = sinc for a decimator whose corner reaches ODR/2), got {bw!r}")
 
     def filter(self, corner_hz: float, odr_hz: float | None) -> Stage:
-        """The output filter at ``corner_hz`` [Hz]: digital with an ODR, analog without."""
+        """The output filter whose gain at ``corner_hz`` [Hz] is the ``lowpass_corner`` convention's:
+        digital with an ODR (a sinc^N decimator, :class:`~vrelab.sensor.sinc.SincLowPass`, or
+        :class:`~vrelab.sensor.stages.LowPass`), analog without. A -6 dB Butterworth or Bessel
+        corner becomes its -3 dB design corner (:func:`vrelab.sensor.sinc.corner_factor`)."""
+        from vrelab.sensor.sinc import SincLowPass, corner_factor
         from vrelab.sensor.stages import AnalogLowPass, LowPass
 
+        if self.lowpass_kind == "sinc":
+            return SincLowPass(corner_hz, self.lowpass_order or 3, self.lowpass_corner)
         order = self.lowpass_order or 4
+        design = corner_hz / corner_factor(self.lowpass_kind, order, self.lowpass_corner)
         if odr_hz is not None:
-            return LowPass(corner_hz, order, self.lowpass_kind)
-        return AnalogLowPass(corner_hz, order, self.lowpass_kind)
+            return LowPass(design, order, self.lowpass_kind)
+        return AnalogLowPass(design, order, self.lowpass_kind)
 
     def build(self, sensor: Sensor, factor: int) -> tuple[Stage, ...]:
         return () if self.bandwidth_hz is None else (self.filter(self.bandwidth_hz, sensor.odr_hz),)

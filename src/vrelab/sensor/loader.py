@@ -56,10 +56,12 @@ from vrelab.sensor.configs import (
     Sampling,
     Sense,
     StageConfig,
+    nonlinearity_u,
 )
 from vrelab.sensor.fields import is_number
 from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
 from vrelab.sensor.stages import Resonator, Stage
+from vrelab.sensor.statement import VRE_STATEMENT, vre_statement
 
 __all__ = ["Sensor", "load_sensor", "list_presets", "NUMERIC_FIELDS"]
 
@@ -288,8 +290,8 @@ class Sensor(_StageFields):
         """The band-limit at the output at ``corner_hz`` [Hz] (:class:`~vrelab.sensor.configs.OutputFilter`):
         with an ODR the part's digital low-pass (:class:`LowPass`), without one an analog output
         filter of the same order and family (:class:`AnalogLowPass`)."""
-        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind).filter(
-            corner_hz, self.odr_hz)
+        return OutputFilter(lowpass_order=self.lowpass_order, lowpass_kind=self.lowpass_kind,
+                            lowpass_corner=self.lowpass_corner).filter(corner_hz, self.odr_hz)
 
     def chain(self, fs_hz: float) -> SensorChain:
         """The signal chain at internal rate ``fs_hz`` (an integer multiple of the ODR)."""
@@ -382,7 +384,7 @@ def _set_fields(configs: tuple[StageConfig, ...], values: Mapping[str, Any], nam
 # [axes.*] or in [ranges.*].
 _FILE_KEYS = {
     "schema", "name", "description", "source", "default_range_g", "default_axis", "odrs_hz",
-    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty",
+    "default_odr_hz", "bandwidth_per_odr", "axes", "ranges", "facts", "uncertainty", "vre_statement",
 }
 # The table of assumed standard uncertainties (top level < [axes.*] < [ranges.*]).
 UNCERTAINTY = "uncertainty"
@@ -413,6 +415,8 @@ def unstated_assumptions(sensor: Sensor) -> tuple[str, ...]:
     out = []
     for name, p in assumable().items():
         if name in sensor.uncertainty or name in cov or not _is_assumed(sensor.facts, p):
+            continue
+        if name == f"cross_axis_{sensor.sensed_axis}":  # 0 on its own axis by definition, not assumed
             continue
         if parameter(sensor, name) is not None:
             out.append(name)
@@ -692,6 +696,10 @@ def load_sensor(
     range_table = dict(ranges_table[range_key]) if range_key is not None else None
     values, uncertainty, covariance = _layered_values(data, axis_table, range_table, chosen_odr, where,
                                                       f"[axes.{chosen_axis}]", f"[ranges.{range_key}]")
+    cov_params = covariance.get("params", ()) if isinstance(covariance, Mapping) else ()
+    for key, u in nonlinearity_u(values.get("nonlinearity_pct_fs"), req).items():  # the file's own u wins
+        if key not in cov_params:
+            uncertainty.setdefault(key, u)
     # ---- values the user sets (--k2/--k3, a sweep point) win over the file
     rows = fields.by_key()
     user = dict(overrides or {})
@@ -743,6 +751,7 @@ def _read_checked(spec: str) -> tuple[dict[str, Any], str, str]:
     name = data.get("name", Path(spec).stem)
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor {origin}: name must be a non-empty string, got {name!r}")
+    vre_statement(data.get(VRE_STATEMENT), origin)  # the datasheet's VRE statement, checked
     return data, origin, name
 
 
