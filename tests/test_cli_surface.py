@@ -51,6 +51,7 @@ COMMANDS = _commands()
 # fixture files (see `files`). Each argv is otherwise valid, so the one bad value is the cause.
 SIM = ["--sensor", "ideal", "--range", "2", "--profile", "flat:50-2000", "--seconds", "2"]
 PRED = ["--sensor", "adxl355", "--profile", "flat:50-2000"]
+CMP = ["--environment", "flat:50-2000", "--levels", "1"]
 CASES: dict[str, list[tuple[str, list[str], str]]] = {
     "model clip": [
         ("negative-level", ["--mean", "1", "--rail", "2", "--rms", "-1"], 'rms'),
@@ -99,6 +100,16 @@ CASES: dict[str, list[tuple[str, list[str], str]]] = {
     ],
     "sensor list": [
         ("extra-name", ["adxl355"], 'adxl355'),
+    ],
+    "compare": [
+        ("unknown-part", [*CMP, "--budget-vre", "1mg", "--candidates", "no-such-part:2g"], 'no-such-part'),
+        ("negative-level", ["--environment", "flat:50-2000", "--levels", "-1", "--budget-vre", "1mg",
+                            "--candidates", "ideal:8"], 'levels'),
+        ("nan-level", ["--environment", "flat:50-2000", "--levels", "nan", "--budget-vre", "1mg",
+                       "--candidates", "ideal:8"], 'levels'),
+        ("unitless-budget", [*CMP, "--budget-vre", "1", "--candidates", "ideal:8"], 'budget-vre'),
+        ("non-monotonic-profile", ["--environment", "100:0.01,50:0.02", "--levels", "1", "--budget-vre", "1mg",
+                                   "--candidates", "ideal:8"], 'monotonic'),
     ],
     "predict": [
         ("negative-level", [*PRED, "--levels", "-1"], 'levels'),
@@ -268,6 +279,7 @@ VALID: dict[str, list[str]] = {
     "environment show": ["navmat-p9492", "--json"],
     "sensor list": ["--json"],
     "sensor show": ["adxl355", "--json"],
+    "compare": [*CMP, "--budget-vre", "1mg", "--candidates", "ideal:8", "--json"],
     "predict": [*PRED, "--levels", "1", "--json"],
     "simulate": [*SIM, "--levels", "1", "--json"],
     "analyze": ["{d}/record.h5", "--dut", "dut", "--reference", "reference", "--json"],
