@@ -7,12 +7,12 @@ One rule for every result class, from the description the class gives (no copy p
   :mod:`vrelab._format`), a number with four significant digits, a sequence (levels, warnings)
   as its count (a few numbers, a vector: the numbers), a mapping as ``name = value`` pairs (its
   None values left out), a shown object in brackets.
-  A class with more to say (a fit's parameters) overrides ``_display_fields``.
+  A class with more to say (a fit's parameters) overrides ``display_fields``.
 * ``_ROWS``: the attribute holding its levels, each a mapping or with ``to_dict()``; one row a level,
   the columns named as ``to_dict`` (and so ``--json``) names them, units in the names
   (``rms_g``, ``vre_g``, ``u_vre_g``, ``U_vre_g``, ``k``, ``vrc_ug_per_g2``), a prediction's
   shares spread into their own columns, the flags or notes joined into ``note``. A class whose
-  levels sit deeper (per axis) overrides ``_display_rows``.
+  levels sit deeper (per axis) overrides ``display_rows``.
 
 A class sets ``_SHOW`` and ``_ROWS`` without an annotation: a dataclass lists even a ``ClassVar``
 in ``__dataclass_fields__``, which code iterates to copy a result's fields.
@@ -55,7 +55,7 @@ def text(value: Any) -> str | None:
     if value is None:
         return None
     if isinstance(value, Shown):
-        return value._as_field_()
+        return value.as_field()
     if isinstance(value, (str, bool)):
         return str(value)
     if _number(value):
@@ -102,11 +102,11 @@ class Shown:
     _SHOW: ClassVar[tuple[str, ...]] = ()
     _ROWS: ClassVar[str | None] = None
 
-    def _display_fields(self) -> list[tuple[str, Any]]:
+    def display_fields(self) -> list[tuple[str, Any]]:
         """(name, value) of what the repr shows."""
         return [(name, getattr(self, name)) for name in self._SHOW]
 
-    def _display_rows(self) -> list[dict[str, Any]] | None:
+    def display_rows(self) -> list[dict[str, Any]] | None:
         """One row per level (None: the result has no levels)."""
         if self._ROWS is None:
             return None
@@ -114,7 +114,7 @@ class Shown:
 
     def _shown_fields(self) -> list[tuple[str, str]]:
         out = []
-        for name, value in self._display_fields():
+        for name, value in self.display_fields():
             t = text(value)
             if t is not None:
                 out.append((name, _cut(t)))
@@ -124,7 +124,7 @@ class Shown:
         """The fields as ``name=value, ...`` (a result inside another's repr)."""
         return ", ".join(f"{name}={t}" for name, t in self._shown_fields())
 
-    def _as_field_(self) -> str:
+    def as_field(self) -> str:
         """How this result shows inside another's repr (an Estimate: ``value ± u unit``)."""
         return f"({self._inline_()})"
 
@@ -135,7 +135,7 @@ class Shown:
         head = "".join(f"<tr><th style='text-align:left'>{html.escape(n)}</th><td style='text-align:left'>"
                        f"{html.escape(t)}</td></tr>" for n, t in self._shown_fields())
         out = f"<div><table><caption>{html.escape(type(self).__name__)}</caption><tbody>{head}</tbody></table>"
-        rows = self._display_rows()
+        rows = self.display_rows()
         if rows:
             out += _html_table(rows)
         return out + "</div>"
@@ -143,7 +143,7 @@ class Shown:
     def to_dataframe(self) -> pandas.DataFrame:
         """One row per level, the columns named with their units as ``to_dict()`` names them
         (``rms_g``, ``vre_g``, ``u_vre_g``, ...; the flags or notes in ``note``)."""
-        rows = self._display_rows()
+        rows = self.display_rows()
         if rows is None:
             raise TypeError(f"{type(self).__name__} has no levels: no to_dataframe() (its to_dict() has it all)")
         try:
@@ -180,7 +180,7 @@ def per_axis(results: Mapping[str, Shown]) -> tuple[list[tuple[str, Any]], list[
     fields: list[tuple[str, Any]] = []
     rows: list[dict[str, Any]] = []
     for axis, result in results.items():
-        own = dict(result._display_fields())
+        own = dict(result.display_fields())
         fields.append((axis, own.get("fits") or f"{len(own.get('levels') or ())} levels"))
-        rows += [{"axis": axis, **row} for row in result._display_rows() or ()]
+        rows += [{"axis": axis, **row} for row in result.display_rows() or ()]
     return fields, rows

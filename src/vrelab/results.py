@@ -85,12 +85,14 @@ class Estimate(Shown):
     value: float
     u: float
     unit: str = "g"
-    _SHOW = ("value", "u", "unit")
 
-    def __repr__(self) -> str:  # plain floats (never np.float64(...)), and it evaluates back
-        return f"Estimate(value={float(self.value)!r}, u={float(self.u)!r}, unit={self.unit!r})"
+    def display_fields(self) -> list[tuple[str, Any]]:  # every digit (plain floats, never np.float64(...))
+        return [("value", repr(float(self.value))), ("u", repr(float(self.u))), ("unit", self.unit)]
 
-    def _as_field_(self) -> str:
+    def __repr__(self) -> str:  # it evaluates back
+        return "Estimate(" + ", ".join(f"{k}={v if k != 'unit' else repr(v)}" for k, v in self.display_fields()) + ")"
+
+    def as_field(self) -> str:
         return str(self)
 
     def expanded(self, k: float) -> float:
@@ -724,7 +726,7 @@ class VreResult(Shown):
     noise: NoiseResult | None = None
     _ROWS = "levels"
 
-    def _display_fields(self) -> list[tuple[str, Any]]:  # the fits' parameters are the headline
+    def display_fields(self) -> list[tuple[str, Any]]:  # the fits' parameters are the headline
         fits = "; ".join(str(f) if f.no_fit_reason is None else f"{f.model.name}: no fit" for f in self.fits)
         return [("kind", self.kind), ("method", self.method), ("conditions", self.conditions),
                 ("levels", self.levels), ("fits", fits or None), ("warnings", self.warnings)]

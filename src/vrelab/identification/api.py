@@ -28,7 +28,7 @@ class Identification(Shown):
     provenance: Mapping[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()  # the campaign's: runs that failed
 
-    def _display_fields(self) -> list[tuple[str, Any]]:  # each channel's determined parameters
+    def display_fields(self) -> list[tuple[str, Any]]:  # each channel's determined parameters
         return [("campaign", self.campaign), ("base_spec", self.base_spec), ("kind", self.kind),
                 *((c.channel, c.parameters) for c in self.channels), ("notes", self.notes)]
 

@@ -121,7 +121,7 @@ class SweepResult(Shown):
     summary: Mapping[str, Any]
     files: Mapping[str, Path]
 
-    def _display_fields(self) -> list[tuple[str, Any]]:  # the Dataset has its own repr and to_dataframe()
+    def display_fields(self) -> list[tuple[str, Any]]:  # the Dataset has its own repr and to_dataframe()
         return [("points", len(self.records)), ("summary", self.summary), ("files", ", ".join(self.files))]
 
 

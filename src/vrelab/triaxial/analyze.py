@@ -113,11 +113,11 @@ class TriaxialAnalysis(Shown):
         """Each DUT axis's result by its name, as :attr:`vrelab.triaxial.simulate.TriaxialTest.axes`."""
         return {name: result for name, result, _ in self.channels}
 
-    def _display_fields(self) -> list[tuple[str, Any]]:
+    def display_fields(self) -> list[tuple[str, Any]]:
         return [("reference", self.reference), ("segmenting_axis", self.segmenting_axis), ("levels", self.levels),
                 *per_axis(self.axes)[0]]
 
-    def _display_rows(self) -> list[dict[str, Any]]:
+    def display_rows(self) -> list[dict[str, Any]]:
         return per_axis(self.axes)[1]
 
     def to_dict(self, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:

@@ -188,11 +188,11 @@ class TriaxialTest(Shown):
     conditions: Mapping[str, Any]
     record_path: str | None = None
 
-    def _display_fields(self) -> list[tuple[str, Any]]:
+    def display_fields(self) -> list[tuple[str, Any]]:
         return [("method", self.method), ("excitation", self.excitation.describe()), ("static_g", self.static_g),
                 ("levels_g", self.levels_g), *per_axis(self.axes)[0]]
 
-    def _display_rows(self) -> list[dict[str, Any]]:
+    def display_rows(self) -> list[dict[str, Any]]:
         return per_axis(self.axes)[1]
 
     def to_dict(self) -> dict[str, Any]:
