@@ -218,6 +218,17 @@ def test_per_axis_results_give_one_row_per_axis_and_level():
     assert TRI_ANALYSIS.axes == {"x": RESULT, "z": AXES["z"]}
 
 
+def test_simulate_and_analyze_results_read_alike_by_axis():
+    """Issue 31's one shape, read side: a single-axis result, a triaxial test and a triaxial
+    analysis each give ``axes`` (axis -> VreResult) and a DataFrame with the same level columns."""
+    assert RESULT.axes == {"z": RESULT} and AXES["z"].axes == {"z": AXES["z"]}
+    assert VreResult("random", Conditions(), LEVELS).axes["dut"].levels == LEVELS
+    for result in (RESULT, TRI_TEST, TRI_ANALYSIS):
+        assert all(isinstance(r, VreResult) for r in result.axes.values())
+    single = set(RESULT.to_dataframe().columns)
+    assert set(TRI_TEST.to_dataframe().columns) == set(TRI_ANALYSIS.to_dataframe().columns) == single | {"axis"}
+
+
 def test_campaign_summary_table_is_its_vrc_by_frequency():
     df = SUMMARY.to_dataframe()
     assert list(df.columns) == ["freq_hz", "static_g", "vrc_ug_per_g2", "u"] and df["vrc_ug_per_g2"][0] == 3304.0

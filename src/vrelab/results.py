@@ -731,6 +731,12 @@ class VreResult(Shown):
         return [("kind", self.kind), ("method", self.method), ("conditions", self.conditions),
                 ("levels", self.levels), ("fits", fits or None), ("warnings", self.warnings)]
 
+    @property
+    def axes(self) -> dict[str, VreResult]:
+        """The result by DUT axis, as a triaxial test's and analysis's ``axes``: this one under its
+        ``conditions.axis`` (``"dut"`` when unknown), so ``simulate`` and ``analyze`` read alike."""
+        return {self.conditions.axis or "dut": self}
+
     def fit_summary(self) -> dict[str, Any]:
         merged: dict[str, Any] = {}
         for f in self.fits:
