@@ -224,6 +224,9 @@ def test_analyze_takes_the_clis_names_for_units_and_sensitivity(capsys):
                          dut_units="lsb", dut_sensitivity=256000)
     assert [lv.vre.value for lv in res.levels] == [lv["vre_g"] for lv in cli["levels"]]
     assert [lv.rms_g for lv in res.levels] == [lv["rms_g"] for lv in cli["levels"]]
+    # U and k as the CLI prints them (its default budget: the record's own u), U = k·u (GUM 6.2.1)
+    assert [(lv.U_vre_g, lv.k) for lv in res.levels] == [(lv["U_vre_g"], lv["k"]) for lv in cli["levels"]]
+    assert all(lv.U_vre_g == lv.k * lv.vre.u for lv in res.levels)  # type: ignore[operator]
     from vrelab.analysis.readers import Scale
 
     with pytest.raises(ValueError, match="give dut_scale or dut_units/dut_sensitivity, not both"):

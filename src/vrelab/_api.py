@@ -205,7 +205,8 @@ def analyze(
         ``options`` (a :class:`~vrelab.analysis.options.ReductionOptions`: band, settling, rail,
         profile, ...), ``fit`` (:class:`~vrelab.analysis.options.FitOptions`: static field,
         clipping model, ...), ``schedule``, ``provenance``; one axis: also ``budget``
-        (:class:`~vrelab.analysis.options.BudgetOptions`), ``conditions`` and, for one more
+        (:class:`~vrelab.analysis.options.BudgetOptions`; by default the CLI's, no Type B term:
+        every level has ``U_vre_g`` and ``k``), ``conditions`` and, for one more
         release, the former flat keywords (``profile=``, ``static_g=``, ...).
 
     Returns
@@ -238,6 +239,7 @@ def analyze(
                                  options)
     if not isinstance(dut, str):
         raise ValueError("a DUT axis mapping needs a triaxial reference: reference=(x, y, z channels)")
+    options.setdefault("budget", _cli_budget())
     if not isinstance(path_or_record, (str, Path)):
         from vrelab.record import ChannelView
 
@@ -274,6 +276,16 @@ def _check_keywords(options: Mapping[str, Any]) -> None:
     from vrelab.analysis.options import check_keywords
 
     check_keywords("analyze", (k for k in options if k not in _OPTION_OBJECTS))
+
+
+def _cli_budget() -> Any:
+    """The budget ``vrelab analyze`` makes without ``--u-*`` options: no Type B term declared,
+    the record's own (Type A) u only, so that every level carries ``U_vre_g`` and ``k`` (GUM
+    6.2.1, k from the Welch-Satterthwaite degrees of freedom) as the CLI prints them."""
+    from vrelab.analysis.options import BudgetOptions
+    from vrelab.gum import TypeB
+
+    return BudgetOptions(TypeB())
 
 
 # the keywords of vrelab.analysis.analyze that are not former flat keywords

@@ -213,10 +213,10 @@ def level_budget(level: LevelResult, typeb: TypeB, static_coeff: float | None,
         u_c = math.nan
     nu = welch_satterthwaite(u_c, [(u_a, level.dof)]) if math.isfinite(u_c) else math.nan
     k = coverage_factor(nu) if math.isfinite(u_c) else math.nan
-    U = k * u_c
+    vre = Estimate(v, u_c, level.vre.unit)
+    U = vre.expanded(k)
     decision = decide(v, U, limit_g) if limit_g is not None else None
-    return replace(level, vre=Estimate(v, u_c, level.vre.unit), budget=tuple(terms), U_vre_g=U, k=k,
-                   decision=decision)
+    return replace(level, vre=vre, budget=tuple(terms), U_vre_g=U, k=k, decision=decision)
 
 
 def weighted_mean_chi2(values: Sequence[float], us: Sequence[float]) -> tuple[float, float, float]:

@@ -11,6 +11,7 @@ import math
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Callable, ClassVar, Iterable, Literal, Mapping, Sequence, TypeVar
 
+from vrelab._display import Shown
 from vrelab._format import finite_or_none, format_mg_text, format_value_u
 
 # Two sine levels belong to the same frequency when they differ by at most this fraction: a
@@ -109,8 +110,8 @@ def notice(text: str, code: str = "note") -> Notice:
     return text if isinstance(text, Notice) else Notice(code, text)
 
 
-@dataclass(frozen=True)
-class Estimate:
+@dataclass(frozen=True, repr=False)
+class Estimate(Shown):
     """A value with its standard uncertainty (k = 1), in ``unit``.
 
     Examples
@@ -128,6 +129,20 @@ class Estimate:
     value: float
     u: float
     unit: str = "g"
+
+    def display_fields(self) -> list[tuple[str, Any]]:  # every digit (plain floats, never np.float64(...))
+        return [("value", repr(float(self.value))), ("u", repr(float(self.u))), ("unit", self.unit)]
+
+    def __repr__(self) -> str:  # it evaluates back
+        return "Estimate(" + ", ".join(f"{k}={v if k != 'unit' else repr(v)}" for k, v in self.display_fields()) + ")"
+
+    def as_field(self) -> str:
+        return str(self)
+
+    def expanded(self, k: float) -> float:
+        """The expanded uncertainty ``U = k·u`` (GUM 6.2.1) for a coverage factor ``k``: the
+        one product behind every U a result carries (:func:`vrelab.gum.level_budget`)."""
+        return k * self.u
 
     def __str__(self) -> str:
         if self.unit == "g" and abs(self.value) < 1:
@@ -147,8 +162,8 @@ def _nan(x: Any) -> float:
     return math.nan if x is None else float(x)
 
 
-@dataclass(frozen=True)
-class Conditions:
+@dataclass(frozen=True, repr=False)
+class Conditions(Shown):
     """What a VRE figure depends on (physics §1.4). Unknown fields stay ``None``.
 
     Examples
@@ -170,6 +185,7 @@ class Conditions:
     odr_hz: float | None = None
     axis: str | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    _SHOW = ("sensor", "model", "profile", "static_g", "range_g", "axis")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -187,8 +203,8 @@ class Conditions:
 NOTABLE_THD = 0.01
 
 
-@dataclass(frozen=True)
-class DriveWaveform:
+@dataclass(frozen=True, repr=False)
+class DriveWaveform(Shown):
     """The reference's waveform over one sine level (physics §4.4): a shaker's drive is not a pure sine.
 
     ``harmonics_rms_g[h-1]`` is the rms of harmonic h (h = 1 the fundamental), each an
@@ -217,6 +233,7 @@ class DriveWaveform:
     mean_square_g2: Estimate
     mean_cube_g3: Estimate
     residual_rms_g: float
+    _SHOW = ("thd", "harmonics_rms_g", "mean_square_g2", "mean_cube_g3")
 
     @property
     def distorted(self) -> bool:
@@ -288,8 +305,8 @@ def level_vrc(vre_g: float, rms_g: float, u_vre_g: float | None = None,
     return vrc, math.hypot(u_vre_g / rms_g**2 * UG_PER_G, 2.0 * vrc * rel_rms)
 
 
-@dataclass(frozen=True)
-class LevelResult:
+@dataclass(frozen=True, repr=False)
+class LevelResult(Shown):
     """VRE measured (or simulated) at one vibration level.
 
     Examples
@@ -323,6 +340,7 @@ class LevelResult:
     # sine: the reference's waveform over the level (harmonics, THD, E[x²], E[x³]); None for a
     # random level or a record without a reference
     drive: DriveWaveform | None = None
+    _SHOW = ("freq_hz", "rms_g", "vre", "vrc", "U_vre_g", "k", "decision", "flags")
 
     @property
     def vrc(self) -> Estimate:
@@ -413,8 +431,8 @@ def _out(x: Any) -> Any:
     return float(x) if getattr(x, "ndim", 1) == 0 else x
 
 
-@dataclass(frozen=True)
-class FitModel:
+@dataclass(frozen=True, repr=False)
+class FitModel(Shown):
     """A fitted model: its parameters and the VRE [g] it gives at a vibration level.
 
     ``params`` maps the parameter names (units in them: ``vrc_ug_per_g2``, ``rail_g``) to
@@ -435,6 +453,7 @@ class FitModel:
     params: Mapping[str, Estimate]
     NAME: ClassVar[str] = ""
     PARAMS: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    _SHOW = ("name", "params")
 
     def __post_init__(self) -> None:
         if self.PARAMS and set(self.params) not in [set(p) for p in self.PARAMS]:
@@ -487,7 +506,7 @@ def _one_field(model: FitModel, static_g: float | None) -> None:
                          "it takes no static_g")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class VrcModel(FitModel):
     """physics §1.2 and IEEE Std 1293-1998: ``VRE = VRC·rms²`` [g], VRC [µg/g²] = k2 + 3·k3·g0 at the
     static field g0 the levels were measured at (a sine fit over a distorted drive: at g0 +
@@ -519,7 +538,7 @@ class VrcModel(FitModel):
         return "one level only (a VRC needs two levels or more)" if n_points < 2 else None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class VrcK4Model(FitModel):
     """physics §1.2 with the quartic term: ``VRE = VRC·rms² + c4·rms⁴`` [g], c4 [µg/g⁴] =
     k4·E[x⁴]/rms⁴ (3·k4 for Gaussian vibration, 1.5·k4 for a sine; :func:`vrelab.fits.fit_vrc`).
@@ -544,7 +563,7 @@ class VrcK4Model(FitModel):
         return _out(_ug(self.params["vrc_ug_per_g2"]) * r**2 + _ug(self.params["c4_ug_per_g4"]) * r**4)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ClipModel(FitModel):
     """physics §1.1 (the Analog Devices article): Gaussian vibration of rms σ at static field g0
     clipped at the rails, ``VRE(σ) = E[clip(g0 + x)] − g0`` (``kind`` "censored": samples beyond
@@ -622,7 +641,7 @@ def _static_g(model: FitModel, static_g: float | None) -> float:
     return float(static_g)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class K2K3Model(FitModel):
     """physics §1.2 across orientations: ``VRE = (k2 + 3·k3·g0)·rms²`` [g] at static field g0 (the k4
     term ``6·k4·g0²`` folds into k2 at ±g0; :func:`vrelab.fits.fit_k2_k3`).
@@ -647,7 +666,7 @@ class K2K3Model(FitModel):
         return _out((_ug(self.params["k2_ug_per_g2"]) + 3.0 * _ug(self.params["k3_ug_per_g3"]) * g0) * r**2)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class K2Model(FitModel):
     """k2 alone, the VRC at 0 g (physics §1.2: VRC(0) = k2, a campaign's k2 from runs at 0 g only):
     ``VRE = k2·rms²`` [g] at 0 g, the field it was measured at (k3 unknown: no other field).
@@ -698,8 +717,8 @@ def fit_model(name: str, params: Mapping[str, Estimate], static_g: float | None 
     return _MODELS[name](dict(params))
 
 
-@dataclass(frozen=True)
-class FitResult:
+@dataclass(frozen=True, repr=False)
+class FitResult(Shown):
     """A fitted model (:class:`FitModel`: its name, its parameters with standard errors, the VRE
     it gives) and how it was fitted. ``departure_rms_g`` is the first level at which the data
     leave the model (None when they never do).
@@ -730,6 +749,7 @@ class FitResult:
     # a sine VRC fit over a distorted drive (physics §4.4): the drive's E[x³] makes the cubic term
     # rectify as at g0 + static_shift_g, so VRC = k2 + 3·k3·(g0 + static_shift_g) (None: a pure drive)
     static_shift_g: float | None = None
+    _SHOW = ("model", "freq_hz", "n_points", "chi2_reduced", "departure_rms_g", "notes")
 
     @property
     def params(self) -> Mapping[str, Estimate]:
@@ -799,8 +819,8 @@ _FIT_KEYS = frozenset({"model", "parameters", "static_g", "n_points", "chi2_redu
 Method = Literal["random", "sine"]
 
 
-@dataclass(frozen=True)
-class NoiseResult:
+@dataclass(frozen=True, repr=False)
+class NoiseResult(Shown):
     """A DUT channel's own noise on the vibration-off stretches of its record (physics §4.4): what a
     metrologist checks first (:func:`vrelab.analysis.noise.channel_noise`).
 
@@ -834,6 +854,7 @@ class NoiseResult:
     off_s: float
     n_stretches: int
     window_s: float
+    _SHOW = ("density_ug_rthz", "bias_instability_ug", "off_s", "n_stretches")
 
     def __str__(self) -> str:
         i = int(min(range(len(self.adev_ug)), key=lambda j: self.adev_ug[j])) if self.adev_ug else -1
@@ -868,8 +889,8 @@ class NoiseResult:
                    int(d.get("n_stretches") or 0), _nan(d.get("window_s")))
 
 
-@dataclass(frozen=True)
-class VreResult:
+@dataclass(frozen=True, repr=False)
+class VreResult(Shown):
     """A whole test (simulated or measured): levels, fits, warnings, provenance.
 
     ``to_dict()`` is the document that ``simulate --json``, ``analyze --json`` print and that
@@ -899,6 +920,18 @@ class VreResult:
     kind: Literal["simulation", "measurement"] = "measurement"
     # the DUT's noise on the record's vibration-off stretches (None: not measured)
     noise: NoiseResult | None = None
+    _ROWS = "levels"
+
+    def display_fields(self) -> list[tuple[str, Any]]:  # the fits' parameters are the headline
+        fits = "; ".join(str(f) if f.no_fit_reason is None else f"{f.model.name}: no fit" for f in self.fits)
+        return [("kind", self.kind), ("method", self.method), ("conditions", self.conditions),
+                ("levels", self.levels), ("fits", fits or None), ("warnings", self.warnings)]
+
+    @property
+    def axes(self) -> dict[str, VreResult]:
+        """The result by DUT axis, as a triaxial test's and analysis's ``axes``: this one under its
+        ``conditions.axis`` (``"dut"`` when unknown), so ``simulate`` and ``analyze`` read alike."""
+        return {self.conditions.axis or "dut": self}
 
     def fit_summary(self) -> dict[str, Any]:
         merged: dict[str, Any] = {}

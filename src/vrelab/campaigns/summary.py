@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
+from vrelab._display import Shown
 from vrelab._format import finite_or_none
 from vrelab.gum import (
     common_sensitivity_terms,
@@ -22,8 +23,8 @@ from vrelab.campaigns.manifest import SAME_ORIENTATION_G, Mount
 from vrelab.campaigns.runs import RunResult
 
 
-@dataclass(frozen=True)
-class ChannelSummary:
+@dataclass(frozen=True, repr=False)
+class ChannelSummary(Shown):
     """What a campaign gives for one channel (physics §4.1, the CLI reference).
 
     Examples
@@ -65,6 +66,8 @@ class ChannelSummary:
     # the channel's noise with vibration off in each run (physics §4.4: density, bias instability,
     # the Allan deviation's minimum; the whole curve is in the run's own results)
     noise_by_run: tuple[dict[str, Any], ...] = ()
+    _SHOW = ("channel", "k2", "k3", "rail", "vrc_by_freq", "rails_by_run", "notes")
+    _ROWS = "vrc_by_freq"  # its levels: the VRC at each frequency and orientation
 
     def to_dict(self) -> dict[str, Any]:
         def est(e: Estimate | None) -> dict[str, Any] | None:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Mapping
 
 from vrelab import _validate as V
+from vrelab._display import Shown
 from vrelab.identification.channel import IdentifyOptions, identify_channel
 from vrelab.identification.observation import ChannelModel, Observation, failed_runs, observations
 from vrelab.models.clipping import Kind as ClipKind
@@ -15,8 +16,8 @@ if TYPE_CHECKING:
     from vrelab.sensor.loader import Sensor
 
 
-@dataclass(frozen=True)
-class Identification:
+@dataclass(frozen=True, repr=False)
+class Identification(Shown):
     """Every channel of a campaign identified on one base sensor.
 
     Examples
@@ -44,6 +45,10 @@ class Identification:
     kind: ClipKind
     provenance: Mapping[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()  # the campaign's: runs that failed
+
+    def display_fields(self) -> list[tuple[str, Any]]:  # each channel's determined parameters
+        return [("campaign", self.campaign), ("base_spec", self.base_spec), ("kind", self.kind),
+                *((c.channel, c.parameters) for c in self.channels), ("notes", self.notes)]
 
     def to_dict(self, sensor_file: str | None = None) -> dict[str, Any]:
         return {

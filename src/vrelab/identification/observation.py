@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vrelab import _validate as V
+from vrelab._display import Shown
 from vrelab._format import finite_or_none
 from vrelab.campaigns import (
     MOUNT_PLANES,
@@ -197,8 +198,8 @@ class Check2f(TypedDict):
     agree: bool | None
 
 
-@dataclass(frozen=True)
-class ChannelModel:
+@dataclass(frozen=True, repr=False)
+class ChannelModel(Shown):
     """The identified model of one channel.
 
     Examples
@@ -237,6 +238,7 @@ class ChannelModel:
     # (from the base sensor's [uncertainty], or the profile of a resonance only bounded) and why
     assumed: Mapping[str, tuple[float | None, str]] = field(default_factory=dict)
     cross_coupling: CrossCoupling | None = None  # the mount-angle runs' fit (fit_cross_coupling)
+    _SHOW = ("channel", "parameters", "chi2_reduced", "dof", "runs", "notes")
 
     @property
     def chi2_reduced(self) -> float | None:

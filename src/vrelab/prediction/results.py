@@ -4,18 +4,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import Any, Mapping
 
+from vrelab._display import Shown
 from vrelab._format import finite_or_none
 from vrelab.models.memoryless import REFERENCE
-from vrelab.results import Conditions, level_vrc
-
-if TYPE_CHECKING:
-    pass
+from vrelab.results import Conditions, Estimate, level_vrc
 
 
-@dataclass(frozen=True)
-class LevelPrediction:
+@dataclass(frozen=True, repr=False)
+class LevelPrediction(Shown):
     """Predicted VRE at one vibration level, with its shares by mechanism.
 
     ``shares`` [g]: ``clip_low_g``, ``clip_high_g`` (each rail alone), ``clip_g`` (both
@@ -80,6 +78,21 @@ class LevelPrediction:
     cross_pass: float | None = None
     cross_unpassed_g: float | None = None
     cross_error_g: float | None = None
+    _SHOW = ("freq_hz", "rms_g", "vre", "vrc", "model_error_g", "valid", "notes")
+
+    @property
+    def vre(self) -> Estimate:
+        """The predicted VRE [g] and its u as an :class:`~vrelab.results.Estimate`, the shape of a
+        measured level's ``vre`` (``vre_g`` and ``u_vre_g``; u NaN where the sensor carries no
+        covariance: unknown, not zero)."""
+        return Estimate(self.vre_g, math.nan if self.u_vre_g is None else self.u_vre_g, "g")
+
+    @property
+    def vrc(self) -> Estimate:
+        """The level's VRC [µg/g²] and its u, as a measured level's ``vrc``
+        (``vrc_ug_per_g2``, ``u_vrc_ug_per_g2``; u NaN without ``u_vre_g``)."""
+        u = self.u_vrc_ug_per_g2
+        return Estimate(self.vrc_ug_per_g2, math.nan if u is None else u, "ug/g^2")
 
     @property
     def vrc_ug_per_g2(self) -> float:
@@ -127,8 +140,8 @@ class LevelPrediction:
         return d
 
 
-@dataclass(frozen=True)
-class Prediction:
+@dataclass(frozen=True, repr=False)
+class Prediction(Shown):
     """The analytic VRE of a sensor at each level of one excitation.
 
     ``excitation``: off the input axis (physics §1.6), what the conditions carry of the vibration
@@ -159,6 +172,8 @@ class Prediction:
     # every vre_g is the mean output with vibration less this reading (physics §1.5) [g]
     vibration_off_g: float = math.nan
     excitation: Mapping[str, Any] | None = None
+    _SHOW = ("conditions", "levels", "valid", "notes")
+    _ROWS = "levels"
 
     @property
     def valid(self) -> bool:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence, TypedDict, Unpack, cast
 
 from vrelab import _io, _keywords
+from vrelab._display import Shown
 from vrelab.folder import SWEEP_RESULT
 from vrelab.sweep.backends import (
     Backend,
@@ -115,8 +116,8 @@ def point_function(spec: SweepSpec) -> str:
     return ref
 
 
-@dataclass(frozen=True)
-class SweepResult:
+@dataclass(frozen=True, repr=False)
+class SweepResult(Shown):
     """What :func:`run_sweep` produced: the Dataset, every point's record, a summary, the files."""
 
     spec: SweepSpec
@@ -124,6 +125,9 @@ class SweepResult:
     records: Mapping[int, PointRecord]
     summary: Mapping[str, Any]
     files: Mapping[str, Path]
+
+    def display_fields(self) -> list[tuple[str, Any]]:  # the Dataset has its own repr and to_dataframe()
+        return [("points", len(self.records)), ("summary", self.summary), ("files", ", ".join(self.files))]
 
 
 class SweepRunOptions(TypedDict, total=False):

@@ -56,6 +56,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab._display import Shown, per_axis
 from vrelab.analysis.options import FitOptions, ReductionOptions
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, ChannelView, Schedule, Segment
@@ -72,8 +73,8 @@ STILL_FRACTION = 0.1
 POINTS_PER_OCTAVE = 3.0
 
 
-@dataclass(frozen=True, eq=False)
-class TriaxialLevel:
+@dataclass(frozen=True, eq=False, repr=False)
+class TriaxialLevel(Shown):
     """The reference's vibration at one level: total and per-axis rms [g] and its cross-spectrum.
 
     Examples
@@ -94,6 +95,7 @@ class TriaxialLevel:
     csd: MeasuredCsd | None  # random: the band-mean CSD; sine: None (see ``line``)
     line: Mapping[str, Any] | None = None  # sine: the drive line's amplitudes and phases
     u_rms_g: float | None = None  # u of rms_g (the module docstring)
+    _SHOW = ("start_s", "end_s", "rms_g", "u_rms_g", "axis_rms_g")
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"start_s": self.start_s, "end_s": self.end_s, "rms_g": self.rms_g,
@@ -105,8 +107,8 @@ class TriaxialLevel:
         return d
 
 
-@dataclass(frozen=True, eq=False)
-class TriaxialAnalysis:
+@dataclass(frozen=True, eq=False, repr=False)
+class TriaxialAnalysis(Shown):
     """Per DUT axis (name, result, reduction), the reference's levels, what the reduction used.
 
     Examples
@@ -130,6 +132,18 @@ class TriaxialAnalysis:
     # DUT axis -> the reference axis its reduction read (its DUT/reference ratio check); every
     # level itself is the segmenting axis's, made total (the module docstring)
     level_axis: Mapping[str, str]
+
+    @property
+    def axes(self) -> dict[str, VreResult]:
+        """Each DUT axis's result by its name, as :attr:`vrelab.triaxial.simulate.TriaxialTest.axes`."""
+        return {name: result for name, result, _ in self.channels}
+
+    def display_fields(self) -> list[tuple[str, Any]]:
+        return [("reference", self.reference), ("segmenting_axis", self.segmenting_axis), ("levels", self.levels),
+                *per_axis(self.axes)[0]]
+
+    def display_rows(self) -> list[dict[str, Any]]:
+        return per_axis(self.axes)[1]
 
     def to_dict(self, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
         doc = channels_to_dict([(n, r) for n, r, _ in self.channels], provenance or {})

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _keywords
 from vrelab import _validate as V
+from vrelab._display import Shown, per_axis
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import LevelResult, Method, VreResult
@@ -212,8 +213,8 @@ def _excitation(excitation: Any, direction: ArrayLike | None) -> TriaxialProfile
     raise ValueError(f"excitation must be a TriaxialProfile, TriaxialSine or RandomProfile, got {type(excitation).__name__}")
 
 
-@dataclass(frozen=True)
-class TriaxialTest:
+@dataclass(frozen=True, repr=False)
+class TriaxialTest(Shown):
     """A simulated triaxial shaker test, reduced per DUT axis.
 
     ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
@@ -242,6 +243,13 @@ class TriaxialTest:
     axes: Mapping[str, VreResult]
     conditions: Mapping[str, Any]
     record_path: str | None = None
+
+    def display_fields(self) -> list[tuple[str, Any]]:
+        return [("method", self.method), ("excitation", self.excitation.describe()), ("static_g", self.static_g),
+                ("levels_g", self.levels_g), *per_axis(self.axes)[0]]
+
+    def display_rows(self) -> list[dict[str, Any]]:
+        return per_axis(self.axes)[1]
 
     def to_dict(self) -> dict[str, Any]:
         """The document of several DUT channels (``channels``: each axis's whole
