@@ -22,7 +22,7 @@ import dataclasses
 import math
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
 from vrelab._version import __version__
 from vrelab.models.clipping import Kind as ClipKind
@@ -35,7 +35,9 @@ from vrelab.simulation.plan import measurement_band as measurement_band  # its o
 from vrelab.simulation.record import SimulatedRecord
 
 if TYPE_CHECKING:
+    from vrelab.record import Schedule
     from vrelab.sensor import Sensor
+    from vrelab.simulation.record import Stretch
 
 __all__ = [
     "TestPlan",
@@ -118,8 +120,31 @@ def _reduce_and_fit(
     return levels, fits, warnings + notes
 
 
+class SimulationTruth(Protocol):
+    """What :func:`with_simulated_saturation` and :func:`with_lattice_u` read of a simulation:
+    its sensor, schedule and stretches, and per segment the DUT samples at a rail, the samples
+    the chain clipped, its over-range episodes and the DUT output's span. A
+    :class:`~vrelab.simulation.record.SimulatedRecord` is one; so is each DUT axis's count of a
+    triaxial test (:mod:`vrelab.triaxial.simulate`), which mypy now checks against this."""
+
+    @property
+    def sensor(self) -> Sensor: ...
+    @property
+    def schedule(self) -> Schedule: ...
+    @property
+    def stretches(self) -> Sequence[Stretch]: ...
+    @property
+    def saturated(self) -> Sequence[int] | None: ...
+    @property
+    def clipped(self) -> Sequence[int] | None: ...
+    @property
+    def overrange_events(self) -> Sequence[int] | None: ...
+    @property
+    def dut_span(self) -> Sequence[float] | None: ...
+
+
 def with_simulated_saturation(
-    record: SimulatedRecord, levels: list[LevelResult], warnings: list[str]
+    record: SimulationTruth, levels: list[LevelResult], warnings: list[str]
 ) -> tuple[list[LevelResult], list[str]]:
     # The simulation knows exactly which DUT samples sat on a rail and where the chain clipped
     # or tripped its over-range protection; the reduction can only guess rails from the
@@ -149,7 +174,7 @@ def with_simulated_saturation(
 _MAX_POLYNOMIAL_DEGREE = 4
 
 
-def with_lattice_u(record: SimulatedRecord, levels: list[LevelResult]) -> list[LevelResult]:
+def with_lattice_u(record: SimulationTruth, levels: list[LevelResult]) -> list[LevelResult]:
     """Sine levels with the error of their phase lattice in u.
 
     Every batch of a sine level samples the output on the same L equally spaced phases of the

@@ -21,7 +21,17 @@ _TILT_SAMPLES = 3
 class Candidate:
     """One configuration of one part: a preset name or a sensor file, its range [g] and output
     rate [Hz] (None: the file's default; a part without an ODR has none), its axis (None: the
-    file's default axis)."""
+    file's default axis).
+
+    Examples
+    --------
+    The ADXL355 at ±2 g and 4000 Hz, as ``--candidates`` writes it and as a table labels it:
+
+    >>> from vrelab.comparison.candidates import Candidate
+    >>> candidate = Candidate("adxl355", range_g=2.0, odr_hz=4000.0)
+    >>> print(candidate.spec, "|", candidate.label)
+    adxl355:2g:4000 | adxl355 ±2 g 4000 Hz
+    """
 
     part: str
     range_g: float | None = None
@@ -48,7 +58,19 @@ class Candidate:
 def parse_candidates(text: str) -> list[Candidate]:
     """``adxl355:2g:4000,my_part.toml:8:500,adxl354:4g``: ``PART[:RANGE[g][:ODR[Hz][:AXIS]]]``
     separated by commas (an empty field: the part's default). Each part is checked when it is
-    loaded (:func:`loaded`), not here."""
+    loaded (:func:`loaded`), not here.
+
+    Examples
+    --------
+    A preset at a range and rate, a sensor file at ±8 g and 500 Hz, a part without an ODR:
+
+    >>> from vrelab.comparison.candidates import parse_candidates
+    >>> for candidate in parse_candidates("adxl355:2g:4000,my_part.toml:8:500,adxl354:4g"):
+    ...     print(candidate.label)
+    adxl355 ±2 g 4000 Hz
+    my_part.toml ±8 g 500 Hz
+    adxl354 ±4 g no ODR
+    """
     items = [t.strip() for t in str(text).split(",")]
     if not items or any(not t for t in items):
         raise ValueError(f"--candidates: give PART[:RANGE[:ODR[:AXIS]]] separated by commas, got {text!r}")
@@ -79,7 +101,19 @@ def _number(text: str, unit: str, what: str, item: str) -> float | None:
 
 def default_candidates() -> list[Candidate]:
     """Every preset that lists its ranges (a part; ``ideal`` takes any range and is none) at
-    each range and each output rate it lists (a part without an ODR: once per range)."""
+    each range and each output rate it lists (a part without an ODR: once per range).
+
+    Examples
+    --------
+    The ADXL355's three ranges at its 4000 Hz rate are among them; the ideal part is not:
+
+    >>> from vrelab.comparison.candidates import default_candidates
+    >>> candidates = default_candidates()
+    >>> [c.label for c in candidates if c.part == "adxl355" and c.odr_hz == 4000]
+    ['adxl355 ±2 g 4000 Hz', 'adxl355 ±4 g 4000 Hz', 'adxl355 ±8 g 4000 Hz']
+    >>> any(c.part == "ideal" for c in candidates)
+    False
+    """
     from vrelab.sensor import list_presets, load_sensor
 
     out = []
@@ -101,7 +135,22 @@ class Budget:
     δθ < 0.1° at |θ| < 60° (a budget's tenths of a degree). So a tilt budget ``δθ_max`` is a
     VRE budget ``g·cos θ·δθ_max`` at that orientation (:meth:`limit_g`), and a VRE's tilt error
     is :meth:`tilt_deg` (:func:`vrelab.models.design.tilt_error_from_static_deg` is the exact
-    ``asin`` difference; physics §1.5, §4)."""
+    ``asin`` difference; physics §1.5, §4).
+
+    Examples
+    --------
+    On an axis tilted 30° (static 0.5 g), a tilt budget of 0.05° is a VRE budget of
+    ``g·cos 30°·0.05°`` = 0.756 mg; a VRE of 1 mg there is a tilt error of 0.0662°, to first
+    order as the exact ``asin`` difference (0.06616° against 0.06618°):
+
+    >>> from vrelab.comparison.candidates import Budget
+    >>> from vrelab.models.design import tilt_error_from_static_deg
+    >>> budget = Budget("tilt", 0.05)
+    >>> print(f"{budget.text}: VRE {budget.limit_g(0.5) * 1e3:.3f} mg at 0.5 g")
+    tilt error 0.05 deg: VRE 0.756 mg at 0.5 g
+    >>> print(f"{Budget.tilt_deg(1e-3, 0.5):.4f} deg, exact {tilt_error_from_static_deg(1e-3, 0.5):.4f} deg")
+    0.0662 deg, exact 0.0662 deg
+    """
 
     kind: str  # "vre" or "tilt"
     value: float  # g (vre) or deg (tilt)
@@ -135,7 +184,21 @@ _VRE_UNITS = {"g": 1.0, "mg": 1e-3, "ug": 1.0 / UG_PER_G, "µg": 1.0 / UG_PER_G}
 
 
 def parse_budget(vre: str | None, tilt: str | None) -> Budget:
-    """``--budget-vre 1mg`` (g, mg, ug) or ``--budget-tilt 0.05deg`` (deg; the unit optional): exactly one."""
+    """``--budget-vre 1mg`` (g, mg, ug) or ``--budget-tilt 0.05deg`` (deg; the unit optional): exactly one.
+
+    Examples
+    --------
+    >>> from vrelab.comparison.candidates import parse_budget
+    >>> budget = parse_budget("500ug", None)
+    >>> print(budget.kind, f"{budget.value * 1e3:.1f} mg")
+    vre 0.5 mg
+    >>> parse_budget(None, "0.05deg")
+    Budget(kind='tilt', value=0.05)
+    >>> parse_budget("1mg", "0.05deg")
+    Traceback (most recent call last):
+    ...
+    ValueError: give one budget: --budget-vre (e.g. 1mg) or --budget-tilt (e.g. 0.05deg)
+    """
     if (vre is None) == (tilt is None):
         raise ValueError("give one budget: --budget-vre (e.g. 1mg) or --budget-tilt (e.g. 0.05deg)")
     if vre is not None:
@@ -165,7 +228,21 @@ def _positive(text: str, name: str, given: object) -> float:
 
 def static_fields(static_g: float | None, tilt_range_deg: Sequence[float] | None) -> list[float]:
     """The static fields [g] a candidate is judged at: ``static_g``, or a tilt range [deg] sampled
-    at its ends and middle (and 0 where it spans it), each ``sin θ``."""
+    at its ends and middle (and 0 where it spans it), each ``sin θ``.
+
+    Examples
+    --------
+    An axis tilted anywhere from -30° to 30° is judged at -30°, 0° and 30°, static ``sin θ``;
+    one from 10° to 40° at its ends and middle (sin 10° = 0.174, sin 25° = 0.423, sin 40° = 0.643):
+
+    >>> from vrelab.comparison.candidates import static_fields
+    >>> print([f"{g:.3f}" for g in static_fields(None, (-30.0, 30.0))])
+    ['-0.500', '0.000', '0.500']
+    >>> print([f"{g:.3f}" for g in static_fields(None, (10.0, 40.0))])
+    ['0.174', '0.423', '0.643']
+    >>> static_fields(0.5, None)
+    [0.5]
+    """
     if tilt_range_deg is None:
         return [float(V.acceleration("--static", 1.0 if static_g is None else static_g))]
     lo, hi = (float(V.finite_scalar("--tilt-range", t)) for t in tilt_range_deg)
@@ -178,7 +255,14 @@ def static_fields(static_g: float | None, tilt_range_deg: Sequence[float] | None
 
 
 def parse_tilt_range(text: str) -> tuple[float, float]:
-    """``--tilt-range a:b`` [deg]."""
+    """``--tilt-range a:b`` [deg].
+
+    Examples
+    --------
+    >>> from vrelab.comparison.candidates import parse_tilt_range
+    >>> parse_tilt_range("-30:30")
+    (-30.0, 30.0)
+    """
     parts = str(text).split(":")
     try:
         lo, hi = (float(p) for p in parts)

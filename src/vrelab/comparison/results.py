@@ -22,7 +22,20 @@ COVERAGE_K = 2.0
 @dataclass(frozen=True)
 class Point:
     """One candidate at one level and one static field: its VRE [g] with its standard u, and the
-    budget [g] at that static field."""
+    budget [g] at that static field.
+
+    Examples
+    --------
+    The ADXL355 at ±8 g axis up in flat 20-2000 Hz at 2 g rms, as :func:`vrelab.predict` puts
+    it (VRE 0.17 mg, u 3.3 mg: its k2 is only bounded by an assumed range), against 1 mg: the
+    guarded margin is above 1 and the unguarded one below, so the budget is neither held nor
+    broken whatever the u ("undecided"):
+
+    >>> from vrelab.comparison.results import Point
+    >>> point = Point(rms_g=2.0, static_g=1.0, vre_g=0.174e-3, u_vre_g=3.335e-3, limit_g=1e-3)
+    >>> print(f"U {point.expanded_g * 1e3:.2f} mg, margins {point.high:.2f} and {point.low:.2f}")
+    U 6.67 mg, margins 6.84 and -6.50
+    """
 
     rms_g: float
     static_g: float
@@ -55,7 +68,16 @@ class Point:
 
 
 def dominant(values: Mapping[str, float]) -> tuple[str | None, float | None]:
-    """The name and value of the largest |value| (None, None for none)."""
+    """The name and value of the largest |value| (None, None for none).
+
+    Examples
+    --------
+    >>> from vrelab.comparison.results import dominant
+    >>> dominant({"clip_g": -0.337, "nonlinearity_g": 0.002})
+    ('clip_g', -0.337)
+    >>> dominant({})
+    (None, None)
+    """
     if not values:
         return None, None
     name = max(values, key=lambda k: abs(values[k]))
@@ -72,7 +94,26 @@ class CandidateRow:
     static fields) its VRE, U (k = 2), VRC, tilt error, the dominant mechanism and uncertainty
     source; its ``verdict`` against the budget ("pass": VRE + U ≤ budget at every point; "fail":
     VRE − U > budget at some point; "undecided" otherwise; "invalid": the prediction is not
-    valid, ``reason`` says why) and every point."""
+    valid, ``reason`` says why) and every point.
+
+    Examples
+    --------
+    The ideal part at ±2 g on an axis tilted 30° (static 0.5 g) in Gaussian vibration of 0.5
+    and 1 g rms: its VRE is the clip's censored mean shift, -0.19 and -27.3 mg
+    (:func:`vrelab.models.design.clip_vre`), against a tilt budget of 0.05°, a VRE of 0.756 mg
+    there. The worst point is 1 g rms: 36 times the budget, a tilt error of about -1.8°:
+
+    >>> from vrelab.comparison.candidates import Candidate
+    >>> from vrelab.comparison.results import CandidateRow, Point
+    >>> from vrelab.models.design import clip_vre
+    >>> points = tuple(Point(rms, 0.5, clip_vre(0.5, rms, -2.0, 2.0), None, 0.756e-3,
+    ...                      shares={"clip_g": clip_vre(0.5, rms, -2.0, 2.0)}) for rms in (0.5, 1.0))
+    >>> row = CandidateRow(Candidate("ideal", 2.0), "fail", points)
+    >>> tilt, _ = row.tilt_error_deg
+    >>> print(f"{row.worst.rms_g:g} g rms: VRE {row.worst.vre_g * 1e3:.1f} mg, margin {row.margin:.1f}, "
+    ...       f"tilt {tilt:.1f} deg, {row.mechanism}")
+    1 g rms: VRE -27.3 mg, margin 36.1, tilt -1.8 deg, clip
+    """
 
     candidate: Candidate
     verdict: str
@@ -151,7 +192,25 @@ class CandidateRow:
 
 
 def ranked(rows: Sequence[CandidateRow]) -> tuple[CandidateRow, ...]:
-    """Pass, undecided, fail, invalid; within each by the guarded margin (smaller first), then by label."""
+    """Pass, undecided, fail, invalid; within each by the guarded margin (smaller first), then by label.
+
+    Examples
+    --------
+    Four ranges of one part against 1 mg at 2 g rms, given in any order (VREs without a u):
+
+    >>> from vrelab.comparison.candidates import Candidate
+    >>> from vrelab.comparison.results import CandidateRow, Point, ranked
+    >>> def row(range_g, vre_mg, verdict):
+    ...     points = (Point(2.0, 1.0, vre_mg * 1e-3, None, 1e-3),) if vre_mg is not None else ()
+    ...     return CandidateRow(Candidate("adxl355", range_g, 4000.0), verdict, points)
+    >>> rows = [row(2.0, -3.0, "fail"), row(4.0, -0.5, "pass"), row(8.0, -0.2, "pass"), row(16.0, None, "invalid")]
+    >>> for r in ranked(rows):
+    ...     print(r.candidate.label, r.verdict)
+    adxl355 ±8 g 4000 Hz pass
+    adxl355 ±4 g 4000 Hz pass
+    adxl355 ±2 g 4000 Hz fail
+    adxl355 ±16 g 4000 Hz invalid
+    """
     return tuple(sorted(rows, key=lambda r: (VERDICTS.index(r.verdict),
                                              r.margin if r.margin is not None and math.isfinite(r.margin) else math.inf,
                                              r.candidate.label)))
@@ -162,7 +221,19 @@ class Comparison:
     """Candidates ranked against a budget in one environment (:func:`vrelab.compare`).
 
     ``rows`` in rank order (:func:`ranked`); ``conditions``: the environment, levels, static
-    fields, budget and mount they were judged at; ``notes``: what applies to every row."""
+    fields, budget and mount they were judged at; ``notes``: what applies to every row.
+
+    Examples
+    --------
+    Two ranges of the ideal part, axis up in flat 20-2000 Hz at 2 g rms, against 1 mg:
+
+    >>> import vrelab
+    >>> comparison = vrelab.compare("flat:20-2000", [2.0], "1mg", candidates="ideal:2g,ideal:8g")
+    >>> print(comparison.best.candidate.label, "|", comparison.to_dict()["counts"])
+    ideal ±8 g no ODR | {'pass': 1, 'undecided': 0, 'fail': 1, 'invalid': 0}
+    >>> print(comparison.conditions["budget"], comparison.conditions["band_hz"])
+    VRE 1 mg [20.0, 2000.0]
+    """
 
     conditions: Mapping[str, Any]
     rows: tuple[CandidateRow, ...]

@@ -66,7 +66,26 @@ def mount_note(sensor: object, band_hz: tuple[float, float]) -> str | None:
     :class:`vrelab.sensor.configs.Mount`) in a vibration spanning ``band_hz`` [Hz]: a warning
     naming the mount where it sits within reach of the band, else None. The prediction includes
     the mount's amplification (``|T(fn)| = sqrt(1 + Q²)``); the warning says the number is the
-    mount's as much as the part's."""
+    mount's as much as the part's.
+
+    Examples
+    --------
+    An ADXL355 on a board ringing at 500 Hz with Q 10, in 20-2000 Hz (sqrt(1 + 10²) = 10.05);
+    the same board stiffened to 5 kHz is beyond 1.5 × 2000 Hz and says nothing:
+
+    >>> import vrelab
+    >>> from vrelab.prediction.checks import mount_note
+    >>> board = vrelab.load_sensor("adxl355", range_g=8, axis="z", odr_hz=4000,
+    ...                            overrides={"mount_fn_hz": 500.0, "mount_q": 10.0})
+    >>> print(mount_note(board, (20.0, 2000.0)))
+    mount resonance 500 Hz (Q 10) is inside the vibration's band 20-2000 Hz (fixture rule:
+    fn >= 1.5 × 2000 Hz): the mount amplifies the vibration up to ×10 at 500 Hz, and the VRE
+    predicted includes it
+    >>> stiff = vrelab.load_sensor("adxl355", range_g=8, axis="z", odr_hz=4000,
+    ...                            overrides={"mount_fn_hz": 5000.0, "mount_q": 10.0})
+    >>> print(mount_note(stiff, (20.0, 2000.0)))
+    None
+    """
     from vrelab.models.design import fixture_resonance_ok
 
     fn, q = getattr(sensor, "mount_fn_hz", None), getattr(sensor, "mount_q", None)

@@ -44,6 +44,17 @@ class MountTransmissibility(Resonator):
     Discretised as the proof mass's resonance (matched-z poles, fitted numerator,
     :func:`vrelab.sensor.filtering.discretize_zpk`): the analog zero ``s = −Q·ωn`` is real and
     in the left half plane, away from the jω axis the fit weighs against.
+
+    Examples
+    --------
+    A board at 500 Hz with Q 10: the static field passes (``|T(0)| = 1``), the resonance
+    amplifies by ``sqrt(1 + Q²)`` = 10.0499, and ten times above it the board isolates,
+    ``sqrt(1 + 1)/sqrt(99² + 1)`` = 0.0143 (r = 10, 2ζr = r/Q = 1):
+
+    >>> from vrelab.sensor.mount import MountTransmissibility
+    >>> mount = MountTransmissibility(500.0, 10.0)
+    >>> print([f"{abs(t):.4f}" for t in mount.response([0.0, 500.0, 5000.0])])
+    ['1.0000', '10.0499', '0.0143']
     """
 
     fusable_sos: ClassVar[bool] = True  # one sosfilt with a carried state (filtering.is_sos_filter)

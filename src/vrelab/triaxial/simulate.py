@@ -268,8 +268,10 @@ class TriaxialTest(Shown):
 class _Counts:
     """Per segment, what the simulation knows of one DUT axis (the shaker's saturation truth):
     the fields :func:`vrelab.shaker.with_simulated_saturation` and :func:`~vrelab.shaker.with_lattice_u`
-    read of a :class:`~vrelab.simulation.record.SimulatedRecord`."""
+    read of a :class:`~vrelab.simulation.record.SimulatedRecord` (:class:`vrelab.shaker.SimulationTruth`),
+    the axis's sensor among them (its quantiser step bounds a smooth sine level's lattice error)."""
 
+    sensor: Any
     schedule: Any
     stretches: Any
     saturated: list[int]
@@ -396,7 +398,7 @@ def run_triaxial_test(
                         "level": LEVEL_TEXT, "reference_channels": [f"reference_{a}" for a in AXES],
                         "dut_channels": {a: f"dut_{a}" for a in axes}}
     n = len(base.stretches)
-    counts = {a: _Counts(base.schedule, base.stretches, [0] * n, [0] * n, [0] * n, [0.0] * n, rates.fs_record_hz)
+    counts = {a: _Counts(axes[a], base.schedule, base.stretches, [0] * n, [0] * n, [0] * n, [0.0] * n, rates.fs_record_hz)
               for a in axes}
     blocks = _record_blocks(exc, base, g, axes, runs, counts)
     with tempfile.TemporaryDirectory(prefix="vrelab-triaxial-") as tmp:
@@ -527,8 +529,8 @@ def _reduce_axes(
     from vrelab.triaxial.analyze import Caller, reduce_triaxial
 
     def known(axis: str, levels: list[LevelResult], warnings: list[Any]) -> tuple[list[LevelResult], list[Any]]:
-        levels, warnings = shaker.with_simulated_saturation(counts[axis], levels, warnings)  # type: ignore[arg-type]
-        return shaker.with_lattice_u(counts[axis], levels), warnings  # type: ignore[arg-type]
+        levels, warnings = shaker.with_simulated_saturation(counts[axis], levels, warnings)
+        return shaker.with_lattice_u(counts[axis], levels), warnings
 
     names = {**{a: f"dut_{a}" for a in axes}, **{f"reference-{c}": f"reference_{c}" for c in AXES}}
     options = ReductionOptions(band_hz=band, settle_s=plan.settle_s, accept=frozenset(ACCEPTABLE), progress=progress)
