@@ -28,7 +28,7 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, cast
 
 from vrelab._format import MISSING, format_value
 
@@ -46,11 +46,11 @@ VECTOR_ITEMS = 6
 HTML_ROWS = 60
 
 
-def _number(x: Any) -> bool:
+def _number(x: object) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) or type(x).__module__ == "numpy"
 
 
-def text(value: Any) -> str | None:
+def text(value: object) -> str | None:
     """``value`` as a repr shows it; None when it is left out (None, an empty sequence)."""
     if value is None:
         return None
@@ -60,7 +60,7 @@ def text(value: Any) -> str | None:
         return str(value)
     if _number(value):
         try:
-            return format_value(float(value))
+            return format_value(float(cast(float, value)))
         except (TypeError, ValueError):
             return str(value)
     if isinstance(value, Mapping):
@@ -154,11 +154,11 @@ class Shown:
         return pandas.DataFrame(rows, columns=columns)
 
 
-def _cell(value: Any) -> str:
+def _cell(value: object) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return MISSING
     if _number(value):
-        return format_value(float(value))
+        return format_value(float(cast(float, value)))
     return str(value)
 
 

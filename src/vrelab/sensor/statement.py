@@ -79,7 +79,7 @@ class VreStatement:
                 f"{self.source}")
 
 
-def vre_statement(table: Any, where: str) -> VreStatement | None:
+def vre_statement(table: object, where: str) -> VreStatement | None:
     """A file's ``[vre_statement]`` table, checked (None when the file has none)."""
     if table is None:
         return None
