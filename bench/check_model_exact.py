@@ -25,8 +25,8 @@ difference per group:
 
     PYTHONPATH=src python bench/check_model_exact.py --baseline /tmp/base/src
 
-Pass: predict, memoryless and spectral within 1e-12 relative (1e-300 absolute), identify within
-1e-6 of each parameter's u.
+Pass: predict, memoryless and spectral within 1e-12 relative (1e-300 absolute; ``--rel`` and
+``--abs`` to change), identify within 1e-6 of each parameter's u.
 """
 
 from __future__ import annotations
@@ -261,8 +261,11 @@ def flatten(x: Any, path: str = "") -> list[tuple[str, Any]]:
     return [(path, x)]
 
 
-def _compare(ours: Any, base: Any) -> tuple[int, float, str, list[str]]:
-    """(numbers compared, the largest relative difference, where, what differs otherwise)."""
+def _compare(ours: Any, base: Any, abs_tol: float = 0.0) -> tuple[int, float, str, list[str]]:
+    """(numbers compared, the largest relative difference, where, what differs otherwise).
+
+    A difference within ``abs_tol`` counts as none: a number that is the rounding residue of a
+    difference of 1 g quantities has no relative digits to compare."""
     a, b = flatten(ours), flatten(base)
     # a key the baseline does not have (a new result, such as a level's VRC) is no moved number:
     # compare on the baseline's keys, and say which are new
@@ -275,7 +278,7 @@ def _compare(ours: Any, base: Any) -> tuple[int, float, str, list[str]]:
     for (k, x), (_, y) in zip(a, b):
         if isinstance(x, float) and isinstance(y, float) and not isinstance(x, bool):
             n += 1
-            if math.isnan(x) and math.isnan(y) or x == y:
+            if math.isnan(x) and math.isnan(y) or x == y or abs(x - y) <= abs_tol:
                 continue
             d = abs(x - y) / max(abs(x), abs(y), 1e-300)
             if not d <= worst:
@@ -306,6 +309,13 @@ def main() -> int:
     ap.add_argument("--groups", default="memoryless,spectral,predict,triaxial,identify,example")
     ap.add_argument("--save", help="write this checkout's numbers to this JSON file")
     ap.add_argument("--against", help="compare with numbers saved by --save instead of running a baseline")
+    ap.add_argument("--rel", type=float, default=1e-12,
+                    help="pass within this relative difference (predict, memoryless, spectral); a quadrature "
+                         "that changes its rule moves results within its own tolerance (1e-10): pass 1e-9 then, "
+                         "as tests/test_predict_stages.py does")
+    ap.add_argument("--abs", type=float, default=0.0,
+                    help="a difference below this absolute size counts as none (tests/test_predict_stages.py: "
+                         "1e-14 g, a few ulps of the 1 g quantities a residue is the difference of)")
     ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     groups = args.groups.split(",")
@@ -330,8 +340,8 @@ def main() -> int:
             good = worst <= 1e-6 and not other
             print(f"{g:11s} {len(ours[g])} parts: largest |Δ|/u {worst:.3g}   {'ok' if good else 'DIFFERS'}")
         else:
-            n, worst, where, other = _compare(ours[g], base[g])
-            good = worst <= 1e-12 and not other
+            n, worst, where, other = _compare(ours[g], base[g], args.abs)
+            good = worst <= args.rel and not other
             print(f"{g:11s} {n:6d} numbers: largest relative difference {worst:.3g} {where}   "
                   f"{'ok' if good else 'DIFFERS'}")
         for line in other[:10]:

@@ -114,3 +114,60 @@ def test_dense_white_table_through_high_q_resonance_matches_miles(q):
     f = np.geomspace(1e-3, 1e8, 3000)
     sigma2 = effective_rms((f, np.ones_like(f)), [resonator(fn, q)], 1e-3, 1e8) ** 2
     assert sigma2 == pytest.approx(math.pi * fn * q / 2 - 1e-3, rel=1e-10)
+
+
+def _moment_by_scipy_quad(psd, responses, lo, hi, power, cuts):
+    """The reference: scipy.integrate.quad one frequency at a time on each piece (what
+    models.dynamics used before its vectorised rule), epsrel 1e-10, in ln f."""
+    from scipy import integrate
+
+    def g(u):
+        f = np.array([math.exp(u)])
+        m = np.ones_like(f)
+        for h in responses:
+            m = m * np.abs(np.asarray(h(f))) ** 2
+        return float((f ** (power + 1) * np.asarray(psd(f)) * m)[0])
+
+    edges = sorted({lo, hi, *(c for c in cuts if lo < c < hi)})
+    return sum(integrate.quad(g, math.log(a), math.log(b), limit=400, epsabs=0.0, epsrel=1e-10)[0]
+               for a, b in zip(edges[:-1], edges[1:]))
+
+
+def _low_pass(fc, order):
+    return lambda f: 1.0 / np.sqrt(1.0 + (np.asarray(f) / fc) ** (2 * order))
+
+
+@pytest.mark.parametrize(("fn", "q", "band", "power"), [
+    (2400.0, 7.4, (50.0, 2000.0), 0), (2400.0, 7.4, (50.0, 2000.0), 2), (1000.0, 1000.0, (20.0, 5000.0), 0),
+    (1000.0, 1000.0, (20.0, 5000.0), 2), (2400.0, 50.0, (2390.0, 2410.0), 0), (300.0, 0.5, (10.0, 10000.0), 2),
+    (20000.0, 3.0, (100.0, 150.0), 0)])
+def test_vectorised_quadrature_matches_scipy_quad(fn, q, band, power):
+    """The vectorised Gauss-Kronrod rule against scipy's quad: high Q, narrow bands, resonances in and
+    out of the band, filters, and a PSD with jumps inside a piece (a box not at the cuts). Both are
+    held to 1e-10 relative: 1e-9 is ten times that (as tests/test_predict_stages.py)."""
+    lo, hi = band
+    a, b = lo + 0.1 * (hi - lo), hi - 0.2 * (hi - lo)
+
+    def psd(f):
+        return np.where((f >= a) & (f <= b), 0.004, 0.001) * (f / lo) ** -0.3
+
+    responses = [resonator(fn, q), _low_pass(0.8 * fn, 4), _low_pass(3000.0, 2)]
+    m = effective_rms(psd, responses, lo, hi) ** 2
+    ref = _moment_by_scipy_quad(psd, responses, lo, hi, 0, [fn])
+    if power == 2:
+        m = zero_crossing_rate_hz(psd, responses, lo, hi) ** 2 * m
+        ref = _moment_by_scipy_quad(psd, responses, lo, hi, 2, [fn])
+    assert m == pytest.approx(ref, rel=1e-9)
+
+
+def test_quadrature_asks_many_frequencies_at_once():
+    """The integrand is evaluated on arrays of nodes, a few dozen calls for a Q = 1000 peak and a
+    PSD jump inside a piece (scipy's quad asked one frequency at a time: thousands of calls)."""
+    calls = []
+
+    def psd(f):
+        calls.append(np.size(f))
+        return np.where(f < 700.0, 0.002, 0.001)
+
+    effective_rms(psd, [resonator(1000.0, 1000.0)], 20.0, 5000.0)
+    assert len(calls) <= 100 and sum(calls) / len(calls) > 21

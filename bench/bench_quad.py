@@ -1,0 +1,129 @@
+"""Benchmark the spectral integrals (issue: the quadrature vectorised) in a README prediction and its propagation.
+
+Run: ``.venv/bin/python bench/run_all.py quad`` or ``.venv/bin/python bench/bench_quad.py
+[--baseline SRC] [--repeat 3]``.
+
+Workloads (each the best of ``--repeat`` runs after one warm-up, vrelab's caches emptied before
+each run: a first prediction in a fresh process, and a propagation whose draws move the
+resonance and the filters, so that its integrals are never remembered):
+
+* ``spectral``: σ and ν0 of navmat-p9492 through the ADXL355's resonance and filters
+  (:func:`vrelab.models.dynamics.effective_rms`, ``zero_crossing_rate_hz``), per call;
+* ``predict-flat``: ``vrelab predict --sensor adxl355 --profile flat:50-2000 --levels
+  0.5,1,2,3,4`` as the API call, the preset's assumed u propagated inside;
+* ``propagation``: that propagation alone (:func:`vrelab.prediction.propagation.propagation`);
+* ``cli-flat``: the same command as a process (start-up and printing included), one run.
+
+With ``--baseline SRC`` (a ``src`` directory of another checkout, e.g. ``git archive`` of main),
+the same workloads run in a subprocess on that source, interleaved with ours, and the ratio
+ours/baseline is printed: a ratio against a baseline measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from typing import Any, Callable
+
+CLI = ["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1,2,3,4"]
+
+
+def _forget() -> None:
+    """Empty vrelab's functools caches (what a first call in a fresh process meets)."""
+    for name, module in list(sys.modules.items()):
+        if name == "vrelab" or name.startswith("vrelab."):
+            for value in list(vars(module).values()):
+                if callable(getattr(value, "cache_clear", None)):
+                    value.cache_clear()
+
+
+def _cli() -> None:
+    subprocess.run([sys.executable, "-c", "import sys; from vrelab.cli import main; sys.exit(main())", *CLI],
+                   check=True, capture_output=True, env=os.environ)
+
+
+def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
+    from vrelab.models.dynamics import effective_rms, zero_crossing_rate_hz
+    from vrelab.prediction import predict
+    from vrelab.prediction.propagation import propagation
+    from vrelab.profiles import parse_profile
+    from vrelab.sensor import load_sensor
+
+    adxl = load_sensor("adxl355", range_g=2, axis="z")
+    navmat, flat = parse_profile("navmat-p9492"), parse_profile("flat:50-2000")
+    levels = [0.5, 1.0, 2.0, 3.0, 4.0]
+    table = (navmat.freq_hz, navmat.psd_g2_per_hz)
+    responses = adxl.linear_responses("output")
+    peaks = [s.fn_hz for s in adxl.stages() if hasattr(s, "fn_hz")]
+
+    def spectral() -> None:
+        effective_rms(table, responses, *navmat.band, points_hz=peaks)
+        zero_crossing_rate_hz(table, responses, *navmat.band, points_hz=peaks)
+
+    return {
+        "spectral": (spectral, 5),
+        "predict-flat": (lambda: predict(adxl, flat, levels, 1.0), 1),
+        "propagation": (lambda: propagation(adxl, flat, levels, 1.0, predictor=predict), 1),
+        "cli-flat": (_cli, 1),
+    }
+
+
+def _time(fn: Callable[[], Any], number: int, repeat: int) -> float:
+    fn()
+    best = float("inf")
+    for _ in range(repeat):
+        elapsed = 0.0
+        for _ in range(number):
+            _forget()
+            t0 = time.perf_counter()
+            fn()
+            elapsed += time.perf_counter() - t0
+        best = min(best, elapsed / number)
+    return best
+
+
+def _own(repeat: int) -> dict[str, float]:
+    return {name: _time(fn, number, repeat) for name, (fn, number) in _workloads().items()}
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", help="src directory of the baseline checkout")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)  # the subprocess's mode
+    args = ap.parse_args(argv)
+    if args.own:
+        print(json.dumps(_own(args.repeat)))
+        return {}
+    ours: dict[str, float] = {}
+    base: dict[str, float] = {}
+    # interleaved rounds (ours, baseline, ours, ...), the best of each: load drifts on a shared machine
+    for _ in range(2 if args.baseline else 1):
+        for k, v in _own(args.repeat).items():
+            ours[k] = min(ours.get(k, v), v)
+        if args.baseline:
+            env = {**os.environ, "PYTHONPATH": args.baseline}
+            out = subprocess.run([sys.executable, __file__, "--own", "--repeat", str(args.repeat)], env=env,
+                                 check=True, capture_output=True, text=True).stdout
+            for k, v in json.loads(out).items():
+                base[k] = min(base.get(k, v), v)
+    result = {"ours_s": ours, "baseline_s": base or None,
+              "ratio": {k: ours[k] / base[k] for k in ours if k in base} or None}
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        for k, v in ours.items():
+            line = f"{k:14s} {1e3 * v:9.1f} ms"
+            if k in base:
+                line += f"   baseline {1e3 * base[k]:9.1f} ms   ratio {v / base[k]:.3f}"
+            print(line)
+    return result
+
+
+if __name__ == "__main__":
+    main()
