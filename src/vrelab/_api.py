@@ -347,19 +347,7 @@ def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = Non
     ``examples/campaign/campaign.toml``):
 
     >>> import vrelab
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
-    >>> doc = vrelab.campaign("campaign.toml")
+    >>> doc = vrelab.campaign("examples/campaign/one-run.toml")
     >>> doc["n_runs"], doc["n_failed"], [c["channel"] for c in doc["channels"]]
     (1, 0, ['sn1'])
     >>> vrc = doc["channels"][0]["vrc_by_freq"][0]

@@ -22,23 +22,11 @@ def campaign_doc(manifest: Manifest, results: Sequence[RunResult], summaries: Se
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.document import campaign_doc
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_campaign
     >>> from vrelab.campaigns.summary import combine
-    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest = read_manifest("examples/campaign/one-run.toml")
     >>> results = run_campaign(manifest)
     >>> doc = campaign_doc(manifest, results, combine(results, ["sn1"]))
     >>> doc["kind"], doc["n_runs"], [c["channel"] for c in doc["channels"]]
@@ -113,24 +101,12 @@ def write_campaign(stage: Path, manifest: Manifest, results: Sequence[RunResult]
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from pathlib import Path
     >>> from vrelab.campaigns.document import campaign_doc, write_campaign
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_campaign
     >>> from vrelab.campaigns.summary import combine
-    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest = read_manifest("examples/campaign/one-run.toml")
     >>> results = run_campaign(manifest)
     >>> summaries = combine(results, ["sn1"])
     >>> Path("out").mkdir()

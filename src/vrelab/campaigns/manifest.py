@@ -91,20 +91,8 @@ class Run:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
-    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> run = read_manifest("examples/campaign/one-run.toml").runs[0]
     >>> run.index, run.label, dict(run.dut), run.dut_units
     (1, '01_z_up_80hz.tdms', {'sn1': 'shaker/sn1_z'}, 'lsb')
     """
@@ -141,20 +129,8 @@ class Manifest:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
-    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest = read_manifest("examples/campaign/one-run.toml")
     >>> type(manifest).__name__, manifest.runs[0].file.name
     ('Manifest', '01_z_up_80hz.tdms')
     """
@@ -188,20 +164,8 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     A manifest of one run, written here (the example campaign's own is
     ``examples/campaign/campaign.toml``):
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
-    >>> manifest = read_manifest("campaign.toml")
+    >>> manifest = read_manifest("examples/campaign/one-run.toml")
     >>> manifest.name, len(manifest.runs), dict(manifest.runs[0].static_g)
     ('sn1, z up, 80 Hz', 1, {'sn1': 1.0})
     """
@@ -533,20 +497,8 @@ def run_scales(run: Run) -> tuple[dict[str, Any], Any]:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest, run_scales
-    >>> dut_scales, reference_scale = run_scales(read_manifest("campaign.toml").runs[0])
+    >>> dut_scales, reference_scale = run_scales(read_manifest("examples/campaign/one-run.toml").runs[0])
     >>> dut_scales["sn1"].sensitivity, reference_scale.units
     (256000.0, 'mv')
     """
@@ -683,20 +635,8 @@ def check_records(runs: Sequence[Run]) -> None:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import check_records, read_manifest
-    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> run = read_manifest("examples/campaign/one-run.toml").runs[0]
     >>> check_records([run])
     >>> check_records([run, run])
     Traceback (most recent call last):
@@ -738,21 +678,9 @@ class ManifestContradiction(ValueError):
     --------
     Raised by :func:`check_static` (a ``ValueError``: the CLI prints its one line):
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import ManifestContradiction, check_static, read_manifest
     >>> try:
-    ...     check_static(read_manifest("campaign.toml").runs[0], "sn1", -1.0)
+    ...     check_static(read_manifest("examples/campaign/one-run.toml").runs[0], "sn1", -1.0)
     ... except ManifestContradiction as error:
     ...     print(type(error).__name__, isinstance(error, ValueError))
     ManifestContradiction True
@@ -770,20 +698,8 @@ def check_static(run: Run, channel: str, baseline_g: float | None) -> None:
     agrees with it, one of -1 g (the part mounted the other way, or the manifest wrong)
     contradicts it and is refused:
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import check_static, read_manifest
-    >>> run = read_manifest("campaign.toml").runs[0]
+    >>> run = read_manifest("examples/campaign/one-run.toml").runs[0]
     >>> check_static(run, "sn1", 1.0)
     >>> check_static(run, "sn1", -1.0)
     Traceback (most recent call last):

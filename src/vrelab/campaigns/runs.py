@@ -24,21 +24,9 @@ class RunResult:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import reduce_run
-    >>> result = reduce_run(read_manifest("campaign.toml").runs[0])
+    >>> result = reduce_run(read_manifest("examples/campaign/one-run.toml").runs[0])
     >>> name, vre_result = result.results[0]
     >>> print(name, len(vre_result.levels), result.error)
     sn1 3 None
@@ -65,21 +53,9 @@ def reduce_run(run: Run, out: Path | None = None, progress: bool = False, limit_
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import reduce_run
-    >>> result = reduce_run(read_manifest("campaign.toml").runs[0])
+    >>> result = reduce_run(read_manifest("examples/campaign/one-run.toml").runs[0])
     >>> result.error, [name for name, _ in result.results]
     (None, ['sn1'])
     """
@@ -147,21 +123,9 @@ def run_campaign(manifest: Manifest, workers: int = 1, out: Path | None = None,
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_campaign
-    >>> results = run_campaign(read_manifest("campaign.toml"))
+    >>> results = run_campaign(read_manifest("examples/campaign/one-run.toml"))
     >>> [(r.run.index, r.error) for r in results]
     [(1, None)]
     """
@@ -203,21 +167,9 @@ def dut_range(run: Run, channel: str, sensor: Sensor | None) -> tuple[float | No
     Neither a sensor file nor a range in the manifest: the range is not known (None, no source),
     and the checks that need it say so:
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import dut_range
-    >>> dut_range(read_manifest("campaign.toml").runs[0], "sn1", None)
+    >>> dut_range(read_manifest("examples/campaign/one-run.toml").runs[0], "sn1", None)
     (None, '')
     """
     if sensor is not None:
@@ -242,21 +194,9 @@ def judge_units(results: Sequence[RunResult], sensors: Mapping[str, Sensor] | No
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import judge_units, run_campaign
-    >>> results = judge_units(run_campaign(read_manifest("campaign.toml")))
+    >>> results = judge_units(run_campaign(read_manifest("examples/campaign/one-run.toml")))
     >>> [r.error for r in results]
     []
     """
@@ -325,21 +265,9 @@ def run_folders(manifest: Manifest) -> dict[int, str]:
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_folders
-    >>> run_folders(read_manifest("campaign.toml"))
+    >>> run_folders(read_manifest("examples/campaign/one-run.toml"))
     {1: '01-01_z_up_80hz.tdms'}
     """
     from vrelab.folder import channel_folder_names

@@ -31,22 +31,10 @@ class ChannelSummary(Shown):
     --------
     One orientation: the VRC at 80 Hz, and no k2 and k3 apart (they need two orientations):
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_campaign
     >>> from vrelab.campaigns.summary import combine
-    >>> (summary,) = combine(run_campaign(read_manifest("campaign.toml")), ["sn1"])
+    >>> (summary,) = combine(run_campaign(read_manifest("examples/campaign/one-run.toml")), ["sn1"])
     >>> len(summary.vrc_by_freq), summary.k2, summary.k2_k3
     (1, None, None)
     """
@@ -93,22 +81,10 @@ def combine(results: Sequence[RunResult], channels: Sequence[str]) -> list[Chann
 
     Examples
     --------
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> from vrelab.campaigns.runs import run_campaign
     >>> from vrelab.campaigns.summary import combine
-    >>> (summary,) = combine(run_campaign(read_manifest("campaign.toml")), ["sn1"])
+    >>> (summary,) = combine(run_campaign(read_manifest("examples/campaign/one-run.toml")), ["sn1"])
     >>> vrc = summary.vrc_by_freq[0]["vrc_ug_per_g2"]
     >>> print(summary.channel, f"VRC {vrc['value']:.0f} ± {vrc['u']:.0f} µg/g²", summary.k2)
     sn1 VRC 2853 ± 87 µg/g² None

@@ -86,19 +86,7 @@ def identify(doc: Mapping[str, Any], base_spec: str = "ideal", range_g: float | 
     campaign's own manifest, ``examples/campaign/campaign.toml``, has both orientations).
 
     >>> import vrelab
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
-    >>> identification = vrelab.identify(vrelab.campaign("campaign.toml"), base_spec="ideal", range_g=2.048)
+    >>> identification = vrelab.identify(vrelab.campaign("examples/campaign/one-run.toml"), base_spec="ideal", range_g=2.048)
     >>> channel = identification.channels[0]
     >>> print(channel.channel)
     sn1

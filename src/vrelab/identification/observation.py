@@ -423,21 +423,9 @@ def observations(doc: Mapping[str, Any]) -> tuple[dict[str, list[Observation]], 
     --------
     The observations of a campaign of one run (the example campaign's 80 Hz run):
 
-    >>> with open("campaign.toml", "w") as f:
-    ...     _ = f.write('''name = "sn1, z up, 80 Hz"
-    ... [[run]]
-    ... file = "examples/campaign/runs/01_z_up_80hz.tdms"
-    ... reference = "shaker/ref"
-    ... reference_units = "mv"
-    ... reference_sensitivity = 10
-    ... dut = {sn1 = "shaker/sn1_z"}
-    ... dut_units = "lsb"
-    ... dut_sensitivity = 256000
-    ... static_g = 1
-    ... ''')
     >>> import vrelab
     >>> from vrelab.identification.observation import observations
-    >>> per_channel, notes = observations(vrelab.campaign("campaign.toml"))
+    >>> per_channel, notes = observations(vrelab.campaign("examples/campaign/one-run.toml"))
     >>> ob = per_channel["sn1"][0]
     >>> ob.method, ob.static_g, [f"{r:.1f}" for r in ob.rms_g]
     ('sine', 1.0, ['0.2', '0.4', '0.6'])
