@@ -343,8 +343,8 @@ def campaign(manifest: str | Path, workers: int = 1, limit_g: float | None = Non
 
     Examples
     --------
-    A campaign of one run (a manifest written here; the example campaign's own manifest is
-    ``examples/campaign/campaign.toml``):
+    A campaign of one run (``examples/campaign/one-run.toml``; the example campaign's whole
+    manifest is ``examples/campaign/campaign.toml``):
 
     >>> import vrelab
     >>> doc = vrelab.campaign("examples/campaign/one-run.toml")

@@ -161,8 +161,8 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
 
     Examples
     --------
-    A manifest of one run, written here (the example campaign's own is
-    ``examples/campaign/campaign.toml``):
+    A manifest of one run (``examples/campaign/one-run.toml``; the example campaign's whole
+    manifest is ``examples/campaign/campaign.toml``):
 
     >>> from vrelab.campaigns.manifest import read_manifest
     >>> manifest = read_manifest("examples/campaign/one-run.toml")
