@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Any, Callable
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
+from _paired import paired, show  # noqa: E402
 
 
 def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
@@ -96,29 +98,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if args.own:
         print(json.dumps(_own(args.repeat, args.cold)))
         return {}
-    ours: dict[str, float] = {}
-    base: dict[str, float] = {}
-    # interleaved rounds (ours, baseline, ours, ...), the best of each: load drifts on a shared machine
-    for _ in range(2 if args.baseline else 1):
-        for k, v in _own(args.repeat, args.cold).items():
-            ours[k] = min(ours.get(k, v), v)
-        if args.baseline:
-            env = {**os.environ, "PYTHONPATH": args.baseline}
-            out = subprocess.run([sys.executable, __file__, "--own", "--repeat", str(args.repeat),
-                                  *(["--cold"] if args.cold else [])], env=env,
-                                 check=True, capture_output=True, text=True).stdout
-            for k, v in json.loads(out).items():
-                base[k] = min(base.get(k, v), v)
-    result = {"ours_s": ours, "baseline_s": base or None,
-              "ratio": {k: ours[k] / base[k] for k in ours if k in base} or None}
-    if args.json:
-        print(json.dumps(result, indent=1))
-    else:
-        for k, v in ours.items():
-            line = f"{k:16s} {1e3 * v:9.2f} ms"
-            if k in base:
-                line += f"   baseline {1e3 * base[k]:9.2f} ms   ratio {v / base[k]:.2f}"
-            print(line)
+    result = paired(__file__, lambda: _own(args.repeat, args.cold), args.baseline, ["--repeat", str(args.repeat), *(["--cold"] if args.cold else [])])
+    show(result, args.json, 16, 2, 2)
     return result
 
 

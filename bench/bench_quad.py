@@ -27,7 +27,11 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Any, Callable
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
+from _paired import paired, show  # noqa: E402
 
 CLI = ["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1,2,3,4"]
 
@@ -100,28 +104,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if args.own:
         print(json.dumps(_own(args.repeat)))
         return {}
-    ours: dict[str, float] = {}
-    base: dict[str, float] = {}
-    # interleaved rounds (ours, baseline, ours, ...), the best of each: load drifts on a shared machine
-    for _ in range(2 if args.baseline else 1):
-        for k, v in _own(args.repeat).items():
-            ours[k] = min(ours.get(k, v), v)
-        if args.baseline:
-            env = {**os.environ, "PYTHONPATH": args.baseline}
-            out = subprocess.run([sys.executable, __file__, "--own", "--repeat", str(args.repeat)], env=env,
-                                 check=True, capture_output=True, text=True).stdout
-            for k, v in json.loads(out).items():
-                base[k] = min(base.get(k, v), v)
-    result = {"ours_s": ours, "baseline_s": base or None,
-              "ratio": {k: ours[k] / base[k] for k in ours if k in base} or None}
-    if args.json:
-        print(json.dumps(result, indent=1))
-    else:
-        for k, v in ours.items():
-            line = f"{k:14s} {1e3 * v:9.1f} ms"
-            if k in base:
-                line += f"   baseline {1e3 * base[k]:9.1f} ms   ratio {v / base[k]:.3f}"
-            print(line)
+    result = paired(__file__, lambda: _own(args.repeat), args.baseline, ["--repeat", str(args.repeat)])
+    show(result, args.json, 14, 1, 3)
     return result
 
 
