@@ -166,7 +166,7 @@ def test_linear_responses_proof_mass_and_output():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"spec": "adxl999"}, r"sensor must be one of adxl354, adxl355, adxl356, adxl357, adxl359, adxl380, ideal, sca3300 or a path"),
+        ({"spec": "adxl999"}, r"sensor must be one of adxl354, adxl355, adxl356, adxl357, adxl358, adxl359, adxl380, ideal, ma352, sca3300 or a path"),
         ({"spec": "adxl355", "range_g": 3}, r"range_g must be one of 2, 4, 8 g \(full scale 2.048, 4.096, 8.192\) for adxl355; got 3"),
         ({"spec": "adxl355", "axis": "w"}, r"axis must be one of x, y, z for adxl355; got 'w'"),
         ({"spec": "adxl355", "odr_hz": 3000}, r"odr_hz must be one of 4000, 2000, .* Hz for adxl355; got 3000"),
