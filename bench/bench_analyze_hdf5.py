@@ -7,7 +7,10 @@ quadratic and clipped at ±2.5 g) between vibration-off stretches of 15 s, gener
 Then times, each in a fresh process (whole processes: interpreter, imports, work):
 
 * ``analyze``: ``python -m vrelab analyze FILE --dut dut --reference reference --method random
-  --json``, what a user runs;
+  --json``, what a user runs, on a file it sees for the first time (``VRELAB_NO_DIGEST_CACHE=1``:
+  the provenance's SHA-256 computed);
+* ``analyze_again``: the same on a file analysed before (the SHA-256 from the digest cache,
+  :mod:`vrelab._digests`, in a folder of this run's own);
 * ``plain``: ``bench/plain_random_floor.py FILE``, the same work written plainly with numpy and
   h5py (the floor, issue 29: read both channels in blocks; per window the reference's band
   power from its Hann-windowed rfft and the DUT's mean; windows grouped into levels; each
@@ -166,13 +169,21 @@ _LIBS = "import numpy, h5py, scipy.fft, scipy.special, scipy.optimize"
 _PLAIN_LIBS = "import numpy, h5py"
 
 
-def commands(path: Path, baseline: str | None) -> dict[str, tuple[list[str], dict[str, str] | None]]:
-    """name -> (argv, environment or None) of each process timed."""
+def commands(path: Path, baseline: str | None, digests: Path) -> dict[str, tuple[list[str], dict[str, str] | None]]:
+    """name -> (argv, environment or None) of each process timed; ``digests``: the digest cache's
+    folder (``XDG_CACHE_HOME``) of ``analyze_again``."""
     py = sys.executable
     analyze = [py, "-m", "vrelab", "analyze", str(path), "--dut", "dut", "--reference", "reference",
                "--method", "random", "--json"]
+    # analyze as on a file seen for the first time (the provenance's SHA-256 computed: the digest
+    # cache off), and again on a file already analysed (the digest from vrelab._digests's cache,
+    # in a folder of this run's own, primed by `rounds`)
+    first = dict(os.environ, VRELAB_NO_DIGEST_CACHE="1")
+    again = dict(os.environ, XDG_CACHE_HOME=str(digests))
+    again.pop("VRELAB_NO_DIGEST_CACHE", None)
     out: dict[str, tuple[list[str], dict[str, str] | None]] = {
-        "analyze": (analyze, None),
+        "analyze": (analyze, first),
+        "analyze_again": (analyze, again),
         "plain": ([py, str(HERE / "plain_random_floor.py"), str(path)], None),
         "read": ([py, "-c", _READ, str(path)], None),
         "sha256": ([py, "-c", _SHA256, str(path)], None),
@@ -211,6 +222,8 @@ def rounds(path: Path, cmds: dict[str, tuple[list[str], dict[str, str] | None]],
                                                    "peak_mb": []} for n in names}
     stdout: dict[str, bytes] = {}
     run_child(*cmds["read"])  # the page cache and the interpreter's files warm before the first warm run
+    if "analyze_again" in cmds:
+        run_child(*cmds["analyze_again"])  # the digest remembered: every timed run of it finds it
     for r in range(repeat):
         order = names[r % len(names):] + names[: r % len(names)]
         for mode in ("warm", "cold"):
@@ -303,8 +316,9 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = p.parse_args(argv)
     path = make_record(args.hours, args.fs)
     size_mb = path.stat().st_size / 1e6
-    cmds = commands(path, args.baseline)
-    med, stdout = rounds(path, cmds, args.repeat)
+    with tempfile.TemporaryDirectory(prefix="vrelab-bench-digests-") as digests:
+        cmds = commands(path, args.baseline, Path(digests))
+        med, stdout = rounds(path, cmds, args.repeat)
     work = same_work(stdout["analyze"], stdout["plain"])
     a, fl, rd = med["analyze"], med["plain"], med["read"]
     result: dict[str, Any] = {
@@ -319,7 +333,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "cold_method": "the file's pages dropped from this machine's page cache (posix_fadvise DONTNEED) before "
         "each cold run; storage below it (a VM host) may still cache them",
     }
-    labels = {"analyze": "vrelab analyze --json", "plain": "plain script (floor)", "read": "bare h5py read",
+    labels = {"analyze": "vrelab analyze --json", "analyze_again": "  again (digest cached)", "plain": "plain script (floor)", "read": "bare h5py read",
               "sha256": "sha256 of the file", "baseline": "analyze on --baseline",
               "libs": "import analyze's libraries", "plain_libs": "import plain's libraries"}
     print(f"{path.name} ({size_mb:.0f} MB), whole processes, medians of {args.repeat} interleaved rounds:")
@@ -372,6 +386,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     print(f"  ... and without the hash nor the CPU of importing scipy.fft, .special, .optimize ({extra['warm']:.2f} s "
           f"warm): {result['analyze_over_plain_without_hash_and_libraries_cpu']['cpu_warm']:.2f}x warm, "
           f"{result['analyze_over_plain_without_hash_and_libraries_cpu']['cpu_cold']:.2f}x cold")
+    g = med["analyze_again"]
+    result["analyze_again_over_plain"] = {k: round(g[k] / fl[k], 2) for k in ("cpu_warm", "wall_warm", "cpu_cold",
+                                                                          "wall_cold", "peak_mb")}
+    print(f"  analyze again / plain script (the file's SHA-256 from the digest cache, vrelab._digests): "
+          f"CPU {g['cpu_warm'] / fl['cpu_warm']:.2f}x warm, {g['cpu_cold'] / fl['cpu_cold']:.2f}x cold")
     if "rms_max_rel_diff" in work:
         print(f"  same work: {work['levels_analyze']} levels in both, rms within {work['rms_max_rel_diff']:.2%}, "
               f"VRE median |difference| {work['vre_median_abs_diff_in_u']:.2f} u (the plain script's boxcar DUT "

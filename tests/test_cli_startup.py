@@ -10,7 +10,10 @@ library in (``scipy.special <- vrelab.models.clipping <- vrelab.cli.model``).
 * ``vrelab COMMAND --help`` imports no scipy and none of those libraries (the help of
   ``analyze``, ``channels`` and ``campaign`` lists the reader registry's formats, which reads
   no file and imports no reader library);
-* ``vrelab model clip`` (a closed form) imports no reader, plotting library or report.
+* ``vrelab model clip`` (a closed form) imports no reader, plotting library or report;
+* ``vrelab model poly`` (a polynomial closed form: numpy's arithmetic) imports no scipy either
+  (the clipping and memoryless models import ``scipy.special`` where they evaluate ``ndtr`` /
+  ``erfcx``, not at their top).
 
 And the list ``vrelab --help`` prints without importing the commands (:data:`vrelab.cli.COMMANDS`)
 is the one the commands' modules register.
@@ -109,6 +112,11 @@ def test_model_clip_imports_no_reader_plot_or_report():
     assert offenders(chains, (*READERS, *PLOTS_AND_ARRAYS)) == []
     ours = [m for m in chains if m.startswith(("vrelab.report", "vrelab.analysis", "vrelab.shaker", "vrelab.sensor"))]
     assert ours == []
+
+
+def test_model_poly_imports_no_scipy():
+    chains = imports_of("model", "poly", "--k2", "100", "--rms", "1,2")
+    assert offenders(chains, ("scipy", *READERS, *PLOTS_AND_ARRAYS)) == []
 
 
 def test_the_listed_commands_are_those_registered():

@@ -23,7 +23,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Iterator, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -314,6 +314,118 @@ class _DutWindows:
         return num / den
 
 
+class _RefWindows:
+    """The reference's per-window numbers, filled chunk by chunk (see :func:`window_pass_many`):
+    sample count, sum (the FFT's DC bin), AC and in-band sums of squares (Parseval) and the
+    in-band sum's variance (:func:`band_variance_weights`)."""
+
+    def __init__(self, k: int, w: int, fs: float, band: tuple[float, float]) -> None:
+        from scipy import fft as sfft
+
+        self.rfft = sfft.rfft
+        self.count = np.zeros(k, dtype=np.int64)
+        self.ac, self.band, self.sum, self.var = np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k)
+        self.w, self.fs, self.band_hz = w, fs, band
+        # the weights of |X|² repeated for the (re, im) pairs of the spectrum viewed as float64
+        self.weights2 = np.repeat(np.vstack(band_weights(w, fs, band)), 2, axis=1)
+        self.weights4 = band_variance_weights(w, fs, band)
+
+    def add(self, rv: NDArray[np.float64], kk: int) -> None:
+        """Windows ``kk ...`` of this chunk, ``rv`` shaped (windows, samples)."""
+        m, L = rv.shape
+        sl = slice(kk, kk + m)
+        self.count[sl] = L
+        # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square in place
+        # and weigh both halves (no complex temporaries; einsum, not BLAS: see _DutWindows.add)
+        spec = self.rfft(rv, axis=1).view(np.float64)
+        wts = self.weights2 if L == self.w else np.repeat(np.vstack(band_weights(L, self.fs, self.band_hz)), 2, axis=1)
+        self.sum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
+        np.multiply(spec, spec, out=spec)
+        np.einsum("ij,j->i", spec, wts[0], out=self.ac[sl])
+        np.einsum("ij,j->i", spec, wts[1], out=self.band[sl])
+        p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
+        np.multiply(p, p, out=p)
+        vw = self.weights4 if L == self.w else band_variance_weights(L, self.fs, self.band_hz)
+        np.einsum("ij,j->i", p, vw, out=self.var[sl])
+
+
+def _pass_inputs(record: Record, band_hz: tuple[float, float], duts: Sequence[str]
+                 ) -> tuple[float, int, list[str], tuple[float, float]]:
+    """The record's rate and length, the DUT channels and the band, checked (one line each)."""
+    fs = V.positive_scalar("fs_hz", record.fs_hz)
+    n = int(record.n_samples)
+    if n <= 0:
+        raise ValueError("record has no samples")
+    duts = list(duts)
+    if not duts:
+        raise ValueError("no DUT channel to reduce")
+    for d in duts:
+        if d not in record.channels:
+            raise ValueError(f"record has no {d!r} channel; channels: {', '.join(record.channels)}")
+    f1, f2 = (float(x) for x in band_hz)
+    if not (0 < f1 < f2):
+        raise ValueError(f"band_hz must satisfy 0 < f1 < f2, got {band_hz}")
+    return fs, n, duts, (f1, f2)
+
+
+class _BlockWork:
+    """One block's windows, the reference's and every DUT's (see :func:`window_pass_many`).
+
+    With two cores or more, the DUT statistics of a block run in a second thread while this one
+    takes the reference's FFTs (pocketfft and numpy's reductions release the GIL): each thread
+    writes its own arrays and the block is joined before the next, so every number is the one a
+    single thread computes, in the same order. (A third thread reads ahead.)"""
+
+    def __init__(self, ref: _RefWindows, accs: dict[str, _DutWindows], ref_name: str, w: int) -> None:
+        self.ref, self.accs, self.ref_name, self.w = ref, accs, ref_name, w
+        self.kern_rows = np.ascontiguousarray(smoothing_kernel(w).T)
+        # a block is worked in cache-sized chunks of whole windows: the FFT, the squares, the
+        # sums, the extremes and the kernel then read each chunk from cache rather than memory
+        self.chunk = max(1, CHUNK_SAMPLES // w) * w
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="vrelab-dut") if _cores() > 1 else None
+
+    def duts(self, xs: dict[str, NDArray[np.float64]], kk: int) -> None:
+        """Every DUT channel's window statistics of one block (windows ``kk ...``)."""
+        for lo in range(0, len(next(iter(xs.values()))), self.chunk):
+            for d, acc in self.accs.items():
+                kd = kk + lo // self.w
+                for dv in _window_reduce(xs[d][lo : lo + self.chunk], self.w):
+                    acc.add(dv, kd, self.kern_rows)
+                    kd += dv.shape[0]
+
+    def reference(self, r: NDArray[np.float64], kk: int) -> int:
+        """The reference's windows of one block from window ``kk``; returns the next window."""
+        for lo in range(0, len(r), self.chunk):
+            for rv in _window_reduce(r[lo : lo + self.chunk], self.w):
+                self.ref.add(rv, kk)
+                kk += rv.shape[0]
+        return kk
+
+    def block(self, blk: Block, pos: int) -> int:
+        """Block ``blk`` starting at sample ``pos``; returns the window after its last."""
+        r = np.asarray(blk[self.ref_name], dtype=np.float64)
+        xs = {d: np.asarray(blk[d], dtype=np.float64) for d in self.accs}
+        dut_done = self.pool.submit(self.duts, xs, pos // self.w) if self.pool is not None else None
+        try:
+            kk = self.reference(r, pos // self.w)
+        finally:
+            if dut_done is not None:
+                dut_done.result()  # its error, if any, is raised here; it is joined either way
+        if dut_done is None:
+            self.duts(xs, pos // self.w)
+        return kk
+
+    def finite(self, sl: slice) -> bool:
+        """NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow a
+        sum): the small arrays tell, the samples are scanned only to name the first bad one."""
+        return bool(np.isfinite(self.ref.ac[sl]).all() and np.isfinite(self.ref.band[sl]).all()
+                    and all(np.isfinite(a.dsum[sl]).all() for a in self.accs.values()))
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
+
+
 def window_pass(
     record: Record,
     band_hz: tuple[float, float],
@@ -346,123 +458,58 @@ def window_pass_many(
     the Hann-smoothed series of :func:`smoothing_kernel`. Without a ``reference`` channel the
     first DUT is the reference.
     """
-    from scipy import fft as sfft
-
-    fs = V.positive_scalar("fs_hz", record.fs_hz)
-    n = int(record.n_samples)
-    if n <= 0:
-        raise ValueError("record has no samples")
-    duts = list(duts)
-    if not duts:
-        raise ValueError("no DUT channel to reduce")
-    for d in duts:
-        if d not in record.channels:
-            raise ValueError(f"record has no {d!r} channel; channels: {', '.join(record.channels)}")
-    f1, f2 = (float(x) for x in band_hz)
-    if not (0 < f1 < f2):
-        raise ValueError(f"band_hz must satisfy 0 < f1 < f2, got {band_hz}")
+    fs, n, duts, band = _pass_inputs(record, band_hz, duts)
     ref_name = "reference" if "reference" in record.channels else duts[0]
-    w = window_length(fs, (f1, f2), window_s)
+    w = window_length(fs, band, window_s)
     block = max(w, (int(block_size) // w) * w)  # windows never straddle blocks
     k = -(-n // w)
     # a dozen 8-byte numbers per window and DUT, and the smoothing kernel's partial sums: sized
     # before anything is allocated from the record's length
     _budget.check_memory(f"the analysis of {n} samples ({k} windows of {w} samples, {len(duts)} DUT channel(s))",
                          k * (5 + len(duts) * (9 + SMOOTH_WINDOWS)) * 8.0)
-    count = np.zeros(k, dtype=np.int64)
-    rac, rband, rsum, rvar = np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k)
+    ref = _RefWindows(k, w, fs, band)
     accs = {d: _DutWindows(k, w, rail_g) for d in duts}
-    kern = smoothing_kernel(w)
-    kern_rows = np.ascontiguousarray(kern.T)
-    # the weights of |X|² repeated for the (re, im) pairs of the spectrum viewed as float64
-    weights2 = np.repeat(np.vstack(band_weights(w, fs, (f1, f2))), 2, axis=1)
-    weights4 = band_variance_weights(w, fs, (f1, f2))
     chans = list(dict.fromkeys(duts + [ref_name]))
     labels = channel_labels(record)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        from vrelab._format import progress_stream
-
-        bar = tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False, file=progress_stream())
+    bar = _progress_bar(n) if progress else None
     pos = 0
-    # a block is worked in cache-sized chunks of whole windows: the FFT, the squares, the sums,
-    # the extremes and the kernel then read each chunk from cache rather than from memory
-    chunk = max(1, CHUNK_SAMPLES // w) * w
-
-    def dut_block(xs: dict[str, NDArray[np.float64]], kk: int) -> None:
-        """Every DUT channel's window statistics of one block (windows ``kk ...``)."""
-        for lo in range(0, len(next(iter(xs.values()))), chunk):
-            for d, acc in accs.items():
-                kd = kk + lo // w
-                for dv in _window_reduce(xs[d][lo : lo + chunk], w):
-                    acc.add(dv, kd, kern_rows)
-                    kd += dv.shape[0]
-
-    # With two cores or more, the DUT statistics of a block run in a second thread while this
-    # one takes the reference's FFTs (pocketfft and numpy's reductions release the GIL): each
-    # thread writes its own arrays and the block is joined before the next, so every number is
-    # the one a single thread computes, in the same order. (A third thread reads ahead.)
-    pool = ThreadPoolExecutor(1, thread_name_prefix="vrelab-dut") if _cores() > 1 else None
+    work = _BlockWork(ref, accs, ref_name, w)
     try:
         for blk in prefetch(exact_blocks(record, block, chans, 0, n), depth=read_ahead_depth(block, len(chans))):
-            r = np.asarray(blk[ref_name], dtype=np.float64)
-            xs = {d: np.asarray(blk[d], dtype=np.float64) for d in accs}
-            kk = pos // w
-            dut_done = pool.submit(dut_block, xs, kk) if pool is not None else None
-            try:
-                for lo in range(0, len(r), chunk):
-                    for rv in _window_reduce(r[lo : lo + chunk], w):
-                        m, L = rv.shape
-                        sl = slice(kk, kk + m)
-                        count[sl] = L
-                        # |X|² summed with weights: view the complex spectrum as (re, im) pairs, square
-                        # in place and weigh both halves (no complex temporaries; einsum, not BLAS: see
-                        # _DutWindows.add)
-                        spec = sfft.rfft(rv, axis=1).view(np.float64)
-                        wts = weights2 if L == w else np.repeat(np.vstack(band_weights(L, fs, (f1, f2))), 2, axis=1)
-                        rsum[sl] = spec[:, 0]  # the FFT's DC bin is the window's sum, free
-                        np.multiply(spec, spec, out=spec)
-                        np.einsum("ij,j->i", spec, wts[0], out=rac[sl])
-                        np.einsum("ij,j->i", spec, wts[1], out=rband[sl])
-                        p = np.add(spec[:, 0::2], spec[:, 1::2])  # |X|² per bin
-                        np.multiply(p, p, out=p)
-                        vw = weights4 if L == w else band_variance_weights(L, fs, (f1, f2))
-                        np.einsum("ij,j->i", p, vw, out=rvar[sl])
-                        kk += m
-            finally:
-                if dut_done is not None:
-                    dut_done.result()  # its error, if any, is raised here; it is joined either way
-            if dut_done is None:
-                dut_block(xs, pos // w)
-            # NaN/inf anywhere in a window makes its sums non-finite (g-level data cannot overflow
-            # a sum): test the small arrays, and scan the samples only to name the first bad one.
-            sl = slice(pos // w, kk)
-            if not (np.isfinite(rac[sl]).all() and np.isfinite(rband[sl]).all()
-                    and all(np.isfinite(a.dsum[sl]).all() for a in accs.values())):
+            kk = work.block(blk, pos)
+            if not work.finite(slice(pos // w, kk)):
                 for c in chans:
                     check_finite(labels.get(c, repr(c)), np.asarray(blk[c]), pos)
-            pos += len(r)
+            m = len(blk[ref_name])
+            pos += m
             if bar is not None:
-                bar.update(len(r))
+                bar.update(m)
     finally:
-        if pool is not None:
-            pool.shutdown(wait=True)
+        work.close()
     if bar is not None:
         bar.close()
     if pos != n:
         raise ValueError(f"record delivered {pos} samples, expected {n} (truncated file?)")
     shared: SharedCache = {}
+    kern = smoothing_kernel(w)
     return {
         d: WindowStats(
-            fs_hz=fs, window=w, n_samples=n, count=count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
+            fs_hz=fs, window=w, n_samples=n, count=ref.count, dut_sum=a.dsum, dut_smooth=a.smooth(kern),
             dut_max=a.dmax, dut_min=a.dmin, n_at_max=a.nmax, n_at_min=a.nmin, n_beyond_rail=a.nrail,
-            ref_ac_sumsq=rac, ref_sum=rsum, ref_band_sumsq=rband, band_hz=(f1, f2),
-            reference="dut" if ref_name == d else ref_name, shared=shared, rail_g=rail_g, ref_band_var=rvar,
+            ref_ac_sumsq=ref.ac, ref_sum=ref.sum, ref_band_sumsq=ref.band, band_hz=band,
+            reference="dut" if ref_name == d else ref_name, shared=shared, rail_g=rail_g, ref_band_var=ref.var,
         )
         for d, a in accs.items()
     }  # fmt: skip
+
+
+def _progress_bar(n: int) -> Any:
+    """A progress bar of the samples read (on the progress stream)."""
+    from tqdm import tqdm
+
+    from vrelab._format import progress_stream
+
+    return tqdm(total=n, unit="S", unit_scale=True, desc="reading", leave=False, file=progress_stream())
 
 
 # How far the reader runs ahead of the pass, in bytes. A file not in the page cache is read at

@@ -246,9 +246,11 @@ class _Pending:
 
 
 def _sha256_in_thread(path: Path) -> _Pending:
-    from vrelab._io import sha256_file
+    # remembered under the file's identity: a second analysis of an unchanged file does not
+    # hash it again (vrelab._digests: a changed file never carries an old digest)
+    from vrelab._digests import file_sha256
 
-    return _Pending(lambda: sha256_file(path))
+    return _Pending(lambda: file_sha256(path))
 
 
 class _Provenance(Mapping[str, Any]):

@@ -31,7 +31,6 @@ from typing import Callable, Literal, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
 
 from vrelab import _validate
 
@@ -40,6 +39,11 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND as DEFAULT_CLIP_KIND
 from vrelab.models.kinds import KINDS as KINDS
 from vrelab.models.kinds import Kind as Kind
 from vrelab.models.memoryless import horner
+
+# scipy.special (ndtr, erfcx) is imported by the functions that use it, not here: its import
+# (0.3-0.4 s of CPU with SciPy's array-API layer) would otherwise be paid by every command that
+# imports this module (issue 29: `vrelab model poly`, the design helpers) without evaluating a
+# normal tail probability.
 
 Shape = Literal["gaussian", "sine"]
 SHAPES: tuple[str, ...] = ("gaussian", "sine")
@@ -125,6 +129,8 @@ def _rail_asymmetry(mu: NDArray[np.float64], low: NDArray[np.float64], high: NDA
 
 def _mills_gap(t: NDArray[np.float64]) -> NDArray[np.float64]:
     """``q(t) = 1 - t·R(t)`` for t >= 0, where R(t) = (1-Φ(t))/φ(t) is Mills' ratio."""
+    from scipy import special  # at first use: see the module's imports
+
     small = t < _SERIES_T
     if small.all():  # the common case, without the masked copies
         out: NDArray[np.float64] = 1.0 - t * _SQRT_HALF_PI * special.erfcx(t / np.sqrt(2.0))
@@ -229,6 +235,8 @@ def _censored_random(mu: NDArray[np.float64], sigma: NDArray[np.float64], low: N
     asymmetry) is taken once per rail, not once per rail and level of a rail fit's grid: the
     same operations on the same values as taking each branch over its own elements of the
     broadcast arrays, without the masked copies (a third of a rail fit's time)."""
+    from scipy import special  # at first use: see the module's imports
+
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         a = (mu - low) / sigma  # = -α, distance to the lower rail in σ
         b = (high - mu) / sigma  # = β
@@ -281,6 +289,8 @@ def censored_rail_derivatives(
     >>> print(f"{float(d_low):.4f} {float(d_high):.4f}")
     0.0013 0.1587
     """
+    from scipy import special  # at first use: see the module's imports
+
     mu, sigma, low, high = _inputs(mean_g, sigma_g, "sigma_g", rail_low_g, rail_high_g)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         d_low = special.ndtr((low - mu) / sigma)
@@ -346,6 +356,8 @@ def truncated_mean_shift(
     >>> print(f"{truncated_mean_shift(1.0, 1.0, -2.0, 2.0) * 1e3:.0f} mg")
     -283 mg
     """
+    from scipy import special  # at first use: see the module's imports
+
     mu, sigma, low, high = _inputs(mean_g, sigma_g, "sigma_g", rail_low_g, rail_high_g)
     out = np.empty(mu.shape)
     det = sigma == 0
@@ -643,6 +655,8 @@ def clip_mean_shift(
 
 def _inside_probability(mean_g: NDArray[np.float64], sigma_g: float, low: float, high: float) -> NDArray[np.float64]:
     """P(L < X < U) for X ~ N(mean, σ²), from the tail nearer the window (no 1 - 1 cancellation)."""
+    from scipy import special  # at first use: see the module's imports
+
     a = (low - mean_g) / sigma_g
     b = (high - mean_g) / sigma_g
     upper = a > 0  # both rails above the mean: difference of upper tails

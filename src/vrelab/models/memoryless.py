@@ -42,7 +42,6 @@ from typing import Any, Callable, Literal, Sequence, TypedDict, Unpack, cast
 import numpy as np
 from numpy.polynomial import Polynomial
 from numpy.typing import NDArray
-from scipy import special
 
 from vrelab import _keywords, _validate
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS, Kind
@@ -191,6 +190,8 @@ def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _prob(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Φ(b) - Φ(a), from the tail nearer the interval (no 1 - 1 cancellation)."""
+    from scipy import special  # here, not at the top: `vrelab model poly` needs no scipy (issue 29)
+
     upper = a > 0
     prob: NDArray[np.float64] = np.where(upper, special.ndtr(-a) - special.ndtr(-b), special.ndtr(b) - special.ndtr(a))
     return prob
