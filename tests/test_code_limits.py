@@ -44,7 +44,7 @@ THIRD_PARTY_PRIVATE = {
 # Parameters annotated exactly ``Any`` across src/vrelab (``*args``/``**kwargs`` included): 243 at
 # 3dfc271 (this walk; issue 31's table says 207, counted another way), 231 after the public API's
 # sensors, records and options were typed. Lower it when you type more; never raise it.
-MAX_ANY_PARAMETERS = 138
+MAX_ANY_PARAMETERS = 129
 
 # kind:path:qualified name -> size when listed (parameters, lines, or reads for "private")
 RATCHET: dict[str, int] = {
