@@ -43,8 +43,11 @@ THIRD_PARTY_PRIVATE = {
 
 # Parameters annotated exactly ``Any`` across src/vrelab (``*args``/``**kwargs`` included): 243 at
 # 3dfc271 (this walk; issue 31's table says 207, counted another way), 231 after the public API's
-# sensors, records and options were typed. Lower it when you type more; never raise it.
-MAX_ANY_PARAMETERS = 231
+# sensors, records and options were typed, 97 after the helpers, readers of TOML/JSON values, the
+# CLI, prediction, simulation, sweep and report were (the rest: results, _api, analysis, triaxial
+# analyze/simulate, and a few opaque values: a stage's state, a JSON document). Lower it when you
+# type more; never raise it.
+MAX_ANY_PARAMETERS = 97
 
 # kind:path:qualified name -> size when listed (parameters, lines, or reads for "private")
 RATCHET: dict[str, int] = {
@@ -227,7 +230,7 @@ def test_parameters_typed_any_only_go_down() -> None:
     assert len(found) <= MAX_ANY_PARAMETERS, (
         f"{len(found)} parameters typed Any, more than the {MAX_ANY_PARAMETERS} allowed: give the new ones their "
         "real type (a Protocol, a union, npt.ArrayLike, Sensor, ...)")
-    assert len(found) > 100  # the walk saw the annotations (a planted case below checks each form)
+    assert len(found) > 50  # the walk saw the annotations (a planted case below checks each form; 97 at h-any's typing)
 
 
 def test_a_planted_any_parameter_of_each_form_is_counted() -> None:

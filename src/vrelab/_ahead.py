@@ -41,7 +41,7 @@ class Ahead(Iterator[Any]):
         self._thread.start()
         self._closed = False
 
-    def _put(self, item: Any) -> bool:
+    def _put(self, item: object) -> bool:
         import queue
 
         while not self._stop.is_set():

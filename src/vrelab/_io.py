@@ -37,7 +37,12 @@ import shutil
 import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping, Sequence
+
+if TYPE_CHECKING:
+    from _typeshed import ReadableBuffer, WriteableBuffer
+
+    from vrelab.results import LevelResult, VreResult
 
 try:
     import fcntl
@@ -435,12 +440,12 @@ class GuardedFile(io.RawIOBase):
     def tell(self) -> int:
         return self._pos
 
-    def readinto(self, buf: Any) -> int:
+    def readinto(self, buf: WriteableBuffer) -> int:
         n = os.preadv(self._fd, [buf], self._pos)
         self._pos += n
         return n
 
-    def write(self, data: Any) -> int:
+    def write(self, data: ReadableBuffer) -> int:
         view = memoryview(data).cast("B")
         n = len(view)
         if self.failed is None:
@@ -486,7 +491,7 @@ def sha256_file(path: str | Path) -> str:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
-def write_json(path: str | Path, obj: Any) -> None:
+def write_json(path: str | Path, obj: object) -> None:
     """Write JSON atomically (temporary file + rename)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".partial")
@@ -502,7 +507,7 @@ LEVELS_CSV_COLUMNS = (
 )
 
 
-def write_levels_csv(path: str | Path, result: Any) -> None:
+def write_levels_csv(path: str | Path, result: VreResult) -> None:
     """``levels.csv``: one row per level of a ``VreResult``, the numbers of ``results.json``.
 
     The one layout shared by ``simulate --out``, ``analyze --out`` and the demo. Floats are
@@ -512,15 +517,15 @@ def write_levels_csv(path: str | Path, result: Any) -> None:
     write_levels_table(path, [({}, result)])
 
 
-def write_levels_table(path: str | Path, groups: Sequence[tuple[Mapping[str, Any], Any]]) -> None:
+def write_levels_table(path: str | Path, groups: Sequence[tuple[Mapping[str, Any], VreResult]]) -> None:
     """Levels of several results in one CSV: each group's leading columns (``channel``,
     ``run``, ...: the keys of the first group, in order) then :data:`LEVELS_CSV_COLUMNS`."""
     import csv
 
-    def cell(x: Any) -> str:
+    def cell(x: float | None) -> str:
         return "" if x is None else repr(float(x))
 
-    def thd(lv: Any) -> list[str]:  # a THD not measured (nan) is unknown: empty, as a random level's
+    def thd(lv: LevelResult) -> list[str]:  # a THD not measured (nan) is unknown: empty, as a random level's
         e = None if lv.drive is None else lv.drive.thd
         return ["", ""] if e is None or math.isnan(e.value) else [cell(e.value), cell(e.u)]
 

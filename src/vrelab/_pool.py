@@ -27,7 +27,10 @@ import threading
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
-from typing import Any, Iterator
+from typing import TYPE_CHECKING, Iterator
+
+if TYPE_CHECKING:
+    from multiprocessing.context import BaseContext
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
@@ -63,7 +66,7 @@ def worker_init(parent_pid: int, period_s: float = 0.5, deathsig: bool = True) -
     threading.Thread(target=watch, name="vrelab-parent-watch", daemon=True).start()
 
 
-def process_pool(n_workers: int, mp_context: Any = None, deathsig: bool = True) -> ProcessPoolExecutor:
+def process_pool(n_workers: int, mp_context: BaseContext | None = None, deathsig: bool = True) -> ProcessPoolExecutor:
     """A ``ProcessPoolExecutor`` of ``n_workers`` whose workers run :func:`worker_init`."""
     return ProcessPoolExecutor(max_workers=n_workers, mp_context=mp_context, initializer=worker_init,
                                initargs=(os.getpid(), 0.5, deathsig))
@@ -87,7 +90,7 @@ def stop(pool: Executor, timeout_s: float = 5.0) -> None:
 
 
 @contextmanager
-def worker_pool(n_workers: int, mp_context: Any = None) -> Iterator[ProcessPoolExecutor]:
+def worker_pool(n_workers: int, mp_context: BaseContext | None = None) -> Iterator[ProcessPoolExecutor]:
     """:func:`process_pool` as a context: shut down normally on success, :func:`stop`-ped (its
     workers terminated) when anything propagates, Ctrl-C and SIGTERM included."""
     pool = process_pool(n_workers, mp_context)

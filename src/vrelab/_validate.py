@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import math
 import operator
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 
-def _show(value: Any) -> str:
+def _show(value: object) -> str:
     arr = np.asarray(value)
     if arr.size == 1:
         return f"{arr.item()!r}"
@@ -47,7 +46,7 @@ def non_negative(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
-def non_negative_scalar(name: str, value: Any) -> float:
+def non_negative_scalar(name: str, value: ArrayLike) -> float:
     """``float(non_negative(name, value))``; a float that passes is returned without building an
     array (the closed forms check their rms thousands of times in one fit)."""
     if isinstance(value, float) and 0.0 <= value < math.inf:
@@ -62,9 +61,9 @@ def positive(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
-def positive_scalar(name: str, value: Any) -> float:
+def positive_scalar(name: str, value: object) -> float:
     try:
-        x = float(value)
+        x = float(value)  # type: ignore[arg-type]  # any value: what float() refuses is refused below
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(x) or x <= 0:
@@ -72,9 +71,9 @@ def positive_scalar(name: str, value: Any) -> float:
     return x
 
 
-def finite_scalar(name: str, value: Any) -> float:
+def finite_scalar(name: str, value: object) -> float:
     try:
-        x = float(value)
+        x = float(value)  # type: ignore[arg-type]  # any value: what float() refuses is refused below
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(x):
@@ -115,7 +114,7 @@ def vibration_level(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
-def acceleration(name: str, value: Any) -> float:
+def acceleration(name: str, value: object) -> float:
     """An acceleration [g] (a static field): finite and at most ``MAX_ACCELERATION_G`` in size."""
     x = finite_scalar(name, value)
     if abs(x) > MAX_ACCELERATION_G:
@@ -129,7 +128,7 @@ def acceleration(name: str, value: Any) -> float:
 MAX_MOUNT_DEG = 360.0
 
 
-def mount_angle(name: str, value: Any) -> float:
+def mount_angle(name: str, value: object) -> float:
     """A mount angle [deg]: finite and within ``±MAX_MOUNT_DEG``."""
     x = finite_scalar(name, value)
     if abs(x) > MAX_MOUNT_DEG:
@@ -154,7 +153,7 @@ MIN_SENSITIVITY = 1e-9
 MAX_SENSITIVITY = 1e12
 
 
-def sensitivity(name: str, value: Any) -> float:
+def sensitivity(name: str, value: object) -> float:
     """A sensitivity [units per g]: finite, within ``MIN_SENSITIVITY``..``MAX_SENSITIVITY``."""
     x = positive_scalar(name, value)
     if not MIN_SENSITIVITY <= x <= MAX_SENSITIVITY:
@@ -163,10 +162,10 @@ def sensitivity(name: str, value: Any) -> float:
     return x
 
 
-def integer(name: str, value: Any, minimum: int) -> int:
+def integer(name: str, value: object, minimum: int) -> int:
     """An integer >= ``minimum`` (a float with an integral value is accepted)."""
     try:
-        n = operator.index(value)
+        n = operator.index(value)  # type: ignore[arg-type]  # any value: what is not an index is refused below
     except TypeError:
         if isinstance(value, float) and value.is_integer():
             n = int(value)

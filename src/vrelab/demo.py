@@ -23,7 +23,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -37,6 +37,13 @@ from vrelab.report.metadata import ReportMetadata, load_metadata
 from vrelab.results import VreResult
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.units import UG_PER_G
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from vrelab.profiles import Profile
+    from vrelab.sensor import Sensor
+    from vrelab.simulation.record import SimulatedRecord
 
 # The article's numbers the demo holds itself against (seed article, physics §1.1 and 2).
 ARTICLE_FIG1_VRE_G = -0.100  # "VRE about -100 mg" at 1 g rms on a ±2 g sensor in 1 g
@@ -124,11 +131,12 @@ def _rail(result: VreResult) -> Any:
     return next((f for f in result.fits if "rail_g" in f.params), None)
 
 
-def _fig(fig: Any, caption: str) -> ReportFigure:
+def _fig(fig: Figure, caption: str) -> ReportFigure:
     return ReportFigure.from_figure(fig, caption)
 
 
-def _random_run(sensor: Any, profile: Any, levels: Sequence[float], cfg: DemoConfig, seed: int) -> tuple[VreResult, Any]:
+def _random_run(sensor: Sensor, profile: Profile, levels: Sequence[float], cfg: DemoConfig,
+                seed: int) -> tuple[VreResult, SimulatedRecord]:
     """The random-method test of a study and its record (the same plan: the record's blocks are
     regenerated from the seed, sample for sample what the run reduced)."""
     from vrelab import shaker
@@ -138,7 +146,7 @@ def _random_run(sensor: Any, profile: Any, levels: Sequence[float], cfg: DemoCon
     return shaker.run_test(plan), plan.record()
 
 
-def _level_samples(record: Any, rms_g: float) -> tuple[float, dict[str, np.ndarray]]:
+def _level_samples(record: SimulatedRecord, rms_g: float) -> tuple[float, dict[str, np.ndarray]]:
     """The reference and DUT samples [g] of the vibration level nearest ``rms_g`` (nominal) of a
     simulated record, and the level's nominal rms."""
     seg = min((s for s in record.schedule.segments if not s.is_baseline), key=lambda s: abs(s.nominal_rms_g - rms_g))
@@ -172,7 +180,9 @@ def _window(label: str, fs_hz: float, x: Mapping[str, np.ndarray], centre: int |
     return plots.TimeWindow(label, t, x["reference"][i0 : i0 + n], x["dut"][i0 : i0 + n])
 
 
-def _drive_psd_figure(record: Any, profile: Any, rms_g: float, what: str) -> tuple[ReportFigure, str]:
+def _drive_psd_figure(record: SimulatedRecord, profile: Any, rms_g: float, what: str) -> tuple[ReportFigure, str]:
+    # profile Any: parse_profile's RandomProfile | SineOnRandom, and the tolerance check takes a RandomProfile (the
+    # demo's flat profile is one)
     """The reference (drive) PSD of one level against the profile scaled to it, with the ±3 dB
     band (the tolerance check of physics §3, :func:`vrelab.spectra.psd_tolerance_check`), and one
     line of its verdict."""
@@ -238,7 +248,7 @@ def study_fig1(cfg: DemoConfig, stage: Path) -> _Study:
     return _Study("fig1-clipping", sec, {"fig1-clipping": res}, numbers={"fig1_vre_1g": vre1, "fig1_u_1g": u1, "fig1_censored_model": cens, "fig1_vre_03g": vre03})
 
 
-def _predict(sensor: Any, profile: Any, levels: Sequence[float]) -> Mapping[str, Any] | None:
+def _predict(sensor: Sensor, profile: Profile, levels: Sequence[float]) -> Mapping[str, Any] | None:
     import dataclasses
 
     from vrelab.prediction import predict

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from vrelab.campaigns import Mount
     from vrelab.sensor.loader import Sensor
-    from vrelab.simulation.plan import TestPlan
+    from vrelab.simulation.plan import PlanFields, TestPlan
 
 # one block of a run's channels: "reference" [mV] and one per part [LSB]
 Blocks = Iterator[dict[str, NDArray[np.float64]]]
@@ -181,7 +181,7 @@ class MountedSensor:
     frame (x, y, z). The plan's ``static_g`` must be ``g``'s component along the input axis
     (what the record adds to the drive, taken off again here)."""
 
-    def __init__(self, sensor: Any, mount: Any) -> None:
+    def __init__(self, sensor: Any, mount: Mount) -> None:
         i, p, o = sensor.triad
         self._sensor = sensor
         self._d = np.zeros(3)
@@ -222,7 +222,7 @@ class _MountedChain:
     def fs_out_hz(self, fs_hz: float) -> float:
         return float(self.chain.fs_out_hz(fs_hz))
 
-    def start(self, fs_hz: float, seed: Any) -> _MountedRun:
+    def start(self, fs_hz: float, seed: int | np.random.SeedSequence) -> _MountedRun:
         return _MountedRun(self.chain.start(fs_hz, seed), self.feed)
 
 
@@ -253,7 +253,8 @@ def _plan(sensor: Any, run: ExampleRun, seed: int, seconds: float, settle_s: flo
 
     # the rate rule's rate (vrelab.rates): at a lower rate the discretised resonance departs from
     # H(f) near fn (at 4 kHz, |H(1 kHz)|² comes out 7 % high)
-    kw = dict(static_g=run.static_g, seconds=seconds, baseline_s=seconds, seed=seed, settle_s=settle_s)
+    kw: PlanFields = {"static_g": run.static_g, "seconds": seconds, "baseline_s": seconds, "seed": seed,
+                       "settle_s": settle_s}
     if run.freq_hz is None:
         return TestPlan.random(sensor, RandomProfile.flat(*RANDOM_BAND_HZ), run.levels_g, **kw)
     return TestPlan.sine(sensor, [run.freq_hz], run.levels_g, **kw)

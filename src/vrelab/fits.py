@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -225,7 +225,7 @@ def drive_moments(levels: Sequence[LevelResult]) -> tuple[NDArray[np.float64], N
     return x2, x3
 
 
-def _cov_tuple(cov: Any) -> tuple[tuple[float, ...], ...]:
+def _cov_tuple(cov: ArrayLike) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(c) for c in row) for row in np.atleast_2d(cov))
 
 

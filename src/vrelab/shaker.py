@@ -22,7 +22,7 @@ import dataclasses
 import math
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, Unpack
 
 from vrelab._version import __version__
 from vrelab.models.clipping import Kind as ClipKind
@@ -30,7 +30,7 @@ from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
 from vrelab.results import Conditions, Estimate, FitResult, LevelResult, Method, Notice, VreResult
-from vrelab.simulation.plan import TestPlan, min_segment_seconds
+from vrelab.simulation.plan import PlanOptions, TestPlan, min_segment_seconds
 from vrelab.simulation.plan import measurement_band as measurement_band  # its owner is the plan
 from vrelab.simulation.record import SimulatedRecord
 
@@ -223,7 +223,7 @@ def with_lattice_u(record: SimulationTruth, levels: list[LevelResult]) -> list[L
 
 def plan_random_test(
     sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float], static_g: float = 1.0, *,
-    progress: bool = False, **plan: Any,
+    progress: bool = False, **plan: Unpack[PlanOptions],
 ) -> SimulatedRecord:
     """The record of a random-method test, not yet run (see :func:`run_random_test`).
 
@@ -250,7 +250,7 @@ def run_random_test(
     record_path: str | Path | None = None,
     progress: bool = False,
     clip_kind: ClipKind = DEFAULT_CLIP_KIND,
-    **plan: Any,
+    **plan: Unpack[PlanOptions],
 ) -> VreResult:
     """Simulate the random method (physics §4) on ``sensor`` and reduce it like a lab record.
 
@@ -389,7 +389,7 @@ def sine_band(record: SimulatedRecord) -> tuple[float, float] | None:
 
 def plan_sine_test(
     sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], static_g: float = 1.0, *,
-    progress: bool = False, **plan: Any,
+    progress: bool = False, **plan: Unpack[PlanOptions],
 ) -> SimulatedRecord:
     """The record of a sine-method test, not yet run (see :func:`run_sine_test`).
 
@@ -415,7 +415,7 @@ def run_sine_test(
     *,
     record_path: str | Path | None = None,
     progress: bool = False,
-    **plan: Any,
+    **plan: Unpack[PlanOptions],
 ) -> VreResult:
     """Simulate the sine method (IEEE Std 1293-1998; physics §4) and fit VRC at each frequency.
 

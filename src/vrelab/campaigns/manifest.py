@@ -205,13 +205,13 @@ def read_manifest(path: str | Path, check_files: bool = True) -> Manifest:
     return m
 
 
-def _toml_type(value: Any) -> str:
+def _toml_type(value: object) -> str:
     """What a TOML value is, in TOML's words (a table, an array, ...), for a refusal."""
     kinds = ((bool, "boolean"), (dict, "table"), (list, "array"), (int, "integer"), (float, "float"), (str, "string"))
     return next((name for t, name in kinds if isinstance(value, t)), type(value).__name__)
 
 
-def _sensors(manifest: Path, value: Any, channels: Sequence[str]) -> dict[str, Sensor]:
+def _sensors(manifest: Path, value: object, channels: Sequence[str]) -> dict[str, Sensor]:
     """The manifest's ``sensor`` key: a preset name or a sensor file (relative to the manifest)
     for every DUT channel, or a table channel -> one; each channel's axis is the file's axis of
     its name when the file has one (an identified file, ``vrelab identify``), else its default."""
@@ -246,7 +246,7 @@ def _sensors(manifest: Path, value: Any, channels: Sequence[str]) -> dict[str, S
     return out
 
 
-def _run(manifest: Path, index: int, d: Any) -> Run:
+def _run(manifest: Path, index: int, d: object) -> Run:
     where = f"{manifest.name}: run {index}"
     if not isinstance(d, dict):
         raise ValueError(f"{where}: must be a table")
@@ -296,7 +296,7 @@ def _run(manifest: Path, index: int, d: Any) -> Run:
     return run
 
 
-def _scalar_static(where: str, value: Any) -> Any:
+def _scalar_static(where: str, value: object) -> object:
     if isinstance(value, list) or (isinstance(value, dict) and any(isinstance(v, list) for v in value.values())):
         raise ValueError(f"{where}: static_g {value!r} is a vector: a static field [i, p, o] belongs to a mount-angle "
                          "run (with mount_deg and mount_plane); otherwise give the static field along the input axis, "
@@ -359,7 +359,7 @@ def _mount(where: str, d: Mapping[str, Any], dut: Mapping[str, str]) -> dict[str
     return out
 
 
-def _plane(where: str, key: str, value: Any) -> str:
+def _plane(where: str, key: str, value: object) -> str:
     if not isinstance(value, str) or value.strip().lower() not in MOUNT_PLANES:
         raise ValueError(f"{where}: {key} must be ip (the input axis tilted toward the pendulous axis) or io "
                          f"(toward the output axis), got {value!r}")
@@ -376,8 +376,8 @@ def _covers_the_channels(where: str, key: str, table: Mapping[str, Any], dut: Ma
         raise ValueError(f"{where}: {key}: no value for channel {missing[0]!r}")
 
 
-def _per_channel_value(where: str, key: str, value: Any, dut: Mapping[str, str],
-                       parse: Callable[[str, str, Any], str]) -> dict[str, str]:
+def _per_channel_value(where: str, key: str, value: object, dut: Mapping[str, str],
+                       parse: Callable[[str, str, object], str]) -> dict[str, str]:
     """A value for all the run's DUT channels, or a table name -> value covering each."""
     if isinstance(value, dict):
         _covers_the_channels(where, key, value, dut)
@@ -386,7 +386,7 @@ def _per_channel_value(where: str, key: str, value: Any, dut: Mapping[str, str],
     return {c: x for c in dut}
 
 
-def _path(manifest: Path, where: str, key: str, value: Any) -> Path:
+def _path(manifest: Path, where: str, key: str, value: object) -> Path:
     if not isinstance(value, str) or not value.strip():
         raise ValueError(f"{where}: {key} must be a path (relative to the manifest)")
     p = Path(value)
@@ -396,7 +396,7 @@ def _path(manifest: Path, where: str, key: str, value: Any) -> Path:
     return p.resolve()
 
 
-def _duts(where: str, value: Any) -> dict[str, str]:
+def _duts(where: str, value: object) -> dict[str, str]:
     if value is None:
         raise ValueError(f"{where}: key 'dut' missing (the DUT channels along the shaker axis)")
     if isinstance(value, str):
@@ -423,7 +423,7 @@ def _duts(where: str, value: Any) -> dict[str, str]:
     return out
 
 
-def _per_channel(where: str, key: str, value: Any, dut: Mapping[str, str], required: bool,
+def _per_channel(where: str, key: str, value: object, dut: Mapping[str, str], required: bool,
                  positive: bool = False) -> dict[str, float | None]:
     """A number for all the run's DUT channels, or a table name -> number covering each."""
     if value is None:
@@ -443,7 +443,7 @@ def _per_channel(where: str, key: str, value: Any, dut: Mapping[str, str], requi
     return {c: x for c in dut}
 
 
-def _number(where: str, key: str, value: Any, positive: bool) -> float | None:
+def _number(where: str, key: str, value: object, positive: bool) -> float | None:
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -455,7 +455,7 @@ def _number(where: str, key: str, value: Any, positive: bool) -> float | None:
     return float(value)
 
 
-def _opt_str(where: str, key: str, value: Any) -> str | None:
+def _opt_str(where: str, key: str, value: object) -> str | None:
     if value is None:
         return None
     if not isinstance(value, str) or not value.strip():
@@ -463,13 +463,13 @@ def _opt_str(where: str, key: str, value: Any) -> str | None:
     return value.strip()
 
 
-def _choice(where: str, key: str, value: Any, options: Sequence[str]) -> str:
+def _choice(where: str, key: str, value: object, options: Sequence[str]) -> str:
     if value not in options:
         raise ValueError(f"{where}: {key} must be one of {', '.join(options)}, got {value!r}")
     return str(value)
 
 
-def _profile(manifest: Path, where: str, value: Any) -> str | None:
+def _profile(manifest: Path, where: str, value: object) -> str | None:
     if value is None:
         return None
     if not isinstance(value, str) or not value.strip():
@@ -482,7 +482,7 @@ def _profile(manifest: Path, where: str, value: Any) -> str | None:
     return text
 
 
-def _band(where: str, value: Any) -> tuple[float, float] | None:
+def _band(where: str, value: object) -> tuple[float, float] | None:
     if value is None:
         return None
     if (not isinstance(value, list) or len(value) != 2

@@ -15,7 +15,7 @@ import argparse
 import csv
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 from vrelab import _io, folder
 from vrelab.cli._common import positive_list, print_json, print_levels, typeb_from_args
@@ -48,7 +48,7 @@ def _axis_channels(text: str, what: str, exactly_three: bool) -> dict[str, str]:
     return out
 
 
-def run_triaxial(args: argparse.Namespace, inputs: Any, command: str) -> int:
+def run_triaxial(args: argparse.Namespace, inputs: Iterable[str | Path], command: str) -> int:
     from vrelab._api import analyze
     from vrelab._io import sha256_file
     from vrelab.analysis.options import FitOptions, ReductionOptions

@@ -37,7 +37,7 @@ import math
 import shlex
 import sys
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -45,6 +45,7 @@ from vrelab import _io, folder
 from vrelab import _validate as V
 from vrelab.analysis.options import ACCEPTABLE, BudgetOptions, FitOptions, ReductionOptions
 from vrelab.cli._common import (
+    Subparsers,
     add_budget_arguments,
     positive_list,
     print_json,
@@ -55,6 +56,11 @@ from vrelab.cli._common import (
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 from vrelab.record import DEFAULT_SETTLE_S
 from vrelab.results import channels_to_dict
+
+if TYPE_CHECKING:
+    from vrelab.analysis.pipeline import Reduction
+    from vrelab.profiles import Profile
+    from vrelab.results import VreResult
 
 
 def _band(text: str) -> tuple[float, float]:
@@ -70,7 +76,7 @@ def _band(text: str) -> tuple[float, float]:
     return f1, f2
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "analyze",
         help="reduce a recorded shaker test (a lab file of any format its --help lists) to VRE per level and fit it",
@@ -273,7 +279,8 @@ class _Provenance(Mapping[str, Any]):
         return len(self._items)
 
 
-def _write_out(out: Path, reduced: Any, doc: dict[str, Any], profile: Any, several: bool, inputs: Any = ()) -> None:
+def _write_out(out: Path, reduced: Sequence[tuple[str, VreResult, Reduction]], doc: dict[str, Any],
+               profile: Profile | None, several: bool, inputs: Iterable[str | Path] = ()) -> None:
     with _io.output_dir(out, inputs=inputs) as stage:
         if several:
             subs = folder.write_channels(stage, [(n, r) for n, r, _ in reduced], doc)
@@ -308,7 +315,7 @@ def _command_line(args: argparse.Namespace) -> str:
     return shlex.join(parts)
 
 
-def _write_envelope(path: Path, red: Any) -> None:
+def _write_envelope(path: Path, red: Reduction) -> None:
     from vrelab.analysis.segmentation import segments_to_labels
 
     st = red.stats
@@ -326,7 +333,7 @@ def _write_envelope(path: Path, red: Any) -> None:
             w.writerow([f"{t[i]:.6g}", f"{env[i]:.9g}", f"{band[i]:.9g}", f"{mean[i]:.12g}", int(st.count[i]), text[i]])
 
 
-def _write_psds(stage: Path, red: Any, profile: Any) -> None:
+def _write_psds(stage: Path, red: Reduction, profile: Profile | None) -> None:
     with open(stage / folder.PSD_LEVELS, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["level", "rms_g", "freq_hz", "psd_g2_per_hz"])
@@ -349,7 +356,7 @@ def _write_psds(stage: Path, red: Any, profile: Any) -> None:
             w.writerow([f"{fk:.6g}", f"{pk:.6g}", "" if not np.isfinite(qk) else f"{qk:.6g}"])
 
 
-def _print_summary(result: Any, path: Path, channel: str | None = None) -> None:
+def _print_summary(result: VreResult, path: Path, channel: str | None = None) -> None:
     print(f"{path.name}{f' channel {channel}' if channel else ''}: {result.method} method, {len(result.levels)} level(s)")
     print_levels(result)
     if result.noise is not None:

@@ -21,9 +21,10 @@ TOML file: :mod:`vrelab.triaxial.files`), the levels its total rms, and the pred
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vrelab.cli._common import (
+    Subparsers,
     add_sensor_arguments,
     positive_list,
     print_json,
@@ -39,8 +40,11 @@ from vrelab.cli._triaxial import (
 )
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 
+if TYPE_CHECKING:
+    from vrelab.prediction.results import Prediction
 
-def print_prediction(pred: Any) -> None:
+
+def print_prediction(pred: Prediction) -> None:
     from vrelab._format import PREDICTION_RESOLUTION_MG, TILT_RESOLUTION_DEG, format_mg, format_value, format_value_u
 
     d = pred.to_dict()
@@ -72,7 +76,7 @@ def print_prediction(pred: Any) -> None:
     print(head)
     res = PREDICTION_RESOLUTION_MG
 
-    def mg(x: Any) -> str:
+    def mg(x: float | None) -> str:
         return format_mg(x, signed=False, resolution_mg=res)
 
     for lv in d["levels"]:
@@ -143,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "predict",
         help="analytic VRE of a sensor in a sine or random vibration, with shares by mechanism",

@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 from typing import Any, TypedDict
 
-from vrelab.cli._common import print_json, profile_table
+from vrelab.cli._common import Subparsers, print_json, profile_table
 
 
 class _Listed(TypedDict):
@@ -100,7 +100,7 @@ def _triaxial(args: argparse.Namespace) -> int:
     return _show(args, prof.to_dict(), prof.describe())
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "profile",
         help="show a random vibration profile: grms and breakpoints",

@@ -32,10 +32,11 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vrelab.cli import _triaxial as tri
 from vrelab.cli._common import (
+    Subparsers,
     add_sensor_arguments,
     mount_overrides,
     positive_list,
@@ -46,8 +47,11 @@ from vrelab.cli._common import (
 from vrelab.models.kinds import DEFAULT_CLIP_KIND, KINDS
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 
+if TYPE_CHECKING:
+    from vrelab.results import VreResult
 
-def print_result(result: Any) -> None:
+
+def print_result(result: VreResult) -> None:
     c = result.conditions
     odr = f"ODR {c.odr_hz:g} Hz" if c.odr_hz else "no ODR"
     print(f"simulated {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  axis {c.axis}  "
@@ -204,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "simulate",
         help="simulated shaker test of a sensor (random or sine method), reduced like a lab record",

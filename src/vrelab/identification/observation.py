@@ -280,7 +280,7 @@ def value_u(value: float, u: float) -> ValueU:
     return {"value": value, "u": u}
 
 
-def _is_num(v: Any, finite: bool = True) -> bool:
+def _is_num(v: object, finite: bool = True) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and (not finite or math.isfinite(v))
 
 
@@ -295,7 +295,7 @@ _LEVEL_BOUNDS = {
 }
 
 
-def check_document(doc: Any) -> None:
+def check_document(doc: Any) -> None:  # Any: a JSON document, checked here field by field
     """The campaign document's schema, as identification reads it (``vrelab campaign``'s
     results.json, :func:`vrelab.campaigns.campaign_doc`): a ValueError naming the first field
     that is missing or of the wrong type (``runs[2].channels[0].static_g``), never a KeyError or
@@ -312,7 +312,7 @@ def check_document(doc: Any) -> None:
     ValueError: identify: campaign document runs must be a list of runs (give a manifest or a `vrelab campaign --out` folder), got None
     """
 
-    def need(where: str, ok: bool, what: str, value: Any) -> None:
+    def need(where: str, ok: bool, what: str, value: object) -> None:
         if not ok:
             shown = repr(value)
             raise ValueError(f"identify: campaign document {where} must be {what}, got "

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any, Callable, Literal, Sequence, TypedDict, Unpack, cast
+from typing import Callable, Literal, Sequence, TypedDict, Unpack, cast, overload
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -74,7 +74,11 @@ def _coefficients(k2_per_g: float, k3_per_g2: float, k4_per_g3: float, offset_g:
     return (float(offset_g), 1.0, float(k2_per_g), float(k3_per_g2), float(k4_per_g3))
 
 
-def horner(c: Sequence[float], x: Any) -> Any:
+@overload
+def horner(c: Sequence[float], x: float) -> float: ...
+@overload
+def horner(c: Sequence[float], x: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def horner(c: Sequence[float], x: float | NDArray[np.float64]) -> float | NDArray[np.float64]:
     """``Σ c_n·x^n`` (``c`` lowest power first) at a float or elementwise on an array, as numpy's
     ``polyval`` computes it (the same operations in the same order, so the same bits) without its
     per-call overhead: the closed forms here and the Mills-ratio series of

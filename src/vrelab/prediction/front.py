@@ -125,7 +125,7 @@ def _with_mount_note(pred: Prediction, sensor: Sensor, vibration: object) -> Pre
     return pred if note is None else dataclasses.replace(pred, notes=(*pred.notes, note))
 
 
-def _is_triaxial(vibration: Any) -> bool:
+def _is_triaxial(vibration: object) -> bool:
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
 
     return isinstance(vibration, (TriaxialProfile, TriaxialSine))

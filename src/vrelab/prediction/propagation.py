@@ -346,7 +346,7 @@ def _assumed_monte_carlo(problem: _Problem, curved: Mapping[str, float], sources
                      f"{1e3 * np.quantile(v[:, worst], 0.975):.4g}] mg)")
 
 
-def _monte_carlo(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+def _monte_carlo(sensor: Sensor, excitation: object, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
                  names: Sequence[str], sigma: NDArray[np.float64],
                  predictor: Callable[..., Prediction]) -> tuple[NDArray[np.float64], float,
                                                                            NDArray[np.float64], NDArray[np.float64]]:
@@ -382,7 +382,7 @@ PROBE_REL = 0.1
 OFF_AXIS = ("cross_axis_", "kip_", "kio_", "kpp_", "koo_", "kpo_")
 
 
-def unstated_check(sensor: Sensor, excitation: Any, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
+def unstated_check(sensor: Sensor, excitation: object, levels: NDArray[np.float64], static_g: float, kind: ClipKind,
                    out: Sequence[LevelPrediction], *,
                    predictor: Callable[..., Prediction]) -> tuple[list[LevelPrediction], list[str]]:
     """The assumptions with no stated u (``sensor.unstated``: facts "assumption..." and no

@@ -102,7 +102,8 @@ def _commensurate(freqs_hz: Sequence[float], largest: int = 4) -> list[tuple[flo
     return out
 
 
-def _check_time(sensor: Sensor, excitation: Any, n_levels: int) -> None:
+def _check_time(sensor: Sensor, excitation: RandomProfile | SineOnRandom | float | Sequence[float],
+                n_levels: int) -> None:
     """Refuse, before any level, a prediction beyond the time budget (:func:`vrelab._budget.check_prediction`,
     the simulation's budget): its levels, at each sine frequency, times the four predictions each
     parameter uncertainty costs the propagation (a lower bound: a Monte Carlo where the VRE is

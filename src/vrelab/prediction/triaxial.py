@@ -80,6 +80,7 @@ from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
 from vrelab.units import to_ug
 
 if TYPE_CHECKING:
+    from vrelab.profiles import RandomProfile, SineOnRandom
     from vrelab.sensor import Sensor
 
 
@@ -117,7 +118,9 @@ def _level_zero(rms: float, freq_hz: float | None, u0: float) -> LevelPrediction
     return LevelPrediction(rms, 0.0, tilt_note(0.0, u0)[0], zero, 0.0, 0.0, 0.0, 0.0, True, freq_hz=freq_hz)
 
 
-def predict_along(sensor: Sensor, vibration: Any, levels: Sequence[float] | NDArray[np.float64],
+def predict_along(sensor: Sensor,
+                  vibration: RandomProfile | SineOnRandom | float | Sequence[float] | TriaxialProfile | TriaxialSine,
+                  levels: Sequence[float] | NDArray[np.float64],
                   static_g: float | ArrayLike, kind: ClipKind, direction: ArrayLike | None) -> Prediction:
     """:func:`vrelab.prediction.predict` off the input axis: a single-axis profile or one sine
     frequency along ``direction`` (default: the input axis), or a TriaxialProfile/TriaxialSine as
@@ -315,7 +318,7 @@ def _axis(sensor: Sensor, excitation: Excitation, static_g: ArrayLike, kind: Cli
                  any_cross, g_filtered, g_err)
 
 
-def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, kind: ClipKind,
+def _predict(sensor: Sensor, excitation: object, levels: ArrayLike, static_g: ArrayLike, kind: ClipKind,
              judged: Callable[[LevelPrediction], LevelPrediction] | None) -> Prediction:
     if not isinstance(excitation, (TriaxialProfile, TriaxialSine)):
         raise ValueError(f"a triaxial prediction needs a TriaxialProfile or TriaxialSine, got {type(excitation).__name__}")
@@ -361,7 +364,7 @@ def _predict(sensor: Sensor, excitation: Any, levels: Any, static_g: ArrayLike, 
                  "the axis: w·g and the cross terms' K·g_j·g_k): mean output with vibration less that reading")
     cond = _conditions(ax, bare, excitation)
     if judged is not None and (getattr(sensor, "covariance", None) or getattr(sensor, "uncertainty", None)):
-        def again(s: Sensor, _e: Any, lv: Any, _g: float, k: ClipKind) -> Prediction:
+        def again(s: Sensor, _e: object, lv: ArrayLike, _g: float, k: ClipKind) -> Prediction:
             return _predict(s, excitation, lv, ax.g, k, None)
 
         prop = propagation(sensor, cast(Any, excitation), levels_arr, u0, kind, vre_g=np.array([lv.vre_g for lv in out]),

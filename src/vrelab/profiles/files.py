@@ -69,7 +69,7 @@ def _read_csv(path: Path) -> RandomProfile:
         raise ValueError(f"{path}: {exc}") from None
 
 
-def _toml_pair(path: Path, field: str, item: Any) -> tuple[float, float]:
+def _toml_pair(path: Path, field: str, item: object) -> tuple[float, float]:
     if not isinstance(item, (list, tuple)) or len(item) != 2:
         raise ValueError(f"{path}: {field} must be a pair [a, b], got {item!r}")
     try:
@@ -120,7 +120,7 @@ def profile_from_table(path: Path, table: dict[str, Any]) -> RandomProfile:
 _TONE_KEYS = ("freq_hz", "peak_g")
 
 
-def _tones_from_tables(path: Path, rows: Any) -> tuple[Tone, ...]:
+def _tones_from_tables(path: Path, rows: object) -> tuple[Tone, ...]:
     """The ``[[tone]]`` tables of a profile file (each ``freq_hz`` [Hz], ``peak_g`` [g peak])."""
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise ValueError(f"{path}: tone must be [[tone]] tables with freq_hz and peak_g")

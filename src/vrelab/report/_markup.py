@@ -43,7 +43,7 @@ _CONTROLS = {c: _shown(chr(c)) for c in (*(c for c in range(0x20) if chr(c) not 
                                          *range(0x202A, 0x202F), *range(0x2066, 0x206A))}
 
 
-def shown_text(x: Any) -> str:
+def shown_text(x: object) -> str:
     """``str(x)`` with its control characters made visible and inert (the report's one rule):
     C0 controls but tab and line breaks as their pictures (U+2400 block: a form feed is ␌),
     DEL as ␡, C1 controls and bidirectional embeddings, overrides and isolates as U+FFFD (an
@@ -51,7 +51,7 @@ def shown_text(x: Any) -> str:
     return str(x).translate(_CONTROLS)
 
 
-def esc(x: Any) -> str:
+def esc(x: object) -> str:
     """``x`` as HTML text or a quoted attribute value: :func:`shown_text`, then ``& < > " '``
     escaped."""
     return html.escape(shown_text(x), quote=True)
@@ -77,7 +77,7 @@ def script_json(text: str) -> str:
     return text
 
 
-def cell(v: Any) -> str:
+def cell(v: object) -> str:
     if isinstance(v, tuple) and len(v) == 2 and str(v[1]).startswith("#"):
         return f'<a href="{esc(v[1])}">{esc(v[0])}</a>'  # (text, "#anchor"): a link within the report
     text = ("yes" if v else "no") if isinstance(v, bool) else str(v)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import html
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib import colors as mcolors
@@ -34,9 +34,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.text import Annotation, Text
+from matplotlib.transforms import Transform
 
 from vrelab._format import format_u, format_value, format_value_u
 from vrelab.report._markup import shown_text
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Unsupported", "plotly_js", "to_plotly", "to_plotly_json"]
 
@@ -68,20 +72,21 @@ def plotly_js() -> str:
     return bundle
 
 
-def _text(s: Any) -> str:
+def _text(s: object) -> str:
     # plotly renders labels as a small HTML subset: escape, so a channel named "<b>" is text
     # (control characters shown by the report's one rule first).
     return html.escape(shown_text(s), quote=False).replace("\n", "<br>")
 
 
 def _color(c: Any, alpha: float | None = None) -> str:
+    # Any: matplotlib's getters type a colour wider (a float among them) than to_rgba's ColorType
     r, g, b, a = mcolors.to_rgba(c)
     if alpha is not None:
         a = alpha
     return f"rgba({round(255 * r)},{round(255 * g)},{round(255 * b)},{a:.3g})"
 
 
-def _arr(x: Any) -> Any:
+def _arr(x: ArrayLike) -> Any:
     a = np.asarray(x, dtype=np.float64).ravel()
     if a.size > _LONG:
         return a.astype(np.float32)
@@ -99,7 +104,7 @@ class _Scale:
         return round(float(pt) * self.px, 2)
 
 
-def _coords(ax: Axes, transform: Any) -> tuple[bool, bool]:
+def _coords(ax: Axes, transform: Transform) -> tuple[bool, bool]:
     """Which of x, y an artist gives in data coordinates (the others in axes fraction)."""
     if transform.contains_branch(ax.transData):
         return True, True
@@ -346,7 +351,7 @@ class _AxesTranslator:
     _KINDS = ((ErrorbarContainer, "errorbar"), (BarContainer, "bars"), (PolyCollection, "poly"),
               (LineCollection, "segments"), (PathCollection, "scatter"))
 
-    def _any(self, artist: Any) -> None:
+    def _any(self, artist: object) -> None:  # a container or a collection, dispatched on its type
         for kind, method in self._KINDS:
             if isinstance(artist, kind):
                 getattr(self, method)(artist)

@@ -87,7 +87,7 @@ def _is_date_key(key: str) -> bool:
     return key.endswith("date") or key == "received"
 
 
-def _toml_type(v: Any) -> str:
+def _toml_type(v: object) -> str:
     if isinstance(v, bool):
         return "boolean"
     for t, name in ((str, "string"), (int, "integer"), (float, "float"), (list, "array"), (dict, "table"),
@@ -122,7 +122,7 @@ class ReportMetadata:
         return self.get("item", key)
 
 
-def _value(where: str, table: str, key: str, v: Any) -> str:
+def _value(where: str, table: str, key: str, v: object) -> str:
     name = f"[{table}] {key}" if table else key
     if isinstance(v, str):
         if not v.strip():

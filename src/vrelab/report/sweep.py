@@ -25,9 +25,10 @@ from __future__ import annotations
 import itertools
 import math
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
@@ -46,6 +47,9 @@ from vrelab.report.html import (
 )
 from vrelab.report.metadata import ReportMetadata
 from vrelab.report.plots import COLORS
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 UNIT = "unit"
 # More lines than this on one plot cannot be told apart, even in the colour-blind-safe cycle
@@ -83,7 +87,7 @@ def axis_label(name: str) -> str:
     return name
 
 
-def _fmt_value(v: Any) -> str:
+def _fmt_value(v: object) -> str:
     if isinstance(v, (float, np.floating)):
         return format(float(v), "g")
     return str(v)
@@ -116,29 +120,29 @@ def load_sweep(path: str | Path) -> Any:
     return ds
 
 
-def grid_axes(ds: Any) -> list[str]:
+def grid_axes(ds: xr.Dataset) -> list[str]:
     """The grid axes in file order (the dimensions of ``status`` without ``unit``)."""
-    return [d for d in ds["status"].dims if d != UNIT]
+    return [str(d) for d in ds["status"].dims if d != UNIT]  # xarray types names Hashable; a sweep's are str
 
 
-def drawn_parameters(ds: Any) -> list[str]:
+def drawn_parameters(ds: xr.Dataset) -> list[str]:
     """The Monte Carlo parameters: numeric coordinates along ``unit`` other than ``unit``."""
     if UNIT not in ds.dims:
         return []
-    return [n for n, c in ds.coords.items() if n != UNIT and c.dims == (UNIT,) and c.dtype.kind in "fiu"]
+    return [str(n) for n, c in ds.coords.items() if n != UNIT and c.dims == (UNIT,) and c.dtype.kind in "fiu"]
 
 
-def _is_numeric(ds: Any, name: str) -> bool:
+def _is_numeric(ds: xr.Dataset, name: str) -> bool:
     return ds[name].dtype.kind in "fiu"
 
 
-def x_axis(ds: Any) -> str | None:
+def x_axis(ds: xr.Dataset) -> str | None:
     """The axis VRE is drawn against: the first numeric grid axis, else the first grid axis."""
     axes = grid_axes(ds)
     return next((a for a in axes if _is_numeric(ds, a)), axes[0] if axes else None)
 
 
-def line_combinations(ds: Any, x: str) -> list[dict[str, Any]]:
+def line_combinations(ds: xr.Dataset, x: str) -> list[dict[str, Any]]:
     """Every combination of the grid axes other than ``x``, in file order (one empty selection
     when ``x`` is the only axis)."""
     others = [a for a in grid_axes(ds) if a != x]
@@ -155,7 +159,7 @@ def _part(first: int, n: int, total: int, what: str) -> str:
     return f" ({what} {first + 1}–{first + n} of {total})" if n < total else ""
 
 
-def grid_points(ds: Any) -> list[dict[str, Any]]:
+def grid_points(ds: xr.Dataset) -> list[dict[str, Any]]:
     """Every grid point (a selection of the grid axes) in row-major order; one empty selection
     when there is no grid."""
     axes = grid_axes(ds)
@@ -175,17 +179,17 @@ def _new_figure(nrows: int = 1, ncols: int = 1, height_in: float = 4.6) -> tuple
     return fig, axes
 
 
-def _title(ds: Any) -> str:
+def _title(ds: xr.Dataset) -> str:
     return str(ds.attrs.get("title") or "sweep")
 
 
 # --------------------------------------------------------------------------- figures
-def _x_values(ds: Any, x: str) -> tuple[np.ndarray, bool]:
+def _x_values(ds: xr.Dataset, x: str) -> tuple[np.ndarray, bool]:
     numeric = _is_numeric(ds, x)
     return (ds[x].values.astype(float) if numeric else np.arange(ds.sizes[x], dtype=float)), numeric
 
 
-def _x_axis_style(ax: Any, ds: Any, x: str, xs: np.ndarray, numeric: bool) -> None:
+def _x_axis_style(ax: Axes, ds: xr.Dataset, x: str, xs: np.ndarray, numeric: bool) -> None:
     if not numeric:
         ax.set_xticks(xs, [str(v) for v in ds[x].values])
     elif xs.size > 1 and xs.min() > 0 and xs.max() / xs.min() > 30:
@@ -193,7 +197,7 @@ def _x_axis_style(ax: Any, ds: Any, x: str, xs: np.ndarray, numeric: bool) -> No
     ax.set_xlabel(axis_label(x))
 
 
-def plot_sweep_grid(ds: Any, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
+def plot_sweep_grid(ds: xr.Dataset, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
                     part: str = "") -> Figure:
     """VRE (mg) against grid axis ``x`` (default :func:`x_axis`), one line per combination of
     the other grid axes (``combos``, default all of them), ±u error bars when the Dataset has
@@ -233,7 +237,7 @@ def plot_sweep_grid(ds: Any, x: str | None = None, combos: Sequence[dict[str, An
     return fig
 
 
-def plot_lot_spread(ds: Any, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
+def plot_lot_spread(ds: xr.Dataset, x: str | None = None, combos: Sequence[dict[str, Any]] | None = None,
                     part: str = "") -> Figure:
     """A Monte Carlo lot's VRE (mg) against grid axis ``x`` (default :func:`x_axis`): for each
     combination of the other grid axes (``combos``, default all) the mean over the units (line
@@ -279,7 +283,7 @@ def lot_statistics(vre_g: np.ndarray) -> dict[str, float]:
     }
 
 
-def plot_lot_histograms(ds: Any, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
+def plot_lot_histograms(ds: xr.Dataset, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
     """The VRE of the units of a Monte Carlo lot, one histogram per grid point (``points``,
     default the first ``MAX_HIST_PANELS``), with the mean (solid), mean ± one standard deviation
     (dashed) and the 5th / 95th percentiles (dotted) marked and given in the legend in mg."""
@@ -316,7 +320,7 @@ def plot_lot_histograms(ds: Any, points: Sequence[dict[str, Any]] | None = None,
     return fig
 
 
-def plot_lot_scatter(ds: Any, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
+def plot_lot_scatter(ds: xr.Dataset, points: Sequence[dict[str, Any]] | None = None, part: str = "") -> Figure:
     """VRE (mg) of each unit against each drawn parameter: one column per parameter, one row per
     grid point (``points``, default the first ``MAX_SCATTER_ROWS``). Rows do not share a VRE
     scale: the spread within a grid point is what shows which parameter drives it, and the
@@ -346,7 +350,7 @@ def plot_lot_scatter(ds: Any, points: Sequence[dict[str, Any]] | None = None, pa
 
 
 # --------------------------------------------------------------------------- the section
-def _spec(ds: Any) -> dict[str, Any]:
+def _spec(ds: xr.Dataset) -> dict[str, Any]:
     try:
         doc = json_loads(str(ds.attrs.get("spec_json", "{}")), "attribute 'spec_json'")
     except ValueError:  # not JSON, or nested beyond the budget: no spec shown
@@ -354,24 +358,24 @@ def _spec(ds: Any) -> dict[str, Any]:
     return doc if isinstance(doc, dict) else {}
 
 
-def _status_counts(ds: Any) -> dict[str, int]:
+def _status_counts(ds: xr.Dataset) -> dict[str, int]:
     status = np.asarray(ds["status"].values).astype(str)
     return {k: int((status == k).sum()) for k in ("ok", "failed", "missing")}
 
 
-def failed_points(ds: Any) -> list[tuple[dict[str, Any], str]]:
+def failed_points(ds: xr.Dataset) -> list[tuple[dict[str, Any], str]]:
     """Every failed (or missing) point: its coordinates (unit first) and its error."""
     st = ds["status"]
     status = np.asarray(st.values).astype(str)
     error = np.asarray(ds["error"].values).astype(str)
     out = []
     for idx in zip(*np.nonzero(status != "ok")):
-        sel = {d: ds[d].values[i].item() for d, i in zip(st.dims, idx)}
-        out.append((sel, error[idx] or status[idx]))
+        sel = {str(d): ds[d].values[i].item() for d, i in zip(st.dims, idx)}
+        out.append((sel, str(error[idx] or status[idx])))
     return out
 
 
-def sweep_figures(ds: Any) -> tuple[list[ReportFigure], list[str]]:
+def sweep_figures(ds: xr.Dataset) -> tuple[list[ReportFigure], list[str]]:
     """The figures of a sweep Dataset, captioned; and notes on what could not be drawn. Every
     grid point and every combination is shown, over as many figures as it takes."""
     figs: list[ReportFigure] = []
@@ -414,7 +418,7 @@ def sweep_figures(ds: Any) -> tuple[list[ReportFigure], list[str]]:
     return figs, notes
 
 
-def sweep_tables(ds: Any) -> list[ReportTable]:
+def sweep_tables(ds: xr.Dataset) -> list[ReportTable]:
     """The failed points with their errors, and for a lot the VRE statistics per grid point."""
     tables: list[ReportTable] = []
     if UNIT in ds.dims and "vre_g" in ds.data_vars:
@@ -436,7 +440,7 @@ def _describe_dist(d: dict[str, Any]) -> str:
     return f"{d.get('dist', '?')} ({args})"
 
 
-def _facts(ds: Any) -> list[tuple[str, str]]:
+def _facts(ds: xr.Dataset) -> list[tuple[str, str]]:
     spec = _spec(ds)
     counts = _status_counts(ds)
     n = sum(counts.values())
@@ -456,12 +460,12 @@ def _facts(ds: Any) -> list[tuple[str, str]]:
     fixed = spec.get("fixed")
     if isinstance(fixed, dict) and fixed:
         facts.append(("fixed", ", ".join(f"{k} = {_fmt_value(v)}" for k, v in fixed.items())))
-    variables = [v for v in ds.data_vars if v not in ("status", "error")]
+    variables = [str(v) for v in ds.data_vars if v not in ("status", "error")]
     facts.append(("variables", ", ".join(variables)))
     return facts
 
 
-def summary_sentence(ds: Any) -> str:
+def summary_sentence(ds: xr.Dataset) -> str:
     """One sentence of what the sweep shows."""
     counts = _status_counts(ds)
     n = sum(counts.values())
@@ -479,7 +483,7 @@ def summary_sentence(ds: Any) -> str:
     return s + "."
 
 
-def sweep_section(ds: Any, title: str | None = None, provenance: dict[str, Any] | None = None) -> ReportSection:
+def sweep_section(ds: xr.Dataset, title: str | None = None, provenance: dict[str, Any] | None = None) -> ReportSection:
     """The report section of a sweep Dataset: summary, figures, tables, failed points."""
     figs, notes = sweep_figures(ds)
     counts = _status_counts(ds)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, TypedDict, TypeGuard, Unpack
 
 import numpy as np
 
@@ -39,6 +39,8 @@ if TYPE_CHECKING:
     from vrelab.sensor.base import Stage
     from vrelab.sensor.loader import Sensor
 
+# a real number as a file or an attribute gives it (numpy's own included; a bool is none: is_number)
+Real = float | np.integer[Any] | np.floating[Any]
 Kind = Literal["positive", "finite", "non_negative", "order", "bool", "choice", "rails"]
 
 
@@ -91,7 +93,7 @@ class Field:
             text = text.replace(a, b)
         return text or "1"
 
-    def parse(self, raw: Any, where: str) -> Any:
+    def parse(self, raw: object, where: str) -> Any:
         """A file's value as the attribute's value, or ``ValueError`` naming ``where`` and the key."""
         if self.kind == "bool":
             if not isinstance(raw, bool):
@@ -111,7 +113,7 @@ class Field:
             return raw
         return _number(raw, self.key, where) / self.scale
 
-    def check(self, value: Any, sensor: str) -> None:
+    def check(self, value: object, sensor: str) -> None:
         """Validate an attribute value (``None`` allowed where the default is None)."""
         if value is None and self.default is None:
             return
@@ -142,7 +144,7 @@ class Field:
             raise ValueError(f"{bad} must be >= 0, got {value!r}")
         self._check_bounds(value, sensor)
 
-    def _check_bounds(self, value: float, sensor: str) -> None:
+    def _check_bounds(self, value: Real, sensor: str) -> None:
         """The row's physical bounds (``lower``, ``upper``, in the file's units), naming the file key."""
         v = float(value) * self.scale
         unit = f" {self.text_unit}" if self.text_unit else ""
@@ -162,11 +164,12 @@ class Field:
         return self.upper - lower
 
 
-def is_number(v: Any) -> bool:
+def is_number(v: object) -> TypeGuard[Real]:
+    """A real number (an int, a float or a numpy one; a bool is no number here)."""
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
 
 
-def _number(value: Any, key: str, where: str) -> float:
+def _number(value: object, key: str, where: str) -> float:
     if not is_number(value):
         raise ValueError(f"sensor {where}: {key} must be a number, got {value!r}")
     return float(value)
@@ -364,7 +367,16 @@ def _cross_axis(axis: str) -> Any:
                      sweepable=True, assumable=True, default_fact=_NO_CROSS_AXIS))
 
 
-def _k(n: int, doc: str, **flags: Any) -> Any:
+class _Flags(TypedDict, total=False):
+    """A nonlinearity row's flags beyond the defaults (:class:`Field`'s booleans)."""
+
+    identifiable: bool
+    fitted: bool
+    sweepable: bool
+    assumable: bool
+
+
+def _k(n: int, doc: str, **flags: Unpack[_Flags]) -> Any:
     key = f"k{n}_ug_per_g{n}"
     return row(Field(key, f"k{n}_per_g{n - 1 if n > 2 else ''}", "finite", 0.0, doc, scale=UG_PER_G,
                      default_fact=_ZERO, lower=-_MAX_K, upper=_MAX_K, why_lower=_WHY_K, why_upper=_WHY_K, **flags))

@@ -32,10 +32,10 @@ import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Literal, Mapping, cast
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Literal, Mapping, cast
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vrelab._load import toml_loads
 from vrelab.results import Conditions
@@ -59,7 +59,7 @@ from vrelab.sensor.configs import (
     nonlinearity_u,
 )
 from vrelab.sensor.fields import is_number
-from vrelab.sensor.parameters import assumable, check_u, identifiable, parameter
+from vrelab.sensor.parameters import Param, assumable, check_u, identifiable, parameter
 from vrelab.sensor.stages import Resonator, Stage
 from vrelab.sensor.statement import VRE_STATEMENT, vre_statement
 
@@ -158,7 +158,7 @@ class Sensor(_StageFields):
     unstated: tuple[str, ...] = field(default=(), hash=False, compare=False)
 
     def __init__(self, *, name: str, range_g: float, axis: str, configs: tuple[StageConfig, ...] = (),
-                 **values: Any) -> None:
+                 **values: object) -> None:
         """``values``: the other identity fields above (``odr_hz``, ``facts``, ...; each its default
         when not given) and any stage's fields by attribute."""
         put = functools.partial(object.__setattr__, self)
@@ -315,7 +315,7 @@ class Sensor(_StageFields):
             if hasattr(s, "response") and (where == "output" or isinstance(s, Resonator))
         ]
 
-    def response(self, f_hz: Any, where: Where = "output") -> NDArray[np.complex128]:
+    def response(self, f_hz: ArrayLike, where: Where = "output") -> NDArray[np.complex128]:
         """Product of :meth:`linear_responses` at ``f_hz``."""
         f = np.asarray(f_hz, dtype=float)
         h = np.ones(f.shape, dtype=complex)
@@ -395,7 +395,7 @@ PER_ODR = "bandwidth_per_odr"
 ASSUMPTION = "assumption"
 
 
-def _is_assumed(facts: Mapping[str, str], p: Any) -> bool:
+def _is_assumed(facts: Mapping[str, str], p: Param) -> bool:
     """Whether the facts mark parameter ``p`` (a :class:`vrelab.sensor.parameters.Param`) as an
     assumption: its fact starts with "assumption" (a rails pair's per side, ``lower: ...; upper:
     ...`` as ``vrelab identify`` writes it)."""
@@ -466,7 +466,7 @@ def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None
             raise ValueError(f"sensor {where}: unknown key {key!r}; allowed keys are {', '.join(sorted(allowed))}")
 
 
-def _number(value: Any, key: str, where: str) -> float:
+def _number(value: object, key: str, where: str) -> float:
     if not is_number(value):
         raise ValueError(f"sensor {where}: {key} must be a number, got {value!r}")
     return float(value)
@@ -571,7 +571,7 @@ def _facts(data: Mapping[str, Any], where: str) -> dict[str, str]:
     return facts
 
 
-def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
+def _check_covariance(cov: object, name: str) -> dict[str, Any]:
     """An identified sensor's covariance table, checked: known parameter names, a square,
     symmetric, finite matrix with a non-negative diagonal."""
     known = tuple(identifiable())
@@ -604,7 +604,7 @@ def _check_covariance(cov: Any, name: str) -> dict[str, Any]:
     return {"params": [str(p) for p in params], "matrix": [[float(x) for x in row] for row in m]}
 
 
-def _uncertainty_table(table: Any, where: str) -> dict[str, float]:
+def _uncertainty_table(table: object, where: str) -> dict[str, float]:
     """A file's ``[uncertainty]`` table: parameter name -> assumed standard uncertainty (> 0)."""
     if table is None:
         return {}
@@ -643,7 +643,7 @@ def _check_uncertainty(sensor: Sensor) -> dict[str, float]:
     return out
 
 
-def _fmt(xs: Any) -> str:
+def _fmt(xs: Iterable[float]) -> str:
     return ", ".join(f"{x:g}" for x in xs)
 
 
@@ -787,7 +787,7 @@ def _layered_values(data: Mapping[str, Any], axis_table: dict[str, Any], range_t
     return values, uncertainty, covariance
 
 
-def _resolved_facts(data: Mapping[str, Any], axis_facts: Any, user: Mapping[str, Any], given: set[str],
+def _resolved_facts(data: Mapping[str, Any], axis_facts: object, user: Mapping[str, Any], given: set[str],
                     origin: str, where: str, axis_where: str) -> dict[str, str]:
     """Where each value comes from: the file's [facts] < the axis's own < "set by the user"; a
     value left at its default has its row's default fact; a user file's other numbers say they
@@ -809,7 +809,7 @@ def _resolved_facts(data: Mapping[str, Any], axis_facts: Any, user: Mapping[str,
     return facts
 
 
-def _without(cov: Any, names: set[str]) -> Any:
+def _without(cov: object, names: set[str]) -> Any:
     """The covariance without ``names``: parameters set otherwise than by the identification (by
     hand with --k2/--k3 or a sweep point, or by the chosen range's table), no longer estimates here; None when
     nothing is left."""

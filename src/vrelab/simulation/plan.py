@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, TypedDict, Unpack
 
 import numpy as np
 
@@ -99,6 +99,28 @@ def _freqs(name: str, freqs: Sequence[float]) -> tuple[float, ...]:
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"{name} must be a non-empty list of frequencies, got {freqs!r}")
     return tuple(float(x) for x in arr)
+
+
+class PlanOptions(TypedDict, total=False):
+    """:class:`TestPlan`'s fields a caller sets by keyword beyond the method, sensor, levels,
+    static field, profile and frequencies (each its default when left out; their meaning there):
+    the ``**plan`` of :func:`vrelab.shaker.run_random_test` and its siblings."""
+
+    seconds: float
+    baseline_s: float
+    settle_s: float | None
+    seed: int
+    drive_method: DriveMethod
+    clip_sigma: float | None
+    kurtosis: float | None
+    fs_internal_hz: float | None
+    ramp_s: float
+
+
+class PlanFields(PlanOptions, total=False):
+    """:class:`PlanOptions` and the static field: the keywords of :meth:`TestPlan.random`, :meth:`TestPlan.sine`."""
+
+    static_g: float
 
 
 @dataclass(frozen=True)
@@ -209,13 +231,13 @@ class TestPlan:
 
     @classmethod
     def random(cls, sensor: Sensor, profile: RandomProfile | SineOnRandom, levels_grms: Sequence[float],
-               **kw: Any) -> TestPlan:
+               **kw: Unpack[PlanFields]) -> TestPlan:
         """The random method (physics §4): ``profile`` scaled to each of ``levels_grms`` (a
         sine-on-random profile too: its tones scale with it and count in the level)."""
         return cls("random", sensor, tuple(np.atleast_1d(levels_grms)), profile=profile, **kw)
 
     @classmethod
-    def sine(cls, sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Any) -> TestPlan:
+    def sine(cls, sensor: Sensor, freqs_hz: Sequence[float], levels_rms_g: Sequence[float], **kw: Unpack[PlanFields]) -> TestPlan:
         """The sine method (IEEE 1293): each level at each frequency."""
         return cls("sine", sensor, tuple(np.atleast_1d(levels_rms_g)), freqs_hz=tuple(np.atleast_1d(freqs_hz)), **kw)
 

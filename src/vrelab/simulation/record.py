@@ -41,7 +41,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Protocol, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,7 +112,13 @@ class RandomDrive:
     kurtosis: float | None = None
 
 
-def choose_rates(chain: Any, fs_internal_hz: float, f_max_hz: float) -> Rates:
+class _Decimating(Protocol):
+    """What the rate rule asks of a chain (:class:`vrelab.sensor.SensorChain`, the triaxial one): its output rate."""
+
+    def fs_out_hz(self, fs_hz: float, /) -> float: ...
+
+
+def choose_rates(chain: _Decimating, fs_internal_hz: float, f_max_hz: float) -> Rates:
     fs_out = float(chain.fs_out_hz(fs_internal_hz))
     ratio = fs_internal_hz / fs_out
     decimation = int(round(ratio))

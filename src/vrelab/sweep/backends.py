@@ -15,7 +15,10 @@ from __future__ import annotations
 import multiprocessing
 import os
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
-from typing import Any, Callable, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, ParamSpec, TypeVar
+
+if TYPE_CHECKING:
+    import distributed
 
 _P = ParamSpec("_P")
 _T = TypeVar("_T")
@@ -161,7 +164,7 @@ class DaskBackend(Backend):
 
     name = "dask"
 
-    def __init__(self, address: str | None = None, *, client: Any = None) -> None:
+    def __init__(self, address: str | None = None, *, client: distributed.Client | None = None) -> None:
         distributed = _import_distributed()
         self._cluster = None
         self._own_client = client is None
@@ -202,7 +205,9 @@ class DaskBackend(Backend):
             self._cluster = None
 
     def describe(self) -> dict[str, Any]:
-        return {"backend": self.name, "n_workers": self.n_workers, "scheduler": self.client.scheduler.address}
+        scheduler = self.client.scheduler
+        assert scheduler is not None  # a connected client's (typed optional: None before it starts)
+        return {"backend": self.name, "n_workers": self.n_workers, "scheduler": scheduler.address}
 
 
 def local_workers(address: str) -> int | None:

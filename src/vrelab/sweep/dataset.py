@@ -14,13 +14,16 @@ import csv
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
 from vrelab._version import __version__
 from vrelab.sweep.checkpoint import PointRecord
 from vrelab.sweep.spec import SweepSpec
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 # Units and descriptions of the variables the built-in point kinds return (CF-style attrs).
 VARIABLE_ATTRS: dict[str, dict[str, str]] = {
@@ -107,7 +110,7 @@ def _coord(values: tuple[Any, ...]) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
-def write_netcdf(ds: Any, path: Path) -> None:
+def write_netcdf(ds: xr.Dataset, path: Path) -> None:
     ds.to_netcdf(path, engine="h5netcdf")
 
 
@@ -118,7 +121,7 @@ def require_zarr() -> None:
         raise ValueError("output.formats: zarr needs the zarr package (pip install zarr)") from None
 
 
-def write_zarr(ds: Any, path: Path) -> None:
+def write_zarr(ds: xr.Dataset, path: Path) -> None:
     require_zarr()
     ds.to_zarr(path, mode="w")
 

@@ -76,7 +76,7 @@ def resolve(func: str | PointFunction) -> PointFunction:
     return _resolved[func]
 
 
-def _as_values(out: Any) -> dict[str, float]:
+def _as_values(out: object) -> dict[str, float]:
     if not isinstance(out, Mapping):
         raise TypeError(f"point function must return a mapping of name -> number, got {type(out).__name__}")
     return {str(k): float(v) for k, v in out.items()}

@@ -285,7 +285,7 @@ def load_spec(path: str | Path) -> SweepSpec:
     return parse_spec(doc)
 
 
-def _int(name: str, value: Any, lo: int) -> int:
+def _int(name: str, value: object, lo: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < lo:
         raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
     return value
@@ -307,7 +307,7 @@ def _param_spec(kind: str, field_name: str, name: str) -> Param | None:
     return known[name]
 
 
-def _axis_values(kind: str, name: str, raw: Any) -> tuple[Any, ...]:
+def _axis_values(kind: str, name: str, raw: object) -> tuple[Any, ...]:
     field_name = f"grid.{name}"
     p = _param_spec(kind, field_name, name)
     if isinstance(raw, str):
@@ -331,7 +331,7 @@ def _axis_values(kind: str, name: str, raw: Any) -> tuple[Any, ...]:
     return tuple(values)
 
 
-def _distribution(kind: str, name: str, raw: Any) -> Distribution:
+def _distribution(kind: str, name: str, raw: object) -> Distribution:
     field_name = f"montecarlo.{name}"
     p = _param_spec(kind, field_name, name)
     if p is not None and p.type is not float:

@@ -66,7 +66,7 @@ _MOUNT = re.compile(r"([xyz])([+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)([xyz])")
 TriaxialVibration = TriaxialProfile | TriaxialSine
 
 
-def _value_or_table(path: Path, field: str, value: Any) -> tuple[NDArray[np.float64] | None, NDArray[np.float64]]:
+def _value_or_table(path: Path, field: str, value: object) -> tuple[NDArray[np.float64] | None, NDArray[np.float64]]:
     """(frequencies or None, values) of a constant or a ``[[f_hz, value], ...]`` table."""
     if isinstance(value, bool):
         raise ValueError(f"{path}: {field} must be a number or a [[f_hz, value], ...] table, got {value!r}")
@@ -84,7 +84,7 @@ def _value_or_table(path: Path, field: str, value: Any) -> tuple[NDArray[np.floa
     return arr[:, 0], arr[:, 1]
 
 
-def _pair_coherence(path: Path, key: str, table: Any) -> tuple[tuple[str, str], PairCoherence]:
+def _pair_coherence(path: Path, key: str, table: object) -> tuple[tuple[str, str], PairCoherence]:
     if len(key) != 2 or key[0] not in AXES or key[1] not in AXES or key[0] == key[1]:
         raise ValueError(f"{path}: pair.{key}: a pair is two different axes of x, y, z, e.g. [pair.xz]")
     if not isinstance(table, dict):

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping, SupportsFloat
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -387,7 +387,7 @@ class TriaxialProfile:
         matrices, null for a pair involving a still axis (it has no coherence)."""
         defined = [[self._defined(j, k) for k in range(3)] for j in range(3)]
 
-        def pairs(value: Any) -> list[list[list[float | None]]]:
+        def pairs(value: Callable[[complex], SupportsFloat]) -> list[list[list[float | None]]]:
             return [[[float(value(m[j, k])) if defined[j][k] else None for k in range(3)] for j in range(3)]
                     for m in self.coherency]
 
