@@ -183,7 +183,7 @@ def reduce(
     sat, rail_notes = stats.saturated()
     warnings += rail_notes
 
-    baselines = find_baselines(stats, sched, sat, warnings)
+    baselines = find_baselines(stats, sched, sat, warnings, record)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
     dut_file = (record.meta or {}).get("channels", {}).get("dut", "dut")
