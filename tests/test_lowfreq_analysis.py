@@ -128,3 +128,17 @@ def test_a_short_window_baseline_at_a_rail_is_off_scale_and_one_below_it_is_not(
         for lv in red.levels:
             assert ("baseline-off-scale" in lv.flags) == off_scale
             assert np.isnan(lv.vre.value) == off_scale
+
+
+def test_swapped_channels_are_refused_when_every_baseline_is_shorter_than_a_window(tmp_path: Path,
+                                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "rec.csv"
+    lab_record(path, "5", 5)
+    # from 2.5 Hz the windows are 0.8 s: the 2 s baselines found, trimmed, hold none whole, so the
+    # reference's static reading over them comes from their samples (physics §4.2: a reference
+    # reading a static field with vibration off while the DUT reads none is a swap)
+    rc = main(["analyze", str(path), "--dut", "ref", "--reference", "adxl", "--dut-units", "g",
+               "--reference-units", "g", "--band", "2.5:1000"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "the channels look swapped" in err and len(err.strip().splitlines()) == 1

@@ -258,6 +258,9 @@ def _plausible_method(
         for b in baselines:
             k0, k1 = segment_windows(stats, b.segment)
             ref_dc = float(stats.ref_sum[k0:k1].sum() / max(stats.count[k0:k1].sum(), 1))
+            if k1 - k0 < MIN_SEGMENT_WINDOWS:  # averaged over short windows (find_baselines): its samples
+                parts = list(_segment_blocks(record, b.segment, ref))
+                ref_dc = float(sum(x.sum() for x in parts) / max(sum(len(x) for x in parts), 1))
             base.append(P.SegmentProbe(b.segment.start_s, b.segment.end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, b.mean_g))
         P.check_channels(base, dut_name, ref_name, accept="channels" in accept)
     if len(set(kinds)) > 1:
