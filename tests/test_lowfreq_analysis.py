@@ -142,3 +142,21 @@ def test_swapped_channels_are_refused_when_every_baseline_is_shorter_than_a_wind
     err = capsys.readouterr().err
     assert rc == 2
     assert "the channels look swapped" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_baseline_at_the_records_end_is_found_whatever_the_bands_windows(tmp_path: Path,
+                                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "rec.csv"
+    # 6.3 s levels: the last baseline (18.6-20.6 s) holds one whole 0.8 s window of a band from
+    # 2.5 Hz after the ramp's tail, and the record ends 0.6 s into the next; found over those
+    # windows it was lost, and the last level took the baseline before it alone, its drift
+    # (20 µg/s over 5 s) not removed: 6 U off. The off test runs over 0.1 s windows now.
+    lab_record(path, "5", 1, t_on_s=6.3)
+    rc = main(["analyze", str(path), "--dut", "adxl", "--reference", "ref", "--dut-units", "g",
+               "--reference-units", "g", "--method", "random", "--band", "2.5:1000", "--json"])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    doc = json.loads(out.out)
+    assert not [w for w in doc["warnings"] if "no baseline after" in w]
+    for lv, vre in zip(doc["levels"], VRE_G):
+        assert abs(lv["vre_g"] - vre) <= lv["U_vre_g"], (lv["vre_g"], vre, lv["U_vre_g"])

@@ -24,8 +24,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab.analysis.segmentation import RAIL_EPS_REL, WindowStats, exact_blocks, window_pass
-from vrelab.record import WINDOW_S, ArrayRecord, Record, window_length
+from vrelab.analysis.segmentation import RAIL_EPS_REL, WindowStats, auto_segment, exact_blocks, window_pass
+from vrelab.record import WINDOW_S, ArrayRecord, Record, Schedule, window_length
+from vrelab.results import Notice
 
 # Samples read at once from the record for a baseline's second look.
 READ_BLOCK = 1 << 16
@@ -77,6 +78,34 @@ def _rail_samples(x: NDArray[np.float64], stats: WindowStats, sat: NDArray[np.in
     return int(at.sum())
 
 
+def segment_any_band(record: Record, stats: WindowStats) -> tuple[Schedule, list[str]]:
+    """The automatic segmentation (:func:`~vrelab.analysis.segmentation.auto_segment`) of a
+    record whose first pass is ``stats``: its levels from ``stats``, its vibration-off
+    baselines from windows of WINDOW_S whatever the band.
+
+    Off is told from on by the reference's envelope per window. Over the long windows of a band
+    from below 20 Hz (0.8 s from 2.5 Hz) an off stretch is found only as whole windows of at
+    least 2 of them, so a 2 s baseline whose edges fall badly holds one and is lost (one at the
+    record's end was: its level then took the nearest baseline alone, drift not removed, 6 U
+    off the truth). The off test is made over a second pass at WINDOW_S instead (the same rule:
+    under 4 times the envelope's 5th percentile, for a second or more), and its baselines that
+    overlap no level found over the long windows are the schedule's. Levels keep the long
+    windows: their plateaus are judged on an envelope that holds the band's lowest frequency.
+    A first pass already at WINDOW_S is segmented as it is (the same bits)."""
+    if finer_window(stats) is None:
+        return auto_segment(stats)
+    levels, w_lv = auto_segment(stats)
+    fine = window_pass(record, fine_band(stats.fs_hz), WINDOW_S, READ_BLOCK, stats.rail_g)
+    off, _ = auto_segment(fine)
+    lv = [g for g in levels.segments if not g.is_baseline]
+    base = [g for g in off.segments if g.is_baseline
+            and not any(g.start_s < v.end_s and v.start_s < g.end_s for v in lv)]
+    warnings = [w for w in w_lv if "vibration-off baseline" not in w]
+    if not base:
+        warnings.append(Notice("schedule", "automatic segmentation found no vibration-off baseline"))
+    return Schedule(tuple(sorted(lv + base, key=lambda g: g.start_s))), warnings
+
+
 def too_short(longest_s: float, need_s: float) -> str:
     """The refusal of a record whose baselines are all shorter than ``need_s`` (the longest
     ``longest_s``) after the settling trims, even over windows of WINDOW_S."""
@@ -85,4 +114,4 @@ def too_short(longest_s: float, need_s: float) -> str:
             "(or give a shorter --settle)")
 
 
-__all__ = ["fine_band", "fine_baseline_stats", "finer_window", "too_short"]
+__all__ = ["fine_band", "fine_baseline_stats", "finer_window", "segment_any_band", "too_short"]

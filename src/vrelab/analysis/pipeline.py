@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vrelab import _validate as V
 from vrelab._version import __version__
 from vrelab.analysis import plausibility as P
+from vrelab.analysis.baseline_windows import segment_any_band
 from vrelab.analysis.levels import (
     FEW_WINDOWS_NOTE,
     MIN_SEGMENT_WINDOWS,
@@ -58,7 +59,6 @@ from vrelab.analysis.options import (
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.analysis.segmentation import (
     WindowStats,
-    auto_segment,
     segment_windows,
     trim,
     window_pass,
@@ -113,8 +113,8 @@ def _resolve_schedule(
     if schedule is None and getattr(record, "schedule", None) is not None:
         schedule = record.schedule
         warnings.append(Notice("schedule", "segments from the schedule embedded in the record"))
-    if schedule is None:
-        schedule, w = auto_segment(stats)
+    if schedule is None:  # its baselines over 0.1 s windows whatever the band
+        schedule, w = segment_any_band(record, stats)
         warnings += w
     trimmed, w = trim(schedule, settle_s)
     return trimmed, warnings + w
