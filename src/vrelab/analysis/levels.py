@@ -25,6 +25,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vrelab.analysis.baseline_windows import fine_baseline_stats, finer_window, too_short
 from vrelab.analysis.segmentation import (
     SMOOTH_WINDOWS,
     WindowStats,
@@ -219,7 +220,6 @@ def _off_scale_baselines(t_s: float, baselines: Sequence[Baseline]) -> list[Base
     return [b for b in used if b.n_saturated > 0]
 
 
-
 # Interior windows a segment needs for the batch-means u of its DUT mean (:func:`batch_mean`);
 # fewer, the u rests on the windows' scatter about a line under the kernel's own correlation
 # (:func:`correlated_mean`).
@@ -400,30 +400,45 @@ def n_windows(stats: WindowStats, seg: Segment) -> int:
     return k1 - k0
 
 
-def find_baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warnings: list[str]) -> list[Baseline]:
-    """The DUT's vibration-off readings, one per baseline segment long enough to average."""
+def find_baselines(stats: WindowStats, sched: Schedule, sat: NDArray[np.int64], warnings: list[str],
+                   record: Record | None = None) -> list[Baseline]:
+    """The DUT's vibration-off readings, one per baseline segment long enough to average; with
+    ``record``, over 0.1 s windows where a band from below 20 Hz leaves too few windows
+    (:mod:`~vrelab.analysis.baseline_windows`); all too short even so: refused, naming why."""
     out: list[Baseline] = []
+    fine_w, short = (finer_window(stats) if record is not None else None), []
     for seg in sched.segments:
         if not seg.is_baseline:
             continue
         k0, k1 = segment_windows(stats, seg)
-        if k1 - k0 < MIN_SEGMENT_WINDOWS:
-            warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
+        src, n_sat, t0 = stats, int(sat[k0:k1].sum()), 0.0
+        if fine_w is not None and record is not None and k1 - k0 < MIN_SEGMENT_WINDOWS:
+            i0, i1 = segment_samples(seg, stats.fs_hz, stats.n_samples)
+            if i1 - i0 >= MIN_SEGMENT_WINDOWS * fine_w:
+                src, n_sat = fine_baseline_stats(record, stats, sat, i0, i1)
+                k0, k1, t0 = 0, src.n_samples // src.window, i0 / stats.fs_hz
+        if k1 - k0 >= MIN_SEGMENT_WINDOWS:
+            out.append(_baseline(src, k0, k1, t0, seg, n_sat))
             continue
-        est = dut_mean_estimate(stats, k0, k1)
-        t_c = float(np.mean(stats.window_times_s(k0, k1)))
-        h = SMOOTH_WINDOWS // 2
-        y = stats.dut_smooth[k0 + h : k1 - h]
-        thirds, white = None, 0.0
-        if len(y) >= 15:  # thirds of 0.5 s or more: longer than the smoothing kernel
-            m = len(y) // 3
-            m1, m2, m3 = (float(y[i * m : (i + 1) * m].mean()) for i in range(3))
-            # each third holds a third of the samples: variance 3·u² if white; m2 - (m1+m3)/2
-            # then has 3·u²·(1 + 1/4 + 1/4)
-            thirds, white = m2 - (m1 + m3) / 2, 4.5 * est.u**2
-        out.append(Baseline(t_c, est.mean, est.u, seg, int(sat[k0:k1].sum()), est.dof,
-                            thirds, white))
+        warnings.append(Notice("segment", f"baseline {seg.start_s:.4g}-{seg.end_s:.4g} s too short, ignored"))
+        short.append(seg.end_s - seg.start_s)
+    if not out and short and fine_w is not None:
+        raise ValueError(too_short(max(short), MIN_SEGMENT_WINDOWS * fine_w / stats.fs_hz))
     return out
+
+
+def _baseline(stats: WindowStats, k0: int, k1: int, t0: float, seg: Segment, n_sat: int) -> Baseline:
+    """The baseline of windows [k0, k1) of ``stats`` (whose time 0 is ``t0`` in the record)."""
+    est, h = dut_mean_estimate(stats, k0, k1), SMOOTH_WINDOWS // 2
+    y, thirds, white = stats.dut_smooth[k0 + h : k1 - h], None, 0.0
+    if len(y) >= 15:  # thirds of 0.5 s or more: longer than the smoothing kernel
+        m = len(y) // 3
+        m1, m2, m3 = (float(y[i * m : (i + 1) * m].mean()) for i in range(3))
+        # each third holds a third of the samples: variance 3·u² if white; m2 - (m1+m3)/2
+        # then has 3·u²·(1 + 1/4 + 1/4)
+        thirds, white = m2 - (m1 + m3) / 2, 4.5 * est.u**2
+    t_c = t0 + float(np.mean(stats.window_times_s(k0, k1)))
+    return Baseline(t_c, est.mean, est.u, seg, n_sat, est.dof, thirds, white)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vrelab import _validate as V
 from vrelab._version import __version__
 from vrelab.analysis import plausibility as P
+from vrelab.analysis.baseline_windows import segment_any_band
 from vrelab.analysis.levels import (
     FEW_WINDOWS_NOTE,
     MIN_SEGMENT_WINDOWS,
@@ -58,7 +59,6 @@ from vrelab.analysis.options import (
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.analysis.segmentation import (
     WindowStats,
-    auto_segment,
     segment_windows,
     trim,
     window_pass,
@@ -113,8 +113,8 @@ def _resolve_schedule(
     if schedule is None and getattr(record, "schedule", None) is not None:
         schedule = record.schedule
         warnings.append(Notice("schedule", "segments from the schedule embedded in the record"))
-    if schedule is None:
-        schedule, w = auto_segment(stats)
+    if schedule is None:  # its baselines over 0.1 s windows whatever the band
+        schedule, w = segment_any_band(record, stats)
         warnings += w
     trimmed, w = trim(schedule, settle_s)
     return trimmed, warnings + w
@@ -183,7 +183,7 @@ def reduce(
     sat, rail_notes = stats.saturated()
     warnings += rail_notes
 
-    baselines = find_baselines(stats, sched, sat, warnings)
+    baselines = find_baselines(stats, sched, sat, warnings, record)
     if not baselines:
         raise ValueError("no vibration-off baseline in the record (or schedule): VRE cannot be referred to one")
     dut_file = (record.meta or {}).get("channels", {}).get("dut", "dut")
@@ -258,6 +258,9 @@ def _plausible_method(
         for b in baselines:
             k0, k1 = segment_windows(stats, b.segment)
             ref_dc = float(stats.ref_sum[k0:k1].sum() / max(stats.count[k0:k1].sum(), 1))
+            if k1 - k0 < MIN_SEGMENT_WINDOWS:  # averaged over short windows (find_baselines): its samples
+                parts = list(_segment_blocks(record, b.segment, ref))
+                ref_dc = float(sum(x.sum() for x in parts) / max(sum(len(x) for x in parts), 1))
             base.append(P.SegmentProbe(b.segment.start_s, b.segment.end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, b.mean_g))
         P.check_channels(base, dut_name, ref_name, accept="channels" in accept)
     if len(set(kinds)) > 1:
