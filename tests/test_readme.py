@@ -208,14 +208,138 @@ def _run_command(argv: list[str], workspace: Path, request) -> None:
     if PLACEHOLDER_SCHEDULER in run:
         address = request.getfixturevalue("local_scheduler")
         run = [address if a == PLACEHOLDER_SCHEDULER else a for a in run]
-    proc = subprocess.run(run, cwd=workspace, env=_environment(), capture_output=True, text=True, timeout=240,
-                          stdin=subprocess.DEVNULL)
-    assert proc.returncode == 0, (
-        f"command `{' '.join(argv)}` exited {proc.returncode}\n"
-        f"stderr: {proc.stderr[-2000:]}\nstdout: {proc.stdout[-1000:]}")
+        rc, out, err = _run(run, workspace)  # the cluster's address is this run's own: nothing to share
+    else:
+        rc, out, err = run_once_per_inputs(argv, run, workspace, _shared_commands(request))
+    assert rc == 0, (
+        f"command `{' '.join(argv)}` exited {rc}\n"
+        f"stderr: {err[-2000:]}\nstdout: {out[-1000:]}")
     if argv[0] == "chromium":
         out = next(a.split("=", 1)[1] for a in argv if a.startswith("--print-to-pdf="))
         assert (workspace / out).read_bytes()[:5] == b"%PDF-"
+
+
+def _run(run: list[str], workspace: Path) -> tuple[int, str, str]:
+    proc = subprocess.run(run, cwd=workspace, env=_environment(), capture_output=True, text=True, timeout=240,
+                          stdin=subprocess.DEVNULL)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+# The same command on the same inputs, once per session. Several pages quote the same command line
+# (the example campaign `--out camp` on five pages, `report camp --metadata ...` on three, `identify
+# camp` on three...): ~20 s of CPU each (the report's figures, the campaign's reductions), 40 % of
+# the pages' time. Each page still runs in its own folder and each of its steps is the page's text:
+# a step whose command line and inputs (below) equal a step run earlier in this session, by any
+# page on any worker, gets that run's exit status and output and the files it wrote, copied into
+# its own folder; any other step runs. A run that failed is not shared (the next page runs it
+# again, and fails in its own right), nor one whose files name the folder it ran in (the printed
+# PDF's metadata: a copy would point at another page's folder).
+#
+# The inputs of a command: the shipped examples (`examples/`, the Makefile, pyproject.toml: the same
+# copy in every folder, hashed all the same) and every top-level entry of the page's folder its
+# command line names (`camp` of `report camp`, `ident` of `ident/sensor.toml`, `camp-report.pdf`
+# of `--print-to-pdf=camp-report.pdf`), each by its whole content, or its absence. A vrelab command
+# reads only the files its arguments name (the manifests it reads name files of examples/ only), so
+# two folders equal on these give the same run. A page whose earlier step wrote `camp` differently
+# (tutorial-test-engineer's second campaign, `--limit 0.4`), or never wrote it, has other inputs.
+SHIPPED = ("examples", "Makefile", "pyproject.toml")
+
+
+def _shared_commands(request) -> Path:
+    """The folder every worker of this session shares (the parent of each worker's basetemp)."""
+    base = request.getfixturevalue("tmp_path_factory").getbasetemp()
+    worker = request.getfixturevalue("worker_id")
+    return (base.parent if worker != "master" else base) / "page-commands"
+
+
+def _named_entries(argv: list[str]) -> set[str] | None:
+    """The top-level names of the folder that ``argv`` may read or write, the shipped examples
+    included; None when an argument reaches outside the folder (not shared)."""
+    names = set(SHIPPED)
+    for token in argv[1:]:
+        value = token.split("=", 1)[1] if token.startswith("-") and "=" in token else token
+        if not value or value.startswith("-"):
+            continue
+        path = Path(value)
+        if path.is_absolute() or ".." in path.parts:
+            return None
+        names.add(path.parts[0])
+    return names
+
+
+def _digest(argv: list[str], workspace: Path) -> str | None:
+    """The command line and the content of every entry it names (see above), as one sha256."""
+    import hashlib
+
+    names = _named_entries(argv)
+    if names is None:
+        return None
+    h = hashlib.sha256(repr(argv).encode())
+    for name in sorted(names):
+        top = workspace / name
+        h.update(b"\0entry " + name.encode())
+        files = sorted(p for p in top.rglob("*") if p.is_file()) if top.is_dir() else [top] if top.is_file() else []
+        if not top.exists():
+            h.update(b"\0absent")
+        for f in files:
+            h.update(b"\0file " + f.relative_to(workspace).as_posix().encode() + b"\0")
+            h.update(hashlib.sha256(f.read_bytes()).digest())
+    return h.hexdigest()
+
+
+def _state(workspace: Path) -> tuple[dict[str, tuple[int, int]], set[str]]:
+    """Every file of the folder (size, mtime) and every directory, by relative path."""
+    files, dirs = {}, set()
+    for p in workspace.rglob("*"):
+        rel = p.relative_to(workspace).as_posix()
+        if p.is_dir():
+            dirs.add(rel)
+        elif p.is_file():
+            st = p.stat()
+            files[rel] = (st.st_size, st.st_mtime_ns)
+    return files, dirs
+
+
+def run_once_per_inputs(argv: list[str], run: list[str], workspace: Path, shared: Path) -> tuple[int, str, str]:
+    """``run`` (the page's ``argv`` as it runs here) in ``workspace``, or, when a step with the same
+    command line and inputs ran before in this session, its result and the files it wrote copied
+    into ``workspace``: the exit status, stdout and stderr."""
+    import fcntl
+    import json
+
+    key = _digest(argv, workspace)
+    if key is None:
+        return _run(run, workspace)
+    shared.mkdir(parents=True, exist_ok=True)
+    entry = shared / key
+    with open(shared / f".{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if (entry / "result.json").is_file():
+            result = json.loads((entry / "result.json").read_text())
+            for rel in result["deleted"]:
+                target = workspace / rel
+                shutil.rmtree(target) if target.is_dir() else target.unlink(missing_ok=True)
+            for rel in result["dirs"]:
+                (workspace / rel).mkdir(parents=True, exist_ok=True)
+            for rel in result["written"]:
+                shutil.copy2(entry / "files" / rel, workspace / rel)
+            return result["rc"], result["stdout"], result["stderr"]
+        files, dirs = _state(workspace)
+        rc, out, err = _run(run, workspace)
+        after, after_dirs = _state(workspace)
+        written = sorted(rel for rel, stat in after.items() if files.get(rel) != stat)
+        own = str(workspace.resolve()).encode()
+        if rc == 0 and not any(own in (workspace / rel).read_bytes() for rel in written):
+            shutil.rmtree(entry, ignore_errors=True)
+            for rel in written:
+                (entry / "files" / rel).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(workspace / rel, entry / "files" / rel)
+            deleted = sorted(set(files) - set(after)) + sorted(dirs - after_dirs)
+            entry.mkdir(parents=True, exist_ok=True)  # a command that prints only wrote no file
+            (entry / "result.json").write_text(json.dumps(
+                {"rc": rc, "stdout": out, "stderr": err, "written": written, "deleted": deleted,
+                 "dirs": sorted(after_dirs - dirs)}))
+        return rc, out, err
 
 
 def test_the_sweep_file_the_readme_shows_is_the_one_it_runs():
@@ -226,3 +350,45 @@ def test_the_sweep_file_the_readme_shows_is_the_one_it_runs():
     block = re.search(r"`examples/sweep\.toml`:\n\n```toml\n(.*?)^```", text, flags=re.S | re.M)
     assert block, "the tour no longer shows examples/sweep.toml"
     assert tomllib.loads(block.group(1)) == tomllib.loads((ROOT / "examples" / "sweep.toml").read_text(encoding="utf-8"))
+
+
+def test_a_step_shares_a_run_only_with_the_same_command_on_the_same_inputs(tmp_path):
+    """run_once_per_inputs: a second folder with the same command line, the same shipped examples
+    and the same named entries gets the first run's status, output and files without a run; a
+    different named input, shipped file or command line runs; a failed run, or one whose files
+    name its folder, is not shared."""
+    runs = tmp_path / "runs.txt"
+    runs.write_text("")
+    # `tool IN OUT [--name-folder]`: OUT/copy holds IN (or the folder's path), each run counted
+    counted = "import pathlib, sys; runs = pathlib.Path(sys.argv[1]); runs.write_text(runs.read_text() + 'x');"
+    tool = (counted + " text = pathlib.Path(sys.argv[2]).read_text(); out = pathlib.Path(sys.argv[3]); out.mkdir();"
+            " (out / 'copy').write_text(str(pathlib.Path.cwd().resolve()) if sys.argv[4:] else text); print('ran', text)")
+    printer = counted + " print('ran', pathlib.Path(sys.argv[2]).read_text())"  # `printer IN`: writes no file
+
+    def step(name: str, argv: list[str], text: str | None, shipped: str = "shipped", script: str = tool,
+             ) -> tuple[int, str, Path]:
+        work = tmp_path / name
+        (work / "examples").mkdir(parents=True)
+        (work / "examples" / "data.txt").write_text(shipped)
+        if text is not None:
+            (work / "in.txt").write_text(text)
+        rc, out, _ = run_once_per_inputs(argv, [sys.executable, "-c", script, str(runs), *argv[1:]], work, tmp_path / "shared")
+        copy = work / "out" / "copy"
+        return rc, out, copy
+
+    argv = ["tool", "in.txt", "out"]
+    assert step("a", argv, "1")[:2] == (0, "ran 1\n") and len(runs.read_text()) == 1
+    rc, out, copy = step("b", argv, "1")  # same command, same inputs: a's run, copied
+    assert (rc, out, copy.read_text(), len(runs.read_text())) == (0, "ran 1\n", "1", 1)
+    rc, out, copy = step("c", argv, "2")  # the named input differs
+    assert (rc, copy.read_text(), len(runs.read_text())) == (0, "2", 2)
+    assert step("d", argv, "1", shipped="other")[0] == 0 and len(runs.read_text()) == 3  # other examples
+    assert step("e", ["tool", "in.txt", "out", "-v"], "1")[0] == 0 and len(runs.read_text()) == 4  # other line
+    printing = ["printer", "in.txt"]  # writes no file: its output alone is shared
+    assert step("j", printing, "1", script=printer)[:2] == (0, "ran 1\n") == step("k", printing, "1", script=printer)[:2]
+    assert len(runs.read_text()) == 5
+    assert step("f", argv, None)[0] != 0 and step("g", argv, None)[0] != 0  # no input: fails, each time
+    assert len(runs.read_text()) == 7
+    named = ["tool", "in.txt", "out", "--name-folder"]
+    assert step("h", named, "1")[0] == 0 and step("i", named, "1")[2].read_text() == str((tmp_path / "i").resolve())
+    assert len(runs.read_text()) == 9  # each wrote its own folder's path: not shared

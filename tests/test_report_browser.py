@@ -345,12 +345,14 @@ def open_page(cdp: CDP, report: Path) -> str:
     return session
 
 
-def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | None = None) -> tuple[dict, list[dict]]:
+def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | None = None,
+                       exercise: bool = True) -> tuple[dict, list[dict]]:
     """Load ``report`` in headless Chromium; wait until its script has drawn the interactive
-    figures; hover and zoom each with the mouse; save a full-page screenshot; with ``pdf``,
-    check the print layout and print to that PDF (A4). Return the page state (images, decoded,
-    widths, height, title, the interactive figures and what they did, the print layout) and the
-    DevTools events seen."""
+    figures; hover and zoom each with the mouse (unless not ``exercise``: a test of the printed
+    page only, where each figure's two waits for the page to answer cost seconds); save a
+    full-page screenshot; with ``pdf``, check the print layout and print to that PDF (A4). Return
+    the page state (images, decoded, widths, height, title, the interactive figures and what they
+    did, the print layout) and the DevTools events seen."""
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
         session = open_page(cdp, report)
@@ -368,7 +370,7 @@ def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | N
         )
         state = json.loads(_eval(cdp, session, js))
         state["specs"] = specs
-        state["figures"] = _exercise_figures(cdp, session, state["live"])
+        state["figures"] = _exercise_figures(cdp, session, state["live"]) if exercise else []
         _eval(cdp, session, "window.scrollTo(0, 0), 1")
         height = min(int(state["h"]), 16000)
         cdp.send("Emulation.setDeviceMetricsOverride", {"width": 1280, "height": height, "deviceScaleFactor": 1, "mobile": False}, session=session)
