@@ -34,6 +34,17 @@ clip_position = "output"
 [facts]
 bandwidth_hz = "test: ODR/4"
 lowpass_order = "test: 4th order"
+[uncertainty]
+bandwidth_per_odr = 0.0025  # the corner known to 1 %: a u stated, so the part can pass or fail
+"""
+# The ideal part's numbers (rails at exactly ±range, nothing else) in a user's sensor file with no
+# [uncertainty]: the same VRE as the ideal preset, but a part's numbers, not a definition
+BARE = """schema = 1
+name = "bare"
+description = "test part: rails at ±range, no u stated"
+default_range_g = 8
+default_axis = "x"
+clip_position = "output"
 """
 # A part whose over-range protection (2 g, 0.5 ms) trips so often at 1 g rms that its holds
 # overlap: the analytic model says it is not valid there
@@ -66,7 +77,7 @@ def test_the_wider_range_wins_where_the_narrow_one_clips():
     assert by[2.0].mechanism == "clip"
     assert by[8.0].verdict == "pass" and abs(by[8.0].worst.vre_g) < 1e-9  # 7σ to the rail: Φ(−7) ≈ 1e-12
     assert cmp.best is by[8.0] and cmp.rows[0] is by[8.0]
-    assert by[8.0].worst.u_vre_g is None and by[8.0].dominant_u is None  # the ideal states no u: U = 0
+    assert by[8.0].worst.u_vre_g == 0.0 and by[8.0].dominant_u is None  # the ideal is exact by definition: U = 0
 
 
 def test_a_bandwidth_above_the_mount_resonance_loses(tmp_path):
@@ -79,6 +90,24 @@ def test_a_bandwidth_above_the_mount_resonance_loses(tmp_path):
     assert by[4000.0].verdict == "fail" and abs(by[4000.0].worst.vre_g) > 0.01
     assert by[500.0].verdict == "pass" and cmp.best is by[500.0]
     assert all("mount resonance 800 Hz (Q 10) is inside" in r.notes[0] for r in cmp.rows)
+
+
+def test_a_part_with_no_stated_u_is_undecided_and_only_the_ideal_is_exact(tmp_path, capsys):
+    part = tmp_path / "bare.toml"
+    part.write_text(BARE, encoding="utf-8")
+    cmp = vrelab.compare("flat:50-2000", 1.0, "1mg", candidates=f"{part}:8,ideal:8")
+    by = {r.candidate.part: r for r in cmp.rows}
+    ideal, bare = by["ideal"], by[str(part)]
+    # the same VRE, within the budget by far (±8 g rails 7σ from a 1 g field at 1 g rms: Φ(−7) ≈ 1e-12)
+    assert abs(ideal.worst.vre_g) < 1e-9 and bare.worst.vre_g == ideal.worst.vre_g
+    assert ideal.verdict == "pass" and ideal.to_dict()["U_vre_g"] == 0.0 and cmp.best is ideal
+    # a number with no u is no claim: neither a pass nor a fail, said why; its U is unknown, not 0
+    assert bare.verdict == "undecided" and "states no u" in bare.reason
+    assert bare.to_dict()["U_vre_g"] is None and bare.to_dict()["points"][0]["U_vre_g"] is None
+    rc, out, _ = _run(capsys, "compare", "--environment", "flat:50-2000", "--levels", "1", "--budget-vre", "1mg",
+                      "--candidates", f"{part}:8,ideal:8")
+    assert rc == 0 and f"undecided: {part} ±8 g no ODR: its prediction states no u" in out and "± ?" in out
+    assert "best: ideal:8g" in out
 
 
 def test_an_invalid_prediction_is_never_a_pass(tmp_path, capsys):

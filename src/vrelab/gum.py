@@ -39,6 +39,11 @@ from vrelab import _validate as V
 from vrelab.results import Estimate, FitResult, LevelResult
 
 COVERAGE_P = 0.9545  # two-sided: k = 2 for a normal distribution
+# The conventional coverage factor (GUM 6.2.1, 6.3.3: U = k·u with k = 2, "about 95 %", where the
+# u has many degrees of freedom): exactly 2, what a datasheet or a design budget means by 2σ.
+# :func:`coverage_factor` with no degrees of freedom gives the normal quantile for COVERAGE_P,
+# 1.99998 (ndtri(0.97725)): the analysis's U is that one; a prediction's U (vrelab compare) is k = 2.
+CONVENTIONAL_K = 2.0
 DECISION_RULE = ("guarded acceptance: pass when |VRE| + U <= limit; fail when |VRE| - U > limit; "
                  "indeterminate otherwise (U = k·u, coverage about 95 %)")
 

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 
 def print_comparison(cmp: Comparison) -> None:
-    """The ranked table, then each invalid candidate's reason and the notes."""
+    """The ranked table, then each invalid or undecided candidate's reason and the notes."""
     d = cmp.to_dict()
     c = d["conditions"]
     static = (f"tilt {c['tilt_range_deg'][0]:g} to {c['tilt_range_deg'][1]:g} deg" if c["tilt_range_deg"]
@@ -44,14 +44,16 @@ def print_comparison(cmp: Comparison) -> None:
     print(f"{'#':>3} {'candidate':<{width}} {'verdict':<9} {'VRE ± U mg':>17} {'VRC ug/g^2':>11} "
           f"{'tilt ± U deg':>19} {'margin':>7}  mechanism     dominant u")
     for n, r in enumerate(rows, 1):
-        vre = f"{r['vre_g'] * 1e3:.3g} ± {r['U_vre_g'] * 1e3:.2g}"
-        tilt = (f"{r['tilt_error_deg']:.3g} ± {r['U_tilt_error_deg']:.2g}" if r["tilt_error_deg"] is not None else "-")
+        # no u stated: no U ("?"), the row undecided with its reason below
+        vre = f"{r['vre_g'] * 1e3:.3g} ± " + (f"{r['U_vre_g'] * 1e3:.2g}" if r["U_vre_g"] is not None else "?")
+        tilt = "-" if r["tilt_error_deg"] is None else f"{r['tilt_error_deg']:.3g} ± " + (
+            f"{r['U_tilt_error_deg']:.2g}" if r["U_tilt_error_deg"] is not None else "?")
         du = f"{r['dominant_u']['source']} ({r['dominant_u']['u_vre_g'] * 1e3:.2g} mg)" if r["dominant_u"] else "none stated"
         print(f"{n:>3} {r['label']:<{width}} {r['verdict']:<9} {vre:>17} {r['vrc_ug_per_g2']:>11.4g} {tilt:>19} "
               f"{r['margin']:>7.3g}  {r['dominant_mechanism'] or '-':<13} {du}")
     for r in d["rows"]:
-        if not r["valid"]:
-            print(f"invalid: {r['label']}: {r['reason']}")
+        if r["reason"]:
+            print(f"{r['verdict']}: {r['label']}: {r['reason']}")
     seen: dict[str, list[str]] = {}
     for r in d["rows"]:
         for note in r["notes"]:

@@ -110,6 +110,13 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
             raise ValueError("a sine-on-random --profile along a --direction is not supported (its tones would need "
                              "a direction of their own)")
     g = tri.static_vector(static, args.static_g, sensors[0].triad[0])
+    from vrelab.prediction.checks import mount_note
+
+    # the fixture rule, as for one axis (run): every DUT axis sits on the one mount
+    band = excitation.band if hasattr(excitation, "band") else (excitation.freq_hz, excitation.freq_hz)
+    warning = mount_note(sensors[0], (float(band[0]), float(band[1])))
+    if warning:
+        print(f"warning: {warning}", file=sys.stderr)
 
     def simulate(record_path: Path | None) -> Any:
         return simulate_test(sensors, excitation, levels, g, direction=d, seconds=seconds, baseline_s=baseline_s,

@@ -99,14 +99,21 @@ def _table(cmp: Comparison) -> Any:
         if not r.valid:
             rows.append((str(n), d["label"], "invalid", "", "", "", "", d["reason"] or ""))
             continue
-        tilt = f"{d['tilt_error_deg']:.4g} ± {d['U_tilt_error_deg']:.2g}" if d["tilt_error_deg"] is not None else "-"
+        tilt = _plus(d["tilt_error_deg"], d["U_tilt_error_deg"]) if d["tilt_error_deg"] is not None else "-"
         du = d["dominant_u"]
-        rows.append((str(n), d["label"], d["verdict"], f"{d['vre_g'] * 1e3:.4g} ± {d['U_vre_g'] * 1e3:.2g}",
+        rows.append((str(n), d["label"], d["verdict"],
+                     _plus(d["vre_g"] * 1e3, d["U_vre_g"] * 1e3 if d["U_vre_g"] is not None else None),
                      f"{d['vrc_ug_per_g2']:.4g}", tilt, f"{d['margin']:.3g}",
-                     f"{d['dominant_mechanism']}; u: {du['source'] if du else 'none stated'}"))
+                     f"{d['dominant_mechanism']}; u: {du['source'] if du else 'none stated'}"
+                     + (f" ({d['reason']})" if d["reason"] else "")))
     return ReportTable("Candidates, ranked", ("#", "candidate", "verdict", "VRE ± U (mg)", "VRC (µg/g²)",
                                               "tilt ± U (deg)", "margin", "dominant mechanism; u"),
                        rows, numeric=(0, 3, 4, 5, 6))
+
+
+def _plus(value: float, big_u: float | None) -> str:
+    """``value ± U``; where no u is stated, no U: ``value ± ?``."""
+    return f"{value:.4g} ± " + (f"{big_u:.2g}" if big_u is not None else "?")
 
 
 def write_page(cmp: Comparison, out: str | Path, argv: Sequence[str] | None = None) -> Path:

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from vrelab._format import finite_or_none
+from vrelab.gum import CONVENTIONAL_K
 from vrelab.results import level_vrc
 
 if TYPE_CHECKING:
@@ -15,8 +16,6 @@ if TYPE_CHECKING:
 
 # verdicts in rank order: a pass first, an invalid prediction last (never ranked as a pass)
 VERDICTS = ("pass", "undecided", "fail", "invalid")
-# the expanded uncertainty's coverage factor (GUM 6.2: k = 2, about 95 % for a normal distribution)
-COVERAGE_K = 2.0
 
 
 @dataclass(frozen=True)
@@ -40,15 +39,17 @@ class Point:
     rms_g: float
     static_g: float
     vre_g: float
-    u_vre_g: float | None  # None: the sensor states no u
+    u_vre_g: float | None  # None: the sensor states no u (0.0: exact by definition, the ideal part)
     limit_g: float
     shares: Mapping[str, float] = field(default_factory=dict)
     u_sources_g: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def expanded_g(self) -> float:
-        """U = k·u (k = 2) [g]; 0 where the sensor states no u (its numbers taken as exact)."""
-        return COVERAGE_K * (self.u_vre_g or 0.0)
+        """U = k·u (k = 2) [g]. Where the sensor states no u this is 0 for the margins alone (they
+        are then the unguarded ``|VRE|/budget``, which ranks the row): such a point is no claim
+        either way, and :func:`vrelab.compare` judges it "undecided"; ``to_dict`` gives U null."""
+        return CONVENTIONAL_K * (self.u_vre_g or 0.0)
 
     @property
     def high(self) -> float:
@@ -63,7 +64,8 @@ class Point:
     def to_dict(self) -> dict[str, Any]:
         return {"rms_g": self.rms_g, "static_g": self.static_g, "vre_g": finite_or_none(self.vre_g),
                 "u_vre_g": finite_or_none(self.u_vre_g) if self.u_vre_g is not None else None,
-                "U_vre_g": finite_or_none(self.expanded_g), "budget_g": finite_or_none(self.limit_g),
+                "U_vre_g": finite_or_none(self.expanded_g) if self.u_vre_g is not None else None,
+                "budget_g": finite_or_none(self.limit_g),
                 "margin": finite_or_none(self.high)}
 
 
@@ -93,8 +95,8 @@ class CandidateRow:
     """One candidate's answer: at its worst point (the largest guarded margin over the levels and
     static fields) its VRE, U (k = 2), VRC, tilt error, the dominant mechanism and uncertainty
     source; its ``verdict`` against the budget ("pass": VRE + U ≤ budget at every point; "fail":
-    VRE − U > budget at some point; "undecided" otherwise; "invalid": the prediction is not
-    valid, ``reason`` says why) and every point.
+    VRE − U > budget at some point; "undecided" otherwise, or where no u is stated, ``reason``
+    then saying so; "invalid": the prediction is not valid, ``reason`` says why) and every point.
 
     Examples
     --------
@@ -151,7 +153,8 @@ class CandidateRow:
         w = self.worst
         if w is None or abs(w.static_g) > 1.0 - NEAR_VERTICAL_G:
             return None
-        return Budget.tilt_deg(w.vre_g, w.static_g), Budget.tilt_deg(w.expanded_g, w.static_g)
+        expanded = w.expanded_g if w.u_vre_g is not None else math.nan  # no u stated: no U
+        return Budget.tilt_deg(w.vre_g, w.static_g), Budget.tilt_deg(expanded, w.static_g)
 
     @property
     def mechanism(self) -> str | None:
@@ -178,7 +181,7 @@ class CandidateRow:
             "range_g": self.candidate.range_g, "odr_hz": self.candidate.odr_hz, "axis": self.candidate.axis,
             "verdict": self.verdict, "valid": self.valid, "reason": self.reason,
             "vre_g": finite_or_none(w.vre_g) if w else None,
-            "U_vre_g": finite_or_none(w.expanded_g) if w else None, "k": COVERAGE_K,
+            "U_vre_g": finite_or_none(w.expanded_g) if w and w.u_vre_g is not None else None, "k": CONVENTIONAL_K,
             "vrc_ug_per_g2": finite_or_none(self.vrc_ug_per_g2) if w else None,
             "tilt_error_deg": finite_or_none(tilt[0]) if tilt else None,
             "U_tilt_error_deg": finite_or_none(tilt[1]) if tilt else None,

@@ -25,6 +25,7 @@ from vrelab.comparison.candidates import (
     static_fields,
 )
 from vrelab.comparison.results import CandidateRow, Comparison, Point, ranked
+from vrelab.gum import CONVENTIONAL_K
 
 if TYPE_CHECKING:
     from vrelab.profiles import Profile
@@ -99,13 +100,23 @@ def candidate_point(params: Mapping[str, Any], seed: np.random.SeedSequence) -> 
     return out
 
 
+# The parts exact by definition: the ideal preset is rails at exactly ±range and the polynomial
+# given, no part's unknown numbers, so its prediction's u is 0. Any other part whose prediction
+# states no u (a sensor file without [uncertainty] or covariance) is no claim against a budget.
+EXACT_PARTS = ("ideal",)
+NO_U = ("its prediction states no u (a sensor file with no [uncertainty] or covariance: its numbers are not "
+        "known exactly): neither a pass nor a fail can be claimed; give its parameters' u")
+
+
 def _points(values: Mapping[str, float], statics: Sequence[float], levels: Sequence[float],
-            budget: Budget) -> tuple[Point, ...]:
+            budget: Budget, exact: bool) -> tuple[Point, ...]:
     out = []
     for j, g0 in enumerate(statics):
         for i, rms in enumerate(levels):
             key = f"{j}.{i}."
             u = values[key + "u_vre_g"]
+            if exact and math.isnan(u):
+                u = 0.0
             shares = {k[len(key) + 6:]: v for k, v in values.items() if k.startswith(key + "share.")}
             sources = {k[len(key) + 2:]: v for k, v in values.items() if k.startswith(key + "u.")}
             out.append(Point(float(rms), float(g0), values[key + "vre_g"], None if math.isnan(u) else u,
@@ -116,6 +127,8 @@ def _points(values: Mapping[str, float], statics: Sequence[float], levels: Seque
 def _verdict(points: Sequence[Point]) -> str:
     if any(not (math.isfinite(p.high) and math.isfinite(p.low)) for p in points):
         return "invalid"
+    if any(p.u_vre_g is None for p in points):
+        return "undecided"  # no U: the margins are no claim (NO_U)
     if all(p.high <= 1.0 for p in points):
         return "pass"
     return "fail" if any(p.low > 1.0 for p in points) else "undecided"
@@ -180,13 +193,15 @@ def compare(
     The guard: with ``U = 2·u_vre_g`` (k = 2, the prediction's standard u from the sensor's
     stated and assumed parameter uncertainties and the model bound), a candidate passes when
     ``|VRE| + U ≤ budget`` at every level and static field, fails when ``|VRE| − U > budget`` at
-    one, and is undecided otherwise. A candidate whose prediction is not valid at some level is
+    one, and is undecided otherwise. A candidate whose prediction states no u (a sensor file with
+    no ``[uncertainty]`` or covariance) is undecided, with the reason: only the ``ideal`` part is
+    exact by definition (U = 0). A candidate whose prediction is not valid at some level is
     "invalid" with the reason, ranked last, never a pass. A tilt budget ``δθ`` is the VRE budget
     ``g·cos θ·δθ`` at each static field (:class:`~vrelab.comparison.candidates.Budget`).
 
     Examples
     --------
-    Two ranges of the ideal part (no stated u: U = 0) on an axis tilted 30° (static 0.5 g) in
+    Two ranges of the ideal part (exact by definition: U = 0) on an axis tilted 30° (static 0.5 g) in
     flat 20-2000 Hz at 2 g rms, against a tilt budget of 0.05° (a VRE of 0.756 mg there). The
     VREs are the clip's censored Gaussian mean shifts (:func:`vrelab.models.design.clip_vre`:
     -161.2 mg at ±2 g, -0.037 mg at ±8 g); ±8 g holds the budget with a tilt error of -0.0025°:
@@ -235,13 +250,15 @@ def compare(
             reason = (rec.error or "failed").removeprefix("ValueError: ")
             rows.append(CandidateRow(c, "invalid", reason=reason, notes=(note,) if note else ()))
             continue
-        pts = _points(rec.values, statics, level_list, judged_by)
-        rows.append(CandidateRow(c, _verdict(pts), pts, notes=(note,) if note else ()))
+        pts = _points(rec.values, statics, level_list, judged_by, c.part in EXACT_PARTS)
+        verdict = _verdict(pts)
+        unstated = verdict == "undecided" and any(p.u_vre_g is None for p in pts)
+        rows.append(CandidateRow(c, verdict, pts, reason=NO_U if unstated else None, notes=(note,) if note else ()))
     conditions = {"environment": environment if isinstance(environment, str) else profile.name,
                   "band_hz": list(profile.band), "levels_g": level_list, "static_g": statics,
                   "tilt_range_deg": list(tilt_range_deg) if tilt_range_deg else None,
                   "budget": judged_by.text, "budget_kind": judged_by.kind, "budget_value": judged_by.value,
-                  "mount": {"fn_hz": mount[0], "q": mount[1]} if mount else None, "coverage_k": 2.0}
+                  "mount": {"fn_hz": mount[0], "q": mount[1]} if mount else None, "coverage_k": CONVENTIONAL_K}
     return Comparison(conditions, ranked(rows))
 
 

@@ -3,6 +3,7 @@ classes, their grms and scaling (the equations in :mod:`vrelab.profiles`)."""
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import Counter
 from dataclasses import dataclass
@@ -277,9 +278,12 @@ class RandomProfile:
         """Slope of each segment [dB/oct]: ``10·log10(2)·n``."""
         return DB_PER_OCT_PER_N * self.exponents
 
-    @property
+    @functools.cached_property
     def mean_square_g2(self) -> float:
-        """Total area under the PSD [g²] (closed form, see :func:`segment_areas`)."""
+        """Total area under the PSD [g²] (closed form, see :func:`segment_areas`).
+
+        Computed once per profile (its arrays are read-only): every prediction of a comparison
+        or a propagation reads it, and the same profile is predicted hundreds of times."""
         return float(np.sum(segment_areas(self.freq_hz, self.psd_g2_per_hz)))
 
     @property

@@ -147,13 +147,17 @@ class Field:
     def _check_bounds(self, value: Real, sensor: str) -> None:
         """The row's physical bounds (``lower``, ``upper``, in the file's units), naming the file key."""
         v = float(value) * self.scale
-        unit = f" {self.text_unit}" if self.text_unit else ""
+        # the unit's text only for the message: every sensor a propagation perturbs is checked here
         if self.upper is not None and v > self.upper:
             raise ValueError(f"sensor {sensor}: {self.key} must be at most {self.upper:g} ({self.why_upper}), "
-                             f"got {v:g}{unit}")
+                             f"got {v:g}{self._unit_suffix}")
         if self.lower is not None and v < self.lower:
             raise ValueError(f"sensor {sensor}: {self.key} must be at least {self.lower:g} ({self.why_lower}), "
-                             f"got {v:g}{unit}")
+                             f"got {v:g}{self._unit_suffix}")
+
+    @property
+    def _unit_suffix(self) -> str:
+        return f" {self.text_unit}" if self.text_unit else ""
 
     def span(self) -> float:
         """The width of the row's physical bounds in the file's units (inf where one is open): a
