@@ -145,20 +145,32 @@ def _closed_form_doc(k2: float, k3: float, fn: float, q: float, freqs: list[floa
     return {"kind": "campaign", "name": "closed form", "runs": runs}
 
 
+# The one part of the two coverage tests below, and its 30 seeded closed-form campaigns.
+K2, K3, FN, Q = 1500.0, -250.0, 900.0, 6.0
+N_CAMPAIGNS = 30
+
+
+@pytest.fixture(scope="module")
+def identified_campaigns() -> list:
+    """The 30 campaigns (sine at 0.45, 0.8 and 1.3·fn at ±1 g, 3 µg of noise), each identified:
+    read by both coverage tests below, identified once (~0.5 s of CPU each, not twice)."""
+    return [identify(_closed_form_doc(K2, K3, FN, Q, [0.45 * FN, 0.8 * FN, 1.3 * FN], 3e-6,
+                                      np.random.default_rng(seed)), "ideal")
+            for seed in range(N_CAMPAIGNS)]
+
+
 @pytest.mark.slow
-def test_identify_uncertainty_coverage_over_replicated_seeds() -> None:
+def test_identify_uncertainty_coverage_over_replicated_seeds(identified_campaigns: list) -> None:
     """30 campaigns (sine at 0.45, 0.8 and 1.3·fn at ±1 g, 3 µg of noise) of one part: for k2, k3,
     fn and Q the fraction of |estimate - truth| <= u lies within the binomial limits of 68 %
     (0.42-0.94 at n = 30, 3 sd) and that of 2u of 95 % (>= 0.80). A parameter left null (a bound)
     counts as covered only when its bound holds the truth."""
-    k2, k3, fn, q = 1500.0, -250.0, 900.0, 6.0
-    truth = {"k2_ug_per_g2": k2, "k3_ug_per_g3": k3, "fn_hz": fn, "q": q}
+    truth = {"k2_ug_per_g2": K2, "k3_ug_per_g3": K3, "fn_hz": FN, "q": Q}
     one = {n: 0 for n in truth}
     two = {n: 0 for n in truth}
-    n_runs = 30
-    for seed in range(n_runs):
-        doc = _closed_form_doc(k2, k3, fn, q, [0.45 * fn, 0.8 * fn, 1.3 * fn], 3e-6, np.random.default_rng(seed))
-        ch = identify(doc, "ideal").channels[0]
+    n_runs = N_CAMPAIGNS
+    for ident in identified_campaigns:
+        ch = ident.channels[0]
         for n, want in truth.items():
             e = ch.parameters[n]
             if e is None:
@@ -173,19 +185,18 @@ def test_identify_uncertainty_coverage_over_replicated_seeds() -> None:
 
 
 @pytest.mark.slow
-def test_predict_uncertainty_from_an_identified_part_covers_the_truth(tmp_path: Path) -> None:
+def test_predict_uncertainty_from_an_identified_part_covers_the_truth(identified_campaigns: list,
+                                                                     tmp_path: Path) -> None:
     """Issue 18's coverage suite, for predict: 30 campaigns of one part (as above), each identified,
     its sensor file written and loaded, then predict for a sine the campaigns never ran (600 Hz,
     0.3 g rms, +1 g and -1 g). The truth is SPEC 1.2-1.3's closed form with the part's true
     parameters, (k2 + 3·k3·g0)·|H(f)|²·rms², computed here without vrelab. The fraction of
     |VRE - truth| <= u_vre_g lies within the binomial limits of 68 % (0.42-0.94 at n = 30 per
     orientation, 3 sd) and that of 2u of 95 % (>= 0.80); every prediction is valid."""
-    k2, k3, fn, q = 1500.0, -250.0, 900.0, 6.0
+    k2, k3, fn, q = K2, K3, FN, Q
     f, rms = 600.0, 0.3
     one = two = total = 0
-    for seed in range(30):
-        doc = _closed_form_doc(k2, k3, fn, q, [0.45 * fn, 0.8 * fn, 1.3 * fn], 3e-6, np.random.default_rng(seed))
-        ident = identify(doc, "ideal")
+    for seed, ident in enumerate(identified_campaigns):
         sensor = load_sensor(str(write_sensor_file(tmp_path / f"s{seed}.toml", ident)), axis="dut")
         for g0 in (1.0, -1.0):
             truth = (k2 + 3 * k3 * g0) * 1e-6 * _h2(f, fn, q) * rms**2

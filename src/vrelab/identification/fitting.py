@@ -192,10 +192,19 @@ def least_squares_fit(base: Sensor, obs: Sequence[Observation], free: Sequence[s
 
     n_res = sum(ob.n for ob in obs)
     bad = np.full(n_res, 1e6)
+    # the model at each x the optimiser tried, by x's exact bits: the solution is one of them, and
+    # its residuals and predictions are read again below (one model evaluation of ~10 a fit saved)
+    seen: dict[bytes, tuple[NDArray[np.float64], list[Prediction]]] = {}
+
+    def evaluated(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], list[Prediction]]:
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        if key not in seen:
+            seen[key] = _residuals(sensor_at(x), obs, kind)
+        return seen[key]
 
     def resid(x: NDArray[np.float64]) -> NDArray[np.float64]:
         try:
-            r, _ = _residuals(sensor_at(x), obs, kind)
+            r, _ = evaluated(x)
         except ValueError:  # a parameter set the sensor refuses (rails crossing a static level)
             return bad
         return np.where(np.isfinite(r), r, 1e6)
@@ -209,7 +218,7 @@ def least_squares_fit(base: Sensor, obs: Sequence[Observation], free: Sequence[s
         x = res.x
     else:
         x = x0
-    r, preds = _residuals(sensor_at(x), obs, kind)
+    r, preds = evaluated(x)
     chi2 = float(r @ r)
     # the Jacobian at the solution by central differences (steps a small fraction of each
     # parameter's scale): the covariance rests on it, so not the optimiser's forward ones
