@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 from hypothesis import settings
@@ -6,6 +8,11 @@ from hypothesis import settings
 # same on every machine, and a clean clone in CI draws what the developer's run drew.
 settings.register_profile("vrelab", derandomize=True, database=None)
 settings.load_profile("vrelab")
+
+# The suite writes nothing into the user's home: `vrelab analyze` remembers a file's SHA-256 under
+# ~/.cache (vrelab._digests); here it computes every digest afresh. Set before any test runs, so the
+# CLI subprocesses inherit it; tests/test_digests.py exercises the cache with its own folder.
+os.environ["VRELAB_NO_DIGEST_CACHE"] = "1"
 
 
 @pytest.fixture
