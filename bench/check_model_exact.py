@@ -174,7 +174,9 @@ def _triaxial() -> list[Any]:
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine, direction
 
     tri_call, along_call = _triaxial_calls()
-    ideal = load_sensor("ideal", range_g=2)
+    # the z axis: the cross-axis row below (cross_axis_x, cross_axis_y) is an off-axis one, which
+    # the loader refuses on the axis it names (the ideal part's default axis is x)
+    ideal = load_sensor("ideal", range_g=2, axis="z")
     cross = dataclasses.replace(ideal, kip_per_g=5e-3, kio_per_g=-2e-3, kpp_per_g=1e-3, koo_per_g=4e-4,
                                 kpo_per_g=-6e-4, k2_per_g=2e-3, cross_axis_x=0.01, cross_axis_y=-0.02)
     adxl = load_sensor("adxl355", range_g=2, axis="z")

@@ -35,9 +35,9 @@ from vrelab.results import (
     VreResult,
 )
 from vrelab.sweep import SweepResult
-from vrelab.triaxial.analyze import TriaxialAnalysis, TriaxialLevel
+from vrelab.triaxial.analyze import TriaxialLevel
 from vrelab.triaxial.profile import TriaxialSine
-from vrelab.triaxial.simulate import TriaxialTest
+from vrelab.triaxial.result import TriaxialPart
 
 # "a line or two": a terminal's two lines of 120 columns, and a little more for the type's name
 MAX_REPR = 300
@@ -64,10 +64,11 @@ PRED_LEVELS = tuple(
     for r in (1.0, 2.5))
 PREDICTION = Prediction(Conditions(sensor="adxl355", model="prediction-censored"), PRED_LEVELS, ("a note",))
 AXES = {"x": RESULT, "z": VreResult("random", Conditions(axis="z"), LEVELS[:2], (), ())}
-TRI_TEST = TriaxialTest("sine", TriaxialSine(100.0, (1.0, 0.0, 1.0)), (1.0, 2.0), (0.0, 0.0, 1.0), AXES, {})
+TRI_TEST = VreResult.of_axes(AXES, kind="simulation", triaxial=TriaxialPart(
+    excitation=TriaxialSine(100.0, (1.0, 0.0, 1.0)), levels_g=(1.0, 2.0), static_g=(0.0, 0.0, 1.0)))
 TRI_LEVEL = TriaxialLevel(1.0, 5.0, f64(1.414), (f64(1.0), f64(0.0), f64(1.0)), None, u_rms_g=f64(0.003))
-TRI_ANALYSIS = TriaxialAnalysis((("x", RESULT, None), ("z", AXES["z"], None)), (TRI_LEVEL,),
-                                {"x": "rx", "y": "ry", "z": "rz"}, "x", {"x": "x", "z": "z"})
+TRI_ANALYSIS = VreResult.of_axes(AXES, triaxial=TriaxialPart((TRI_LEVEL,), {"x": "rx", "y": "ry", "z": "rz"}, "x",
+                                                             {"x": "x", "z": "z"}))
 CHANNEL = ChannelModel("101:+Z", {"rail_g": Estimate(f64(2.31), f64(0.04)), "fn_hz": None}, {"fn_hz": "not seen"},
                        {"rail_g": 2.31}, None, f64(3.2), 4, (), ("n",))
 NOISE = NoiseResult(Estimate(f64(25.1), f64(0.4), "ug/rtHz"), Estimate(f64(3.1), f64(0.9), "ug"), (0.1, 1.0),
@@ -105,7 +106,7 @@ CASES = [
     (PREDICTION, ["levels=2", "valid=False"]),
     (TRI_TEST, [str(VRC), "levels_g=(1, 2)", "static_g=(0, 0, 1)"]),
     (TRI_LEVEL, ["rms_g=1.414", "axis_rms_g=(1, 0, 1)"]),
-    (TRI_ANALYSIS, [str(VRC), "levels=1"]),
+    (TRI_ANALYSIS, [str(VRC), "reference_levels=1"]),
     (CHANNEL, ["rail_g = " + str(CHANNEL.parameters["rail_g"])]),
     (SUMMARY, [str(SUMMARY.k2), str(SUMMARY.rail), "vrc_by_freq=1"]),
     (SweepResult(None, None, {}, {"points": 4}, {"csv": Path("result.csv")}),  # type: ignore[arg-type]

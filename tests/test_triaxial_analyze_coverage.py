@@ -92,7 +92,7 @@ def _z(seconds: float, seeds: range) -> tuple[np.ndarray, np.ndarray, list]:
         for seed in seeds:
             rec = _record(profile, (1.0, 2.0), seconds, seed)
             res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
-            _, result, _ = res.channels[0]
+            result = res.axes["x"]
             for lv, nominal in zip(result.levels, (1.0, 2.0)):
                 z.append((lv.vre.value - truth[nominal]) / lv.vre.u)
                 wrong.append((lv.vre.value - k2[nominal]) / lv.vre.u)
@@ -124,13 +124,13 @@ def test_a_level_of_a_few_windows_is_flagged():
     # its notice carried
     rec = _record(INCOHERENT, (1.0,), 0.8, 0)
     res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
-    _, result, _ = res.channels[0]
+    result = res.axes["x"]
     assert "few-windows" in result.levels[0].flags
     assert sum(getattr(w, "code", None) == "few-windows" for w in result.warnings) == 1
     # 1.5 s segments: 8 interior windows: a calibrated u with few degrees of freedom, not flagged
     rec = _record(INCOHERENT, (1.0,), 1.5, 0)
     res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
-    _, result, _ = res.channels[0]
+    result = res.axes["x"]
     assert "few-windows" not in result.levels[0].flags
     assert result.levels[0].dof is not None and result.levels[0].dof < 8
 
@@ -143,7 +143,7 @@ def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
 
     rec = _record(INCOHERENT, (1.0, 2.0), 2.5, 3)
     res = vrelab.analyze(rec, {"x": "dut_x"}, {a: f"ref_{a}" for a in AXES}, method="random", options=OPTIONS)
-    _, result, _ = res.channels[0]
+    result = res.axes["x"]
     single = []
     for a in AXES:
         pair = ArrayRecord({"dut": rec.data["dut_x"], "reference": rec.data[f"ref_{a}"]}, rec.fs_hz, rec.schedule)
@@ -151,7 +151,7 @@ def test_the_level_is_one_number_the_total_of_the_single_axis_levels():
                             options=ReductionOptions(band_hz=BAND, accept=frozenset({"unit-ratio", "channels"})))
         single.append([lv.rms_g for lv in r.levels])
     totals = np.sqrt(np.sum(np.square(single), axis=0))
-    for lv, tri, total, nominal in zip(result.levels, res.levels, totals, (1.0, 2.0)):
+    for lv, tri, total, nominal in zip(result.levels, res.reference_levels, totals, (1.0, 2.0)):
         assert lv.rms_g == tri.rms_g and lv.u_rms_g == tri.u_rms_g
         assert lv.rms_g == pytest.approx(total, rel=1e-9)
         assert math.sqrt(sum(x * x for x in tri.axis_rms_g)) == pytest.approx(tri.rms_g, rel=1e-12)

@@ -191,14 +191,14 @@ def test_triaxial_reduction_recovers_the_cross_axis_vrc():
     rec = ArrayRecord(_shaker_record(11), 2048.0)
     res = vrelab.analyze(rec, {"x": "dx", "y": "dy", "z": "dz"}, {"x": "rx", "y": "ry", "z": "rz"},
                          options=ReductionOptions(band_hz=(20, 800)))
-    by = {n: r for n, r, _ in res.channels}
+    by = res.axes
     # truth per g² of total mean square (σx² = σz² = L², E[xz] = 0.8 L², σ_total² = 2 L²)
     truth = {"x": (K2 + 0.8 * KXZ) / 2 * 1e6, "y": 0.0, "z": K2 / 2 * 1e6}
     for axis, want in truth.items():
         fit = next(f for f in by[axis].fits if f.model.name == "vrc").params["vrc_ug_per_g2"]
         assert abs(fit.value - want) < 3 * fit.u + 1e-3, (axis, fit.value, fit.u, want)
         assert not any(f.model.name.startswith("clip") for f in by[axis].fits)  # the rail is not fitted
-    for lv, level in zip(res.levels, (1.0, 2.0)):
+    for lv, level in zip(res.reference_levels, (1.0, 2.0)):
         assert lv.rms_g == pytest.approx(math.sqrt(2) * level, rel=0.03)
         assert lv.axis_rms_g[1] < 1e-3
         k = np.argmin(np.abs(lv.csd.freq_hz - 150))
@@ -206,8 +206,8 @@ def test_triaxial_reduction_recovers_the_cross_axis_vrc():
     for lv in by["x"].levels:
         assert lv.rms_g == pytest.approx(math.sqrt(2) * round(lv.rms_g / math.sqrt(2)), rel=0.03)
     # y's reference axis is still: its levels come from the most moving axis (x and z move alike)
-    assert res.level_axis["x"] == "x" and res.level_axis["z"] == "z"
-    assert res.level_axis["y"] == res.segmenting_axis in ("x", "z")
+    assert res.triaxial.level_axis["x"] == "x" and res.triaxial.level_axis["z"] == "z"
+    assert res.triaxial.level_axis["y"] == res.triaxial.segmenting_axis in ("x", "z")
     assert any("reference axis y is still" in w for w in by["y"].warnings)
 
 

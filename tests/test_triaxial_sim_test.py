@@ -173,7 +173,7 @@ def test_the_rate_rule_serves_the_axis_that_needs_the_fastest_rate():
     assert want > x.internal_rate_hz(400.0)
     for axes in ([x, z], [z, x]):
         res = vrelab.simulate(axes, RandomProfile.flat(20.0, 400.0), [1.0], direction=(1, 0, 1), seconds=2.0)
-        assert res.conditions["fs_internal_hz"] == want
+        assert res.triaxial.conditions["fs_internal_hz"] == want
 
 
 def _same_bits(a: dict, b: dict) -> None:
@@ -227,7 +227,7 @@ def test_one_simulate_reads_a_number_static_field_along_the_axis_and_a_sine_alon
     d = (0.6, 0.8, 0.0)
     by_number = vrelab.simulate(sensor, freq_hz=90.0, levels=[0.5], static_g=1.0, direction=d, seconds=2.0, seed=6)
     by_vector = vrelab.simulate(sensor, TriaxialSine(90.0, d), [0.5], static_g=(1, 0, 0), seconds=2.0, seed=6)
-    assert by_number.static_g == (1.0, 0.0, 0.0) and by_number.method == "sine"
+    assert by_number.triaxial.static_g == (1.0, 0.0, 0.0) and by_number.method == "sine"
     _same_bits(by_number.to_dict()["channels"], by_vector.to_dict()["channels"])
     with pytest.raises(ValueError, match="one freq_hz along a direction"):
         vrelab.simulate(sensor, freq_hz=[90.0, 180.0], levels=[0.5], direction=d)

@@ -19,9 +19,7 @@ if TYPE_CHECKING:
     from vrelab.record import Record
     from vrelab.results import VreResult
     from vrelab.sensor import Sensor
-    from vrelab.triaxial.analyze import TriaxialAnalysis
     from vrelab.triaxial.profile import TriaxialProfile, TriaxialSine
-    from vrelab.triaxial.simulate import TriaxialTest
 
     Vibration = RandomProfile | SineOnRandom | TriaxialProfile | TriaxialSine
 
@@ -38,7 +36,7 @@ def simulate(
     direction: ArrayLike | None = None,
     record_path: str | Path | None = None,
     **plan: Any,
-) -> VreResult | TriaxialTest:
+) -> VreResult:
     """Simulate a shaker test of ``sensor`` and reduce it like a lab record: one axis or three.
 
     Give either ``vibration`` (the random method: ``levels`` are its g rms, its shape scaled to
@@ -51,9 +49,11 @@ def simulate(
     to a :class:`~vrelab.results.VreResult`. With a ``direction``, a
     :class:`~vrelab.triaxial.profile.TriaxialProfile` or
     :class:`~vrelab.triaxial.profile.TriaxialSine`, a static 3-vector or several DUT axes, it is
-    the triaxial test (:func:`vrelab.triaxial.simulate.run_triaxial_test`): a
-    :class:`~vrelab.triaxial.simulate.TriaxialTest`, whose ``axes`` hold each DUT axis's
-    ``VreResult`` (levels the vibration's total rms).
+    the triaxial test (:func:`vrelab.triaxial.simulate.run_triaxial_test`). Either way the result
+    is one :class:`~vrelab.results.VreResult`: its ``axes`` hold each DUT axis's (a single-axis
+    test: itself; a triaxial one: levels the vibration's total rms), a triaxial test adds
+    ``triaxial`` (:class:`~vrelab.triaxial.result.TriaxialPart`: the vibration, the static vector,
+    the reference's levels), and with one DUT axis ``levels``, ``fits``, ... read as that axis's.
 
     Parameters
     ----------
@@ -83,7 +83,7 @@ def simulate(
 
     Returns
     -------
-    VreResult or TriaxialTest
+    VreResult
         Every level's VRE with its standard uncertainty and conditions, and the fits
         (``to_dict()`` is what ``vrelab simulate --json`` prints).
 
@@ -142,7 +142,7 @@ def _is_triaxial(sensor: Any, vibration: Any, static_g: Any, direction: Any) -> 
 
 def _simulate_triaxial(sensor: Any, vibration: Any, freqs: list[float] | None, levels: Sequence[float],
                        static_g: Any, direction: Any, record_path: str | Path | None,
-                       plan: dict[str, Any]) -> TriaxialTest:
+                       plan: dict[str, Any]) -> VreResult:
     """The triaxial case of :func:`simulate`: the sine along its direction, a number for the
     static field along the first DUT axis's input axis."""
     import numpy as np
@@ -171,17 +171,19 @@ def analyze(
     reference_scale: Any = None,
     method: str = "auto",
     **options: Any,
-) -> VreResult | TriaxialAnalysis:
+) -> VreResult:
     """Reduce a recorded shaker test to VRE per level and its fits: one reference axis or three.
 
     A file is opened read-only with :func:`vrelab.analysis.readers.open_record` (any format
     ``vrelab channels`` lists) and closed afterwards; a record already open (the
     :class:`vrelab.record.Record` protocol) is read as it is. With one reference channel (or
-    none) the DUT channel is reduced by :func:`vrelab.analysis.analyze` to a
-    :class:`~vrelab.results.VreResult`. With a triaxial reference (three channels x, y, z)
-    each DUT axis is reduced against it by :func:`vrelab.triaxial.analyze.reduce_triaxial` to a
-    :class:`~vrelab.triaxial.analyze.TriaxialAnalysis`, whose ``channels`` hold each axis's
-    ``VreResult`` (levels the reference's total rms). Several DUT channels against one
+    none) the DUT channel is reduced by :func:`vrelab.analysis.analyze`. With a triaxial
+    reference (three channels x, y, z) each DUT axis is reduced against it by
+    :func:`vrelab.triaxial.analyze.reduce_triaxial` (levels the reference's total rms). Either way
+    the result is one :class:`~vrelab.results.VreResult`: ``axes`` holds each DUT axis's, a
+    triaxial reference adds ``triaxial`` (:class:`~vrelab.triaxial.result.TriaxialPart`: the
+    reference's levels as vectors, ``reference_levels``), and with one DUT axis ``levels``,
+    ``fits``, ... read as that axis's. Several DUT channels against one
     reference: ``vrelab analyze --dut A,B`` or :func:`vrelab.analysis.pipeline.analyze_channels`.
 
     Parameters
@@ -211,7 +213,7 @@ def analyze(
 
     Returns
     -------
-    VreResult or TriaxialAnalysis
+    VreResult
         What ``vrelab analyze --json`` (``--triaxial``) prints, as objects.
 
     Examples
@@ -289,11 +291,11 @@ def _cli_budget() -> Any:
 
 
 # the keywords of vrelab.analysis.analyze that are not former flat keywords
-_OPTION_OBJECTS = frozenset({"options", "fit", "budget", "conditions", "provenance", "schedule"})
+_OPTION_OBJECTS = frozenset({"options", "fit", "budget", "given", "conditions", "provenance", "schedule"})
 
 
 def _analyze_triaxial(source: Any, dut: Any, reference: Any, reading: tuple[Any, Any, Any], method: str,
-                      options: dict[str, Any]) -> TriaxialAnalysis:
+                      options: dict[str, Any]) -> VreResult:
     """The triaxial case of :func:`analyze`: the channels by axis, the file opened with a
     reference channel per axis (``reference-x``, ...) and a DUT per axis (``dut:<axis>``)."""
     from vrelab.triaxial.analyze import Caller, reduce_triaxial

@@ -9,10 +9,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any, Callable, ClassVar, Iterable, Literal, Mapping, Sequence, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Iterable, Literal, Mapping, Sequence, TypeVar
 
+from vrelab._axes import ByAxis
+from vrelab._axes import channels_to_dict as channels_to_dict  # (its former place)
 from vrelab._display import Shown
 from vrelab._format import finite_or_none, format_mg_text, format_value_u
+
+if TYPE_CHECKING:
+    from vrelab.triaxial.result import TriaxialPart
 
 # Two sine levels belong to the same frequency when they differ by at most this fraction: a
 # controller steps its drive by much more than 1 % between frequencies, and the frequency an
@@ -889,9 +894,10 @@ class NoiseResult(Shown):
                    int(d.get("n_stretches") or 0), _nan(d.get("window_s")))
 
 
-@dataclass(frozen=True, repr=False)
-class VreResult(Shown):
-    """A whole test (simulated or measured): levels, fits, warnings, provenance.
+@dataclass(frozen=True, repr=False, eq=False)  # (eq: ByAxis's, on the fields as stored)
+class VreResult(ByAxis, Shown):
+    """A whole test (simulated or measured), one DUT axis or several (``axes``, ``triaxial``:
+    :mod:`vrelab._axes`): levels, fits, warnings, provenance.
 
     ``to_dict()`` is the document that ``simulate --json``, ``analyze --json`` print and that
     ``--out DIR`` writes as ``results.json``; ``vrelab report DIR`` reads it back with
@@ -909,6 +915,15 @@ class VreResult(Shown):
     ('sine', 'simulation', 2, ['vrc'])
     >>> print(result.conditions.sensor, result.conditions.range_g)
     adxl355 2.0
+
+    The same test along 45° in x-z: a triaxial one, the same type, its one DUT axis read alike:
+
+    >>> tri = vrelab.TriaxialSine(100.0, (1.0, 0.0, 1.0))
+    >>> test = vrelab.simulate(sensor, tri, [0.5, 1.0], static_g=(0, 0, 1), seconds=2, seed=1)
+    >>> type(test).__name__, list(test.axes), len(test.levels), [fit.model.name for fit in test.fits]
+    ('VreResult', ['z'], 2, ['vrc'])
+    >>> test.triaxial.static_g, len(test.reference_levels)
+    ((0.0, 0.0, 1.0), 2)
     """
 
     method: Method
@@ -920,18 +935,19 @@ class VreResult(Shown):
     kind: Literal["simulation", "measurement"] = "measurement"
     # the DUT's noise on the record's vibration-off stretches (None: not measured)
     noise: NoiseResult | None = None
+    axis_results: tuple[tuple[str, VreResult], ...] = ()
+    triaxial: TriaxialPart | None = None
     _ROWS = "levels"
 
     def display_fields(self) -> list[tuple[str, Any]]:  # the fits' parameters are the headline
+        if self.axis_results:
+            return self.axes_fields()
         fits = "; ".join(str(f) if f.no_fit_reason is None else f"{f.model.name}: no fit" for f in self.fits)
         return [("kind", self.kind), ("method", self.method), ("conditions", self.conditions),
                 ("levels", self.levels), ("fits", fits or None), ("warnings", self.warnings)]
 
-    @property
-    def axes(self) -> dict[str, VreResult]:
-        """The result by DUT axis, as a triaxial test's and analysis's ``axes``: this one under its
-        ``conditions.axis`` (``"dut"`` when unknown), so ``simulate`` and ``analyze`` read alike."""
-        return {self.conditions.axis or "dut": self}
+    def display_rows(self) -> list[dict[str, Any]] | None:
+        return self.axes_rows() if self.axis_results else super().display_rows()
 
     def fit_summary(self) -> dict[str, Any]:
         merged: dict[str, Any] = {}
@@ -944,6 +960,8 @@ class VreResult(Shown):
         return merged
 
     def to_dict(self) -> dict[str, Any]:
+        if self.axis_results:
+            return self.axes_document()
         d: dict[str, Any] = {
             "kind": self.kind,
             "method": self.method,
@@ -972,21 +990,3 @@ class VreResult(Shown):
             kind=d.get("kind", "measurement"),
             noise=NoiseResult.from_dict(d["noise"]) if d.get("noise") else None,
         )
-
-
-def channels_to_dict(results: Sequence[tuple[str, VreResult]], provenance: Mapping[str, Any]) -> dict[str, Any]:
-    """The document of several DUT channels of one file (the CLI reference): ``channels``: [{``channel``,
-    ``levels``, ``fit``, ...}], each a whole :meth:`VreResult.to_dict`; the file's provenance.
-
-    Examples
-    --------
-    >>> from vrelab import Conditions, Estimate, LevelResult, VreResult
-    >>> from vrelab.results import channels_to_dict
-    >>> result = VreResult("sine", Conditions(), (LevelResult(rms_g=1.0, vre=Estimate(1e-4, 3e-5)),))
-    >>> doc = channels_to_dict([("sn1", result), ("sn2", result)], {"tool": "example"})
-    >>> [c["channel"] for c in doc["channels"]]
-    ['sn1', 'sn2']
-    """
-    chans = [{"channel": name, **result.to_dict()} for name, result in results]
-    return {"kind": "measurement", "method": chans[0]["method"] if chans else None, "channels": chans,
-            "provenance": dict(provenance)}

@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from vrelab.analysis.options import BudgetOptions as BudgetOptions
     from vrelab.analysis.options import FitOptions as FitOptions
     from vrelab.analysis.options import ReductionOptions as ReductionOptions
+    from vrelab.analysis.pipeline import Given as Given
     from vrelab.analysis.pipeline import analyze as analyze
     from vrelab.analysis.pipeline import analyze_channels as analyze_channels
     from vrelab.analysis.pipeline import analyze_full as analyze_full
@@ -37,6 +38,7 @@ _LAZY: dict[str, str] = {
     "ReductionOptions": "vrelab.analysis.options",
     "FitOptions": "vrelab.analysis.options",
     "BudgetOptions": "vrelab.analysis.options",
+    "Given": "vrelab.analysis.pipeline",
 }
 
 __all__ = list(_LAZY)

@@ -105,6 +105,44 @@ class Reduction:
         return float(np.mean([b.mean_g for b in self.baselines]))
 
 
+@dataclass(frozen=True)
+class Given:
+    """What a caller of :func:`analyze`, :func:`analyze_full` or :func:`analyze_channels` states
+    beside the record and the three options (so that none takes more than 8 parameters; each
+    field is also taken as a keyword of its own, as before).
+
+    ``conditions``: the result's (default: those in the record's metadata); ``provenance``: added
+    to the result's; ``stats``: the record's first pass when already made (one DUT channel's
+    :class:`~vrelab.analysis.segmentation.WindowStats`); ``static_g`` (:func:`analyze_channels`
+    only): each channel's static field [g], one number for all or a mapping name -> g (None:
+    ``fit.static_g``, else each from its baselines).
+
+    Examples
+    --------
+    >>> from vrelab import Conditions
+    >>> from vrelab.analysis.pipeline import Given
+    >>> given = Given(conditions=Conditions(sensor="adxl355", axis="z"), provenance={"operator": "example"})
+    >>> given.conditions.sensor, dict(given.provenance)
+    ('adxl355', {'operator': 'example'})
+    """
+
+    conditions: Conditions | None = None
+    provenance: Mapping[str, Any] | None = None
+    stats: WindowStats | None = None
+    static_g: float | Mapping[str, float] | None = None
+
+
+def _given(given: Given | None, keywords: dict[str, Any], own: Sequence[str] = ("conditions", "provenance")) -> Given:
+    """``given`` with the fields given as keywords of their own (popped from ``keywords``; one
+    given both ways is refused, not silently preferred)."""
+    given = Given() if given is None else given
+    changes = {k: v for k in own if k in keywords and (v := keywords.pop(k)) is not None}
+    for k in changes:
+        if getattr(given, k) is not None:
+            raise TypeError(f"{k} given twice: as given.{k} and as {k}=")
+    return replace(given, **changes) if changes else given
+
+
 
 def _resolve_schedule(
     record: Record, schedule: Schedule | None, stats: WindowStats, settle_s: float
@@ -420,16 +458,15 @@ def analyze_full(
     options: ReductionOptions | None = None,
     fit: FitOptions | None = None,
     budget: BudgetOptions | None = None,
-    conditions: Conditions | None = None,
-    provenance: Mapping[str, Any] | None = None,
-    stats: WindowStats | None = None,
+    given: Given | None = None,
     **keywords: Any,
 ) -> tuple[VreResult, Reduction]:
     """:func:`analyze`, also returning the :class:`Reduction` (envelope, segments, PSDs).
 
-    ``conditions``: default, those in the record's metadata; ``provenance``: added to the
-    result's (version, rate, samples, the file's source and channels); ``stats``: the record's
-    first pass when already made (:func:`analyze_channels`).
+    ``given`` (:class:`Given`, or its fields as keywords ``conditions=``, ``provenance=``,
+    ``stats=``): ``conditions`` default those in the record's metadata; ``provenance`` is added
+    to the result's (version, rate, samples, the file's source and channels); ``stats`` the
+    record's first pass when already made (:func:`analyze_channels`).
 
     Examples
     --------
@@ -443,8 +480,12 @@ def analyze_full(
     >>> len(result.levels), type(reduction).__name__
     (3, 'Reduction')
     """
+    given = _given(given, keywords, ("conditions", "provenance", "stats"))
+    if given.static_g is not None:
+        raise ValueError("given.static_g is analyze_channels's (one per channel): give fit=FitOptions(static_g=...)")
     opt, fit, budget = from_keywords("analyze_full", keywords, options, fit, budget)
-    red = reduce(record, schedule, method, options=opt, stats=stats)
+    conditions, provenance = given.conditions, given.provenance
+    red = reduce(record, schedule, method, options=opt, stats=given.stats)
     method = red.method
     g0 = fit.static_g if fit.static_g is not None else red.static_g
     nominal = [seg.freq_hz for seg in red.level_segments]
@@ -552,8 +593,7 @@ def analyze(
     options: ReductionOptions | None = None,
     fit: FitOptions | None = None,
     budget: BudgetOptions | None = None,
-    conditions: Conditions | None = None,
-    provenance: Mapping[str, Any] | None = None,
+    given: Given | None = None,
     **keywords: Any,
 ) -> VreResult:
     """Reduce a record and fit it: the whole test station in one call.
@@ -574,8 +614,10 @@ def analyze(
         clipping model, k4 term, joint rail + VRC fit (:func:`vrelab.fits.fit_rail`).
     budget : BudgetOptions, optional
         Type B terms (physics §4.3) and a decision limit.
-    conditions : Conditions, optional
-        Default: those in the record's metadata.
+    given : Given, optional
+        The result's ``conditions`` (default: those in the record's metadata) and
+        ``provenance`` (added to the result's); also taken as keywords ``conditions=``,
+        ``provenance=``.
 
     Returns
     -------
@@ -602,9 +644,9 @@ def analyze(
     >>> print(f"VRC {vrc.value:.0f} ± {vrc.u:.0f} µg/g²")
     VRC 2853 ± 87 µg/g²
     """
+    given = _given(given, keywords)
     opt, fit, budget = from_keywords("analyze", keywords, options, fit, budget)
-    return analyze_full(record, method, schedule, options=opt, fit=fit, budget=budget, conditions=conditions,
-                        provenance=provenance)[0]
+    return analyze_full(record, method, schedule, options=opt, fit=fit, budget=budget, given=given)[0]
 
 
 def analyze_channels(
@@ -613,12 +655,9 @@ def analyze_channels(
     method: MethodRequest = "auto",
     schedule: Schedule | None = None,
     *,
-    static_g: float | Mapping[str, float] | None = None,
     options: ReductionOptions | None = None,
     fit: FitOptions | None = None,
-    budget: BudgetOptions | None = None,
-    conditions: Conditions | None = None,
-    provenance: Mapping[str, Any] | None = None,
+    given: Given | None = None,
     **keywords: Any,
 ) -> list[tuple[str, VreResult, Reduction]]:
     """Several DUT channels of one record, each reduced against one reference.
@@ -626,11 +665,12 @@ def analyze_channels(
     One streaming pass makes every DUT's window sums beside the reference's
     (:func:`~vrelab.analysis.segmentation.window_pass_many`); the segmentation comes from the
     reference, so every channel has the same levels; each channel's static field is its own
-    (``static_g`` a number for all, a mapping name -> g, or None: ``fit.static_g``, else each
-    from its baselines). ``duts`` are record channels (``dut:<name>`` from
-    :func:`vrelab.analysis.readers.open_record` with several DUTs; default: all of them).
-    Returns (name, result, reduction) per channel, in order. The other arguments are
-    :func:`analyze_full`'s.
+    (``given.static_g``, or the keyword ``static_g=``: a number for all, a mapping name -> g, or
+    None: ``fit.static_g``, else each from its baselines). ``duts`` are record channels
+    (``dut:<name>`` from :func:`vrelab.analysis.readers.open_record` with several DUTs; default:
+    all of them). Returns (name, result, reduction) per channel, in order. The other arguments
+    are :func:`analyze_full`'s (``budget=``, a :class:`~vrelab.analysis.options.BudgetOptions`,
+    as a keyword).
 
     Examples
     --------
@@ -647,7 +687,12 @@ def analyze_channels(
     sn1 1.02 mg at 0.6 g rms
     sn2 -0.36 mg at 0.6 g rms
     """
+    given = _given(given, keywords, ("conditions", "provenance", "static_g"))
+    budget = keywords.pop("budget", None)
+    if budget is not None and not isinstance(budget, BudgetOptions):
+        raise TypeError(f"analyze_channels(): budget must be a BudgetOptions, got {type(budget).__name__}")
     opt, fit, budget = from_keywords("analyze_channels", keywords, options, fit, budget)
+    static_g = given.static_g
     if duts is None:
         duts = [c for c in record.channels if c == "dut" or c.startswith("dut:")]
     duts = list(duts)
@@ -667,7 +712,7 @@ def analyze_channels(
             g0 = static_g if static_g is not None else fit.static_g
         view = record if d == "dut" else ChannelView(record, d)
         result, red = analyze_full(view, method, schedule, options=opt, fit=replace(fit, static_g=g0), budget=budget,
-                                   conditions=conditions, provenance=provenance, stats=stats[d])
+                                   given=replace(given, static_g=None, stats=stats[d]))
         out.append((name, result, red))
     return out
 
@@ -675,6 +720,7 @@ def analyze_channels(
 __all__ = [
     "ACCEPTABLE",
     "DEFAULT_BLOCK",
+    "Given",
     "Reduction",
     "analyze",
     "analyze_channels",

@@ -19,7 +19,6 @@ from typing import Any, Iterable
 
 from vrelab import _io, folder
 from vrelab.cli._common import positive_list, print_json, print_levels, typeb_from_args
-from vrelab.results import VreResult
 from vrelab.triaxial.profile import AXES
 
 CSD_FILE = "reference_csd.csv"
@@ -92,12 +91,11 @@ def run_triaxial(args: argparse.Namespace, inputs: Iterable[str | Path], command
         res = analyze(record, {a: f"dut:{a}" for a in duts}, {a: f"dut:reference-{a}" for a in AXES},
                       method=args.method, options=options, fit=FitOptions(k4=args.k4), schedule=schedule,
                       provenance=provenance)
-        assert not isinstance(res, VreResult)  # a triaxial reference: a TriaxialAnalysis
-    doc = res.to_dict(provenance)
+    doc = res.to_dict()  # its provenance the one given (the result's own)
     doc["triaxial"]["reference_channels"] = dict(ref)
     if args.out:
         with _io.output_dir(Path(args.out), inputs=inputs) as stage:
-            folder.write_channels(stage, [(n, r) for n, r, _ in res.channels], doc)
+            folder.write_channels(stage, list(res.axes.items()), doc)
             _write_csd(stage / CSD_FILE, doc)
     if args.json:
         print_json(doc)
@@ -107,7 +105,7 @@ def run_triaxial(args: argparse.Namespace, inputs: Iterable[str | Path], command
             a = lv["axis_rms_g"]
             print(f"level {lv['start_s']:.4g}-{lv['end_s']:.4g} s: {lv['rms_g']:.4g} g rms total "
                   f"(x {a['x']:.4g}, y {a['y']:.4g}, z {a['z']:.4g})")
-        for name, result, _ in res.channels:
+        for name, result in res.axes.items():
             print(f"{path.name} DUT axis {name}: {result.method} method, {len(result.levels)} level(s), "
                   "levels as the reference's total rms")
             print_levels(result)

@@ -139,12 +139,13 @@ def _run_triaxial(args: argparse.Namespace, static: list[float] | None, levels: 
         print_json(result.to_dict())
         return 0
     c = next(iter(result.axes.values())).conditions
+    part = result.triaxial
     odr = f"ODR {c.odr_hz:g} Hz" if c.odr_hz else "no ODR"
     print(f"simulated triaxial {result.method} test: sensor {c.sensor}  range ±{c.range_g:g} g  {odr}  "
-          f"static vector ({', '.join(f'{x:g}' for x in result.static_g)}) g")
-    exc = result.excitation  # a random profile is scaled to each level: its shape, not its own rms
+          f"static vector ({', '.join(f'{x:g}' for x in part.static_g)}) g")
+    exc = part.excitation  # a random profile is scaled to each level: its shape, not its own rms
     shape = exc.describe_shape() if isinstance(exc, TriaxialProfile) else exc.describe()
-    print(f"vibration: {shape}; level = {result.conditions['level']}")
+    print(f"vibration: {shape}; level = {part.conditions['level']}")
     for a, res in result.axes.items():
         print(f"axis {a}:")
         print_levels(res)

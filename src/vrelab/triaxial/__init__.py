@@ -14,7 +14,10 @@
 * :mod:`~vrelab.triaxial.simulate`: the simulated triaxial shaker test (called as
   :func:`vrelab.simulate`; :func:`simulate_triaxial` its deprecated alias);
 * :mod:`~vrelab.triaxial.analyze`: a triaxial record reduced per axis (called as
-  :func:`vrelab.analyze`; :func:`analyze_triaxial` its deprecated alias).
+  :func:`vrelab.analyze`; :func:`analyze_triaxial` its deprecated alias);
+* :mod:`~vrelab.triaxial.result`: :class:`~vrelab.triaxial.result.TriaxialPart`, what a triaxial
+  test or analysis adds to its DUT axes in the one result, :class:`~vrelab.results.VreResult`
+  (``TriaxialTest`` and ``TriaxialAnalysis``, the former result classes, its deprecated aliases).
 
 The profile's names are imported with the package; the others on first use (the modules behind
 them bring scipy and the simulator), as :mod:`vrelab` does.
@@ -31,7 +34,6 @@ if TYPE_CHECKING:
     from vrelab.prediction.triaxial import TriaxialLevelPrediction as TriaxialLevelPrediction
     from vrelab.prediction.triaxial import TriaxialPrediction as TriaxialPrediction
     from vrelab.prediction.triaxial import predict_triaxial as predict_triaxial
-    from vrelab.triaxial.analyze import TriaxialAnalysis as TriaxialAnalysis
     from vrelab.triaxial.analyze import analyze_triaxial as analyze_triaxial
     from vrelab.triaxial.chain import CROSS_TERMS as CROSS_TERMS
     from vrelab.triaxial.chain import TriaxialChain as TriaxialChain
@@ -43,7 +45,6 @@ if TYPE_CHECKING:
     from vrelab.triaxial.recording import MeasuredCsd as MeasuredCsd
     from vrelab.triaxial.recording import measure_csd as measure_csd
     from vrelab.triaxial.recording import read_recording_profile as read_recording_profile
-    from vrelab.triaxial.simulate import TriaxialTest as TriaxialTest
     from vrelab.triaxial.simulate import simulate_triaxial as simulate_triaxial
     from vrelab.triaxial.synthesis import triaxial_random_signal as triaxial_random_signal
 
@@ -64,15 +65,25 @@ _LAZY: dict[str, str] = {
     "TriaxialPrediction": "vrelab.prediction.triaxial",
     "TriaxialLevelPrediction": "vrelab.prediction.triaxial",
     "simulate_triaxial": "vrelab.triaxial.simulate",
-    "TriaxialTest": "vrelab.triaxial.simulate",
     "analyze_triaxial": "vrelab.triaxial.analyze",
-    "TriaxialAnalysis": "vrelab.triaxial.analyze",
 }
 
 __all__ = ["AXES", "PairCoherence", "TriaxialProfile", "TriaxialSine", "direction", *_LAZY]
 
 
-__getattr__ = lazy_getattr(__name__, _LAZY, globals())
+_lazy = lazy_getattr(__name__, _LAZY, globals())
+
+
+def __getattr__(name: str) -> object:
+    """The names of ``_LAZY`` on first use; the former result classes ``TriaxialTest`` and
+    ``TriaxialAnalysis`` (deprecated, one release: :mod:`vrelab.triaxial.result`) from their
+    modules, whose import of them warns each time."""
+    if name in ("TriaxialTest", "TriaxialAnalysis"):
+        import importlib
+
+        module = "vrelab.triaxial.simulate" if name == "TriaxialTest" else "vrelab.triaxial.analyze"
+        return getattr(importlib.import_module(module), name)
+    return _lazy(name)
 
 
 def __dir__() -> list[str]:

@@ -56,15 +56,15 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vrelab._display import Shown, per_axis
+from vrelab._display import Shown
 from vrelab.analysis.options import FitOptions, ReductionOptions
 from vrelab.analysis.plausibility import MethodRequest
 from vrelab.record import DEFAULT_SETTLE_S, WINDOW_S, ChannelView, Schedule, Segment
-from vrelab.results import LevelResult, Notice, VreResult, channels_to_dict
+from vrelab.results import LevelResult, Notice, VreResult
 from vrelab.triaxial.profile import AXES
 from vrelab.triaxial.recording import CsdAccumulator, MeasuredCsd, band_csd, default_nperseg, record_blocks
 
-__all__ = ["Caller", "TriaxialAnalysis", "TriaxialLevel", "analyze_triaxial", "reduce_triaxial"]
+__all__ = ["Caller", "TriaxialLevel", "analyze_triaxial", "reduce_triaxial"]
 
 # A reference axis whose rms is under this fraction of the most moving axis's is still: its
 # DUT axis's levels are read from the most moving axis.
@@ -105,66 +105,6 @@ class TriaxialLevel(Shown):
         if self.line is not None:
             d["line"] = dict(self.line)
         return d
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class TriaxialAnalysis(Shown):
-    """Per DUT axis (name, result, reduction), the reference's levels, what the reduction used.
-
-    Examples
-    --------
-    >>> import vrelab
-    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
-    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
-    >>> _ = vrelab.simulate(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1, record_path="tri.h5")
-    >>> from vrelab.analysis.readers import list_channels
-    >>> [channel["name"] for channel in list_channels("tri.h5")["channels"]]
-    ['dut_z', 'reference_x', 'reference_y', 'reference_z']
-    >>> analysis = vrelab.analyze("tri.h5", dut={"z": "dut_z"}, reference=("reference_x", "reference_y", "reference_z"))
-    >>> type(analysis).__name__, len(analysis.levels), [f"{g:.2f}" for g in analysis.levels[0].axis_rms_g]
-    ('TriaxialAnalysis', 1, ['0.71', '0.00', '0.71'])
-    """
-
-    channels: tuple[tuple[str, VreResult, Any], ...]
-    levels: tuple[TriaxialLevel, ...]
-    reference: Mapping[str, str]
-    segmenting_axis: str
-    # DUT axis -> the reference axis its reduction read (its DUT/reference ratio check); every
-    # level itself is the segmenting axis's, made total (the module docstring)
-    level_axis: Mapping[str, str]
-
-    @property
-    def axes(self) -> dict[str, VreResult]:
-        """Each DUT axis's result by its name, as :attr:`vrelab.triaxial.simulate.TriaxialTest.axes`."""
-        return {name: result for name, result, _ in self.channels}
-
-    def display_fields(self) -> list[tuple[str, Any]]:
-        return [("reference", self.reference), ("segmenting_axis", self.segmenting_axis), ("levels", self.levels),
-                *per_axis(self.axes)[0]]
-
-    def display_rows(self) -> list[dict[str, Any]]:
-        return per_axis(self.axes)[1]
-
-    def to_dict(self, provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
-        doc = channels_to_dict([(n, r) for n, r, _ in self.channels], provenance or {})
-        by_time = {(lv.start_s, lv.end_s): lv for lv in self.levels}
-        for ch, (name, _, red) in zip(doc["channels"], self.channels):
-            ch["level_axis"] = self.level_axis[name]
-            for d, seg in zip(ch["levels"], red.level_segments):
-                lv = by_time.get((seg.start_s, seg.end_s))
-                if lv is not None:
-                    d["axis_rms_g"] = dict(zip(AXES, lv.axis_rms_g))
-        doc["triaxial"] = {
-            "reference_channels": dict(self.reference),
-            "segmenting_axis": self.segmenting_axis,
-            "level": "rms_g of every level is the reference's total rms in the test band (at the drive frequency for "
-                     "a sine): the most moving axis's level (segmenting_axis) times sqrt(Σ m_j / m_axis), m_j the "
-                     "axes' in-band mean squares by the same windows (sqrt of the sum of the axes' single-axis "
-                     "levels squared); the same number in every channel's levels; axis_rms_g gives each axis's; "
-                     "csd.rms_g is the Welch band integral of the reported spectrum, not the level",
-            "levels": [lv.to_dict() for lv in self.levels],
-        }
-        return doc
 
 
 def _ac_rms(record: Any, channels: Sequence[str], block: int) -> NDArray[np.float64]:
@@ -273,7 +213,7 @@ _FORMER = ("method", "schedule", "band_hz", "settle_s", "block_size", "rail_g", 
 
 
 def analyze_triaxial(record: Any, reference: Mapping[str, str], duts: Mapping[str, str], *args: Any,
-                     **keywords: Any) -> TriaxialAnalysis:
+                     **keywords: Any) -> VreResult:
     """Deprecated alias of :func:`vrelab.analyze` with a triaxial reference (one release), bit for bit.
 
     ``analyze_triaxial(record, reference, duts, method, schedule, band_hz, settle_s, block_size,
@@ -329,7 +269,7 @@ def reduce_triaxial(
     options: ReductionOptions | None = None,
     fit: FitOptions | None = None,
     caller: Caller | None = None,
-) -> TriaxialAnalysis:
+) -> VreResult:
     """Reduce each DUT axis of a record with a triaxial reference (the module docstring): the
     triaxial case of :func:`vrelab.analyze`, which is the way to call it.
 
@@ -362,12 +302,15 @@ def reduce_triaxial(
     >>> [channel["name"] for channel in list_channels("tri.h5")["channels"]]
     ['dut_z', 'reference_x', 'reference_y', 'reference_z']
     >>> analysis = vrelab.analyze("tri.h5", dut={"z": "dut_z"}, reference=("reference_x", "reference_y", "reference_z"))
-    >>> name, result, _ = analysis.channels[0]
-    >>> print(name, f"{result.levels[0].rms_g:.2f} g rms: VRE {result.levels[0].vre.value * 1e3:.1f} ± {result.levels[0].vre.u * 1e3:.1f} mg")
-    z 1.01 g rms: VRE -4.1 ± 0.2 mg
+    >>> type(analysis).__name__, list(analysis.axes), [f"{g:.2f}" for g in analysis.reference_levels[0].axis_rms_g]
+    ('VreResult', ['z'], ['0.71', '0.00', '0.71'])
+    >>> level = analysis.levels[0]  # the one DUT axis's (analysis.axes["z"].levels[0])
+    >>> print(f"{level.rms_g:.2f} g rms: VRE {level.vre.value * 1e3:.1f} ± {level.vre.u * 1e3:.1f} mg")
+    1.01 g rms: VRE -4.1 ± 0.2 mg
     """
     from vrelab.analysis.options import FitOptions, ReductionOptions, default_band
     from vrelab.analysis.segmentation import auto_segment, window_pass
+    from vrelab.triaxial.result import TriaxialPart
 
     options = ReductionOptions() if options is None else options
     fit = FitOptions() if fit is None else fit
@@ -417,7 +360,24 @@ def reduce_triaxial(
         _, own = reduce_pair(first, dom, sorted(set(options.accept) | {"unit-ratio", "channels"}))
     levels_out, totals = _total_levels(record, refs, own, dom, band, options.block_size)
     channels = [_axis_channel(item[:5], totals, fit.k4, AXES[dom], level_axis[item[0]]) for item in reduced]
-    return TriaxialAnalysis(tuple(channels), tuple(levels_out.values()), dict(reference), AXES[dom], level_axis)
+    part = TriaxialPart(tuple(levels_out.values()), dict(reference), AXES[dom], level_axis,
+                        {name: red for name, _, red in channels})
+    return VreResult.of_axes({name: result for name, result, _ in channels}, provenance=caller.provenance or {},
+                             triaxial=part)
+
+
+def __getattr__(name: str) -> Any:
+    """The former result class, one release (its import warns: :mod:`vrelab.triaxial.result`)."""
+    if name == "TriaxialAnalysis":
+        import warnings
+
+        from vrelab.triaxial import result
+
+        warnings.warn("vrelab.triaxial.analyze.TriaxialAnalysis is deprecated and will be removed in the next "
+                      "release: vrelab.analyze returns a VreResult (result.axes, result.triaxial)",
+                      DeprecationWarning, stacklevel=2)
+        return result.TriaxialAnalysis
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _total_levels(

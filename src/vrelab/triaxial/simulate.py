@@ -34,14 +34,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vrelab import _keywords
 from vrelab import _validate as V
-from vrelab._display import Shown, per_axis
 from vrelab.profiles import RandomProfile, SineOnRandom
 from vrelab.record import write_record_hdf5
-from vrelab.results import LevelResult, Method, VreResult
+from vrelab.results import LevelResult, VreResult
 from vrelab.simulation.durations import DEFAULT_BASELINE_S, DEFAULT_LEVEL_S
 from vrelab.synthesis import Method as DriveMethod
 from vrelab.triaxial.chain import TriaxialRun, triaxial_chain
 from vrelab.triaxial.profile import AXES, TriaxialProfile, TriaxialSine
+from vrelab.triaxial.result import LEVEL_TEXT
 from vrelab.triaxial.synthesis import direction_blocks
 
 if TYPE_CHECKING:
@@ -50,7 +50,7 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 
 __all__ = ["simulate_direction", "DirectionBlock", "axis_runs", "run_triaxial_test",
-           "simulate_triaxial", "TriaxialTest", "LEVEL_TEXT"]
+           "simulate_triaxial", "LEVEL_TEXT"]
 
 # Internal samples per simulated block (as vrelab.simulation.record.BLOCK_INTERNAL).
 BLOCK = 1 << 16
@@ -192,9 +192,6 @@ def simulate_direction(
 
 # --- the simulated triaxial shaker test -------------------------------------------------------
 
-# Level definition of a triaxial test (TRIAXIAL.md): the total rms of the vibration vector.
-LEVEL_TEXT = "total rms of the triaxial reference, sqrt(rms_x² + rms_y² + rms_z²)"
-
 
 def _excitation(excitation: Any, direction: ArrayLike | None) -> TriaxialProfile | TriaxialSine:
     """The triaxial vibration a test runs: a TriaxialProfile or TriaxialSine as given, or a
@@ -211,57 +208,6 @@ def _excitation(excitation: Any, direction: ArrayLike | None) -> TriaxialProfile
         raise ValueError("a sine-on-random profile along a direction is not supported by the triaxial test "
                          "(its tones would need a direction of their own)")
     raise ValueError(f"excitation must be a TriaxialProfile, TriaxialSine or RandomProfile, got {type(excitation).__name__}")
-
-
-@dataclass(frozen=True, repr=False)
-class TriaxialTest(Shown):
-    """A simulated triaxial shaker test, reduced per DUT axis.
-
-    ``axes[a]`` is axis a's :class:`~vrelab.results.VreResult`: per level the VRE (DC shift of
-    the axis's output against its interpolated vibration-off readings, physics §4) with the
-    reduction's statistical u, and ``rms_g`` the level as the total rms of the triaxial
-    reference (:data:`LEVEL_TEXT`), all as :func:`vrelab.analyze`
-    gives them for the record (its VRC fit against the total rms; no rail fit).
-
-    Examples
-    --------
-    What :func:`vrelab.simulate` returns for a triaxial vibration: per DUT axis a VreResult
-    (flat 50-2000 Hz along 45° in x-z, the ADXL355's z axis upright in 1 g):
-
-    >>> import vrelab
-    >>> sensor = vrelab.load_sensor("adxl355", range_g=2, axis="z", odr_hz=4000)
-    >>> tri = vrelab.TriaxialProfile.along(vrelab.parse_profile("flat:50-2000"), (1, 0, 1))
-    >>> test = vrelab.simulate(sensor, tri, [1.0], (0, 0, 1), seconds=2, seed=1)
-    >>> type(test).__name__, test.method, list(test.axes), test.static_g
-    ('TriaxialTest', 'random', ['z'], (0.0, 0.0, 1.0))
-    """
-
-    method: Method
-    excitation: TriaxialProfile | TriaxialSine
-    levels_g: tuple[float, ...]
-    static_g: tuple[float, float, float]
-    axes: Mapping[str, VreResult]
-    conditions: Mapping[str, Any]
-    record_path: str | None = None
-
-    def display_fields(self) -> list[tuple[str, Any]]:
-        return [("method", self.method), ("excitation", self.excitation.describe()), ("static_g", self.static_g),
-                ("levels_g", self.levels_g), *per_axis(self.axes)[0]]
-
-    def display_rows(self) -> list[dict[str, Any]]:
-        return per_axis(self.axes)[1]
-
-    def to_dict(self) -> dict[str, Any]:
-        """The document of several DUT channels (``channels``: each axis's whole
-        :meth:`VreResult.to_dict` with ``channel`` its axis, as ``vrelab analyze`` writes for a
-        file with several DUTs, so ``vrelab report`` reads it) plus the triaxial conditions."""
-        chans = [{"channel": a, **r.to_dict()} for a, r in self.axes.items()]
-        first = next(iter(self.axes.values()), None)
-        return {"kind": "simulation", "method": self.method, "channels": chans,
-                "triaxial": {"excitation": self.excitation.to_dict(), "level": LEVEL_TEXT,
-                             "levels_g": list(self.levels_g), "static_vector_g": list(self.static_g),
-                             "conditions": dict(self.conditions), "record": self.record_path},
-                "provenance": dict(first.provenance) if first is not None else {}}
 
 
 @dataclass
@@ -286,7 +232,7 @@ class _Counts:
 PLAN_KEYWORDS = {"baseline_s": DEFAULT_BASELINE_S, "settle_s": None, "fs_internal_hz": None, "progress": False}
 
 
-def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, levels_g: Sequence[float], **keywords: Any) -> TriaxialTest:
+def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, levels_g: Sequence[float], **keywords: Any) -> VreResult:
     """Deprecated alias of :func:`vrelab.simulate` (one release): the same test, bit for bit.
 
     ``simulate_triaxial(sensors, excitation, levels_g, direction=..., static_g=(gx, gy, gz), ...)``
@@ -305,6 +251,20 @@ def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, level
                              **{k: v for k, v in keywords.items() if v is not None})
 
 
+def __getattr__(name: str) -> Any:
+    """The former result class, one release (its import warns: :mod:`vrelab.triaxial.result`)."""
+    if name == "TriaxialTest":
+        import warnings
+
+        from vrelab.triaxial import result
+
+        warnings.warn("vrelab.triaxial.simulate.TriaxialTest is deprecated and will be removed in the next "
+                      "release: vrelab.simulate returns a VreResult (result.axes, result.triaxial)",
+                      DeprecationWarning, stacklevel=2)
+        return result.TriaxialTest
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 def run_triaxial_test(
     sensors: Sensor | Sequence[Sensor],
     excitation: TriaxialProfile | TriaxialSine | RandomProfile,
@@ -315,7 +275,7 @@ def run_triaxial_test(
     seconds: float | None = None,
     record_path: str | Path | None = None,
     **plan: Any,
-) -> TriaxialTest:
+) -> VreResult:
     """Simulate a triaxial shaker test and reduce each DUT axis as a lab record (the triaxial case
     of :func:`vrelab.simulate`, which is the way to call it).
 
@@ -345,7 +305,10 @@ def run_triaxial_test(
 
     Returns
     -------
-    TriaxialTest
+    VreResult
+        Each DUT axis's result (``axes``), and ``triaxial``
+        (:class:`~vrelab.triaxial.result.TriaxialPart`): the vibration, the static vector, the
+        levels asked for, the reference's levels as the reduction measured them.
 
     Notes
     -----
@@ -441,15 +404,16 @@ def _plan(axes: Mapping[str, Any], g: FloatArray, exc: TriaxialProfile | Triaxia
 
 
 def _test_result(axes: Mapping[str, Any], exc: TriaxialProfile | TriaxialSine, g: FloatArray, plan: Any,
-                 simulation: Mapping[str, Any], analysis: Any, record_path: str | None) -> TriaxialTest:
-    """The TriaxialTest of the reduced axes: each axis's result with the simulation's conditions."""
+                 simulation: Mapping[str, Any], analysis: VreResult, record_path: str | None) -> VreResult:
+    """The result of the reduced axes: each axis's with the simulation's conditions, the
+    analysis's triaxial part with the simulation's vibration, static vector and levels."""
     from vrelab import shaker
 
     first = next(iter(axes.values()))
     conditions = {"sensor": first.name, "axes": list(axes), "static_vector_g": g.tolist(),
                   "excitation": exc.describe(), "level": LEVEL_TEXT, **simulation}
     out = {}
-    for a, result, _ in analysis.channels:
+    for a, result in analysis.axes.items():
         s = axes[a]
         cond = shaker.conditions(s, exc.describe(), float(s.sensitivity_row @ g),
                                   {**simulation, "static_vector_g": g.tolist(), "level": LEVEL_TEXT,
@@ -458,8 +422,11 @@ def _test_result(axes: Mapping[str, Any], exc: TriaxialProfile | TriaxialSine, g
                                    "settle_s": plan.settle_s})
         out[a] = dataclasses.replace(result, conditions=cond, kind="simulation",
                                      provenance=shaker.provenance("vrelab.triaxial.simulate_triaxial", s))
-    return TriaxialTest(plan.method, exc, tuple(plan.levels_g), (float(g[0]), float(g[1]), float(g[2])), out,
-                        conditions, record_path)
+    assert analysis.triaxial is not None  # reduce_triaxial's result has its part
+    part = dataclasses.replace(analysis.triaxial, excitation=exc, levels_g=tuple(plan.levels_g),
+                               static_g=(float(g[0]), float(g[1]), float(g[2])), conditions=conditions,
+                               record_path=record_path)
+    return VreResult.of_axes(out, kind="simulation", triaxial=part)
 
 
 def _record_blocks(
@@ -518,7 +485,7 @@ def _reduce_axes(
     plan: Any,
     band: tuple[float, float] | None,
     progress: bool,
-) -> Any:
+) -> VreResult:
     """The record reduced from the file by :func:`vrelab.triaxial.analyze.reduce_triaxial` (the
     reduction ``vrelab analyze FILE --triaxial`` runs: one owner of the VRE, its u and the total
     level), with what the simulation knows better than the record shows: the saturation counts
