@@ -49,7 +49,7 @@ def _axis_channels(text: str, what: str, exactly_three: bool) -> dict[str, str]:
 
 def run_triaxial(args: argparse.Namespace, inputs: Iterable[str | Path], command: str) -> int:
     from vrelab._api import analyze
-    from vrelab._io import sha256_file
+    from vrelab._digests import file_sha256
     from vrelab.analysis.options import FitOptions, ReductionOptions
     from vrelab.analysis.readers import Scale, open_record
     from vrelab.record import Schedule
@@ -84,7 +84,7 @@ def run_triaxial(args: argparse.Namespace, inputs: Iterable[str | Path], command
         schedule = Schedule.read_csv(args.schedule) if args.schedule and args.schedule != "auto" else None
         if args.schedule == "auto":
             record.schedule = None
-        provenance = {"input_file": path.name, "input_sha256": sha256_file(path), "command": command}
+        provenance = {"input_file": path.name, "input_sha256": file_sha256(path), "command": command}
         accept = [name for name in ("unit-ratio", "channels", "method") if getattr(args, "accept_" + name.replace("-", "_"))]
         options = ReductionOptions(band_hz=args.band, settle_s=args.settle, rail_g=args.rail,
                                    accept=frozenset(accept), progress=bool(args.progress))
