@@ -11,6 +11,15 @@ import sys
 from typing import Any, Callable
 
 
+def forget_caches() -> None:
+    """Empty vrelab's functools caches (what a first call in a fresh process meets)."""
+    for name, module in list(sys.modules.items()):
+        if name == "vrelab" or name.startswith("vrelab."):
+            for value in list(vars(module).values()):
+                if callable(getattr(value, "cache_clear", None)):
+                    value.cache_clear()
+
+
 def paired(script: str, own: Callable[[], dict[str, float]], baseline: str | None,
            own_argv: list[str]) -> dict[str, Any]:
     """Best times [s] of ours and of the baseline's over interleaved rounds (ours, baseline, ours,

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
+from _paired import forget_caches as _forget  # noqa: E402
 from _paired import paired, show  # noqa: E402
 
 ENVIRONMENT = "mil-std-810h-common-carrier-vertical"
@@ -37,15 +38,6 @@ LEVELS = [1.08, 2.0, 3.0]
 STATIC_G = 0.5  # an axis tilted 30°
 CANDIDATES = ("adxl355:2g:4000,adxl355:4g:4000,adxl355:8g:4000,adxl355:2g:125,adxl355:8g:125,"
               "adxl354:2g,adxl354:8g,adxl357:10g:4000,adxl357:40g:500,adxl380:4g:8000,adxl380:16g:8000,ideal:8g")
-
-
-def _forget() -> None:
-    """Empty vrelab's functools caches (what a first call in a fresh process meets)."""
-    for name, module in list(sys.modules.items()):
-        if name == "vrelab" or name.startswith("vrelab."):
-            for value in list(vars(module).values()):
-                if callable(getattr(value, "cache_clear", None)):
-                    value.cache_clear()
 
 
 def _workloads(everything: bool) -> dict[str, Callable[[], Any]]:

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
+from _paired import forget_caches as _forget  # noqa: E402
 from _paired import paired, show  # noqa: E402
 
 
@@ -55,15 +56,6 @@ def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
         "ideal-flat": (lambda: predict(ideal, flat, levels, 1.0), 1),
         "model-point": (lambda: model_point(point, None), 200),  # type: ignore[arg-type]
     }
-
-
-def _forget() -> None:
-    """Empty vrelab's functools caches (what a first call in a fresh process meets)."""
-    for name, module in list(sys.modules.items()):
-        if name == "vrelab" or name.startswith("vrelab."):
-            for value in list(vars(module).values()):
-                if callable(getattr(value, "cache_clear", None)):
-                    value.cache_clear()
 
 
 def _time(fn: Callable[[], Any], number: int, repeat: int, cold: bool = False) -> float:

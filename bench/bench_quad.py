@@ -31,18 +31,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
+from _paired import forget_caches as _forget  # noqa: E402
 from _paired import paired, show  # noqa: E402
 
 CLI = ["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1,2,3,4"]
-
-
-def _forget() -> None:
-    """Empty vrelab's functools caches (what a first call in a fresh process meets)."""
-    for name, module in list(sys.modules.items()):
-        if name == "vrelab" or name.startswith("vrelab."):
-            for value in list(vars(module).values()):
-                if callable(getattr(value, "cache_clear", None)):
-                    value.cache_clear()
 
 
 def _cli() -> None:

@@ -369,14 +369,9 @@ def reduce_triaxial(
 def __getattr__(name: str) -> Any:
     """The former result class, one release (its import warns: :mod:`vrelab.triaxial.result`)."""
     if name == "TriaxialAnalysis":
-        import warnings
+        from vrelab.triaxial.result import former_class
 
-        from vrelab.triaxial import result
-
-        warnings.warn("vrelab.triaxial.analyze.TriaxialAnalysis is deprecated and will be removed in the next "
-                      "release: vrelab.analyze returns a VreResult (result.axes, result.triaxial)",
-                      DeprecationWarning, stacklevel=2)
-        return result.TriaxialAnalysis
+        return former_class(__name__, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -133,6 +133,15 @@ def _deprecated(name: str) -> None:
                   "vrelab.analyze return a VreResult (result.axes, result.triaxial)", DeprecationWarning, stacklevel=3)
 
 
+def former_class(module: str, name: str) -> type[VreResult]:
+    """The former result class ``name`` read from ``module`` (its module ``__getattr__``), with a
+    DeprecationWarning pointing at the import."""
+    warnings.warn(f"{module}.{name} is deprecated and will be removed in the next release: vrelab.simulate "
+                  "and vrelab.analyze return a VreResult (result.axes, result.triaxial)", DeprecationWarning,
+                  stacklevel=3)
+    return {"TriaxialTest": TriaxialTest, "TriaxialAnalysis": TriaxialAnalysis}[name]
+
+
 class TriaxialTest(VreResult):
     """Deprecated alias (one release): the :class:`~vrelab.results.VreResult` of a simulated
     triaxial test, built from ``TriaxialTest(method, excitation, levels_g, static_g, axes,

@@ -254,14 +254,9 @@ def simulate_triaxial(sensors: Sensor | Sequence[Sensor], excitation: Any, level
 def __getattr__(name: str) -> Any:
     """The former result class, one release (its import warns: :mod:`vrelab.triaxial.result`)."""
     if name == "TriaxialTest":
-        import warnings
+        from vrelab.triaxial.result import former_class
 
-        from vrelab.triaxial import result
-
-        warnings.warn("vrelab.triaxial.simulate.TriaxialTest is deprecated and will be removed in the next "
-                      "release: vrelab.simulate returns a VreResult (result.axes, result.triaxial)",
-                      DeprecationWarning, stacklevel=2)
-        return result.TriaxialTest
+        return former_class(__name__, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
