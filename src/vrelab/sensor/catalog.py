@@ -77,12 +77,14 @@ def part_details(spec: str, range_g: float | None = None, axis: str | None = Non
 
 def parts_table() -> str:
     """The parts table of docs/presets.md, generated from the presets (a test holds the page to
-    it, so no number there goes stale): name, ranges, output rates, output filter, datasheet VRE
-    statement, and whether the preset reproduces it."""
+    it, so no number there goes stale): name, ranges, output rates, output filter, the default
+    axis's resonance, the over-range trip, datasheet VRE statement, and whether the preset
+    reproduces it."""
     from vrelab.sensor.loader import list_presets, load_sensor
 
-    lines = ["| preset | ranges [g] | ODR [Hz] | output filter | datasheet VRE statement | reproduced |",
-             "| --- | --- | --- | --- | --- | --- |"]
+    lines = ["| preset | ranges [g] | ODR [Hz] | output filter | resonance (axis) | over-range trip "
+             "| datasheet VRE statement | reproduced |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for name in list_presets():
         p = part_summary(name)
         s = load_sensor(name)
@@ -95,5 +97,7 @@ def parts_table() -> str:
         said = p["vre_statement_text"].split(";")[0] if st else "none found"
         done = "—" if not st else "yes (tests/test_parts_library.py)" if st["reproducible"] else "no: `vrelab sensor show` says why"
         ranges = ", ".join(f"±{r:g}" for r in p["ranges_g"])
-        lines.append(f"| `{name}` | {ranges} | {odrs} | {filt} | {said} | {done} |")
+        fn = "none" if s.fn_hz is None else f"{s.fn_hz:g} Hz, Q {s.q:g} ({s.axis})"
+        trip = "none modelled" if s.overrange_threshold_g is None else f"{s.overrange_threshold_g:g} g (default range)"
+        lines.append(f"| `{name}` | {ranges} | {odrs} | {filt} | {fn} | {trip} | {said} | {done} |")
     return "\n".join(lines) + "\n"
