@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from typing import Any, Callable
 
 
@@ -18,6 +19,24 @@ def forget_caches() -> None:
             for value in list(vars(module).values()):
                 if callable(getattr(value, "cache_clear", None)):
                     value.cache_clear()
+
+
+def best_time(fn: Callable[[], Any], number: int, repeat: int, cold: bool = False,
+              clock: Callable[[], float] = time.perf_counter) -> float:
+    """The best over ``repeat`` rounds of the mean time of ``number`` calls of ``fn`` (after one
+    untimed call); ``cold`` empties vrelab's caches before each call (:func:`forget_caches`)."""
+    fn()
+    best = float("inf")
+    for _ in range(repeat):
+        elapsed = 0.0
+        for _ in range(number):
+            if cold:
+                forget_caches()
+            t0 = clock()
+            fn()
+            elapsed += clock() - t0
+        best = min(best, elapsed / number)
+    return best
 
 
 def paired(script: str, own: Callable[[], dict[str, float]], baseline: str | None,

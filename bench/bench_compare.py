@@ -30,8 +30,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
-from _paired import forget_caches as _forget  # noqa: E402
-from _paired import paired, show  # noqa: E402
+from _paired import best_time, paired, show  # noqa: E402
 
 ENVIRONMENT = "mil-std-810h-common-carrier-vertical"
 LEVELS = [1.08, 2.0, 3.0]
@@ -60,20 +59,9 @@ def _workloads(everything: bool) -> dict[str, Callable[[], Any]]:
     return out
 
 
-def _time(fn: Callable[[], Any], repeat: int) -> float:
-    _forget()
-    fn()
-    best = float("inf")
-    for _ in range(repeat):
-        _forget()
-        t0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t0)
-    return best
-
-
 def _own(repeat: int, everything: bool) -> dict[str, float]:
-    return {name: _time(fn, repeat) for name, fn in _workloads(everything).items()}
+    return {name: best_time(fn, 1, repeat, cold=True, clock=time.process_time)
+            for name, fn in _workloads(everything).items()}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:

@@ -26,13 +26,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
-from _paired import forget_caches as _forget  # noqa: E402
-from _paired import paired, show  # noqa: E402
+from _paired import best_time, paired, show  # noqa: E402
 
 
 def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
@@ -58,23 +56,8 @@ def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
     }
 
 
-def _time(fn: Callable[[], Any], number: int, repeat: int, cold: bool = False) -> float:
-    fn()
-    best = float("inf")
-    for _ in range(repeat):
-        elapsed = 0.0
-        for _ in range(number):
-            if cold:
-                _forget()
-            t0 = time.perf_counter()
-            fn()
-            elapsed += time.perf_counter() - t0
-        best = min(best, elapsed / number)
-    return best
-
-
 def _own(repeat: int, cold: bool = False) -> dict[str, float]:
-    return {name: _time(fn, number, repeat, cold) for name, (fn, number) in _workloads().items()}
+    return {name: best_time(fn, number, repeat, cold) for name, (fn, number) in _workloads().items()}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:

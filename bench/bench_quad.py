@@ -26,13 +26,11 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # run as a script or by run_all.py
-from _paired import forget_caches as _forget  # noqa: E402
-from _paired import paired, show  # noqa: E402
+from _paired import best_time, paired, show  # noqa: E402
 
 CLI = ["predict", "--sensor", "adxl355", "--profile", "flat:50-2000", "--levels", "0.5,1,2,3,4"]
 
@@ -68,22 +66,8 @@ def _workloads() -> dict[str, tuple[Callable[[], Any], int]]:
     }
 
 
-def _time(fn: Callable[[], Any], number: int, repeat: int) -> float:
-    fn()
-    best = float("inf")
-    for _ in range(repeat):
-        elapsed = 0.0
-        for _ in range(number):
-            _forget()
-            t0 = time.perf_counter()
-            fn()
-            elapsed += time.perf_counter() - t0
-        best = min(best, elapsed / number)
-    return best
-
-
 def _own(repeat: int) -> dict[str, float]:
-    return {name: _time(fn, number, repeat) for name, (fn, number) in _workloads().items()}
+    return {name: best_time(fn, number, repeat, cold=True) for name, (fn, number) in _workloads().items()}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
