@@ -17,7 +17,9 @@ for every case:
   with its vendored numpydoc), run with one BLAS thread as the command line runs them,
 * the same with OpenBLAS's thread pools (no ``OPENBLAS_NUM_THREADS``: what a bare interpreter
   pays, and ``vrelab`` paid before it defaulted its BLAS to one thread; numpy and SciPy each
-  load their own OpenBLAS, each starts a thread per core),
+  load their own OpenBLAS, each starts a thread per core; with OpenBLAS 0.3.31 a pool thread
+  costs about 0.01 s of CPU at start-up, read from ``/proc/self/task``: within the noise of
+  this benchmark on two cores),
 * ``python -c "import numpy"``: the floor of ``model poly`` (one BLAS thread),
 
 and prints each case's median and its ratio to ``python -c pass`` measured in the same run, then
@@ -27,9 +29,10 @@ default decides), the floors with them set to 1.
 
 Issue 29's goal: ``--help`` at most 0.3 s and a small command at most 0.5 s of CPU. ``model
 clip`` cannot meet it where its floor, the import of numpy and ``scipy.special``, costs more
-than 0.5 s by itself (0.45-0.6 s on the 2-core machine of issue 29's second round): what is
-vrelab's there is the difference, printed as ``model clip - floor`` (about 0.04 s: the models'
-modules, the parser, the computation).
+than 0.5 s by itself (0.45-0.75 s of CPU on the loaded 2-core machine of issue 29's second
+round, against 0.5-0.85 s for ``model clip``): what is vrelab's there is the difference,
+printed as ``model clip - floor`` (0.03-0.1 s: the models' modules, about 0.015 s of CPU
+measured in one process, the parser and the computation, about 0.01 s each).
 
 With ``--baseline SRC`` (the ``src`` folder of another checkout, e.g. ``git -C /work/main archive
 HEAD src | tar -x -C /tmp/base-startup`` then ``--baseline /tmp/base-startup/src``) every case

@@ -120,11 +120,14 @@ def _one_blas_thread() -> tuple[str, ...]:
     :func:`main` owns its BLAS, already loaded).
 
     OpenBLAS starts a pool of one thread per core when it loads (numpy's and SciPy's each
-    bundle one), and its idle threads spin: on two cores ``import numpy, scipy.special`` costs
-    about 0.2 s more CPU with the pools than with one thread. vrelab's matrix products are
-    small (a level's n x n forms, a fit's few unknowns, the sine method's 3-row bases), none
-    worth a second thread; the command's worker processes (campaign, identify, sweep) inherit
-    the variables and want one thread each anyway (:func:`vrelab._pool.worker_init`)."""
+    bundle one), and each BLAS call wakes the pool, whose threads spin before they sleep again:
+    the 2 h record of bench/bench_analyze_hdf5.py cost 0.4 s more CPU with two threads than
+    with one, with the same bits. At start-up the pools cost little with OpenBLAS 0.3.31 (about
+    0.01 s of CPU per thread, read from /proc/self/task; more threads on more cores). vrelab's
+    matrix products are small (a level's n x n forms, a fit's few unknowns, the sine method's
+    3-row bases), none worth a second thread; the command's worker processes (campaign,
+    identify, sweep) inherit the variables and want one thread each anyway
+    (:func:`vrelab._pool.worker_init`)."""
     if "numpy" in sys.modules or any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
         return ()
     for name in BLAS_THREAD_VARIABLES:
