@@ -17,6 +17,13 @@ library in (``scipy.special <- vrelab.models.clipping <- vrelab.cli.model``).
 
 And the list ``vrelab --help`` prints without importing the commands (:data:`vrelab.cli.COMMANDS`)
 is the one the commands' modules register.
+
+* ``vrelab analyze`` (random, ``--json``, no ``--out`` or ``--profile``) imports neither the
+  profiles package, the output folder's module nor threadpoolctl;
+* the BLAS of a ``vrelab`` run has one thread unless the user's ``OPENBLAS_NUM_THREADS`` /
+  ``OMP_NUM_THREADS`` says otherwise (OpenBLAS's own count, read with threadpoolctl after the
+  run), and the variables are gone from the environment when :func:`vrelab.cli.main` returns;
+  a program that imported numpy before calling it gets no variable set.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import vrelab.cli
@@ -42,10 +50,11 @@ _LINE = re.compile(r"^import time:\s+\d+ \|\s+\d+ \|( *)(\S+)$")
 _RUN = """import json, sys
 from vrelab.cli import main
 try:
-    main(sys.argv[1:])
-except SystemExit:
-    pass
+    code = main(sys.argv[1:])
+except SystemExit as stop:
+    code = stop.code
 sys.stderr.write("\\nMODULES " + json.dumps(sorted(sys.modules)) + "\\n")
+sys.exit(code)
 """
 
 
@@ -163,3 +172,74 @@ def test_version_prints_the_installed_version(capsys):
         vrelab.cli.main(["--version"])
     assert stop.value.code == 0
     assert capsys.readouterr().out == f"vrelab {version('vrelab')}\n"
+
+
+def test_analyze_imports_no_profile_folder_or_threadpoolctl(tmp_path):
+    """A random analysis printed as JSON needs no profile (no --profile), no output folder
+    (no --out) and no threadpoolctl (the BLAS thread count is :func:`vrelab.cli.main`'s)."""
+    from test_analysis_helpers import make_record
+
+    rec = make_record(3, levels_g=(0.5, 1.0), vre_g=(1e-4, 4e-4), t_off_s=6.0, t_on_s=10.0).record
+    path = tmp_path / "rec.csv"
+    np.savetxt(path, np.column_stack([rec.data["reference"], rec.data["dut"]]), delimiter=",", header="ref,dut",
+               comments="", fmt="%.9g")
+    chains = imports_of("analyze", str(path), "--fs", str(rec.fs_hz), "--dut", "dut", "--reference", "ref",
+                        "--method", "random", "--json")  # (imports_of: exit status 0, the analysis done)
+    assert "vrelab.analysis.pipeline" in chains
+    assert offenders(chains, ("threadpoolctl",)) == []
+    assert [m for m in ("vrelab.profiles", "vrelab.folder") if m in chains] == []
+
+
+BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+# vrelab model clip loads numpy's and SciPy's OpenBLAS (scipy.special); after the run, each one's
+# thread count as threadpoolctl reads it from the library, and the BLAS variables left set
+_BLAS_RUN = """import json, os, sys
+from vrelab.cli import main
+main(["model", "clip", "--mean", "1", "--rail", "2", "--rms", "1"])
+from threadpoolctl import threadpool_info
+sys.stderr.write("\\nBLAS " + json.dumps({
+    "threads": [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"],
+    "env": {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+            if k in os.environ}}) + "\\n")
+"""
+
+
+def blas_after_run(**env: str) -> dict[str, object]:
+    clean = {k: v for k, v in os.environ.items() if k not in BLAS_VARIABLES}
+    done = subprocess.run([sys.executable, "-c", _BLAS_RUN], capture_output=True, text=True, env={**clean, **env},
+                          timeout=120)
+    assert done.returncode == 0 and "\nBLAS " in done.stderr, done.stderr[-2000:]
+    return json.loads(done.stderr.rsplit("\nBLAS ", 1)[1])
+
+
+# OpenBLAS starts a thread per core by default and caps any count at the cores: on one core
+# every case below reads 1, and nothing tells the default from the user's choice
+many_cores = pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one core: OpenBLAS runs one thread anyway")
+
+
+@many_cores
+def test_a_run_uses_one_blas_thread_by_default():
+    found = blas_after_run()
+    assert len(found["threads"]) >= 1 and set(found["threads"]) == {1}  # numpy's and SciPy's OpenBLAS
+    assert found["env"] == {}  # main() removed what it set: the caller's later children see none
+
+
+@many_cores
+@pytest.mark.parametrize("name", ["OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"])
+def test_the_users_blas_threads_win(name):
+    found = blas_after_run(**{name: "2"})
+    assert set(found["threads"]) == {2}
+    assert found["env"] == {name: "2"}
+
+
+def test_main_sets_no_blas_variable_once_numpy_is_imported(monkeypatch):
+    """This process imported numpy (its BLAS is loaded, its thread count the caller's): main()
+    leaves the environment alone, for the command and for its child processes."""
+    assert "numpy" in sys.modules
+    for name in BLAS_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    seen = {}
+    monkeypatch.setattr(vrelab.cli, "_run", lambda argv, debug: seen.update(
+        {k: os.environ.get(k) for k in BLAS_VARIABLES}) or 0)
+    assert vrelab.cli.main(["--help"]) == 0
+    assert seen == dict.fromkeys(BLAS_VARIABLES)

@@ -108,12 +108,43 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated()
 
 
+# The variables the BLAS libraries numpy and SciPy load (OpenBLAS, MKL, and OpenBLAS's OpenMP
+# build) read their thread count from, once, when they load.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _one_blas_thread() -> tuple[str, ...]:
+    """Default the BLAS of this run to one thread: set :data:`BLAS_THREAD_VARIABLES` to 1 and
+    return the names set (for :func:`main` to remove when it returns), or set nothing when the
+    user set any of them (theirs wins) or numpy is already imported (a program calling
+    :func:`main` owns its BLAS, already loaded).
+
+    OpenBLAS starts a pool of one thread per core when it loads (numpy's and SciPy's each
+    bundle one), and each BLAS call wakes the pool, whose threads spin before they sleep again:
+    the 2 h record of bench/bench_analyze_hdf5.py cost 0.4 s more CPU with two threads than
+    with one, with the same bits. At start-up the pools cost little with OpenBLAS 0.3.31 (about
+    0.01 s of CPU per thread, read from /proc/self/task; more threads on more cores). vrelab's
+    matrix products are small (a level's n x n forms, a fit's few unknowns, the sine method's
+    3-row bases), none worth a second thread; the command's worker processes (campaign,
+    identify, sweep) inherit the variables and want one thread each anyway
+    (:func:`vrelab._pool.worker_init`)."""
+    if "numpy" in sys.modules or any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+        return ()
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ[name] = "1"
+    return BLAS_THREAD_VARIABLES
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command. Exit status: 0 done, 2 bad input (one line on stderr: a ``ValueError``
     or ``OSError`` names the problem), 1 an unexpected error (one line; ``--debug`` prints the
     traceback), 74 no space left on the device (one line; nothing of the run written), 130
     interrupted (Ctrl-C), 143 terminated (SIGTERM); on both, worker processes are ended and the
-    run's staging removed."""
+    run's staging removed.
+
+    The BLAS runs on one thread unless ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` or
+    ``MKL_NUM_THREADS`` says otherwise (:func:`_one_blas_thread`); the variables are set for
+    the run only, and not at all when numpy is already imported."""
     import signal
     import threading
 
@@ -129,10 +160,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     # every line printed goes out escaped (a channel name with ESC or BEL is text, not a command
     # to the terminal): one wrapper for all, rather than a printable() at each print site
     sys.stdout, sys.stderr = PrintableStream(streams[0]), PrintableStream(streams[1])
+    blas = _one_blas_thread()
     try:
         return _run(argv, debug)
     finally:
         sys.stdout, sys.stderr = streams
+        for name in blas:
+            os.environ.pop(name, None)
         if on_main:
             signal.signal(signal.SIGTERM, before[0])
             signal.signal(signal.SIGINT, before[1])

@@ -127,14 +127,17 @@ def input_paths(*values: object) -> list[Path]:
     or profile given as a path; ``adxl355`` or ``flat:20-2000`` name none): its output folder
     must not hold them (:func:`vrelab._io.check_output`). A manifest contributes its runs' files."""
     from vrelab._io import existing_paths
-    from vrelab.profiles import split_tones
 
     found: list[object] = []
     for v in values:
         if hasattr(v, "runs") and hasattr(v, "path"):  # a campaign.Manifest
             found += [v.path] + [x for r in v.runs for x in (r.file, r.schedule, r.profile)]
-        elif isinstance(v, str):
+        elif isinstance(v, str) and "+" in v:  # a profile with tones ("P+sine:..."): its profile part
+            from vrelab.profiles import split_tones  # (the profiles package: only where one may be)
+
             found += [v, split_tones(v)[0].strip()]
+        elif isinstance(v, str):
+            found += [v, v.strip()]
         else:
             found.append(v)
     return existing_paths(found)

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Se
 
 import numpy as np
 
-from vrelab import _io, folder
+from vrelab import _io
 from vrelab import _validate as V
 from vrelab.analysis.options import ACCEPTABLE, BudgetOptions, FitOptions, ReductionOptions
 from vrelab.cli._common import (
@@ -171,12 +171,10 @@ def run(args: argparse.Namespace) -> int:
     digest = _sha256_in_thread(path)
     record = open_record(path, dut_arg, args.reference, args.fs, dut_scale, ref_scale, args.time,
                          accept_file_units=args.accept_file_units)
-    # One BLAS thread for the reduction, as in the pool's workers (vrelab._pool.worker_init): its
-    # solves are small, and OpenBLAS's second thread only spins (the 2 h record of
-    # bench/bench_analyze_hdf5.py: 0.4 s less CPU, the same bits). Imported here: start-up.
-    from threadpoolctl import threadpool_limits
-
-    with record, threadpool_limits(limits=1, user_api="blas"):
+    # The reduction's BLAS runs on one thread as every command's does (vrelab.cli.main's default
+    # unless the user sets OPENBLAS_NUM_THREADS...): its solves are small, and OpenBLAS's second
+    # thread only spins (the 2 h record of bench/bench_analyze_hdf5.py: 0.4 s less CPU, the same bits)
+    with record:
         schedule = None
         if args.schedule and args.schedule != "auto":
             schedule = Schedule.read_csv(args.schedule)
@@ -281,6 +279,8 @@ class _Provenance(Mapping[str, Any]):
 
 def _write_out(out: Path, reduced: Sequence[tuple[str, VreResult, Reduction]], doc: dict[str, Any],
                profile: Profile | None, several: bool, inputs: Iterable[str | Path] = ()) -> None:
+    from vrelab import folder  # here: a run without --out writes no folder
+
     with _io.output_dir(out, inputs=inputs) as stage:
         if several:
             subs = folder.write_channels(stage, [(n, r) for n, r, _ in reduced], doc)
@@ -334,6 +334,8 @@ def _write_envelope(path: Path, red: Reduction) -> None:
 
 
 def _write_psds(stage: Path, red: Reduction, profile: Profile | None) -> None:
+    from vrelab import folder
+
     with open(stage / folder.PSD_LEVELS, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["level", "rms_g", "freq_hz", "psd_g2_per_hz"])
