@@ -79,6 +79,8 @@ _CONVERGED = 1e-6
 _NEWTON_STEPS = 12
 # the common grid of ground B and of Newton's starting rails
 _COMMON_POINTS = 160
+# candidates × levels per chunk of the scan's arrays
+_CHUNK = 1 << 16
 # rounding of ground B's bounds (relative): far above a few ulps of a sum, far below any decision
 _SLACK = 1e-6
 
@@ -156,14 +158,17 @@ def cleared_candidates(
     lb = max(abs(static_g), 1e-9) * (1 + 1e-9)  # the full fit's lower bound on the rail
     lo = max(abs(static_g) + 0.05 * float(rms[0]), 1e-6)
     rails = np.unique(np.r_[lb, np.geomspace(lo, abs(static_g) + 12.0 * float(rms[-1]), _COMMON_POINTS)])
-    S = _Scan(rms, y, u, float(static_g), cand, np.where(cand == n - 1, sigma_lone, sigma), rails)
-    f, G, _ = S.model(rails)
-    chi2 = np.cumsum(S.w * (f - y) ** 2, axis=1)[:, cand - 1].T  # (candidate, rail): χ² of the levels below
-    ok = _ground_a(S, chi2)
-    rest = np.flatnonzero(~ok)
-    if rest.size:
-        ok[rest] = _ground_b(S, f, G, rest)
-    out[cand] = ok
+    limits = np.where(cand == n - 1, sigma_lone, sigma)
+    f, G, _ = _Scan(rms, y, u, float(static_g), cand, limits, rails).model(rails)
+    cum = np.cumsum((f - y) ** 2 / u**2, axis=1)
+    # (candidate × level) arrays in chunks of candidates: a few MB whatever the number of levels
+    for part in np.array_split(np.arange(len(cand)), -(-len(cand) * n // _CHUNK)):
+        S = _Scan(rms, y, u, float(static_g), cand[part], limits[part], rails)
+        ok = _ground_a(S, cum[:, S.cand - 1].T)  # (candidate, rail): χ² of the levels below
+        rest = np.flatnonzero(~ok)
+        if rest.size:
+            ok[rest] = _ground_b(S, f, G, rest)
+        out[S.cand] = ok
     return out
 
 

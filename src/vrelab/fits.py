@@ -294,7 +294,8 @@ def _monotone_grid_argmin(
     otherwise. The best rail must then beat every other evaluated one by more than ``_GRID_TIE``,
     which no rounding difference can reverse; else None. The rail fit starts from this rail, so
     the fit's numbers are the full evaluation's, bit for bit (``bench/check_analysis_exact.py``).
-    This is the costly part of the departure scan: one rail fit per prefix of the levels.
+    It is the costly part of each full rail fit (the departure scan runs one only for the
+    candidates :func:`vrelab._rail_scan.cleared_candidates` does not clear).
     """
     from vrelab.models.clipping import censored_mean_shift
 
@@ -437,7 +438,9 @@ def fit_rail(
     more than 3 combined standard uncertainties (√(u² + u_model²)) from the prediction ("leaves
     and stays out"), or, when i is the highest level alone, more than 5 (a single 3σ draw is
     chance). The reported fit is the one below the departure. A lone outlier followed by levels
-    back on the model is not a departure.
+    back on the model is not a departure. For the censored symmetric model without VRC the scan
+    fits only the candidates it cannot clear at once (``vrelab._rail_scan``: proved no departure,
+    or so within the solver's own tolerance), and the reported fit is a full fit, as before.
 
     Examples
     --------
