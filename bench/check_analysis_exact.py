@@ -11,8 +11,11 @@ bit pattern: -0.0 and 0.0 differ too) and the other values (strings, nulls, flag
   ``auto``; ``--big``: the 2 h record as well (120 levels: the issue's);
 * ``synthetic``: records of tests/test_analysis_helpers.make_record written to HDF5: random
   levels under red (AR(1)) noise and a drift, sine levels, short levels (few windows: the
-  correlated-mean estimator), a rail, and a record of several lengths of level (the
-  per-(n, ρ) forms reused across lengths and records in one process);
+  correlated-mean estimator), a rail, a record of several lengths of level (the
+  per-(n, ρ) forms reused across lengths and records in one process), and levels on rails that
+  leave the model (over-range protection), under each rail model;
+* ``rail``: ``vrelab.fits.fit_rail`` itself on 160 seeded level sets around the clipping model,
+  with and without departures, under each rail model (the departure scan's decision);
 * ``campaign``: the example campaign (examples/campaign, ``make examples``), every
   ``results.json`` and ``levels.csv`` it writes;
 * ``triaxial``: triaxial ``vrelab simulate`` runs (random along a direction, a sine, a triaxial
@@ -74,6 +77,16 @@ def _bench(big: bool) -> list[Any]:
     return out
 
 
+DEPART_RMS = (0.3, 0.45, 0.6, 0.75, 0.9, 1.05, 1.2, 1.4, 1.6)
+
+
+def _departing(factor: float) -> tuple[float, ...]:
+    """VRE [g] of ±2.2 g rails on a 1 g field at :data:`DEPART_RMS`, times ``factor`` from 1.4 g rms on."""
+    from vrelab.models.clipping import censored_mean_shift
+
+    return tuple(float(censored_mean_shift(1.0, r, -2.2, 2.2)) * (factor if r >= 1.4 else 1.0) for r in DEPART_RMS)
+
+
 # (make_record keywords, analyze options): each a path through the level estimators
 SYNTHETIC: list[tuple[dict[str, Any], list[str]]] = [
     (dict(seed=11), ["--method", "random"]),
@@ -87,6 +100,17 @@ SYNTHETIC: list[tuple[dict[str, Any], list[str]]] = [
           t_on_s=7.0, noise_g=2e-4), ["--method", "random"]),
     (dict(seed=13, fs_hz=2000.0, band_hz=(60.0, 600.0), t_on_s=25.0, t_off_s=12.0, phi=0.999),
      ["--method", "random", "--band", "50", "800"]),
+    # the rail fit's departure scan (issue 29): levels on ±2.2 g rails whose top two read half the
+    # clipping shift (over-range protection), under each rail model, and the same levels without
+    # it (the records leave the model from 1.05 and 1.6 g rms; the bench records stay on it)
+    (dict(seed=21, levels_g=DEPART_RMS, vre_g=_departing(0.5), t_on_s=8.0, t_off_s=4.0, noise_g=2e-4),
+     ["--method", "random"]),
+    (dict(seed=22, levels_g=DEPART_RMS, vre_g=_departing(1.0), t_on_s=8.0, t_off_s=4.0, noise_g=2e-4),
+     ["--method", "random"]),
+    (dict(seed=21, levels_g=DEPART_RMS, vre_g=_departing(0.5), t_on_s=8.0, t_off_s=4.0, noise_g=2e-4),
+     ["--method", "random", "--rail-vrc"]),
+    (dict(seed=21, levels_g=DEPART_RMS, vre_g=_departing(0.5), t_on_s=8.0, t_off_s=4.0, noise_g=2e-4),
+     ["--method", "random", "--kind", "truncated"]),
 ]
 
 
@@ -181,8 +205,48 @@ def _triaxial() -> list[Any]:
     return out
 
 
+def _rail() -> list[Any]:
+    """``vrelab.fits.fit_rail`` on seeded level sets drawn with numpy around the clipping model
+    (rails, fields, uncertainties, a k2 the model lacks, departures of 2.5-4 sigma, a lone top
+    level at 4-6.5 sigma, over-range protection), under every model: censored and truncated,
+    symmetric and not, with and without the VRC term. The departure scan's decision is in each
+    result (``departure_rms_g``, ``levels_used``)."""
+    import numpy as np
+
+    from vrelab import Estimate, LevelResult
+    from vrelab.fits import fit_rail
+    from vrelab.models.clipping import censored_mean_shift
+
+    rng = np.random.default_rng(29)
+    out: list[Any] = []
+    for case in range(160):
+        g0 = float(rng.choice([1.0, -1.0, 0.3, 2.0]))
+        rail = abs(g0) + float(rng.uniform(0.5, 3.0))
+        n = int(rng.choice([3, 5, 8, 12, 20, 40]))
+        rms = np.sort(rng.uniform(0.05, 1.3 * rail, n))
+        y = np.asarray(censored_mean_shift(g0, rms, -rail, rail))
+        u = np.abs(y) * 10 ** rng.uniform(-4, -1) + 10 ** rng.uniform(-7, -4)
+        y = y + float(rng.choice([0.0, 1e-5, 1e-4])) * np.sign(g0) * rms**2 + rng.normal(size=n) * u
+        mode, k = case % 4, int(rng.integers(2, n))
+        if mode == 1:
+            y[k:] += np.sign(rng.normal()) * rng.uniform(2.5, 4.0) * rng.uniform(1.0, 3.0) * u[k:]
+        elif mode == 2:
+            y[-1] += np.sign(rng.normal()) * rng.uniform(8.0, 13.0) * u[-1]
+        elif mode == 3:
+            y[k:] *= rng.uniform(0.3, 0.9)
+        levels = [LevelResult(rms_g=float(r), vre=Estimate(float(v), float(e))) for r, v, e in zip(rms, y, u)]
+        kinds = [dict()] if case % 8 else [dict(), dict(symmetric=False), dict(with_vrc=True), dict(kind="truncated")]
+        for kw in kinds:
+            try:
+                out.append(fit_rail(levels, g0, **kw).to_dict())  # type: ignore[arg-type]
+            except ValueError as e:
+                out.append(str(e))
+    return out
+
+
 def _own(groups: list[str], big: bool) -> dict[str, Any]:
-    run = {"bench": lambda: _bench(big), "synthetic": _synthetic, "campaign": _campaign, "triaxial": _triaxial}
+    run = {"bench": lambda: _bench(big), "synthetic": _synthetic, "campaign": _campaign, "triaxial": _triaxial,
+           "rail": _rail}
     return {g: run[g]() for g in groups}
 
 
@@ -222,7 +286,7 @@ def _compare(ours: Any, base: Any) -> tuple[int, list[str]]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="src directory of the baseline checkout")
-    ap.add_argument("--groups", default="bench,synthetic,campaign,triaxial")
+    ap.add_argument("--groups", default="bench,synthetic,campaign,triaxial,rail")
     ap.add_argument("--big", action="store_true", help="also the 2 h record of 120 levels (about 10 s more per checkout)")
     ap.add_argument("--own", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()

@@ -28,6 +28,7 @@ from typing import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vrelab import _rail_scan as rail_scan
 from vrelab import _validate as V
 from vrelab.models.clipping import KINDS
 from vrelab.models.clipping import Kind as ClipKind
@@ -269,8 +270,7 @@ def _clip_jacobian(
     return np.column_stack(np.broadcast_arrays(*cols)).astype(np.float64)
 
 
-# the starting grid of the rail fit: log-spaced rails, and the coarse stride of its exact search
-_GRID_POINTS = 200
+# the coarse stride of the exact search of the rail fit's starting grid (_rail_scan.rail_grid)
 _GRID_STRIDE = 8
 # two grid rails whose chi² agree within this (relative) are a tie the search leaves to the full
 # evaluation: far above the rounding of a sum of squares (~1e-15), far below any real difference
@@ -294,7 +294,8 @@ def _monotone_grid_argmin(
     otherwise. The best rail must then beat every other evaluated one by more than ``_GRID_TIE``,
     which no rounding difference can reverse; else None. The rail fit starts from this rail, so
     the fit's numbers are the full evaluation's, bit for bit (``bench/check_analysis_exact.py``).
-    This is the costly part of the departure scan: one rail fit per prefix of the levels.
+    It is the costly part of each full rail fit (the departure scan runs one only for the
+    candidates :func:`vrelab._rail_scan.cleared_candidates` does not clear).
     """
     from vrelab.models.clipping import censored_mean_shift
 
@@ -351,9 +352,7 @@ def _fit_clip_once(
 
     # The chi² surface is flat where the rail is far beyond every level (no clipping, no
     # information) and steep near the data: start from the best point of a log grid.
-    lo = abs(static_g) + 0.05 * float(np.min(rms))
-    hi = abs(static_g) + 12.0 * float(np.max(rms))
-    grid = np.geomspace(max(lo, 1e-6), hi, _GRID_POINTS)
+    grid = rail_scan.rail_grid(rms, static_g)
     found = _monotone_grid_argmin(grid, rms, y, sw, static_g) if (kind == "censored" and symmetric
                                                                     and not with_vrc) else None
     if found is None:
@@ -439,7 +438,9 @@ def fit_rail(
     more than 3 combined standard uncertainties (√(u² + u_model²)) from the prediction ("leaves
     and stays out"), or, when i is the highest level alone, more than 5 (a single 3σ draw is
     chance). The reported fit is the one below the departure. A lone outlier followed by levels
-    back on the model is not a departure.
+    back on the model is not a departure. For the censored symmetric model without VRC the scan
+    fits only the candidates it cannot clear at once (``vrelab._rail_scan``: proved no departure,
+    or so within the solver's own tolerance), and the reported fit is a full fit, as before.
 
     Examples
     --------
@@ -494,8 +495,14 @@ def fit_rail(
     # Scan upward: fit the levels below i, predict the rest; the departure is the first i from
     # which every level is out (a lone top level: far out). Fitting below each candidate keeps
     # the departing levels from pulling the fit toward themselves and masking their departure.
+    # The default model clears most candidates without their fit (_rail_scan: proved, or within
+    # the full fit's own accuracy); the others are fitted and decided as always.
+    cleared = (rail_scan.cleared_candidates(rms, y, u, static_g, n_par + 1, DEPARTURE_SIGMA, DEPARTURE_SIGMA_LONE)
+               if kind == "censored" and symmetric and not with_vrc else np.zeros(len(sel), dtype=bool))
     departure: int | None = None
     for i in range(n_par + 1, len(sel)):
+        if cleared[i]:
+            continue
         found = fit_below(i)
         tail = found[3][i:]
         if (tail > DEPARTURE_SIGMA).all() and (len(tail) > 1 or tail[0] > DEPARTURE_SIGMA_LONE):
