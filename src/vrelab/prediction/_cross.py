@@ -101,13 +101,96 @@ def _phi(z: float) -> float:
 class CrossMean:
     """The cross terms at one level as the rails after the nonlinearity see them: their
     rectified mean ``mean_g`` [g], the rms of their zero-mean part ``r_fluct`` and (sine) its peak
-    ``q_peak``, the static cross terms ``gᵀKg`` and the sum of their He2 coefficients ``c2_total``."""
+    ``q_peak``, the static cross terms ``gᵀKg`` and the sum of their He2 coefficients ``c2_total``;
+    and the polynomial's move :func:`poly_move` (``poly``: its mean, rms and peak of its zero-mean
+    part), which the rails see as one more small term added to their input."""
 
     mean_g: float
     r_fluct: float
     q_peak: float
     static_cross: float
     c2_total: float = 0.0
+    poly: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+# Gauss-Hermite nodes per dimension for poly_move: Δ² is a polynomial of degree at most 8 in two
+# standard normals, which n nodes integrate exactly for 2n - 1 >= 8; the phase grid of a sine
+# integrates a trigonometric polynomial of degree 8 exactly with more than 16 points.
+_HERMITE_NODES = 8
+_PHASES = 64
+
+
+def poly_move(k: tuple[float, float, float], u0: float, moments: NDArray[np.float64],
+              shape: Literal["gaussian", "sine"]) -> tuple[float, float, float]:
+    r"""(mean, rms, peak) of ``Δ = R(u0 + u + L) - R(u0 + u)``, ``R(y) = k2·y² + k3·y³ + k4·y⁴``:
+    what the polynomial makes of the static vector's linear cross part ``L = 2gᵀK·x``, were it fed
+    through the polynomial with the sensed vibration ``u = w·x`` (as the single-axis prediction of
+    ``w_eff·x``, ``w_eff = w + 2Kg``, feeds it), against the model equation, which adds it after.
+
+    IEEE 1293's equation on ``b = g + x`` (proof mass): ``y = P(w·b) + bᵀKb = P(u0 + u) + gᵀKg
+    + L + xᵀKx``; the polynomial's input is ``u0 + u`` alone. ``moments`` is the 2×2 ``E`` of
+    ``(u, L)`` (Gaussian: their covariance; sine: the mean squares of two in-phase cosines, whose
+    amplitudes are ``√2·sqrt(M_00)`` and ``√2·M_01/sqrt(M_00)``). Exact: Gauss-Hermite quadrature in
+    two standard normals (Gaussian), a uniform phase grid (sine), both exact for these degrees.
+    ``peak`` (sine: ``max|Δ - mean|``; Gaussian: 0, unbounded).
+    """
+    from numpy.polynomial import hermite_e
+
+    if not any(k) or not moments[1, 1] > 0:
+        return 0.0, 0.0, 0.0
+
+    def rest(y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(((k[2] * y + k[1]) * y + k[0]) * y * y, dtype=np.float64)
+
+    if shape == "gaussian":
+        lam, vec = np.linalg.eigh(moments)
+        z, wt = hermite_e.hermegauss(_HERMITE_NODES)
+        wt = wt / math.sqrt(2.0 * math.pi)
+        z1, z2 = np.meshgrid(z, z, indexing="ij")
+        root = vec * np.sqrt(np.maximum(lam, 0.0))  # (u, L) = root @ (z1, z2)
+        u = root[0, 0] * z1 + root[0, 1] * z2
+        lin = root[1, 0] * z1 + root[1, 1] * z2
+        weight = np.outer(wt, wt)
+        delta = rest(u0 + u + lin) - rest(u0 + u)
+        mean = float(np.sum(weight * delta))
+        return mean, math.sqrt(max(float(np.sum(weight * (delta - mean) ** 2)), 0.0)), 0.0
+    cos = np.cos((np.arange(_PHASES) + 0.5) * 2.0 * math.pi / _PHASES)
+    a_u = math.sqrt(2.0 * max(float(moments[0, 0]), 0.0))
+    a_l = (2.0 * float(moments[0, 1]) / a_u if a_u > 0 else math.sqrt(2.0 * float(moments[1, 1])))
+    delta = rest(u0 + (a_u + a_l) * cos) - rest(u0 + a_u * cos)
+    mean = float(delta.mean())
+    return mean, float(np.sqrt(np.mean((delta - mean) ** 2))), float(np.max(np.abs(delta - mean)))
+
+
+def _poly_bound(poly: tuple[float, float, float], gmax: float, p_out: float, kind: ClipKind,
+                rails_z: tuple[float, float] | None) -> float:
+    """What the rails may do with the polynomial's move (:func:`poly_move`) beyond passing its mean
+    as a static shift: its zero-mean part ``Δ'`` (rms ``ρ``, at most ``gmax·ρ`` through the filters
+    between) moves the mean by ``-E[1_in·Δ']`` (censored), at most ``sqrt(p_in·p_out)·gmax·ρ``
+    (Cauchy-Schwarz: ``|Cov(1_in, Δ')|``); truncated rails divide that by ``p_in`` and, Gaussian
+    (``rails_z`` the rails in the Gaussian input's z), add each rail's boundary term
+    ``|z_r - z̄|·φ(z_r)·|E[Δ'|z_r]|/p_in``, ``z̄ = E[Z | inside]`` and ``|E[Δ'|z]|`` at most
+    ``ρ·sqrt(Σ_{n≤4} He_n(z)²/n!)`` (``Δ'`` is a polynomial of degree 4 in Gaussians: its
+    projection on ``Z`` has Hermite degree at most 4). A sine's crossings: the peak, in the
+    caller's bound of the terms' shift across a rail."""
+    rho = gmax * poly[1]
+    if not rho > 0:
+        return 0.0
+    p_in = max(1.0 - p_out, 1e-300)
+    inner = math.sqrt(max(p_in * p_out, 0.0)) * rho
+    if kind == "censored":
+        return inner
+    if rails_z is None:
+        return inner / p_in
+    a, b = rails_z
+    zbar = (_phi(a) - _phi(b)) / p_in
+
+    def h4(z: float) -> float:
+        he = (z, z * z - 1.0, z**3 - 3.0 * z, z**4 - 6.0 * z * z + 3.0)
+        return math.sqrt(sum(h * h / math.factorial(n + 1) for n, h in enumerate(he)))
+
+    edges = sum(abs(z - zbar) * _phi(z) * rho * h4(z) for z in (a, b) if math.isfinite(z))
+    return (inner + edges) / p_in
 
 
 def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: float, shape: Literal["gaussian", "sine"],
@@ -130,20 +213,24 @@ def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: floa
     bound also holds the second-order effect across a rail and the static cross terms' move of
     the rails' working point: the static cross terms ``gᵀKg`` move the reading with vibration by
     ``dc`` times them (the rails' response to a static shift) and the vibration-off reading by
-    them, so they add ``gᵀKg·(dc - 1)``.
+    them, so they add ``gᵀKg·(dc - 1)``. The polynomial's move ``Δ`` (``cross.poly``,
+    :func:`poly_move`), which the single-axis prediction of ``w_eff·x`` put into the rails'
+    input, leaves it as a static shift: the caller takes ``mean·dc`` off; what its zero-mean
+    part may add is bounded (:func:`_poly_bound`, and across a rail with the terms above).
     """
     from vrelab.models import memoryless
     from vrelab.sensor.meanshift import gain_max  # one rule for sup|H| of the filters between
 
     cross_mean, r_fluct, q_peak = cross.mean_g, cross.r_fluct, cross.q_peak
     static_cross, c2_total = cross.static_cross, cross.c2_total
+    p_mean, p_rms, p_peak = cross.poly
     low, high = float(site.stage.low_g), float(site.stage.high_g)
     k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
     c0 = float(memoryless.polynomial(*k)(u0)) + site.offset_g
     if lv is None or not lv.sigma_at_clip_g > 0:
         inside = low < c0 < high
         near = min(abs(c0 - low), abs(c0 - high))
-        reach = abs(cross_mean) + q_peak + abs(static_cross)
+        reach = abs(cross_mean) + q_peak + abs(static_cross) + abs(p_mean) + p_peak + 4.0 * p_rms
         return (1.0 if inside else 0.0), (1.0 if inside else 0.0), 0.0, (reach if near <= reach else 0.0)
     nonlin = float(lv.shares.get("nonlinearity_g", 0.0))
     gain, rest = memoryless.linear_part(u0, lv.sigma_proof_mass_g, *k, shape=shape)
@@ -168,7 +255,9 @@ def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: floa
     a, b = (low - m) / s, (high - m) / s
     bound = 0.0
     he2 = 0.0
-    shift = abs(cross_mean) + abs(static_cross)  # the cross terms' means, static and rectified
+    # the cross terms' means, static and rectified, and the polynomial's move (poly_move)
+    shift = abs(cross_mean) + abs(static_cross) + abs(p_mean)
+    gmax = gain_max(site.responses)
     if shape == "gaussian":
         chaos = a * _phi(a) - b * _phi(b)
         if exact_rest:
@@ -183,9 +272,10 @@ def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: floa
             bound += gain_max(site.responses) * r_fluct * abs(chaos) / math.sqrt(2.0)
         # second order across a rail: ½·E[Q²|Z = z_r]·pdf(z_r)/s at each rail, with E[Q²|Z] at most
         # (|means| + |c2|·|He2(z)|)² + Var(rest); taken twice
-        gmax = gain_max(site.responses)
-        bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * r_fluct) ** 2) * _phi(z) / s
+        bound += sum(((shift + abs(c2_total) * abs(z * z - 1.0)) ** 2 + (gmax * (r_fluct + p_rms)) ** 2) * _phi(z) / s
                      for z in (a, b))
+        p_out = 0.5 * math.erfc(-a / math.sqrt(2.0)) + 0.5 * math.erfc(b / math.sqrt(2.0))
+        bound += _poly_bound(cross.poly, gmax, min(p_out, 1.0), kind, (a, b))
     else:
         amp = math.sqrt(2.0) * s
 
@@ -203,7 +293,8 @@ def rails_pass(lv: LevelPrediction | None, site: After, sensor: Sensor, u0: floa
             factor = 1.0 - p_out - abs(h2f) * math.cos(delta) * sum(math.sin(2 * t) for t in (tu, tl)) / (2 * math.pi)
         else:
             bound += r_fluct * math.sqrt(max(p_out * (1.0 - p_out), 0.0))
-        q = shift + q_peak
+        bound += _poly_bound(cross.poly, gmax, p_out, kind, None)
+        q = shift + q_peak + gmax * p_peak
         near = sum(abs(arc(r - q) - arc(r + q)) / math.pi for r in (high - m, m - low))
         bound += q * near
     return dc, factor, he2, bound

@@ -35,7 +35,9 @@ class LevelPrediction(Shown):
     ``cross_pass``: the factor the rails and over-range pass the cross terms' mean with;
     ``cross_unpassed_g``: the cross terms' mean before them; ``cross_error_g``: the cross terms'
     part of ``model_error_g`` (what their first-order pass through the rails and over-range may
-    miss, and their move of the polynomial's input).
+    miss, and what the rails may make of the zero-mean part of the polynomial's move: the
+    polynomial sees ``w·b``, the rails ``w_eff·b``, and the mean of the difference is taken off
+    exactly).
 
     Examples
     --------

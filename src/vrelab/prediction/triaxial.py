@@ -13,10 +13,21 @@ with ``w`` the axis's sensitivity row (:attr:`~vrelab.sensor.Sensor.sensitivity_
 its polynomial and ``(i, p, o)`` its triad; then the rest of its chain (over-range, rails,
 filters, offset, ...) on ``y``. So
 
-* the **sensed vibration** ``u`` is Gaussian (random drive) with PSD ``wᵀ Re S(f) w`` and static
-  level ``w·g``, or a sine of amplitude ``|w·d|·A`` (sine along ``d``): the polynomial, the rails
-  and the over-range act on it exactly as on one axis, and :func:`vrelab.prediction.single.predict` of
-  that projected vibration gives the clipping, nonlinearity and over-range shares;
+* with ``b = g + x_b`` (``x_b`` the vibration at the proof mass; the front end passes the static
+  vector unchanged) the equation reads ``y = P(u0 + w·x_b) + gᵀKg + 2gᵀK·x_b + x_bᵀK·x_b``
+  (``K`` the symmetric matrix of the cross terms, ``u0 = w·g``): the polynomial sees the sensed
+  vibration ``w·x_b`` alone, and the cross terms' part linear in the vibration, ``2gᵀK·x_b``, is
+  added after it, so it reaches the rails and over-range but not the polynomial;
+* the **sensed vibration** is Gaussian (random drive) with PSD ``w_effᵀ Re S(f) w_eff``,
+  ``w_eff = w + 2Kg``, and static level ``w·g``, or a sine of amplitude ``|w_eff·d|·A`` (sine
+  along ``d``): the linear part of what the rails and over-range see, as on one axis, and
+  :func:`vrelab.prediction.single.predict` of that projected vibration gives the clipping,
+  nonlinearity and over-range shares. It also feeds ``2gᵀK·x_b`` through the polynomial, which
+  the equation does not: that move ``Δ = R(u0 + w·x_b + 2gᵀK·x_b) - R(u0 + w·x_b)`` (``R`` the
+  polynomial's nonlinear part) has its mean computed exactly (:func:`~vrelab.prediction._cross.poly_move`)
+  and taken off, through the rails and holds as a static shift (their ``∂E[out]/∂(shift)``), so
+  ``nonlinearity_g`` is ``E[P(u0 + w·x_b)] - P(u0)`` exactly; what its zero-mean part may do at
+  the rails is bounded in ``model_error_g``;
 * the **cross terms** rectify in closed form, ``VRE_jk = K_jk · Re ∫ S_jk(f)·|H(f)|² df``
   (sine: ``K_jk·d_j·d_k·rms²·|H(f)|²``): the products of the static vector with the zero-mean
   vibration average out, and ``K·g_j·g_k`` is in the vibration-off reading as well (physics §1.5);
@@ -27,7 +38,8 @@ filters, offset, ...) on ``y``. So
   between: :func:`rails_pass`, :func:`filtered_he2`), plus the static cross terms ``K·g_j·g_k``
   moving the rails' working point; and times the time not held, ``1 - rate·hold``. What that
   misses (second order across a rail, the rails' input read as Gaussian, a truncated rail's
-  correlation with the fluctuation, the over-range rate's change) is bounded in
+  correlation with the fluctuation, the over-range rate's change, the polynomial move's
+  zero-mean part) is bounded in
   ``model_error_g``, as :mod:`vrelab.prediction.single` bounds its own, and ``valid`` is False where the
   bound may exceed the stated u.
 
@@ -67,6 +79,7 @@ from vrelab.prediction._cross import (
     he2_step,
     k_matrix,
     overrange_pass,
+    poly_move,
     rails_pass,
     read_axis,
 )
@@ -185,11 +198,12 @@ def predict_triaxial(
 
     Notes
     -----
-    ``VRE = VRE_1(u) + pass · Σ_jk K_jk·Re ∫ S_jk(f)|H(f)|² df`` (the module docstring):
-    ``VRE_1`` is :func:`vrelab.prediction.single.predict` of the sensed vibration ``u = w·b`` (PSD
-    ``wᵀ Re S w``, static ``w·g``); ``pass`` the rails' and over-range's response to a shift of
-    their input. With the vibration along the input axis and every cross term 0 it is
-    :func:`vrelab.prediction.single.predict` itself. ``u_vre_g``: the sensor's covariance and assumed
+    ``VRE = VRE_1(u) - dc·E[Δ] + pass · Σ_jk K_jk·Re ∫ S_jk(f)|H(f)|² df`` (the module
+    docstring): ``VRE_1`` is :func:`vrelab.prediction.single.predict` of the sensed vibration
+    ``u = w_eff·b`` (PSD ``w_effᵀ Re S w_eff``, static ``w·g``); ``E[Δ]`` what its polynomial made
+    of the part ``2gᵀK·b`` the model equation adds after the polynomial; ``dc`` and ``pass`` the
+    rails' and over-range's response to a shift of their input. With the vibration along the
+    input axis and every cross term 0 it is :func:`vrelab.prediction.single.predict` itself. ``u_vre_g``: the sensor's covariance and assumed
     uncertainties carried by :func:`vrelab.prediction.propagation.propagation` through this function.
 
     References
@@ -300,7 +314,8 @@ def _axis(sensor: Sensor, excitation: Excitation, static_g: ArrayLike, kind: Cli
     kmat = k_matrix(sensor)
     # the cross terms' part linear in the vibration, 2gᵀK·x (a static vector across K: a
     # sensitivity to the other axes), joins the sensed vibration: the rails and over-range see it
-    # exactly as the rest of u; what the polynomial then makes of it is bounded below
+    # as the rest of u; the model equation adds it after the polynomial, so what predict's
+    # polynomial makes of it comes off at each level (_level, poly_move)
     w_eff = w + 2.0 * kmat @ g
     front, after = read_axis(sensor.stages())
     drive = _drive(excitation, sensor, front, w_eff)
@@ -357,7 +372,9 @@ def _predict(sensor: Sensor, excitation: object, levels: ArrayLike, static_g: Ar
         notes.append("cross terms (IEEE 1293 model equation): K_jk·Re ∫S_jk|H|²df at the proof mass, H the axis's "
                      "front end on every component alike (assumption: the part's other modes are not modelled), "
                      "passed through the rails and over-range after the nonlinearity to first order (bound in "
-                     "model_error_g)")
+                     "model_error_g)" + ("; their part linear in the vibration, 2gᵀK·x, added after the polynomial "
+                                         "(the rails and over-range see it, the polynomial does not)"
+                                         if np.any(ax.w_eff != ax.w) else ""))
     # the reading with no vibration does not depend on the excitation: predict's, of any one
     off = (single or predict(bare, [100.0], [1e-6], static_g=u0, kind=kind)).vibration_off_g + ax.static_cross
     notes.append(f"VRE referred to the vibration-off reading ({off:.9g} g, the static vector {_vec(ax.g)} g through "
@@ -427,21 +444,16 @@ def _fluctuation(ax: _Axis, rms: float, cov_b: NDArray[np.float64]) -> tuple[flo
 
 
 def _through(ax: _Axis, lv_s: LevelPrediction | None, rms: float, cov_b: NDArray[np.float64],
-             cross: CrossMean) -> tuple[float, float, float, float, dict[str, float]]:
-    """(factor, dc, he2, bound, c2): what the rails and holds after the nonlinearity make of the
-    cross terms at one level (:func:`rails_pass`, :func:`overrange_pass`), each term's He2
-    coefficient ``c2``, and the bound on what that misses."""
+             cross: CrossMean) -> tuple[float, float, float, float, dict[str, float], dict[str, float]]:
+    """(factor, dc, he2, bound, c2, moved): what the rails and holds after the nonlinearity make of
+    the cross terms at one level (:func:`rails_pass`, :func:`overrange_pass`), each term's He2
+    coefficient ``c2``, the bound on what that misses, and the polynomial's move (``cross.poly``)
+    as the shares carry it: ``-mean`` off the nonlinearity, ``mean·(1 - dc)`` of each site onto
+    its share (the rails and holds took that part of it), ``-mean·dc`` in all."""
     sensor, triad, shape, w_eff = ax.sensor, ax.triad, ax.drive.shape, ax.w_eff
     factor, dc, bound = 1.0, 1.0, 0.0
-    if ax.any_cross and ax.drive.sensed is not None:
-        # the polynomial sees w_eff·b instead of w·b: what that moves its mean (σ² moves by
-        # 2·Cov(u, 2gᵀKb) + Var(2gᵀKb), of order k2·σ²·|2Kg|)
-        from vrelab.models import memoryless
-
-        k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
-        s_eff, s_true = (math.sqrt(max(float(v @ cov_b @ v), 0.0)) for v in (w_eff, ax.w))
-        bound += abs(float(memoryless.poly_clip_vre(ax.u0, s_eff, *k, shape=shape))
-                     - float(memoryless.poly_clip_vre(ax.u0, s_true, *k, shape=shape)))
+    p_mean = cross.poly[0]
+    moved = {"nonlinearity_g": -p_mean, "clip_g": 0.0, "overrange_g": 0.0}
     # each term's He2 coefficient in the rails' Z: K·v_j·v_k/σ_u² (v = Σ_b·w_eff) with nothing
     # between, else K·G_jk (:func:`filtered_he2`); with two sets of rails the last one's
     v = cov_b @ w_eff
@@ -461,12 +473,15 @@ def _through(ax: _Axis, lv_s: LevelPrediction | None, rms: float, cov_b: NDArray
                 b_ += c2_err * abs(h_)
                 he2 = he2 * dc_ + h_  # a first set of rails' He2 part, through a second one
             else:
-                f_, b_ = overrange_pass(lv_s, site, ax.u0, cross.mean_g, cross.r_fluct)
+                # the holds lose the polynomial's move as they lose the cross terms' mean
+                f_, b_ = overrange_pass(lv_s, site, ax.u0, abs(cross.mean_g) + abs(p_mean),
+                                        cross.r_fluct + cross.poly[1])
                 dc_, he2 = f_, he2 * f_
+            moved["clip_g" if site.kind == "clip" else "overrange_g"] += p_mean * dc * (1.0 - dc_)
             factor *= f_
             dc *= dc_
             bound += b_
-    return factor, dc, he2, bound, c2
+    return factor, dc, he2, bound, c2, moved
 
 
 def _level(ax: _Axis, rms: float, lv_s: LevelPrediction | None, slope: float, sensed_rms: float,
@@ -480,8 +495,17 @@ def _level(ax: _Axis, rms: float, lv_s: LevelPrediction | None, slope: float, se
     cross_mean = sum(terms.values())
     statics = {key: float(getattr(sensor, attr)) * float(g[triad[a]] * g[triad[b]]) for key, attr, a, b in CROSS_SHARES}
     r_fluct, q_peak = _fluctuation(ax, rms, cov_b)
-    factor, dc, he2, bound, c2 = _through(ax, lv_s, rms, cov_b, CrossMean(cross_mean, r_fluct, q_peak, ax.static_cross))
+    # the model equation's polynomial sees u0 + w·x; the sensed vibration predicted (w_eff·x) also
+    # carries 2gᵀK·x, which the equation adds after it: what the polynomial made of that comes off
+    lin = ax.w_eff - ax.w
+    k = (sensor.k2_per_g, sensor.k3_per_g2, sensor.k4_per_g3)
+    pair = np.array([[ax.w @ cov_b @ ax.w, ax.w @ cov_b @ lin], [lin @ cov_b @ ax.w, lin @ cov_b @ lin]])
+    poly = poly_move(k, u0, pair, ax.drive.shape) if ax.any_cross else (0.0, 0.0, 0.0)
+    factor, dc, he2, bound, c2, moved = _through(ax, lv_s, rms, cov_b,
+                                                 CrossMean(cross_mean, r_fluct, q_peak, ax.static_cross, poly=poly))
     shares = dict(lv_s.shares) if lv_s is not None else dict(_level_zero(float(rms), sensed_hz, u0).shares)
+    for key, v in moved.items():
+        shares[key] += v
     # each term: its rectified mean through the rails and holds, its He2 part, and its static
     # part K·g_j·g_k, which moves the reading with vibration by dc times it, the vibration-off
     # reading by all of it
@@ -493,7 +517,7 @@ def _level(ax: _Axis, rms: float, lv_s: LevelPrediction | None, slope: float, se
     lv_notes = list(base.notes)
     if lv_s is not None and lv_s.valid_otherwise and not lv_s.valid and lv_notes:
         lv_notes.pop()  # predict's judgement of its own bound: judged again below on the whole one
-    vre = base.vre_g + shares["cross_g"]
+    vre = base.vre_g + sum(moved.values()) + shares["cross_g"]
     tilt, why = tilt_note(vre, u0)
     # the level's tilt note, of the whole VRE (the sensed part's, if any, replaced)
     lv_notes = [nt for nt in lv_notes if nt != tilt_note(base.vre_g, u0)[1]]
