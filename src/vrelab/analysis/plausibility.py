@@ -167,7 +167,7 @@ def _probe_grid(n: int, fs: float) -> tuple[NDArray[np.float64], NDArray[np.floa
     """(Hann window, rfft frequencies) of a probe of n samples at ``fs`` [Hz]: every level's probe
     of a record has the same length (a 2 h record's 120 probes each built the window anew).
     Read-only: shared between probes."""
-    win, freqs = np.hanning(n), np.fft.rfftfreq(n, 1.0 / fs)
+    win, freqs = np.hanning(n), np.asarray(np.fft.rfftfreq(n, 1.0 / fs), dtype=np.float64)  # (no copy)
     win.flags.writeable = freqs.flags.writeable = False
     return win, freqs
 
