@@ -23,7 +23,8 @@ Then times, each in a fresh process (whole processes: interpreter, imports, work
 * ``libs`` and ``plain_libs``: importing the libraries analyze needs (numpy, h5py, scipy.fft,
   scipy.special, scipy.optimize) and those of the plain script (numpy, h5py), for information:
   the difference is CPU analyze pays before any work;
-* with ``--baseline SRC``: the same ``analyze`` on another checkout's ``src`` (e.g.
+* with ``--baseline SRC``: the same ``analyze`` (its SHA-256 computed, as ``analyze``'s) on
+  another checkout's ``src`` (e.g.
   ``git -C /work/main archive HEAD src | tar -x -C /tmp/base``).
 
 Each is run *warm* (the file in the page cache) and *cold* (the file's pages dropped from this
@@ -191,7 +192,9 @@ def commands(path: Path, baseline: str | None, digests: Path) -> dict[str, tuple
         "plain_libs": ([py, "-c", _PLAIN_LIBS], None),
     }
     if baseline:
-        out["baseline"] = (analyze, dict(os.environ, PYTHONPATH=baseline))
+        # as `analyze` (the digest cache off): with the cache on, the baseline hashed the file
+        # once and then read its digest, and was held against an analyze that hashes every run
+        out["baseline"] = (analyze, dict(first, PYTHONPATH=baseline))
     return out
 
 

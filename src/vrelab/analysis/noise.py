@@ -66,9 +66,15 @@ def contrast_var(boxes: Sequence[Box]) -> NDArray[np.float64]:
 _RED_ALPHAS = np.array(NOISE_ALPHAS[1:])
 
 
-def _box_means(y: NDArray[np.float64], m: int) -> NDArray[np.float64]:
-    """Means of every run of m consecutive values (all start positions)."""
-    c = np.concatenate([[0.0], np.cumsum(y)])
+def _cumulative(stretches: Sequence[NDArray[np.float64]]) -> list[NDArray[np.float64]]:
+    """Each stretch's cumulative sums from 0, what :func:`_box_means` takes at every octave
+    (made once per stretch, not once per stretch and octave)."""
+    return [np.concatenate([[0.0], np.cumsum(y)]) for y in stretches]
+
+
+def _box_means(c: NDArray[np.float64], m: int) -> NDArray[np.float64]:
+    """Means of every run of m consecutive values (all start positions), from their cumulative
+    sums ``c`` (:func:`_cumulative`)."""
     out: NDArray[np.float64] = (c[m:] - c[:-m]) / m
     return out
 
@@ -99,12 +105,13 @@ def allan_deviation(stretches: Sequence[NDArray[np.float64]], tau0_s: float) -> 
     stretch, N of them over all the stretches (each a gap-free run; no pair spans a gap)."""
     n_max = max((len(y) for y in stretches), default=0)
     taus, devs, ns = [], [], []
+    sums = _cumulative(stretches)
     for m in _octaves(n_max, MIN_TAU_MEANS):
         ss, n = 0.0, 0
-        for y in stretches:
+        for y, c in zip(stretches, sums):
             if len(y) < 2 * m:
                 continue
-            a = _box_means(y, m)
+            a = _box_means(c, m)
             d = a[m:] - a[:-m]
             ss += float(d @ d)
             n += len(d)
@@ -136,12 +143,13 @@ def hadamard_rows(stretches: Sequence[NDArray[np.float64]], tau0_s: float
     correlations are -2/3 and 1/6, so N terms hold N/(1 + 2·(4/9 + 1/36)) ≈ N/1.94)."""
     n_max = max((len(y) for y in stretches), default=0)
     rows = []
+    sums = _cumulative(stretches)
     for m in _octaves(n_max, 3):
         ss, n = 0.0, 0
-        for y in stretches:
+        for y, c in zip(stretches, sums):
             if len(y) < 3 * m:
                 continue
-            a = _box_means(y, m)
+            a = _box_means(c, m)
             d = a[: -2 * m] - 2 * a[m:-m] + a[2 * m:]
             ss += float(d @ d)
             n += len(d)

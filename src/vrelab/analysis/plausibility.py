@@ -22,6 +22,7 @@ accepts it on purpose; nothing here changes a number.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable, Literal, Sequence
@@ -161,6 +162,16 @@ def probe_segment(
                          np.asarray(block[reference], dtype=np.float64), band_hz)
 
 
+@functools.lru_cache(maxsize=8)
+def _probe_grid(n: int, fs: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(Hann window, rfft frequencies) of a probe of n samples at ``fs`` [Hz]: every level's probe
+    of a record has the same length (a 2 h record's 120 probes each built the window anew).
+    Read-only: shared between probes."""
+    win, freqs = np.hanning(n), np.asarray(np.fft.rfftfreq(n, 1.0 / fs), dtype=np.float64)  # (no copy)
+    win.flags.writeable = freqs.flags.writeable = False
+    return win, freqs
+
+
 def _probe_arrays(
     fs_hz: float, start_s: float, end_s: float, x_dut: NDArray[np.float64], x_ref: NDArray[np.float64],
     band_hz: tuple[float, float],
@@ -168,33 +179,30 @@ def _probe_arrays(
     fs = float(fs_hz)
     n = x_dut.size
     ref_dc, dut_dc = float(np.mean(x_ref)), float(np.mean(x_dut))
-    win = np.hanning(n)
-    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    win, freqs = _probe_grid(n, fs)
     p_ref = np.abs(np.fft.rfft((x_ref - ref_dc) * win)) ** 2
     p_dut = np.abs(np.fft.rfft((x_dut - dut_dc) * win)) ** 2
     f1, f2 = band_hz
     # A sine is one line wherever it is (a drive below the test band too): classify over the
-    # whole spectrum but the mean's own main lobe; compare units in the band.
-    ac = np.arange(freqs.size) > _LINE_HALF_WIDTH_BINS
+    # whole spectrum but the mean's own main lobe; compare units in the band. The bins are
+    # contiguous runs (the frequencies rise with the index), taken as slices.
+    ac = slice(_LINE_HALF_WIDTH_BINS + 1, None)
     total_ac = float(p_ref[ac].sum())
     if total_ac <= 0:
         return SegmentProbe(start_s, end_s, math.nan, 0.0, 0.0, 0.0, ref_dc, dut_dc)
-    k_peak = int(np.flatnonzero(ac)[np.argmax(p_ref[ac])])
+    k_peak = ac.start + int(np.argmax(p_ref[ac]))
     line = slice(max(0, k_peak - _LINE_HALF_WIDTH_BINS), k_peak + _LINE_HALF_WIDTH_BINS + 1)
     fraction = float(p_ref[line].sum()) / total_ac
-    in_band = ac & (freqs >= f1) & (freqs <= f2)
+    lo = max(ac.start, int(np.searchsorted(freqs, f1, side="left")))
+    hi = int(np.searchsorted(freqs, f2, side="right"))
     ratio_hz = float(freqs[k_peak])
-    if fraction >= SINE_LINE_FRACTION or not in_band.any() or float(p_ref[in_band].sum()) <= 0:
-        sel = np.zeros_like(ac)
-        sel[line] = True
-    else:
+    sel = line
+    if not (fraction >= SINE_LINE_FRACTION or hi <= lo or float(p_ref[lo:hi].sum()) <= 0):
         # the bottom of the reference's own band: the lowest in-band lines holding a tenth of
         # its power (at least 8 lines), where a DUT's low-pass or resonance has not yet acted
-        k_in = np.flatnonzero(in_band)
-        total = float(p_ref[k_in].sum())
-        n_low = max(8, int(np.searchsorted(np.cumsum(p_ref[k_in]), LOW_POWER_SHARE * total)) + 1)
-        sel = np.zeros_like(ac)
-        sel[k_in[:n_low]] = True
+        total = float(p_ref[lo:hi].sum())
+        n_low = max(8, int(np.searchsorted(np.cumsum(p_ref[lo:hi]), LOW_POWER_SHARE * total)) + 1)
+        sel = slice(lo, min(lo + n_low, hi))
         ratio_hz = float((freqs[sel] * p_ref[sel]).sum() / p_ref[sel].sum()) if p_ref[sel].sum() > 0 else ratio_hz
     ref_rms = math.sqrt(float(p_ref[sel].sum()))
     dut_rms = math.sqrt(float(p_dut[sel].sum()))

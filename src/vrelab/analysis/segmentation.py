@@ -541,6 +541,12 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
+# Pieces shorter than this are searched for their split in plain Python (the same operations on
+# the same doubles as the array code; a ramp cut into a thousand pieces of a few windows spent
+# most of its time in numpy's per-call overhead)
+_SCALAR_PIECE = 24
+
+
 def _binary_segmentation(x: NDArray[np.float64], sigma: float, min_step: float) -> list[tuple[int, int]]:
     """Piecewise-constant pieces of ``x`` by binary segmentation (Scott & Knott 1974).
 
@@ -553,26 +559,50 @@ def _binary_segmentation(x: NDArray[np.float64], sigma: float, min_step: float) 
     out: list[tuple[int, int]] = []
     stack = [(0, n)]
     c1 = np.concatenate([[0.0], np.cumsum(x)])
+    cs = c1.tolist()  # the same doubles, for the short pieces' scalar search
+    steps = np.arange(n + 1, dtype=np.float64)  # piece lengths either side of a split
     while stack:
         a, b = stack.pop()
         m = b - a
         if m < 4:
             out.append((a, b))
             continue
-        k = np.arange(a + 1, b)
-        sl = c1[k] - c1[a]
-        sr = c1[b] - c1[k]
-        nl = (k - a).astype(float)
-        nr = (b - k).astype(float)
+        # (the gain at split a + j: sl²/j + sr²/(m - j) - tot²/m, sl and sr the sums either side)
         tot = c1[b] - c1[a]
-        gain = sl**2 / nl + sr**2 / nr - tot**2 / m
-        i = int(np.argmax(gain))
-        c = int(k[i])
-        if gain[i] > pen and abs(sl[i] / nl[i] - sr[i] / nr[i]) > min_step:
+        t2 = float(tot**2 / m)
+        if m < _SCALAR_PIECE:
+            i, g, dl, dr = _best_split(cs, a, b, t2)
+        else:
+            sl = c1[a + 1 : b] - c1[a]
+            sr = c1[b] - c1[a + 1 : b]
+            nl, nr = steps[1:m], steps[m - 1 : 0 : -1]
+            gain = sl**2 / nl + sr**2 / nr - t2
+            i = int(np.argmax(gain))
+            g, dl, dr = float(gain[i]), float(sl[i] / nl[i]), float(sr[i] / nr[i])
+        if g > pen and abs(dl - dr) > min_step:
+            c = a + 1 + i
             stack += [(c, b), (a, c)]
         else:
             out.append((a, b))
     return sorted(out)
+
+
+def _best_split(cs: list[float], a: int, b: int, t2: float) -> tuple[int, float, float, float]:
+    """(index, gain, left mean, right mean) of :func:`_binary_segmentation`'s best split of the
+    piece [a, b), ``cs`` the cumulative sums and ``t2`` tot²/m: the first largest gain, as
+    ``np.argmax`` takes it (x*x is numpy's square of ``**2``)."""
+    m, ca, cb = b - a, cs[a], cs[b]
+    best, gbest = 0, -math.inf
+    for j in range(1, m):
+        sl, sr = cs[a + j] - ca, cb - cs[a + j]
+        g = sl * sl / j + sr * sr / (m - j) - t2
+        if g != g:  # NaN: np.argmax takes the first
+            best, gbest = j - 1, g
+            break
+        if g > gbest:
+            best, gbest = j - 1, g
+    sl, sr = cs[a + best + 1] - ca, cb - cs[a + best + 1]
+    return best, gbest, sl / (best + 1), sr / (m - best - 1)
 
 
 def auto_segment(
