@@ -231,3 +231,51 @@ def readme_sweep_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
 
     return _built(_shared_root(tmp_path_factory, worker_id), "readme-sweep", build) / "sweep-out"
 
+
+# The demo's, the campaign's and the README's sweep's reports in headless Chromium, once per run:
+# one launch and one load of the page (5-7 MB, 11, 30 and 6 interactive figures) serves
+# tests/test_report_layout.py's measurements (taken first, before the mouse moves an axis) and then
+# the render of tests/test_demo.py, tests/test_campaign.py and tests/test_report_sweep.py (the demo's
+# and the sweep's figures hovered and zoomed), the screenshot and the A4 print, which two launches
+# did before. Read only: {"state", "events"} of render_in_chromium, "pdf" and "screenshot".
+def _visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, report, screenshot: str, exercise: bool) -> dict:
+    import json
+    import shutil
+
+    from test_report_browser import SCREENSHOT_DIR
+
+    name = screenshot.rsplit(".", 1)[0]
+
+    def build(folder) -> None:
+        from test_report_browser import render_in_chromium
+        from test_report_layout import measure_layout
+
+        state, events = render_in_chromium(report, folder, SCREENSHOT_DIR / screenshot, pdf=folder / "report.pdf",
+                                           exercise=exercise, measure=measure_layout)
+        shutil.rmtree(folder / "chromium-profile", ignore_errors=True)
+        (folder / "visit.json").write_text(json.dumps({"state": state, "events": events}))
+        shutil.copy2(folder / "report.pdf", SCREENSHOT_DIR / f"{name}.pdf")  # beside the screenshot, for a person
+
+    folder = _built(_shared_root(tmp_path_factory, worker_id), f"chromium-{name}", build)
+    return json.loads((folder / "visit.json").read_text()) | {"pdf": folder / "report.pdf",
+                                                              "screenshot": SCREENSHOT_DIR / screenshot}
+
+
+@pytest.fixture(scope="session")
+def demo_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, quick_demo_out: dict) -> dict:
+    """quick_demo_out's report visited (see _visit), its figures hovered and zoomed."""
+    return _visit(tmp_path_factory, worker_id, quick_demo_out["out"] / "report.html", "demo-report.jpg", exercise=True)
+
+
+@pytest.fixture(scope="session")
+def campaign_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, example_campaign_report) -> dict:
+    """example_campaign_report's report visited (see _visit): the paper only, its 30 figures not
+    hovered (minutes of waits on a loaded machine; the demo's are, on the same page code)."""
+    return _visit(tmp_path_factory, worker_id, example_campaign_report / "camp" / "report.html", "campaign-report.jpg",
+                  exercise=False)
+
+
+@pytest.fixture(scope="session")
+def sweep_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, readme_sweep_out) -> dict:
+    """readme_sweep_out's report (a production lot) visited (see _visit), its figures hovered and zoomed."""
+    return _visit(tmp_path_factory, worker_id, readme_sweep_out / "report.html", "report-sweep-lot.png", exercise=True)

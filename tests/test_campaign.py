@@ -169,18 +169,15 @@ def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
 
 
 @pytest.mark.browser
-def test_campaign_report_prints_on_a4_without_raw_values(campaign_report: tuple[Path, str], tmp_path: Path) -> None:
+def test_campaign_report_prints_on_a4_without_raw_values(campaign_visit: dict) -> None:
     """The campaign report in headless Chromium and printed to A4: every table inside the page
     (the provenance's file paths and hashes break to fit), and the paper reads no JSON escapes,
-    no null and no unit-shape level."""
-    from test_report_browser import SCREENSHOT_DIR, assert_prints_cleanly, render_in_chromium
+    no null and no unit-shape level. The page is tests/conftest.py's campaign_visit (loaded once
+    per run, with tests/test_report_layout.py's measurements): the paper only, its 30 figures not
+    hovered nor zoomed (the demo's test and the browser test do, on the same page code)."""
+    from test_report_browser import assert_prints_cleanly
 
-    out, _ = campaign_report
-    pdf = SCREENSHOT_DIR / "campaign-report.pdf"
-    # the paper only: hovering and zooming its 30 figures (minutes of waits on a loaded machine)
-    # is the demo's test (tests/test_demo.py) and the browser test's, on the same page code
-    state, _events = render_in_chromium(out / "report.html", tmp_path, SCREENSHOT_DIR / "campaign-report.jpg", pdf=pdf,
-                                        exercise=False)
+    state, pdf = campaign_visit["state"], campaign_visit["pdf"]
     printed = "".join(p["text"] for p in assert_prints_cleanly(state, pdf, min_pages=10))
     assert "\\u00" not in printed and "null" not in printed and "21.21" not in printed
     assert "20910 ± 540 µg/g²" in printed or re.search(r"VRC -?\d+0 ± \d\d0 µg/g²", printed)
