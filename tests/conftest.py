@@ -232,12 +232,11 @@ def readme_sweep_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
     return _built(_shared_root(tmp_path_factory, worker_id), "readme-sweep", build) / "sweep-out"
 
 
-# The demo's, the campaign's and the README's sweep's reports in headless Chromium, once per run:
-# one launch and one load of the page (5-7 MB, 11, 30 and 6 interactive figures) serves
-# tests/test_report_layout.py's measurements (taken first, before the mouse moves an axis) and then
-# the render of tests/test_demo.py, tests/test_campaign.py and tests/test_report_sweep.py (the demo's
-# and the sweep's figures hovered and zoomed), the screenshot and the A4 print, which two launches
-# did before. Read only: {"state", "events"} of render_in_chromium, "pdf" and "screenshot".
+# The demo's and the campaign's reports in headless Chromium, once per run: one launch and one
+# load of the page (6-7 MB, 11 and 30 interactive figures) serves tests/test_report_layout.py's
+# measurements (taken first, before the mouse moves an axis) and then the render of
+# tests/test_demo.py and tests/test_campaign.py (the demo's figures hovered and zoomed), the
+# screenshot and the A4 print, which two launches did before. Read only: {"state", "events"} of render_in_chromium, "pdf" and "screenshot".
 def _visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, report, screenshot: str, exercise: bool) -> dict:
     import json
     import shutil
@@ -274,8 +273,3 @@ def campaign_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, exa
     return _visit(tmp_path_factory, worker_id, example_campaign_report / "camp" / "report.html", "campaign-report.jpg",
                   exercise=False)
 
-
-@pytest.fixture(scope="session")
-def sweep_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, readme_sweep_out) -> dict:
-    """readme_sweep_out's report (a production lot) visited (see _visit), its figures hovered and zoomed."""
-    return _visit(tmp_path_factory, worker_id, readme_sweep_out / "report.html", "report-sweep-lot.png", exercise=True)

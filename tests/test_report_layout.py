@@ -10,13 +10,15 @@ Chromium, driven as tests/test_report_browser.py drives it.
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 import time
+from pathlib import Path
 
 import pytest
 
-from test_report_browser import CDP, CONTENT_WIDTH_PX, _eval, _wait_for
+from test_report_browser import A4_IN, CDP, CONTENT_WIDTH_PX, _chromium, _eval, _wait_for, open_page
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -121,14 +123,28 @@ def measure_layout(cdp: CDP, session: str) -> dict:
     return out
 
 
-# Each report is loaded in Chromium once per run (tests/conftest.py's visits: the page these
-# measurements take, before the mouse moves an axis, is the page tests/test_demo.py,
-# tests/test_campaign.py and tests/test_report_sweep.py then render, hover and print).
-_VISITS = {"demo": "demo_visit", "campaign": "campaign_visit", "sweep": "sweep_visit"}
+def _layout(report: Path, work: Path) -> dict:
+    """measure_layout on ``report`` in a Chromium of its own, then its PDF's size."""
+    cdp = CDP(_chromium(), work / "chromium-profile")
+    try:
+        session = open_page(cdp, report)
+        out = measure_layout(cdp, session)
+        printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session)
+        out["pdf_bytes"] = len(base64.b64decode(printed["data"]))
+    finally:
+        cdp.close()
+    return out
 
 
-@pytest.fixture(scope="module", params=list(_VISITS))
-def layout(request: pytest.FixtureRequest) -> tuple[str, dict]:
+# The demo's and the campaign's reports are loaded in Chromium once per run (tests/conftest.py's
+# demo_visit and campaign_visit: the page these measurements take, before the mouse moves an axis,
+# is the page tests/test_demo.py and tests/test_campaign.py then render, hover and print); the
+# README's sweep's here, in a Chromium of its own.
+_VISITS = {"demo": "demo_visit", "campaign": "campaign_visit"}
+
+
+@pytest.fixture(scope="module", params=[*_VISITS, "sweep"])
+def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict]:
     """One report's layout: the quick demo's (with tests/test_report_browser.METADATA's header,
     the demo tests/test_demo.py reads), the shipped example campaign's (with the pages' metadata)
     or the README's sweep's (a lot: a grid of histogram panels, each with its title under the
@@ -136,8 +152,11 @@ def layout(request: pytest.FixtureRequest) -> tuple[str, dict]:
     runs both tests on it (the three built in one set-up reached the 300 s timeout on a loaded
     machine)."""
     which = request.param
-    visit = request.getfixturevalue(_VISITS[which])
-    return which, visit["state"]["measured"] | {"pdf_bytes": visit["pdf"].stat().st_size}
+    if which in _VISITS:
+        visit = request.getfixturevalue(_VISITS[which])
+        return which, visit["state"]["measured"] | {"pdf_bytes": visit["pdf"].stat().st_size}
+    report = request.getfixturevalue("readme_sweep_out") / "report.html"
+    return which, _layout(report, tmp_path_factory.mktemp(f"chromium-{which}"))
 
 
 _SUP = str.maketrans("⁻⁰¹²³⁴⁵⁶⁷⁸⁹", "-0123456789")

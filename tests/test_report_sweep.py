@@ -16,7 +16,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from test_report_browser import assert_rendered_cleanly, markup_only
+from test_report_browser import (
+    SCREENSHOT_DIR,
+    assert_rendered_cleanly,
+    markup_only,
+    render_in_chromium,
+)
 from vrelab.cli import main
 from vrelab.report import sweep as S
 from vrelab.sweep import parse_spec, run_sweep
@@ -214,14 +219,13 @@ def test_netcdf_that_is_not_a_sweep_is_one_line_exit_2(tmp_path: Path, capsys: p
 
 
 @pytest.mark.browser
-def test_sweep_report_renders_in_chromium_with_all_images(readme_sweep_out: Path, sweep_visit: dict) -> None:
-    """A lot's report in headless Chromium: the README's sweep (examples/sweep.toml: 3 × 3 grid
-    points, 5 units), loaded once per run by tests/conftest.py's sweep_visit (with
-    tests/test_report_layout.py's measurements), every figure decoded, drawn, hovered and zoomed."""
-    n = markup_only((readme_sweep_out / "report.html").read_text(encoding="utf-8")).count("<img ")
-    assert n >= 3  # the spread, the histograms, the scatter (9 grid points: more than one figure of each but the spread)
-    assert_rendered_cleanly(sweep_visit["state"], sweep_visit["events"], n)
-    assert sweep_visit["screenshot"].stat().st_size > 20_000
+def test_sweep_report_renders_in_chromium_with_all_images(tmp_path: Path) -> None:
+    folder = _lot(tmp_path / "lot")
+    assert main(["report", str(folder)]) == 0
+    png = SCREENSHOT_DIR / "report-sweep-lot.png"
+    state, events = render_in_chromium(folder / "report.html", tmp_path, png)
+    assert_rendered_cleanly(state, events, 3)
+    assert png.stat().st_size > 20_000
 
 
 def test_error_bars_are_plus_minus_u_in_mg_when_the_result_has_u_vre_g(tmp_path: Path) -> None:
