@@ -105,9 +105,14 @@ def _example_campaign() -> None:
 # pytest-xdist the workers share one folder (the parent of each worker's basetemp) and a file
 # lock: the first worker to ask builds, the others wait and read. Readers never write into these
 # folders (a test that writes copies first: see copy_shared).
-def _shared_root(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
+def session_folder(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
+    """The folder every worker of this session shares: the parent of each worker's basetemp."""
     base = tmp_path_factory.getbasetemp()
-    return (base.parent if worker_id != "master" else base) / "shared-outputs"
+    return base.parent if worker_id != "master" else base
+
+
+def _shared_root(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
+    return session_folder(tmp_path_factory, worker_id) / "shared-outputs"
 
 
 def _built(root, name: str, build):
@@ -147,31 +152,49 @@ def _checked(argv: list[str]) -> str:
     return out
 
 
+# The example campaign, its report and the README's sweep are the pages' own command lines
+# (docs/tour.md and README.md run them; tests/test_readme.py checks that they still do), run the way
+# the pages run them, in a folder like a page's: test_readme.run_once_per_inputs runs each line once
+# per session for these fixtures and the pages' steps alike (~30 s of CPU: the campaign, its report's
+# figures, the sweep), so these outputs are the very ones the pages' later steps read.
+CAMPAIGN_LINE = ["vrelab", "campaign", "examples/campaign/campaign.toml", "--workers", "2", "--out", "camp"]
+CAMPAIGN_REPORT_LINE = ["vrelab", "report", "camp", "--metadata", "examples/report-metadata.toml"]
+SWEEP_LINE = ["vrelab", "sweep", "examples/sweep.toml", "--workers", "2", "--out", "sweep-out"]
+
+
+def _page_line(argv: list[str], folder, tmp_path_factory: pytest.TempPathFactory, worker_id: str) -> str:
+    """``argv`` (a page's command line) run in ``folder`` as the pages run it; its stdout."""
+    from test_readme import run_page_command
+
+    rc, out, err = run_page_command(argv, folder, session_folder(tmp_path_factory, worker_id))
+    assert rc == 0, f"{' '.join(argv)}: {err[-1500:]}"
+    return out
+
+
 @pytest.fixture(scope="session")
 def example_campaign_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str, _example_campaign: None):
-    """`vrelab campaign examples/campaign/campaign.toml` (read only): the folder holding its output
-    folder ``camp`` and the command's stdout, ``cli-stdout.txt``."""
-    from pathlib import Path
-
-    manifest = Path(__file__).resolve().parent.parent / "examples" / "campaign" / "campaign.toml"
+    """`vrelab campaign examples/campaign/campaign.toml --workers 2 --out camp` (CAMPAIGN_LINE; read
+    only): a page's folder holding its output folder ``camp`` and the command's stdout,
+    ``cli-stdout.txt``."""
+    from test_readme import fill_page_folder
 
     def build(folder) -> None:
-        out = _checked(["campaign", str(manifest), "--out", str(folder / "camp")])
-        (folder / "cli-stdout.txt").write_text(out)
+        fill_page_folder(folder)
+        (folder / "cli-stdout.txt").write_text(_page_line(CAMPAIGN_LINE, folder, tmp_path_factory, worker_id))
 
     return _built(_shared_root(tmp_path_factory, worker_id), "example-campaign", build)
 
 
 @pytest.fixture(scope="session")
 def example_campaign_report(tmp_path_factory: pytest.TempPathFactory, worker_id: str, example_campaign_out):
-    """`vrelab report` on a copy of example_campaign_out (read only; the report is its own
-    fixture, so that a test that needs the campaign only does not wait for the report's figures)."""
+    """`vrelab report camp --metadata examples/report-metadata.toml` (CAMPAIGN_REPORT_LINE) on a copy
+    of example_campaign_out (read only; the report is its own fixture, so that a test that needs the
+    campaign only does not wait for the report's figures)."""
     import shutil
 
     def build(folder) -> None:
-        shutil.copytree(example_campaign_out / "camp", folder / "camp")
-        shutil.copy2(example_campaign_out / "cli-stdout.txt", folder / "cli-stdout.txt")
-        _checked(["report", str(folder / "camp")])
+        shutil.copytree(example_campaign_out, folder, dirs_exist_ok=True, ignore=shutil.ignore_patterns(".done"))
+        _page_line(CAMPAIGN_REPORT_LINE, folder, tmp_path_factory, worker_id)
 
     return _built(_shared_root(tmp_path_factory, worker_id), "example-campaign-report", build)
 
@@ -196,13 +219,57 @@ def quick_demo_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str) -> 
 
 @pytest.fixture(scope="session")
 def readme_sweep_out(tmp_path_factory: pytest.TempPathFactory, worker_id: str):
-    """`vrelab sweep examples/sweep.toml` then `vrelab report` on its folder (read only)."""
-    from pathlib import Path
-
-    spec = Path(__file__).resolve().parent.parent / "examples" / "sweep.toml"
+    """`vrelab sweep examples/sweep.toml --workers 2 --out sweep-out` (SWEEP_LINE, the tour's), then
+    `vrelab report` on its folder (read only): the folder ``sweep-out``."""
 
     def build(folder) -> None:
-        _checked(["sweep", str(spec), "--out", str(folder / "sweep"), "--no-progress"])
-        _checked(["report", str(folder / "sweep")])
+        from test_readme import fill_page_folder
 
-    return _built(_shared_root(tmp_path_factory, worker_id), "readme-sweep", build) / "sweep"
+        fill_page_folder(folder)
+        _page_line(SWEEP_LINE, folder, tmp_path_factory, worker_id)
+        _checked(["report", str(folder / "sweep-out")])
+
+    return _built(_shared_root(tmp_path_factory, worker_id), "readme-sweep", build) / "sweep-out"
+
+
+# The demo's and the campaign's reports in headless Chromium, once per run: one launch and one
+# load of the page (6-7 MB, 11 and 30 interactive figures) serves tests/test_report_layout.py's
+# measurements (taken first, before the mouse moves an axis) and then the render of
+# tests/test_demo.py and tests/test_campaign.py (the demo's figures hovered and zoomed), the
+# screenshot and the A4 print, which two launches did before. Read only: {"state", "events"} of render_in_chromium, "pdf" and "screenshot".
+def _visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, report, screenshot: str, exercise: bool) -> dict:
+    import json
+    import shutil
+
+    from test_report_browser import SCREENSHOT_DIR
+
+    name = screenshot.rsplit(".", 1)[0]
+
+    def build(folder) -> None:
+        from test_report_browser import render_in_chromium
+        from test_report_layout import measure_layout
+
+        state, events = render_in_chromium(report, folder, SCREENSHOT_DIR / screenshot, pdf=folder / "report.pdf",
+                                           exercise=exercise, measure=measure_layout)
+        shutil.rmtree(folder / "chromium-profile", ignore_errors=True)
+        (folder / "visit.json").write_text(json.dumps({"state": state, "events": events}))
+        shutil.copy2(folder / "report.pdf", SCREENSHOT_DIR / f"{name}.pdf")  # beside the screenshot, for a person
+
+    folder = _built(_shared_root(tmp_path_factory, worker_id), f"chromium-{name}", build)
+    return json.loads((folder / "visit.json").read_text()) | {"pdf": folder / "report.pdf",
+                                                              "screenshot": SCREENSHOT_DIR / screenshot}
+
+
+@pytest.fixture(scope="session")
+def demo_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, quick_demo_out: dict) -> dict:
+    """quick_demo_out's report visited (see _visit), its figures hovered and zoomed."""
+    return _visit(tmp_path_factory, worker_id, quick_demo_out["out"] / "report.html", "demo-report.jpg", exercise=True)
+
+
+@pytest.fixture(scope="session")
+def campaign_visit(tmp_path_factory: pytest.TempPathFactory, worker_id: str, example_campaign_report) -> dict:
+    """example_campaign_report's report visited (see _visit): the paper only, its 30 figures not
+    hovered (minutes of waits on a loaded machine; the demo's are, on the same page code)."""
+    return _visit(tmp_path_factory, worker_id, example_campaign_report / "camp" / "report.html", "campaign-report.jpg",
+                  exercise=False)
+

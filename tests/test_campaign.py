@@ -109,20 +109,38 @@ def test_workers_give_the_same_campaign(example: Path) -> None:
 @pytest.fixture(scope="module")
 def campaign_report(example_campaign_report: Path) -> tuple[Path, str]:
     """``vrelab campaign`` of the shipped example (what ``example`` writes: tests/test_examples.py
-    holds the generation bit-identical) then ``vrelab report`` on it: the folder and the CLI's
-    stdout. Built once per run by tests/conftest.py, shared with tests/test_report_layout.py:
-    read only."""
+    holds the generation bit-identical) then ``vrelab report --metadata`` on it (the pages' lines:
+    tests/conftest.py CAMPAIGN_LINE, CAMPAIGN_REPORT_LINE): the folder and the CLI's stdout. Built
+    once per run by tests/conftest.py, shared with tests/test_report_layout.py and the pages'
+    steps: read only."""
     return example_campaign_report / "camp", (example_campaign_report / "cli-stdout.txt").read_text()
 
 
+def _quoted_metadata(value: object) -> list[str]:
+    """Every text of a --metadata file (a table's, a list's, at any depth)."""
+    if isinstance(value, dict):
+        return [t for v in value.values() for t in _quoted_metadata(v)]
+    if isinstance(value, list):
+        return [t for v in value for t in _quoted_metadata(v)]
+    return [value] if isinstance(value, str) else []
+
+
 def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
+    import tomllib
+
     from test_format import gum_violations, visible_text
 
     out, cli = campaign_report
     html = (out / "report.html").read_text()
     text = visible_text(html)
     # One formatter: every "value ± u" in the report and the CLI table by GUM 7.2.6, with units.
-    assert gum_violations(text) == [] and gum_violations(cli) == []
+    # The --metadata file's texts (examples/report-metadata.toml, the pages' report: "23 ± 2 °C")
+    # are its author's words, quoted as written: the rule holds the numbers the report computes.
+    meta = tomllib.loads((Path(__file__).resolve().parent.parent / "examples" / "report-metadata.toml").read_text())
+    computed = text
+    for quoted in (t for t in _quoted_metadata(meta) if "±" in t):
+        computed = computed.replace(quoted, "")
+    assert "23 ± 2 °C" in text and gum_violations(computed) == [] and gum_violations(cli) == []
     assert re.search(r"VRC at +1000 Hz, \+1 g: -?\d+0 ± \d\d0 µg/g²", cli)  # u of ~540 shown as two digits
     # The random run stated as its shape and the levels it reached, never the unit shape's grms
     # (21.21 g rms for flat 50-500 Hz at 1 g²/Hz): the example steps 0.3, 0.5, 0.7, 0.9 g rms
@@ -151,18 +169,15 @@ def test_report_of_a_campaign(campaign_report: tuple[Path, str]) -> None:
 
 
 @pytest.mark.browser
-def test_campaign_report_prints_on_a4_without_raw_values(campaign_report: tuple[Path, str], tmp_path: Path) -> None:
+def test_campaign_report_prints_on_a4_without_raw_values(campaign_visit: dict) -> None:
     """The campaign report in headless Chromium and printed to A4: every table inside the page
     (the provenance's file paths and hashes break to fit), and the paper reads no JSON escapes,
-    no null and no unit-shape level."""
-    from test_report_browser import SCREENSHOT_DIR, assert_prints_cleanly, render_in_chromium
+    no null and no unit-shape level. The page is tests/conftest.py's campaign_visit (loaded once
+    per run, with tests/test_report_layout.py's measurements): the paper only, its 30 figures not
+    hovered nor zoomed (the demo's test and the browser test do, on the same page code)."""
+    from test_report_browser import assert_prints_cleanly
 
-    out, _ = campaign_report
-    pdf = SCREENSHOT_DIR / "campaign-report.pdf"
-    # the paper only: hovering and zooming its 30 figures (minutes of waits on a loaded machine)
-    # is the demo's test (tests/test_demo.py) and the browser test's, on the same page code
-    state, _events = render_in_chromium(out / "report.html", tmp_path, SCREENSHOT_DIR / "campaign-report.jpg", pdf=pdf,
-                                        exercise=False)
+    state, pdf = campaign_visit["state"], campaign_visit["pdf"]
     printed = "".join(p["text"] for p in assert_prints_cleanly(state, pdf, min_pages=10))
     assert "\\u00" not in printed and "null" not in printed and "21.21" not in printed
     assert "20910 ± 540 µg/g²" in printed or re.search(r"VRC -?\d+0 ± \d\d0 µg/g²", printed)

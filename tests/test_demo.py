@@ -186,16 +186,12 @@ def test_bad_seconds_is_refused_before_running(tmp_path: Path, capsys: pytest.Ca
 
 
 @pytest.mark.browser
-def test_demo_report_renders_in_chromium(demo: dict, tmp_path: Path) -> None:
-    from test_report_browser import (
-        SCREENSHOT_DIR,
-        assert_prints_cleanly,
-        assert_rendered_cleanly,
-        render_in_chromium,
-    )
+def test_demo_report_renders_in_chromium(demo_visit: dict) -> None:
+    """The demo's report in headless Chromium (tests/conftest.py's demo_visit: loaded once per run,
+    with tests/test_report_layout.py's measurements), its figures hovered and zoomed, printed on A4."""
+    from test_report_browser import assert_prints_cleanly, assert_rendered_cleanly
 
-    pdf = SCREENSHOT_DIR / "demo-report.pdf"
-    state, events = render_in_chromium(demo["out"] / "report.html", tmp_path, SCREENSHOT_DIR / "demo-report.jpg", pdf=pdf)
+    state, events, pdf = demo_visit["state"], demo_visit["events"], demo_visit["pdf"]
     assert_rendered_cleanly(state, events, N_FIGURES)
     assert state["h"] > 8000  # six sections with their tables
     pages = assert_prints_cleanly(state, pdf, min_pages=12)

@@ -142,11 +142,17 @@ def workspaces(tmp_path_factory) -> dict[str, tuple[Path, dict]]:
 def _workspace(workspaces: dict[str, tuple[Path, dict]], page: str, tmp_path_factory) -> tuple[Path, dict]:
     if page not in workspaces:
         work = tmp_path_factory.mktemp(Path(page).stem)
-        shutil.copytree(ROOT / "examples", work / "examples", ignore=shutil.ignore_patterns("__pycache__"))
-        for name in ("Makefile", "pyproject.toml"):
-            shutil.copy2(ROOT / name, work / name)
+        fill_page_folder(work)
         workspaces[page] = (work, {"__name__": f"page_{Path(page).stem}"})
     return workspaces[page]
+
+
+def fill_page_folder(work: Path) -> None:
+    """What a page's folder holds before its first step: a copy of the shipped examples, the
+    Makefile and pyproject.toml (SHIPPED)."""
+    shutil.copytree(ROOT / "examples", work / "examples", ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("Makefile", "pyproject.toml"):
+        shutil.copy2(ROOT / name, work / name)
 
 
 @pytest.fixture(scope="module")
@@ -246,10 +252,24 @@ SHIPPED = ("examples", "Makefile", "pyproject.toml")
 
 
 def _shared_commands(request) -> Path:
-    """The folder every worker of this session shares (the parent of each worker's basetemp)."""
-    base = request.getfixturevalue("tmp_path_factory").getbasetemp()
-    worker = request.getfixturevalue("worker_id")
-    return (base.parent if worker != "master" else base) / "page-commands"
+    """In the folder every worker of this session shares (tests/conftest.py's session_folder)."""
+    from conftest import session_folder
+
+    return shared_commands(session_folder(request.getfixturevalue("tmp_path_factory"), request.getfixturevalue("worker_id")))
+
+
+def shared_commands(session: Path) -> Path:
+    """Where run_once_per_inputs keeps the runs it shares, in the session's shared folder."""
+    return session / "page-commands"
+
+
+def run_page_command(argv: list[str], workspace: Path, session: Path) -> tuple[int, str, str]:
+    """A page's ``vrelab ...`` command line run in ``workspace`` (a page's folder: see
+    fill_page_folder) as the pages run it, sharing its run with every page step of this session
+    that runs the same line on the same inputs (tests/conftest.py's fixtures of the example
+    campaign, its report and the README's sweep run the pages' own lines: one run serves both)."""
+    assert argv[0] == "vrelab", argv
+    return run_once_per_inputs(argv, [sys.executable, "-m", "vrelab", *argv[1:]], workspace, shared_commands(session))
 
 
 def _named_entries(argv: list[str]) -> set[str] | None:
@@ -340,6 +360,17 @@ def run_once_per_inputs(argv: list[str], run: list[str], workspace: Path, shared
                 {"rc": rc, "stdout": out, "stderr": err, "written": written, "deleted": deleted,
                  "dirs": sorted(after_dirs - dirs)}))
         return rc, out, err
+
+
+def test_the_shared_outputs_are_the_pages_own_command_lines():
+    """tests/conftest.py builds the example campaign, its report and the README's sweep by the
+    pages' own command lines, so that one run serves the fixtures and the pages' steps: each line
+    is still a step of a page (a page that changes its line would leave both running, twice)."""
+    from conftest import CAMPAIGN_LINE, CAMPAIGN_REPORT_LINE, SWEEP_LINE
+
+    lines = [what for s in STEPS if s[2] == "sh" for what in [s[3]]]
+    for line in (CAMPAIGN_LINE, CAMPAIGN_REPORT_LINE, SWEEP_LINE):
+        assert line in lines, f"no page runs `{' '.join(line)}`: update tests/conftest.py to a line a page runs"
 
 
 def test_the_sweep_file_the_readme_shows_is_the_one_it_runs():

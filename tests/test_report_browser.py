@@ -346,13 +346,16 @@ def open_page(cdp: CDP, report: Path) -> str:
 
 
 def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | None = None,
-                       exercise: bool = True) -> tuple[dict, list[dict]]:
+                       exercise: bool = True, measure=None) -> tuple[dict, list[dict]]:
     """Load ``report`` in headless Chromium; wait until its script has drawn the interactive
-    figures; hover and zoom each with the mouse (unless not ``exercise``: a test of the printed
-    page only, where each figure's two waits for the page to answer cost seconds); save a
-    full-page screenshot; with ``pdf``, check the print layout and print to that PDF (A4). Return
-    the page state (images, decoded, widths, height, title, the interactive figures and what they
-    did, the print layout) and the DevTools events seen."""
+    figures; with ``measure`` (``measure(cdp, session) -> dict``: tests/test_report_layout.py's
+    measurements, on the page as loaded, before the mouse moves its axes), its answer as the
+    state's "measured", the page then back on screen at 1280 px; hover and zoom each figure with
+    the mouse (unless not ``exercise``: a test of the printed page only, where each figure's two
+    waits for the page to answer cost seconds); save a full-page screenshot; with ``pdf``, check
+    the print layout and print to that PDF (A4). Return the page state (images, decoded, widths,
+    height, title, the interactive figures and what they did, the print layout) and the DevTools
+    events seen."""
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
         session = open_page(cdp, report)
@@ -360,6 +363,13 @@ def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | N
         # Drawn (class "live") or given up (its box removed, an error on the console).
         _wait_for(cdp, session, "document.querySelectorAll('figure.live').length + "
                                 f"({specs} - document.querySelectorAll('div.iplot').length) >= {specs}")
+        measured = None
+        if measure is not None:
+            measured = measure(cdp, session)
+            cdp.send("Emulation.setEmulatedMedia", {"media": ""}, session=session)
+            cdp.send("Emulation.setDeviceMetricsOverride", {"width": 1280, "height": 1000, "deviceScaleFactor": 1,
+                                                            "mobile": False}, session=session)
+            time.sleep(0.3)  # plotly's responsive relayout after the width change
         js = (
             "JSON.stringify({n: document.images.length,"
             " ok: Array.from(document.images).filter(i => i.complete && i.naturalWidth > 0).length,"
@@ -370,6 +380,8 @@ def render_in_chromium(report: Path, work: Path, screenshot: Path, pdf: Path | N
         )
         state = json.loads(_eval(cdp, session, js))
         state["specs"] = specs
+        if measure is not None:
+            state["measured"] = measured
         state["figures"] = _exercise_figures(cdp, session, state["live"]) if exercise else []
         _eval(cdp, session, "window.scrollTo(0, 0), 1")
         height = min(int(state["h"]), 16000)

@@ -10,6 +10,7 @@ Chromium, driven as tests/test_report_browser.py drives it.
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 import time
@@ -103,47 +104,59 @@ JSON.stringify((function () {
 """
 
 
+def measure_layout(cdp: CDP, session: str) -> dict:
+    """On a page open in Chromium: its boxes and its figures' texts on a SCREEN_PX screen, its
+    boxes and its words in print at A4's content width (left in print media at that width)."""
+    cdp.send("Emulation.setDeviceMetricsOverride", {"width": SCREEN_PX, "height": 1000, "deviceScaleFactor": 1,
+                                                    "mobile": False}, session=session)
+    specs = _eval(cdp, session, "document.querySelectorAll('script[type=\"application/json\"]').length")
+    _wait_for(cdp, session, f"document.querySelectorAll('figure.live').length >= {specs}")
+    time.sleep(0.3)  # plotly's responsive relayout after the width change
+    out = {"specs": specs, "screen": json.loads(_eval(cdp, session, _OVERFLOW_JS)),
+           "figures": json.loads(_eval(cdp, session, _OVERLAP_JS))}
+    # Paper: print media at A4's content width (180 mm between the @page margins).
+    cdp.send("Emulation.setEmulatedMedia", {"media": "print"}, session=session)
+    cdp.send("Emulation.setDeviceMetricsOverride", {"width": CONTENT_WIDTH_PX, "height": 1000, "deviceScaleFactor": 1,
+                                                    "mobile": False}, session=session)
+    out["print"] = json.loads(_eval(cdp, session, _OVERFLOW_JS))
+    out["broken"] = json.loads(_eval(cdp, session, _BROKEN_WORDS_JS))
+    return out
+
+
 def _layout(report: Path, work: Path) -> dict:
+    """measure_layout on ``report`` in a Chromium of its own, then its PDF's size."""
     cdp = CDP(_chromium(), work / "chromium-profile")
     try:
         session = open_page(cdp, report)
-        cdp.send("Emulation.setDeviceMetricsOverride", {"width": SCREEN_PX, "height": 1000, "deviceScaleFactor": 1,
-                                                        "mobile": False}, session=session)
-        specs = _eval(cdp, session, "document.querySelectorAll('script[type=\"application/json\"]').length")
-        _wait_for(cdp, session, f"document.querySelectorAll('figure.live').length >= {specs}")
-        time.sleep(0.3)  # plotly's responsive relayout after the width change
-        out = {"specs": specs, "screen": json.loads(_eval(cdp, session, _OVERFLOW_JS)),
-               "figures": json.loads(_eval(cdp, session, _OVERLAP_JS))}
-        # Paper: print media at A4's content width (180 mm between the @page margins), then the PDF.
-        cdp.send("Emulation.setEmulatedMedia", {"media": "print"}, session=session)
-        cdp.send("Emulation.setDeviceMetricsOverride", {"width": CONTENT_WIDTH_PX, "height": 1000, "deviceScaleFactor": 1,
-                                                        "mobile": False}, session=session)
-        out["print"] = json.loads(_eval(cdp, session, _OVERFLOW_JS))
-        out["broken"] = json.loads(_eval(cdp, session, _BROKEN_WORDS_JS))
+        out = measure_layout(cdp, session)
         printed = cdp.send("Page.printToPDF", {"paperWidth": A4_IN[0], "paperHeight": A4_IN[1]}, session=session)
-        out["pdf_bytes"] = len(printed["data"])
+        out["pdf_bytes"] = len(base64.b64decode(printed["data"]))
     finally:
         cdp.close()
     return out
 
 
-# The fixture each report is built by (tests/conftest.py: once per run, shared with the files that
-# read the same outputs), and the report in it.
-_REPORTS = {"demo": ("quick_demo_out", lambda got: got["out"] / "report.html"),
-            "campaign": ("example_campaign_report", lambda got: got / "camp" / "report.html"),
-            "sweep": ("readme_sweep_out", lambda got: got / "report.html")}
+# The demo's and the campaign's reports are loaded in Chromium once per run (tests/conftest.py's
+# demo_visit and campaign_visit: the page these measurements take, before the mouse moves an axis,
+# is the page tests/test_demo.py and tests/test_campaign.py then render, hover and print); the
+# README's sweep's here, in a Chromium of its own.
+_VISITS = {"demo": "demo_visit", "campaign": "campaign_visit"}
 
 
-@pytest.fixture(scope="module", params=list(_REPORTS))
+@pytest.fixture(scope="module", params=[*_VISITS, "sweep"])
 def layout(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict]:
     """One report's layout: the quick demo's (with tests/test_report_browser.METADATA's header,
-    the demo tests/test_demo.py reads), the shipped example campaign's or the README's sweep's (a
-    lot: a grid of histogram panels, each with its title under the panel above). A module
-    fixture per report, so that pytest builds one report at a time and runs both tests on it
-    (the three built in one set-up reached the 300 s timeout on a loaded machine)."""
+    the demo tests/test_demo.py reads), the shipped example campaign's (with the pages' metadata)
+    or the README's sweep's (a lot: a grid of histogram panels, each with its title under the
+    panel above). A module fixture per report, so that pytest builds one report at a time and
+    runs both tests on it (the three built in one set-up reached the 300 s timeout on a loaded
+    machine)."""
     which = request.param
-    fixture, report = _REPORTS[which]
-    return which, _layout(report(request.getfixturevalue(fixture)), tmp_path_factory.mktemp(f"chromium-{which}"))
+    if which in _VISITS:
+        visit = request.getfixturevalue(_VISITS[which])
+        return which, visit["state"]["measured"] | {"pdf_bytes": visit["pdf"].stat().st_size}
+    report = request.getfixturevalue("readme_sweep_out") / "report.html"
+    return which, _layout(report, tmp_path_factory.mktemp(f"chromium-{which}"))
 
 
 _SUP = str.maketrans("⁻⁰¹²³⁴⁵⁶⁷⁸⁹", "-0123456789")
