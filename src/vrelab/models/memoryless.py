@@ -397,13 +397,17 @@ def poly_clip_each(static_g: float, rms_g: float, k: Sequence[float], rails: Seq
 
     Examples
     --------
-    k2 = 100 µg/g² and ±2 g rails at 1 g rms of Gaussian vibration on a 1 g field: both rails,
-    the lower alone, the upper alone (the last: the article's Figure 1 less its low tail).
+    k2 = 100 µg/g² and ±2 g rails at 1 g rms of Gaussian vibration on a 1 g field: both rails
+    (the article's Figure 1 with the polynomial), the lower alone, the upper alone; each what
+    :func:`poly_clip_vre` gives for that pair.
 
-    >>> from vrelab.models.memoryless import poly_clip_each
-    >>> both, low, high = poly_clip_each(1.0, 1.0, (1e-4, 0.0, 0.0), [(-2.0, 2.0), (-2.0, float("inf")), (float("-inf"), 2.0)])
+    >>> from vrelab.models.memoryless import poly_clip_each, poly_clip_vre
+    >>> rails = [(-2.0, 2.0), (-2.0, float("inf")), (float("-inf"), 2.0)]
+    >>> both, low, high = poly_clip_each(1.0, 1.0, (1e-4, 0.0, 0.0), rails)
     >>> print(f"{both * 1e3:.2f} {low * 1e3:.2f} {high * 1e3:.2f} mg")
-    -82.94 0.64 -83.27 mg
+    -82.94 0.48 -83.32 mg
+    >>> [both, low, high] == [poly_clip_vre(1.0, 1.0, 1e-4, rail_low_g=a, rail_high_g=b) for a, b in rails]
+    True
     """
     g0 = _validate.finite_scalar("static_g", static_g)
     rms = _validate.non_negative_scalar("rms_g", rms_g)
