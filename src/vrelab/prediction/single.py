@@ -62,7 +62,7 @@ from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.prediction._spectral import hold_correlation, spectral
-from vrelab.prediction._stages import Reading, clip_position_of, needs_rate, read_stages
+from vrelab.prediction._stages import Reading, clip_position_of, needs_rate, read_stages, sensor_stages
 from vrelab.prediction.checks import cancellation, judged, tilt_note
 from vrelab.prediction.propagation import OFF_AXIS, propagation, unstated_check
 from vrelab.prediction.results import LevelPrediction, Prediction
@@ -332,7 +332,7 @@ def predict(
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
     _check_time(sensor, excitation, levels_arr.size)
-    reading = read_stages(sensor.stages(), g0)
+    reading = read_stages(sensor_stages(sensor), g0)
     clip_where = clip_position_of(sensor)
     # the resonances (the proof mass's, the mount's) as breakpoints of the spectral quadrature
     points = [float(f) for f in (getattr(sensor, "fn_hz", None), getattr(sensor, "mount_fn_hz", None)) if f]

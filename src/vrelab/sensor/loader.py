@@ -105,12 +105,6 @@ def _field_index(kinds: tuple[type[StageConfig], ...]) -> dict[str, int]:
     return {a.name: k for k, kind in enumerate(kinds) for a in dataclasses.fields(kind)}
 
 
-# Where a Sensor keeps its rate-free stages (:meth:`Sensor.stages`) and the index of its stage
-# configurations' fields (``__getattr__``), outside its fields.
-_RATE_FREE = "_rate_free_stages"
-_INDEX = "_field_index_of_configs"
-
-
 @dataclass(frozen=True, init=False, kw_only=True)
 class Sensor(_StageFields):
     """One configuration of a sensor (range, axis, ODR resolved), in g and Hz: its identity and
@@ -185,13 +179,7 @@ class Sensor(_StageFields):
     def __getattr__(self, name: str) -> Any:
         """A stage's field, from the stage configuration that declares it."""
         configs: tuple[StageConfig, ...] = () if name.startswith("__") else self.__dict__.get("configs", ())
-        # the index of these configurations' fields, kept beside them (asked at every prediction)
-        kept = self.__dict__.get(_INDEX)
-        if kept is None or kept[0] is not configs:
-            kept = (configs, _field_index(tuple(type(c) for c in configs)))
-            if configs:
-                object.__setattr__(self, _INDEX, kept)
-        k = kept[1].get(name)
+        k = _field_index(tuple(type(c) for c in configs)).get(name)
         if k is None:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         return getattr(configs[k], name)
@@ -294,24 +282,9 @@ class Sensor(_StageFields):
         (:meth:`vrelab.sensor.configs.StageConfig.build`). With ``fs_hz`` (an integer multiple
         of the ODR) a :class:`Decimate` to the ODR is included; without, the stages are
         rate-free (what the prediction needs). Order: see :mod:`vrelab.sensor.configs`.
-
-        The rate-free tuple is built once per sensor and kept on it: a Sensor is frozen and its
-        stages are frozen dataclasses, and a fit or a propagation predicts many times with one
-        sensor (a changed parameter is a new Sensor, :func:`vrelab.sensor.parameters.with_parameters`).
         """
-        if fs_hz is None:
-            kept: tuple[Stage, ...] | None = self.__dict__.get(_RATE_FREE)
-            if kept is None:
-                kept = tuple(s for c in self.configs for s in c.build(self, 1))
-                object.__setattr__(self, _RATE_FREE, kept)
-            return kept
-        factor = self.decimation(fs_hz)
+        factor = 1 if fs_hz is None else self.decimation(fs_hz)
         return tuple(s for c in self.configs for s in c.build(self, factor))
-
-    def __getstate__(self) -> dict[str, Any]:
-        """What pickling and copying carry: the fields, not the stages kept by :meth:`stages`
-        (rebuilt where needed)."""
-        return {k: v for k, v in self.__dict__.items() if k not in (_RATE_FREE, _INDEX)}
 
     def output_filter(self, corner_hz: float) -> Stage:
         """The band-limit at the output at ``corner_hz`` [Hz] (:class:`~vrelab.sensor.configs.OutputFilter`):

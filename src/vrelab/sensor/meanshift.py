@@ -158,7 +158,7 @@ def response_key(h: Response) -> tuple[Any, Any] | None:
     frozen dataclass whose equality compares every field (a stage's response is fixed by its
     fields), else None (not remembered)."""
     owner: Any = getattr(h, "__self__", None)
-    if owner is None or not _fixed_by_fields(type(owner)):
+    if owner is None or not _fixed_by_fields(owner.__class__):
         return None
     key = (getattr(h, "__func__", None), owner)
     try:
