@@ -104,10 +104,11 @@ def _model_distorted(sensor: Sensor, ob: Observation, kind: ClipKind) -> Predict
         def line(a: float, b: float, tk: float) -> float:
             return a + tk * (b - a)
 
-        levels = tuple(dataclasses.replace(
+        # each level rebuilt once, at its own rms (one replace a level: the fit's inner loop)
+        return dataclasses.replace(at, levels=tuple(dataclasses.replace(
             a, vre_g=line(a.vre_g, b.vre_g, float(tk)),
-            shares={k: line(v, b.shares.get(k, v), float(tk)) for k, v in a.shares.items()})
-            for a, b, tk in zip(at.levels, moved.levels, t))
+            shares={k: line(v, b.shares.get(k, v), float(tk)) for k, v in a.shares.items()}, rms_g=float(r))
+            for a, b, tk, r in zip(at.levels, moved.levels, t, ob.rms_g)))
     return dataclasses.replace(at, levels=tuple(dataclasses.replace(lv, rms_g=float(r))
                                                 for lv, r in zip(levels, ob.rms_g)))
 

@@ -147,7 +147,9 @@ def reference_note(static_g: float, k2_per_g: float = 0.0, k3_per_g2: float = 0.
                    offset_g: float = 0.0, rail_low_g: float = -math.inf,
                    rail_high_g: float = math.inf) -> str | None:
     """The note a result carries where the vibration-off reading is itself clipped (None otherwise)."""
-    level = float(polynomial(k2_per_g, k3_per_g2, k4_per_g3, offset_g)(float(static_g)))
+    # Horner's rule on the coefficients, the operations numpy's Polynomial makes (its default
+    # domain maps x to itself), so the same level without building one per prediction
+    level = float(horner(_coefficients(k2_per_g, k3_per_g2, k4_per_g3, offset_g), float(static_g)))
     r0 = vibration_off_reading(static_g, k2_per_g, k3_per_g2, k4_per_g3, offset_g, rail_low_g, rail_high_g)
     if r0 == level:
         return None
@@ -344,14 +346,31 @@ def poly_clip_vre(
     _validate.one_of("shape", shape, ("gaussian", "sine"))
     _validate.one_of("kind", kind, KINDS)
     p = _coefficients(k2_per_g, k3_per_g2, k4_per_g3, o.get("offset_g", 0.0))
-    ref = _clipped(p, g0, low, high)  # vibration_off_reading
-    peaks = [float(a) for a in o.get("tone_peaks_g", ()) if a > 0]
+    peaks = _motion_peaks(rms, shape, o.get("tone_peaks_g", ()))
     if rms == 0 and not peaks:
         return 0.0
+    return _poly_clip(p, (low, high), g0, rms, shape, kind, peaks)
+
+
+def _motion_peaks(rms: float, shape: Shape, tone_peaks_g: Sequence[float]) -> list[float]:
+    """The tones' peaks (those > 0) of a motion of Gaussian (or sine) rms ``rms``, refused where
+    the two do not go together (tones on a sine, tones without a random part)."""
+    peaks = [float(a) for a in tone_peaks_g if a > 0]
+    if rms == 0 and not peaks:
+        return peaks
     if shape == "sine" and peaks:
         raise ValueError("tone_peaks_g ride on Gaussian vibration: shape must be 'gaussian'")
     if shape != "sine" and peaks and rms == 0:
         raise ValueError("tones alone (no random part) are not a Gaussian motion: give rms_g > 0")
+    return peaks
+
+
+def _poly_clip(p: Coefficients, rails: tuple[float, float], g0: float, rms: float, shape: Shape, kind: Kind,
+               peaks: Sequence[float]) -> float:
+    """:func:`poly_clip_vre` of checked inputs (``p`` the map's coefficients, offset first; a
+    motion with rms > 0 or tones)."""
+    low, high = rails
+    ref = _clipped(p, g0, low, high)  # vibration_off_reading
     pieces = _pieces(p, low, high)
     total, inside = _piecewise_mean(p, pieces, (low, high), g0, rms, ref, shape, peaks)
     if kind == "censored":
@@ -363,6 +382,107 @@ def poly_clip_vre(
     only_rails = [(a, b, w) for a, b, w in pieces if w != "poly"]
     kept = total - (_piecewise_mean(p, only_rails, (low, high), g0, rms, ref, shape, peaks)[0] if only_rails else 0.0)
     return kept / inside
+
+
+def poly_clip_each(static_g: float, rms_g: float, k: Sequence[float], rails: Sequence[tuple[float, float]],
+                   offset_g: float = 0.0, shape: Shape = "gaussian", kind: Kind = DEFAULT_CLIP_KIND,
+                   tone_peaks_g: Sequence[float] = ()) -> list[float]:
+    """:func:`poly_clip_vre` of one polynomial ``k = (k2, k3, k4)`` and one motion for each pair of
+    ``rails`` (``(L, U)``, ±inf: none), the same numbers, the inputs checked once.
+
+    What a prediction asks at every level (:meth:`vrelab.sensor.stages.Clip.mean_shift`: both
+    rails, each rail alone): for Gaussian vibration (no tones) with censoring, every pair's
+    pieces are evaluated in one pass of array operations (:func:`_gaussian_each`), each piece the
+    same elementwise operations :func:`poly_clip_vre` makes on it, so the same bits.
+
+    Examples
+    --------
+    k2 = 100 µg/g² and ±2 g rails at 1 g rms of Gaussian vibration on a 1 g field: both rails
+    (the article's Figure 1 with the polynomial), the lower alone, the upper alone; each what
+    :func:`poly_clip_vre` gives for that pair.
+
+    >>> from vrelab.models.memoryless import poly_clip_each, poly_clip_vre
+    >>> rails = [(-2.0, 2.0), (-2.0, float("inf")), (float("-inf"), 2.0)]
+    >>> both, low, high = poly_clip_each(1.0, 1.0, (1e-4, 0.0, 0.0), rails)
+    >>> print(f"{both * 1e3:.2f} {low * 1e3:.2f} {high * 1e3:.2f} mg")
+    -82.94 0.48 -83.32 mg
+    >>> [both, low, high] == [poly_clip_vre(1.0, 1.0, 1e-4, rail_low_g=a, rail_high_g=b) for a, b in rails]
+    True
+    """
+    g0 = _validate.finite_scalar("static_g", static_g)
+    rms = _validate.non_negative_scalar("rms_g", rms_g)
+    pairs = [(float(lo), float(hi)) for lo, hi in rails]
+    for (low, high), (given_low, given_high) in zip(pairs, rails):
+        if not low < high:
+            raise ValueError(f"rail_low_g must be < rail_high_g, got {given_low!r}, {given_high!r}")
+    _validate.one_of("shape", shape, ("gaussian", "sine"))
+    _validate.one_of("kind", kind, KINDS)
+    p = _coefficients(k[0], k[1], k[2], offset_g)
+    peaks = _motion_peaks(rms, shape, tone_peaks_g)
+    if rms == 0 and not peaks:
+        return [0.0] * len(pairs)
+    if shape == "gaussian" and not peaks and kind == "censored":
+        return _gaussian_each(p, pairs, g0, rms)
+    if shape == "sine" and kind == "censored":
+        return _sine_each(p, pairs, g0, rms)
+    return [_poly_clip(p, pair, g0, rms, shape, kind, peaks) for pair in pairs]
+
+
+def _sine_each(c: Coefficients, rails: Sequence[tuple[float, float]], g0: float, rms: float) -> list[float]:
+    """The censored :func:`_sine` mean for each pair of rails: a sine that stays on the polynomial
+    piece between a pair's rails has the mean of its moments, which depends on the pair only
+    through its reference (the vibration-off reading), so pairs with the same reference share it."""
+    amp = rms * math.sqrt(2.0)
+    clear: dict[tuple[float, float], float] = {}
+    out = []
+    for low, high in rails:
+        ref = _clipped(c, g0, low, high)
+        pieces = _pieces(c, low, high)
+        if [w for a, b, w in pieces if a < g0 + amp and b > g0 - amp] == ["poly"]:
+            key = (ref, math.copysign(1.0, ref))  # the reference's bits (0.0 and -0.0 apart)
+            if key not in clear:
+                clear[key] = _sine(c, pieces, low, high, g0, amp, ref)[0]
+            out.append(clear[key])
+        else:
+            out.append(_sine(c, pieces, low, high, g0, amp, ref)[0])
+    return out
+
+
+def _gaussian_each(c: Coefficients, rails: Sequence[tuple[float, float]], g0: float, sigma: float) -> list[float]:
+    """The censored :func:`_gaussian` mean of ``clip(P(Y))`` less its vibration-off reading for each
+    pair of rails, Y ~ N(g0, σ²): every pair's pieces stacked as rows of one array, each row the
+    elementwise operations :func:`_gaussian` makes on it (the Taylor coefficients at g0 per row,
+    the n = 0 one of ``P - ref`` with that pair's reference), summed per pair in its pieces' order."""
+    refs = [_clipped(c, g0, low, high) for low, high in rails]
+    pieces = [_pieces(c, low, high) for low, high in rails]
+    rows = [(v, piece) for v, ps in enumerate(pieces) for piece in ps]
+    m = np.array([g0])
+    za = (np.array([piece[0] for _, piece in rows])[:, None] - m) / sigma
+    zb = (np.array([piece[1] for _, piece in rows])[:, None] - m) / sigma
+    prob = _prob(za, zb)
+    poly = [i for i, (_, piece) in enumerate(rows) if piece[2] == "poly"]
+    place = {i: j for j, i in enumerate(poly)}
+    if poly:
+        derivs = _derivatives(c)
+        moments = _truncated_moments(za[poly], zb[poly], len(derivs))
+        part = np.zeros_like(moments[0])
+        for n in range(len(derivs) + 1):
+            # per row what _gaussian multiplies moments[n] by: (horner / n!)·σ^n, in that order
+            coef = [horner(_less(c, refs[rows[i][0]]) if n == 0 else derivs[n - 1], g0) / math.factorial(n) * sigma**n
+                    for i in poly]
+            part += np.array(coef)[:, None] * moments[n]
+    out = []
+    for v, ps in enumerate(pieces):
+        low, high = rails[v]
+        total = np.zeros_like(m)
+        first = next(i for i, (w, _) in enumerate(rows) if w == v)
+        for i, (_, _, what) in enumerate(ps, start=first):
+            if what == "poly":
+                total += part[place[i]]
+            else:
+                total += ((low if what == "low" else high) - refs[v]) * prob[i]
+        out.append(float(total[0]))
+    return out
 
 
 def _piecewise_mean(p: Coefficients, pieces: Sequence[tuple[float, float, str]], rails: tuple[float, float],

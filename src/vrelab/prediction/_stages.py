@@ -86,6 +86,22 @@ def read_stages(stages: Sequence[Any], g0: float) -> Reading:
 
 
 
+# The sensor last read and its stages: a fit step or a propagation's candidate predicts one
+# (frozen) sensor many times in a row (a changed parameter is a new Sensor), so its stages are
+# built once for them, not once per prediction. The sensor is held, so its identity is not reused.
+_last: tuple[Any, tuple[Any, ...]] | None = None
+
+
+def sensor_stages(sensor: Sensor) -> tuple[Any, ...]:
+    """``sensor.stages()`` (rate-free), built once for the predictions of one sensor in a row."""
+    global _last
+    kept = _last
+    if kept is None or kept[0] is not sensor:
+        kept = (sensor, tuple(sensor.stages()))
+        _last = kept
+    return kept[1]
+
+
 def needs_rate(site: StageSite) -> bool:
     """Whether the stage at ``site`` needs Rice's crossing rate and the motion's correlation over
     its hold (over-range protection says so)."""

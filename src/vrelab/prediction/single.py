@@ -48,6 +48,7 @@ simulated test within 3u + 10 % (ADXL355 ±2 g Z at 1-2 g rms). Over-range firin
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, Sequence
@@ -61,12 +62,22 @@ from vrelab.models.clipping import Kind as ClipKind
 from vrelab.models.kinds import DEFAULT_CLIP_KIND
 from vrelab.models.memoryless import REFERENCE
 from vrelab.prediction._spectral import hold_correlation, spectral
-from vrelab.prediction._stages import Reading, clip_position_of, needs_rate, read_stages
+from vrelab.prediction._stages import Reading, clip_position_of, needs_rate, read_stages, sensor_stages
 from vrelab.prediction.checks import cancellation, judged, tilt_note
 from vrelab.prediction.propagation import OFF_AXIS, propagation, unstated_check
 from vrelab.prediction.results import LevelPrediction, Prediction
 from vrelab.profiles import RandomProfile, SineOnRandom
-from vrelab.sensor.meanshift import NUMERICAL_SHARE, SHARES, VRE_SHARES, Done, Drive, Motion, Response, Site
+from vrelab.sensor.meanshift import (
+    NUMERICAL_SHARE,
+    SHARES,
+    VRE_SHARES,
+    Done,
+    Drive,
+    Motion,
+    Response,
+    Site,
+    response_key,
+)
 
 if TYPE_CHECKING:
     from vrelab.sensor import Sensor
@@ -82,7 +93,25 @@ _MINOR = 0.1
 
 
 def _gain(f_hz: float, responses: Sequence[Response]) -> float:
-    """|H(f)| of the linear stages ``responses`` in series."""
+    """|H(f)| of the linear stages ``responses`` in series.
+
+    Remembered by the exact frequency and the responses' identity where each is a frozen stage's
+    (:func:`vrelab.sensor.meanshift.response_key`, the rule of the spectral integrals' memory): a
+    fit predicts the same sine frequencies again and again through a resonance its step left as
+    it was (a polynomial's or a rail's step, a level's second static field)."""
+    keys = tuple(response_key(h) for h in responses)
+    if isinstance(f_hz, float) and all(k is not None for k in keys):
+        return _gain_of(f_hz, keys)
+    return _gain_at(f_hz, responses)
+
+
+@functools.lru_cache(maxsize=1024)
+def _gain_of(f_hz: float, keys: tuple[tuple[Any, Any], ...]) -> float:
+    """:func:`_gain_at` of the responses given as ``(function, stage)`` keys (cached, bounded)."""
+    return _gain_at(f_hz, [f.__get__(owner) for f, owner in keys])
+
+
+def _gain_at(f_hz: float, responses: Sequence[Response]) -> float:
     from vrelab.models.dynamics import rms_through
 
     return float(rms_through(f_hz, 1.0, list(responses)))
@@ -303,7 +332,7 @@ def predict(
     g0 = V.finite_scalar("static_g", static_g)
     V.one_of("kind", kind, KINDS)
     _check_time(sensor, excitation, levels_arr.size)
-    reading = read_stages(sensor.stages(), g0)
+    reading = read_stages(sensor_stages(sensor), g0)
     clip_where = clip_position_of(sensor)
     # the resonances (the proof mass's, the mount's) as breakpoints of the spectral quadrature
     points = [float(f) for f in (getattr(sensor, "fn_hz", None), getattr(sensor, "mount_fn_hz", None)) if f]
@@ -338,7 +367,7 @@ def predict(
     if getattr(sensor, "unstated", ()):
         out, said = unstated_check(sensor, excitation, levels_arr, g0, kind, out, predictor=predict)
         notes += said
-    why = tilt_note(0.0, g0)[1]
+    why = _static_tilt_note(g0)
     if why:
         notes.append(why.replace("the static field", "the static field of every level"))
     off, off_note = reading.vibration_off_g, reading.reference_note
@@ -400,6 +429,13 @@ def memoryless_level(stages: Sequence[Any], static_g: float, rms_g: float,
 # The approximation's error is judged against the level's u or this share of |VRE| (or 1 µg),
 # whichever is larger: a prediction is not meant to be read to better than that. Without the floor,
 
+
+
+@functools.lru_cache(maxsize=64)
+def _static_tilt_note(g0: float) -> str | None:
+    """Why the static field ``g0`` itself has no tilt error (:func:`tilt_note` of no VRE), or None:
+    asked at every level, a pure function of g0 (cached, bounded)."""
+    return tilt_note(0.0, g0)[1]
 
 
 @dataclass(frozen=True)
@@ -470,7 +506,7 @@ def _level(
         valid = False
         notes.append(lost)
     tilt, why = tilt_note(total, g0)
-    if why and tilt_note(0.0, g0)[1] is None:  # the static field's own case is one note of the prediction
+    if why and _static_tilt_note(g0) is None:  # the static field's own case is one note of the prediction
         notes.append(why)
     return LevelPrediction(
         rms_g=rms_g,

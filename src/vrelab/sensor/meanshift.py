@@ -158,8 +158,7 @@ def response_key(h: Response) -> tuple[Any, Any] | None:
     frozen dataclass whose equality compares every field (a stage's response is fixed by its
     fields), else None (not remembered)."""
     owner: Any = getattr(h, "__self__", None)
-    params = getattr(owner, "__dataclass_params__", None)
-    if params is None or not (params.frozen and params.eq) or not all(f.compare for f in dataclasses.fields(owner)):
+    if owner is None or not _fixed_by_fields(owner.__class__):
         return None
     key = (getattr(h, "__func__", None), owner)
     try:
@@ -167,6 +166,14 @@ def response_key(h: Response) -> tuple[Any, Any] | None:
     except TypeError:  # a field that is not hashable (an array)
         return None
     return key
+
+
+@functools.cache
+def _fixed_by_fields(kind: type) -> bool:
+    """Whether ``kind`` is a frozen dataclass whose equality compares every field (what
+    :func:`response_key` asks of a response's owner; a property of the class, asked once)."""
+    params = getattr(kind, "__dataclass_params__", None)
+    return params is not None and params.frozen and params.eq and all(f.compare for f in dataclasses.fields(kind))
 
 
 def gain_max(responses: Sequence[Response]) -> float:

@@ -471,11 +471,11 @@ class Polynomial(StageBase):
         (:func:`vrelab.models.memoryless.poly_clip_vre` without rails; with tones, the average
         over their phases), ``g0`` the static field with the offsets before it. Its input must be
         the Gaussian (or sine) vibration: rails before it make the level invalid."""
-        from vrelab.models.memoryless import poly_clip_vre
+        from vrelab.models.memoryless import poly_clip_each
 
         mo = site.motion
-        share = float(poly_clip_vre(site.level_g, mo.sigma_g, *self.coefficients, shape=site.shape,
-                                    tone_peaks_g=mo.tone_peaks_g))
+        share = poly_clip_each(site.level_g, mo.sigma_g, self.coefficients, [(-math.inf, math.inf)], shape=site.shape,
+                               tone_peaks_g=mo.tone_peaks_g)[0]
         if any(d.shift.saturates for d in site.before):
             return Shift({"nonlinearity_g": share}, valid=False, notes=(
                 "a polynomial after the rails: its input is clipped, not Gaussian — simulate",))
@@ -675,10 +675,10 @@ class Clip(StageBase):
             # nothing linear between the polynomial (if any) and the rails: one memoryless map, exact
             src = up.site if up is not None else site
             own = up.shift.shares["nonlinearity_g"] if up is not None else 0.0
-            args = (src.level_g, src.motion.sigma_g, *k)
-            parts = [float(memoryless.poly_clip_vre(*args, offset_g=site.offset_g - src.offset_g, rail_low_g=lo_,
-                                                    rail_high_g=hi_, shape=base, kind=site.kind,
-                                                    tone_peaks_g=src.motion.tone_peaks_g)) - own for lo_, hi_ in each]
+            # every pair of rails at once (memoryless.poly_clip_each: poly_clip_vre's numbers)
+            parts = [v - own for v in memoryless.poly_clip_each(src.level_g, src.motion.sigma_g, k, each,
+                                                                 offset_g=site.offset_g - src.offset_g, shape=base,
+                                                                 kind=site.kind, tone_peaks_g=src.motion.tone_peaks_g)]
         else:
             # filters between: the rails see the polynomial's mean and its linear part through
             # them (Gaussian), the rest (harmonics, higher Hermite terms) bounded below
@@ -688,9 +688,8 @@ class Clip(StageBase):
             m = c0 + p_share
             sz, pz = abs(gain) * mo.sigma_g, tuple(abs(gain) * a for a in mo.tone_peaks_g)
             parts = []
-            for lo_, hi_ in each:
-                moved = float(memoryless.poly_clip_vre(m, sz, rail_low_g=lo_, rail_high_g=hi_, shape=base,
-                                                       kind=site.kind, tone_peaks_g=pz))
+            for (lo_, hi_), moved in zip(each, memoryless.poly_clip_each(m, sz, (0.0, 0.0, 0.0), each, shape=base,
+                                                                         kind=site.kind, tone_peaks_g=pz)):
                 # referred to the vibration-off reading at the rails, clip(c0), not clip(m)
                 parts.append(moved + (float(np.clip(m, lo_, hi_)) - m) - (float(np.clip(c0, lo_, hi_)) - c0))
             gmax = gain_max(site.responses[len(up.site.responses):])
